@@ -1,0 +1,99 @@
+//! Reading and writing DRIVE window datasets: the long-format window CSV (one row per
+//! sample) and its sidecar JSON (robot geometry and rates).
+//!
+//! Every problem in the input is reported as a [`DataError`] that names the file, the line
+//! and the column (or the sidecar field), and what was expected. Nothing here panics on
+//! user data.
+//!
+//! ```
+//! let csv = "window,phase,k,t,cmd_left,cmd_right,enc_left,enc_right,x,y,yaw,imu_yaw_rate\n\
+//!            0,transient,0,0,1,1,0,0,0,0,0,0\n\
+//!            0,transient,1,0.5,1,1,0.5,0.5,0.1,0,0,0\n";
+//! let sidecar = r#"{"name": "tiny", "rate_hz": 2, "window_len": 2, "wheel_radius": 0.1, "baseline": 0.5}"#;
+//! let data = drive_data::parse_dataset("tiny.csv", csv, "tiny.json", sidecar).unwrap();
+//! assert_eq!(data.windows.len(), 1);
+//! assert_eq!(data.robot.rate_hz, 2.0);
+//! ```
+
+mod error;
+mod sidecar;
+mod window_csv;
+
+pub use error::{DataError, DataErrorKind, Location};
+pub use sidecar::{parse_sidecar, sidecar_json};
+pub use window_csv::{parse_windows, write_windows_csv, COLUMNS, OPTIONAL_COLUMNS};
+
+use drive_traits::Dataset;
+use std::path::{Path, PathBuf};
+
+/// Parses a dataset from the window CSV text and the sidecar JSON text; the names are used
+/// in error messages only.
+pub fn parse_dataset(
+    csv_name: &str,
+    csv_text: &str,
+    sidecar_name: &str,
+    sidecar_text: &str,
+) -> Result<Dataset, DataError> {
+    let (robot, expected_windows) = parse_sidecar(sidecar_name, sidecar_text)?;
+    let windows = parse_windows(csv_name, csv_text, &robot)?;
+    if let Some(n) = expected_windows {
+        if n != windows.len() {
+            return Err(DataError::new(
+                Location::field(sidecar_name, "windows"),
+                DataErrorKind::Inconsistent(format!(
+                    "the sidecar announces {n} windows but {csv_name} holds {}",
+                    windows.len()
+                )),
+            ));
+        }
+    }
+    Ok(Dataset { robot, windows })
+}
+
+/// The sidecar path that goes with a window CSV: the same path with a `.json` extension.
+///
+/// ```
+/// use std::path::Path;
+/// assert_eq!(drive_data::sidecar_path(Path::new("runs/husky.csv")), Path::new("runs/husky.json"));
+/// ```
+pub fn sidecar_path(csv: &Path) -> PathBuf {
+    csv.with_extension("json")
+}
+
+/// Reads a dataset from a window CSV file and its sidecar (by default beside the CSV, see
+/// [`sidecar_path`]).
+pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataError> {
+    let sidecar = sidecar.map(Path::to_path_buf).unwrap_or_else(|| sidecar_path(csv));
+    let csv_name = csv.display().to_string();
+    let sidecar_name = sidecar.display().to_string();
+    let csv_text = read_text(csv)?;
+    let sidecar_text = std::fs::read_to_string(&sidecar).map_err(|e| {
+        let kind = if e.kind() == std::io::ErrorKind::NotFound {
+            DataErrorKind::MissingSidecar(format!(
+                "the sidecar JSON of {csv_name} was not found (expected at {sidecar_name}; give it with --sidecar)"
+            ))
+        } else {
+            DataErrorKind::Io(e.to_string())
+        };
+        DataError::new(Location::file(&sidecar_name), kind)
+    })?;
+    parse_dataset(&csv_name, &csv_text, &sidecar_name, &sidecar_text)
+}
+
+/// Writes a dataset as a window CSV at `csv` and its sidecar beside it.
+pub fn write_dataset(dataset: &Dataset, csv: &Path) -> Result<(), DataError> {
+    let io = |p: &Path, e: std::io::Error| DataError::new(Location::file(&p.display().to_string()), DataErrorKind::Io(e.to_string()));
+    let mut text = String::new();
+    write_windows_csv(&dataset.windows, &dataset.robot, &mut text);
+    std::fs::write(csv, text).map_err(|e| io(csv, e))?;
+    let side = sidecar_path(csv);
+    std::fs::write(&side, sidecar_json(&dataset.robot, dataset.windows.len())).map_err(|e| io(&side, e))
+}
+
+fn read_text(path: &Path) -> Result<String, DataError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| DataError::new(Location::file(&name), DataErrorKind::Io(e.to_string())))?;
+    String::from_utf8(bytes).map_err(|e| {
+        DataError::new(Location::file(&name), DataErrorKind::Io(format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to())))
+    })
+}

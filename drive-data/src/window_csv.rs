@@ -1,0 +1,240 @@
+//! The long-format window CSV: one row per sample.
+
+use crate::{DataError, DataErrorKind, Location};
+use drive_traits::{assign_intervals, Input, Phase, Pose, RobotDescription, Window};
+use std::fmt::Write as _;
+
+/// The required columns, in the order the writer uses.
+pub const COLUMNS: [&str; 12] =
+    ["window", "phase", "k", "t", "cmd_left", "cmd_right", "enc_left", "enc_right", "x", "y", "yaw", "imu_yaw_rate"];
+
+/// Columns that may be present and are ignored (`calib_step` is the logger's interval
+/// counter, not reliable: intervals are found from `phase`).
+pub const OPTIONAL_COLUMNS: [&str; 1] = ["calib_step"];
+
+const WINDOW: usize = 0;
+const PHASE: usize = 1;
+const K: usize = 2;
+const T: usize = 3;
+
+struct Pending {
+    index: usize,
+    phase: Phase,
+    command: Vec<Input>,
+    encoder: Vec<Input>,
+    pose: Vec<Pose>,
+    imu: Vec<f64>,
+}
+
+impl Pending {
+    fn new(index: usize, phase: Phase, len: usize) -> Self {
+        Pending {
+            index,
+            phase,
+            command: Vec::with_capacity(len),
+            encoder: Vec::with_capacity(len),
+            pose: Vec::with_capacity(len),
+            imu: Vec::with_capacity(len),
+        }
+    }
+}
+
+/// Parses the window CSV text of `file` for the given robot description (its `window_len`
+/// and `rate_hz` are checked against the data).
+pub fn parse_windows(file: &str, text: &str, robot: &RobotDescription) -> Result<Vec<Window>, DataError> {
+    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
+    let header = loop {
+        match lines.next() {
+            None => return Err(DataError::new(Location::file(file), DataErrorKind::Empty)),
+            Some((_, l)) if l.trim().is_empty() => continue,
+            Some((n, l)) => break (n, l),
+        }
+    };
+    let (header_line, header_text) = header;
+    // Position in the row of each required column; None for ignored optional columns.
+    let mut slot_of_field: Vec<Option<usize>> = Vec::new();
+    let mut position_of = [usize::MAX; COLUMNS.len()];
+    let mut seen = std::collections::HashSet::new();
+    for (pos, raw) in header_text.split(',').enumerate() {
+        let name = raw.trim();
+        if !seen.insert(name.to_string()) {
+            return Err(DataError::new(Location::cell(file, header_line, name), DataErrorKind::DuplicateColumn));
+        }
+        if let Some(slot) = COLUMNS.iter().position(|c| *c == name) {
+            position_of[slot] = pos;
+            slot_of_field.push(Some(slot));
+        } else if OPTIONAL_COLUMNS.contains(&name) {
+            slot_of_field.push(None);
+        } else {
+            let known = COLUMNS.iter().chain(OPTIONAL_COLUMNS.iter()).copied().collect::<Vec<_>>().join(", ");
+            return Err(DataError::new(Location::cell(file, header_line, name), DataErrorKind::UnknownColumn(known)));
+        }
+    }
+    if let Some(slot) = position_of.iter().position(|p| *p == usize::MAX) {
+        return Err(DataError::new(
+            Location::cell(file, header_line, COLUMNS[slot]),
+            DataErrorKind::MissingColumn(COLUMNS.join(", ")),
+        ));
+    }
+    let n_fields = slot_of_field.len();
+    let dt = robot.dt();
+    let len = robot.window_len;
+
+    let mut windows: Vec<Window> = Vec::new();
+    let mut phases: Vec<Phase> = Vec::new();
+    let mut pending: Option<Pending> = None;
+    let mut last_line = header_line;
+    let mut values = [0.0f64; COLUMNS.len()];
+    let mut fields: Vec<&str> = Vec::with_capacity(n_fields);
+
+    let finish = |p: Pending, line: usize, windows: &mut Vec<Window>, phases: &mut Vec<Phase>| -> Result<(), DataError> {
+        if p.pose.len() != len {
+            return Err(DataError::new(
+                Location::line(file, line),
+                DataErrorKind::WrongWindowLength { window: p.index, expected: len, found: p.pose.len() },
+            ));
+        }
+        phases.push(p.phase);
+        windows.push(Window {
+            index: p.index,
+            interval: 0,
+            phase: p.phase,
+            command: p.command,
+            encoder: p.encoder,
+            pose: p.pose,
+            imu_yaw_rate: p.imu,
+        });
+        Ok(())
+    };
+
+    for (line_no, line) in lines {
+        if line.trim().is_empty() {
+            continue;
+        }
+        fields.clear();
+        fields.extend(line.split(','));
+        if fields.len() != n_fields {
+            return Err(DataError::new(
+                Location::line(file, line_no),
+                DataErrorKind::FieldCount { expected: n_fields, found: fields.len() },
+            ));
+        }
+        let mut phase = Phase::Steady;
+        for (field, slot) in fields.iter().zip(&slot_of_field) {
+            let Some(slot) = *slot else { continue };
+            let raw = field.trim();
+            let at = || Location::cell(file, line_no, COLUMNS[slot]);
+            if slot == PHASE {
+                phase = match raw {
+                    "transient" => Phase::Transient,
+                    "steady" => Phase::Steady,
+                    other => return Err(DataError::new(at(), DataErrorKind::BadPhase(other.to_string()))),
+                };
+                continue;
+            }
+            let v: f64 = raw.parse().map_err(|_| DataError::new(at(), DataErrorKind::NotANumber(raw.to_string())))?;
+            if !v.is_finite() {
+                return Err(DataError::new(at(), DataErrorKind::NotFinite(raw.to_string())));
+            }
+            if (slot == WINDOW || slot == K) && (v < 0.0 || v.fract() != 0.0 || v > u32::MAX as f64) {
+                return Err(DataError::new(at(), DataErrorKind::NotAnInteger(raw.to_string())));
+            }
+            values[slot] = v;
+        }
+        let window = values[WINDOW] as usize;
+        let k = values[K] as usize;
+
+        let same_window = pending.as_ref().is_some_and(|p| p.index == window);
+        if !same_window {
+            if let Some(p) = pending.take() {
+                if window < p.index {
+                    return Err(DataError::new(
+                        Location::cell(file, line_no, "window"),
+                        DataErrorKind::WindowOutOfOrder { previous: p.index, found: window },
+                    ));
+                }
+                finish(p, last_line, &mut windows, &mut phases)?;
+            }
+            if let Some(prev) = windows.last() {
+                if window <= prev.index {
+                    return Err(DataError::new(
+                        Location::cell(file, line_no, "window"),
+                        DataErrorKind::WindowOutOfOrder { previous: prev.index, found: window },
+                    ));
+                }
+            }
+            pending = Some(Pending::new(window, phase, len));
+        }
+        // `pending` was set just above when it was empty or belonged to another window.
+        let p = pending.as_mut().expect("a pending window exists here");
+        let expected_k = p.pose.len();
+        if k != expected_k {
+            let kind = if expected_k >= len {
+                DataErrorKind::WrongWindowLength { window, expected: len, found: expected_k + 1 }
+            } else {
+                DataErrorKind::SampleOutOfOrder { window, expected: expected_k, found: k }
+            };
+            return Err(DataError::new(Location::cell(file, line_no, "k"), kind));
+        }
+        if k >= len {
+            return Err(DataError::new(
+                Location::cell(file, line_no, "k"),
+                DataErrorKind::WrongWindowLength { window, expected: len, found: k + 1 },
+            ));
+        }
+        if phase != p.phase {
+            return Err(DataError::new(Location::cell(file, line_no, "phase"), DataErrorKind::PhaseChangesInWindow(window)));
+        }
+        let t_expected = k as f64 * dt;
+        if (values[T] - t_expected).abs() > 0.5 * dt {
+            return Err(DataError::new(
+                Location::cell(file, line_no, "t"),
+                DataErrorKind::TimeMismatch { expected: t_expected, found: values[T] },
+            ));
+        }
+        p.command.push(Input::new(values[4], values[5]));
+        p.encoder.push(Input::new(values[6], values[7]));
+        p.pose.push(Pose::new(values[8], values[9], values[10]));
+        p.imu.push(values[11]);
+        last_line = line_no;
+    }
+    match pending {
+        Some(p) => finish(p, last_line, &mut windows, &mut phases)?,
+        None => return Err(DataError::new(Location::file(file), DataErrorKind::Empty)),
+    }
+    let mut intervals = vec![0; windows.len()];
+    assign_intervals(&phases, &mut intervals);
+    for (w, i) in windows.iter_mut().zip(intervals) {
+        w.interval = i;
+    }
+    Ok(windows)
+}
+
+/// Appends the window CSV text (header and rows, columns [`COLUMNS`]) of `windows` to `out`.
+pub fn write_windows_csv(windows: &[Window], robot: &RobotDescription, out: &mut String) {
+    out.push_str(&COLUMNS.join(","));
+    out.push('\n');
+    let dt = robot.dt();
+    for w in windows {
+        for k in 0..w.len() {
+            let (c, e, p) = (w.command[k], w.encoder[k], w.pose[k]);
+            // Writing into a String cannot fail.
+            let _ = writeln!(
+                out,
+                "{},{},{},{},{},{},{},{},{},{},{},{}",
+                w.index,
+                w.phase.as_str(),
+                k,
+                k as f64 * dt,
+                c.x,
+                c.y,
+                e.x,
+                e.y,
+                p.x,
+                p.y,
+                p.z,
+                w.imu_yaw_rate[k]
+            );
+        }
+    }
+}

@@ -1,0 +1,24 @@
+//! Evaluation of DRIVE motion models: the multi-step RMSE of paper eq. 8, the interval
+//! split, robust summaries and model comparisons over any set of fitted models.
+//!
+//! ```
+//! use drive_eval::{mrmse, Mrmse};
+//! use drive_traits::Pose;
+//! let measured = vec![Pose::new(0.0, 0.0, 0.0), Pose::new(1.0, 0.0, 0.1), Pose::new(2.0, 0.0, 0.2)];
+//! let predicted = vec![Pose::new(0.0, 0.0, 0.0), Pose::new(1.0, 1.0, 0.0), Pose::new(2.0, 3.0, 0.2)];
+//! let e = mrmse(&predicted, &measured);
+//! assert!((e.translational - 2.0).abs() < 1e-12);  // mean of 1 and 3
+//! assert!((e.rotational - 0.05).abs() < 1e-12);    // mean of 0.1 and 0
+//! ```
+
+mod compare;
+mod comparison;
+mod metric;
+mod split;
+mod stats;
+
+pub use compare::{evaluate_model, ModelReport, WindowErrors};
+pub use comparison::{compare, CompareError, Comparison, ErrorSummary, ModelResult, PhaseSummary};
+pub use metric::{mrmse, Mrmse};
+pub use split::{split_by_interval, SplitError};
+pub use stats::{improvement_percent, quantile, Summary};

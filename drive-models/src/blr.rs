@@ -1,0 +1,400 @@
+//! Bayesian linear regression with a normal-inverse-gamma posterior (paper eq. 6) and a
+//! Student-t predictive (paper eq. 7), after Murphy (2012), Sec. 7.6.3.
+
+use drive_traits::FitError;
+use faer::linalg::solvers::SolveLstsq;
+use faer::Mat;
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+/// The prior of a BLR fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Prior {
+    /// The paper's uninformative prior (Sec. III-B.2): `a0 = b0 = 0`, `gamma0 = 0`,
+    /// `K0 = phi (X^T X)^-1`. The posterior mean is `phi / (1 + phi)` times the ordinary
+    /// least-squares solution.
+    Uninformative {
+        /// Prior scale phi > 0; large means "trust the data".
+        phi: f64,
+    },
+    /// A fixed normal-inverse-gamma prior `NIG(gamma0, K0, a0, b0)`, given by its mean and
+    /// its precision `K0^-1` (row-major k x k), for instance a previous posterior.
+    Fixed {
+        /// gamma0
+        mean: Vec<f64>,
+        /// K0^-1, row-major
+        precision: Vec<f64>,
+        /// a0 >= 0
+        a: f64,
+        /// b0 >= 0
+        b: f64,
+    },
+}
+
+impl Default for Prior {
+    /// The paper's uninformative prior with phi = 1e12 (the paper's own code behaves so).
+    fn default() -> Self {
+        Prior::Uninformative { phi: 1e12 }
+    }
+}
+
+impl Prior {
+    /// Checks the prior's values for `k` inputs.
+    pub fn validate(&self, k: usize) -> Result<(), FitError> {
+        let invalid = |name, value, expected| Err(FitError::InvalidHyperparameter { name, value, expected });
+        match self {
+            Prior::Uninformative { phi } => {
+                if !(phi.is_finite() && *phi > 0.0) {
+                    return invalid("phi", *phi, "a finite positive number");
+                }
+            }
+            Prior::Fixed { mean, precision, a, b } => {
+                if mean.len() != k {
+                    return invalid("prior mean length", mean.len() as f64, "one value per slip input");
+                }
+                if precision.len() != k * k {
+                    return invalid("prior precision length", precision.len() as f64, "k x k values");
+                }
+                if mean.iter().chain(precision).any(|v| !v.is_finite()) {
+                    return invalid("prior", f64::NAN, "finite values");
+                }
+                if !(a.is_finite() && *a >= 0.0) {
+                    return invalid("a0", *a, "a finite number >= 0");
+                }
+                if !(b.is_finite() && *b >= 0.0) {
+                    return invalid("b0", *b, "a finite number >= 0");
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A BLR posterior `NIG(gamma, K, a, b)` (paper eq. 6) for one output dimension.
+///
+/// ```
+/// use drive_models::blr::{BlrPosterior, Prior};
+/// // g = 2 x exactly, three samples, the paper's prior with phi = 1e12.
+/// let x = [1.0, 2.0, 3.0];
+/// let g = [2.0, 4.0, 6.0];
+/// let post = BlrPosterior::fit(&x, 1, &g, &Prior::default(), "example").unwrap();
+/// assert!((post.mean[0] - 2.0).abs() < 1e-9);
+/// assert!((post.predict_mean(&[10.0]) - 20.0).abs() < 1e-8);
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BlrPosterior {
+    /// Posterior mean gamma (k).
+    pub mean: Vec<f64>,
+    /// Posterior covariance factor K (k x k, row-major).
+    pub covariance: Vec<f64>,
+    /// Posterior shape a.
+    pub a: f64,
+    /// Posterior scale b.
+    pub b: f64,
+}
+
+impl BlrPosterior {
+    /// Number of inputs k.
+    pub fn inputs(&self) -> usize {
+        self.mean.len()
+    }
+
+    /// Fits the posterior of eq. 6 on `x` (n x k, row-major: one row of k inputs per
+    /// observation) and observations `g` (n), under `prior`. `what` names the regression in
+    /// errors.
+    ///
+    /// Degenerate data is refused, never turned into a NaN model: fewer observations than
+    /// inputs, an input that is zero on every row, inputs that are collinear.
+    pub fn fit(x: &[f64], k: usize, g: &[f64], prior: &Prior, what: &str) -> Result<Self, FitError> {
+        prior.validate(k)?;
+        let n = g.len();
+        if k == 0 || x.len() != n * k {
+            return Err(FitError::DegenerateInputs { what: what.into(), detail: format!("{} values for {n} rows of {k} inputs", x.len()) });
+        }
+        if x.iter().chain(g).any(|v| !v.is_finite()) {
+            return Err(FitError::NonFinite { what: what.into() });
+        }
+        if n <= k {
+            return Err(FitError::TooFewSamples { what: what.into(), samples: n, parameters: k + 1 });
+        }
+        let xm = Mat::<f64>::from_fn(n, k, |i, j| x[i * k + j]);
+        let gm = Mat::<f64>::from_fn(n, 1, |i, _| g[i]);
+        // Column scales, for the rank checks below.
+        let norms: Vec<f64> = (0..k).map(|j| (0..n).map(|i| x[i * k + j].powi(2)).sum::<f64>().sqrt()).collect();
+        if let Some(j) = norms.iter().position(|v| *v == 0.0) {
+            return Err(FitError::DegenerateInputs { what: what.into(), detail: format!("input {j} is zero on every row") });
+        }
+        match prior {
+            Prior::Uninformative { phi } => Self::fit_uninformative(&xm, &gm, &norms, *phi, what),
+            Prior::Fixed { mean, precision, a, b } => {
+                Self::fit_fixed(&xm, &gm, &DVector::from_column_slice(mean), &DMatrix::from_row_slice(k, k, precision), *a, *b, what)
+            }
+        }
+    }
+
+    /// The paper's prior: closed form through a thin QR of X (faer), which stays accurate
+    /// where the normal equations would square the condition number.
+    fn fit_uninformative(x: &Mat<f64>, g: &Mat<f64>, norms: &[f64], phi: f64, what: &str) -> Result<Self, FitError> {
+        let (n, k) = (x.nrows(), x.ncols());
+        let qr = x.qr();
+        let r_faer = qr.thin_R();
+        let r = DMatrix::from_fn(k, k, |i, j| if j >= i { r_faer[(i, j)] } else { 0.0 });
+        for j in 0..k {
+            if r[(j, j)].abs() <= 1e-10 * norms[j] {
+                return Err(FitError::DegenerateInputs { what: what.into(), detail: format!("input {j} is collinear with the others") });
+            }
+        }
+        let sol = qr.solve_lstsq(g);
+        let ls = DVector::from_fn(k, |i, _| sol[(i, 0)]);
+        let fitted = x * &Mat::<f64>::from_fn(k, 1, |i, _| ls[i]);
+        let mut rss = 0.0;
+        let mut explained = 0.0;
+        for i in 0..n {
+            rss += (g[(i, 0)] - fitted[(i, 0)]).powi(2);
+            explained += fitted[(i, 0)].powi(2);
+        }
+        let shrink = phi / (1.0 + phi);
+        // (X^T X)^-1 = R^-1 R^-T; R is upper triangular with a non-zero diagonal (checked above).
+        let r_inv = r.solve_upper_triangular(&DMatrix::identity(k, k)).ok_or_else(|| FitError::DegenerateInputs {
+            what: what.into(),
+            detail: "singular R factor".into(),
+        })?;
+        let k_post = (&r_inv * r_inv.transpose()) * shrink;
+        let post = BlrPosterior {
+            mean: (ls * shrink).iter().copied().collect(),
+            covariance: row_major(&k_post),
+            a: n as f64 / 2.0,
+            // b = 1/2 (g^T g - gamma^T K^-1 gamma) = 1/2 (RSS + |X gamma_ls|^2 / (1 + phi)).
+            b: 0.5 * (rss + explained / (1.0 + phi)),
+        };
+        post.checked(what)
+    }
+
+    /// A fixed prior: eq. 6 as printed, on the sufficient statistics X^T X, X^T g, g^T g.
+    fn fit_fixed(x: &Mat<f64>, g: &Mat<f64>, mean0: &DVector<f64>, prec0: &DMatrix<f64>, a0: f64, b0: f64, what: &str) -> Result<Self, FitError> {
+        let k = x.ncols();
+        let xtx_f = x.transpose() * x;
+        let xtg_f = x.transpose() * g;
+        let gtg: f64 = (0..g.nrows()).map(|i| g[(i, 0)].powi(2)).sum();
+        let xtx = DMatrix::from_fn(k, k, |i, j| xtx_f[(i, j)]);
+        let xtg = DVector::from_fn(k, |i, _| xtg_f[(i, 0)]);
+        Self::from_statistics(&xtx, &xtg, gtg, g.nrows(), mean0, prec0, a0, b0, what)
+    }
+
+    /// Eq. 6 from sufficient statistics and a fixed prior.
+    #[allow(clippy::too_many_arguments)]
+    fn from_statistics(
+        xtx: &DMatrix<f64>,
+        xtg: &DVector<f64>,
+        gtg: f64,
+        n: usize,
+        mean0: &DVector<f64>,
+        prec0: &DMatrix<f64>,
+        a0: f64,
+        b0: f64,
+        what: &str,
+    ) -> Result<Self, FitError> {
+        let prec = prec0 + xtx;
+        let chol = prec.clone().cholesky().ok_or_else(|| FitError::DegenerateInputs {
+            what: what.into(),
+            detail: "K0^-1 + X^T X is not positive definite (collinear inputs and a flat prior)".into(),
+        })?;
+        let k_post = chol.inverse();
+        let mean = chol.solve(&(prec0 * mean0 + xtg));
+        let b = b0 + 0.5 * (mean0.dot(&(prec0 * mean0)) + gtg - mean.dot(&(&prec * &mean)));
+        BlrPosterior { mean: mean.iter().copied().collect(), covariance: row_major(&k_post), a: a0 + n as f64 / 2.0, b: b.max(0.0) }
+            .checked(what)
+    }
+
+    fn checked(self, what: &str) -> Result<Self, FitError> {
+        let finite = self.mean.iter().chain(&self.covariance).all(|v| v.is_finite()) && self.a.is_finite() && self.b.is_finite();
+        if finite {
+            Ok(self)
+        } else {
+            Err(FitError::NonFinite { what: what.into() })
+        }
+    }
+
+    /// This posterior as a fixed prior, for a sequential update with new data.
+    pub fn as_prior(&self) -> Prior {
+        let k = self.inputs();
+        let precision = DMatrix::from_row_slice(k, k, &self.covariance)
+            .try_inverse()
+            .map(|m| row_major(&m))
+            .unwrap_or_else(|| vec![0.0; k * k]);
+        Prior::Fixed { mean: self.mean.clone(), precision, a: self.a, b: self.b }
+    }
+
+    /// Predictive mean `x^T gamma`.
+    #[inline]
+    pub fn predict_mean(&self, x: &[f64]) -> f64 {
+        self.mean.iter().zip(x).map(|(g, x)| g * x).sum()
+    }
+
+    /// Squared scale of the Student-t predictive of eq. 7: `b / a (1 + x^T K x)`.
+    pub fn predictive_scale2(&self, x: &[f64]) -> f64 {
+        let k = self.inputs();
+        let mut xkx = 0.0;
+        for i in 0..k {
+            for j in 0..k {
+                xkx += x[i] * self.covariance[i * k + j] * x[j];
+            }
+        }
+        if self.a > 0.0 {
+            self.b / self.a * (1.0 + xkx)
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Degrees of freedom of the predictive, `2a`.
+    pub fn degrees_of_freedom(&self) -> f64 {
+        2.0 * self.a
+    }
+
+    /// Variance of the Student-t predictive: `scale^2 nu / (nu - 2)` (infinite for nu <= 2).
+    pub fn predictive_variance(&self, x: &[f64]) -> f64 {
+        let nu = self.degrees_of_freedom();
+        if nu > 2.0 {
+            self.predictive_scale2(x) * nu / (nu - 2.0)
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
+    let mut out = Vec::with_capacity(m.nrows() * m.ncols());
+    for i in 0..m.nrows() {
+        for j in 0..m.ncols() {
+            out.push(m[(i, j)]);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ols(x: &[f64], k: usize, g: &[f64]) -> DVector<f64> {
+        let n = g.len();
+        let xm = DMatrix::from_row_slice(n, k, x);
+        let gv = DVector::from_column_slice(g);
+        (xm.transpose() * &xm).try_inverse().unwrap() * xm.transpose() * gv
+    }
+
+    #[test]
+    fn hand_computed_single_input() {
+        // x = [1, 2], g = [1, 3]: OLS gamma = (1 + 6) / (1 + 4) = 1.4; RSS = (1-1.4)^2 + (3-2.8)^2 = 0.2.
+        let post = BlrPosterior::fit(&[1.0, 2.0], 1, &[1.0, 3.0], &Prior::Uninformative { phi: 1.0 }, "t").unwrap();
+        assert!((post.mean[0] - 0.7).abs() < 1e-12); // phi / (1 + phi) = 1/2
+        assert!((post.covariance[0] - 0.5 / 5.0).abs() < 1e-12);
+        assert_eq!(post.a, 1.0);
+        // b = 1/2 (RSS + |X gamma_ls|^2 / 2) = 1/2 (0.2 + 1.4^2 * 5 / 2)
+        assert!((post.b - 0.5 * (0.2 + 1.96 * 5.0 / 2.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn fixed_prior_hand_computed() {
+        // One input, prior mean 1, precision 1, a0 = 1, b0 = 1; data x = [1, 0], g = [3, 0].
+        // K = 1 / (1 + 1) = 0.5; gamma = 0.5 (1 + 3) = 2; a = 1 + 2/2 = 2;
+        // b = 1 + 1/2 (1 + 9 - 2 * 2 * 2) = 2.
+        let prior = Prior::Fixed { mean: vec![1.0], precision: vec![1.0], a: 1.0, b: 1.0 };
+        // A second row with x = 0, g = 0 adds nothing to the statistics but one to n.
+        let post = BlrPosterior::fit(&[1.0, 0.0], 1, &[3.0, 0.0], &prior, "t").unwrap();
+        assert!((post.mean[0] - 2.0).abs() < 1e-12);
+        assert!((post.covariance[0] - 0.5).abs() < 1e-12);
+        assert_eq!(post.a, 2.0);
+        assert!((post.b - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn degenerate_inputs_are_refused() {
+        let zero = BlrPosterior::fit(&[0.0, 1.0, 0.0, 2.0, 0.0, 3.0], 2, &[1.0, 2.0, 3.0], &Prior::default(), "t");
+        assert!(matches!(zero, Err(FitError::DegenerateInputs { .. })));
+        let collinear = BlrPosterior::fit(&[1.0, 2.0, 2.0, 4.0, 3.0, 6.0], 2, &[1.0, 2.0, 3.0], &Prior::default(), "t");
+        assert!(matches!(collinear, Err(FitError::DegenerateInputs { .. })));
+        let few = BlrPosterior::fit(&[1.0], 1, &[1.0], &Prior::default(), "t");
+        assert!(matches!(few, Err(FitError::TooFewSamples { .. })));
+        let bad_phi = BlrPosterior::fit(&[1.0, 2.0], 1, &[1.0, 2.0], &Prior::Uninformative { phi: -1.0 }, "t");
+        assert!(matches!(bad_phi, Err(FitError::InvalidHyperparameter { .. })));
+    }
+
+    /// A small deterministic generator so that the property tests need no extra crate.
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+
+    #[test]
+    fn property_uninformative_mean_is_shrunk_ols() {
+        let mut seed = 7;
+        for case in 0..200 {
+            let k = 1 + case % 3;
+            let n = k + 2 + case % 17;
+            let x: Vec<f64> = (0..n * k).map(|_| lcg(&mut seed) * 3.0).collect();
+            let g: Vec<f64> = (0..n).map(|_| lcg(&mut seed)).collect();
+            let phi = [1e-3, 0.5, 1.0, 10.0, 1e12][case % 5];
+            let post = BlrPosterior::fit(&x, k, &g, &Prior::Uninformative { phi }, "t").unwrap();
+            let ls = ols(&x, k, &g);
+            for j in 0..k {
+                let expected = phi / (1.0 + phi) * ls[j];
+                assert!((post.mean[j] - expected).abs() <= 1e-8 * (1.0 + expected.abs()), "case {case}: {} vs {expected}", post.mean[j]);
+            }
+        }
+    }
+
+    #[test]
+    fn property_fixed_prior_matches_eq6_and_uninformative_limit() {
+        let mut seed = 11;
+        for case in 0..200 {
+            let k = 1 + case % 3;
+            let n = k + 1 + case % 13;
+            let x: Vec<f64> = (0..n * k).map(|_| lcg(&mut seed) * 2.0).collect();
+            let g: Vec<f64> = (0..n).map(|_| lcg(&mut seed)).collect();
+            let xm = DMatrix::from_row_slice(n, k, &x);
+            let gv = DVector::from_column_slice(&g);
+            // A random SPD prior precision.
+            let a = DMatrix::from_fn(k, k, |_, _| lcg(&mut seed));
+            let prec0 = &a * a.transpose() + DMatrix::identity(k, k) * 0.5;
+            let mean0 = DVector::from_fn(k, |_, _| lcg(&mut seed));
+            let (a0, b0) = (0.5 + lcg(&mut seed).abs(), 0.1 + lcg(&mut seed).abs());
+            let prior = Prior::Fixed { mean: mean0.iter().copied().collect(), precision: row_major(&prec0), a: a0, b: b0 };
+            let post = BlrPosterior::fit(&x, k, &g, &prior, "t").unwrap();
+            // Eq. 6 written out independently.
+            let kk = (&prec0 + xm.transpose() * &xm).try_inverse().unwrap();
+            let gamma = &kk * (&prec0 * &mean0 + xm.transpose() * &gv);
+            let b = b0 + 0.5 * (mean0.dot(&(&prec0 * &mean0)) + gv.dot(&gv) - gamma.dot(&(kk.clone().try_inverse().unwrap() * &gamma)));
+            for j in 0..k {
+                assert!((post.mean[j] - gamma[j]).abs() < 1e-9 * (1.0 + gamma[j].abs()));
+            }
+            for (p, e) in post.covariance.iter().zip(row_major(&kk)) {
+                assert!((p - e).abs() < 1e-9 * (1.0 + e.abs()));
+            }
+            assert!((post.a - (a0 + n as f64 / 2.0)).abs() < 1e-12);
+            assert!((post.b - b).abs() < 1e-8 * (1.0 + b.abs()));
+            // The paper's prior is the fixed prior K0 = phi (X^T X)^-1: both paths agree.
+            if n > k {
+                let phi = 3.0;
+                let un = BlrPosterior::fit(&x, k, &g, &Prior::Uninformative { phi }, "t").unwrap();
+                let xtx = xm.transpose() * &xm;
+                let as_fixed = Prior::Fixed { mean: vec![0.0; k], precision: row_major(&(xtx / phi)), a: 0.0, b: 0.0 };
+                let fx = BlrPosterior::fit(&x, k, &g, &as_fixed, "t").unwrap();
+                for j in 0..k {
+                    assert!((un.mean[j] - fx.mean[j]).abs() < 1e-7 * (1.0 + fx.mean[j].abs()));
+                }
+                assert!((un.b - fx.b).abs() < 1e-7 * (1.0 + fx.b.abs()));
+            }
+        }
+    }
+
+    #[test]
+    fn predictive_variance_follows_eq7() {
+        let post = BlrPosterior { mean: vec![1.0], covariance: vec![0.25], a: 3.0, b: 1.5 };
+        // scale^2 = b/a (1 + x K x) = 0.5 (1 + 4 * 0.25) = 1; variance = 1 * 6 / 4.
+        assert!((post.predictive_scale2(&[2.0]) - 1.0).abs() < 1e-15);
+        assert!((post.predictive_variance(&[2.0]) - 1.5).abs() < 1e-15);
+    }
+}

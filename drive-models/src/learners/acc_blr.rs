@@ -1,0 +1,126 @@
+use crate::blr::{BlrPosterior, Prior};
+use crate::rollout::{integrate, propagate_covariance};
+use crate::velocity::BodyVelocityEstimator;
+use crate::DifferentialDrive;
+use drive_traits::{BodyVelocity, FitError, Input, Learner, MotionError, MotionModel, Pose, PoseCovariance, StartState, WindowSet};
+use serde::{Deserialize, Serialize};
+
+/// The acceleration-based BLR baseline (McKinnon and Schoellig 2019, as compared in the
+/// paper's Fig. 6): for the longitudinal and the angular dimension separately, BLR of the
+/// one-step velocity change `v[k+1] - v[k]` on `[f[k], v[k]]`, with `f` the commanded body
+/// velocity (eq. 4 on the commanded wheel velocities) and `v` the measured body velocity.
+/// The lateral velocity is zero. Rolled out from the body velocity measured at the start.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct AccBlr {
+    /// Priors of the longitudinal and angular regressions.
+    pub priors: [Prior; 2],
+    /// How the measured body velocities are derived from the poses.
+    pub velocity: BodyVelocityEstimator,
+}
+
+/// Fitted acceleration-BLR model.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct AccBlrModel {
+    /// The vehicle's command model.
+    pub vehicle: DifferentialDrive,
+    /// Posterior of the longitudinal velocity change on `[f_x, v_x]`.
+    pub accel_x: BlrPosterior,
+    /// Posterior of the angular velocity change on `[f_w, v_w]`.
+    pub accel_yaw: BlrPosterior,
+    /// Step [s].
+    pub dt: f64,
+}
+
+impl Learner for AccBlr {
+    type Fitted = AccBlrModel;
+
+    fn fit(&self, train: &WindowSet<'_>) -> Result<AccBlrModel, FitError> {
+        self.velocity.validate()?;
+        for prior in &self.priors {
+            prior.validate(2)?;
+        }
+        if train.is_empty() {
+            return Err(FitError::EmptyTrainingSet);
+        }
+        let vehicle = DifferentialDrive::from_robot(train.robot);
+        let dt = train.robot.dt();
+        let mut xs: [Vec<f64>; 2] = Default::default();
+        let mut gs: [Vec<f64>; 2] = Default::default();
+        let mut measured = Vec::new();
+        for w in &train.windows {
+            self.velocity.estimate(w, dt, &mut measured);
+            for k in 0..w.len().saturating_sub(1) {
+                let (Some(v0), Some(v1)) = (measured[k], measured[k + 1]) else { continue };
+                let f = vehicle.eq4(&w.command[k]);
+                for (j, d) in [0usize, 2].into_iter().enumerate() {
+                    xs[j].extend_from_slice(&[f[d], v0[d]]);
+                    gs[j].push(v1[d] - v0[d]);
+                }
+            }
+        }
+        Ok(AccBlrModel {
+            accel_x: BlrPosterior::fit(&xs[0], 2, &gs[0], &self.priors[0], "acc-BLR, longitudinal")?,
+            accel_yaw: BlrPosterior::fit(&xs[1], 2, &gs[1], &self.priors[1], "acc-BLR, angular")?,
+            vehicle,
+            dt,
+        })
+    }
+}
+
+impl AccBlrModel {
+    fn body_velocities(&self, start: &StartState, commands: &[Input], mut variances: Option<&mut Vec<BodyVelocity>>) -> Vec<BodyVelocity> {
+        let mut out = Vec::with_capacity(commands.len());
+        let mut v = BodyVelocity::new(start.body_velocity.x, 0.0, start.body_velocity.z);
+        let mut var = BodyVelocity::zeros();
+        if let Some(vs) = variances.as_deref_mut() {
+            vs.clear();
+        }
+        for u in commands {
+            out.push(v);
+            if let Some(vs) = variances.as_deref_mut() {
+                vs.push(var);
+            }
+            let f = self.vehicle.eq4(u);
+            let (xx, xw) = ([f.x, v.x], [f.z, v.z]);
+            let next = BodyVelocity::new(v.x + self.accel_x.predict_mean(&xx), 0.0, v.z + self.accel_yaw.predict_mean(&xw));
+            if variances.is_some() {
+                // v[k+1] = (1 + gamma_v) v[k] + gamma_f f[k] + noise: first-order propagation.
+                let (gx, gw) = (1.0 + self.accel_x.mean[1], 1.0 + self.accel_yaw.mean[1]);
+                var = BodyVelocity::new(
+                    gx * gx * var.x + self.accel_x.predictive_variance(&xx),
+                    0.0,
+                    gw * gw * var.z + self.accel_yaw.predictive_variance(&xw),
+                );
+            }
+            v = next;
+        }
+        out
+    }
+}
+
+#[typetag::serde(name = "acc-blr")]
+impl MotionModel for AccBlrModel {
+    fn name(&self) -> &'static str {
+        "acc-blr"
+    }
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+    fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
+        let v = self.body_velocities(start, commands, None);
+        integrate(&start.pose, &v, self.dt, poses);
+    }
+    fn predict_with_covariance_into(
+        &self,
+        start: &StartState,
+        commands: &[Input],
+        poses: &mut Vec<Pose>,
+        covariances: &mut Vec<PoseCovariance>,
+    ) -> Result<(), MotionError> {
+        let mut var = Vec::new();
+        let v = self.body_velocities(start, commands, Some(&mut var));
+        integrate(&start.pose, &v, self.dt, poses);
+        propagate_covariance(poses, &v, &var, self.dt, covariances);
+        Ok(())
+    }
+}

@@ -1,0 +1,65 @@
+use thiserror::Error;
+
+/// Why a learner or a powertrain could not be fitted on the data it was given.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum FitError {
+    /// The training set holds no window at all.
+    #[error("the training set is empty")]
+    EmptyTrainingSet,
+    /// The powertrain fit needs transient windows (Sec. III-A) and there are none.
+    #[error("no transient window in the training set: the powertrain (eq. 3) is fitted on transient windows")]
+    NoTransientWindow,
+    /// Fewer usable samples than parameters to learn.
+    #[error("{what}: {samples} usable samples for {parameters} parameters")]
+    TooFewSamples {
+        /// what was being fitted
+        what: String,
+        /// usable samples
+        samples: usize,
+        /// parameters to learn
+        parameters: usize,
+    },
+    /// A regression input carries no information (zero variance) or repeats another one.
+    #[error("{what}: the inputs are degenerate ({detail}); the training data does not excite them")]
+    DegenerateInputs {
+        /// what was being fitted
+        what: String,
+        /// which input, and how
+        detail: String,
+    },
+    /// A hyperparameter of the configuration is out of its valid range.
+    #[error("invalid hyperparameter {name} = {value}: {expected}")]
+    InvalidHyperparameter {
+        /// name of the hyperparameter
+        name: &'static str,
+        /// value given
+        value: f64,
+        /// what is expected
+        expected: &'static str,
+    },
+    /// The numerical optimizer failed.
+    #[error("{what}: the optimizer failed: {reason}")]
+    Optimizer {
+        /// what was being fitted
+        what: String,
+        /// the optimizer's message
+        reason: String,
+    },
+    /// The fit produced a non-finite parameter (never returned as a model).
+    #[error("{what}: the fit produced a non-finite value")]
+    NonFinite {
+        /// what was being fitted
+        what: String,
+    },
+}
+
+/// Why a motion model could not produce the asked prediction.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum MotionError {
+    /// The model gives no uncertainty (the naive and powertrain-aware models are deterministic).
+    #[error("the {model} model does not predict an uncertainty")]
+    NoUncertainty {
+        /// model name
+        model: &'static str,
+    },
+}

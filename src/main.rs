@@ -1,0 +1,263 @@
+//! The `drive` command line: train and evaluate DRIVE motion models on real data.
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand};
+use drive::data::{read_dataset, DataError};
+use drive::eval::{compare, Comparison};
+use drive::models::model_file::{model_from_json, model_to_json};
+use drive::models::{DifferentialDrive, MODEL_NAMES};
+use drive::traits::{Dataset, Input, Pose, StartState, WindowSet};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "drive", version, about = "DRIVE: identify how a UGV really moves on its terrain (Baril et al.)")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(clap::Args)]
+struct DataArgs {
+    /// Window CSV (see data/README.md); the bundled Husky dataset when absent.
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// Sidecar JSON of the window CSV; by default the CSV's path with a .json extension.
+    #[arg(long, requires = "data")]
+    sidecar: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Fit every model on the training intervals and score it on the rest (paper eq. 8).
+    Eval {
+        #[command(flatten)]
+        data: DataArgs,
+        /// Fraction of the DRIVE intervals (in recording order) used for training.
+        #[arg(long, default_value_t = 0.5)]
+        split: f64,
+        /// Models to compare, comma-separated.
+        #[arg(long, value_delimiter = ',', default_value = "naive,powertrain,slip-blr,acc-blr")]
+        models: Vec<String>,
+        /// Print one JSON object on stdout instead of the table.
+        #[arg(long)]
+        json: bool,
+        /// Write every evaluation window's errors per model to this CSV.
+        #[arg(long)]
+        per_window: Option<PathBuf>,
+    },
+    /// Fit one model and save it as JSON.
+    Train {
+        #[command(flatten)]
+        data: DataArgs,
+        /// Model to fit.
+        #[arg(long)]
+        model: String,
+        /// Output model file.
+        #[arg(long)]
+        out: PathBuf,
+        /// Train on the first fraction of the intervals only (default: all of the data).
+        #[arg(long)]
+        split: Option<f64>,
+    },
+    /// Predict poses from a saved model and a command sequence.
+    Predict {
+        /// Model file written by `drive train`.
+        #[arg(long)]
+        model: PathBuf,
+        /// CSV with columns t,cmd_left,cmd_right (wheel angular velocities, command rate).
+        #[arg(long)]
+        commands: PathBuf,
+        /// Start pose x,y,yaw [m, m, rad] (default: origin).
+        #[arg(long, value_parser = parse_triplet, allow_hyphen_values = true)]
+        start: Option<[f64; 3]>,
+        /// Measured wheel velocities at the start, left,right [rad/s] (default: at rest).
+        #[arg(long, value_parser = parse_pair, allow_hyphen_values = true)]
+        start_wheels: Option<[f64; 2]>,
+    },
+}
+
+fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != N {
+        return Err(format!("expected {N} comma-separated numbers, got '{s}'"));
+    }
+    let mut out = [0.0; N];
+    for (o, p) in out.iter_mut().zip(parts) {
+        *o = p.trim().parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| format!("'{p}' is not a finite number"))?;
+    }
+    Ok(out)
+}
+fn parse_triplet(s: &str) -> Result<[f64; 3], String> {
+    parse_numbers::<3>(s)
+}
+fn parse_pair(s: &str) -> Result<[f64; 2], String> {
+    parse_numbers::<2>(s)
+}
+
+fn load(args: &DataArgs) -> Result<Dataset, DataError> {
+    match &args.data {
+        Some(csv) => read_dataset(csv, args.sidecar.as_deref()),
+        None => drive::bundled::husky(),
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Eval { data, split, models, json, per_window } => run_eval(&data, split, &models, json, per_window.as_deref()),
+        Command::Train { data, model, out, split } => run_train(&data, &model, &out, split),
+        Command::Predict { model, commands, start, start_wheels } => run_predict(&model, &commands, start, start_wheels),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run_eval(data: &DataArgs, split: f64, models: &[String], json: bool, per_window: Option<&Path>) -> Result<()> {
+    let dataset = load(data)?;
+    let names: Vec<&str> = models.iter().map(|s| s.trim()).filter(|s| !s.is_empty()).collect();
+    if names.is_empty() {
+        bail!("--models is empty (the models are: {})", MODEL_NAMES.join(", "));
+    }
+    let cmp = compare(&dataset, split, &names)?;
+    if let Some(path) = per_window {
+        std::fs::write(path, per_window_csv(&cmp)).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if json {
+        println!("{}", serde_json::to_string(&cmp)?);
+    } else {
+        print!("{}", table(&cmp));
+    }
+    Ok(())
+}
+
+fn per_window_csv(cmp: &Comparison) -> String {
+    let mut out = String::from("model,window,interval,phase,translational_m,rotational_rad\n");
+    for m in &cmp.models {
+        for w in &m.report.windows {
+            let _ = writeln!(out, "{},{},{},{},{},{}", m.name, w.window, w.interval, w.phase.as_str(), w.error.translational, w.error.rotational);
+        }
+    }
+    out
+}
+
+fn table(cmp: &Comparison) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "DRIVE model comparison on {} ({})", cmp.dataset, if cmp.robot.is_empty() { "robot not named" } else { &cmp.robot });
+    let _ = writeln!(
+        s,
+        "train: first {} intervals ({} windows); evaluate: last {} intervals ({} windows); split {}",
+        cmp.train_intervals, cmp.train_windows, cmp.eval_intervals, cmp.eval_windows, cmp.split
+    );
+    let _ = writeln!(s, "MRMSE over the 2 s windows (paper eq. 8): median [IQR], improvement over naive\n");
+    let section = |s: &mut String, title: &str, pick: &dyn Fn(&drive::eval::ModelResult) -> Option<drive::eval::PhaseSummary>| {
+        let count = cmp.models.iter().find_map(|m| pick(m).map(|p| p.windows)).unwrap_or(0);
+        let _ = writeln!(s, "{title} ({count} windows)");
+        let _ = writeln!(s, "  {:<11} {:>34}   {:>34}", "model", "translational [m]", "rotational [rad]");
+        for m in &cmp.models {
+            match pick(m) {
+                Some(p) => {
+                    let cell = |e: drive::eval::ErrorSummary| format!("{:.4} [{:.4}, {:.4}] {:>+7.1}%", e.median, e.iqr[0], e.iqr[1], e.improvement_over_naive_percent);
+                    let _ = writeln!(s, "  {:<11} {:>34}   {:>34}", m.name, cell(p.translational_m), cell(p.rotational_rad));
+                }
+                None => {
+                    let _ = writeln!(s, "  {:<11} {:>34}", m.name, "no window");
+                }
+            }
+        }
+        let _ = writeln!(s);
+    };
+    section(&mut s, "all evaluation windows", &|m| Some(m.all));
+    section(&mut s, "transient windows", &|m| m.transient);
+    section(&mut s, "steady windows", &|m| m.steady);
+    s
+}
+
+fn run_train(data: &DataArgs, name: &str, out: &Path, split: Option<f64>) -> Result<()> {
+    let dataset = load(data)?;
+    let train = match split {
+        Some(f) => drive::eval::split_by_interval(&dataset, f)?.0,
+        None => WindowSet::new(&dataset.robot, &dataset.windows),
+    };
+    let model = drive::models::fit_named(name, &train)
+        .with_context(|| format!("unknown model '{name}' (the models are: {})", MODEL_NAMES.join(", ")))?
+        .with_context(|| format!("fitting {name}"))?;
+    std::fs::write(out, model_to_json(model.as_ref(), &dataset.robot)).with_context(|| format!("writing {}", out.display()))?;
+    eprintln!("fitted {name} on {} windows of {}; saved to {}", train.len(), dataset.robot.name, out.display());
+    Ok(())
+}
+
+/// Reads a `t,cmd_left,cmd_right` command file sampled at period `dt`.
+fn read_commands(path: &Path, dt: f64) -> Result<Vec<Input>> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {name}"))?;
+    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let Some((_, header)) = lines.next() else { bail!("{name}: the file is empty") };
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    if cols != ["t", "cmd_left", "cmd_right"] {
+        bail!("{name}, line 1: expected the header 't,cmd_left,cmd_right', found '{header}'");
+    }
+    let mut out = Vec::new();
+    let mut t0 = None;
+    for (i, line) in lines {
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != 3 {
+            bail!("{name}, line {}: {} fields where the header has 3", i + 1, fields.len());
+        }
+        let mut v = [0.0; 3];
+        for (j, f) in fields.iter().enumerate() {
+            let x: f64 = f.trim().parse().map_err(|_| anyhow::anyhow!("{name}, line {}, column '{}': '{}' is not a number", i + 1, cols[j], f.trim()))?;
+            if !x.is_finite() {
+                bail!("{name}, line {}, column '{}': '{}' is not a finite number", i + 1, cols[j], f.trim());
+            }
+            v[j] = x;
+        }
+        let t0 = *t0.get_or_insert(v[0]);
+        let expected = t0 + out.len() as f64 * dt;
+        if (v[0] - expected).abs() > 0.5 * dt {
+            bail!("{name}, line {}, column 't': t = {} but the model's command period is {dt} s (expected t = {expected})", i + 1, v[0]);
+        }
+        out.push(Input::new(v[1], v[2]));
+    }
+    if out.is_empty() {
+        bail!("{name}: no command rows");
+    }
+    Ok(out)
+}
+
+fn run_predict(model_path: &Path, commands: &Path, start: Option<[f64; 3]>, start_wheels: Option<[f64; 2]>) -> Result<()> {
+    let name = model_path.display().to_string();
+    let text = std::fs::read_to_string(model_path).with_context(|| format!("reading {name}"))?;
+    let (model, robot) = model_from_json(&name, &text)?;
+    let cmds = read_commands(commands, model.dt())?;
+    let pose = start.map_or(Pose::zeros(), |[x, y, yaw]| Pose::new(x, y, yaw));
+    let wheels = start_wheels.map_or(Input::zeros(), |[l, r]| Input::new(l, r));
+    let start = StartState { pose, input: wheels, body_velocity: DifferentialDrive::from_robot(&robot).eq4(&wheels) };
+    let (mut poses, mut covs) = (Vec::new(), Vec::new());
+    let with_cov = model.predict_with_covariance_into(&start, &cmds, &mut poses, &mut covs).is_ok();
+    if !with_cov {
+        model.predict_into(&start, &cmds, &mut poses);
+    }
+    let mut out = String::from("k,t,x,y,yaw");
+    if with_cov {
+        out.push_str(",cov_xx,cov_xy,cov_xyaw,cov_yy,cov_yyaw,cov_yawyaw");
+    }
+    out.push('\n');
+    let dt = model.dt();
+    for (k, p) in poses.iter().enumerate() {
+        let _ = write!(out, "{k},{},{},{},{}", k as f64 * dt, p.x, p.y, p.z);
+        if with_cov {
+            let c = &covs[k];
+            let _ = write!(out, ",{},{},{},{},{},{}", c[(0, 0)], c[(0, 1)], c[(0, 2)], c[(1, 1)], c[(1, 2)], c[(2, 2)]);
+        }
+        out.push('\n');
+    }
+    print!("{out}");
+    Ok(())
+}
