@@ -13,7 +13,7 @@
 //! use drive::traits::Learner;
 //! let data = drive::bundled::husky().unwrap();
 //! let (train, eval) = drive::eval::split_by_interval(&data, 0.5).unwrap();
-//! let model = drive::models::learners::SlipBlr::default().fit(&train).unwrap();
+//! let model = drive::models::learners::SlipBlr::<drive::models::powertrain::Fopdt>::default().fit(&train).unwrap();
 //! let report = drive::eval::evaluate_model(&model, &eval);
 //! assert_eq!(report.windows.len(), 303);
 //! assert!(report.translational(None).unwrap().median < 0.2);

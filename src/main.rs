@@ -103,8 +103,32 @@ fn load(args: &DataArgs) -> Result<Dataset, DataError> {
     }
 }
 
+/// Parses the command line; an argument error is reported on one line (clap's own message
+/// without the usage block), help and version are printed as usual.
+fn parse_cli() -> Result<Cli, ExitCode> {
+    use clap::error::ErrorKind;
+    Cli::try_parse().map_err(|e| {
+        if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand) {
+            let _ = e.print();
+            return if e.exit_code() == 0 { ExitCode::SUCCESS } else { ExitCode::from(2) };
+        }
+        let text = e.render().to_string();
+        let message: Vec<&str> = text
+            .lines()
+            .map(str::trim)
+            .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
+            .filter(|l| !l.is_empty())
+            .collect();
+        eprintln!("{} (see drive --help)", message.join(" "));
+        ExitCode::from(2)
+    })
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match parse_cli() {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
     let result = match cli.command {
         Command::Eval { data, split, models, json, per_window } => run_eval(&data, split, &models, json, per_window.as_deref()),
         Command::Train { data, model, out, split } => run_train(&data, &model, &out, split),
@@ -159,7 +183,7 @@ fn table(cmp: &Comparison) -> String {
     let section = |s: &mut String, title: &str, pick: &dyn Fn(&drive::eval::ModelResult) -> Option<drive::eval::PhaseSummary>| {
         let count = cmp.models.iter().find_map(|m| pick(m).map(|p| p.windows)).unwrap_or(0);
         let _ = writeln!(s, "{title} ({count} windows)");
-        let _ = writeln!(s, "  {:<11} {:>34}   {:>34}", "model", "translational [m]", "rotational [rad]");
+        let _ = writeln!(s, "  {:<11} {:^34}   {:^34}", "model", "translational [m]", "rotational [rad]");
         for m in &cmp.models {
             match pick(m) {
                 Some(p) => {
@@ -249,9 +273,9 @@ fn run_predict(model_path: &Path, commands: &Path, start: Option<[f64; 3]>, star
         out.push_str(",cov_xx,cov_xy,cov_xyaw,cov_yy,cov_yyaw,cov_yawyaw");
     }
     out.push('\n');
-    let dt = model.dt();
+    let rate_hz = 1.0 / model.dt();
     for (k, p) in poses.iter().enumerate() {
-        let _ = write!(out, "{k},{},{},{},{}", k as f64 * dt, p.x, p.y, p.z);
+        let _ = write!(out, "{k},{},{},{},{}", k as f64 / rate_hz, p.x, p.y, p.z);
         if with_cov {
             let c = &covs[k];
             let _ = write!(out, ",{},{},{},{},{},{}", c[(0, 0)], c[(0, 1)], c[(0, 2)], c[(1, 1)], c[(1, 2)], c[(2, 2)]);

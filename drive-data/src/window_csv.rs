@@ -214,7 +214,6 @@ pub fn parse_windows(file: &str, text: &str, robot: &RobotDescription) -> Result
 pub fn write_windows_csv(windows: &[Window], robot: &RobotDescription, out: &mut String) {
     out.push_str(&COLUMNS.join(","));
     out.push('\n');
-    let dt = robot.dt();
     for w in windows {
         for k in 0..w.len() {
             let (c, e, p) = (w.command[k], w.encoder[k], w.pose[k]);
@@ -225,7 +224,7 @@ pub fn write_windows_csv(windows: &[Window], robot: &RobotDescription, out: &mut
                 w.index,
                 w.phase.as_str(),
                 k,
-                k as f64 * dt,
+                k as f64 / robot.rate_hz,
                 c.x,
                 c.y,
                 e.x,

@@ -24,7 +24,7 @@ pub fn fit_named(name: &str, train: &WindowSet<'_>) -> Option<Result<Box<dyn Mot
     Some(match name {
         "naive" => boxed(Naive, train),
         "powertrain" => boxed(PowertrainAware::<Fopdt>::default(), train),
-        "slip-blr" => boxed(SlipBlr::default(), train),
+        "slip-blr" => boxed(SlipBlr::<Fopdt>::default(), train),
         "acc-blr" => boxed(AccBlr::default(), train),
         _ => return None,
     })

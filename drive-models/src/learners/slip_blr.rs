@@ -52,13 +52,25 @@ pub struct SlipBlr<P = Fopdt> {
     pub velocity: BodyVelocityEstimator,
 }
 
-impl Default for SlipBlr<Fopdt> {
+impl<P: Default> Default for SlipBlr<P> {
     fn default() -> Self {
-        SlipBlr { powertrain: Fopdt::default(), priors: Default::default(), velocity: BodyVelocityEstimator::default() }
+        SlipBlr { powertrain: P::default(), priors: Default::default(), velocity: BodyVelocityEstimator::default() }
     }
 }
 
 impl<P> SlipBlr<P> {
+    /// The same learner with another powertrain learner.
+    ///
+    /// ```
+    /// use drive_models::learners::SlipBlr;
+    /// use drive_models::powertrain::{Fopdt, Ideal};
+    /// let on_commands = SlipBlr::<Fopdt>::default().with_powertrain(Ideal);
+    /// assert_eq!(on_commands.powertrain, Ideal);
+    /// ```
+    pub fn with_powertrain<Q>(self, powertrain: Q) -> SlipBlr<Q> {
+        SlipBlr { powertrain, priors: self.priors, velocity: self.velocity }
+    }
+
     /// The same learner with the paper's uninformative prior of scale `phi` on every dimension.
     pub fn with_phi(mut self, phi: f64) -> Self {
         self.priors = [Prior::Uninformative { phi }, Prior::Uninformative { phi }, Prior::Uninformative { phi }];

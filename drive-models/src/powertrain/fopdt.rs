@@ -220,20 +220,25 @@ impl Fopdt {
                 }
             }
         }
+        // Nelder-Mead from the grid's best point, restarted once from its own best point
+        // with a fresh, smaller simplex (a collapsed simplex otherwise stops short).
         let (_, ln_tc, td) = best;
-        let simplex = vec![vec![ln_tc, td], vec![ln_tc + 0.25, td], vec![ln_tc, td + 0.5 * dt]];
-        let solver = NelderMead::new(simplex)
-            .with_sd_tolerance(1e-12)
-            .map_err(|e| FitError::Optimizer { what: what.clone(), reason: e.to_string() })?;
-        let result = Executor::new(problem, solver)
-            .configure(|s| s.max_iters(self.max_iters))
-            .run()
-            .map_err(|e| FitError::Optimizer { what: what.clone(), reason: e.to_string() })?;
-        let p = result.state().get_best_param().cloned().unwrap_or_else(|| vec![ln_tc, td]);
-        let (r, _) = result.problem.problem.as_ref().map(|pb| pb.response(&p)).ok_or_else(|| FitError::Optimizer {
-            what: what.clone(),
-            reason: "the solver returned no problem".into(),
-        })?;
+        let mut p = vec![ln_tc, td];
+        let mut problem = Some(problem);
+        for scale in [1.0, 0.2] {
+            let simplex = vec![p.clone(), vec![p[0] + 0.25 * scale, p[1]], vec![p[0], p[1] + 0.5 * dt * scale]];
+            let optimizer = |e: argmin::core::Error| FitError::Optimizer { what: what.clone(), reason: e.to_string() };
+            let solver = NelderMead::new(simplex).with_sd_tolerance(1e-14).map_err(optimizer)?;
+            // `problem` is put back after every run below, so it is always present here.
+            let current = problem.take().expect("the problem is returned by each run");
+            let mut result = Executor::new(current, solver).configure(|s| s.max_iters(self.max_iters)).run().map_err(optimizer)?;
+            if let Some(best) = result.state().get_best_param() {
+                p = best.clone();
+            }
+            problem = result.problem.problem.take();
+        }
+        let problem = problem.ok_or_else(|| FitError::Optimizer { what: what.clone(), reason: "the solver returned no problem".into() })?;
+        let (r, _) = problem.response(&p);
         if !(r.time_constant.is_finite() && r.delay.is_finite()) {
             return Err(FitError::NonFinite { what });
         }
