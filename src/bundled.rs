@@ -22,6 +22,16 @@ pub fn husky() -> Result<Dataset, DataError> {
     let mut text = String::new();
     flate2::read::GzDecoder::new(HUSKY_CSV_GZ)
         .read_to_string(&mut text)
-        .map_err(|e| DataError::new(Location::file(HUSKY_CSV_NAME), DataErrorKind::Io(e.to_string())))?;
-    parse_dataset(HUSKY_CSV_NAME, &text, "bundled:husky_drive.json", HUSKY_SIDECAR)
+        .map_err(|e| {
+            DataError::new(
+                Location::file(HUSKY_CSV_NAME),
+                DataErrorKind::Io(e.to_string()),
+            )
+        })?;
+    parse_dataset(
+        HUSKY_CSV_NAME,
+        &text,
+        "bundled:husky_drive.json",
+        HUSKY_SIDECAR,
+    )
 }

@@ -19,6 +19,8 @@
 //! assert!(report.translational(None).unwrap().median < 0.2);
 //! ```
 
+#![warn(missing_docs)]
+
 pub use drive_data as data;
 pub use drive_eval as eval;
 pub use drive_models as models;

@@ -12,7 +12,11 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "drive", version, about = "DRIVE: identify how a UGV really moves on its terrain (Baril et al.)")]
+#[command(
+    name = "drive",
+    version,
+    about = "DRIVE: identify how a UGV really moves on its terrain (Baril et al.)"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -38,7 +42,11 @@ enum Command {
         #[arg(long, default_value_t = 0.5)]
         split: f64,
         /// Models to compare, comma-separated.
-        #[arg(long, value_delimiter = ',', default_value = "naive,powertrain,slip-blr,acc-blr")]
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "naive,powertrain,slip-blr,acc-blr"
+        )]
         models: Vec<String>,
         /// Print one JSON object on stdout instead of the table.
         #[arg(long)]
@@ -69,10 +77,10 @@ enum Command {
         /// CSV with columns t,cmd_left,cmd_right (wheel angular velocities, command rate).
         #[arg(long)]
         commands: PathBuf,
-        /// Start pose x,y,yaw [m, m, rad] (default: origin).
+        /// Start pose x,y,yaw (m, m, rad) (default: origin).
         #[arg(long, value_parser = parse_triplet, allow_hyphen_values = true)]
         start: Option<[f64; 3]>,
-        /// Measured wheel velocities at the start, left,right [rad/s] (default: at rest).
+        /// Measured wheel velocities at the start, left,right (rad/s) (default: at rest).
         #[arg(long, value_parser = parse_pair, allow_hyphen_values = true)]
         start_wheels: Option<[f64; 2]>,
     },
@@ -85,7 +93,12 @@ fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
     }
     let mut out = [0.0; N];
     for (o, p) in out.iter_mut().zip(parts) {
-        *o = p.trim().parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| format!("'{p}' is not a finite number"))?;
+        *o = p
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("'{p}' is not a finite number"))?;
     }
     Ok(out)
 }
@@ -108,9 +121,18 @@ fn load(args: &DataArgs) -> Result<Dataset, DataError> {
 fn parse_cli() -> Result<Cli, ExitCode> {
     use clap::error::ErrorKind;
     Cli::try_parse().map_err(|e| {
-        if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand) {
+        if matches!(
+            e.kind(),
+            ErrorKind::DisplayHelp
+                | ErrorKind::DisplayVersion
+                | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+        ) {
             let _ = e.print();
-            return if e.exit_code() == 0 { ExitCode::SUCCESS } else { ExitCode::from(2) };
+            return if e.exit_code() == 0 {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(2)
+            };
         }
         let text = e.render().to_string();
         let message: Vec<&str> = text
@@ -130,9 +152,25 @@ fn main() -> ExitCode {
         Err(code) => return code,
     };
     let result = match cli.command {
-        Command::Eval { data, split, models, json, per_window } => run_eval(&data, split, &models, json, per_window.as_deref()),
-        Command::Train { data, model, out, split } => run_train(&data, &model, &out, split),
-        Command::Predict { model, commands, start, start_wheels } => run_predict(&model, &commands, start, start_wheels),
+        Command::Eval {
+            data,
+            split,
+            models,
+            json,
+            per_window,
+        } => run_eval(&data, split, &models, json, per_window.as_deref()),
+        Command::Train {
+            data,
+            model,
+            out,
+            split,
+        } => run_train(&data, &model, &out, split),
+        Command::Predict {
+            model,
+            commands,
+            start,
+            start_wheels,
+        } => run_predict(&model, &commands, start, start_wheels),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -143,15 +181,29 @@ fn main() -> ExitCode {
     }
 }
 
-fn run_eval(data: &DataArgs, split: f64, models: &[String], json: bool, per_window: Option<&Path>) -> Result<()> {
+fn run_eval(
+    data: &DataArgs,
+    split: f64,
+    models: &[String],
+    json: bool,
+    per_window: Option<&Path>,
+) -> Result<()> {
     let dataset = load(data)?;
-    let names: Vec<&str> = models.iter().map(|s| s.trim()).filter(|s| !s.is_empty()).collect();
+    let names: Vec<&str> = models
+        .iter()
+        .map(|s| s.trim())
+        .filter(|s| !s.is_empty())
+        .collect();
     if names.is_empty() {
-        bail!("--models is empty (the models are: {})", MODEL_NAMES.join(", "));
+        bail!(
+            "--models is empty (the models are: {})",
+            MODEL_NAMES.join(", ")
+        );
     }
     let cmp = compare(&dataset, split, &names)?;
     if let Some(path) = per_window {
-        std::fs::write(path, per_window_csv(&cmp)).with_context(|| format!("writing {}", path.display()))?;
+        std::fs::write(path, per_window_csv(&cmp))
+            .with_context(|| format!("writing {}", path.display()))?;
     }
     if json {
         println!("{}", serde_json::to_string(&cmp)?);
@@ -165,7 +217,16 @@ fn per_window_csv(cmp: &Comparison) -> String {
     let mut out = String::from("model,window,interval,phase,translational_m,rotational_rad\n");
     for m in &cmp.models {
         for w in &m.report.windows {
-            let _ = writeln!(out, "{},{},{},{},{},{}", m.name, w.window, w.interval, w.phase.as_str(), w.error.translational, w.error.rotational);
+            let _ = writeln!(
+                out,
+                "{},{},{},{},{},{}",
+                m.name,
+                w.window,
+                w.interval,
+                w.phase.as_str(),
+                w.error.translational,
+                w.error.rotational
+            );
         }
     }
     out
@@ -173,30 +234,64 @@ fn per_window_csv(cmp: &Comparison) -> String {
 
 fn table(cmp: &Comparison) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "DRIVE model comparison on {} ({})", cmp.dataset, if cmp.robot.is_empty() { "robot not named" } else { &cmp.robot });
+    let _ = writeln!(
+        s,
+        "DRIVE model comparison on {} ({})",
+        cmp.dataset,
+        if cmp.robot.is_empty() {
+            "robot not named"
+        } else {
+            &cmp.robot
+        }
+    );
     let _ = writeln!(
         s,
         "train: first {} intervals ({} windows); evaluate: last {} intervals ({} windows); split {}",
         cmp.train_intervals, cmp.train_windows, cmp.eval_intervals, cmp.eval_windows, cmp.split
     );
-    let _ = writeln!(s, "MRMSE over the 2 s windows (paper eq. 8): median [IQR], improvement over naive\n");
-    let section = |s: &mut String, title: &str, pick: &dyn Fn(&drive::eval::ModelResult) -> Option<drive::eval::PhaseSummary>| {
-        let count = cmp.models.iter().find_map(|m| pick(m).map(|p| p.windows)).unwrap_or(0);
-        let _ = writeln!(s, "{title} ({count} windows)");
-        let _ = writeln!(s, "  {:<11} {:^34}   {:^34}", "model", "translational [m]", "rotational [rad]");
-        for m in &cmp.models {
-            match pick(m) {
-                Some(p) => {
-                    let cell = |e: drive::eval::ErrorSummary| format!("{:.4} [{:.4}, {:.4}] {:>+7.1}%", e.median, e.iqr[0], e.iqr[1], e.improvement_over_naive_percent);
-                    let _ = writeln!(s, "  {:<11} {:>34}   {:>34}", m.name, cell(p.translational_m), cell(p.rotational_rad));
-                }
-                None => {
-                    let _ = writeln!(s, "  {:<11} {:>34}", m.name, "no window");
-                }
+    let _ = writeln!(
+        s,
+        "MRMSE over the 2 s windows (paper eq. 8): median [IQR], improvement over naive\n"
+    );
+    let section =
+        |s: &mut String,
+         title: &str,
+         pick: &dyn Fn(&drive::eval::ModelResult) -> Option<drive::eval::PhaseSummary>| {
+            let count = cmp
+                .models
+                .iter()
+                .find_map(|m| pick(m).map(|p| p.windows))
+                .unwrap_or(0);
+            let _ = writeln!(s, "{title} ({count} windows)");
+            let _ = writeln!(
+                s,
+                "  {:<11}{:<37}{}",
+                "", "translational MRMSE [m]", "rotational MRMSE [rad]"
+            );
+            let header = "median  IQR               vs naive";
+            let _ = writeln!(s, "  {:<11}{:<37}{}", "model", header, header);
+            for m in &cmp.models {
+                let Some(p) = pick(m) else {
+                    let _ = writeln!(s, "  {:<11}no window", m.name);
+                    continue;
+                };
+                let cell = |e: drive::eval::ErrorSummary| {
+                    let [q1, q3] = e.iqr;
+                    format!(
+                        "{:<6.4}  [{q1:.4}, {q3:.4}]  {:>+7.1}%",
+                        e.median, e.improvement_over_naive_percent
+                    )
+                };
+                let _ = writeln!(
+                    s,
+                    "  {:<11}{:<37}{}",
+                    m.name,
+                    cell(p.translational_m),
+                    cell(p.rotational_rad)
+                );
             }
-        }
-        let _ = writeln!(s);
-    };
+            let _ = writeln!(s);
+        };
     section(&mut s, "all evaluation windows", &|m| Some(m.all));
     section(&mut s, "transient windows", &|m| m.transient);
     section(&mut s, "steady windows", &|m| m.steady);
@@ -210,10 +305,21 @@ fn run_train(data: &DataArgs, name: &str, out: &Path, split: Option<f64>) -> Res
         None => WindowSet::new(&dataset.robot, &dataset.windows),
     };
     let model = drive::models::fit_named(name, &train)
-        .with_context(|| format!("unknown model '{name}' (the models are: {})", MODEL_NAMES.join(", ")))?
+        .with_context(|| {
+            format!(
+                "unknown model '{name}' (the models are: {})",
+                MODEL_NAMES.join(", ")
+            )
+        })?
         .with_context(|| format!("fitting {name}"))?;
-    std::fs::write(out, model_to_json(model.as_ref(), &dataset.robot)).with_context(|| format!("writing {}", out.display()))?;
-    eprintln!("fitted {name} on {} windows of {}; saved to {}", train.len(), dataset.robot.name, out.display());
+    std::fs::write(out, model_to_json(model.as_ref(), &dataset.robot))
+        .with_context(|| format!("writing {}", out.display()))?;
+    eprintln!(
+        "fitted {name} on {} windows of {}; saved to {}",
+        train.len(),
+        dataset.robot.name,
+        out.display()
+    );
     Ok(())
 }
 
@@ -221,8 +327,13 @@ fn run_train(data: &DataArgs, name: &str, out: &Path, split: Option<f64>) -> Res
 fn read_commands(path: &Path, dt: f64) -> Result<Vec<Input>> {
     let name = path.display().to_string();
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {name}"))?;
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let Some((_, header)) = lines.next() else { bail!("{name}: the file is empty") };
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let Some((_, header)) = lines.next() else {
+        bail!("{name}: the file is empty")
+    };
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
     if cols != ["t", "cmd_left", "cmd_right"] {
         bail!("{name}, line 1: expected the header 't,cmd_left,cmd_right', found '{header}'");
@@ -232,13 +343,29 @@ fn read_commands(path: &Path, dt: f64) -> Result<Vec<Input>> {
     for (i, line) in lines {
         let fields: Vec<&str> = line.split(',').collect();
         if fields.len() != 3 {
-            bail!("{name}, line {}: {} fields where the header has 3", i + 1, fields.len());
+            bail!(
+                "{name}, line {}: {} fields where the header has 3",
+                i + 1,
+                fields.len()
+            );
         }
         let mut v = [0.0; 3];
         for (j, f) in fields.iter().enumerate() {
-            let x: f64 = f.trim().parse().map_err(|_| anyhow::anyhow!("{name}, line {}, column '{}': '{}' is not a number", i + 1, cols[j], f.trim()))?;
+            let x: f64 = f.trim().parse().map_err(|_| {
+                anyhow::anyhow!(
+                    "{name}, line {}, column '{}': '{}' is not a number",
+                    i + 1,
+                    cols[j],
+                    f.trim()
+                )
+            })?;
             if !x.is_finite() {
-                bail!("{name}, line {}, column '{}': '{}' is not a finite number", i + 1, cols[j], f.trim());
+                bail!(
+                    "{name}, line {}, column '{}': '{}' is not a finite number",
+                    i + 1,
+                    cols[j],
+                    f.trim()
+                );
             }
             v[j] = x;
         }
@@ -255,16 +382,27 @@ fn read_commands(path: &Path, dt: f64) -> Result<Vec<Input>> {
     Ok(out)
 }
 
-fn run_predict(model_path: &Path, commands: &Path, start: Option<[f64; 3]>, start_wheels: Option<[f64; 2]>) -> Result<()> {
+fn run_predict(
+    model_path: &Path,
+    commands: &Path,
+    start: Option<[f64; 3]>,
+    start_wheels: Option<[f64; 2]>,
+) -> Result<()> {
     let name = model_path.display().to_string();
     let text = std::fs::read_to_string(model_path).with_context(|| format!("reading {name}"))?;
     let (model, robot) = model_from_json(&name, &text)?;
     let cmds = read_commands(commands, model.dt())?;
     let pose = start.map_or(Pose::zeros(), |[x, y, yaw]| Pose::new(x, y, yaw));
     let wheels = start_wheels.map_or(Input::zeros(), |[l, r]| Input::new(l, r));
-    let start = StartState { pose, input: wheels, body_velocity: DifferentialDrive::from_robot(&robot).eq4(&wheels) };
+    let start = StartState {
+        pose,
+        input: wheels,
+        body_velocity: DifferentialDrive::from_robot(&robot).eq4(&wheels),
+    };
     let (mut poses, mut covs) = (Vec::new(), Vec::new());
-    let with_cov = model.predict_with_covariance_into(&start, &cmds, &mut poses, &mut covs).is_ok();
+    let with_cov = model
+        .predict_with_covariance_into(&start, &cmds, &mut poses, &mut covs)
+        .is_ok();
     if !with_cov {
         model.predict_into(&start, &cmds, &mut poses);
     }
@@ -278,7 +416,16 @@ fn run_predict(model_path: &Path, commands: &Path, start: Option<[f64; 3]>, star
         let _ = write!(out, "{k},{},{},{},{}", k as f64 / rate_hz, p.x, p.y, p.z);
         if with_cov {
             let c = &covs[k];
-            let _ = write!(out, ",{},{},{},{},{},{}", c[(0, 0)], c[(0, 1)], c[(0, 2)], c[(1, 1)], c[(1, 2)], c[(2, 2)]);
+            let _ = write!(
+                out,
+                ",{},{},{},{},{},{}",
+                c[(0, 0)],
+                c[(0, 1)],
+                c[(0, 2)],
+                c[(1, 1)],
+                c[(1, 2)],
+                c[(2, 2)]
+            );
         }
         out.push('\n');
     }

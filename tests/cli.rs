@@ -6,12 +6,19 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 fn drive(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_drive")).args(args).output().expect("the drive binary runs")
+    Command::new(env!("CARGO_BIN_EXE_drive"))
+        .args(args)
+        .output()
+        .expect("the drive binary runs")
 }
 
 fn ok(args: &[&str]) -> String {
     let out = drive(args);
-    assert!(out.status.success(), "drive {args:?} failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "drive {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     String::from_utf8(out.stdout).unwrap()
 }
 
@@ -20,7 +27,11 @@ fn user_error(args: &[&str]) -> String {
     let out = drive(args);
     assert!(!out.status.success(), "drive {args:?} should fail");
     let err = String::from_utf8(out.stderr).unwrap();
-    assert_eq!(err.trim_end().lines().count(), 1, "one line expected: {err}");
+    assert_eq!(
+        err.trim_end().lines().count(),
+        1,
+        "one line expected: {err}"
+    );
     assert!(err.starts_with("error: "), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     assert!(out.stdout.is_empty());
@@ -28,7 +39,12 @@ fn user_error(args: &[&str]) -> String {
 }
 
 fn model<'a>(v: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
-    v["models"].as_array().unwrap().iter().find(|m| m["name"] == name).unwrap_or_else(|| panic!("no {name}"))
+    v["models"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["name"] == name)
+        .unwrap_or_else(|| panic!("no {name}"))
 }
 
 fn f(v: &serde_json::Value) -> f64 {
@@ -41,7 +57,12 @@ fn eval_json_reproduces_the_paper_comparison_on_the_bundled_data() {
     assert_eq!(v["dataset"], "husky-drive");
     assert_eq!(v["train_windows"], 300);
     assert_eq!(v["eval_windows"], 303);
-    let names: Vec<&str> = v["models"].as_array().unwrap().iter().map(|m| m["name"].as_str().unwrap()).collect();
+    let names: Vec<&str> = v["models"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
     assert_eq!(names, ["naive", "powertrain", "slip-blr", "acc-blr"]);
     // The naive anchor of the data README: depends only on the data, eq. 4, eq. 1 and eq. 8.
     let naive = model(&v, "naive");
@@ -49,19 +70,33 @@ fn eval_json_reproduces_the_paper_comparison_on_the_bundled_data() {
     assert!((f(&naive["rotational_median_rad"]) / 1.4416 - 1.0).abs() < 0.02);
     let slip = model(&v, "slip-blr");
     let pt = model(&v, "powertrain");
-    let (st, sr) = (f(&slip["translational_median_m"]), f(&slip["rotational_median_rad"]));
+    let (st, sr) = (
+        f(&slip["translational_median_m"]),
+        f(&slip["rotational_median_rad"]),
+    );
     assert!(st <= 0.15 && sr <= 0.15, "slip-blr {st} {sr}");
     for other in [naive, pt] {
-        assert!(st < f(&other["translational_median_m"]) && sr < f(&other["rotational_median_rad"]));
+        assert!(
+            st < f(&other["translational_median_m"]) && sr < f(&other["rotational_median_rad"])
+        );
     }
     // The powertrain alone already improves on naive (paper Fig. 6).
     assert!(f(&pt["translational_median_m"]) < f(&naive["translational_median_m"]));
     for m in v["models"].as_array().unwrap() {
-        let (q1, q3) = (f(&m["translational_iqr_m"][0]), f(&m["translational_iqr_m"][1]));
+        let (q1, q3) = (
+            f(&m["translational_iqr_m"][0]),
+            f(&m["translational_iqr_m"][1]),
+        );
         assert!(q1 <= f(&m["translational_median_m"]) && f(&m["translational_median_m"]) <= q3);
-        let (q1, q3) = (f(&m["rotational_iqr_rad"][0]), f(&m["rotational_iqr_rad"][1]));
+        let (q1, q3) = (
+            f(&m["rotational_iqr_rad"][0]),
+            f(&m["rotational_iqr_rad"][1]),
+        );
         assert!(q1 <= f(&m["rotational_median_rad"]) && f(&m["rotational_median_rad"]) <= q3);
-        assert_eq!(m["transient"]["windows"].as_u64().unwrap() + m["steady"]["windows"].as_u64().unwrap(), 303);
+        assert_eq!(
+            m["transient"]["windows"].as_u64().unwrap() + m["steady"]["windows"].as_u64().unwrap(),
+            303
+        );
     }
 }
 
@@ -69,14 +104,31 @@ fn eval_json_reproduces_the_paper_comparison_on_the_bundled_data() {
 fn eval_table_subset_split_and_per_window_file() {
     let dir = tempfile::tempdir().unwrap();
     let per_window = dir.path().join("errors.csv");
-    let table = ok(&["eval", "--models", "naive,slip-blr", "--split", "0.3", "--per-window", per_window.to_str().unwrap()]);
+    let table = ok(&[
+        "eval",
+        "--models",
+        "naive,slip-blr",
+        "--split",
+        "0.3",
+        "--per-window",
+        per_window.to_str().unwrap(),
+    ]);
     assert!(table.contains("husky-drive"), "{table}");
-    assert!(table.contains("first 60 intervals (180 windows)"), "{table}");
-    assert!(table.contains("slip-blr") && !table.contains("acc-blr"), "{table}");
+    assert!(
+        table.contains("first 60 intervals (180 windows)"),
+        "{table}"
+    );
+    assert!(
+        table.contains("slip-blr") && !table.contains("acc-blr"),
+        "{table}"
+    );
     assert!(table.contains("transient windows") && table.contains("steady windows"));
     let csv = std::fs::read_to_string(&per_window).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines[0], "model,window,interval,phase,translational_m,rotational_rad");
+    assert_eq!(
+        lines[0],
+        "model,window,interval,phase,translational_m,rotational_rad"
+    );
     assert_eq!(lines.len(), 1 + 2 * (603 - 180));
     assert!(lines[1].starts_with("naive,180,60,transient,"));
 }
@@ -92,24 +144,61 @@ fn train_then_predict_matches_the_library() {
     std::fs::write(&commands, text).unwrap();
     for name in ["naive", "powertrain", "slip-blr", "acc-blr"] {
         let file = dir.path().join(format!("{name}.json"));
-        ok(&["train", "--model", name, "--split", "0.5", "--out", file.to_str().unwrap()]);
-        let out = ok(&["predict", "--model", file.to_str().unwrap(), "--commands", commands.to_str().unwrap(), "--start", "1,-1,0.5", "--start-wheels", "2,5"]);
+        ok(&[
+            "train",
+            "--model",
+            name,
+            "--split",
+            "0.5",
+            "--out",
+            file.to_str().unwrap(),
+        ]);
+        let out = ok(&[
+            "predict",
+            "--model",
+            file.to_str().unwrap(),
+            "--commands",
+            commands.to_str().unwrap(),
+            "--start",
+            "1,-1,0.5",
+            "--start-wheels",
+            "2,5",
+        ]);
         let lines: Vec<&str> = out.lines().collect();
         assert_eq!(lines.len(), 41);
         let with_cov = name.ends_with("blr");
-        assert_eq!(lines[0].split(',').count(), if with_cov { 11 } else { 5 }, "{}", lines[0]);
-        assert_eq!(lines[1].split(',').take(5).collect::<Vec<_>>(), ["0", "0", "1", "-1", "0.5"]);
+        assert_eq!(
+            lines[0].split(',').count(),
+            if with_cov { 11 } else { 5 },
+            "{}",
+            lines[0]
+        );
+        assert_eq!(
+            lines[1].split(',').take(5).collect::<Vec<_>>(),
+            ["0", "0", "1", "-1", "0.5"]
+        );
         // Same numbers as the library on the same model file.
-        let (m, robot) = drive::models::model_file::model_from_json("m", &std::fs::read_to_string(&file).unwrap()).unwrap();
+        let (m, robot) = drive::models::model_file::model_from_json(
+            "m",
+            &std::fs::read_to_string(&file).unwrap(),
+        )
+        .unwrap();
         let wheels = drive::traits::Input::new(2.0, 5.0);
         let start = drive::traits::StartState {
             pose: drive::traits::Pose::new(1.0, -1.0, 0.5),
             input: wheels,
             body_velocity: drive::models::DifferentialDrive::from_robot(&robot).eq4(&wheels),
         };
-        let cmds: Vec<_> = (0..40).map(|k| drive::traits::Input::new(2.0 + 0.1 * k as f64, 5.0)).collect();
+        let cmds: Vec<_> = (0..40)
+            .map(|k| drive::traits::Input::new(2.0 + 0.1 * k as f64, 5.0))
+            .collect();
         let poses = m.predict(&start, &cmds);
-        let last: Vec<f64> = lines[40].split(',').skip(2).take(3).map(|x| x.parse().unwrap()).collect();
+        let last: Vec<f64> = lines[40]
+            .split(',')
+            .skip(2)
+            .take(3)
+            .map(|x| x.parse().unwrap())
+            .collect();
         assert_eq!(last, [poses[39].x, poses[39].y, poses[39].z]);
     }
 }
@@ -133,7 +222,11 @@ fn bad_data_is_a_one_line_error_naming_file_line_and_column() {
     lines[10] = bad.join(",");
     std::fs::write(&csv, lines.join("\n")).unwrap();
     let err = user_error(&["eval", "--data", csv.to_str().unwrap()]);
-    assert!(err.contains("small.csv, line 11, column 'enc_left'") && err.contains("not a finite number"), "{err}");
+    assert!(
+        err.contains("small.csv, line 11, column 'enc_left'")
+            && err.contains("not a finite number"),
+        "{err}"
+    );
     std::fs::remove_file(dir.path().join("small.json")).unwrap();
     let err = user_error(&["eval", "--data", csv.to_str().unwrap()]);
     assert!(err.contains("small.json"), "{err}");
@@ -145,29 +238,64 @@ fn other_user_errors() {
     assert!(user_error(&["eval", "--models", "naive,magic"]).contains("unknown model 'magic'"));
     assert!(user_error(&["train", "--model", "naive"]).contains("--out"));
     assert!(user_error(&["eval", "--split", "half"]).contains("--split"));
-    assert!(user_error(&["predict", "--model", "m.json", "--commands", "c.csv", "--start", "1,2"]).contains("expected 3 comma-separated numbers"));
+    assert!(user_error(&[
+        "predict",
+        "--model",
+        "m.json",
+        "--commands",
+        "c.csv",
+        "--start",
+        "1,2"
+    ])
+    .contains("expected 3 comma-separated numbers"));
     assert!(drive(&["--help"]).status.success());
     assert!(user_error(&["eval", "--split", "1"]).contains("split fraction 1"));
-    assert!(user_error(&["eval", "--data", "/nonexistent/run.csv"]).contains("/nonexistent/run.csv"));
+    assert!(
+        user_error(&["eval", "--data", "/nonexistent/run.csv"]).contains("/nonexistent/run.csv")
+    );
     let out = dir.path().join("m.json");
-    assert!(user_error(&["train", "--model", "magic", "--out", out.to_str().unwrap()]).contains("unknown model"));
+    assert!(
+        user_error(&["train", "--model", "magic", "--out", out.to_str().unwrap()])
+            .contains("unknown model")
+    );
     // A model file from a newer format.
     ok(&["train", "--model", "naive", "--out", out.to_str().unwrap()]);
-    let newer = std::fs::read_to_string(&out).unwrap().replace("\"format_version\": 1", "\"format_version\": 7");
+    let newer = std::fs::read_to_string(&out)
+        .unwrap()
+        .replace("\"format_version\": 1", "\"format_version\": 7");
     std::fs::write(&out, newer).unwrap();
     let cmds = dir.path().join("c.csv");
     std::fs::write(&cmds, "t,cmd_left,cmd_right\n0,1,1\n0.05,1,1\n").unwrap();
-    assert!(user_error(&["predict", "--model", out.to_str().unwrap(), "--commands", cmds.to_str().unwrap()]).contains("version 7 is not supported"));
+    assert!(user_error(&[
+        "predict",
+        "--model",
+        out.to_str().unwrap(),
+        "--commands",
+        cmds.to_str().unwrap()
+    ])
+    .contains("version 7 is not supported"));
     // Bad command files.
     ok(&["train", "--model", "naive", "--out", out.to_str().unwrap()]);
     for (text, needle) in [
         ("t,left,right\n0,1,1\n", "expected the header"),
-        ("t,cmd_left,cmd_right\n0,1,x\n", "line 2, column 'cmd_right'"),
-        ("t,cmd_left,cmd_right\n0,1,1\n0.5,1,1\n", "line 3, column 't'"),
+        (
+            "t,cmd_left,cmd_right\n0,1,x\n",
+            "line 2, column 'cmd_right'",
+        ),
+        (
+            "t,cmd_left,cmd_right\n0,1,1\n0.5,1,1\n",
+            "line 3, column 't'",
+        ),
         ("t,cmd_left,cmd_right\n", "no command rows"),
     ] {
         std::fs::write(&cmds, text).unwrap();
-        let err = user_error(&["predict", "--model", out.to_str().unwrap(), "--commands", cmds.to_str().unwrap()]);
+        let err = user_error(&[
+            "predict",
+            "--model",
+            out.to_str().unwrap(),
+            "--commands",
+            cmds.to_str().unwrap(),
+        ]);
         assert!(err.contains(needle), "{err}");
     }
 }

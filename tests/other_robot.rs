@@ -7,14 +7,30 @@ use common::SyntheticRobot;
 use std::process::Command;
 
 fn eval_json(csv: &std::path::Path) -> serde_json::Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_drive")).args(["eval", "--json", "--data"]).arg(csv).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = Command::new(env!("CARGO_BIN_EXE_drive"))
+        .args(["eval", "--json", "--data"])
+        .arg(csv)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
 fn medians(v: &serde_json::Value, name: &str) -> (f64, f64) {
-    let m = v["models"].as_array().unwrap().iter().find(|m| m["name"] == name).unwrap();
-    (m["translational_median_m"].as_f64().unwrap(), m["rotational_median_rad"].as_f64().unwrap())
+    let m = v["models"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["name"] == name)
+        .unwrap();
+    (
+        m["translational_median_m"].as_f64().unwrap(),
+        m["rotational_median_rad"].as_f64().unwrap(),
+    )
 }
 
 fn check(robot: SyntheticRobot, name: &str) {
@@ -45,6 +61,10 @@ fn warthog_like_robot_at_20_hz() {
 
 #[test]
 fn warthog_like_robot_at_10_hz() {
-    let robot = SyntheticRobot { rate_hz: 10.0, window_len: 20, ..SyntheticRobot::warthog_like() };
+    let robot = SyntheticRobot {
+        rate_hz: 10.0,
+        window_len: 20,
+        ..SyntheticRobot::warthog_like()
+    };
     check(robot, "synthetic-warthog-10hz");
 }

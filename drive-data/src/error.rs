@@ -15,19 +15,35 @@ pub struct Location {
 impl Location {
     /// The whole file.
     pub fn file(file: &str) -> Self {
-        Location { file: file.to_string(), line: None, field: None }
+        Location {
+            file: file.to_string(),
+            line: None,
+            field: None,
+        }
     }
     /// A line of a file.
     pub fn line(file: &str, line: usize) -> Self {
-        Location { file: file.to_string(), line: Some(line), field: None }
+        Location {
+            file: file.to_string(),
+            line: Some(line),
+            field: None,
+        }
     }
     /// A column on a line of a file.
     pub fn cell(file: &str, line: usize, column: &str) -> Self {
-        Location { file: file.to_string(), line: Some(line), field: Some(column.to_string()) }
+        Location {
+            file: file.to_string(),
+            line: Some(line),
+            field: Some(column.to_string()),
+        }
     }
     /// A field of a JSON file.
     pub fn field(file: &str, field: &str) -> Self {
-        Location { file: file.to_string(), line: None, field: Some(field.to_string()) }
+        Location {
+            file: file.to_string(),
+            line: None,
+            field: Some(field.to_string()),
+        }
     }
 }
 

@@ -15,6 +15,8 @@
 //! assert_eq!(data.robot.rate_hz, 2.0);
 //! ```
 
+#![warn(missing_docs)]
+
 mod error;
 mod sidecar;
 mod window_csv;
@@ -63,7 +65,9 @@ pub fn sidecar_path(csv: &Path) -> PathBuf {
 /// Reads a dataset from a window CSV file and its sidecar (by default beside the CSV, see
 /// [`sidecar_path`]).
 pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataError> {
-    let sidecar = sidecar.map(Path::to_path_buf).unwrap_or_else(|| sidecar_path(csv));
+    let sidecar = sidecar
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| sidecar_path(csv));
     let csv_name = csv.display().to_string();
     let sidecar_name = sidecar.display().to_string();
     let csv_text = read_text(csv)?;
@@ -82,18 +86,31 @@ pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataE
 
 /// Writes a dataset as a window CSV at `csv` and its sidecar beside it.
 pub fn write_dataset(dataset: &Dataset, csv: &Path) -> Result<(), DataError> {
-    let io = |p: &Path, e: std::io::Error| DataError::new(Location::file(&p.display().to_string()), DataErrorKind::Io(e.to_string()));
+    let io = |p: &Path, e: std::io::Error| {
+        DataError::new(
+            Location::file(&p.display().to_string()),
+            DataErrorKind::Io(e.to_string()),
+        )
+    };
     let mut text = String::new();
     write_windows_csv(&dataset.windows, &dataset.robot, &mut text);
     std::fs::write(csv, text).map_err(|e| io(csv, e))?;
     let side = sidecar_path(csv);
-    std::fs::write(&side, sidecar_json(&dataset.robot, dataset.windows.len())).map_err(|e| io(&side, e))
+    std::fs::write(&side, sidecar_json(&dataset.robot, dataset.windows.len()))
+        .map_err(|e| io(&side, e))
 }
 
 fn read_text(path: &Path) -> Result<String, DataError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|e| DataError::new(Location::file(&name), DataErrorKind::Io(e.to_string())))?;
+    let bytes = std::fs::read(path)
+        .map_err(|e| DataError::new(Location::file(&name), DataErrorKind::Io(e.to_string())))?;
     String::from_utf8(bytes).map_err(|e| {
-        DataError::new(Location::file(&name), DataErrorKind::Io(format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to())))
+        DataError::new(
+            Location::file(&name),
+            DataErrorKind::Io(format!(
+                "not UTF-8 text (byte {})",
+                e.utf8_error().valid_up_to()
+            )),
+        )
     })
 }

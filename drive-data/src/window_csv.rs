@@ -5,8 +5,20 @@ use drive_traits::{assign_intervals, Input, Phase, Pose, RobotDescription, Windo
 use std::fmt::Write as _;
 
 /// The required columns, in the order the writer uses.
-pub const COLUMNS: [&str; 12] =
-    ["window", "phase", "k", "t", "cmd_left", "cmd_right", "enc_left", "enc_right", "x", "y", "yaw", "imu_yaw_rate"];
+pub const COLUMNS: [&str; 12] = [
+    "window",
+    "phase",
+    "k",
+    "t",
+    "cmd_left",
+    "cmd_right",
+    "enc_left",
+    "enc_right",
+    "x",
+    "y",
+    "yaw",
+    "imu_yaw_rate",
+];
 
 /// Columns that may be present and are ignored (`calib_step` is the logger's interval
 /// counter, not reliable: intervals are found from `phase`).
@@ -41,8 +53,15 @@ impl Pending {
 
 /// Parses the window CSV text of `file` for the given robot description (its `window_len`
 /// and `rate_hz` are checked against the data).
-pub fn parse_windows(file: &str, text: &str, robot: &RobotDescription) -> Result<Vec<Window>, DataError> {
-    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
+pub fn parse_windows(
+    file: &str,
+    text: &str,
+    robot: &RobotDescription,
+) -> Result<Vec<Window>, DataError> {
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
     let header = loop {
         match lines.next() {
             None => return Err(DataError::new(Location::file(file), DataErrorKind::Empty)),
@@ -58,7 +77,10 @@ pub fn parse_windows(file: &str, text: &str, robot: &RobotDescription) -> Result
     for (pos, raw) in header_text.split(',').enumerate() {
         let name = raw.trim();
         if !seen.insert(name.to_string()) {
-            return Err(DataError::new(Location::cell(file, header_line, name), DataErrorKind::DuplicateColumn));
+            return Err(DataError::new(
+                Location::cell(file, header_line, name),
+                DataErrorKind::DuplicateColumn,
+            ));
         }
         if let Some(slot) = COLUMNS.iter().position(|c| *c == name) {
             position_of[slot] = pos;
@@ -66,8 +88,16 @@ pub fn parse_windows(file: &str, text: &str, robot: &RobotDescription) -> Result
         } else if OPTIONAL_COLUMNS.contains(&name) {
             slot_of_field.push(None);
         } else {
-            let known = COLUMNS.iter().chain(OPTIONAL_COLUMNS.iter()).copied().collect::<Vec<_>>().join(", ");
-            return Err(DataError::new(Location::cell(file, header_line, name), DataErrorKind::UnknownColumn(known)));
+            let known = COLUMNS
+                .iter()
+                .chain(OPTIONAL_COLUMNS.iter())
+                .copied()
+                .collect::<Vec<_>>()
+                .join(", ");
+            return Err(DataError::new(
+                Location::cell(file, header_line, name),
+                DataErrorKind::UnknownColumn(known),
+            ));
         }
     }
     if let Some(slot) = position_of.iter().position(|p| *p == usize::MAX) {
@@ -87,11 +117,19 @@ pub fn parse_windows(file: &str, text: &str, robot: &RobotDescription) -> Result
     let mut values = [0.0f64; COLUMNS.len()];
     let mut fields: Vec<&str> = Vec::with_capacity(n_fields);
 
-    let finish = |p: Pending, line: usize, windows: &mut Vec<Window>, phases: &mut Vec<Phase>| -> Result<(), DataError> {
+    let finish = |p: Pending,
+                  line: usize,
+                  windows: &mut Vec<Window>,
+                  phases: &mut Vec<Phase>|
+     -> Result<(), DataError> {
         if p.pose.len() != len {
             return Err(DataError::new(
                 Location::line(file, line),
-                DataErrorKind::WrongWindowLength { window: p.index, expected: len, found: p.pose.len() },
+                DataErrorKind::WrongWindowLength {
+                    window: p.index,
+                    expected: len,
+                    found: p.pose.len(),
+                },
             ));
         }
         phases.push(p.phase);
@@ -116,7 +154,10 @@ pub fn parse_windows(file: &str, text: &str, robot: &RobotDescription) -> Result
         if fields.len() != n_fields {
             return Err(DataError::new(
                 Location::line(file, line_no),
-                DataErrorKind::FieldCount { expected: n_fields, found: fields.len() },
+                DataErrorKind::FieldCount {
+                    expected: n_fields,
+                    found: fields.len(),
+                },
             ));
         }
         let mut phase = Phase::Steady;
@@ -128,16 +169,30 @@ pub fn parse_windows(file: &str, text: &str, robot: &RobotDescription) -> Result
                 phase = match raw {
                     "transient" => Phase::Transient,
                     "steady" => Phase::Steady,
-                    other => return Err(DataError::new(at(), DataErrorKind::BadPhase(other.to_string()))),
+                    other => {
+                        return Err(DataError::new(
+                            at(),
+                            DataErrorKind::BadPhase(other.to_string()),
+                        ))
+                    }
                 };
                 continue;
             }
-            let v: f64 = raw.parse().map_err(|_| DataError::new(at(), DataErrorKind::NotANumber(raw.to_string())))?;
+            let v: f64 = raw
+                .parse()
+                .map_err(|_| DataError::new(at(), DataErrorKind::NotANumber(raw.to_string())))?;
             if !v.is_finite() {
-                return Err(DataError::new(at(), DataErrorKind::NotFinite(raw.to_string())));
+                return Err(DataError::new(
+                    at(),
+                    DataErrorKind::NotFinite(raw.to_string()),
+                ));
             }
-            if (slot == WINDOW || slot == K) && (v < 0.0 || v.fract() != 0.0 || v > u32::MAX as f64) {
-                return Err(DataError::new(at(), DataErrorKind::NotAnInteger(raw.to_string())));
+            if (slot == WINDOW || slot == K) && (v < 0.0 || v.fract() != 0.0 || v > u32::MAX as f64)
+            {
+                return Err(DataError::new(
+                    at(),
+                    DataErrorKind::NotAnInteger(raw.to_string()),
+                ));
             }
             values[slot] = v;
         }
@@ -150,7 +205,10 @@ pub fn parse_windows(file: &str, text: &str, robot: &RobotDescription) -> Result
                 if window < p.index {
                     return Err(DataError::new(
                         Location::cell(file, line_no, "window"),
-                        DataErrorKind::WindowOutOfOrder { previous: p.index, found: window },
+                        DataErrorKind::WindowOutOfOrder {
+                            previous: p.index,
+                            found: window,
+                        },
                     ));
                 }
                 finish(p, last_line, &mut windows, &mut phases)?;
@@ -159,7 +217,10 @@ pub fn parse_windows(file: &str, text: &str, robot: &RobotDescription) -> Result
                 if window <= prev.index {
                     return Err(DataError::new(
                         Location::cell(file, line_no, "window"),
-                        DataErrorKind::WindowOutOfOrder { previous: prev.index, found: window },
+                        DataErrorKind::WindowOutOfOrder {
+                            previous: prev.index,
+                            found: window,
+                        },
                     ));
                 }
             }
@@ -170,26 +231,44 @@ pub fn parse_windows(file: &str, text: &str, robot: &RobotDescription) -> Result
         let expected_k = p.pose.len();
         if k != expected_k {
             let kind = if expected_k >= len {
-                DataErrorKind::WrongWindowLength { window, expected: len, found: expected_k + 1 }
+                DataErrorKind::WrongWindowLength {
+                    window,
+                    expected: len,
+                    found: expected_k + 1,
+                }
             } else {
-                DataErrorKind::SampleOutOfOrder { window, expected: expected_k, found: k }
+                DataErrorKind::SampleOutOfOrder {
+                    window,
+                    expected: expected_k,
+                    found: k,
+                }
             };
             return Err(DataError::new(Location::cell(file, line_no, "k"), kind));
         }
         if k >= len {
             return Err(DataError::new(
                 Location::cell(file, line_no, "k"),
-                DataErrorKind::WrongWindowLength { window, expected: len, found: k + 1 },
+                DataErrorKind::WrongWindowLength {
+                    window,
+                    expected: len,
+                    found: k + 1,
+                },
             ));
         }
         if phase != p.phase {
-            return Err(DataError::new(Location::cell(file, line_no, "phase"), DataErrorKind::PhaseChangesInWindow(window)));
+            return Err(DataError::new(
+                Location::cell(file, line_no, "phase"),
+                DataErrorKind::PhaseChangesInWindow(window),
+            ));
         }
         let t_expected = k as f64 * dt;
         if (values[T] - t_expected).abs() > 0.5 * dt {
             return Err(DataError::new(
                 Location::cell(file, line_no, "t"),
-                DataErrorKind::TimeMismatch { expected: t_expected, found: values[T] },
+                DataErrorKind::TimeMismatch {
+                    expected: t_expected,
+                    found: values[T],
+                },
             ));
         }
         p.command.push(Input::new(values[4], values[5]));

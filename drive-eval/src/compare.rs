@@ -37,7 +37,9 @@ impl ModelReport {
     }
 
     fn select(&self, phase: Option<Phase>) -> impl Iterator<Item = &WindowErrors> {
-        self.windows.iter().filter(move |w| phase.is_none_or(|p| w.phase == p))
+        self.windows
+            .iter()
+            .filter(move |w| phase.is_none_or(|p| w.phase == p))
     }
 }
 
@@ -51,8 +53,16 @@ pub fn evaluate_model(model: &dyn MotionModel, eval: &WindowSet<'_>) -> ModelRep
         .iter()
         .map(|w| {
             model.predict_into(&w.start_state(&vehicle), &w.command, &mut poses);
-            WindowErrors { window: w.index, interval: w.interval, phase: w.phase, error: mrmse(&poses, &w.pose) }
+            WindowErrors {
+                window: w.index,
+                interval: w.interval,
+                phase: w.phase,
+                error: mrmse(&poses, &w.pose),
+            }
         })
         .collect();
-    ModelReport { name: model.name().to_string(), windows }
+    ModelReport {
+        name: model.name().to_string(),
+        windows,
+    }
 }

@@ -1,7 +1,9 @@
 //! The paper's model comparison (Fig. 6) on one dataset: fit every named model on the
 //! training intervals, score it on the evaluation intervals with eq. 8.
 
-use crate::{evaluate_model, improvement_percent, split_by_interval, ModelReport, SplitError, Summary};
+use crate::{
+    evaluate_model, improvement_percent, split_by_interval, ModelReport, SplitError, Summary,
+};
 use drive_traits::{Dataset, FitError, MotionModel, Phase};
 use serde::Serialize;
 use std::time::Instant;
@@ -42,9 +44,9 @@ pub struct ErrorSummary {
 pub struct PhaseSummary {
     /// Windows counted.
     pub windows: usize,
-    /// Translational MRMSE [m].
+    /// Translational MRMSE (m).
     pub translational_m: ErrorSummary,
-    /// Rotational MRMSE [rad].
+    /// Rotational MRMSE (rad).
     pub rotational_rad: ErrorSummary,
 }
 
@@ -53,13 +55,13 @@ pub struct PhaseSummary {
 pub struct ModelResult {
     /// Model name.
     pub name: String,
-    /// Median translational MRMSE [m].
+    /// Median translational MRMSE (m).
     pub translational_median_m: f64,
-    /// Median rotational MRMSE [rad].
+    /// Median rotational MRMSE (rad).
     pub rotational_median_rad: f64,
-    /// Translational quartiles [m].
+    /// Translational quartiles (m).
     pub translational_iqr_m: [f64; 2],
-    /// Rotational quartiles [rad].
+    /// Rotational quartiles (rad).
     pub rotational_iqr_rad: [f64; 2],
     /// All evaluation windows.
     pub all: PhaseSummary,
@@ -67,7 +69,7 @@ pub struct ModelResult {
     pub transient: Option<PhaseSummary>,
     /// Steady windows only.
     pub steady: Option<PhaseSummary>,
-    /// Time to fit the model [s].
+    /// Time to fit the model (s).
     pub fit_seconds: f64,
     /// Per-window errors (not serialized; see `--per-window`).
     #[serde(skip)]
@@ -98,18 +100,33 @@ pub struct Comparison {
     pub models: Vec<ModelResult>,
 }
 
-fn summarize(report: &ModelReport, naive: &ModelReport, phase: Option<Phase>) -> Option<PhaseSummary> {
+fn summarize(
+    report: &ModelReport,
+    naive: &ModelReport,
+    phase: Option<Phase>,
+) -> Option<PhaseSummary> {
     let (t, r) = (report.translational(phase)?, report.rotational(phase)?);
     let (nt, nr) = (naive.translational(phase)?, naive.rotational(phase)?);
-    let e = |s: Summary, base: Summary| ErrorSummary { median: s.median, iqr: [s.q1, s.q3], improvement_over_naive_percent: improvement_percent(s.median, base.median) };
-    Some(PhaseSummary { windows: t.count, translational_m: e(t, nt), rotational_rad: e(r, nr) })
+    let e = |s: Summary, base: Summary| ErrorSummary {
+        median: s.median,
+        iqr: [s.q1, s.q3],
+        improvement_over_naive_percent: improvement_percent(s.median, base.median),
+    };
+    Some(PhaseSummary {
+        windows: t.count,
+        translational_m: e(t, nt),
+        rotational_rad: e(r, nr),
+    })
 }
 
 /// Fits each model of `names` (registered names, see [`drive_models::MODEL_NAMES`]) on the
 /// first `floor(split x intervals)` intervals and evaluates it on the rest.
 pub fn compare(data: &Dataset, split: f64, names: &[&str]) -> Result<Comparison, CompareError> {
     let (train, eval) = split_by_interval(data, split)?;
-    if let Some(bad) = names.iter().find(|n| !drive_models::MODEL_NAMES.contains(n)) {
+    if let Some(bad) = names
+        .iter()
+        .find(|n| !drive_models::MODEL_NAMES.contains(n))
+    {
         return Err(CompareError::UnknownModel(bad.to_string()));
     }
     let fit = |name: &str| -> Result<(Box<dyn MotionModel>, f64), CompareError> {
@@ -117,7 +134,10 @@ pub fn compare(data: &Dataset, split: f64, names: &[&str]) -> Result<Comparison,
         // Names were checked against the registry above.
         let model = drive_models::fit_named(name, &train)
             .ok_or_else(|| CompareError::UnknownModel(name.to_string()))?
-            .map_err(|source| CompareError::Fit { model: name.to_string(), source })?;
+            .map_err(|source| CompareError::Fit {
+                model: name.to_string(),
+                source,
+            })?;
         Ok((model, start.elapsed().as_secs_f64()))
     };
     // The naive model is the reference of every improvement figure.

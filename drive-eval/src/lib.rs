@@ -11,6 +11,8 @@
 //! assert!((e.rotational - 0.05).abs() < 1e-12);    // mean of 0.1 and 0
 //! ```
 
+#![warn(missing_docs)]
+
 mod compare;
 mod comparison;
 mod metric;

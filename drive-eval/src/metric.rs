@@ -4,9 +4,9 @@ use serde::Serialize;
 /// Translational and rotational multi-step RMSE of one prediction window (paper eq. 8).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Mrmse {
-    /// `Sigma = diag(1, 1, 0)`: mean position error norm [m].
+    /// `Sigma = diag(1, 1, 0)`: mean position error norm (m).
     pub translational: f64,
-    /// `Sigma = diag(0, 0, 1)`: mean absolute yaw error [rad].
+    /// `Sigma = diag(0, 0, 1)`: mean absolute yaw error (rad).
     pub rotational: f64,
 }
 
@@ -19,7 +19,10 @@ pub struct Mrmse {
 pub fn mrmse(predicted: &[Pose], measured: &[Pose]) -> Mrmse {
     let n = predicted.len().min(measured.len());
     if n < 2 {
-        return Mrmse { translational: 0.0, rotational: 0.0 };
+        return Mrmse {
+            translational: 0.0,
+            rotational: 0.0,
+        };
     }
     let mut yaw: Vec<f64> = measured[..n].iter().map(|p| p.z).collect();
     unwrap_angles(&mut yaw);
@@ -30,7 +33,10 @@ pub fn mrmse(predicted: &[Pose], measured: &[Pose]) -> Mrmse {
         r += wrap_angle(yaw[k] - p.z).abs();
     }
     let h = (n - 1) as f64;
-    Mrmse { translational: t / h, rotational: r / h }
+    Mrmse {
+        translational: t / h,
+        rotational: r / h,
+    }
 }
 
 #[cfg(test)]
@@ -42,12 +48,18 @@ mod tests {
     fn yaw_error_is_wrapped_and_measured_yaw_unwrapped() {
         // Measured yaw crosses +pi (stored wrapped); the prediction follows it unwrapped.
         let truth = [3.0, 3.1, 3.2, 3.3];
-        let measured: Vec<Pose> = truth.iter().map(|a| Pose::new(0.0, 0.0, wrap_angle(*a))).collect();
+        let measured: Vec<Pose> = truth
+            .iter()
+            .map(|a| Pose::new(0.0, 0.0, wrap_angle(*a)))
+            .collect();
         let predicted: Vec<Pose> = truth.iter().map(|a| Pose::new(0.0, 0.0, *a)).collect();
         let e = mrmse(&predicted, &measured);
         assert!(e.rotational < 1e-12);
         // A prediction off by 2 pi + 0.1 counts as 0.1.
-        let off: Vec<Pose> = truth.iter().map(|a| Pose::new(0.0, 0.0, *a + 2.0 * PI + 0.1)).collect();
+        let off: Vec<Pose> = truth
+            .iter()
+            .map(|a| Pose::new(0.0, 0.0, *a + 2.0 * PI + 0.1))
+            .collect();
         assert!((mrmse(&off, &measured).rotational - 0.1).abs() < 1e-9);
     }
 

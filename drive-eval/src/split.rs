@@ -24,16 +24,29 @@ pub enum SplitError {
 /// Splits a dataset by DRIVE interval in recording order: the first
 /// `floor(fraction x intervals)` intervals train, the rest evaluate, so that no interval
 /// is cut in two.
-pub fn split_by_interval(data: &Dataset, fraction: f64) -> Result<(WindowSet<'_>, WindowSet<'_>), SplitError> {
+pub fn split_by_interval(
+    data: &Dataset,
+    fraction: f64,
+) -> Result<(WindowSet<'_>, WindowSet<'_>), SplitError> {
     if !(fraction.is_finite() && fraction > 0.0 && fraction < 1.0) {
         return Err(SplitError::BadFraction(fraction));
     }
     let intervals = data.interval_count();
     let train_intervals = (fraction * intervals as f64).floor() as usize;
     if train_intervals == 0 || train_intervals >= intervals {
-        return Err(SplitError::EmptySide { fraction, intervals, train: train_intervals, eval: intervals.saturating_sub(train_intervals) });
+        return Err(SplitError::EmptySide {
+            fraction,
+            intervals,
+            train: train_intervals,
+            eval: intervals.saturating_sub(train_intervals),
+        });
     }
-    let cut = data.windows.partition_point(|w| w.interval < train_intervals);
+    let cut = data
+        .windows
+        .partition_point(|w| w.interval < train_intervals);
     let (train, eval) = data.windows.split_at(cut);
-    Ok((WindowSet::new(&data.robot, train), WindowSet::new(&data.robot, eval)))
+    Ok((
+        WindowSet::new(&data.robot, train),
+        WindowSet::new(&data.robot, eval),
+    ))
 }

@@ -41,7 +41,12 @@ impl Summary {
     pub fn of(values: impl IntoIterator<Item = f64>) -> Option<Summary> {
         let mut v: Vec<f64> = values.into_iter().collect();
         v.sort_by(f64::total_cmp);
-        Some(Summary { count: v.len(), median: quantile(&v, 0.5)?, q1: quantile(&v, 0.25)?, q3: quantile(&v, 0.75)? })
+        Some(Summary {
+            count: v.len(),
+            median: quantile(&v, 0.5)?,
+            q1: quantile(&v, 0.25)?,
+            q3: quantile(&v, 0.75)?,
+        })
     }
 }
 

@@ -42,19 +42,38 @@ impl Default for Prior {
 impl Prior {
     /// Checks the prior's values for `k` inputs.
     pub fn validate(&self, k: usize) -> Result<(), FitError> {
-        let invalid = |name, value, expected| Err(FitError::InvalidHyperparameter { name, value, expected });
+        let invalid = |name, value, expected| {
+            Err(FitError::InvalidHyperparameter {
+                name,
+                value,
+                expected,
+            })
+        };
         match self {
             Prior::Uninformative { phi } => {
                 if !(phi.is_finite() && *phi > 0.0) {
                     return invalid("phi", *phi, "a finite positive number");
                 }
             }
-            Prior::Fixed { mean, precision, a, b } => {
+            Prior::Fixed {
+                mean,
+                precision,
+                a,
+                b,
+            } => {
                 if mean.len() != k {
-                    return invalid("prior mean length", mean.len() as f64, "one value per slip input");
+                    return invalid(
+                        "prior mean length",
+                        mean.len() as f64,
+                        "one value per slip input",
+                    );
                 }
                 if precision.len() != k * k {
-                    return invalid("prior precision length", precision.len() as f64, "k x k values");
+                    return invalid(
+                        "prior precision length",
+                        precision.len() as f64,
+                        "k x k values",
+                    );
                 }
                 if mean.iter().chain(precision).any(|v| !v.is_finite()) {
                     return invalid("prior", f64::NAN, "finite values");
@@ -106,43 +125,81 @@ impl BlrPosterior {
     ///
     /// Degenerate data is refused, never turned into a NaN model: fewer observations than
     /// inputs, an input that is zero on every row, inputs that are collinear.
-    pub fn fit(x: &[f64], k: usize, g: &[f64], prior: &Prior, what: &str) -> Result<Self, FitError> {
+    pub fn fit(
+        x: &[f64],
+        k: usize,
+        g: &[f64],
+        prior: &Prior,
+        what: &str,
+    ) -> Result<Self, FitError> {
         prior.validate(k)?;
         let n = g.len();
         if k == 0 || x.len() != n * k {
-            return Err(FitError::DegenerateInputs { what: what.into(), detail: format!("{} values for {n} rows of {k} inputs", x.len()) });
+            return Err(FitError::DegenerateInputs {
+                what: what.into(),
+                detail: format!("{} values for {n} rows of {k} inputs", x.len()),
+            });
         }
         if x.iter().chain(g).any(|v| !v.is_finite()) {
             return Err(FitError::NonFinite { what: what.into() });
         }
         if n <= k {
-            return Err(FitError::TooFewSamples { what: what.into(), samples: n, parameters: k + 1 });
+            return Err(FitError::TooFewSamples {
+                what: what.into(),
+                samples: n,
+                parameters: k + 1,
+            });
         }
         let xm = Mat::<f64>::from_fn(n, k, |i, j| x[i * k + j]);
         let gm = Mat::<f64>::from_fn(n, 1, |i, _| g[i]);
         // Column scales, for the rank checks below.
-        let norms: Vec<f64> = (0..k).map(|j| (0..n).map(|i| x[i * k + j].powi(2)).sum::<f64>().sqrt()).collect();
+        let norms: Vec<f64> = (0..k)
+            .map(|j| (0..n).map(|i| x[i * k + j].powi(2)).sum::<f64>().sqrt())
+            .collect();
         if let Some(j) = norms.iter().position(|v| *v == 0.0) {
-            return Err(FitError::DegenerateInputs { what: what.into(), detail: format!("input {j} is zero on every row") });
+            return Err(FitError::DegenerateInputs {
+                what: what.into(),
+                detail: format!("input {j} is zero on every row"),
+            });
         }
         match prior {
             Prior::Uninformative { phi } => Self::fit_uninformative(&xm, &gm, &norms, *phi, what),
-            Prior::Fixed { mean, precision, a, b } => {
-                Self::fit_fixed(&xm, &gm, &DVector::from_column_slice(mean), &DMatrix::from_row_slice(k, k, precision), *a, *b, what)
-            }
+            Prior::Fixed {
+                mean,
+                precision,
+                a,
+                b,
+            } => Self::fit_fixed(
+                &xm,
+                &gm,
+                &DVector::from_column_slice(mean),
+                &DMatrix::from_row_slice(k, k, precision),
+                *a,
+                *b,
+                what,
+            ),
         }
     }
 
     /// The paper's prior: closed form through a thin QR of X (faer), which stays accurate
     /// where the normal equations would square the condition number.
-    fn fit_uninformative(x: &Mat<f64>, g: &Mat<f64>, norms: &[f64], phi: f64, what: &str) -> Result<Self, FitError> {
+    fn fit_uninformative(
+        x: &Mat<f64>,
+        g: &Mat<f64>,
+        norms: &[f64],
+        phi: f64,
+        what: &str,
+    ) -> Result<Self, FitError> {
         let (n, k) = (x.nrows(), x.ncols());
         let qr = x.qr();
         let r_faer = qr.thin_R();
         let r = DMatrix::from_fn(k, k, |i, j| if j >= i { r_faer[(i, j)] } else { 0.0 });
         for j in 0..k {
             if r[(j, j)].abs() <= 1e-10 * norms[j] {
-                return Err(FitError::DegenerateInputs { what: what.into(), detail: format!("input {j} is collinear with the others") });
+                return Err(FitError::DegenerateInputs {
+                    what: what.into(),
+                    detail: format!("input {j} is collinear with the others"),
+                });
             }
         }
         let sol = qr.solve_lstsq(g);
@@ -156,10 +213,12 @@ impl BlrPosterior {
         }
         let shrink = phi / (1.0 + phi);
         // (X^T X)^-1 = R^-1 R^-T; R is upper triangular with a non-zero diagonal (checked above).
-        let r_inv = r.solve_upper_triangular(&DMatrix::identity(k, k)).ok_or_else(|| FitError::DegenerateInputs {
-            what: what.into(),
-            detail: "singular R factor".into(),
-        })?;
+        let r_inv = r
+            .solve_upper_triangular(&DMatrix::identity(k, k))
+            .ok_or_else(|| FitError::DegenerateInputs {
+                what: what.into(),
+                detail: "singular R factor".into(),
+            })?;
         let k_post = (&r_inv * r_inv.transpose()) * shrink;
         let post = BlrPosterior {
             mean: (ls * shrink).iter().copied().collect(),
@@ -172,7 +231,15 @@ impl BlrPosterior {
     }
 
     /// A fixed prior: eq. 6 as printed, on the sufficient statistics X^T X, X^T g, g^T g.
-    fn fit_fixed(x: &Mat<f64>, g: &Mat<f64>, mean0: &DVector<f64>, prec0: &DMatrix<f64>, a0: f64, b0: f64, what: &str) -> Result<Self, FitError> {
+    fn fit_fixed(
+        x: &Mat<f64>,
+        g: &Mat<f64>,
+        mean0: &DVector<f64>,
+        prec0: &DMatrix<f64>,
+        a0: f64,
+        b0: f64,
+        what: &str,
+    ) -> Result<Self, FitError> {
         let k = x.ncols();
         let xtx_f = x.transpose() * x;
         let xtg_f = x.transpose() * g;
@@ -196,19 +263,35 @@ impl BlrPosterior {
         what: &str,
     ) -> Result<Self, FitError> {
         let prec = prec0 + xtx;
-        let chol = prec.clone().cholesky().ok_or_else(|| FitError::DegenerateInputs {
-            what: what.into(),
-            detail: "K0^-1 + X^T X is not positive definite (collinear inputs and a flat prior)".into(),
-        })?;
+        let chol = prec
+            .clone()
+            .cholesky()
+            .ok_or_else(|| FitError::DegenerateInputs {
+                what: what.into(),
+                detail:
+                    "K0^-1 + X^T X is not positive definite (collinear inputs and a flat prior)"
+                        .into(),
+            })?;
         let k_post = chol.inverse();
         let mean = chol.solve(&(prec0 * mean0 + xtg));
         let b = b0 + 0.5 * (mean0.dot(&(prec0 * mean0)) + gtg - mean.dot(&(&prec * &mean)));
-        BlrPosterior { mean: mean.iter().copied().collect(), covariance: row_major(&k_post), a: a0 + n as f64 / 2.0, b: b.max(0.0) }
-            .checked(what)
+        BlrPosterior {
+            mean: mean.iter().copied().collect(),
+            covariance: row_major(&k_post),
+            a: a0 + n as f64 / 2.0,
+            b: b.max(0.0),
+        }
+        .checked(what)
     }
 
     fn checked(self, what: &str) -> Result<Self, FitError> {
-        let finite = self.mean.iter().chain(&self.covariance).all(|v| v.is_finite()) && self.a.is_finite() && self.b.is_finite();
+        let finite = self
+            .mean
+            .iter()
+            .chain(&self.covariance)
+            .all(|v| v.is_finite())
+            && self.a.is_finite()
+            && self.b.is_finite();
         if finite {
             Ok(self)
         } else {
@@ -223,7 +306,12 @@ impl BlrPosterior {
             .try_inverse()
             .map(|m| row_major(&m))
             .unwrap_or_else(|| vec![0.0; k * k]);
-        Prior::Fixed { mean: self.mean.clone(), precision, a: self.a, b: self.b }
+        Prior::Fixed {
+            mean: self.mean.clone(),
+            precision,
+            a: self.a,
+            b: self.b,
+        }
     }
 
     /// Predictive mean `x^T gamma`.
@@ -288,7 +376,14 @@ mod tests {
     #[test]
     fn hand_computed_single_input() {
         // x = [1, 2], g = [1, 3]: OLS gamma = (1 + 6) / (1 + 4) = 1.4; RSS = (1-1.4)^2 + (3-2.8)^2 = 0.2.
-        let post = BlrPosterior::fit(&[1.0, 2.0], 1, &[1.0, 3.0], &Prior::Uninformative { phi: 1.0 }, "t").unwrap();
+        let post = BlrPosterior::fit(
+            &[1.0, 2.0],
+            1,
+            &[1.0, 3.0],
+            &Prior::Uninformative { phi: 1.0 },
+            "t",
+        )
+        .unwrap();
         assert!((post.mean[0] - 0.7).abs() < 1e-12); // phi / (1 + phi) = 1/2
         assert!((post.covariance[0] - 0.5 / 5.0).abs() < 1e-12);
         assert_eq!(post.a, 1.0);
@@ -301,7 +396,12 @@ mod tests {
         // One input, prior mean 1, precision 1, a0 = 1, b0 = 1; data x = [1, 0], g = [3, 0].
         // K = 1 / (1 + 1) = 0.5; gamma = 0.5 (1 + 3) = 2; a = 1 + 2/2 = 2;
         // b = 1 + 1/2 (1 + 9 - 2 * 2 * 2) = 2.
-        let prior = Prior::Fixed { mean: vec![1.0], precision: vec![1.0], a: 1.0, b: 1.0 };
+        let prior = Prior::Fixed {
+            mean: vec![1.0],
+            precision: vec![1.0],
+            a: 1.0,
+            b: 1.0,
+        };
         // A second row with x = 0, g = 0 adds nothing to the statistics but one to n.
         let post = BlrPosterior::fit(&[1.0, 0.0], 1, &[3.0, 0.0], &prior, "t").unwrap();
         assert!((post.mean[0] - 2.0).abs() < 1e-12);
@@ -312,19 +412,42 @@ mod tests {
 
     #[test]
     fn degenerate_inputs_are_refused() {
-        let zero = BlrPosterior::fit(&[0.0, 1.0, 0.0, 2.0, 0.0, 3.0], 2, &[1.0, 2.0, 3.0], &Prior::default(), "t");
+        let zero = BlrPosterior::fit(
+            &[0.0, 1.0, 0.0, 2.0, 0.0, 3.0],
+            2,
+            &[1.0, 2.0, 3.0],
+            &Prior::default(),
+            "t",
+        );
         assert!(matches!(zero, Err(FitError::DegenerateInputs { .. })));
-        let collinear = BlrPosterior::fit(&[1.0, 2.0, 2.0, 4.0, 3.0, 6.0], 2, &[1.0, 2.0, 3.0], &Prior::default(), "t");
+        let collinear = BlrPosterior::fit(
+            &[1.0, 2.0, 2.0, 4.0, 3.0, 6.0],
+            2,
+            &[1.0, 2.0, 3.0],
+            &Prior::default(),
+            "t",
+        );
         assert!(matches!(collinear, Err(FitError::DegenerateInputs { .. })));
         let few = BlrPosterior::fit(&[1.0], 1, &[1.0], &Prior::default(), "t");
         assert!(matches!(few, Err(FitError::TooFewSamples { .. })));
-        let bad_phi = BlrPosterior::fit(&[1.0, 2.0], 1, &[1.0, 2.0], &Prior::Uninformative { phi: -1.0 }, "t");
-        assert!(matches!(bad_phi, Err(FitError::InvalidHyperparameter { .. })));
+        let bad_phi = BlrPosterior::fit(
+            &[1.0, 2.0],
+            1,
+            &[1.0, 2.0],
+            &Prior::Uninformative { phi: -1.0 },
+            "t",
+        );
+        assert!(matches!(
+            bad_phi,
+            Err(FitError::InvalidHyperparameter { .. })
+        ));
     }
 
     /// A small deterministic generator so that the property tests need no extra crate.
     fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
 
@@ -341,7 +464,11 @@ mod tests {
             let ls = ols(&x, k, &g);
             for j in 0..k {
                 let expected = phi / (1.0 + phi) * ls[j];
-                assert!((post.mean[j] - expected).abs() <= 1e-8 * (1.0 + expected.abs()), "case {case}: {} vs {expected}", post.mean[j]);
+                assert!(
+                    (post.mean[j] - expected).abs() <= 1e-8 * (1.0 + expected.abs()),
+                    "case {case}: {} vs {expected}",
+                    post.mean[j]
+                );
             }
         }
     }
@@ -361,12 +488,20 @@ mod tests {
             let prec0 = &a * a.transpose() + DMatrix::identity(k, k) * 0.5;
             let mean0 = DVector::from_fn(k, |_, _| lcg(&mut seed));
             let (a0, b0) = (0.5 + lcg(&mut seed).abs(), 0.1 + lcg(&mut seed).abs());
-            let prior = Prior::Fixed { mean: mean0.iter().copied().collect(), precision: row_major(&prec0), a: a0, b: b0 };
+            let prior = Prior::Fixed {
+                mean: mean0.iter().copied().collect(),
+                precision: row_major(&prec0),
+                a: a0,
+                b: b0,
+            };
             let post = BlrPosterior::fit(&x, k, &g, &prior, "t").unwrap();
             // Eq. 6 written out independently.
             let kk = (&prec0 + xm.transpose() * &xm).try_inverse().unwrap();
             let gamma = &kk * (&prec0 * &mean0 + xm.transpose() * &gv);
-            let b = b0 + 0.5 * (mean0.dot(&(&prec0 * &mean0)) + gv.dot(&gv) - gamma.dot(&(kk.clone().try_inverse().unwrap() * &gamma)));
+            let b = b0
+                + 0.5
+                    * (mean0.dot(&(&prec0 * &mean0)) + gv.dot(&gv)
+                        - gamma.dot(&(kk.clone().try_inverse().unwrap() * &gamma)));
             for j in 0..k {
                 assert!((post.mean[j] - gamma[j]).abs() < 1e-9 * (1.0 + gamma[j].abs()));
             }
@@ -380,7 +515,12 @@ mod tests {
                 let phi = 3.0;
                 let un = BlrPosterior::fit(&x, k, &g, &Prior::Uninformative { phi }, "t").unwrap();
                 let xtx = xm.transpose() * &xm;
-                let as_fixed = Prior::Fixed { mean: vec![0.0; k], precision: row_major(&(xtx / phi)), a: 0.0, b: 0.0 };
+                let as_fixed = Prior::Fixed {
+                    mean: vec![0.0; k],
+                    precision: row_major(&(xtx / phi)),
+                    a: 0.0,
+                    b: 0.0,
+                };
                 let fx = BlrPosterior::fit(&x, k, &g, &as_fixed, "t").unwrap();
                 for j in 0..k {
                     assert!((un.mean[j] - fx.mean[j]).abs() < 1e-7 * (1.0 + fx.mean[j].abs()));
@@ -392,7 +532,12 @@ mod tests {
 
     #[test]
     fn predictive_variance_follows_eq7() {
-        let post = BlrPosterior { mean: vec![1.0], covariance: vec![0.25], a: 3.0, b: 1.5 };
+        let post = BlrPosterior {
+            mean: vec![1.0],
+            covariance: vec![0.25],
+            a: 3.0,
+            b: 1.5,
+        };
         // scale^2 = b/a (1 + x K x) = 0.5 (1 + 4 * 0.25) = 1; variance = 1 * 6 / 4.
         assert!((post.predictive_scale2(&[2.0]) - 1.0).abs() < 1e-15);
         assert!((post.predictive_variance(&[2.0]) - 1.5).abs() < 1e-15);

@@ -11,6 +11,8 @@
 //! Every learner is an unfitted configuration implementing [`drive_traits::Learner`]; its
 //! `fit` returns a separate fitted type implementing [`drive_traits::MotionModel`].
 
+#![warn(missing_docs)]
+
 pub mod blr;
 pub mod learners;
 pub mod model_file;

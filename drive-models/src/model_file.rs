@@ -62,28 +62,62 @@ struct ModelFileOut<'a> {
 
 /// The JSON text of a fitted model file.
 pub fn model_to_json(model: &dyn MotionModel, robot: &RobotDescription) -> String {
-    let file = ModelFileOut { format: FORMAT_NAME, format_version: MODEL_FORMAT_VERSION, robot, model };
+    let file = ModelFileOut {
+        format: FORMAT_NAME,
+        format_version: MODEL_FORMAT_VERSION,
+        robot,
+        model,
+    };
     // The fitted models hold plain numbers and strings: serialization cannot fail.
     serde_json::to_string_pretty(&file).expect("fitted models always serialize") + "\n"
 }
 
 /// Loads a model file's text (`file` names it in errors): the model and the robot it was
 /// fitted for.
-pub fn model_from_json(file: &str, text: &str) -> Result<(Box<dyn MotionModel>, RobotDescription), ModelFileError> {
-    let mut value: Value = serde_json::from_str(text)
-        .map_err(|e| ModelFileError::Parse { file: file.into(), line: e.line(), message: e.to_string() })?;
-    let obj = value
-        .as_object_mut()
-        .ok_or_else(|| ModelFileError::Parse { file: file.into(), line: 1, message: "expected a JSON object".into() })?;
-    let version = obj.get("format_version").ok_or(ModelFileError::MissingField { file: file.into(), field: "format_version" })?;
+pub fn model_from_json(
+    file: &str,
+    text: &str,
+) -> Result<(Box<dyn MotionModel>, RobotDescription), ModelFileError> {
+    let mut value: Value = serde_json::from_str(text).map_err(|e| ModelFileError::Parse {
+        file: file.into(),
+        line: e.line(),
+        message: e.to_string(),
+    })?;
+    let obj = value.as_object_mut().ok_or_else(|| ModelFileError::Parse {
+        file: file.into(),
+        line: 1,
+        message: "expected a JSON object".into(),
+    })?;
+    let version = obj
+        .get("format_version")
+        .ok_or(ModelFileError::MissingField {
+            file: file.into(),
+            field: "format_version",
+        })?;
     if version.as_u64() != Some(MODEL_FORMAT_VERSION) {
-        return Err(ModelFileError::UnsupportedVersion { file: file.into(), found: version.to_string(), supported: MODEL_FORMAT_VERSION });
+        return Err(ModelFileError::UnsupportedVersion {
+            file: file.into(),
+            found: version.to_string(),
+            supported: MODEL_FORMAT_VERSION,
+        });
     }
-    let robot = obj.remove("robot").ok_or(ModelFileError::MissingField { file: file.into(), field: "robot" })?;
+    let robot = obj.remove("robot").ok_or(ModelFileError::MissingField {
+        file: file.into(),
+        field: "robot",
+    })?;
     let robot: RobotDescription =
-        serde_json::from_value(robot).map_err(|e| ModelFileError::Model { file: file.into(), message: format!("robot: {e}") })?;
-    let model = obj.remove("model").ok_or(ModelFileError::MissingField { file: file.into(), field: "model" })?;
+        serde_json::from_value(robot).map_err(|e| ModelFileError::Model {
+            file: file.into(),
+            message: format!("robot: {e}"),
+        })?;
+    let model = obj.remove("model").ok_or(ModelFileError::MissingField {
+        file: file.into(),
+        field: "model",
+    })?;
     let model: Box<dyn MotionModel> =
-        serde_json::from_value(model).map_err(|e| ModelFileError::Model { file: file.into(), message: e.to_string() })?;
+        serde_json::from_value(model).map_err(|e| ModelFileError::Model {
+            file: file.into(),
+            message: e.to_string(),
+        })?;
     Ok((model, robot))
 }

@@ -17,7 +17,10 @@ pub const MODEL_NAMES: [&str; 4] = ["naive", "powertrain", "slip-blr", "acc-blr"
 /// assert_eq!(model.name(), "slip-blr");
 /// # }
 /// ```
-pub fn fit_named(name: &str, train: &WindowSet<'_>) -> Option<Result<Box<dyn MotionModel>, FitError>> {
+pub fn fit_named(
+    name: &str,
+    train: &WindowSet<'_>,
+) -> Option<Result<Box<dyn MotionModel>, FitError>> {
     fn boxed<L: Learner>(l: L, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, FitError> {
         l.fit(train).map(|m| Box::new(m) as Box<dyn MotionModel>)
     }

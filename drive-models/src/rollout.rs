@@ -21,7 +21,13 @@ pub fn integrate(start: &Pose, velocities: &[BodyVelocity], dt: f64, poses: &mut
 /// `F` the Jacobian of eq. 1 with respect to the pose, `G = T(yaw_k) dt` and `S_k` the
 /// covariance of the body velocity at step k (here diagonal: the slip dimensions are
 /// independent regressions). `P_0 = 0`.
-pub fn propagate_covariance(poses: &[Pose], velocities: &[BodyVelocity], variances: &[BodyVelocity], dt: f64, out: &mut Vec<PoseCovariance>) {
+pub fn propagate_covariance(
+    poses: &[Pose],
+    velocities: &[BodyVelocity],
+    variances: &[BodyVelocity],
+    dt: f64,
+    out: &mut Vec<PoseCovariance>,
+) {
     out.clear();
     if poses.is_empty() {
         return;

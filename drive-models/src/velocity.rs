@@ -14,7 +14,7 @@ use drive_traits::{unwrap_angles, BodyVelocity, FitError, Window};
 /// Central-difference body velocity estimator over the window poses.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BodyVelocityEstimator {
-    /// Time span of the central difference [s].
+    /// Time span of the central difference (s).
     pub span_s: f64,
 }
 
@@ -30,7 +30,11 @@ impl BodyVelocityEstimator {
         if self.span_s.is_finite() && self.span_s > 0.0 {
             Ok(())
         } else {
-            Err(FitError::InvalidHyperparameter { name: "velocity span", value: self.span_s, expected: "a positive number of seconds" })
+            Err(FitError::InvalidHyperparameter {
+                name: "velocity span",
+                value: self.span_s,
+                expected: "a positive number of seconds",
+            })
         }
     }
 
@@ -68,7 +72,11 @@ impl BodyVelocityEstimator {
             let (a, b) = (&window.pose[k - h], &window.pose[k + h]);
             let (dx, dy) = ((b.x - a.x) * scale, (b.y - a.y) * scale);
             let (s, c) = yaw[k].sin_cos();
-            out[k] = Some(BodyVelocity::new(c * dx + s * dy, -s * dx + c * dy, (yaw[k + h] - yaw[k - h]) * scale));
+            out[k] = Some(BodyVelocity::new(
+                c * dx + s * dy,
+                -s * dx + c * dy,
+                (yaw[k + h] - yaw[k - h]) * scale,
+            ));
         }
     }
 }

@@ -2,22 +2,45 @@
 
 use approx::assert_abs_diff_eq;
 use drive_models::blr::BlrPosterior;
-use drive_models::learners::{AccBlr, AccBlrModel, Naive, PowertrainAware, PowertrainAwareModel, SlipBlr, SlipBlrModel};
+use drive_models::learners::{
+    AccBlr, AccBlrModel, Naive, PowertrainAware, PowertrainAwareModel, SlipBlr, SlipBlrModel,
+};
 use drive_models::model_file::{model_from_json, model_to_json, ModelFileError};
 use drive_models::powertrain::{Fopdt, FopdtPowertrain, Ideal, IdealPowertrain, SideResponse};
 use drive_models::DifferentialDrive;
 use drive_traits::{
-    BodyVelocity, Input, InputSpace, Learner, MotionModel, Phase, Pose, Powertrain, PowertrainLearner, RobotDescription,
-    StartState, Window, WindowSet,
+    BodyVelocity, Input, InputSpace, Learner, MotionModel, Phase, Pose, Powertrain,
+    PowertrainLearner, RobotDescription, StartState, Window, WindowSet,
 };
 
 fn robot() -> RobotDescription {
-    RobotDescription { name: "test".into(), robot: String::new(), rate_hz: 20.0, window_len: 40, wheel_radius: 0.1, baseline: 0.5 }
+    RobotDescription {
+        name: "test".into(),
+        robot: String::new(),
+        rate_hz: 20.0,
+        window_len: 40,
+        wheel_radius: 0.1,
+        baseline: 0.5,
+    }
 }
 
-fn window(index: usize, phase: Phase, command: Vec<Input>, encoder: Vec<Input>, pose: Vec<Pose>) -> Window {
+fn window(
+    index: usize,
+    phase: Phase,
+    command: Vec<Input>,
+    encoder: Vec<Input>,
+    pose: Vec<Pose>,
+) -> Window {
     let n = pose.len();
-    Window { index, interval: index / 3, phase, command, encoder, pose, imu_yaw_rate: vec![0.0; n] }
+    Window {
+        index,
+        interval: index / 3,
+        phase,
+        command,
+        encoder,
+        pose,
+        imu_yaw_rate: vec![0.0; n],
+    }
 }
 
 /// Exact poses of a constant body velocity (closed-form arc), sampled every dt.
@@ -29,7 +52,10 @@ fn arc(v: BodyVelocity, dt: f64, n: usize) -> Vec<Pose> {
             let (px, py) = if v.z.abs() < 1e-12 {
                 (v.x * t, v.y * t)
             } else {
-                ((v.x * th.sin() + v.y * (th.cos() - 1.0)) / v.z, (v.x * (1.0 - th.cos()) + v.y * th.sin()) / v.z)
+                (
+                    (v.x * th.sin() + v.y * (th.cos() - 1.0)) / v.z,
+                    (v.x * (1.0 - th.cos()) + v.y * th.sin()) / v.z,
+                )
             };
             Pose::new(px, py, th)
         })
@@ -38,11 +64,21 @@ fn arc(v: BodyVelocity, dt: f64, n: usize) -> Vec<Pose> {
 
 #[test]
 fn naive_turning_hand_computed() {
-    let m = NaiveModel { vehicle: DifferentialDrive::new(0.1, 0.5), dt: 0.1 };
+    let m = NaiveModel {
+        vehicle: DifferentialDrive::new(0.1, 0.5),
+        dt: 0.1,
+    };
     // Left 0, right 10 rad/s: v = 0.1 * 5 = 0.5 m/s, w = 0.1 * 10 / 0.5 = 2 rad/s.
-    let p = m.predict(&StartState::at_rest(Pose::zeros()), &[Input::new(0.0, 10.0); 3]);
+    let p = m.predict(
+        &StartState::at_rest(Pose::zeros()),
+        &[Input::new(0.0, 10.0); 3],
+    );
     assert_abs_diff_eq!(p[1], Pose::new(0.05, 0.0, 0.2), epsilon = 1e-12);
-    assert_abs_diff_eq!(p[2], Pose::new(0.05 + 0.05 * 0.2f64.cos(), 0.05 * 0.2f64.sin(), 0.4), epsilon = 1e-12);
+    assert_abs_diff_eq!(
+        p[2],
+        Pose::new(0.05 + 0.05 * 0.2f64.cos(), 0.05 * 0.2f64.sin(), 0.4),
+        epsilon = 1e-12
+    );
 }
 use drive_models::learners::NaiveModel;
 
@@ -50,12 +86,27 @@ use drive_models::learners::NaiveModel;
 fn powertrain_aware_hand_computed() {
     // tau_c = dt / ln 2 halves the gap each step; no delay; limits +-4.
     let dt = 0.1;
-    let side = SideResponse { time_constant: dt / 2f64.ln(), delay: 0.0 };
+    let side = SideResponse {
+        time_constant: dt / 2f64.ln(),
+        delay: 0.0,
+    };
     let limits = InputSpace::new(Input::new(-4.0, -4.0), Input::new(4.0, 4.0)).unwrap();
-    let pt = FopdtPowertrain { left: side, right: side, limits, dt };
-    let m = PowertrainAwareModel { vehicle: DifferentialDrive::new(0.1, 0.5), powertrain: Box::new(pt), dt };
+    let pt = FopdtPowertrain {
+        left: side,
+        right: side,
+        limits,
+        dt,
+    };
+    let m = PowertrainAwareModel {
+        vehicle: DifferentialDrive::new(0.1, 0.5),
+        powertrain: Box::new(pt),
+        dt,
+    };
     // Command 8 saturates at 4: wheels 0 -> 2 -> 3; body speed 0, 0.2, 0.3 m/s.
-    let p = m.predict(&StartState::at_rest(Pose::zeros()), &[Input::new(8.0, 8.0); 3]);
+    let p = m.predict(
+        &StartState::at_rest(Pose::zeros()),
+        &[Input::new(8.0, 8.0); 3],
+    );
     assert_abs_diff_eq!(p[1].x, 0.0, epsilon = 1e-12);
     assert_abs_diff_eq!(p[2].x, 0.2 * dt, epsilon = 1e-12);
 }
@@ -63,8 +114,14 @@ fn powertrain_aware_hand_computed() {
 #[test]
 fn fopdt_fit_recovers_known_responses() {
     let truth = FopdtPowertrain {
-        left: SideResponse { time_constant: 0.42, delay: 0.17 },
-        right: SideResponse { time_constant: 0.55, delay: 0.06 },
+        left: SideResponse {
+            time_constant: 0.42,
+            delay: 0.17,
+        },
+        right: SideResponse {
+            time_constant: 0.55,
+            delay: 0.06,
+        },
         limits: InputSpace::new(Input::new(-6.0, -5.5), Input::new(6.5, 6.0)).unwrap(),
         dt: 0.05,
     };
@@ -76,8 +133,18 @@ fn fopdt_fit_recovers_known_responses() {
             let cmds = vec![c; 40];
             let enc = truth.predict(&wheels, &cmds);
             wheels = enc[39];
-            let phase = if w == 0 { Phase::Transient } else { Phase::Steady };
-            windows.push(window(windows.len(), phase, cmds, enc, vec![Pose::zeros(); 40]));
+            let phase = if w == 0 {
+                Phase::Transient
+            } else {
+                Phase::Steady
+            };
+            windows.push(window(
+                windows.len(),
+                phase,
+                cmds,
+                enc,
+                vec![Pose::zeros(); 40],
+            ));
         }
     }
     let r = robot();
@@ -94,8 +161,16 @@ fn fopdt_fit_recovers_known_responses() {
 #[test]
 fn fopdt_without_transient_window_is_refused() {
     let r = robot();
-    let w = window(0, Phase::Steady, vec![Input::new(1.0, 1.0); 40], (0..40).map(|k| Input::repeat(k as f64 * 0.01)).collect(), vec![Pose::zeros(); 40]);
-    let err = Fopdt::default().fit(&WindowSet::new(&r, std::slice::from_ref(&w))).unwrap_err();
+    let w = window(
+        0,
+        Phase::Steady,
+        vec![Input::new(1.0, 1.0); 40],
+        (0..40).map(|k| Input::repeat(k as f64 * 0.01)).collect(),
+        vec![Pose::zeros(); 40],
+    );
+    let err = Fopdt::default()
+        .fit(&WindowSet::new(&r, std::slice::from_ref(&w)))
+        .unwrap_err();
     assert_eq!(err, drive_traits::FitError::NoTransientWindow);
 }
 
@@ -131,7 +206,12 @@ fn slip_blr_recovers_known_slip_weights() {
 
 #[test]
 fn slip_blr_prediction_hand_computed() {
-    let post = |m: Vec<f64>| BlrPosterior { covariance: vec![0.0; m.len() * m.len()], mean: m, a: 10.0, b: 1.0 };
+    let post = |m: Vec<f64>| BlrPosterior {
+        covariance: vec![0.0; m.len() * m.len()],
+        mean: m,
+        a: 10.0,
+        b: 1.0,
+    };
     let m = SlipBlrModel {
         vehicle: DifferentialDrive::new(0.1, 0.5),
         powertrain: Box::new(IdealPowertrain),
@@ -141,24 +221,50 @@ fn slip_blr_prediction_hand_computed() {
         dt: 0.1,
     };
     // Wheels 10, 10: f = (1, 0, 0); g = (0.1, 0, 0); v = 0.9 m/s.
-    let p = m.predict(&StartState::at_rest(Pose::zeros()), &[Input::new(10.0, 10.0); 3]);
+    let p = m.predict(
+        &StartState::at_rest(Pose::zeros()),
+        &[Input::new(10.0, 10.0); 3],
+    );
     assert_abs_diff_eq!(p[2], Pose::new(0.18, 0.0, 0.0), epsilon = 1e-12);
     // Wheels 0, 10: f = (0.5, 0, 2); g_w = 0.5 * 2 = 1; v = (0.45, 0, 1).
-    let p = m.predict(&StartState::at_rest(Pose::zeros()), &[Input::new(0.0, 10.0); 2]);
+    let p = m.predict(
+        &StartState::at_rest(Pose::zeros()),
+        &[Input::new(0.0, 10.0); 2],
+    );
     assert_abs_diff_eq!(p[1], Pose::new(0.045, 0.0, 0.1), epsilon = 1e-12);
     // Covariance: b/a (1 + 0) * nu/(nu-2) = 0.1 * 20/18 per velocity, times dt^2.
     let (mut poses, mut cov) = (Vec::new(), Vec::new());
-    m.predict_with_covariance_into(&StartState::at_rest(Pose::zeros()), &[Input::new(10.0, 10.0); 2], &mut poses, &mut cov).unwrap();
+    m.predict_with_covariance_into(
+        &StartState::at_rest(Pose::zeros()),
+        &[Input::new(10.0, 10.0); 2],
+        &mut poses,
+        &mut cov,
+    )
+    .unwrap();
     assert_abs_diff_eq!(cov[1][(0, 0)], 0.1 * 20.0 / 18.0 * 0.01, epsilon = 1e-15);
     assert_abs_diff_eq!(cov[1][(2, 2)], 0.1 * 20.0 / 18.0 * 0.01, epsilon = 1e-15);
 }
 
 #[test]
 fn acc_blr_prediction_hand_computed() {
-    let post = |m: Vec<f64>| BlrPosterior { covariance: vec![0.0; 4], mean: m, a: 10.0, b: 1.0 };
+    let post = |m: Vec<f64>| BlrPosterior {
+        covariance: vec![0.0; 4],
+        mean: m,
+        a: 10.0,
+        b: 1.0,
+    };
     // dv = 0.5 (f - v) in both dimensions.
-    let m = AccBlrModel { vehicle: DifferentialDrive::new(0.1, 0.5), accel_x: post(vec![0.5, -0.5]), accel_yaw: post(vec![0.5, -0.5]), dt: 0.1 };
-    let start = StartState { pose: Pose::zeros(), input: Input::zeros(), body_velocity: BodyVelocity::new(0.2, 0.3, 0.0) };
+    let m = AccBlrModel {
+        vehicle: DifferentialDrive::new(0.1, 0.5),
+        accel_x: post(vec![0.5, -0.5]),
+        accel_yaw: post(vec![0.5, -0.5]),
+        dt: 0.1,
+    };
+    let start = StartState {
+        pose: Pose::zeros(),
+        input: Input::zeros(),
+        body_velocity: BodyVelocity::new(0.2, 0.3, 0.0),
+    };
     // f = (1, 0, 0) from wheels 10, 10: v0 = 0.2 (lateral dropped), v1 = 0.6, v2 = 0.8.
     let p = m.predict(&start, &[Input::new(10.0, 10.0); 4]);
     assert_abs_diff_eq!(p[1], Pose::new(0.02, 0.0, 0.0), epsilon = 1e-12);
@@ -182,16 +288,32 @@ fn acc_blr_recovers_first_order_body_dynamics() {
         for _ in 0..40 {
             let (s, c) = start.z.sin_cos();
             let (dx, dy) = (pose.x - start.x, pose.y - start.y);
-            poses.push(Pose::new(c * dx + s * dy, -s * dx + c * dy, pose.z - start.z));
+            poses.push(Pose::new(
+                c * dx + s * dy,
+                -s * dx + c * dy,
+                pose.z - start.z,
+            ));
             // Fine integration of the continuous dynamics between samples.
             for _ in 0..10 {
                 pose = drive_traits::euler_step(&pose, &v, r.dt() / 10.0);
                 v += (f - v) * (1.0 - 0.9f64.powf(0.1));
             }
         }
-        windows.push(window(i, if i % 3 == 0 { Phase::Transient } else { Phase::Steady }, vec![u; 40], vec![u; 40], poses));
+        windows.push(window(
+            i,
+            if i % 3 == 0 {
+                Phase::Transient
+            } else {
+                Phase::Steady
+            },
+            vec![u; 40],
+            vec![u; 40],
+            poses,
+        ));
     }
-    let m = AccBlr::default().fit(&WindowSet::new(&r, &windows)).unwrap();
+    let m = AccBlr::default()
+        .fit(&WindowSet::new(&r, &windows))
+        .unwrap();
     assert_abs_diff_eq!(m.accel_x.mean[0], 0.1, epsilon = 5e-3);
     assert_abs_diff_eq!(m.accel_x.mean[1], -0.1, epsilon = 5e-3);
     assert_abs_diff_eq!(m.accel_yaw.mean[0], 0.1, epsilon = 5e-3);
@@ -205,11 +327,22 @@ fn straight_driving_only_gives_a_clear_error_not_a_nan_model() {
         .map(|i| {
             let u = Input::new(5.0 + i as f64, 5.0 + i as f64);
             let f = DifferentialDrive::from_robot(&r).eq4(&u);
-            window(i, Phase::Steady, vec![u; 40], vec![u; 40], arc(f * 0.9, r.dt(), 40))
+            window(
+                i,
+                Phase::Steady,
+                vec![u; 40],
+                vec![u; 40],
+                arc(f * 0.9, r.dt(), 40),
+            )
         })
         .collect();
-    let err = SlipBlr::<Ideal>::default().fit(&WindowSet::new(&r, &windows)).unwrap_err();
-    assert!(matches!(err, drive_traits::FitError::DegenerateInputs { .. }), "{err}");
+    let err = SlipBlr::<Ideal>::default()
+        .fit(&WindowSet::new(&r, &windows))
+        .unwrap_err();
+    assert!(
+        matches!(err, drive_traits::FitError::DegenerateInputs { .. }),
+        "{err}"
+    );
 }
 
 #[test]
@@ -223,8 +356,14 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
         Box::new(SlipBlr::<Ideal>::default().fit(&set).unwrap()),
         Box::new(AccBlr::default().fit(&set).unwrap()),
     ];
-    let start = StartState { pose: Pose::new(1.0, -2.0, 0.3), input: Input::new(1.0, 2.0), body_velocity: BodyVelocity::new(0.1, 0.0, 0.1) };
-    let cmds: Vec<Input> = (0..40).map(|k| Input::new(k as f64 * 0.1, 3.0 - k as f64 * 0.05)).collect();
+    let start = StartState {
+        pose: Pose::new(1.0, -2.0, 0.3),
+        input: Input::new(1.0, 2.0),
+        body_velocity: BodyVelocity::new(0.1, 0.0, 0.1),
+    };
+    let cmds: Vec<Input> = (0..40)
+        .map(|k| Input::new(k as f64 * 0.1, 3.0 - k as f64 * 0.05))
+        .collect();
     for m in &models {
         let text = model_to_json(m.as_ref(), &r);
         let (back, robot_back) = model_from_json("m.json", &text).unwrap();
@@ -232,18 +371,42 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
         assert_eq!(robot_back, r);
         assert_eq!(back.predict(&start, &cmds), m.predict(&start, &cmds));
         let newer = text.replace("\"format_version\": 1", "\"format_version\": 2");
-        assert!(matches!(model_from_json("m.json", &newer), Err(ModelFileError::UnsupportedVersion { .. })));
+        assert!(matches!(
+            model_from_json("m.json", &newer),
+            Err(ModelFileError::UnsupportedVersion { .. })
+        ));
         let unversioned = text.replace("\"format_version\": 1,", "");
-        assert!(matches!(model_from_json("m.json", &unversioned), Err(ModelFileError::MissingField { field: "format_version", .. })));
+        assert!(matches!(
+            model_from_json("m.json", &unversioned),
+            Err(ModelFileError::MissingField {
+                field: "format_version",
+                ..
+            })
+        ));
     }
-    assert!(matches!(model_from_json("m.json", "not json"), Err(ModelFileError::Parse { line: 1, .. })));
-    let unknown = model_to_json(models[0].as_ref(), &r).replace("\"model\": \"naive\"", "\"model\": \"mystery\"");
-    assert!(matches!(model_from_json("m.json", &unknown), Err(ModelFileError::Model { .. })));
+    assert!(matches!(
+        model_from_json("m.json", "not json"),
+        Err(ModelFileError::Parse { line: 1, .. })
+    ));
+    let unknown = model_to_json(models[0].as_ref(), &r)
+        .replace("\"model\": \"naive\"", "\"model\": \"mystery\"");
+    assert!(matches!(
+        model_from_json("m.json", &unknown),
+        Err(ModelFileError::Model { .. })
+    ));
 }
 
 #[test]
 fn ideal_powertrain_learner_needs_nothing() {
     let r = robot();
-    let pt = Ideal.fit(&WindowSet { robot: &r, windows: vec![] }).unwrap();
-    assert_eq!(pt.predict(&Input::zeros(), &[Input::new(1.0, 2.0)]), vec![Input::new(1.0, 2.0)]);
+    let pt = Ideal
+        .fit(&WindowSet {
+            robot: &r,
+            windows: vec![],
+        })
+        .unwrap();
+    assert_eq!(
+        pt.predict(&Input::zeros(), &[Input::new(1.0, 2.0)]),
+        vec![Input::new(1.0, 2.0)]
+    );
 }

@@ -2,6 +2,8 @@
 //! the next 6 s training interval. All are seeded and deterministic: a seed gives the same
 //! sequence on every platform (the generator is xoshiro256++, a fixed algorithm).
 
+#![warn(missing_docs)]
+
 mod uniform;
 
 pub use uniform::{SamplerError, UniformSampler};

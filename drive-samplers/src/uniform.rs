@@ -45,15 +45,25 @@ impl UniformSampler {
             Uniform::new_inclusive(space.min[i], space.max[i])
                 .ok()
                 .filter(|_| space.max[i] > space.min[i])
-                .ok_or(SamplerError::EmptySpace { axis: i, min: space.min[i], max: space.max[i] })
+                .ok_or(SamplerError::EmptySpace {
+                    axis: i,
+                    min: space.min[i],
+                    max: space.max[i],
+                })
         };
-        Ok(UniformSampler { rng: Xoshiro256PlusPlus::seed_from_u64(seed), axes: [axis(0)?, axis(1)?] })
+        Ok(UniformSampler {
+            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
+            axes: [axis(0)?, axis(1)?],
+        })
     }
 }
 
 impl InputSampler for UniformSampler {
     fn next_input(&mut self) -> Input {
-        Input::new(self.axes[0].sample(&mut self.rng), self.axes[1].sample(&mut self.rng))
+        Input::new(
+            self.axes[0].sample(&mut self.rng),
+            self.axes[1].sample(&mut self.rng),
+        )
     }
 }
 
@@ -71,18 +81,28 @@ mod tests {
         for _ in 0..n {
             let u = s.next_input();
             assert!(j.contains(&u));
-            let bx = (((u.x - j.min.x) / (j.max.x - j.min.x)) * 5.0).floor().min(4.0) as usize;
-            let by = (((u.y - j.min.y) / (j.max.y - j.min.y)) * 5.0).floor().min(4.0) as usize;
+            let bx = (((u.x - j.min.x) / (j.max.x - j.min.x)) * 5.0)
+                .floor()
+                .min(4.0) as usize;
+            let by = (((u.y - j.min.y) / (j.max.y - j.min.y)) * 5.0)
+                .floor()
+                .min(4.0) as usize;
             counts[bx * 5 + by] += 1;
         }
         let expected = n as f64 / 25.0;
-        let chi2: f64 = counts.iter().map(|c| (*c as f64 - expected).powi(2) / expected).sum();
+        let chi2: f64 = counts
+            .iter()
+            .map(|c| (*c as f64 - expected).powi(2) / expected)
+            .sum();
         assert!(chi2 < 51.2, "chi2 = {chi2}");
     }
 
     #[test]
     fn empty_space_is_refused() {
         let j = InputSpace::new(Input::new(1.0, 0.0), Input::new(1.0, 2.0)).unwrap();
-        assert!(matches!(UniformSampler::new(j, 0), Err(SamplerError::EmptySpace { axis: 0, .. })));
+        assert!(matches!(
+            UniformSampler::new(j, 0),
+            Err(SamplerError::EmptySpace { axis: 0, .. })
+        ));
     }
 }

@@ -38,18 +38,18 @@ pub struct RobotDescription {
     pub name: String,
     /// Robot name, free text.
     pub robot: String,
-    /// Command and sample rate [Hz].
+    /// Command and sample rate (Hz).
     pub rate_hz: f64,
     /// Samples per window.
     pub window_len: usize,
-    /// Wheel (or track sprocket) radius r [m] (paper Fig. 2).
+    /// Wheel (or track sprocket) radius r (m) (paper Fig. 2).
     pub wheel_radius: f64,
-    /// Vehicle width b between the left and right wheels [m] (paper Fig. 2).
+    /// Vehicle width b between the left and right wheels (m) (paper Fig. 2).
     pub baseline: f64,
 }
 
 impl RobotDescription {
-    /// Sample period [s].
+    /// Sample period (s).
     pub fn dt(&self) -> f64 {
         1.0 / self.rate_hz
     }
@@ -73,7 +73,7 @@ pub struct Window {
     pub encoder: Vec<Input>,
     /// Localization pose per sample.
     pub pose: Vec<Pose>,
-    /// IMU angular velocity about the vertical axis per sample [rad/s].
+    /// IMU angular velocity about the vertical axis per sample (rad/s).
     pub imu_yaw_rate: Vec<f64>,
 }
 
@@ -98,7 +98,11 @@ impl Window {
         StartState {
             pose: self.pose[0],
             input: enc,
-            body_velocity: BodyVelocity::new(from_encoders.x, from_encoders.y, self.imu_yaw_rate[0]),
+            body_velocity: BodyVelocity::new(
+                from_encoders.x,
+                from_encoders.y,
+                self.imu_yaw_rate[0],
+            ),
         }
     }
 }
@@ -116,7 +120,10 @@ pub struct WindowSet<'a> {
 impl<'a> WindowSet<'a> {
     /// A selection of all the given windows.
     pub fn new(robot: &'a RobotDescription, windows: &'a [Window]) -> Self {
-        WindowSet { robot, windows: windows.iter().collect() }
+        WindowSet {
+            robot,
+            windows: windows.iter().collect(),
+        }
     }
 
     /// Number of windows.
@@ -131,7 +138,10 @@ impl<'a> WindowSet<'a> {
 
     /// Iterates over the windows of one phase.
     pub fn of_phase(&self, phase: Phase) -> impl Iterator<Item = &'a Window> + '_ {
-        self.windows.iter().copied().filter(move |w| w.phase == phase)
+        self.windows
+            .iter()
+            .copied()
+            .filter(move |w| w.phase == phase)
     }
 }
 

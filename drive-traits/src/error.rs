@@ -20,7 +20,9 @@ pub enum FitError {
         parameters: usize,
     },
     /// A regression input carries no information (zero variance) or repeats another one.
-    #[error("{what}: the inputs are degenerate ({detail}); the training data does not excite them")]
+    #[error(
+        "{what}: the inputs are degenerate ({detail}); the training data does not excite them"
+    )]
     DegenerateInputs {
         /// what was being fitted
         what: String,

@@ -15,6 +15,8 @@
 //! The dataset types ([`Window`], [`RobotDescription`], [`WindowSet`]) are what every
 //! loader produces and every learner and metric consumes.
 
+#![warn(missing_docs)]
+
 mod dataset;
 mod error;
 mod learner;

@@ -17,7 +17,11 @@ pub struct StartState {
 impl StartState {
     /// At rest at `pose`.
     pub fn at_rest(pose: Pose) -> Self {
-        StartState { pose, input: Input::zeros(), body_velocity: BodyVelocity::zeros() }
+        StartState {
+            pose,
+            input: Input::zeros(),
+            body_velocity: BodyVelocity::zeros(),
+        }
     }
 }
 
@@ -31,7 +35,7 @@ pub trait MotionModel: std::fmt::Debug + Send + Sync {
     /// The model's name (`naive`, `powertrain`, `slip-blr`, `acc-blr`, ...).
     fn name(&self) -> &'static str;
 
-    /// Prediction step [s].
+    /// Prediction step (s).
     fn dt(&self) -> f64;
 
     /// Fills `poses` (cleared first) with the predicted mean poses.

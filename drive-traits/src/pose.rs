@@ -93,7 +93,10 @@ mod tests {
             let a = i as f64 * 0.37;
             let w = wrap_angle(a);
             assert!((-PI..=PI).contains(&w));
-            assert!(((a - w) / (2.0 * PI)).fract().abs() < 1e-9 || ((a - w) / (2.0 * PI)).fract().abs() > 1.0 - 1e-9);
+            assert!(
+                ((a - w) / (2.0 * PI)).fract().abs() < 1e-9
+                    || ((a - w) / (2.0 * PI)).fract().abs() > 1.0 - 1e-9
+            );
         }
     }
 
@@ -109,7 +112,11 @@ mod tests {
 
     #[test]
     fn euler_step_straight_line() {
-        let q = euler_step(&Pose::new(1.0, 2.0, 0.0), &BodyVelocity::new(2.0, 0.0, 0.0), 0.05);
+        let q = euler_step(
+            &Pose::new(1.0, 2.0, 0.0),
+            &BodyVelocity::new(2.0, 0.0, 0.0),
+            0.05,
+        );
         assert_eq!(q, Pose::new(1.1, 2.0, 0.0));
     }
 }

@@ -22,7 +22,8 @@ pub struct InputSpace {
 impl InputSpace {
     /// A box; `None` if a bound is not finite or `min > max` on some axis.
     pub fn new(min: Input, max: Input) -> Option<Self> {
-        let ok = min.iter().chain(max.iter()).all(|v| v.is_finite()) && min.x <= max.x && min.y <= max.y;
+        let ok =
+            min.iter().chain(max.iter()).all(|v| v.is_finite()) && min.x <= max.x && min.y <= max.y;
         ok.then_some(InputSpace { min, max })
     }
 
@@ -33,7 +34,10 @@ impl InputSpace {
 
     /// `u` clamped into the box, per axis.
     pub fn clamp(&self, u: &Input) -> Input {
-        Input::new(u.x.clamp(self.min.x, self.max.x), u.y.clamp(self.min.y, self.max.y))
+        Input::new(
+            u.x.clamp(self.min.x, self.max.x),
+            u.y.clamp(self.min.y, self.max.y),
+        )
     }
 }
 

@@ -32,11 +32,11 @@ pub struct SyntheticRobot {
     pub baseline: f64,
     pub rate_hz: f64,
     pub window_len: usize,
-    /// wheel velocity limit [rad/s]
+    /// wheel velocity limit (rad/s)
     pub wheel_limit: f64,
-    /// commands are drawn in +-command_range [rad/s]
+    /// commands are drawn in +-command_range (rad/s)
     pub command_range: f64,
-    /// (time constant, delay) left and right [s]
+    /// (time constant, delay) left and right (s)
     pub powertrain: [(f64, f64); 2],
 }
 
@@ -77,7 +77,11 @@ impl SyntheticRobot {
                 let mut win = Window {
                     index: windows.len(),
                     interval,
-                    phase: if w == 0 { Phase::Transient } else { Phase::Steady },
+                    phase: if w == 0 {
+                        Phase::Transient
+                    } else {
+                        Phase::Steady
+                    },
                     command: Vec::new(),
                     encoder: Vec::new(),
                     pose: Vec::new(),
@@ -88,15 +92,24 @@ impl SyntheticRobot {
                     let k = history.len();
                     // Sensors at the sample instant.
                     if k % 2 == 0 {
-                        icp = Pose::new(pose.x + 0.01 * rng.normal(), pose.y + 0.01 * rng.normal(), pose.z + 0.003 * rng.normal());
+                        icp = Pose::new(
+                            pose.x + 0.01 * rng.normal(),
+                            pose.y + 0.01 * rng.normal(),
+                            pose.z + 0.003 * rng.normal(),
+                        );
                     }
                     let s0 = *start_icp.get_or_insert(icp);
                     let (s, c) = s0.z.sin_cos();
                     let (dx, dy) = (icp.x - s0.x, icp.y - s0.y);
                     let rel_yaw = drive::traits::wrap_angle(icp.z - s0.z);
-                    win.pose.push(Pose::new(c * dx + s * dy, -s * dx + c * dy, rel_yaw));
-                    win.encoder.push(Input::new(wheel[0] + 0.05 * rng.normal(), wheel[1] + 0.05 * rng.normal()));
-                    win.imu_yaw_rate.push(body[2] + imu_bias + 0.02 * rng.normal());
+                    win.pose
+                        .push(Pose::new(c * dx + s * dy, -s * dx + c * dy, rel_yaw));
+                    win.encoder.push(Input::new(
+                        wheel[0] + 0.05 * rng.normal(),
+                        wheel[1] + 0.05 * rng.normal(),
+                    ));
+                    win.imu_yaw_rate
+                        .push(body[2] + imu_bias + 0.02 * rng.normal());
                     win.command.push(Input::new(cmd[0], cmd[1]));
                     history.push(cmd);
                     // Physics until the next sample.
@@ -105,7 +118,11 @@ impl SyntheticRobot {
                         for side in 0..2 {
                             let (tc, td) = self.powertrain[side];
                             let delayed = ((t - td) / dt).floor();
-                            let u = if delayed < 0.0 { 0.0 } else { history[delayed as usize][side] };
+                            let u = if delayed < 0.0 {
+                                0.0
+                            } else {
+                                history[delayed as usize][side]
+                            };
                             let u = u.clamp(-self.wheel_limit, self.wheel_limit);
                             wheel[side] += (u - wheel[side]) * h / tc;
                         }

@@ -2,7 +2,10 @@ use crate::blr::{BlrPosterior, Prior};
 use crate::rollout::{integrate, propagate_covariance};
 use crate::velocity::BodyVelocityEstimator;
 use crate::DifferentialDrive;
-use drive_traits::{BodyVelocity, FitError, Input, Learner, MotionError, MotionModel, Pose, PoseCovariance, StartState, WindowSet};
+use drive_traits::{
+    BodyVelocity, FitError, Input, Learner, MotionError, MotionModel, Pose, PoseCovariance,
+    StartState, WindowSet,
+};
 use serde::{Deserialize, Serialize};
 
 /// The acceleration-based BLR baseline (McKinnon and Schoellig 2019, as compared in the
@@ -27,7 +30,7 @@ pub struct AccBlrModel {
     pub accel_x: BlrPosterior,
     /// Posterior of the angular velocity change on `[f_w, v_w]`.
     pub accel_yaw: BlrPosterior,
-    /// Step [s].
+    /// Step (s).
     pub dt: f64,
 }
 
@@ -50,7 +53,9 @@ impl Learner for AccBlr {
         for w in &train.windows {
             self.velocity.estimate(w, dt, &mut measured);
             for k in 0..w.len().saturating_sub(1) {
-                let (Some(v0), Some(v1)) = (measured[k], measured[k + 1]) else { continue };
+                let (Some(v0), Some(v1)) = (measured[k], measured[k + 1]) else {
+                    continue;
+                };
                 let f = vehicle.eq4(&w.command[k]);
                 for (j, d) in [0usize, 2].into_iter().enumerate() {
                     xs[j].extend_from_slice(&[f[d], v0[d]]);
@@ -59,7 +64,13 @@ impl Learner for AccBlr {
             }
         }
         Ok(AccBlrModel {
-            accel_x: BlrPosterior::fit(&xs[0], 2, &gs[0], &self.priors[0], "acc-BLR, longitudinal")?,
+            accel_x: BlrPosterior::fit(
+                &xs[0],
+                2,
+                &gs[0],
+                &self.priors[0],
+                "acc-BLR, longitudinal",
+            )?,
             accel_yaw: BlrPosterior::fit(&xs[1], 2, &gs[1], &self.priors[1], "acc-BLR, angular")?,
             vehicle,
             dt,
@@ -68,7 +79,12 @@ impl Learner for AccBlr {
 }
 
 impl AccBlrModel {
-    fn body_velocities(&self, start: &StartState, commands: &[Input], mut variances: Option<&mut Vec<BodyVelocity>>) -> Vec<BodyVelocity> {
+    fn body_velocities(
+        &self,
+        start: &StartState,
+        commands: &[Input],
+        mut variances: Option<&mut Vec<BodyVelocity>>,
+    ) -> Vec<BodyVelocity> {
         let mut out = Vec::with_capacity(commands.len());
         let mut v = BodyVelocity::new(start.body_velocity.x, 0.0, start.body_velocity.z);
         let mut var = BodyVelocity::zeros();
@@ -82,7 +98,11 @@ impl AccBlrModel {
             }
             let f = self.vehicle.eq4(u);
             let (xx, xw) = ([f.x, v.x], [f.z, v.z]);
-            let next = BodyVelocity::new(v.x + self.accel_x.predict_mean(&xx), 0.0, v.z + self.accel_yaw.predict_mean(&xw));
+            let next = BodyVelocity::new(
+                v.x + self.accel_x.predict_mean(&xx),
+                0.0,
+                v.z + self.accel_yaw.predict_mean(&xw),
+            );
             if variances.is_some() {
                 // v[k+1] = (1 + gamma_v) v[k] + gamma_f f[k] + noise: first-order propagation.
                 let (gx, gw) = (1.0 + self.accel_x.mean[1], 1.0 + self.accel_yaw.mean[1]);

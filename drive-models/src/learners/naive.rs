@@ -21,14 +21,17 @@ pub struct Naive;
 pub struct NaiveModel {
     /// The vehicle's command model.
     pub vehicle: DifferentialDrive,
-    /// Step [s].
+    /// Step (s).
     pub dt: f64,
 }
 
 impl Learner for Naive {
     type Fitted = NaiveModel;
     fn fit(&self, train: &WindowSet<'_>) -> Result<NaiveModel, FitError> {
-        Ok(NaiveModel { vehicle: DifferentialDrive::from_robot(train.robot), dt: train.robot.dt() })
+        Ok(NaiveModel {
+            vehicle: DifferentialDrive::from_robot(train.robot),
+            dt: train.robot.dt(),
+        })
     }
 }
 

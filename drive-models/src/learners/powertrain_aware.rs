@@ -1,7 +1,10 @@
 use crate::powertrain::Fopdt;
 use crate::rollout::integrate;
 use crate::DifferentialDrive;
-use drive_traits::{FitError, Input, Learner, MotionModel, Pose, Powertrain, PowertrainLearner, StartState, WindowSet};
+use drive_traits::{
+    FitError, Input, Learner, MotionModel, Pose, Powertrain, PowertrainLearner, StartState,
+    WindowSet,
+};
 use serde::{Deserialize, Serialize};
 
 /// The powertrain-aware model's learner (Sec. III-B.1): fits a powertrain (by default the
@@ -19,7 +22,7 @@ pub struct PowertrainAwareModel {
     pub vehicle: DifferentialDrive,
     /// The fitted powertrain.
     pub powertrain: Box<dyn Powertrain>,
-    /// Step [s].
+    /// Step (s).
     pub dt: f64,
 }
 
@@ -27,7 +30,11 @@ impl<P: PowertrainLearner> Learner for PowertrainAware<P> {
     type Fitted = PowertrainAwareModel;
     fn fit(&self, train: &WindowSet<'_>) -> Result<PowertrainAwareModel, FitError> {
         let powertrain = Box::new(self.powertrain.fit(train)?);
-        Ok(PowertrainAwareModel { vehicle: DifferentialDrive::from_robot(train.robot), powertrain, dt: train.robot.dt() })
+        Ok(PowertrainAwareModel {
+            vehicle: DifferentialDrive::from_robot(train.robot),
+            powertrain,
+            dt: train.robot.dt(),
+        })
     }
 }
 

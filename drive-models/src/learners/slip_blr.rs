@@ -4,8 +4,8 @@ use crate::rollout::{integrate, propagate_covariance};
 use crate::velocity::BodyVelocityEstimator;
 use crate::DifferentialDrive;
 use drive_traits::{
-    BodyVelocity, FitError, Input, Learner, MotionError, MotionModel, Pose, PoseCovariance, Powertrain, PowertrainLearner,
-    StartState, WindowSet,
+    BodyVelocity, FitError, Input, Learner, MotionError, MotionModel, Pose, PoseCovariance,
+    Powertrain, PowertrainLearner, StartState, WindowSet,
 };
 use serde::{Deserialize, Serialize};
 
@@ -35,7 +35,11 @@ pub struct SlipInputs {
 #[inline]
 pub fn slip_inputs(f: &BodyVelocity) -> SlipInputs {
     let psi = f.x * f.z;
-    SlipInputs { x: [f.x], y: [psi], yaw: [psi, f.x, f.z] }
+    SlipInputs {
+        x: [f.x],
+        y: [psi],
+        yaw: [psi, f.x, f.z],
+    }
 }
 
 /// The paper's slip-based BLR learner (Sec. III-B): a powertrain (FOPDT by default) gives
@@ -54,7 +58,11 @@ pub struct SlipBlr<P = Fopdt> {
 
 impl<P: Default> Default for SlipBlr<P> {
     fn default() -> Self {
-        SlipBlr { powertrain: P::default(), priors: Default::default(), velocity: BodyVelocityEstimator::default() }
+        SlipBlr {
+            powertrain: P::default(),
+            priors: Default::default(),
+            velocity: BodyVelocityEstimator::default(),
+        }
     }
 }
 
@@ -68,12 +76,20 @@ impl<P> SlipBlr<P> {
     /// assert_eq!(on_commands.powertrain, Ideal);
     /// ```
     pub fn with_powertrain<Q>(self, powertrain: Q) -> SlipBlr<Q> {
-        SlipBlr { powertrain, priors: self.priors, velocity: self.velocity }
+        SlipBlr {
+            powertrain,
+            priors: self.priors,
+            velocity: self.velocity,
+        }
     }
 
     /// The same learner with the paper's uninformative prior of scale `phi` on every dimension.
     pub fn with_phi(mut self, phi: f64) -> Self {
-        self.priors = [Prior::Uninformative { phi }, Prior::Uninformative { phi }, Prior::Uninformative { phi }];
+        self.priors = [
+            Prior::Uninformative { phi },
+            Prior::Uninformative { phi },
+            Prior::Uninformative { phi },
+        ];
         self
     }
 }
@@ -91,7 +107,7 @@ pub struct SlipBlrModel {
     pub slip_y: BlrPosterior,
     /// Posterior of the angular slip.
     pub slip_yaw: BlrPosterior,
-    /// Step [s].
+    /// Step (s).
     pub dt: f64,
 }
 
@@ -129,7 +145,9 @@ impl<P: PowertrainLearner> Learner for SlipBlr<P> {
                 }
             }
         }
-        let fit = |d: usize, k: usize, name: &str| BlrPosterior::fit(&xs[d], k, &gs[d], &self.priors[d], name);
+        let fit = |d: usize, k: usize, name: &str| {
+            BlrPosterior::fit(&xs[d], k, &gs[d], &self.priors[d], name)
+        };
         Ok(SlipBlrModel {
             slip_x: fit(0, 1, "slip-BLR, longitudinal slip")?,
             slip_y: fit(1, 1, "slip-BLR, lateral slip")?,
@@ -143,7 +161,12 @@ impl<P: PowertrainLearner> Learner for SlipBlr<P> {
 
 impl SlipBlrModel {
     /// Body velocities `v = f - g` (eq. 2) along the commands, and optionally their variances.
-    fn body_velocities(&self, start: &StartState, commands: &[Input], variances: Option<&mut Vec<BodyVelocity>>) -> Vec<BodyVelocity> {
+    fn body_velocities(
+        &self,
+        start: &StartState,
+        commands: &[Input],
+        variances: Option<&mut Vec<BodyVelocity>>,
+    ) -> Vec<BodyVelocity> {
         let wheels = self.powertrain.predict(&start.input, commands);
         let mut out = Vec::with_capacity(wheels.len());
         let mut var_out = variances;
@@ -153,7 +176,11 @@ impl SlipBlrModel {
         for u in &wheels {
             let f = self.vehicle.eq4(u);
             let s = slip_inputs(&f);
-            let g = BodyVelocity::new(self.slip_x.predict_mean(&s.x), self.slip_y.predict_mean(&s.y), self.slip_yaw.predict_mean(&s.yaw));
+            let g = BodyVelocity::new(
+                self.slip_x.predict_mean(&s.x),
+                self.slip_y.predict_mean(&s.y),
+                self.slip_yaw.predict_mean(&s.yaw),
+            );
             out.push(f - g);
             if let Some(v) = var_out.as_deref_mut() {
                 v.push(BodyVelocity::new(

@@ -19,9 +19,9 @@ use serde::{Deserialize, Serialize};
 /// The response of one side: time constant and dead time.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SideResponse {
-    /// Time constant tau_c [s].
+    /// Time constant tau_c (s).
     pub time_constant: f64,
-    /// Dead time tau_d [s].
+    /// Dead time tau_d (s).
     pub delay: f64,
 }
 
@@ -42,14 +42,24 @@ impl SideResponse {
         // Guard the floor against representation error (0.1 / 0.05 = 2.0000000000000004).
         let m = (steps + 1e-9).floor().max(0.0);
         let phi = (self.delay - m * dt).clamp(0.0, dt);
-        Discrete { m: m as usize, e_a: (-phi / self.time_constant).exp(), e_b: (-(dt - phi) / self.time_constant).exp() }
+        Discrete {
+            m: m as usize,
+            e_a: (-phi / self.time_constant).exp(),
+            e_b: (-(dt - phi) / self.time_constant).exp(),
+        }
     }
 }
 
 impl Discrete {
     /// Response of one side. `command(i)` is the (saturated) command at sample i.
     #[inline]
-    fn run(&self, initial: f64, n: usize, command: impl Fn(usize) -> f64, mut out: impl FnMut(usize, f64)) {
+    fn run(
+        &self,
+        initial: f64,
+        n: usize,
+        command: impl Fn(usize) -> f64,
+        mut out: impl FnMut(usize, f64),
+    ) {
         if n == 0 {
             return;
         }
@@ -91,7 +101,7 @@ pub struct FopdtPowertrain {
     pub right: SideResponse,
     /// Wheel velocity limits (the commands are saturated to them).
     pub limits: InputSpace,
-    /// Sample period [s].
+    /// Sample period (s).
     pub dt: f64,
 }
 
@@ -102,8 +112,18 @@ impl Powertrain for FopdtPowertrain {
         predicted.clear();
         predicted.resize(n, Input::zeros());
         let (lo, hi) = (self.limits.min, self.limits.max);
-        self.left.discrete(self.dt).run(initial.x, n, |i| commands[i].x.clamp(lo.x, hi.x), |k, w| predicted[k].x = w);
-        self.right.discrete(self.dt).run(initial.y, n, |i| commands[i].y.clamp(lo.y, hi.y), |k, w| predicted[k].y = w);
+        self.left.discrete(self.dt).run(
+            initial.x,
+            n,
+            |i| commands[i].x.clamp(lo.x, hi.x),
+            |k, w| predicted[k].x = w,
+        );
+        self.right.discrete(self.dt).run(
+            initial.y,
+            n,
+            |i| commands[i].y.clamp(lo.y, hi.y),
+            |k, w| predicted[k].y = w,
+        );
     }
 
     fn clone_box(&self) -> Box<dyn Powertrain> {
@@ -117,7 +137,7 @@ impl Powertrain for FopdtPowertrain {
 /// grid. The saturation limits are the extreme encoder velocities of the training set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fopdt {
-    /// Largest time constant searched [s].
+    /// Largest time constant searched (s).
     pub max_time_constant: f64,
     /// Largest delay searched, as a fraction of the window duration.
     pub max_delay_fraction: f64,
@@ -127,7 +147,11 @@ pub struct Fopdt {
 
 impl Default for Fopdt {
     fn default() -> Self {
-        Fopdt { max_time_constant: 20.0, max_delay_fraction: 0.5, max_iters: 300 }
+        Fopdt {
+            max_time_constant: 20.0,
+            max_delay_fraction: 0.5,
+            max_iters: 300,
+        }
     }
 }
 
@@ -150,14 +174,25 @@ impl SideFit<'_> {
         let td_c = td.clamp(0.0, self.max_delay);
         // Quadratic penalty outside the box keeps the simplex inside it.
         let penalty = (p[0] - tc_c.ln()).powi(2) + ((td - td_c) / self.dt).powi(2);
-        (SideResponse { time_constant: tc_c, delay: td_c }, penalty)
+        (
+            SideResponse {
+                time_constant: tc_c,
+                delay: td_c,
+            },
+            penalty,
+        )
     }
 
     fn mse(&self, r: &SideResponse) -> f64 {
         let d = r.discrete(self.dt);
         let mut sse = 0.0;
         for (w0, cmd, enc, side) in &self.windows {
-            d.run(*w0, cmd.len(), |i| cmd[i], |k, w| sse += (w - enc[k][*side]).powi(2));
+            d.run(
+                *w0,
+                cmd.len(),
+                |i| cmd[i],
+                |k, w| sse += (w - enc[k][*side]).powi(2),
+            );
         }
         sse / self.samples
     }
@@ -176,20 +211,45 @@ impl CostFunction for SideFit<'_> {
 impl Fopdt {
     fn validate(&self) -> Result<(), FitError> {
         if !(self.max_time_constant.is_finite() && self.max_time_constant > 0.0) {
-            return Err(FitError::InvalidHyperparameter { name: "max_time_constant", value: self.max_time_constant, expected: "a positive number of seconds" });
+            return Err(FitError::InvalidHyperparameter {
+                name: "max_time_constant",
+                value: self.max_time_constant,
+                expected: "a positive number of seconds",
+            });
         }
-        if !(self.max_delay_fraction.is_finite() && (0.0..=1.0).contains(&self.max_delay_fraction)) {
-            return Err(FitError::InvalidHyperparameter { name: "max_delay_fraction", value: self.max_delay_fraction, expected: "a fraction in [0, 1]" });
+        if !(self.max_delay_fraction.is_finite() && (0.0..=1.0).contains(&self.max_delay_fraction))
+        {
+            return Err(FitError::InvalidHyperparameter {
+                name: "max_delay_fraction",
+                value: self.max_delay_fraction,
+                expected: "a fraction in [0, 1]",
+            });
         }
         Ok(())
     }
 
-    fn fit_side(&self, train: &WindowSet<'_>, side: usize, lo: f64, hi: f64) -> Result<SideResponse, FitError> {
+    fn fit_side(
+        &self,
+        train: &WindowSet<'_>,
+        side: usize,
+        lo: f64,
+        hi: f64,
+    ) -> Result<SideResponse, FitError> {
         let what = format!("powertrain ({} side)", ["left", "right"][side]);
         let dt = train.robot.dt();
         let windows: Vec<_> = train
             .of_phase(Phase::Transient)
-            .map(|w| (w.encoder[0][side], w.command.iter().map(|c| c[side].clamp(lo, hi)).collect::<Vec<_>>(), w.encoder.as_slice(), side))
+            .map(|w| {
+                (
+                    w.encoder[0][side],
+                    w.command
+                        .iter()
+                        .map(|c| c[side].clamp(lo, hi))
+                        .collect::<Vec<_>>(),
+                    w.encoder.as_slice(),
+                    side,
+                )
+            })
             .collect();
         if windows.is_empty() {
             return Err(FitError::NoTransientWindow);
@@ -213,8 +273,15 @@ impl Fopdt {
         for i in 0..n_tc {
             let ln_tc = tc_lo + (tc_hi - tc_lo) * i as f64 / (n_tc - 1) as f64;
             for j in 0..=n_td {
-                let td = if n_td == 0 { 0.0 } else { problem.max_delay * j as f64 / n_td as f64 };
-                let c = problem.mse(&SideResponse { time_constant: ln_tc.exp(), delay: td });
+                let td = if n_td == 0 {
+                    0.0
+                } else {
+                    problem.max_delay * j as f64 / n_td as f64
+                };
+                let c = problem.mse(&SideResponse {
+                    time_constant: ln_tc.exp(),
+                    delay: td,
+                });
                 if c < best.0 {
                     best = (c, ln_tc, td);
                 }
@@ -226,18 +293,33 @@ impl Fopdt {
         let mut p = vec![ln_tc, td];
         let mut problem = Some(problem);
         for scale in [1.0, 0.2] {
-            let simplex = vec![p.clone(), vec![p[0] + 0.25 * scale, p[1]], vec![p[0], p[1] + 0.5 * dt * scale]];
-            let optimizer = |e: argmin::core::Error| FitError::Optimizer { what: what.clone(), reason: e.to_string() };
-            let solver = NelderMead::new(simplex).with_sd_tolerance(1e-14).map_err(optimizer)?;
+            let simplex = vec![
+                p.clone(),
+                vec![p[0] + 0.25 * scale, p[1]],
+                vec![p[0], p[1] + 0.5 * dt * scale],
+            ];
+            let optimizer = |e: argmin::core::Error| FitError::Optimizer {
+                what: what.clone(),
+                reason: e.to_string(),
+            };
+            let solver = NelderMead::new(simplex)
+                .with_sd_tolerance(1e-14)
+                .map_err(optimizer)?;
             // `problem` is put back after every run below, so it is always present here.
             let current = problem.take().expect("the problem is returned by each run");
-            let mut result = Executor::new(current, solver).configure(|s| s.max_iters(self.max_iters)).run().map_err(optimizer)?;
+            let mut result = Executor::new(current, solver)
+                .configure(|s| s.max_iters(self.max_iters))
+                .run()
+                .map_err(optimizer)?;
             if let Some(best) = result.state().get_best_param() {
                 p = best.clone();
             }
             problem = result.problem.problem.take();
         }
-        let problem = problem.ok_or_else(|| FitError::Optimizer { what: what.clone(), reason: "the solver returned no problem".into() })?;
+        let problem = problem.ok_or_else(|| FitError::Optimizer {
+            what: what.clone(),
+            reason: "the solver returned no problem".into(),
+        })?;
         let (r, _) = problem.response(&p);
         if !(r.time_constant.is_finite() && r.delay.is_finite()) {
             return Err(FitError::NonFinite { what });
@@ -266,7 +348,9 @@ impl PowertrainLearner for Fopdt {
             if min[side] >= max[side] {
                 return Err(FitError::DegenerateInputs {
                     what: "powertrain".into(),
-                    detail: format!("the {name} encoder velocity never changes in the training set"),
+                    detail: format!(
+                        "the {name} encoder velocity never changes in the training set"
+                    ),
                 });
             }
         }
@@ -274,7 +358,12 @@ impl PowertrainLearner for Fopdt {
         let limits = InputSpace::new(min, max).expect("min < max on both sides");
         let left = self.fit_side(train, 0, min.x, max.x)?;
         let right = self.fit_side(train, 1, min.y, max.y)?;
-        Ok(FopdtPowertrain { left, right, limits, dt: train.robot.dt() })
+        Ok(FopdtPowertrain {
+            left,
+            right,
+            limits,
+            dt: train.robot.dt(),
+        })
     }
 }
 
@@ -284,21 +373,31 @@ mod tests {
 
     #[test]
     fn matches_eq3_for_a_step_with_fractional_delay() {
-        let r = SideResponse { time_constant: 0.37, delay: 0.123 };
+        let r = SideResponse {
+            time_constant: 0.37,
+            delay: 0.123,
+        };
         let dt = 0.05;
         let mut out = vec![0.0; 40];
         r.discrete(dt).run(1.0, 40, |_| 5.0, |k, w| out[k] = w);
         for (k, w) in out.iter().enumerate() {
             let t = k as f64 * dt;
-            let expected = if t < r.delay { 1.0 } else { 5.0 + (1.0 - 5.0) * (-(t - r.delay) / r.time_constant).exp() };
+            let expected = if t < r.delay {
+                1.0
+            } else {
+                5.0 + (1.0 - 5.0) * (-(t - r.delay) / r.time_constant).exp()
+            };
             assert!((w - expected).abs() < 1e-12, "k = {k}: {w} vs {expected}");
         }
     }
 
     #[test]
     fn zero_delay_first_order_lag() {
-        let r = SideResponse { time_constant: 0.1, delay: 0.0 };
-        let mut out = vec![0.0; 3];
+        let r = SideResponse {
+            time_constant: 0.1,
+            delay: 0.0,
+        };
+        let mut out = [0.0; 3];
         r.discrete(0.1).run(0.0, 3, |_| 1.0, |k, w| out[k] = w);
         let e = (-1.0f64).exp();
         assert!((out[1] - (1.0 - e)).abs() < 1e-15);

@@ -17,9 +17,9 @@ use serde::{Deserialize, Serialize};
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DifferentialDrive {
-    /// Wheel or sprocket radius r [m].
+    /// Wheel or sprocket radius r (m).
     pub wheel_radius: f64,
-    /// Vehicle width b [m].
+    /// Vehicle width b (m).
     pub baseline: f64,
     /// The input space J (wheel velocity limits), when known.
     #[serde(default)]
@@ -29,7 +29,11 @@ pub struct DifferentialDrive {
 impl DifferentialDrive {
     /// A differential drive with radius `r` and width `b`, input space unknown.
     pub fn new(wheel_radius: f64, baseline: f64) -> Self {
-        DifferentialDrive { wheel_radius, baseline, input_space: None }
+        DifferentialDrive {
+            wheel_radius,
+            baseline,
+            input_space: None,
+        }
     }
 
     /// The differential drive of a robot description.
