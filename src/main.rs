@@ -263,13 +263,10 @@ fn table(cmp: &Comparison) -> String {
                 .find_map(|m| pick(m).map(|p| p.windows))
                 .unwrap_or(0);
             let _ = writeln!(s, "{title} ({count} windows)");
-            let _ = writeln!(
-                s,
-                "  {:<11}{:<37}{}",
-                "", "translational MRMSE [m]", "rotational MRMSE [rad]"
-            );
+            let (translational, rotational) = ("translational MRMSE [m]", "rotational MRMSE [rad]");
+            let _ = writeln!(s, "  {:<11}{translational:<37}{rotational}", "");
             let header = "median  IQR               vs naive";
-            let _ = writeln!(s, "  {:<11}{:<37}{}", "model", header, header);
+            let _ = writeln!(s, "  {:<11}{header:<37}{header}", "model");
             for m in &cmp.models {
                 let Some(p) = pick(m) else {
                     let _ = writeln!(s, "  {:<11}no window", m.name);
