@@ -47,6 +47,20 @@ pub fn propagate_covariance(
     }
 }
 
+/// Integrates the mean poses and propagates their covariance (see [`integrate`] and
+/// [`propagate_covariance`]): what every model with an uncertainty does for its prediction.
+pub fn integrate_with_covariance(
+    start: &Pose,
+    velocities: &[BodyVelocity],
+    variances: &[BodyVelocity],
+    dt: f64,
+    poses: &mut Vec<Pose>,
+    covariances: &mut Vec<PoseCovariance>,
+) {
+    integrate(start, velocities, dt, poses);
+    propagate_covariance(poses, velocities, variances, dt, covariances);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

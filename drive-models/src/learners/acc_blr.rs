@@ -1,5 +1,5 @@
 use crate::blr::{BlrPosterior, Prior};
-use crate::rollout::{integrate, propagate_covariance};
+use crate::rollout::{integrate, integrate_with_covariance};
 use crate::velocity::BodyVelocityEstimator;
 use crate::DifferentialDrive;
 use drive_traits::{
@@ -139,8 +139,7 @@ impl MotionModel for AccBlrModel {
     ) -> Result<(), MotionError> {
         let mut var = Vec::new();
         let v = self.body_velocities(start, commands, Some(&mut var));
-        integrate(&start.pose, &v, self.dt, poses);
-        propagate_covariance(poses, &v, &var, self.dt, covariances);
+        integrate_with_covariance(&start.pose, &v, &var, self.dt, poses, covariances);
         Ok(())
     }
 }
