@@ -299,6 +299,30 @@ impl BlrPosterior {
         }
     }
 
+    /// Checks a posterior read from a file: `k` inputs, finite values, `a, b >= 0`.
+    pub fn check(&self, k: usize, what: &str) -> Result<(), String> {
+        if self.mean.len() != k || self.covariance.len() != k * k {
+            return Err(format!(
+                "{what}: expected {k} weights and a {k}x{k} covariance, found {} and {}",
+                self.mean.len(),
+                self.covariance.len()
+            ));
+        }
+        let finite = self
+            .mean
+            .iter()
+            .chain(&self.covariance)
+            .all(|v| v.is_finite())
+            && self.a.is_finite()
+            && self.b.is_finite();
+        if !finite || self.a < 0.0 || self.b < 0.0 {
+            return Err(format!(
+                "{what}: non-finite or negative posterior parameters"
+            ));
+        }
+        Ok(())
+    }
+
     /// This posterior as a fixed prior, for a sequential update with new data.
     pub fn as_prior(&self) -> Prior {
         let k = self.inputs();

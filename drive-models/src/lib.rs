@@ -13,6 +13,7 @@
 
 #![warn(missing_docs)]
 
+pub mod batch;
 pub mod blr;
 pub mod learners;
 pub mod model_file;

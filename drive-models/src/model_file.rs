@@ -119,5 +119,9 @@ pub fn model_from_json(
             file: file.into(),
             message: e.to_string(),
         })?;
+    model.check().map_err(|message| ModelFileError::Model {
+        file: file.into(),
+        message,
+    })?;
     Ok((model, robot))
 }

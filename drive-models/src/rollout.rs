@@ -1,19 +1,94 @@
 //! Pose rollout (paper eq. 1) and first-order propagation of the pose covariance.
 
-use drive_traits::{euler_step, BodyVelocity, Pose, PoseCovariance};
+use drive_traits::{BodyVelocity, Pose, PoseCovariance};
 
-/// Integrates body velocities into poses with explicit Euler (eq. 1): `poses[0] = start`,
-/// `poses[k+1] = poses[k] + T(yaw_k) v_k dt`; one pose per velocity.
+/// Explicit Euler integration of eq. 1, `q[k+1] = q[k] + T(yaw_k) v_k dt`, carrying the
+/// cosine and sine of the yaw instead of recomputing them: each step rotates them by the
+/// yaw increment `w dt`, whose sine and cosine come from their Taylor series (exact to
+/// double precision for increments up to 0.1 rad) or from `sin_cos` beyond. Every model
+/// integrates through it, so single and batched rollouts give the same poses.
+///
+/// ```
+/// use drive_models::rollout::Integrator;
+/// use drive_traits::{BodyVelocity, Pose};
+/// let mut it = Integrator::new(&Pose::new(0.0, 0.0, 0.0), 0.1);
+/// it.step(&BodyVelocity::new(1.0, 0.0, 2.0));
+/// it.step(&BodyVelocity::new(1.0, 0.0, 2.0));
+/// let q = it.pose();
+/// assert!((q.x - (0.1 + 0.1 * 0.2f64.cos())).abs() < 1e-15 && (q.y - 0.1 * 0.2f64.sin()).abs() < 1e-15);
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct Integrator {
+    pose: Pose,
+    cos: f64,
+    sin: f64,
+    dt: f64,
+}
+
+impl Integrator {
+    /// Starts at `start` with step `dt`.
+    #[inline]
+    pub fn new(start: &Pose, dt: f64) -> Self {
+        let (sin, cos) = start.z.sin_cos();
+        Integrator {
+            pose: *start,
+            cos,
+            sin,
+            dt,
+        }
+    }
+
+    /// The current pose.
+    #[inline]
+    pub fn pose(&self) -> Pose {
+        self.pose
+    }
+
+    /// One step of eq. 1 with body velocity `v`.
+    #[inline]
+    pub fn step(&mut self, v: &BodyVelocity) {
+        let (c, s, dt) = (self.cos, self.sin, self.dt);
+        self.pose.x += (c * v.x - s * v.y) * dt;
+        self.pose.y += (s * v.x + c * v.y) * dt;
+        let d = v.z * dt;
+        self.pose.z += d;
+        let (sd, cd) = small_sin_cos(d);
+        self.cos = c * cd - s * sd;
+        self.sin = s * cd + c * sd;
+    }
+}
+
+/// `(sin x, cos x)`: Taylor polynomials (sin to x^9, cos to x^10, in multiply-add form)
+/// for |x| <= 0.1, where the first omitted term is below 3e-19; `sin_cos` otherwise.
+#[inline]
+fn small_sin_cos(x: f64) -> (f64, f64) {
+    const S: [f64; 4] = [-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362_880.0];
+    const C: [f64; 5] = [
+        -1.0 / 2.0,
+        1.0 / 24.0,
+        -1.0 / 720.0,
+        1.0 / 40_320.0,
+        -1.0 / 3_628_800.0,
+    ];
+    if x.abs() > 0.1 {
+        return x.sin_cos();
+    }
+    let x2 = x * x;
+    let sin = x + x * x2 * (S[0] + x2 * (S[1] + x2 * (S[2] + x2 * S[3])));
+    let cos = 1.0 + x2 * (C[0] + x2 * (C[1] + x2 * (C[2] + x2 * (C[3] + x2 * C[4]))));
+    (sin, cos)
+}
+
+/// Integrates body velocities into poses with eq. 1 (see [`Integrator`]): `poses[0] =
+/// start`, `poses[k+1] = poses[k] + T(yaw_k) v_k dt`; one pose per velocity.
 pub fn integrate(start: &Pose, velocities: &[BodyVelocity], dt: f64, poses: &mut Vec<Pose>) {
     poses.clear();
-    if velocities.is_empty() {
-        return;
-    }
-    let mut q = *start;
-    poses.push(q);
-    for v in &velocities[..velocities.len() - 1] {
-        q = euler_step(&q, v, dt);
-        poses.push(q);
+    let mut it = Integrator::new(start, dt);
+    for (k, v) in velocities.iter().enumerate() {
+        poses.push(it.pose());
+        if k + 1 < velocities.len() {
+            it.step(v);
+        }
     }
 }
 
@@ -64,6 +139,31 @@ pub fn integrate_with_covariance(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use drive_traits::euler_step;
+
+    #[test]
+    fn small_angle_series_matches_sin_cos() {
+        for i in -1000..=1000 {
+            let x = i as f64 * 1e-4;
+            let (s, c) = small_sin_cos(x);
+            assert!(
+                (s - x.sin()).abs() <= 2e-17 && (c - x.cos()).abs() <= 2e-16,
+                "x = {x}"
+            );
+        }
+    }
+
+    #[test]
+    fn integrator_matches_direct_euler_steps() {
+        let mut q = Pose::new(0.3, -0.2, 3.0);
+        let mut it = Integrator::new(&q, 0.05);
+        for k in 0..400 {
+            let v = BodyVelocity::new(1.0 + 0.01 * k as f64, 0.1, 2.5 - 0.02 * k as f64);
+            q = euler_step(&q, &v, 0.05);
+            it.step(&v);
+            assert!((it.pose() - q).norm() < 1e-12, "step {k}");
+        }
+    }
 
     #[test]
     fn constant_turn_and_covariance_growth() {

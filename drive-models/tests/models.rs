@@ -397,6 +397,37 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
 }
 
 #[test]
+fn malformed_model_files_are_refused() {
+    let r = robot();
+    let mut windows = slip_windows(0.2, -0.05, [0.03, 0.1, 0.4]);
+    for w in windows.iter_mut().step_by(3) {
+        w.phase = Phase::Transient;
+    }
+    let set = WindowSet::new(&r, &windows);
+    let slip = model_to_json(&SlipBlr::<Fopdt>::default().fit(&set).unwrap(), &r);
+    let v: serde_json::Value = serde_json::from_str(&slip).unwrap();
+    let edits: [(&str, serde_json::Value); 5] = [
+        ("/model/slip_yaw/mean", serde_json::json!([0.1, 0.2])),
+        (
+            "/model/powertrain/left/time_constant",
+            serde_json::json!(-1.0),
+        ),
+        ("/model/dt", serde_json::json!(0.0)),
+        ("/model/vehicle/baseline", serde_json::json!(-0.5)),
+        ("/model/slip_x/b", serde_json::json!(-3.0)),
+    ];
+    for (pointer, value) in edits {
+        let mut bad = v.clone();
+        *bad.pointer_mut(pointer).unwrap() = value;
+        let err = model_from_json("m.json", &bad.to_string()).unwrap_err();
+        assert!(
+            matches!(err, ModelFileError::Model { .. }),
+            "{pointer}: {err}"
+        );
+    }
+}
+
+#[test]
 fn ideal_powertrain_learner_needs_nothing() {
     let r = robot();
     let pt = Ideal

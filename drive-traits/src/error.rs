@@ -64,4 +64,41 @@ pub enum MotionError {
         /// model name
         model: &'static str,
     },
+    /// The buffers of a batch prediction do not have matching lengths.
+    #[error("batch shape: {sequences} start states and a horizon of {horizon} need {expected} commands and {expected} poses, got {commands} commands and {poses} poses")]
+    BatchShape {
+        /// number of start states (sequences)
+        sequences: usize,
+        /// steps per sequence
+        horizon: usize,
+        /// sequences x horizon
+        expected: usize,
+        /// commands given
+        commands: usize,
+        /// pose slots given
+        poses: usize,
+    },
+}
+
+impl MotionError {
+    /// Checks the buffers of a batch prediction.
+    pub fn check_batch(
+        sequences: usize,
+        horizon: usize,
+        commands: usize,
+        poses: usize,
+    ) -> Result<(), MotionError> {
+        let expected = sequences * horizon;
+        if commands == expected && poses == expected {
+            Ok(())
+        } else {
+            Err(MotionError::BatchShape {
+                sequences,
+                horizon,
+                expected,
+                commands,
+                poses,
+            })
+        }
+    }
 }

@@ -38,6 +38,19 @@ pub trait MotionModel: std::fmt::Debug + Send + Sync {
     /// Prediction step (s).
     fn dt(&self) -> f64;
 
+    /// Checks the model's parameters (finite values, matching dimensions, positive step):
+    /// what a model file must pass before it is used. `Err` says what is wrong.
+    fn check(&self) -> Result<(), String> {
+        if self.dt().is_finite() && self.dt() > 0.0 {
+            Ok(())
+        } else {
+            Err(format!(
+                "dt = {} is not a positive number of seconds",
+                self.dt()
+            ))
+        }
+    }
+
     /// Fills `poses` (cleared first) with the predicted mean poses.
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>);
 
@@ -46,6 +59,30 @@ pub trait MotionModel: std::fmt::Debug + Send + Sync {
         let mut poses = Vec::with_capacity(commands.len());
         self.predict_into(start, commands, &mut poses);
         poses
+    }
+
+    /// Rolls out many command sequences at once (the MPPI case) into a caller-provided
+    /// buffer: sequence `i` starts at `starts[i]`, its commands are
+    /// `commands[i * horizon..(i + 1) * horizon]` and its poses go to the same range of
+    /// `poses`. Gives exactly the poses of [`MotionModel::predict_into`] for each sequence.
+    ///
+    /// The default runs `predict_into` per sequence through one scratch buffer; models
+    /// override it with an allocation-free kernel.
+    fn predict_batch_into(
+        &self,
+        starts: &[StartState],
+        commands: &[Input],
+        horizon: usize,
+        poses: &mut [Pose],
+    ) -> Result<(), MotionError> {
+        MotionError::check_batch(starts.len(), horizon, commands.len(), poses.len())?;
+        let mut scratch = Vec::with_capacity(horizon);
+        for (i, start) in starts.iter().enumerate() {
+            let range = i * horizon..(i + 1) * horizon;
+            self.predict_into(start, &commands[range.clone()], &mut scratch);
+            poses[range].copy_from_slice(&scratch);
+        }
+        Ok(())
     }
 
     /// Fills `poses` and `covariances` (one 3x3 pose covariance per step, zero at the start)

@@ -21,6 +21,12 @@ pub trait Powertrain: std::fmt::Debug + Send + Sync {
         out
     }
 
+    /// Checks the parameters read from a file (finite, physically meaningful); `Err` says
+    /// what is wrong.
+    fn check(&self) -> Result<(), String> {
+        Ok(())
+    }
+
     /// Boxed clone (fitted models that embed a powertrain are cloneable).
     fn clone_box(&self) -> Box<dyn Powertrain>;
 }

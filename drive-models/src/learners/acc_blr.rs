@@ -1,4 +1,5 @@
 use crate::blr::{BlrPosterior, Prior};
+use crate::learners::check_common;
 use crate::rollout::{integrate, integrate_with_covariance};
 use crate::velocity::BodyVelocityEstimator;
 use crate::DifferentialDrive;
@@ -125,6 +126,11 @@ impl MotionModel for AccBlrModel {
     }
     fn dt(&self) -> f64 {
         self.dt
+    }
+    fn check(&self) -> Result<(), String> {
+        check_common(self.dt, &self.vehicle)?;
+        self.accel_x.check(2, "accel_x")?;
+        self.accel_yaw.check(2, "accel_yaw")
     }
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
         let v = self.body_velocities(start, commands, None);

@@ -1,3 +1,4 @@
+use crate::learners::check_common;
 use crate::rollout::integrate;
 use crate::DifferentialDrive;
 use drive_traits::{FitError, Input, Learner, MotionModel, Pose, StartState, WindowSet};
@@ -42,6 +43,9 @@ impl MotionModel for NaiveModel {
     }
     fn dt(&self) -> f64 {
         self.dt
+    }
+    fn check(&self) -> Result<(), String> {
+        check_common(self.dt, &self.vehicle)
     }
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
         let v: Vec<_> = commands.iter().map(|u| self.vehicle.eq4(u)).collect();

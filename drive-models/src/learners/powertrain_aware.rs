@@ -1,3 +1,4 @@
+use crate::learners::check_common;
 use crate::powertrain::Fopdt;
 use crate::rollout::integrate;
 use crate::DifferentialDrive;
@@ -45,6 +46,10 @@ impl MotionModel for PowertrainAwareModel {
     }
     fn dt(&self) -> f64 {
         self.dt
+    }
+    fn check(&self) -> Result<(), String> {
+        check_common(self.dt, &self.vehicle)?;
+        self.powertrain.check()
     }
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
         let wheels = self.powertrain.predict(&start.input, commands);

@@ -1,6 +1,7 @@
 use crate::blr::{BlrPosterior, Prior};
+use crate::learners::check_common;
 use crate::powertrain::Fopdt;
-use crate::rollout::{integrate, integrate_with_covariance};
+use crate::rollout::{integrate_with_covariance, Integrator};
 use crate::velocity::BodyVelocityEstimator;
 use crate::DifferentialDrive;
 use drive_traits::{
@@ -159,38 +160,56 @@ impl<P: PowertrainLearner> Learner for SlipBlr<P> {
     }
 }
 
+/// The slip posterior means in fixed-size form, read once per rollout.
+#[derive(Debug, Clone, Copy)]
+struct SlipWeights {
+    x: f64,
+    y: f64,
+    yaw: [f64; 3],
+}
+
 impl SlipBlrModel {
-    /// Body velocities `v = f - g` (eq. 2) along the commands, and optionally their variances.
-    fn body_velocities(
-        &self,
-        start: &StartState,
-        commands: &[Input],
-        variances: Option<&mut Vec<BodyVelocity>>,
-    ) -> Vec<BodyVelocity> {
-        let wheels = self.powertrain.predict(&start.input, commands);
-        let mut out = Vec::with_capacity(wheels.len());
-        let mut var_out = variances;
-        if let Some(v) = var_out.as_deref_mut() {
-            v.clear();
+    /// The posterior means. The dimensions (1, 1, 3) hold by construction in `fit` and are
+    /// checked by [`MotionModel::check`] for loaded files; a missing weight reads as NaN so
+    /// that a malformed model can never predict plausible numbers.
+    fn weights(&self) -> SlipWeights {
+        let at = |m: &[f64], i: usize| m.get(i).copied().unwrap_or(f64::NAN);
+        SlipWeights {
+            x: at(&self.slip_x.mean, 0),
+            y: at(&self.slip_y.mean, 0),
+            yaw: [
+                at(&self.slip_yaw.mean, 0),
+                at(&self.slip_yaw.mean, 1),
+                at(&self.slip_yaw.mean, 2),
+            ],
         }
-        for u in &wheels {
-            let f = self.vehicle.eq4(u);
-            let s = slip_inputs(&f);
-            let g = BodyVelocity::new(
-                self.slip_x.predict_mean(&s.x),
-                self.slip_y.predict_mean(&s.y),
-                self.slip_yaw.predict_mean(&s.yaw),
-            );
-            out.push(f - g);
-            if let Some(v) = var_out.as_deref_mut() {
-                v.push(BodyVelocity::new(
-                    self.slip_x.predictive_variance(&s.x),
-                    self.slip_y.predictive_variance(&s.y),
-                    self.slip_yaw.predictive_variance(&s.yaw),
-                ));
+    }
+
+    /// Body velocity `v = f - g` (eq. 2) at predicted wheel velocities `u`, with the slip
+    /// `g` the posterior mean of eq. 7, and the slip inputs it used.
+    #[inline]
+    fn body_velocity(&self, w: &SlipWeights, u: &Input) -> (BodyVelocity, SlipInputs) {
+        let f = self.vehicle.eq4(u);
+        let s = slip_inputs(&f);
+        let g = BodyVelocity::new(
+            w.x * s.x[0],
+            w.y * s.y[0],
+            w.yaw[0] * s.yaw[0] + w.yaw[1] * s.yaw[1] + w.yaw[2] * s.yaw[2],
+        );
+        (f - g, s)
+    }
+
+    /// Rolls out predicted wheel velocities into `out` (one pose per wheel sample).
+    #[inline]
+    fn rollout_into(&self, w: &SlipWeights, start: &Pose, wheels: &[Input], out: &mut [Pose]) {
+        let mut it = Integrator::new(start, self.dt);
+        let n = out.len();
+        for (k, (slot, u)) in out.iter_mut().zip(wheels).enumerate() {
+            *slot = it.pose();
+            if k + 1 < n {
+                it.step(&self.body_velocity(w, u).0);
             }
         }
-        out
     }
 }
 
@@ -202,10 +221,39 @@ impl MotionModel for SlipBlrModel {
     fn dt(&self) -> f64 {
         self.dt
     }
-    fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
-        let v = self.body_velocities(start, commands, None);
-        integrate(&start.pose, &v, self.dt, poses);
+    fn check(&self) -> Result<(), String> {
+        check_common(self.dt, &self.vehicle)?;
+        self.powertrain.check()?;
+        self.slip_x.check(1, "slip_x")?;
+        self.slip_y.check(1, "slip_y")?;
+        self.slip_yaw.check(3, "slip_yaw")
     }
+    fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
+        let wheels = self.powertrain.predict(&start.input, commands);
+        poses.clear();
+        poses.resize(commands.len(), Pose::zeros());
+        self.rollout_into(&self.weights(), &start.pose, &wheels, poses);
+    }
+
+    fn predict_batch_into(
+        &self,
+        starts: &[StartState],
+        commands: &[Input],
+        horizon: usize,
+        poses: &mut [Pose],
+    ) -> Result<(), MotionError> {
+        MotionError::check_batch(starts.len(), horizon, commands.len(), poses.len())?;
+        let weights = self.weights();
+        let mut wheels = Vec::with_capacity(horizon);
+        for (i, start) in starts.iter().enumerate() {
+            let range = i * horizon..(i + 1) * horizon;
+            self.powertrain
+                .predict_into(&start.input, &commands[range.clone()], &mut wheels);
+            self.rollout_into(&weights, &start.pose, &wheels, &mut poses[range]);
+        }
+        Ok(())
+    }
+
     fn predict_with_covariance_into(
         &self,
         start: &StartState,
@@ -213,8 +261,19 @@ impl MotionModel for SlipBlrModel {
         poses: &mut Vec<Pose>,
         covariances: &mut Vec<PoseCovariance>,
     ) -> Result<(), MotionError> {
-        let mut var = Vec::new();
-        let v = self.body_velocities(start, commands, Some(&mut var));
+        let wheels = self.powertrain.predict(&start.input, commands);
+        let mut v = Vec::with_capacity(wheels.len());
+        let mut var = Vec::with_capacity(wheels.len());
+        let weights = self.weights();
+        for u in &wheels {
+            let (vel, s) = self.body_velocity(&weights, u);
+            v.push(vel);
+            var.push(BodyVelocity::new(
+                self.slip_x.predictive_variance(&s.x),
+                self.slip_y.predictive_variance(&s.y),
+                self.slip_yaw.predictive_variance(&s.yaw),
+            ));
+        }
         integrate_with_covariance(&start.pose, &v, &var, self.dt, poses, covariances);
         Ok(())
     }

@@ -30,10 +30,13 @@ pub struct SideResponse {
 struct Discrete {
     /// Whole samples of delay.
     m: usize,
-    /// exp(-phi / tau_c)
-    e_a: f64,
-    /// exp(-(dt - phi) / tau_c)
-    e_b: f64,
+    /// Weight of the current velocity: exp(-dt / tau_c) = e_a e_b, with
+    /// e_a = exp(-phi / tau_c) and e_b = exp(-(dt - phi) / tau_c).
+    own: f64,
+    /// Weight of the command delayed by m + 1 samples: (1 - e_a) e_b.
+    older: f64,
+    /// Weight of the command delayed by m samples: 1 - e_b.
+    newer: f64,
 }
 
 impl SideResponse {
@@ -42,38 +45,53 @@ impl SideResponse {
         // Guard the floor against representation error (0.1 / 0.05 = 2.0000000000000004).
         let m = (steps + 1e-9).floor().max(0.0);
         let phi = (self.delay - m * dt).clamp(0.0, dt);
+        let e_a = (-phi / self.time_constant).exp();
+        let e_b = (-(dt - phi) / self.time_constant).exp();
         Discrete {
             m: m as usize,
-            e_a: (-phi / self.time_constant).exp(),
-            e_b: (-(dt - phi) / self.time_constant).exp(),
+            own: e_a * e_b,
+            older: (1.0 - e_a) * e_b,
+            newer: 1.0 - e_b,
         }
     }
 }
 
-impl Discrete {
-    /// Response of one side. `command(i)` is the (saturated) command at sample i.
-    #[inline]
-    fn run(
-        &self,
-        initial: f64,
-        n: usize,
-        command: impl Fn(usize) -> f64,
-        mut out: impl FnMut(usize, f64),
-    ) {
-        if n == 0 {
-            return;
-        }
-        let u = |i: isize| if i < 0 { initial } else { command(i as usize) };
-        let m = self.m as isize;
-        let mut w = initial;
-        out(0, w);
-        for k in 1..n {
-            let j = (k - 1) as isize;
-            let ua = u(j - m - 1);
-            let ub = u(j - m);
-            let w1 = ua + (w - ua) * self.e_a;
-            w = ub + (w1 - ub) * self.e_b;
-            out(k, w);
+/// Runs `L` independent responses in lock step (left and right sides, or several windows):
+/// lane `l` follows `d[l]` from `initial[l]` under `command(l, i)` (the saturated command of
+/// lane l at sample i; before the window the command is the lane's initial velocity) and
+/// reports `out(l, k, w)`. Interleaving independent lanes lets the CPU overlap their
+/// dependency chains; each lane's arithmetic is the same as on its own.
+#[inline]
+fn run_lanes<const L: usize>(
+    d: &[Discrete; L],
+    initial: [f64; L],
+    n: usize,
+    command: impl Fn(usize, usize) -> f64,
+    mut out: impl FnMut(usize, usize, f64),
+) {
+    if n == 0 {
+        return;
+    }
+    let mut w = initial;
+    // Step j moves from sample j to j + 1 under the commands delayed by m + 1 samples
+    // (`older`) then m samples (`newer`); the next step's older one is this step's newer.
+    let mut older = initial;
+    for (l, w) in w.iter().enumerate() {
+        out(l, 0, *w);
+    }
+    for k in 1..n {
+        let j = k - 1;
+        for l in 0..L {
+            let newer = if j >= d[l].m {
+                command(l, j - d[l].m)
+            } else {
+                initial[l]
+            };
+            // The two exact sub-steps (towards `older` for phi, then towards `newer` for
+            // dt - phi) combined: only one multiply-add stays on the dependency chain.
+            w[l] = d[l].own * w[l] + (d[l].older * older[l] + d[l].newer * newer);
+            out(l, k, w[l]);
+            older[l] = newer;
         }
     }
 }
@@ -108,22 +126,61 @@ pub struct FopdtPowertrain {
 #[typetag::serde(name = "fopdt")]
 impl Powertrain for FopdtPowertrain {
     fn predict_into(&self, initial: &Input, commands: &[Input], predicted: &mut Vec<Input>) {
-        let n = commands.len();
+        // The recursion of `run_lanes`, written out for the two sides (the hot path of
+        // every rollout).
         predicted.clear();
-        predicted.resize(n, Input::zeros());
+        predicted.reserve(commands.len());
+        if commands.is_empty() {
+            return;
+        }
         let (lo, hi) = (self.limits.min, self.limits.max);
-        self.left.discrete(self.dt).run(
-            initial.x,
-            n,
-            |i| commands[i].x.clamp(lo.x, hi.x),
-            |k, w| predicted[k].x = w,
-        );
-        self.right.discrete(self.dt).run(
-            initial.y,
-            n,
-            |i| commands[i].y.clamp(lo.y, hi.y),
-            |k, w| predicted[k].y = w,
-        );
+        let (l, r) = (self.left.discrete(self.dt), self.right.discrete(self.dt));
+        let mut w = *initial;
+        let mut older = *initial;
+        predicted.push(w);
+        for j in 0..commands.len() - 1 {
+            let newer_l = if j >= l.m {
+                commands[j - l.m].x.clamp(lo.x, hi.x)
+            } else {
+                initial.x
+            };
+            let newer_r = if j >= r.m {
+                commands[j - r.m].y.clamp(lo.y, hi.y)
+            } else {
+                initial.y
+            };
+            w.x = l.own * w.x + (l.older * older.x + l.newer * newer_l);
+            w.y = r.own * w.y + (r.older * older.y + r.newer * newer_r);
+            older = Input::new(newer_l, newer_r);
+            predicted.push(w);
+        }
+    }
+
+    fn check(&self) -> Result<(), String> {
+        for (name, r) in [("left", &self.left), ("right", &self.right)] {
+            if !(r.time_constant.is_finite() && r.time_constant > 0.0) {
+                return Err(format!(
+                    "powertrain {name} time constant {} is not a positive number of seconds",
+                    r.time_constant
+                ));
+            }
+            if !(r.delay.is_finite() && r.delay >= 0.0) {
+                return Err(format!(
+                    "powertrain {name} delay {} is not a non-negative number of seconds",
+                    r.delay
+                ));
+            }
+        }
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(format!(
+                "powertrain dt = {} is not a positive number of seconds",
+                self.dt
+            ));
+        }
+        if drive_traits::InputSpace::new(self.limits.min, self.limits.max).is_none() {
+            return Err("powertrain limits are not a valid box (finite, min <= max)".into());
+        }
+        Ok(())
     }
 
     fn clone_box(&self) -> Box<dyn Powertrain> {
@@ -155,10 +212,48 @@ impl Default for Fopdt {
     }
 }
 
+/// Windows fitted together: transient windows of equal length packed four to a group,
+/// sample-major, so that one cost evaluation runs four independent responses in lock step.
+/// Unused lanes are zero (a response from rest under a zero command stays at zero and adds
+/// nothing to the error).
+struct LaneGroup {
+    start: [f64; 4],
+    command: Vec<[f64; 4]>,
+    encoder: Vec<[f64; 4]>,
+}
+
+impl LaneGroup {
+    /// Packs (start velocity, saturated commands, encoder velocities) per window.
+    fn pack(mut windows: Vec<(f64, Vec<f64>, Vec<f64>)>) -> Vec<LaneGroup> {
+        windows.sort_by_key(|w| w.1.len());
+        let mut groups: Vec<LaneGroup> = Vec::new();
+        let mut lane = 4;
+        for (start, command, encoder) in windows {
+            let n = command.len();
+            if lane == 4 || groups.last().is_some_and(|g| g.command.len() != n) {
+                groups.push(LaneGroup {
+                    start: [0.0; 4],
+                    command: vec![[0.0; 4]; n],
+                    encoder: vec![[0.0; 4]; n],
+                });
+                lane = 0;
+            }
+            // A group was pushed just above when none was open.
+            let g = groups.last_mut().expect("an open group");
+            g.start[lane] = start;
+            for k in 0..n {
+                g.command[k][lane] = command[k];
+                g.encoder[k][lane] = encoder[k];
+            }
+            lane += 1;
+        }
+        groups
+    }
+}
+
 /// One side's fitting problem: a plain struct, as argmin wants it.
-struct SideFit<'a> {
-    /// (start velocity, saturated commands, encoder velocities) per transient window.
-    windows: Vec<(f64, Vec<f64>, &'a [Input], usize)>,
+struct SideFit {
+    groups: Vec<LaneGroup>,
     dt: f64,
     min_tc: f64,
     max_tc: f64,
@@ -166,7 +261,7 @@ struct SideFit<'a> {
     samples: f64,
 }
 
-impl SideFit<'_> {
+impl SideFit {
     fn response(&self, p: &[f64]) -> (SideResponse, f64) {
         let tc = p[0].exp();
         let td = p[1];
@@ -185,20 +280,22 @@ impl SideFit<'_> {
 
     fn mse(&self, r: &SideResponse) -> f64 {
         let d = r.discrete(self.dt);
+        let lanes = [d; 4];
         let mut sse = 0.0;
-        for (w0, cmd, enc, side) in &self.windows {
-            d.run(
-                *w0,
-                cmd.len(),
-                |i| cmd[i],
-                |k, w| sse += (w - enc[k][*side]).powi(2),
+        for g in &self.groups {
+            run_lanes(
+                &lanes,
+                g.start,
+                g.command.len(),
+                |l, i| g.command[i][l],
+                |l, k, w| sse += (w - g.encoder[k][l]).powi(2),
             );
         }
         sse / self.samples
     }
 }
 
-impl CostFunction for SideFit<'_> {
+impl CostFunction for SideFit {
     type Param = Vec<f64>;
     type Output = f64;
     fn cost(&self, p: &Self::Param) -> Result<f64, argmin::core::Error> {
@@ -246,8 +343,7 @@ impl Fopdt {
                         .iter()
                         .map(|c| c[side].clamp(lo, hi))
                         .collect::<Vec<_>>(),
-                    w.encoder.as_slice(),
-                    side,
+                    w.encoder.iter().map(|e| e[side]).collect::<Vec<_>>(),
                 )
             })
             .collect();
@@ -255,9 +351,10 @@ impl Fopdt {
             return Err(FitError::NoTransientWindow);
         }
         let samples: usize = windows.iter().map(|w| w.1.len()).sum();
+        let groups = LaneGroup::pack(windows);
         let duration = train.robot.window_len as f64 * dt;
         let problem = SideFit {
-            windows,
+            groups,
             dt,
             min_tc: dt / 20.0,
             max_tc: self.max_time_constant,
@@ -379,7 +476,13 @@ mod tests {
         };
         let dt = 0.05;
         let mut out = vec![0.0; 40];
-        r.discrete(dt).run(1.0, 40, |_| 5.0, |k, w| out[k] = w);
+        run_lanes(
+            &[r.discrete(dt)],
+            [1.0],
+            40,
+            |_, _| 5.0,
+            |_, k, w| out[k] = w,
+        );
         for (k, w) in out.iter().enumerate() {
             let t = k as f64 * dt;
             let expected = if t < r.delay {
@@ -392,13 +495,50 @@ mod tests {
     }
 
     #[test]
+    fn two_side_prediction_equals_the_lane_recursion() {
+        let pt = FopdtPowertrain {
+            left: SideResponse {
+                time_constant: 0.3,
+                delay: 0.17,
+            },
+            right: SideResponse {
+                time_constant: 0.9,
+                delay: 0.0,
+            },
+            limits: InputSpace::new(Input::new(-3.0, -2.0), Input::new(3.0, 2.5)).unwrap(),
+            dt: 0.05,
+        };
+        let cmds: Vec<Input> = (0..40)
+            .map(|k| Input::new((k as f64 * 0.7).sin() * 5.0, (k as f64 * 0.3).cos() * 4.0))
+            .collect();
+        let start = Input::new(0.4, -0.2);
+        let got = pt.predict(&start, &cmds);
+        let mut want = vec![Input::zeros(); 40];
+        let d = [pt.left.discrete(pt.dt), pt.right.discrete(pt.dt)];
+        run_lanes(
+            &d,
+            [start.x, start.y],
+            40,
+            |l, i| cmds[i][l].clamp(pt.limits.min[l], pt.limits.max[l]),
+            |l, k, w| want[k][l] = w,
+        );
+        assert_eq!(got, want);
+    }
+
+    #[test]
     fn zero_delay_first_order_lag() {
         let r = SideResponse {
             time_constant: 0.1,
             delay: 0.0,
         };
         let mut out = [0.0; 3];
-        r.discrete(0.1).run(0.0, 3, |_| 1.0, |k, w| out[k] = w);
+        run_lanes(
+            &[r.discrete(0.1)],
+            [0.0],
+            3,
+            |_, _| 1.0,
+            |_, k, w| out[k] = w,
+        );
         let e = (-1.0f64).exp();
         assert!((out[1] - (1.0 - e)).abs() < 1e-15);
         assert!((out[2] - (1.0 - e * e)).abs() < 1e-15);

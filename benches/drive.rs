@@ -1,0 +1,124 @@
+//! Criterion benchmarks of the issue-5 targets: load, train, eval, predict, batch.
+//!
+//! `cargo bench --bench drive`; one core: `RAYON_NUM_THREADS=1` is not needed, the
+//! single-core cases run on the calling thread. See BENCHMARKS.md.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use drive::eval::{compare, evaluate_model, split_by_interval};
+use drive::models::batch::predict_batch_parallel;
+use drive::models::learners::SlipBlr;
+use drive::models::powertrain::Fopdt;
+use drive::models::DifferentialDrive;
+use drive::traits::{Input, Learner, MotionModel, Pose, StartState};
+use std::hint::black_box;
+
+fn load(c: &mut Criterion) {
+    c.bench_function("load/bundled husky (gunzip + parse)", |b| {
+        b.iter(|| drive::bundled::husky().unwrap())
+    });
+}
+
+fn train(c: &mut Criterion) {
+    let data = drive::bundled::husky().unwrap();
+    let (train, _) = split_by_interval(&data, 0.5).unwrap();
+    c.bench_function(
+        "train/slip-blr (powertrain both sides + BLR), husky training half",
+        |b| b.iter(|| SlipBlr::<Fopdt>::default().fit(black_box(&train)).unwrap()),
+    );
+    c.bench_function("train/powertrain only", |b| {
+        b.iter(|| {
+            drive::traits::PowertrainLearner::fit(&Fopdt::default(), black_box(&train)).unwrap()
+        })
+    });
+}
+
+fn eval(c: &mut Criterion) {
+    let data = drive::bundled::husky().unwrap();
+    let names = ["naive", "powertrain", "slip-blr", "acc-blr"];
+    c.bench_function("eval/4 models, fit + score, husky (excluding load)", |b| {
+        b.iter(|| compare(black_box(&data), 0.5, &names).unwrap())
+    });
+    let (train, eval) = split_by_interval(&data, 0.5).unwrap();
+    let model = SlipBlr::<Fopdt>::default().fit(&train).unwrap();
+    c.bench_function("eval/score slip-blr on 303 windows", |b| {
+        b.iter(|| evaluate_model(black_box(&model), &eval))
+    });
+}
+
+/// A fitted slip-BLR model and n command sequences of 40 steps from the evaluation windows.
+fn fixture(n: usize) -> (Box<dyn MotionModel>, Vec<StartState>, Vec<Input>) {
+    let data = drive::bundled::husky().unwrap();
+    let (train, eval) = split_by_interval(&data, 0.5).unwrap();
+    let model = SlipBlr::<Fopdt>::default().fit(&train).unwrap();
+    let vehicle = DifferentialDrive::from_robot(&data.robot);
+    let mut starts = Vec::with_capacity(n);
+    let mut commands = Vec::with_capacity(n * 40);
+    for i in 0..n {
+        let w = eval.windows[i % eval.len()];
+        starts.push(w.start_state(&vehicle));
+        // Perturb so that no two sequences are the same.
+        let e = (i as f64 * 0.618).fract() - 0.5;
+        commands.extend(w.command.iter().map(|u| u + Input::new(e, -e)));
+    }
+    (Box::new(model), starts, commands)
+}
+
+fn predict(c: &mut Criterion) {
+    let (model, starts, commands) = fixture(1);
+    let mut poses = Vec::with_capacity(40);
+    c.bench_function("predict/slip-blr 40-step mean rollout", |b| {
+        b.iter(|| model.predict_into(black_box(&starts[0]), black_box(&commands), &mut poses))
+    });
+    let mut covs = Vec::with_capacity(40);
+    c.bench_function("predict/slip-blr 40-step rollout with covariance", |b| {
+        b.iter(|| {
+            model
+                .predict_with_covariance_into(
+                    black_box(&starts[0]),
+                    black_box(&commands),
+                    &mut poses,
+                    &mut covs,
+                )
+                .unwrap()
+        })
+    });
+}
+
+fn batch(c: &mut Criterion) {
+    let (model, starts, commands) = fixture(10_000);
+    let mut group = c.benchmark_group("batch");
+    group.sample_size(30);
+    // One caller-provided buffer, reused (as a controller would), so page faults of a fresh
+    // 9.6 MB allocation are not timed.
+    let mut poses = vec![Pose::zeros(); commands.len()];
+    group.bench_function("slip-blr 10000 x 40 steps, one core", |b| {
+        b.iter(|| {
+            model
+                .predict_batch_into(&starts, &commands, 40, black_box(&mut poses))
+                .unwrap()
+        })
+    });
+    group.bench_function(
+        format!(
+            "slip-blr 10000 x 40 steps, all cores ({})",
+            rayon::current_num_threads()
+        ),
+        |b| {
+            b.iter(|| {
+                predict_batch_parallel(
+                    model.as_ref(),
+                    &starts,
+                    &commands,
+                    40,
+                    black_box(&mut poses),
+                    256,
+                )
+                .unwrap()
+            })
+        },
+    );
+    group.finish();
+}
+
+criterion_group!(benches, load, train, eval, predict, batch);
+criterion_main!(benches);
