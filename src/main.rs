@@ -69,6 +69,24 @@ enum Command {
         #[arg(long)]
         split: Option<f64>,
     },
+    /// Prediction error against training driving time, and the convergence time (paper
+    /// Fig. 7): train on the first 1, 2, 3, ... intervals, evaluate on the evaluation part.
+    Converge {
+        #[command(flatten)]
+        data: DataArgs,
+        /// Fraction of the intervals whose prefixes are trained on; the rest evaluates.
+        #[arg(long, default_value_t = 0.5)]
+        split: f64,
+        /// Model whose convergence is analysed.
+        #[arg(long, default_value = "slip-blr")]
+        model: String,
+        /// Gradient thresholds m/s,rad/s of the convergence rule.
+        #[arg(long, value_parser = parse_pair, default_value = "0.01,0.01")]
+        thresholds: [f64; 2],
+        /// Print one JSON object on stdout instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Predict poses from a saved model and a command sequence.
     Predict {
         /// Model file written by `drive train`.
@@ -165,6 +183,13 @@ fn main() -> ExitCode {
             out,
             split,
         } => run_train(&data, &model, &out, split),
+        Command::Converge {
+            data,
+            split,
+            model,
+            thresholds,
+            json,
+        } => run_converge(&data, split, &model, thresholds, json),
         Command::Predict {
             model,
             commands,
@@ -293,6 +318,65 @@ fn table(cmp: &Comparison) -> String {
     section(&mut s, "transient windows", &|m| m.transient);
     section(&mut s, "steady windows", &|m| m.steady);
     s
+}
+
+fn run_converge(
+    data: &DataArgs,
+    split: f64,
+    name: &str,
+    thresholds: [f64; 2],
+    json: bool,
+) -> Result<()> {
+    if !MODEL_NAMES.contains(&name) {
+        bail!(
+            "unknown model '{name}' (the models are: {})",
+            MODEL_NAMES.join(", ")
+        );
+    }
+    if thresholds.iter().any(|t| *t <= 0.0) {
+        bail!(
+            "--thresholds must be positive, got {},{}",
+            thresholds[0],
+            thresholds[1]
+        );
+    }
+    let dataset = load(data)?;
+    // The name was checked against the registry above.
+    let fit =
+        |set: &WindowSet<'_>| drive::models::fit_named(name, set).expect("a registered model");
+    let c = drive::eval::convergence(&dataset, split, thresholds, fit)?;
+    if json {
+        println!("{}", serde_json::to_string(&c)?);
+        return Ok(());
+    }
+    println!("Convergence of {name} on {} (paper Fig. 7): training on the first intervals, {} evaluation windows", dataset.robot.name, c.eval_windows);
+    println!(
+        "{:>10} {:>10} {:>18} {:>18}",
+        "time [s]", "intervals", "transl. med. [m]", "rot. med. [rad]"
+    );
+    for p in &c.curve {
+        println!(
+            "{:>10.1} {:>10} {:>18.4} {:>18.4}",
+            p.training_time_s, p.intervals, p.translational_median_m, p.rotational_median_rad
+        );
+    }
+    if !c.skipped.is_empty() {
+        let first = &c.skipped[0];
+        println!(
+            "not fitted with {} of the amounts of data (e.g. {} intervals: {})",
+            c.skipped.len(),
+            first.intervals,
+            first.reason
+        );
+    }
+    match c.convergence_time_s {
+        Some(t) => println!(
+            "convergence time: {t:.1} s (every later gradient under {} m/s and {} rad/s)",
+            thresholds[0], thresholds[1]
+        ),
+        None => println!("convergence time: none (the curve never meets the rule)"),
+    }
+    Ok(())
 }
 
 fn run_train(data: &DataArgs, name: &str, out: &Path, split: Option<f64>) -> Result<()> {

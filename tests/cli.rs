@@ -299,3 +299,40 @@ fn other_user_errors() {
         assert!(err.contains(needle), "{err}");
     }
 }
+
+#[test]
+fn converge_on_the_bundled_data_meets_the_papers_rule_within_a_minute() {
+    let v: serde_json::Value = serde_json::from_str(&ok(&["converge", "--json"])).unwrap();
+    let t = v["convergence_time_s"]
+        .as_f64()
+        .expect("the curve converges");
+    assert!(t <= 60.0, "convergence time {t}");
+    let curve = v["curve"].as_array().unwrap();
+    // 100 training intervals of 6 s, each evaluated on the same 303 windows.
+    assert_eq!(curve.len() + v["skipped"].as_array().unwrap().len(), 100);
+    assert_eq!(v["eval_windows"], 303);
+    let last = curve.last().unwrap();
+    assert_eq!(last["training_time_s"], 600.0);
+    // The last point is the full training half: the same numbers as `drive eval`.
+    let e: serde_json::Value =
+        serde_json::from_str(&ok(&["eval", "--json", "--models", "slip-blr"])).unwrap();
+    assert_eq!(
+        last["translational_median_m"],
+        e["models"][0]["translational_median_m"]
+    );
+    // From the convergence time on, every gradient is under the thresholds.
+    let pts: Vec<(f64, f64, f64)> = curve
+        .iter()
+        .map(|p| {
+            (
+                f(&p["training_time_s"]),
+                f(&p["translational_median_m"]),
+                f(&p["rotational_median_rad"]),
+            )
+        })
+        .collect();
+    for w in pts.windows(2).filter(|w| w[0].0 >= t) {
+        let dt = w[1].0 - w[0].0;
+        assert!(((w[1].1 - w[0].1) / dt).abs() < 0.01 && ((w[1].2 - w[0].2) / dt).abs() < 0.01);
+    }
+}

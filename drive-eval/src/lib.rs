@@ -15,12 +15,14 @@
 
 mod compare;
 mod comparison;
+mod convergence;
 mod metric;
 mod split;
 mod stats;
 
 pub use compare::{evaluate_model, ModelReport, WindowErrors};
 pub use comparison::{compare, CompareError, Comparison, ErrorSummary, ModelResult, PhaseSummary};
+pub use convergence::{convergence, convergence_time, Convergence, ConvergencePoint, SkippedPoint};
 pub use metric::{mrmse, Mrmse};
 pub use split::{split_by_interval, SplitError};
 pub use stats::{improvement_percent, quantile, Summary};
