@@ -87,6 +87,25 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// The DRIVE command schedule: sampled inputs held for 6 s intervals (one transient and
+    /// two steady 2 s windows) within the robot's acceleration limits.
+    Protocol {
+        /// A preset (husky, hd2, warthog) or a robot TOML file.
+        #[arg(long)]
+        robot: String,
+        /// Input sampler: uniform (DRIVE), grid, linear, angular.
+        #[arg(long, default_value = "uniform")]
+        sampler: String,
+        /// Number of 6 s intervals.
+        #[arg(long)]
+        intervals: usize,
+        /// Seed of the sampler.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Output CSV: t,interval,phase,cmd_left,cmd_right.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Predict poses from a saved model and a command sequence.
     Predict {
         /// Model file written by `drive train`.
@@ -183,6 +202,13 @@ fn main() -> ExitCode {
             out,
             split,
         } => run_train(&data, &model, &out, split),
+        Command::Protocol {
+            robot,
+            sampler,
+            intervals,
+            seed,
+            out,
+        } => run_protocol(&robot, &sampler, intervals, seed, &out),
         Command::Converge {
             data,
             split,
@@ -318,6 +344,32 @@ fn table(cmp: &Comparison) -> String {
     section(&mut s, "transient windows", &|m| m.transient);
     section(&mut s, "steady windows", &|m| m.steady);
     s
+}
+
+fn run_protocol(robot: &str, sampler: &str, intervals: usize, seed: u64, out: &Path) -> Result<()> {
+    use drive::samplers::{sampler_named, schedule, schedule_csv, RobotSpec};
+    if intervals == 0 {
+        bail!("--intervals must be at least 1");
+    }
+    let spec = RobotSpec::load(robot)?;
+    let vehicle = || {
+        Box::new(DifferentialDrive::new(spec.wheel_radius, spec.baseline))
+            as Box<dyn drive::traits::CommandModel>
+    };
+    let mut s = sampler_named(sampler, &spec, vehicle, seed)?;
+    let rows = schedule(&spec, vehicle().as_ref(), s.as_mut(), intervals);
+    std::fs::write(out, schedule_csv(&rows))
+        .with_context(|| format!("writing {}", out.display()))?;
+    eprintln!(
+        "{} commands ({} intervals, {:.0} s at {} Hz) for {} with the {sampler} sampler; saved to {}",
+        rows.len(),
+        intervals,
+        rows.len() as f64 / spec.rate_hz,
+        spec.rate_hz,
+        spec.name,
+        out.display()
+    );
+    Ok(())
 }
 
 fn run_converge(

@@ -336,3 +336,33 @@ fn converge_on_the_bundled_data_meets_the_papers_rule_within_a_minute() {
         assert!(((w[1].1 - w[0].1) / dt).abs() < 0.01 && ((w[1].2 - w[0].2) / dt).abs() < 0.01);
     }
 }
+
+#[test]
+fn protocol_schedule_is_byte_identical_for_a_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let robot_file = path("mine.toml");
+    std::fs::write(
+        &robot_file,
+        "name = 'mine'\nmass_kg = 30\nwheel_radius = 0.1\nbaseline = 0.4\nmax_speed = 1.5\nmax_linear_acceleration = 1.0\nmax_angular_acceleration = 3.0\nrate_hz = 10\n",
+    )
+    .unwrap();
+    for robot in ["husky", "hd2", "warthog", robot_file.as_str()] {
+        for sampler in ["uniform", "grid", "linear", "angular"] {
+            let (a, b, c) = (path("a.csv"), path("b.csv"), path("c.csv"));
+            ok(&["protocol", "--robot", robot, "--sampler", sampler, "--intervals", "5", "--seed", "3", "--out", &a]);
+            ok(&["protocol", "--robot", robot, "--sampler", sampler, "--intervals", "5", "--seed", "3", "--out", &b]);
+            ok(&["protocol", "--robot", robot, "--sampler", sampler, "--intervals", "5", "--seed", "4", "--out", &c]);
+            let (ta, tb, tc) = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), std::fs::read(&c).unwrap());
+            assert_eq!(ta, tb, "{robot} {sampler}");
+            assert_ne!(ta, tc, "{robot} {sampler}");
+            let text = String::from_utf8(ta).unwrap();
+            let rate = if robot == robot_file { 10 } else { 20 };
+            assert_eq!(text.lines().count(), 1 + 5 * 6 * rate, "{robot} {sampler}");
+            assert!(text.starts_with("t,interval,phase,cmd_left,cmd_right\n0,0,transient,"));
+        }
+    }
+    assert!(user_error(&["protocol", "--robot", "rover", "--intervals", "2", "--out", &path("x.csv")]).contains("unknown robot"));
+    std::fs::write(&robot_file, "name = 'bad'\n").unwrap();
+    assert!(user_error(&["protocol", "--robot", &robot_file, "--intervals", "2", "--out", &path("x.csv")]).contains("mine.toml"));
+}

@@ -1,9 +1,51 @@
-//! Input-space samplers of the DRIVE protocol (Sec. III-A): each draws the input held for
-//! the next 6 s training interval. All are seeded and deterministic: a seed gives the same
+//! The DRIVE protocol's inputs (Sec. III-A): robot descriptions, input-space samplers and
+//! the command schedule. All samplers are seeded and deterministic: a seed gives the same
 //! sequence on every platform (the generator is xoshiro256++, a fixed algorithm).
 
 #![warn(missing_docs)]
 
+mod others;
+mod robot;
+mod schedule;
 mod uniform;
 
-pub use uniform::{SamplerError, UniformSampler};
+pub use others::{AngularSampler, GridSampler, LinearSampler};
+pub use robot::{RobotError, RobotSpec};
+pub use schedule::{
+    limit_acceleration, schedule, schedule_csv, window_len, ScheduledCommand, WINDOWS_PER_INTERVAL,
+    WINDOW_S,
+};
+pub use uniform::{BodyLimits, SamplerError, UniformSampler};
+
+use drive_traits::{CommandModel, InputSampler};
+
+/// The names of the samplers, for the command line.
+pub const SAMPLER_NAMES: [&str; 4] = ["uniform", "grid", "linear", "angular"];
+
+/// Builds the sampler registered under `name` for a robot over its input space; `vehicle`
+/// maps inputs to body velocities (and back). The one place a new sampler is registered.
+pub fn sampler_named(
+    name: &str,
+    robot: &RobotSpec,
+    vehicle: impl Fn() -> Box<dyn CommandModel>,
+    seed: u64,
+) -> Result<Box<dyn InputSampler>, SamplerError> {
+    let space = robot.input_space();
+    Ok(match name {
+        "uniform" => {
+            let s = UniformSampler::new(space, seed)?;
+            match (robot.controller_max_linear, robot.controller_max_angular) {
+                (None, None) => Box::new(s),
+                (lin, ang) => Box::new(s.with_body_limits(BodyLimits {
+                    vehicle: vehicle(),
+                    max_linear: lin.unwrap_or(f64::INFINITY),
+                    max_angular: ang.unwrap_or(f64::INFINITY),
+                })?),
+            }
+        }
+        "grid" => Box::new(GridSampler::new(space, 10, seed)?),
+        "linear" => Box::new(LinearSampler::new(space, vehicle(), seed)),
+        "angular" => Box::new(AngularSampler::new(space, vehicle(), seed)),
+        other => return Err(SamplerError::Unknown(other.to_string())),
+    })
+}

@@ -1,0 +1,189 @@
+//! The protocol's schedule: deterministic, structured as DRIVE intervals, within the
+//! acceleration limits; samplers behave as documented; robot files are validated.
+
+use drive_models::DifferentialDrive;
+use drive_samplers::{
+    sampler_named, schedule, schedule_csv, window_len, RobotError, RobotSpec, SAMPLER_NAMES,
+};
+use drive_traits::{CommandModel, Phase};
+
+fn vehicle(robot: &RobotSpec) -> impl Fn() -> Box<dyn CommandModel> + '_ {
+    move || {
+        Box::new(DifferentialDrive::new(robot.wheel_radius, robot.baseline))
+            as Box<dyn CommandModel>
+    }
+}
+
+fn make(
+    robot: &RobotSpec,
+    sampler: &str,
+    seed: u64,
+    intervals: usize,
+) -> Vec<drive_samplers::ScheduledCommand> {
+    let mut s = sampler_named(sampler, robot, vehicle(robot), seed).unwrap();
+    schedule(
+        robot,
+        &DifferentialDrive::new(robot.wheel_radius, robot.baseline),
+        s.as_mut(),
+        intervals,
+    )
+}
+
+#[test]
+fn same_seed_same_bytes_other_seed_other_schedule() {
+    for preset in ["husky", "hd2", "warthog"] {
+        let robot = RobotSpec::preset(preset).unwrap();
+        for name in SAMPLER_NAMES {
+            let a = schedule_csv(&make(&robot, name, 11, 8));
+            let b = schedule_csv(&make(&robot, name, 11, 8));
+            assert_eq!(a, b, "{preset} {name}");
+            assert_ne!(
+                a,
+                schedule_csv(&make(&robot, name, 12, 8)),
+                "{preset} {name}"
+            );
+        }
+    }
+}
+
+#[test]
+fn every_interval_is_one_transient_and_two_steady_windows() {
+    let robot = RobotSpec::preset("husky").unwrap();
+    let rows = make(&robot, "uniform", 3, 10);
+    let n = window_len(&robot);
+    assert_eq!(n, 40);
+    assert_eq!(rows.len(), 10 * 3 * n);
+    for (i, chunk) in rows.chunks(3 * n).enumerate() {
+        assert!(chunk
+            .iter()
+            .all(|r| r.interval == i && r.target == chunk[0].target));
+        assert!(chunk[..n].iter().all(|r| r.phase == Phase::Transient));
+        assert!(chunk[n..].iter().all(|r| r.phase == Phase::Steady));
+    }
+    for (k, r) in rows.iter().enumerate() {
+        assert!((r.t - k as f64 / 20.0).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn acceleration_limits_hold_and_targets_are_reached() {
+    for preset in ["husky", "warthog"] {
+        let robot = RobotSpec::preset(preset).unwrap();
+        let dd = DifferentialDrive::new(robot.wheel_radius, robot.baseline);
+        let rows = make(&robot, "uniform", 5, 20);
+        let dt = 1.0 / robot.rate_hz;
+        let mut prev = dd.body_velocity(&drive_traits::Input::zeros());
+        for r in &rows {
+            let f = dd.body_velocity(&r.command);
+            assert!(
+                (f.x - prev.x).abs() <= robot.max_linear_acceleration * dt + 1e-9,
+                "{preset}"
+            );
+            assert!(
+                (f.z - prev.z).abs() <= robot.max_angular_acceleration * dt + 1e-9,
+                "{preset}"
+            );
+            assert!(
+                robot.input_space().contains(&r.command) || (r.command - r.target).norm() < 1e-9
+            );
+            prev = f;
+        }
+        // By the end of each interval the command has reached its target.
+        let n = 3 * window_len(&robot);
+        for chunk in rows.chunks(n) {
+            assert!(
+                (chunk[n - 1].command - chunk[n - 1].target).norm() < 1e-9,
+                "{preset}"
+            );
+        }
+    }
+}
+
+#[test]
+fn uniform_respects_the_controller_limits_when_there_are_some() {
+    let mut robot = RobotSpec::preset("husky").unwrap();
+    robot.controller_max_linear = Some(0.5);
+    robot.controller_max_angular = Some(1.0);
+    let dd = DifferentialDrive::new(robot.wheel_radius, robot.baseline);
+    let mut s = sampler_named("uniform", &robot, vehicle(&robot), 9).unwrap();
+    for _ in 0..2000 {
+        let f = dd.body_velocity(&s.next_input());
+        assert!(f.x.abs() <= 0.5 && f.z.abs() <= 1.0);
+    }
+    robot.controller_max_linear = Some(1e-9);
+    robot.controller_max_angular = Some(1e-9);
+    assert!(sampler_named("uniform", &robot, vehicle(&robot), 9).is_err());
+}
+
+#[test]
+fn human_like_samplers_cover_what_they_say() {
+    let robot = RobotSpec::preset("husky").unwrap();
+    let dd = DifferentialDrive::new(robot.wheel_radius, robot.baseline);
+    let turn_in_place = 2.0 * robot.max_speed / robot.baseline;
+    let mut linear = sampler_named("linear", &robot, vehicle(&robot), 1).unwrap();
+    let body: Vec<_> = (0..2000)
+        .map(|_| dd.body_velocity(&linear.next_input()))
+        .collect();
+    let forward = body.iter().filter(|f| f.x > 0.0).count() as f64 / body.len() as f64;
+    assert!(forward > 0.85, "forward share {forward}");
+    assert!(body
+        .iter()
+        .all(|f| f.z.abs() <= 0.15 * turn_in_place + 1e-9));
+    let mut angular = sampler_named("angular", &robot, vehicle(&robot), 1).unwrap();
+    let body: Vec<_> = (0..2000)
+        .map(|_| dd.body_velocity(&angular.next_input()))
+        .collect();
+    assert!(body
+        .iter()
+        .all(|f| (f.x - 0.5 * robot.max_speed).abs() < 1e-9));
+    let spread = body.iter().map(|f| f.z).fold(0.0f64, |m, w| m.max(w.abs()));
+    assert!(spread > 0.45 * turn_in_place, "yaw-rate spread {spread}");
+}
+
+#[test]
+fn robot_files_are_validated() {
+    let good = "name = 'r'\nmass_kg = 30\nwheel_radius = 0.1\nbaseline = 0.4\nmax_speed = 1.5\nmax_linear_acceleration = 1.0\nmax_angular_acceleration = 3.0\n";
+    assert!(RobotSpec::from_toml("r.toml", good).is_ok());
+    let parse_errors = [
+        good.replace("mass_kg = 30\n", ""),
+        good.replace("baseline = 0.4", "baseline = 'wide'"),
+        format!("{good}colour = 'red'\n"),
+        "not = [toml".to_string(),
+    ];
+    for text in parse_errors {
+        let err = RobotSpec::from_toml("r.toml", &text).unwrap_err();
+        assert!(matches!(err, RobotError::Parse { .. }), "{err}");
+        assert!(err.to_string().starts_with("r.toml"), "{err}");
+    }
+    let invalid = [
+        (
+            good.replace("wheel_radius = 0.1", "wheel_radius = -0.1"),
+            "wheel_radius",
+        ),
+        (
+            good.replace("max_speed = 1.5", "max_speed = 0"),
+            "max_speed",
+        ),
+        (
+            format!("{good}wheel_limits = [3.0, -3.0]\n"),
+            "wheel_limits",
+        ),
+        (format!("{good}rate_hz = nan\n"), "rate_hz"),
+    ];
+    for (text, field) in invalid {
+        match RobotSpec::from_toml("r.toml", &text).unwrap_err() {
+            RobotError::Invalid { field: f, .. } => assert_eq!(f, field),
+            other => panic!("{field}: {other}"),
+        }
+    }
+    assert!(matches!(
+        RobotSpec::preset("rover"),
+        Err(RobotError::UnknownPreset(_))
+    ));
+    let hd2 = RobotSpec::preset("hd2").unwrap();
+    assert!(
+        hd2.tracked && hd2.wheel_radius == 0.116 && hd2.baseline == 0.5927 && hd2.mass_kg == 80.0
+    );
+    let warthog = RobotSpec::preset("warthog").unwrap();
+    assert!(warthog.max_speed == 5.0 && warthog.mass_kg == 470.0);
+}
