@@ -350,10 +350,50 @@ fn protocol_schedule_is_byte_identical_for_a_seed() {
     for robot in ["husky", "hd2", "warthog", robot_file.as_str()] {
         for sampler in ["uniform", "grid", "linear", "angular"] {
             let (a, b, c) = (path("a.csv"), path("b.csv"), path("c.csv"));
-            ok(&["protocol", "--robot", robot, "--sampler", sampler, "--intervals", "5", "--seed", "3", "--out", &a]);
-            ok(&["protocol", "--robot", robot, "--sampler", sampler, "--intervals", "5", "--seed", "3", "--out", &b]);
-            ok(&["protocol", "--robot", robot, "--sampler", sampler, "--intervals", "5", "--seed", "4", "--out", &c]);
-            let (ta, tb, tc) = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), std::fs::read(&c).unwrap());
+            ok(&[
+                "protocol",
+                "--robot",
+                robot,
+                "--sampler",
+                sampler,
+                "--intervals",
+                "5",
+                "--seed",
+                "3",
+                "--out",
+                &a,
+            ]);
+            ok(&[
+                "protocol",
+                "--robot",
+                robot,
+                "--sampler",
+                sampler,
+                "--intervals",
+                "5",
+                "--seed",
+                "3",
+                "--out",
+                &b,
+            ]);
+            ok(&[
+                "protocol",
+                "--robot",
+                robot,
+                "--sampler",
+                sampler,
+                "--intervals",
+                "5",
+                "--seed",
+                "4",
+                "--out",
+                &c,
+            ]);
+            let (ta, tb, tc) = (
+                std::fs::read(&a).unwrap(),
+                std::fs::read(&b).unwrap(),
+                std::fs::read(&c).unwrap(),
+            );
             assert_eq!(ta, tb, "{robot} {sampler}");
             assert_ne!(ta, tc, "{robot} {sampler}");
             let text = String::from_utf8(ta).unwrap();
@@ -362,7 +402,96 @@ fn protocol_schedule_is_byte_identical_for_a_seed() {
             assert!(text.starts_with("t,interval,phase,cmd_left,cmd_right\n0,0,transient,"));
         }
     }
-    assert!(user_error(&["protocol", "--robot", "rover", "--intervals", "2", "--out", &path("x.csv")]).contains("unknown robot"));
+    assert!(user_error(&[
+        "protocol",
+        "--robot",
+        "rover",
+        "--intervals",
+        "2",
+        "--out",
+        &path("x.csv")
+    ])
+    .contains("unknown robot"));
     std::fs::write(&robot_file, "name = 'bad'\n").unwrap();
-    assert!(user_error(&["protocol", "--robot", &robot_file, "--intervals", "2", "--out", &path("x.csv")]).contains("mine.toml"));
+    assert!(user_error(&[
+        "protocol",
+        "--robot",
+        &robot_file,
+        "--intervals",
+        "2",
+        "--out",
+        &path("x.csv")
+    ])
+    .contains("mine.toml"));
+}
+
+#[test]
+fn simulate_then_eval_works_on_the_simulated_windows() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("sim.csv");
+    let csv = csv.to_str().unwrap();
+    let sim = |seed: &str| {
+        ok(&[
+            "simulate",
+            "--robot",
+            "warthog",
+            "--terrain",
+            "gravel",
+            "--duration",
+            "150",
+            "--seed",
+            seed,
+            "--out",
+            csv,
+        ]);
+        std::fs::read(csv).unwrap()
+    };
+    let first = sim("2");
+    assert_eq!(first, sim("2"), "same seed, same bytes");
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["eval", "--json", "--data", csv])).unwrap();
+    assert!(v["dataset"]
+        .as_str()
+        .unwrap()
+        .starts_with("sim-warthog-gravel-uniform"));
+    // 150 s: 24 s of characterization, then 21 complete intervals of 6 s.
+    assert_eq!(
+        v["train_windows"].as_u64().unwrap() + v["eval_windows"].as_u64().unwrap(),
+        63
+    );
+    let get = |name: &str| {
+        v["models"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["name"] == name)
+            .unwrap()["rotational_median_rad"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(get("slip-blr") < get("naive"));
+    assert!(user_error(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        "mud",
+        "--duration",
+        "60",
+        "--out",
+        csv
+    ])
+    .contains("unknown terrain 'mud'"));
+    assert!(user_error(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        "ice",
+        "--duration",
+        "10",
+        "--out",
+        csv
+    ])
+    .contains("no complete interval"));
 }

@@ -6,11 +6,16 @@
 
 mod others;
 mod robot;
+mod runner;
 mod schedule;
 mod uniform;
 
 pub use others::{AngularSampler, GridSampler, LinearSampler};
 pub use robot::{RobotError, RobotSpec};
+pub use runner::{
+    Characterization, Characterize, PauseReason, ProtocolRunner, RunnerConfig, RunnerInput,
+    RunnerOutput, RunnerState, SampleTag, StopReason,
+};
 pub use schedule::{
     limit_acceleration, schedule, schedule_csv, window_len, ScheduledCommand, WINDOWS_PER_INTERVAL,
     WINDOW_S,
@@ -30,7 +35,18 @@ pub fn sampler_named(
     vehicle: impl Fn() -> Box<dyn CommandModel>,
     seed: u64,
 ) -> Result<Box<dyn InputSampler>, SamplerError> {
-    let space = robot.input_space();
+    sampler_over(name, robot.input_space(), robot, vehicle, seed)
+}
+
+/// Like [`sampler_named`] over a given input space (for instance the one found by the
+/// characterization step).
+pub fn sampler_over(
+    name: &str,
+    space: drive_traits::InputSpace,
+    robot: &RobotSpec,
+    vehicle: impl Fn() -> Box<dyn CommandModel>,
+    seed: u64,
+) -> Result<Box<dyn InputSampler>, SamplerError> {
     Ok(match name {
         "uniform" => {
             let s = UniformSampler::new(space, seed)?;

@@ -1,0 +1,217 @@
+//! The protocol runner in the loop with the simulator, recording DRIVE windows.
+
+use crate::{Simulator, Terrain};
+use drive_samplers::{
+    window_len, Characterization, ProtocolRunner, RobotSpec, RunnerConfig, RunnerInput,
+    RunnerState, SampleTag, StopReason, WINDOWS_PER_INTERVAL,
+};
+use drive_traits::{
+    wrap_angle, CommandModel, Dataset, Input, InputSampler, InputSpace, Phase, Pose,
+    RobotDescription, Window,
+};
+use thiserror::Error;
+
+/// Scripted events, to test the runner's safety behaviour.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    /// The dead-man switch is released from `from` to `to` (s).
+    DeadmanReleased {
+        /// start (s)
+        from: f64,
+        /// end (s)
+        to: f64,
+    },
+    /// The localization publishes nothing from `from` to `to` (s).
+    LocalizationLost {
+        /// start (s)
+        from: f64,
+        /// end (s)
+        to: f64,
+    },
+}
+
+/// A simulation run.
+pub struct SimulationConfig {
+    /// The robot.
+    pub robot: RobotSpec,
+    /// The ground.
+    pub terrain: Terrain,
+    /// Seed of the simulator's noise.
+    pub seed: u64,
+    /// The runner's configuration (its `max_duration_s` bounds the run).
+    pub runner: RunnerConfig,
+    /// Scripted events.
+    pub events: Vec<Event>,
+    /// Dataset name.
+    pub name: String,
+}
+
+/// Why a simulation could not run.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SimError {
+    /// Nothing bounds the run.
+    #[error("the run needs a duration or a number of intervals")]
+    Unbounded,
+}
+
+/// What a simulation produced.
+#[derive(Debug)]
+pub struct Simulation {
+    /// The recorded windows (complete intervals only).
+    pub dataset: Dataset,
+    /// How the runner ended.
+    pub stop: RunnerState,
+    /// What the characterization found.
+    pub characterization: Option<Characterization>,
+    /// States the runner went through, with the time they started (s).
+    pub states: Vec<(f64, RunnerState)>,
+    /// The commands sent, one per tick.
+    pub commands: Vec<Input>,
+}
+
+struct Recorded {
+    tag: SampleTag,
+    command: Input,
+    encoder: Input,
+    pose: Pose,
+    imu: f64,
+}
+
+/// Runs the protocol with the simulator in the loop. `sampler` builds the input sampler
+/// over the characterized input space; `converged(k)` is asked after every interval.
+pub fn simulate(
+    config: SimulationConfig,
+    vehicle: Box<dyn CommandModel>,
+    sampler: impl FnMut(InputSpace) -> Box<dyn InputSampler> + 'static,
+    converged: Option<Box<dyn FnMut(usize) -> bool>>,
+) -> Result<Simulation, SimError> {
+    let max_s = match (config.runner.max_duration_s, config.runner.max_intervals) {
+        (Some(d), _) => d,
+        // Characterization (three sub-steps) plus the intervals, with room for pauses.
+        (None, Some(n)) => 3.0 * config.runner.characterization_s + 6.0 * n as f64 * 2.0 + 60.0,
+        (None, None) => return Err(SimError::Unbounded),
+    };
+    let robot = config.robot.clone();
+    let mut sim = Simulator::new(&robot, config.terrain, config.seed);
+    let mut runner = ProtocolRunner::new(robot.clone(), vehicle, config.runner.clone(), sampler);
+    if let Some(c) = converged {
+        runner = runner.with_convergence_check(c);
+    }
+    runner.start();
+    let len = window_len(&robot);
+    let active = |t: f64, kind: fn(&Event) -> Option<(f64, f64)>| {
+        config
+            .events
+            .iter()
+            .filter_map(kind)
+            .any(|(a, b)| t >= a && t < b)
+    };
+    let mut windows: Vec<Window> = Vec::new();
+    let mut buffer: Vec<Recorded> = Vec::new();
+    let mut states = vec![(0.0, runner.state().clone())];
+    let mut commands = Vec::new();
+    let ticks = (max_s * robot.rate_hz).ceil() as usize + 1;
+    for _ in 0..ticks {
+        let m = sim.measure();
+        let deadman = !active(m.t, |e| match e {
+            Event::DeadmanReleased { from, to } => Some((*from, *to)),
+            _ => None,
+        });
+        let lost = active(m.t, |e| match e {
+            Event::LocalizationLost { from, to } => Some((*from, *to)),
+            _ => None,
+        });
+        let input = RunnerInput {
+            t: m.t,
+            encoder: Some(m.encoder),
+            pose: (m.fresh_pose && !lost).then_some(m.pose),
+            deadman,
+        };
+        let out = runner.tick(&input);
+        if std::mem::discriminant(runner.state())
+            != std::mem::discriminant(&states.last().map_or(RunnerState::Idle, |s| s.1.clone()))
+        {
+            states.push((m.t, runner.state().clone()));
+        }
+        match out.sample {
+            Some(tag) => {
+                if tag.window == 0 && tag.k == 0 {
+                    // A new or resumed interval: what an interrupted one recorded is dropped.
+                    buffer.clear();
+                }
+                buffer.push(Recorded {
+                    tag,
+                    command: out.command,
+                    encoder: m.encoder,
+                    pose: m.pose,
+                    imu: m.imu_yaw_rate,
+                });
+                if buffer.len() == WINDOWS_PER_INTERVAL * len {
+                    for chunk in buffer.chunks(len) {
+                        windows.push(window_from(chunk, windows.len()));
+                    }
+                    buffer.clear();
+                }
+            }
+            None => buffer.clear(),
+        }
+        commands.push(out.command);
+        if matches!(runner.state(), RunnerState::Done(_)) {
+            break;
+        }
+        sim.advance(out.command);
+    }
+    let stop = match runner.state() {
+        RunnerState::Done(_) => runner.state().clone(),
+        _ => RunnerState::Done(StopReason::Duration),
+    };
+    let description = RobotDescription {
+        name: config.name,
+        robot: format!("simulated {} on {}", robot.name, config.terrain.name),
+        rate_hz: robot.rate_hz,
+        window_len: len,
+        wheel_radius: robot.wheel_radius,
+        baseline: robot.baseline,
+    };
+    Ok(Simulation {
+        dataset: Dataset {
+            robot: description,
+            windows,
+        },
+        stop,
+        characterization: runner.characterization(),
+        states,
+        commands,
+    })
+}
+
+/// A window from its samples: poses re-based to the window's first (measured) pose, in the
+/// body frame at the window start.
+fn window_from(samples: &[Recorded], index: usize) -> Window {
+    let p0 = samples[0].pose;
+    let (s, c) = p0.z.sin_cos();
+    let tag = samples[0].tag;
+    Window {
+        index,
+        interval: tag.interval,
+        phase: if tag.window == 0 {
+            Phase::Transient
+        } else {
+            Phase::Steady
+        },
+        command: samples.iter().map(|r| r.command).collect(),
+        encoder: samples.iter().map(|r| r.encoder).collect(),
+        pose: samples
+            .iter()
+            .map(|r| {
+                let (dx, dy) = (r.pose.x - p0.x, r.pose.y - p0.y);
+                Pose::new(
+                    c * dx + s * dy,
+                    -s * dx + c * dy,
+                    wrap_angle(r.pose.z - p0.z),
+                )
+            })
+            .collect(),
+        imu_yaw_rate: samples.iter().map(|r| r.imu).collect(),
+    }
+}

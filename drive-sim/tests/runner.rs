@@ -1,0 +1,201 @@
+//! The protocol runner with the simulator in the loop: characterization, dead-man pause
+//! and resume, watchdog, geofence, convergence stop, determinism.
+
+use drive_models::DifferentialDrive;
+use drive_samplers::{sampler_over, PauseReason, RobotSpec, RunnerConfig, RunnerState, StopReason};
+use drive_sim::{simulate, Event, Simulation, SimulationConfig, Terrain};
+use drive_traits::{CommandModel, Phase};
+
+fn run(
+    terrain: &str,
+    runner: RunnerConfig,
+    events: Vec<Event>,
+    seed: u64,
+    converged: Option<Box<dyn FnMut(usize) -> bool>>,
+) -> Simulation {
+    let robot = RobotSpec::preset("husky").unwrap();
+    let vehicle = || Box::new(DifferentialDrive::new(0.165, 0.55)) as Box<dyn CommandModel>;
+    let spec = robot.clone();
+    let factory = move |space| sampler_over("uniform", space, &spec, vehicle, seed).unwrap();
+    let config = SimulationConfig {
+        robot,
+        terrain: Terrain::preset(terrain).unwrap(),
+        seed,
+        runner,
+        events,
+        name: "test".into(),
+    };
+    simulate(config, vehicle(), factory, converged).unwrap()
+}
+
+fn states(sim: &Simulation) -> Vec<&RunnerState> {
+    sim.states.iter().map(|(_, s)| s).collect()
+}
+
+#[test]
+fn characterization_finds_the_true_input_space_and_geometry() {
+    let sim = run(
+        "tile",
+        RunnerConfig {
+            max_intervals: Some(2),
+            ..RunnerConfig::default()
+        },
+        vec![],
+        1,
+        None,
+    );
+    let c = sim.characterization.unwrap();
+    // The simulated Husky's wheels saturate at 1 m/s / 0.165 m = 6.06 rad/s.
+    for v in [c.space.max.x, c.space.max.y, -c.space.min.x, -c.space.min.y] {
+        assert!((v - 6.06).abs() < 0.1, "{v}");
+    }
+    assert!(
+        (c.wheel_radius.unwrap() - 0.165).abs() < 0.01,
+        "{:?}",
+        c.wheel_radius
+    );
+    // Skid makes the effective baseline larger than the geometric one.
+    let b = c.baseline.unwrap();
+    assert!(b > 0.55 && b < 0.7, "{b}");
+    assert_eq!(sim.stop, RunnerState::Done(StopReason::Intervals));
+    assert_eq!(sim.dataset.windows.len(), 6);
+}
+
+#[test]
+fn deadman_release_pauses_with_zero_command_and_resumes_the_interval_from_its_transient_window() {
+    // Characterization takes 24 s; release the switch 3 s into the second interval.
+    let (from, to) = (24.0 + 6.0 + 3.0, 24.0 + 6.0 + 5.0);
+    let sim = run(
+        "tile",
+        RunnerConfig {
+            max_intervals: Some(3),
+            ..RunnerConfig::default()
+        },
+        vec![Event::DeadmanReleased { from, to }],
+        2,
+        None,
+    );
+    let paused = sim
+        .states
+        .iter()
+        .find(|(_, s)| matches!(s, RunnerState::Paused { .. }))
+        .expect("a pause");
+    assert!(matches!(
+        paused.1,
+        RunnerState::Paused {
+            reason: PauseReason::DeadmanReleased,
+            interval: 1
+        }
+    ));
+    assert!((paused.0 - from).abs() < 0.1);
+    // Zero command while released.
+    for k in ((from * 20.0) as usize + 1)..((to * 20.0) as usize) {
+        assert_eq!(sim.commands[k], drive_traits::Input::zeros(), "tick {k}");
+    }
+    // The interrupted interval was driven again in full: three complete intervals.
+    assert_eq!(sim.dataset.windows.len(), 9);
+    let phases: Vec<Phase> = sim.dataset.windows.iter().map(|w| w.phase).collect();
+    assert_eq!(phases.iter().filter(|p| **p == Phase::Transient).count(), 3);
+    assert!(phases
+        .chunks(3)
+        .all(|c| c == [Phase::Transient, Phase::Steady, Phase::Steady]));
+    // Resumed with the same target: the second interval's commands converge to one input.
+    let w = &sim.dataset.windows[5];
+    assert_eq!(w.command[0], w.command[39]);
+    assert_eq!(sim.stop, RunnerState::Done(StopReason::Intervals));
+}
+
+#[test]
+fn stale_localization_pauses_and_the_run_resumes() {
+    let sim = run(
+        "snow",
+        RunnerConfig {
+            max_intervals: Some(2),
+            ..RunnerConfig::default()
+        },
+        vec![Event::LocalizationLost {
+            from: 27.0,
+            to: 29.0,
+        }],
+        3,
+        None,
+    );
+    let paused = sim
+        .states
+        .iter()
+        .find(|(_, s)| matches!(s, RunnerState::Paused { .. }))
+        .expect("a pause");
+    assert!(matches!(
+        paused.1,
+        RunnerState::Paused {
+            reason: PauseReason::LocalizationStale,
+            ..
+        }
+    ));
+    // Paused once the data is older than the 0.5 s timeout.
+    assert!(paused.0 > 27.4 && paused.0 < 27.7, "{}", paused.0);
+    assert_eq!(sim.dataset.windows.len(), 6);
+}
+
+#[test]
+fn leaving_the_geofence_stops_with_a_reason() {
+    let sim = run(
+        "tile",
+        RunnerConfig {
+            geofence_radius_m: Some(3.0),
+            max_duration_s: Some(600.0),
+            ..RunnerConfig::default()
+        },
+        vec![],
+        4,
+        None,
+    );
+    match &sim.stop {
+        RunnerState::Done(StopReason::Geofence { distance }) => {
+            assert!(*distance > 3.0 && *distance < 3.2)
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(*sim.commands.last().unwrap(), drive_traits::Input::zeros());
+}
+
+#[test]
+fn convergence_stops_the_protocol() {
+    let sim = run(
+        "gravel",
+        RunnerConfig {
+            max_duration_s: Some(600.0),
+            ..RunnerConfig::default()
+        },
+        vec![],
+        5,
+        Some(Box::new(|done| done >= 4)),
+    );
+    assert_eq!(sim.stop, RunnerState::Done(StopReason::Converged));
+    assert_eq!(sim.dataset.windows.len(), 12);
+    assert!(states(&sim)
+        .iter()
+        .any(|s| matches!(s, RunnerState::Characterizing { .. })));
+}
+
+#[test]
+fn same_seed_same_log() {
+    let write = |seed| {
+        let sim = run(
+            "snow",
+            RunnerConfig {
+                max_duration_s: Some(90.0),
+                ..RunnerConfig::default()
+            },
+            vec![],
+            seed,
+            None,
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(format!("s{seed}.csv"));
+        drive_data::write_dataset(&sim.dataset, &path).unwrap();
+        std::fs::read(&path).unwrap()
+    };
+    assert_eq!(write(7), write(7));
+    assert_ne!(write(7), write(8));
+}
