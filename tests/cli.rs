@@ -350,45 +350,24 @@ fn protocol_schedule_is_byte_identical_for_a_seed() {
     for robot in ["husky", "hd2", "warthog", robot_file.as_str()] {
         for sampler in ["uniform", "grid", "linear", "angular"] {
             let (a, b, c) = (path("a.csv"), path("b.csv"), path("c.csv"));
-            ok(&[
-                "protocol",
-                "--robot",
-                robot,
-                "--sampler",
-                sampler,
-                "--intervals",
-                "5",
-                "--seed",
-                "3",
-                "--out",
-                &a,
-            ]);
-            ok(&[
-                "protocol",
-                "--robot",
-                robot,
-                "--sampler",
-                sampler,
-                "--intervals",
-                "5",
-                "--seed",
-                "3",
-                "--out",
-                &b,
-            ]);
-            ok(&[
-                "protocol",
-                "--robot",
-                robot,
-                "--sampler",
-                sampler,
-                "--intervals",
-                "5",
-                "--seed",
-                "4",
-                "--out",
-                &c,
-            ]);
+            let schedule = |seed: &str, out: &str| {
+                ok(&[
+                    "protocol",
+                    "--robot",
+                    robot,
+                    "--sampler",
+                    sampler,
+                    "--intervals",
+                    "5",
+                    "--seed",
+                    seed,
+                    "--out",
+                    out,
+                ]);
+            };
+            schedule("3", &a);
+            schedule("3", &b);
+            schedule("4", &c);
             let (ta, tb, tc) = (
                 std::fs::read(&a).unwrap(),
                 std::fs::read(&b).unwrap(),

@@ -284,15 +284,17 @@ impl BlrPosterior {
         .checked(what)
     }
 
-    fn checked(self, what: &str) -> Result<Self, FitError> {
-        let finite = self
-            .mean
+    fn all_finite(&self) -> bool {
+        self.mean
             .iter()
             .chain(&self.covariance)
             .all(|v| v.is_finite())
             && self.a.is_finite()
-            && self.b.is_finite();
-        if finite {
+            && self.b.is_finite()
+    }
+
+    fn checked(self, what: &str) -> Result<Self, FitError> {
+        if self.all_finite() {
             Ok(self)
         } else {
             Err(FitError::NonFinite { what: what.into() })
@@ -308,14 +310,7 @@ impl BlrPosterior {
                 self.covariance.len()
             ));
         }
-        let finite = self
-            .mean
-            .iter()
-            .chain(&self.covariance)
-            .all(|v| v.is_finite())
-            && self.a.is_finite()
-            && self.b.is_finite();
-        if !finite || self.a < 0.0 || self.b < 0.0 {
+        if !self.all_finite() || self.a < 0.0 || self.b < 0.0 {
             return Err(format!(
                 "{what}: non-finite or negative posterior parameters"
             ));

@@ -128,9 +128,9 @@ pub fn simulate(
             deadman,
         };
         let out = runner.tick(&input);
-        if std::mem::discriminant(runner.state())
-            != std::mem::discriminant(&states.last().map_or(RunnerState::Idle, |s| s.1.clone()))
-        {
+        // `states` starts with the initial state, so it is never empty.
+        let last = &states.last().expect("the initial state is recorded").1;
+        if std::mem::discriminant(runner.state()) != std::mem::discriminant(last) {
             states.push((m.t, runner.state().clone()));
         }
         match out.sample {

@@ -28,6 +28,13 @@ fn run(
     simulate(config, vehicle(), factory, converged).unwrap()
 }
 
+fn first_pause(sim: &Simulation) -> &(f64, RunnerState) {
+    sim.states
+        .iter()
+        .find(|(_, s)| matches!(s, RunnerState::Paused { .. }))
+        .expect("a pause")
+}
+
 fn states(sim: &Simulation) -> Vec<&RunnerState> {
     sim.states.iter().map(|(_, s)| s).collect()
 }
@@ -75,11 +82,7 @@ fn deadman_release_pauses_with_zero_command_and_resumes_the_interval_from_its_tr
         2,
         None,
     );
-    let paused = sim
-        .states
-        .iter()
-        .find(|(_, s)| matches!(s, RunnerState::Paused { .. }))
-        .expect("a pause");
+    let paused = first_pause(&sim);
     assert!(matches!(
         paused.1,
         RunnerState::Paused {
@@ -120,11 +123,7 @@ fn stale_localization_pauses_and_the_run_resumes() {
         3,
         None,
     );
-    let paused = sim
-        .states
-        .iter()
-        .find(|(_, s)| matches!(s, RunnerState::Paused { .. }))
-        .expect("a pause");
+    let paused = first_pause(&sim);
     assert!(matches!(
         paused.1,
         RunnerState::Paused {
