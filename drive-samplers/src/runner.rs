@@ -165,6 +165,9 @@ struct Averager {
     /// First and last localization updates in the averaging span, with their times.
     start_pose: Option<(f64, Pose)>,
     end_pose: Option<(f64, Pose)>,
+    /// Yaw turned between the first and last updates, summed update by update so that a
+    /// fast turn (more than half a turn in the span) is not wrapped away.
+    yaw_turned: f64,
 }
 
 /// The DRIVE protocol runner.
@@ -396,6 +399,9 @@ impl ProtocolRunner {
                 a.n += 1;
             }
             if let Some(p) = m.pose {
+                if let Some((_, last)) = a.end_pose {
+                    a.yaw_turned += drive_traits::wrap_angle(p.z - last.z);
+                }
                 a.start_pose.get_or_insert((m.t, p));
                 a.end_pose = Some((m.t, p));
             }
@@ -446,11 +452,11 @@ impl ProtocolRunner {
             }
         }
         let turn = &self.averages[2];
-        if let (Some(r), Some((t0, s)), Some((t1, e))) =
+        if let (Some(r), Some((t0, _)), Some((t1, _))) =
             (wheel_radius, turn.start_pose, turn.end_pose)
         {
             let w = mean(turn);
-            let yaw_rate = drive_traits::wrap_angle(e.z - s.z) / (t1 - t0);
+            let yaw_rate = turn.yaw_turned / (t1 - t0);
             if yaw_rate.abs() > 1e-6 && t1 > t0 {
                 baseline = Some(r * (w.y - w.x) / yaw_rate);
             }

@@ -13,8 +13,20 @@ fn run(
     seed: u64,
     converged: Option<Box<dyn FnMut(usize) -> bool>>,
 ) -> Simulation {
-    let robot = RobotSpec::preset("husky").unwrap();
-    let vehicle = || Box::new(DifferentialDrive::new(0.165, 0.55)) as Box<dyn CommandModel>;
+    run_on("husky", terrain, runner, events, seed, converged)
+}
+
+fn run_on(
+    preset: &str,
+    terrain: &str,
+    runner: RunnerConfig,
+    events: Vec<Event>,
+    seed: u64,
+    converged: Option<Box<dyn FnMut(usize) -> bool>>,
+) -> Simulation {
+    let robot = RobotSpec::preset(preset).unwrap();
+    let (r, b) = (robot.wheel_radius, robot.baseline);
+    let vehicle = move || Box::new(DifferentialDrive::new(r, b)) as Box<dyn CommandModel>;
     let spec = robot.clone();
     let factory = move |space| sampler_over("uniform", space, &spec, vehicle, seed).unwrap();
     let config = SimulationConfig {
@@ -66,6 +78,21 @@ fn characterization_finds_the_true_input_space_and_geometry() {
     assert!(b > 0.55 && b < 0.7, "{b}");
     assert_eq!(sim.stop, RunnerState::Done(StopReason::Intervals));
     assert_eq!(sim.dataset.windows.len(), 6);
+}
+
+#[test]
+fn characterization_of_a_fast_turning_robot_unwraps_the_yaw() {
+    // The Warthog turns in place at about 4 rad/s, more than half a turn in the averaged
+    // second: a baseline from the wrapped yaw difference would come out negative.
+    for terrain in Terrain::NAMES {
+        let config = RunnerConfig {
+            max_intervals: Some(1),
+            ..RunnerConfig::default()
+        };
+        let sim = run_on("warthog", terrain, config, vec![], 1, None);
+        let b = sim.characterization.unwrap().baseline.unwrap();
+        assert!(b > 0.9 && b < 2.5, "{terrain}: {b}");
+    }
 }
 
 #[test]
