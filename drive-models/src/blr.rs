@@ -339,8 +339,18 @@ impl BlrPosterior {
         self.mean.iter().zip(x).map(|(g, x)| g * x).sum()
     }
 
-    /// Squared scale of the Student-t predictive of eq. 7: `b / a (1 + x^T K x)`.
-    pub fn predictive_scale2(&self, x: &[f64]) -> f64 {
+    /// `x^T K x`: how much the uncertainty of the weights adds to the noise at input `x`,
+    /// relative to the noise (the share of eq. 7's predictive variance that more data at
+    /// `x` would shrink). Unitless.
+    ///
+    /// ```
+    /// use drive_models::blr::{BlrPosterior, Prior};
+    /// // y = 2x from x = 1, 2, 3 under a fixed prior: K = (1 + 14)^-1.
+    /// let prior = Prior::Fixed { mean: vec![0.0], precision: vec![1.0], a: 1.0, b: 1.0 };
+    /// let p = BlrPosterior::fit(&[1.0, 2.0, 3.0], 1, &[2.0, 4.0, 6.0], &prior, "example").unwrap();
+    /// assert!((p.leverage(&[3.0]) - 9.0 / 15.0).abs() < 1e-12);
+    /// ```
+    pub fn leverage(&self, x: &[f64]) -> f64 {
         let k = self.inputs();
         let mut xkx = 0.0;
         for i in 0..k {
@@ -348,8 +358,13 @@ impl BlrPosterior {
                 xkx += x[i] * self.covariance[i * k + j] * x[j];
             }
         }
+        xkx
+    }
+
+    /// Squared scale of the Student-t predictive of eq. 7: `b / a (1 + x^T K x)`.
+    pub fn predictive_scale2(&self, x: &[f64]) -> f64 {
         if self.a > 0.0 {
-            self.b / self.a * (1.0 + xkx)
+            self.b / self.a * (1.0 + self.leverage(x))
         } else {
             f64::INFINITY
         }

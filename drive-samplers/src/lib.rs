@@ -8,6 +8,7 @@ mod others;
 mod robot;
 mod runner;
 mod schedule;
+mod targeted;
 mod uniform;
 
 pub use others::{AngularSampler, GridSampler, LinearSampler};
@@ -20,12 +21,20 @@ pub use schedule::{
     limit_acceleration, schedule, schedule_csv, window_len, ScheduledCommand, WINDOWS_PER_INTERVAL,
     WINDOW_S,
 };
+pub use targeted::{Target, TargetedSampler};
 pub use uniform::{BodyLimits, SamplerError, UniformSampler};
 
 use drive_traits::{CommandModel, InputSampler};
 
 /// The names of the samplers, for the command line.
-pub const SAMPLER_NAMES: [&str; 4] = ["uniform", "grid", "linear", "angular"];
+pub const SAMPLER_NAMES: [&str; 6] = [
+    "uniform",
+    "grid",
+    "linear",
+    "angular",
+    "targeted",
+    "targeted-coverage",
+];
 
 /// Builds the sampler registered under `name` for a robot over its input space; `vehicle`
 /// maps inputs to body velocities (and back). The one place a new sampler is registered.
@@ -47,21 +56,34 @@ pub fn sampler_over(
     vehicle: impl Fn() -> Box<dyn CommandModel>,
     seed: u64,
 ) -> Result<Box<dyn InputSampler>, SamplerError> {
-    Ok(match name {
-        "uniform" => {
-            let s = UniformSampler::new(space, seed)?;
+    let uniform = |vehicle: Box<dyn CommandModel>| -> Result<Box<dyn InputSampler>, SamplerError> {
+        let s = UniformSampler::new(space, seed)?;
+        Ok(
             match (robot.controller_max_linear, robot.controller_max_angular) {
                 (None, None) => Box::new(s),
                 (lin, ang) => Box::new(s.with_body_limits(BodyLimits {
-                    vehicle: vehicle(),
+                    vehicle,
                     max_linear: lin.unwrap_or(f64::INFINITY),
                     max_angular: ang.unwrap_or(f64::INFINITY),
                 })?),
-            }
-        }
+            },
+        )
+    };
+    Ok(match name {
+        "uniform" => uniform(vehicle())?,
         "grid" => Box::new(GridSampler::new(space, 10, seed)?),
         "linear" => Box::new(LinearSampler::new(space, vehicle(), seed)),
         "angular" => Box::new(AngularSampler::new(space, vehicle(), seed)),
+        "targeted" => Box::new(TargetedSampler::new(
+            space,
+            uniform(vehicle())?,
+            Target::SlipVariance,
+        )),
+        "targeted-coverage" => Box::new(TargetedSampler::new(
+            space,
+            uniform(vehicle())?,
+            Target::Coverage,
+        )),
         other => return Err(SamplerError::Unknown(other.to_string())),
     })
 }

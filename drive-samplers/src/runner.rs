@@ -7,7 +7,10 @@
 //! done (intervals, duration, geofence or convergence).
 
 use crate::{limit_acceleration, window_len, RobotSpec, WINDOWS_PER_INTERVAL};
-use drive_traits::{BodyVelocity, CommandModel, Input, InputSampler, InputSpace, Phase, Pose};
+use drive_traits::{
+    BodyVelocity, CommandModel, Input, InputSampler, InputSpace, Phase, Pose, RobotDescription,
+    Window,
+};
 
 /// What the robot measured at this tick.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -255,6 +258,15 @@ impl ProtocolRunner {
     /// Intervals completed.
     pub fn completed_intervals(&self) -> usize {
         self.completed
+    }
+
+    /// Hands the windows recorded during the interval that just ended to the sampler (see
+    /// [`InputSampler::observe`]): a driver calls this before the next tick, so that a
+    /// targeted sampler draws the next input from what has been measured so far.
+    pub fn observe(&mut self, robot: &RobotDescription, interval: &[Window]) {
+        if let Some(s) = self.sampler.as_mut() {
+            s.observe(robot, interval);
+        }
     }
 
     /// Starts: characterizes the input space unless the robot description gives it.

@@ -36,7 +36,7 @@ pub enum SamplerError {
         expected: &'static str,
     },
     /// No sampler of that name.
-    #[error("unknown sampler '{0}' (the samplers are: uniform, grid, linear, angular)")]
+    #[error("unknown sampler '{0}' (the samplers are: uniform, grid, linear, angular, targeted, targeted-coverage)")]
     Unknown(String),
 }
 

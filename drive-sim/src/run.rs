@@ -99,6 +99,14 @@ pub fn simulate(
     }
     runner.start();
     let len = window_len(&robot);
+    let description = RobotDescription {
+        name: config.name.clone(),
+        robot: format!("simulated {} on {}", robot.name, config.terrain.name),
+        rate_hz: robot.rate_hz,
+        window_len: len,
+        wheel_radius: robot.wheel_radius,
+        baseline: robot.baseline,
+    };
     let active = |t: f64, kind: fn(&Event) -> Option<(f64, f64)>| {
         config
             .events
@@ -147,10 +155,12 @@ pub fn simulate(
                     imu: m.imu_yaw_rate,
                 });
                 if buffer.len() == WINDOWS_PER_INTERVAL * len {
+                    let first = windows.len();
                     for chunk in buffer.chunks(len) {
                         windows.push(window_from(chunk, windows.len()));
                     }
                     buffer.clear();
+                    runner.observe(&description, &windows[first..]);
                 }
             }
             None => buffer.clear(),
@@ -164,14 +174,6 @@ pub fn simulate(
     let stop = match runner.state() {
         RunnerState::Done(_) => runner.state().clone(),
         _ => RunnerState::Done(StopReason::Duration),
-    };
-    let description = RobotDescription {
-        name: config.name,
-        robot: format!("simulated {} on {}", robot.name, config.terrain.name),
-        rate_hz: robot.rate_hz,
-        window_len: len,
-        wheel_radius: robot.wheel_radius,
-        baseline: robot.baseline,
     };
     Ok(Simulation {
         dataset: Dataset {

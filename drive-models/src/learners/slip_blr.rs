@@ -169,6 +169,25 @@ struct SlipWeights {
 }
 
 impl SlipBlrModel {
+    /// Predictive variance of eq. 7 of the slip (x, y, yaw) when the wheels turn steadily
+    /// at `wheels` (rad/s): what the model is unsure of at that input.
+    pub fn slip_variance(&self, wheels: &Input) -> BodyVelocity {
+        let s = slip_inputs(&self.vehicle.eq4(wheels));
+        BodyVelocity::new(
+            self.slip_x.predictive_variance(&s.x),
+            self.slip_y.predictive_variance(&s.y),
+            self.slip_yaw.predictive_variance(&s.yaw),
+        )
+    }
+
+    /// The weight-uncertainty share of the slip's predictive variance at steady wheel
+    /// velocities `wheels`, relative to each regression's noise and summed over the three
+    /// ([`BlrPosterior::leverage`]): large where the data seen so far says little.
+    pub fn slip_leverage(&self, wheels: &Input) -> f64 {
+        let s = slip_inputs(&self.vehicle.eq4(wheels));
+        self.slip_x.leverage(&s.x) + self.slip_y.leverage(&s.y) + self.slip_yaw.leverage(&s.yaw)
+    }
+
     /// The posterior means. The dimensions (1, 1, 3) hold by construction in `fit` and are
     /// checked by [`MotionModel::check`] for loaded files; a missing weight reads as NaN so
     /// that a malformed model can never predict plausible numbers.
