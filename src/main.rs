@@ -11,6 +11,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+mod compare_protocols;
+
 #[derive(Parser)]
 #[command(
     name = "drive",
@@ -127,6 +129,56 @@ enum Command {
         /// Output window CSV (its sidecar JSON is written beside it).
         #[arg(long)]
         out: PathBuf,
+    },
+    /// Compare data-gathering protocols (paper Table I). On the simulator: equal driving
+    /// time with each sampler, slip-BLR trained on each, all tested on one held-out uniform
+    /// run. With --real: on recorded data, models trained on the intervals in a
+    /// linear-focused and an angular-focused region against as many drawn from all of J.
+    CompareProtocols {
+        /// Robot presets (husky, hd2, warthog) or TOML files, comma-separated.
+        #[arg(long, value_delimiter = ',', default_value = "husky,hd2,warthog")]
+        robot: Vec<String>,
+        /// Terrains, comma-separated.
+        #[arg(long, value_delimiter = ',', default_value = "tile,gravel,snow,ice")]
+        terrain: Vec<String>,
+        /// Driving time of each training run (s, characterization excluded), comma-separated.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "300",
+            allow_hyphen_values = true
+        )]
+        duration: Vec<f64>,
+        /// Samplers compared, comma-separated; the first is the reference.
+        #[arg(long, value_delimiter = ',', default_value = "uniform,linear,angular")]
+        samplers: Vec<String>,
+        /// Number of repetitions (seeds seed, seed+1, ...).
+        #[arg(long, default_value_t = 1)]
+        seeds: usize,
+        /// First seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Driving time of the held-out test run (s); default: the longest --duration, at
+        /// least 300 s.
+        #[arg(long)]
+        test_duration: Option<f64>,
+        /// Model trained on each run.
+        #[arg(long, default_value = "slip-blr")]
+        model: String,
+        /// Compare on recorded data (--data, or the bundled Husky data) instead.
+        #[arg(long)]
+        real: bool,
+        #[command(flatten)]
+        data: DataArgs,
+        /// With --real: fraction of the intervals the regions are taken from.
+        #[arg(long, default_value_t = 0.5)]
+        split: f64,
+        /// With --real: random uniform draws per region.
+        #[arg(long, default_value_t = 25)]
+        draws: usize,
+        /// Print one JSON object on stdout instead of the table.
+        #[arg(long)]
+        json: bool,
     },
     /// Predict poses from a saved model and a command sequence.
     Predict {
@@ -246,6 +298,46 @@ fn main() -> ExitCode {
             thresholds,
             json,
         } => run_converge(&data, split, &model, thresholds, json),
+        Command::CompareProtocols {
+            robot,
+            terrain,
+            duration,
+            samplers,
+            seeds,
+            seed,
+            test_duration,
+            model,
+            real,
+            data,
+            split,
+            draws,
+            json,
+        } => {
+            if real || data.data.is_some() {
+                let study = drive::eval::RegionStudy {
+                    split,
+                    model,
+                    draws,
+                    seed,
+                    ..Default::default()
+                };
+                load(&data)
+                    .map_err(anyhow::Error::from)
+                    .and_then(|d| compare_protocols::recorded(&d, &study, json))
+            } else {
+                compare_protocols::simulated(&compare_protocols::SimulatedArgs {
+                    robots: &robot,
+                    terrains: &terrain,
+                    samplers: &samplers,
+                    durations: &duration,
+                    seeds,
+                    first_seed: seed,
+                    test_duration,
+                    model: &model,
+                    json,
+                })
+            }
+        }
         Command::Predict {
             model,
             commands,
@@ -410,16 +502,10 @@ fn run_simulate(
     seed: u64,
     out: &Path,
 ) -> Result<()> {
-    use drive::samplers::{sampler_over, RobotSpec, RunnerConfig, SAMPLER_NAMES};
-    use drive::sim::{simulate, SimulationConfig, Terrain};
+    use drive::samplers::{RobotSpec, RunnerConfig};
+    use drive::sim::Terrain;
     if !(duration.is_finite() && duration > 0.0) {
         bail!("--duration must be a positive number of seconds, got {duration}");
-    }
-    if !SAMPLER_NAMES.contains(&sampler) {
-        bail!(
-            "unknown sampler '{sampler}' (the samplers are: {})",
-            SAMPLER_NAMES.join(", ")
-        );
     }
     let spec = RobotSpec::load(robot)?;
     let ground = Terrain::preset(terrain).with_context(|| {
@@ -428,26 +514,11 @@ fn run_simulate(
             Terrain::NAMES.join(", ")
         )
     })?;
-    let (r, b) = (spec.wheel_radius, spec.baseline);
-    let vehicle =
-        move || Box::new(DifferentialDrive::new(r, b)) as Box<dyn drive::traits::CommandModel>;
-    let (name, spec2) = (sampler.to_string(), spec.clone());
-    // The sampler is built over the characterized input space; its name was checked above,
-    // and a characterized space always has extent, so building it cannot fail.
-    let factory =
-        move |space| sampler_over(&name, space, &spec2, vehicle, seed).expect("a valid sampler");
-    let config = SimulationConfig {
-        name: format!("sim-{}-{}-{}-s{seed}", spec.name, ground.name, sampler),
-        robot: spec.clone(),
-        terrain: ground,
-        seed,
-        runner: RunnerConfig {
-            max_duration_s: Some(duration),
-            ..RunnerConfig::default()
-        },
-        events: Vec::new(),
+    let runner = RunnerConfig {
+        max_duration_s: Some(duration),
+        ..RunnerConfig::default()
     };
-    let run = simulate(config, vehicle(), factory, None)?;
+    let run = drive::eval::simulate_with(&spec, ground, sampler, runner, seed)?;
     if run.dataset.windows.is_empty() {
         bail!("the run of {duration} s recorded no complete interval (characterization takes about 24 s, an interval 6 s)");
     }

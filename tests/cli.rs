@@ -474,3 +474,102 @@ fn simulate_then_eval_works_on_the_simulated_windows() {
     ])
     .contains("no complete interval"));
 }
+
+#[test]
+fn compare_protocols_on_the_simulator_json_and_table_agree() {
+    let args = [
+        "compare-protocols",
+        "--robot",
+        "husky",
+        "--terrain",
+        "snow,ice",
+        "--duration",
+        "30",
+        "--test-duration",
+        "60",
+    ];
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
+    assert_eq!(v["model"], "slip-blr");
+    assert_eq!(v["reference"], "uniform");
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2 * 3);
+    let table = ok(&args);
+    for r in rows {
+        assert_eq!(r["seeds"], 1);
+        // Each row is in the table with its medians to four decimals.
+        let line = format!(
+            "{:.4} {:>12.4}",
+            f(&r["translational_median_m"]),
+            f(&r["rotational_median_rad"])
+        );
+        assert!(table.contains(&line), "{line} not in\n{table}");
+    }
+    assert!(table.contains("mean improvement of uniform over angular in translation"));
+    assert!(table.contains("mean improvement of uniform over linear in rotation"));
+}
+
+#[test]
+fn compare_protocols_on_the_bundled_data() {
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "compare-protocols",
+        "--real",
+        "--draws",
+        "5",
+        "--json",
+    ]))
+    .unwrap();
+    assert_eq!(v["dataset"], "husky-drive");
+    assert_eq!(v["train_intervals"], 100);
+    assert_eq!(v["eval_windows"], 303);
+    let regions = v["regions"].as_array().unwrap();
+    assert_eq!(regions[0]["region"], "linear");
+    assert_eq!(regions[1]["region"], "angular");
+    for r in regions {
+        let n = r["intervals"].as_u64().unwrap();
+        assert!((2..100).contains(&n), "{r}");
+        for key in ["region_translational", "region_rotational"] {
+            let m = f(&r[key]["median"]);
+            assert!(m > 0.0 && m < 1.0, "{key} {m}");
+        }
+    }
+    let table = ok(&["compare-protocols", "--real", "--draws", "5"]);
+    assert!(table.contains("linear region: |yaw rate| <="), "{table}");
+}
+
+#[test]
+fn compare_protocols_user_errors() {
+    for (args, says) in [
+        (
+            &["compare-protocols", "--terrain", "mud"][..],
+            "unknown terrain 'mud'",
+        ),
+        (
+            &["compare-protocols", "--samplers", "uniform,zigzag"][..],
+            "unknown sampler 'zigzag'",
+        ),
+        (
+            &["compare-protocols", "--duration", "3"][..],
+            "shorter than one 6 s DRIVE interval",
+        ),
+        (
+            &["compare-protocols", "--duration", "-30"][..],
+            "--duration must be positive",
+        ),
+        (
+            &["compare-protocols", "--seeds", "0"][..],
+            "--seeds must be at least 1",
+        ),
+        (
+            &["compare-protocols", "--model", "gp"][..],
+            "unknown model 'gp'",
+        ),
+        (
+            &["compare-protocols", "--real", "--split", "1.5"][..],
+            "split fraction 1.5",
+        ),
+    ] {
+        let err = user_error(args);
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}

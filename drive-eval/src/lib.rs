@@ -17,6 +17,8 @@ mod compare;
 mod comparison;
 mod convergence;
 mod metric;
+mod protocols;
+mod regions;
 mod split;
 mod stats;
 
@@ -24,5 +26,10 @@ pub use compare::{evaluate_model, ModelReport, WindowErrors};
 pub use comparison::{compare, CompareError, Comparison, ErrorSummary, ModelResult, PhaseSummary};
 pub use convergence::{convergence, convergence_time, Convergence, ConvergencePoint, SkippedPoint};
 pub use metric::{mrmse, Mrmse};
+pub use protocols::{
+    compare_protocols, intervals_in, simulate_protocol, simulate_with, ExperimentError,
+    ProtocolCell, ProtocolComparison, ProtocolRow, ProtocolStudy, INTERVAL_S,
+};
+pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use split::{split_by_interval, SplitError};
 pub use stats::{improvement_percent, quantile, Summary};
