@@ -1,7 +1,5 @@
 //! End-to-end tests of the `drive` command line on the bundled Husky data.
 
-mod common;
-
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -205,7 +203,12 @@ fn train_then_predict_matches_the_library() {
 
 fn write_small_dataset(dir: &Path) -> std::path::PathBuf {
     let csv = dir.join("small.csv");
-    let data = common::SyntheticRobot::warthog_like().record("small", 4, 1);
+    let warthog = drive::samplers::RobotSpec::preset("warthog").unwrap();
+    let gravel = drive::sim::Terrain::preset("gravel").unwrap();
+    let mut data = drive::eval::simulate_protocol(&warthog, gravel, "uniform", 4, 1)
+        .unwrap()
+        .dataset;
+    data.robot.name = "small".into();
     drive::data::write_dataset(&data, &csv).unwrap();
     csv
 }
