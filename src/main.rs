@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 mod compare_protocols;
+mod import_log;
 
 #[derive(Parser)]
 #[command(
@@ -129,6 +130,10 @@ enum Command {
         /// Output window CSV (its sidecar JSON is written beside it).
         #[arg(long)]
         out: PathBuf,
+        /// Also write what the DRIVE logger would have recorded (the raw CSV `drive
+        /// import` reads).
+        #[arg(long)]
+        raw_out: Option<PathBuf>,
     },
     /// Compare data-gathering protocols (paper Table I). On the simulator: equal driving
     /// time with each sampler, slip-BLR trained on each, all tested on one held-out uniform
@@ -177,6 +182,29 @@ enum Command {
         #[arg(long, default_value_t = 25)]
         draws: usize,
         /// Print one JSON object on stdout instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Import a raw DRIVE logger CSV: cut each 6 s interval into one transient and two
+    /// steady windows, drop the unusable ones with their reason, and write the window CSV
+    /// and sidecar that `drive eval` reads.
+    Import {
+        /// The logger's raw CSV.
+        #[arg(long)]
+        raw: PathBuf,
+        /// The robot's geometry and command rate: a preset (husky, hd2, warthog) or a TOML file.
+        #[arg(long)]
+        robot: String,
+        /// Output window CSV (its sidecar JSON is written beside it).
+        #[arg(long)]
+        out: PathBuf,
+        /// A time between two rows longer than this (s) cuts an interval.
+        #[arg(long, default_value_t = 0.25)]
+        max_gap: f64,
+        /// The longest time without a localization update inside an interval (s).
+        #[arg(long, default_value_t = 0.5)]
+        localization_timeout: f64,
+        /// Print the keep/drop report as one JSON object on stdout.
         #[arg(long)]
         json: bool,
     },
@@ -290,7 +318,16 @@ fn main() -> ExitCode {
             duration,
             seed,
             out,
-        } => run_simulate(&robot, &terrain, &sampler, duration, seed, &out),
+            raw_out,
+        } => run_simulate(
+            &robot,
+            &terrain,
+            &sampler,
+            duration,
+            seed,
+            &out,
+            raw_out.as_deref(),
+        ),
         Command::Converge {
             data,
             split,
@@ -338,6 +375,23 @@ fn main() -> ExitCode {
                 })
             }
         }
+        Command::Import {
+            raw,
+            robot,
+            out,
+            max_gap,
+            localization_timeout,
+            json,
+        } => import_log::run(
+            &raw,
+            &robot,
+            &out,
+            &drive::data::ImportConfig {
+                max_gap_s: max_gap,
+                localization_timeout_s: localization_timeout,
+            },
+            json,
+        ),
         Command::Predict {
             model,
             commands,
@@ -501,6 +555,7 @@ fn run_simulate(
     duration: f64,
     seed: u64,
     out: &Path,
+    raw_out: Option<&Path>,
 ) -> Result<()> {
     use drive::samplers::{RobotSpec, RunnerConfig};
     use drive::sim::Terrain;
@@ -523,6 +578,11 @@ fn run_simulate(
         bail!("the run of {duration} s recorded no complete interval (characterization takes about 24 s, an interval 6 s)");
     }
     drive::data::write_dataset(&run.dataset, out)?;
+    if let Some(path) = raw_out {
+        let mut text = String::new();
+        drive::data::write_raw_log(&run.raw, &[], &mut text);
+        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+    }
     let c = run.characterization;
     eprintln!(
         "{} windows ({} intervals) of {} on {}; input space {}; saved to {}",

@@ -96,6 +96,9 @@ pub enum DataErrorKind {
     /// A value should be a non-negative integer.
     #[error("'{0}' is not a non-negative integer")]
     NotAnInteger(String),
+    /// A value should be a boolean (`True`/`False`, `true`/`false`, `1`/`0`).
+    #[error("'{0}' is not a boolean (expected True or False)")]
+    NotABoolean(String),
     /// The phase is neither `transient` nor `steady`.
     #[error("'{0}' is not a phase (expected 'transient' or 'steady')")]
     BadPhase(String),

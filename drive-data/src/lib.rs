@@ -18,10 +18,14 @@
 #![warn(missing_docs)]
 
 mod error;
+mod import;
+mod raw_log;
 mod sidecar;
 mod window_csv;
 
 pub use error::{DataError, DataErrorKind, Location};
+pub use import::{import_raw, DropReason, ImportConfig, ImportReport, StepOutcome};
+pub use raw_log::{parse_raw_log, write_raw_log, CalibState, RawLog, RawRow, RAW_COLUMNS};
 pub use sidecar::{parse_sidecar, sidecar_json};
 pub use window_csv::{parse_windows, write_windows_csv, COLUMNS, OPTIONAL_COLUMNS};
 
@@ -98,6 +102,11 @@ pub fn write_dataset(dataset: &Dataset, csv: &Path) -> Result<(), DataError> {
     let side = sidecar_path(csv);
     std::fs::write(&side, sidecar_json(&dataset.robot, dataset.windows.len()))
         .map_err(|e| io(&side, e))
+}
+
+/// Reads a raw log file (see [`parse_raw_log`]).
+pub fn read_raw_log(path: &Path) -> Result<RawLog, DataError> {
+    parse_raw_log(&path.display().to_string(), &read_text(path)?)
 }
 
 fn read_text(path: &Path) -> Result<String, DataError> {

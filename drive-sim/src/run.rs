@@ -1,14 +1,17 @@
 //! The protocol runner in the loop with the simulator, recording DRIVE windows.
 
 use crate::{Simulator, Terrain};
+use drive_data::{CalibState, RawRow};
 use drive_samplers::{
-    window_len, Characterization, ProtocolRunner, RobotSpec, RunnerConfig, RunnerInput,
-    RunnerState, SampleTag, StopReason, WINDOWS_PER_INTERVAL,
+    window_len, Characterization, PauseReason, ProtocolRunner, RobotSpec, RunnerConfig,
+    RunnerInput, RunnerState, SampleTag, StopReason, WINDOWS_PER_INTERVAL,
 };
 use drive_traits::{
     wrap_angle, CommandModel, Dataset, Input, InputSampler, InputSpace, Phase, Pose,
     RobotDescription, Window,
 };
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::{RngExt, SeedableRng};
 use thiserror::Error;
 
 /// Scripted events, to test the runner's safety behaviour.
@@ -67,7 +70,16 @@ pub struct Simulation {
     pub states: Vec<(f64, RunnerState)>,
     /// The commands sent, one per tick.
     pub commands: Vec<Input>,
+    /// What the DRIVE logger would have recorded, one row per tick (see
+    /// [`drive_data::write_raw_log`]): `ros_time` with +-2 ms of jitter, `joy_switch` True
+    /// while the dead-man switch is released, `calib_state` `calib` while an interval is
+    /// driven (and during a dead-man pause), `idle` otherwise, the body command, the ICP
+    /// pose held between its 10 Hz updates (and frozen while localization is lost).
+    pub raw: Vec<RawRow>,
 }
+
+/// The logger's clock at the start of a simulated run (ns): 2024-07-10, as a real log.
+const RAW_EPOCH_NS: i64 = 1_720_641_663_000_000_000;
 
 struct Recorded {
     tag: SampleTag,
@@ -118,6 +130,9 @@ pub fn simulate(
     let mut buffer: Vec<Recorded> = Vec::new();
     let mut states = vec![(0.0, runner.state().clone())];
     let mut commands = Vec::new();
+    let mut raw = Vec::new();
+    let mut jitter = Xoshiro256PlusPlus::seed_from_u64(config.seed ^ 0x10C0_CAFE);
+    let (mut icp_index, mut published, mut step, mut driven) = (0u64, None::<Pose>, 0usize, false);
     let ticks = (max_s * robot.rate_hz).ceil() as usize + 1;
     for _ in 0..ticks {
         let m = sim.measure();
@@ -165,6 +180,52 @@ pub fn simulate(
             }
             None => buffer.clear(),
         }
+        // The logger's row of this tick.
+        if m.fresh_pose && !lost {
+            icp_index += 1;
+            published = Some(m.pose);
+        }
+        // A dead-man pause while driving suspends the interval under way: the logger
+        // keeps its calib_step with joy_switch True.
+        let deadman_pause = match runner.state() {
+            RunnerState::Paused {
+                reason: PauseReason::DeadmanReleased,
+                interval,
+            } if driven => {
+                step = *interval;
+                true
+            }
+            _ => false,
+        };
+        if let Some(tag) = out.sample {
+            step = tag.interval;
+            driven = true;
+        }
+        let p = published.unwrap_or(m.pose);
+        let (v, w) = (
+            0.5 * robot.wheel_radius * (out.command.x + out.command.y),
+            robot.wheel_radius * (out.command.y - out.command.x) / robot.baseline,
+        );
+        raw.push(RawRow {
+            line: raw.len() + 2,
+            time_ns: RAW_EPOCH_NS
+                + (m.t * 1e9).round() as i64
+                + jitter.random_range(-2_000_000..=2_000_000),
+            joy_switch: !deadman,
+            icp_index,
+            calib_state: if out.sample.is_some() || deadman_pause {
+                CalibState::Calib
+            } else {
+                CalibState::Idle
+            },
+            calib_step: step as u64,
+            wheels: m.encoder,
+            body_command: [v, w],
+            position: [p.x, p.y, 0.0],
+            quaternion: [0.0, 0.0, (0.5 * p.z).sin(), (0.5 * p.z).cos()],
+            imu_rate: [0.0, 0.0, m.imu_yaw_rate],
+            extra: Vec::new(),
+        });
         commands.push(out.command);
         if matches!(runner.state(), RunnerState::Done(_)) {
             break;
@@ -184,6 +245,7 @@ pub fn simulate(
         characterization: runner.characterization(),
         states,
         commands,
+        raw,
     })
 }
 
