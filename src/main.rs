@@ -84,7 +84,7 @@ enum Command {
         #[arg(long, default_value = "slip-blr")]
         model: String,
         /// Gradient thresholds m/s,rad/s of the convergence rule.
-        #[arg(long, value_parser = parse_pair, default_value = "0.01,0.01")]
+        #[arg(long, value_parser = parse_pair, default_value = "0.01,0.01", allow_hyphen_values = true)]
         thresholds: [f64; 2],
         /// Print one JSON object on stdout instead of the table.
         #[arg(long)]

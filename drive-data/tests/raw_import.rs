@@ -2,8 +2,8 @@
 //! with its reason, and the bench log says that it has no localization.
 
 use drive_data::{
-    import_raw, parse_raw_log, read_raw_log, write_raw_log, CalibState, DataErrorKind,
-    DropReason, ImportConfig, RawLog, RawRow,
+    import_raw, parse_raw_log, read_raw_log, write_raw_log, CalibState, DataErrorKind, DropReason,
+    ImportConfig, RawLog, RawRow,
 };
 use drive_traits::RobotDescription;
 use std::path::Path;
@@ -34,7 +34,15 @@ fn drive(rows: &mut Vec<RawRow>, step: u64, n: usize) {
         // The pose is held between 10 Hz updates.
         let update = rows.len() % 2 == 0;
         r.icp_index = icp + u64::from(update);
-        r.position = [if update { x } else { rows.last().map_or(0.0, |p| p.position[0]) }, 0.0, 0.0];
+        r.position = [
+            if update {
+                x
+            } else {
+                rows.last().map_or(0.0, |p| p.position[0])
+            },
+            0.0,
+            0.0,
+        ];
         rows.push(r);
     }
 }
@@ -58,7 +66,17 @@ fn clean_intervals_are_cut_into_one_transient_and_two_steady_windows() {
     assert_eq!(report.windows_kept(), 6);
     assert_eq!(data.windows.len(), 6);
     let phases: Vec<_> = data.windows.iter().map(|w| w.phase.as_str()).collect();
-    assert_eq!(phases, ["transient", "steady", "steady", "transient", "steady", "steady"]);
+    assert_eq!(
+        phases,
+        [
+            "transient",
+            "steady",
+            "steady",
+            "transient",
+            "steady",
+            "steady"
+        ]
+    );
     for w in &data.windows {
         assert_eq!(w.len(), 40);
         assert_eq!(w.pose[0].x, 0.0);
@@ -103,18 +121,32 @@ fn every_unusable_interval_is_dropped_with_its_reason() {
     let (data, report) = import(rows);
     let outcomes: Vec<_> = report.steps.iter().map(|s| s.outcome).collect();
     assert_eq!(outcomes[0], Ok(0), "{}", report.to_text());
-    assert!(matches!(outcomes[1], Err(DropReason::TimeGap { gap_s, .. }) if (gap_s - 0.65).abs() < 1e-6));
-    assert!(matches!(outcomes[2], Err(DropReason::LocalizationFrozen { for_s, .. }) if for_s > 1.0));
-    assert!(matches!(outcomes[3], Err(DropReason::TooShort { lasted_s }) if (lasted_s - 4.0).abs() < 1e-6));
+    assert!(
+        matches!(outcomes[1], Err(DropReason::TimeGap { gap_s, .. }) if (gap_s - 0.65).abs() < 1e-6)
+    );
+    assert!(
+        matches!(outcomes[2], Err(DropReason::LocalizationFrozen { for_s, .. }) if for_s > 1.0)
+    );
+    assert!(
+        matches!(outcomes[3], Err(DropReason::TooShort { lasted_s }) if (lasted_s - 4.0).abs() < 1e-6)
+    );
     assert_eq!(data.windows.len(), 3);
     assert_eq!(report.windows_dropped(), 9);
     assert_eq!(
         report.dropped_by_reason(),
-        [("time_gap", 3), ("localization_frozen", 3), ("too_short", 3)]
+        [
+            ("time_gap", 3),
+            ("localization_frozen", 3),
+            ("too_short", 3)
+        ]
     );
     // The kept interval is the stretch after the takeover, starting with its first row.
     assert_eq!(data.windows[0].encoder.len(), 40);
-    assert!(report.notes[0].contains("calib_step 0 lasts"), "{:?}", report.notes);
+    assert!(
+        report.notes[0].contains("calib_step 0 lasts"),
+        "{:?}",
+        report.notes
+    );
 }
 
 #[test]
@@ -173,26 +205,48 @@ fn messy_values_of_real_logs_are_read() {
     assert_eq!(log.rows[1].time_ns, 1_720_641_663_300_000_000);
 }
 
+type KindCheck = fn(&DataErrorKind) -> bool;
+
 #[test]
 fn bad_raw_logs_are_refused_with_line_and_column() {
     let header = drive_data::RAW_COLUMNS.join(",");
     let row = "1000,False,0,calib,0,0,0,0,0,0,0,0,0,0,0,1,0,0,0";
-    let cases: [(String, usize, &str, fn(&DataErrorKind) -> bool); 6] = [
-        (format!("{header}\n{}", row.replace("False", "maybe")), 2, "joy_switch", |k| {
-            matches!(k, DataErrorKind::NotABoolean(_))
+    let cases: [(String, usize, &str, KindCheck); 6] = [
+        (
+            format!("{header}\n{}", row.replace("False", "maybe")),
+            2,
+            "joy_switch",
+            |k| matches!(k, DataErrorKind::NotABoolean(_)),
+        ),
+        (
+            format!("{header}\n{}", row.replace(",calib,0,", ",calib,1.5,")),
+            2,
+            "calib_step",
+            |k| matches!(k, DataErrorKind::NotAnInteger(_)),
+        ),
+        (
+            format!("{header}\n{row}\n{}", row.replace("1000,", "999,")),
+            3,
+            "ros_time",
+            |k| matches!(k, DataErrorKind::Inconsistent(m) if m.contains("goes back")),
+        ),
+        (
+            format!("{header}\n{}", row.replace(",1,0,0,0", ",NaN,0,0,0")),
+            2,
+            "icp_quat_w",
+            |k| matches!(k, DataErrorKind::NotFinite(_)),
+        ),
+        (header.replace(",imu_z", ""), 1, "imu_z", |k| {
+            matches!(k, DataErrorKind::MissingColumn(_))
         }),
-        (format!("{header}\n{}", row.replace(",calib,0,", ",calib,1.5,")), 2, "calib_step", |k| {
-            matches!(k, DataErrorKind::NotAnInteger(_))
-        }),
-        (format!("{header}\n{row}\n{}", row.replace("1000,", "999,")), 3, "ros_time", |k| {
-            matches!(k, DataErrorKind::Inconsistent(m) if m.contains("goes back"))
-        }),
-        (format!("{header}\n{}", row.replace(",1,0,0,0", ",NaN,0,0,0")), 2, "icp_quat_w", |k| {
-            matches!(k, DataErrorKind::NotFinite(_))
-        }),
-        (header.replace(",imu_z", ""), 1, "imu_z", |k| matches!(k, DataErrorKind::MissingColumn(_))),
         (format!("{header}\n{row},7"), 2, "", |k| {
-            matches!(k, DataErrorKind::FieldCount { expected: 19, found: 20 })
+            matches!(
+                k,
+                DataErrorKind::FieldCount {
+                    expected: 19,
+                    found: 20
+                }
+            )
         }),
     ];
     for (text, line, column, kind) in cases {

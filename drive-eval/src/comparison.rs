@@ -19,12 +19,12 @@ pub enum CompareError {
     #[error("unknown model '{0}' (the models are: {names})", names = drive_models::MODEL_NAMES.join(", "))]
     UnknownModel(String),
     /// A model could not be fitted on the training intervals.
-    #[error("fitting {model}: {source}")]
+    #[error("fitting {model}: {reason}")]
     Fit {
         /// model name
         model: String,
         /// why
-        source: FitError,
+        reason: FitError,
     },
 }
 
@@ -134,9 +134,9 @@ pub fn compare(data: &Dataset, split: f64, names: &[&str]) -> Result<Comparison,
         // Names were checked against the registry above.
         let model = drive_models::fit_named(name, &train)
             .ok_or_else(|| CompareError::UnknownModel(name.to_string()))?
-            .map_err(|source| CompareError::Fit {
+            .map_err(|reason| CompareError::Fit {
                 model: name.to_string(),
-                source,
+                reason,
             })?;
         Ok((model, start.elapsed().as_secs_f64()))
     };

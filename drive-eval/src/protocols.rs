@@ -19,25 +19,25 @@ pub const INTERVAL_S: f64 = 6.0;
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum ExperimentError {
     /// A sampler could not be built.
-    #[error("sampler '{name}': {source}")]
+    #[error("sampler '{name}': {reason}")]
     Sampler {
         /// sampler name
         name: String,
         /// cause
-        source: SamplerError,
+        reason: SamplerError,
     },
     /// The simulation could not run.
     #[error(transparent)]
     Simulation(#[from] SimError),
     /// A model could not be fitted.
-    #[error("fitting {model} on {data}: {source}")]
+    #[error("fitting {model} on {data}: {reason}")]
     Fit {
         /// model name
         model: String,
         /// what it was fitted on
         data: String,
         /// cause
-        source: FitError,
+        reason: FitError,
     },
     /// No model of that name.
     #[error("unknown model '{0}' (the models are: {models})", models = drive_models::MODEL_NAMES.join(", "))]
@@ -106,9 +106,9 @@ pub fn simulate_with(
 ) -> Result<Simulation, ExperimentError> {
     let (r, b) = (robot.wheel_radius, robot.baseline);
     let vehicle = move || Box::new(DifferentialDrive::new(r, b)) as Box<dyn CommandModel>;
-    let sampler_error = |source| ExperimentError::Sampler {
+    let sampler_error = |reason| ExperimentError::Sampler {
         name: sampler.to_string(),
-        source,
+        reason,
     };
     // Fail early on a name or limits that cannot work over the nominal input space.
     sampler_over(sampler, robot.input_space(), robot, vehicle, seed).map_err(sampler_error)?;
@@ -391,10 +391,10 @@ fn train_and_test(
     };
     let fitted = fit_named(model, &train.all())
         .ok_or_else(|| ExperimentError::UnknownModel(model.to_string()))?
-        .map_err(|source| ExperimentError::Fit {
+        .map_err(|reason| ExperimentError::Fit {
             model: model.to_string(),
             data: train.robot.name.clone(),
-            source,
+            reason,
         })?;
     let report = evaluate_model(fitted.as_ref(), &test.all());
     Ok((

@@ -190,10 +190,10 @@ pub fn compare_regions(
         };
         let model = fit_named(&study.model, &set)
             .ok_or_else(|| ExperimentError::UnknownModel(study.model.clone()))?
-            .map_err(|source| ExperimentError::Fit {
+            .map_err(|reason| ExperimentError::Fit {
                 model: study.model.clone(),
                 data: what.to_string(),
-                source,
+                reason,
             })?;
         let report = evaluate_model(model.as_ref(), &eval);
         let empty = || ExperimentError::NotEnoughData("no evaluation window".into());

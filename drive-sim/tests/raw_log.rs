@@ -55,7 +55,10 @@ fn simulate_raw_log_import_gives_the_simulators_windows() {
     assert_eq!(report.notes.len(), 2, "{:?}", report.notes);
     assert_eq!(data.windows.len(), sim.dataset.windows.len());
     for (a, b) in data.windows.iter().zip(&sim.dataset.windows) {
-        assert_eq!((a.index, a.interval, a.phase), (b.index, b.interval, b.phase));
+        assert_eq!(
+            (a.index, a.interval, a.phase),
+            (b.index, b.interval, b.phase)
+        );
         assert_eq!(a.encoder, b.encoder);
         assert_eq!(a.imu_yaw_rate, b.imu_yaw_rate);
         for (u, v) in a.command.iter().zip(&b.command) {

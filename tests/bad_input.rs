@@ -1,0 +1,258 @@
+//! Bad input at every entry point of the command line (window CSV, sidecar, raw log, robot
+//! TOML, model JSON, arguments): each case is refused with a non-zero exit, one line on
+//! stderr naming where and what, no panic, and no output file written.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A file of a case: written before the command runs.
+enum File {
+    /// A copy of the small valid dataset (CSV and sidecar), edited.
+    Dataset {
+        csv: fn(String) -> String,
+        sidecar: fn(String) -> String,
+    },
+    /// A raw log with this text.
+    Raw(fn(String) -> String),
+    /// A robot TOML with this text.
+    Robot(&'static str),
+    /// A copy of a valid slip-BLR model file, edited.
+    Model(fn(String) -> String),
+    /// Nothing.
+    None,
+}
+
+struct Case {
+    name: &'static str,
+    file: File,
+    /// Arguments; `{data}`, `{raw}`, `{robot}`, `{model}`, `{commands}` and `{out}` are
+    /// replaced by paths in the case's directory.
+    args: &'static [&'static str],
+    /// What the error line must say.
+    says: &'static [&'static str],
+}
+
+fn keep(s: String) -> String {
+    s
+}
+
+fn replace_line(text: &str, n: usize, f: impl Fn(&str) -> String) -> String {
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| if i + 1 == n { f(l) } else { l.to_string() })
+        .collect::<Vec<_>>()
+        .join("\n")
+        + "\n"
+}
+
+fn set_field(line: &str, column: usize, value: &str) -> String {
+    let mut f: Vec<&str> = line.split(',').collect();
+    f[column] = value;
+    f.join(",")
+}
+
+const RAW_HEADER: &str = "ros_time,joy_switch,icp_index,calib_state,calib_step,meas_left_vel,meas_right_vel,cmd_vel_x,cmd_vel_omega,icp_pos_x,icp_pos_y,icp_pos_z,icp_quat_x,icp_quat_y,icp_quat_z,icp_quat_w,imu_x,imu_y,imu_z";
+
+fn cases() -> Vec<Case> {
+    let ds =
+        |csv: fn(String) -> String, sidecar: fn(String) -> String| File::Dataset { csv, sidecar };
+    vec![
+        // Window CSV.
+        Case { name: "csv NaN", file: ds(|t| replace_line(&t, 12, |l| set_field(l, 6, "NaN")), keep),
+            args: &["eval", "--data", "{data}"], says: &["data.csv, line 12, column 'enc_left'", "not a finite number"] },
+        Case { name: "csv text in a number", file: ds(|t| replace_line(&t, 5, |l| set_field(l, 9, "1,5")), keep),
+            args: &["eval", "--data", "{data}"], says: &["data.csv, line 5", "13 fields where the header has 12"] },
+        Case { name: "csv missing column", file: ds(|t| t.replacen(",imu_yaw_rate", "", 1), keep),
+            args: &["eval", "--data", "{data}"], says: &["line 1, column 'imu_yaw_rate'", "missing column"] },
+        Case { name: "csv unknown column", file: ds(|t| t.replacen("imu_yaw_rate", "gyro", 1), keep),
+            args: &["eval", "--data", "{data}"], says: &["column 'gyro'", "unknown column"] },
+        Case { name: "csv bad phase", file: ds(|t| replace_line(&t, 3, |l| l.replace("transient", "warmup")), keep),
+            args: &["eval", "--data", "{data}"], says: &["line 3, column 'phase'", "'warmup' is not a phase"] },
+        Case { name: "csv short window", file: ds(|t| replace_line(&t, 41, |_| String::new()).replace("\n\n", "\n"), keep),
+            args: &["eval", "--data", "{data}"], says: &["window 0 has 39 samples"] },
+        Case { name: "csv negative sample index", file: ds(|t| replace_line(&t, 4, |l| set_field(l, 2, "-2")), keep),
+            args: &["eval", "--data", "{data}"], says: &["line 4, column 'k'", "not a non-negative integer"] },
+        // Sidecar.
+        Case { name: "sidecar negative radius", file: ds(keep, |s| s.replace("\"wheel_radius\": 0.3", "\"wheel_radius\": -0.3")),
+            args: &["eval", "--data", "{data}"], says: &["data.json, field 'wheel_radius'"] },
+        Case { name: "sidecar zero rate", file: ds(keep, |s| s.replace("\"rate_hz\": 20", "\"rate_hz\": 0")),
+            args: &["eval", "--data", "{data}"], says: &["data.json, field 'rate_hz'"] },
+        Case { name: "sidecar window count", file: ds(keep, |s| s.replace("\"windows\": 12", "\"windows\": 13")),
+            args: &["eval", "--data", "{data}"], says: &["field 'windows'", "announces 13 windows"] },
+        Case { name: "sidecar not JSON", file: ds(keep, |_| "rate_hz = 20".into()),
+            args: &["eval", "--data", "{data}"], says: &["data.json"] },
+        Case { name: "sidecar missing", file: File::None,
+            args: &["eval", "--data", "{data}"], says: &["the sidecar JSON of", "was not found"] },
+        // Raw log.
+        Case { name: "raw bench log without localization", file: File::Raw(|_| {
+                std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("data/raw_log_warthog_bench.csv")).unwrap()
+            }),
+            args: &["import", "--raw", "{raw}", "--robot", "warthog", "--out", "{out}"],
+            says: &["no usable window in", "localization is all zeros", "nothing written"] },
+        Case { name: "raw bad boolean", file: File::Raw(|h| format!("{h}\n1000,maybe,0,calib,0,0,0,0,0,0,0,0,0,0,0,1,0,0,0\n")),
+            args: &["import", "--raw", "{raw}", "--robot", "warthog", "--out", "{out}"],
+            says: &["raw.csv, line 2, column 'joy_switch'", "'maybe' is not a boolean"] },
+        Case { name: "raw time backwards", file: File::Raw(|h| format!("{h}\n2000,False,0,calib,0,0,0,0,0,0,0,0,0,0,0,1,0,0,0\n1000,False,0,calib,0,0,0,0,0,0,0,0,0,0,0,1,0,0,0\n")),
+            args: &["import", "--raw", "{raw}", "--robot", "warthog", "--out", "{out}"],
+            says: &["line 3, column 'ros_time'", "goes back"] },
+        Case { name: "raw missing column", file: File::Raw(|h| h.replace(",cmd_vel_omega", "") + "\n"),
+            args: &["import", "--raw", "{raw}", "--robot", "warthog", "--out", "{out}"],
+            says: &["line 1, column 'cmd_vel_omega'", "missing column"] },
+        Case { name: "raw empty", file: File::Raw(|_| String::new()),
+            args: &["import", "--raw", "{raw}", "--robot", "warthog", "--out", "{out}"],
+            says: &["raw.csv: the file is empty"] },
+        Case { name: "raw no interval", file: File::Raw(|h| format!("{h}\n1000,False,0,idle,0,0,0,0,0,0,0,0,0,0,0,1,0,0,0\n")),
+            args: &["import", "--raw", "{raw}", "--robot", "warthog", "--out", "{out}"],
+            says: &["no DRIVE interval in the log"] },
+        Case { name: "raw non-positive gap limit", file: File::Raw(|h| format!("{h}\n1000,False,0,calib,0,0,0,0,0,0,0,0,0,0,0,1,0,0,0\n")),
+            args: &["import", "--raw", "{raw}", "--robot", "warthog", "--out", "{out}", "--max-gap", "0"],
+            says: &["max_gap_s", "not a positive number of seconds"] },
+        // Robot TOML.
+        Case { name: "robot negative baseline", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = -0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),
+            args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["robot.toml, field 'baseline'", "positive"] },
+        Case { name: "robot unknown field", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = 0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\ntop_speed = 3\n"),
+            args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["robot.toml", "unknown field `top_speed`"] },
+        Case { name: "robot missing field", file: File::Robot("name = 'r'\nmass_kg = 50\nbaseline = 0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),
+            args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["robot.toml", "missing field `wheel_radius`"] },
+        Case { name: "robot inverted wheel limits", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = 0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\nwheel_limits = [5.0, -5.0]\n"),
+            args: &["simulate", "--robot", "{robot}", "--terrain", "tile", "--duration", "40", "--out", "{out}"], says: &["field 'wheel_limits'", "omega_min < omega_max"] },
+        Case { name: "robot unknown preset", file: File::None,
+            args: &["import", "--raw", "{raw}", "--robot", "husky2", "--out", "{out}"], says: &["unknown robot 'husky2'"] },
+        // Model JSON.
+        Case { name: "model newer version", file: File::Model(|m| m.replace("\"format_version\": 1", "\"format_version\": 2")),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json, field 'format_version'", "version 2 is not supported"] },
+        Case { name: "model not JSON", file: File::Model(|m| m[..m.len() / 2].to_string()),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json, line", "not a valid model file"] },
+        Case { name: "model without version", file: File::Model(|m| m.replace("\"format_version\": 1,", "")),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["field 'format_version': missing"] },
+        Case { name: "model unknown type", file: File::Model(|m| m.replace("\"slip-blr\"", "\"gp\"")),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json, field 'model'", "gp"] },
+        Case { name: "model negative step", file: File::Model(|m| m.replacen("\"dt\": 0.05", "\"dt\": -0.05", 1)),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json, field 'model'", "dt"] },
+        // Arguments.
+        Case { name: "split out of range", file: File::None, args: &["eval", "--split", "1.5"], says: &["split fraction 1.5"] },
+        Case { name: "empty model list", file: File::None, args: &["eval", "--models", ","], says: &["--models is empty"] },
+        Case { name: "zero duration", file: File::None,
+            args: &["simulate", "--robot", "husky", "--terrain", "tile", "--duration", "0", "--out", "{out}"], says: &["--duration must be a positive"] },
+        Case { name: "negative threshold", file: File::None, args: &["converge", "--thresholds", "-1,0.01"], says: &["--thresholds must be positive"] },
+        Case { name: "unknown terrain", file: File::None,
+            args: &["simulate", "--robot", "husky", "--terrain", "sand", "--duration", "30", "--out", "{out}"], says: &["unknown terrain 'sand'"] },
+        Case { name: "zero intervals", file: File::None,
+            args: &["protocol", "--robot", "husky", "--intervals", "0", "--out", "{out}"], says: &["--intervals must be at least 1"] },
+    ]
+}
+
+fn drive(args: &[String]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_drive"))
+        .args(args)
+        .env_remove("RUST_BACKTRACE")
+        .output()
+        .expect("the drive binary runs")
+}
+
+/// A small valid dataset (4 intervals of the simulated Warthog), a slip-BLR model file and
+/// a command file, made once.
+fn fixtures(dir: &Path) -> (String, String, String, String) {
+    let csv = dir.join("data.csv");
+    let warthog = drive::samplers::RobotSpec::preset("warthog").unwrap();
+    let gravel = drive::sim::Terrain::preset("gravel").unwrap();
+    let data = drive::eval::simulate_protocol(&warthog, gravel, "uniform", 4, 2)
+        .unwrap()
+        .dataset;
+    drive::data::write_dataset(&data, &csv).unwrap();
+    let model = dir.join("model.json");
+    let args: Vec<String> = [
+        "train",
+        "--data",
+        csv.to_str().unwrap(),
+        "--model",
+        "slip-blr",
+        "--out",
+        model.to_str().unwrap(),
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    assert!(drive(&args).status.success());
+    let commands = dir.join("commands.csv");
+    std::fs::write(&commands, "t,cmd_left,cmd_right\n0,1,1\n0.05,1,1\n").unwrap();
+    let read = |p: &Path| std::fs::read_to_string(p).unwrap();
+    (
+        read(&csv),
+        read(&dir.join("data.json")),
+        read(&model),
+        read(&commands),
+    )
+}
+
+#[test]
+fn every_bad_input_is_refused_clearly() {
+    let base = tempfile::tempdir().unwrap();
+    let (csv, sidecar, model, commands) = fixtures(base.path());
+    let all = cases();
+    assert!(all.len() >= 25);
+    for case in all {
+        let dir = tempfile::tempdir().unwrap();
+        let at = |name: &str| -> PathBuf { dir.path().join(name) };
+        std::fs::write(at("commands.csv"), &commands).unwrap();
+        match &case.file {
+            File::Dataset { csv: c, sidecar: s } => {
+                std::fs::write(at("data.csv"), c(csv.clone())).unwrap();
+                std::fs::write(at("data.json"), s(sidecar.clone())).unwrap();
+            }
+            File::Raw(f) => std::fs::write(at("raw.csv"), f(RAW_HEADER.to_string())).unwrap(),
+            File::Robot(text) => std::fs::write(at("robot.toml"), text).unwrap(),
+            File::Model(f) => std::fs::write(at("model.json"), f(model.clone())).unwrap(),
+            File::None => {
+                if case.args.contains(&"{data}") {
+                    std::fs::write(at("data.csv"), &csv).unwrap();
+                }
+            }
+        }
+        let args: Vec<String> = case
+            .args
+            .iter()
+            .map(|a| {
+                let path = |n: &str| at(n).display().to_string();
+                match *a {
+                    "{data}" => path("data.csv"),
+                    "{raw}" => path("raw.csv"),
+                    "{robot}" => path("robot.toml"),
+                    "{model}" => path("model.json"),
+                    "{commands}" => path("commands.csv"),
+                    "{out}" => path("out.csv"),
+                    other => other.to_string(),
+                }
+            })
+            .collect();
+        let out = drive(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        let name = case.name;
+        assert_eq!(out.status.code(), Some(1), "{name}: {err}");
+        assert!(
+            !err.contains("panicked") && !err.contains("backtrace"),
+            "{name}: {err}"
+        );
+        assert_eq!(
+            err.trim_end().lines().count(),
+            1,
+            "{name}: one line expected: {err}"
+        );
+        assert!(err.starts_with("error: "), "{name}: {err}");
+        for needle in case.says {
+            assert!(err.contains(needle), "{name}: '{needle}' not in: {err}");
+        }
+        // The message says each thing once (no cause repeated by the error chain).
+        let parts: Vec<&str> = err.trim_end().split(": ").collect();
+        for (i, p) in parts.iter().enumerate() {
+            assert!(
+                p.len() < 12 || !parts[i + 1..].contains(p),
+                "{name}: repeated '{p}' in {err}"
+            );
+        }
+        assert!(
+            !at("out.csv").exists() && !at("out.json").exists(),
+            "{name}: output written"
+        );
+    }
+}
