@@ -30,3 +30,4 @@ pub use drive_sim as sim;
 pub use drive_traits as traits;
 
 pub mod bundled;
+pub mod fuzz;

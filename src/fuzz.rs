@@ -1,0 +1,67 @@
+//! The entry points the fuzz targets in `fuzz/` exercise, shared with the test that replays
+//! their corpus (`tests/fuzz_corpus.rs`): each takes arbitrary bytes, must never panic, and
+//! returns whether the input was accepted.
+//!
+//! ```
+//! assert!(!drive::fuzz::window_csv(b"window,phase\n0,steady\n"));
+//! assert!(!drive::fuzz::raw_log(b"\xff\xfe"));
+//! assert!(!drive::fuzz::model_file(b"{\"format_version\": 1}"));
+//! ```
+
+use crate::data::{import_raw, parse_dataset, parse_raw_log, ImportConfig};
+use crate::models::model_file::model_from_json;
+use crate::traits::{Input, Pose, RobotDescription, StartState};
+
+/// The sidecar the window-CSV target reads its CSV with: a short window so that small inputs
+/// reach the window logic.
+const SIDECAR: &str =
+    r#"{"name": "fuzz", "rate_hz": 20, "window_len": 3, "wheel_radius": 0.1, "baseline": 0.5}"#;
+
+/// The window CSV reader (and the sidecar reader on the same bytes).
+pub fn window_csv(bytes: &[u8]) -> bool {
+    let Ok(text) = std::str::from_utf8(bytes) else {
+        return false;
+    };
+    let _ = crate::data::parse_sidecar("fuzz.json", text);
+    parse_dataset("fuzz.csv", text, "fuzz.json", SIDECAR).is_ok()
+}
+
+/// The raw log reader, then the import of what it read.
+pub fn raw_log(bytes: &[u8]) -> bool {
+    let Ok(text) = std::str::from_utf8(bytes) else {
+        return false;
+    };
+    let Ok(log) = parse_raw_log("fuzz.csv", text) else {
+        return false;
+    };
+    let robot = RobotDescription {
+        name: "fuzz".into(),
+        robot: "fuzz".into(),
+        rate_hz: 20.0,
+        window_len: 2,
+        wheel_radius: 0.3,
+        baseline: 1.2,
+    };
+    import_raw(&log, &robot, &ImportConfig::default()).is_ok()
+}
+
+/// The model loader, then a short prediction with what it loaded.
+pub fn model_file(bytes: &[u8]) -> bool {
+    let Ok(text) = std::str::from_utf8(bytes) else {
+        return false;
+    };
+    let Ok((model, _robot)) = model_from_json("fuzz.json", text) else {
+        return false;
+    };
+    let start = StartState {
+        pose: Pose::zeros(),
+        input: Input::new(1.0, -1.0),
+        body_velocity: Default::default(),
+    };
+    let commands = [Input::new(2.0, 1.0); 8];
+    let _ = model.predict(&start, &commands);
+    let mut poses = Vec::new();
+    let mut covariances = Vec::new();
+    let _ = model.predict_with_covariance_into(&start, &commands, &mut poses, &mut covariances);
+    true
+}
