@@ -97,7 +97,12 @@ fn models() -> &'static Vec<Box<dyn MotionModel>> {
 }
 
 fn pose() -> impl Strategy<Value = Pose> {
-    (-50.0..50.0f64, -50.0..50.0f64, -3.14..3.14f64).prop_map(|(x, y, t)| Pose::new(x, y, t))
+    (
+        -50.0..50.0f64,
+        -50.0..50.0f64,
+        -std::f64::consts::PI..std::f64::consts::PI,
+    )
+        .prop_map(|(x, y, t)| Pose::new(x, y, t))
 }
 
 proptest! {
