@@ -576,3 +576,60 @@ fn compare_protocols_user_errors() {
         assert!(err.contains(says), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn simulate_raw_log_then_import_then_eval() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    ok(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        "snow",
+        "--duration",
+        "93",
+        "--seed",
+        "6",
+        "--out",
+        &p("sim.csv"),
+        "--raw-out",
+        &p("raw.csv"),
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "import",
+        "--raw",
+        &p("raw.csv"),
+        "--robot",
+        "husky",
+        "--out",
+        &p("windows.csv"),
+        "--json",
+    ]))
+    .unwrap();
+    // 24 s of characterization, then 11 intervals: the last one is cut by the end of the run.
+    assert_eq!(v["windows_kept"], 33, "{v}");
+    assert_eq!(v["windows_dropped"], 3, "{v}");
+    assert_eq!(v["dropped_by_reason"]["too_short"], 3, "{v}");
+    assert_eq!(v["out"], p("windows.csv"));
+    let imported: serde_json::Value =
+        serde_json::from_str(&ok(&["eval", "--json", "--data", &p("windows.csv")])).unwrap();
+    let direct: serde_json::Value =
+        serde_json::from_str(&ok(&["eval", "--json", "--data", &p("sim.csv")])).unwrap();
+    assert_eq!(imported["eval_windows"], direct["eval_windows"]);
+    for name in ["naive", "slip-blr"] {
+        let (a, b) = (model(&imported, name), model(&direct, name));
+        assert!((f(&a["translational_median_m"]) - f(&b["translational_median_m"])).abs() < 1e-9);
+    }
+    // Without --json the report is text on stdout.
+    let text = ok(&[
+        "import",
+        "--raw",
+        &p("raw.csv"),
+        "--robot",
+        "husky",
+        "--out",
+        &p("w2.csv"),
+    ]);
+    assert!(text.contains("33 windows kept, 3 dropped"), "{text}");
+}

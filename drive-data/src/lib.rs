@@ -1,5 +1,6 @@
 //! Reading and writing DRIVE window datasets: the long-format window CSV (one row per
-//! sample) and its sidecar JSON (robot geometry and rates).
+//! sample) and its sidecar JSON (robot geometry and rates); and the DRIVE logger's raw CSV
+//! ([`parse_raw_log`]) cut into windows by [`import_raw`], with a keep/drop report.
 //!
 //! Every problem in the input is reported as a [`DataError`] that names the file, the line
 //! and the column (or the sidecar field), and what was expected. Nothing here panics on
