@@ -165,13 +165,7 @@ fn simulated_table(t: &ProtocolComparison) -> String {
 
 /// Table I on recorded data.
 pub fn recorded(data: &Dataset, study: &RegionStudy, json: bool) -> Result<()> {
-    let table = compare_regions(data, study)?;
-    if json {
-        println!("{}", serde_json::to_string(&table)?);
-    } else {
-        print!("{}", recorded_table(&table));
-    }
-    Ok(())
+    crate::emit(json, &compare_regions(data, study)?, recorded_table)
 }
 
 fn recorded_table(t: &RegionComparison) -> String {

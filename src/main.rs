@@ -198,7 +198,8 @@ enum Command {
         /// Output window CSV (its sidecar JSON is written beside it).
         #[arg(long)]
         out: PathBuf,
-        /// A time between two rows longer than this (s) cuts an interval.
+        /// A time between two rows longer than this (s) cuts an interval (never less than two
+        /// command periods).
         #[arg(long, default_value_t = 0.25)]
         max_gap: f64,
         /// The longest time without a localization update inside an interval (s).
@@ -432,10 +433,19 @@ fn run_eval(
         std::fs::write(path, per_window_csv(&cmp))
             .with_context(|| format!("writing {}", path.display()))?;
     }
+    emit(json, &cmp, table)
+}
+
+/// Prints `value` as one JSON object on stdout when `json`, else its text `table`.
+fn emit<T: serde::Serialize>(
+    json: bool,
+    value: &T,
+    table: impl FnOnce(&T) -> String,
+) -> Result<()> {
     if json {
-        println!("{}", serde_json::to_string(&cmp)?);
+        println!("{}", serde_json::to_string(value)?);
     } else {
-        print!("{}", table(&cmp));
+        print!("{}", table(value));
     }
     Ok(())
 }

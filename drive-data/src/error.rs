@@ -176,3 +176,17 @@ impl DataError {
         DataError { location, kind }
     }
 }
+
+/// Parses a finite number; `at` locates the value for the error.
+pub(crate) fn parse_number(raw: &str, at: impl Fn() -> Location) -> Result<f64, DataError> {
+    let v: f64 = raw
+        .parse()
+        .map_err(|_| DataError::new(at(), DataErrorKind::NotANumber(raw.to_string())))?;
+    if !v.is_finite() {
+        return Err(DataError::new(
+            at(),
+            DataErrorKind::NotFinite(raw.to_string()),
+        ));
+    }
+    Ok(v)
+}

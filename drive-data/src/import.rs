@@ -12,7 +12,8 @@ const WINDOWS_PER_INTERVAL: usize = 3;
 /// What makes an interval unusable.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ImportConfig {
-    /// A time between two rows longer than this (s) cuts the interval.
+    /// A time between two rows longer than this (s) cuts the interval; never less than
+    /// two command periods of the robot (a slow logger's regular rows are no gap).
     pub max_gap_s: f64,
     /// The longest time without a localization update inside an interval (s).
     pub localization_timeout_s: f64,
@@ -325,7 +326,7 @@ pub fn import_raw(
     let samples = WINDOWS_PER_INTERVAL * robot.window_len;
     // The last grid instant, less half a period of tolerance for jitter.
     let needed_ns = ((samples - 1) as f64 - 0.5) * period_ns;
-    let max_gap_ns = config.max_gap_s * 1e9;
+    let max_gap_ns = (config.max_gap_s * 1e9).max(2.0 * period_ns);
 
     // Steps in order of first appearance, with their rows (indices into `rows`).
     let mut steps: Vec<(u64, Vec<usize>)> = Vec::new();

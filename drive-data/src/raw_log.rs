@@ -1,6 +1,7 @@
 //! The DRIVE logger's raw CSV: one row per command tick, as the paper's ROS 2 logger node
 //! exports it (see `data/README.md`).
 
+use crate::error::parse_number;
 use crate::{DataError, DataErrorKind, Location};
 use drive_traits::Input;
 use std::fmt::Write as _;
@@ -135,19 +136,6 @@ pub struct RawLog {
     pub extra_columns: Vec<String>,
     /// All-zero rows left out (the logger writes one before the first message arrives).
     pub placeholder_rows: usize,
-}
-
-fn parse_number(raw: &str, at: impl Fn() -> Location) -> Result<f64, DataError> {
-    let v: f64 = raw
-        .parse()
-        .map_err(|_| DataError::new(at(), DataErrorKind::NotANumber(raw.to_string())))?;
-    if !v.is_finite() {
-        return Err(DataError::new(
-            at(),
-            DataErrorKind::NotFinite(raw.to_string()),
-        ));
-    }
-    Ok(v)
 }
 
 fn parse_count(raw: &str, at: impl Fn() -> Location) -> Result<u64, DataError> {

@@ -178,15 +178,7 @@ pub fn parse_windows(
                 };
                 continue;
             }
-            let v: f64 = raw
-                .parse()
-                .map_err(|_| DataError::new(at(), DataErrorKind::NotANumber(raw.to_string())))?;
-            if !v.is_finite() {
-                return Err(DataError::new(
-                    at(),
-                    DataErrorKind::NotFinite(raw.to_string()),
-                ));
-            }
+            let v = crate::error::parse_number(raw, at)?;
             if (slot == WINDOW || slot == K) && (v < 0.0 || v.fract() != 0.0 || v > u32::MAX as f64)
             {
                 return Err(DataError::new(
