@@ -116,6 +116,8 @@ fn cases() -> Vec<Case> {
             args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["robot.toml", "missing field `wheel_radius`"] },
         Case { name: "robot inverted wheel limits", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = 0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\nwheel_limits = [5.0, -5.0]\n"),
             args: &["simulate", "--robot", "{robot}", "--terrain", "tile", "--duration", "40", "--out", "{out}"], says: &["field 'wheel_limits'", "omega_min < omega_max"] },
+        Case { name: "robot too slow for a window", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = 0.5\nmax_speed = 1\nrate_hz = 0.4\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),
+            args: &["simulate", "--robot", "{robot}", "--terrain", "tile", "--duration", "60", "--out", "{out}"], says: &["field 'rate_hz'", "fewer than 2 samples per 2 s window"] },
         Case { name: "robot unknown preset", file: File::None,
             args: &["import", "--raw", "{raw}", "--robot", "husky2", "--out", "{out}"], says: &["unknown robot 'husky2'"] },
         // Model JSON.

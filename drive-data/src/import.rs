@@ -321,6 +321,15 @@ pub fn import_raw(
             ));
         }
     }
+    if !(robot.rate_hz.is_finite() && robot.rate_hz > 0.0) || robot.window_len < 2 {
+        return Err(DataError::new(
+            Location::field("robot description", "rate_hz"),
+            DataErrorKind::Inconsistent(format!(
+                "a command rate of {} Hz gives {} samples per 2 s window; at least 2 are needed",
+                robot.rate_hz, robot.window_len
+            )),
+        ));
+    }
     let rows = &log.rows;
     let period_ns = 1e9 / robot.rate_hz;
     let samples = WINDOWS_PER_INTERVAL * robot.window_len;

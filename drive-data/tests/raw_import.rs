@@ -258,3 +258,22 @@ fn bad_raw_logs_are_refused_with_line_and_column() {
         assert!(kind(&err.kind), "{err}");
     }
 }
+
+#[test]
+fn a_robot_too_slow_for_two_samples_per_window_is_refused() {
+    let mut rows = Vec::new();
+    drive(&mut rows, 0, 10);
+    let log = RawLog {
+        file: "log.csv".into(),
+        rows,
+        extra_columns: vec![],
+        placeholder_rows: 0,
+    };
+    let robot = RobotDescription {
+        rate_hz: 0.4,
+        window_len: 1,
+        ..warthog()
+    };
+    let err = import_raw(&log, &robot, &ImportConfig::default()).unwrap_err();
+    assert!(err.to_string().contains("at least 2 are needed"), "{err}");
+}

@@ -153,6 +153,17 @@ impl RobotSpec {
                 return invalid(field, &format!("expected a positive number, found {v}"));
             }
         }
+        if self.rate_hz * crate::WINDOW_S < 2.0 {
+            return invalid(
+                "rate_hz",
+                &format!(
+                    "{} Hz gives fewer than 2 samples per {} s window; expected at least {} Hz",
+                    self.rate_hz,
+                    crate::WINDOW_S,
+                    2.0 / crate::WINDOW_S
+                ),
+            );
+        }
         for (field, v) in [
             ("controller_max_linear", self.controller_max_linear),
             ("controller_max_angular", self.controller_max_angular),
