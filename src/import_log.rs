@@ -46,7 +46,7 @@ pub fn run(raw: &Path, robot: &str, out: &Path, config: &ImportConfig, json: boo
                 println!(
                     "{} windows ({} intervals) saved to {}",
                     data.windows.len(),
-                    data.windows.len() / 3,
+                    data.windows.len() / drive::traits::WINDOWS_PER_INTERVAL,
                     out.display()
                 );
             }

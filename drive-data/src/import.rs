@@ -3,11 +3,10 @@
 //! and every interval that cannot be used is dropped with its reason.
 
 use crate::{CalibState, DataError, DataErrorKind, Location, RawLog, RawRow};
-use drive_traits::{wrap_angle, Dataset, Input, Phase, Pose, RobotDescription, Window};
+use drive_traits::{
+    relative_pose, Dataset, Input, Phase, Pose, RobotDescription, Window, WINDOWS_PER_INTERVAL,
+};
 use std::fmt;
-
-/// Windows per DRIVE interval: one transient, two steady.
-const WINDOWS_PER_INTERVAL: usize = 3;
 
 /// What makes an interval unusable.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -509,10 +508,11 @@ fn cut_interval(
         .chunks(len)
         .enumerate()
         .map(|(i, chunk)| {
-            let p0 = chunk[0];
             // Checked above: every used row's quaternion is a rotation.
-            let yaw0 = p0.yaw().unwrap_or(0.0);
-            let (s, c) = yaw0.sin_cos();
+            let pose = |row: &RawRow| {
+                Pose::new(row.position[0], row.position[1], row.yaw().unwrap_or(0.0))
+            };
+            let p0 = pose(chunk[0]);
             Window {
                 index: 0,
                 interval: 0,
@@ -525,12 +525,7 @@ fn cut_interval(
                 encoder: chunk.iter().map(|row| row.wheels).collect(),
                 pose: chunk
                     .iter()
-                    .map(|row| {
-                        let dx = row.position[0] - p0.position[0];
-                        let dy = row.position[1] - p0.position[1];
-                        let yaw = row.yaw().unwrap_or(yaw0);
-                        Pose::new(c * dx + s * dy, -s * dx + c * dy, wrap_angle(yaw - yaw0))
-                    })
+                    .map(|row| relative_pose(&p0, &pose(row)))
                     .collect(),
                 imu_yaw_rate: chunk.iter().map(|row| row.imu_rate[2]).collect(),
             }

@@ -4,9 +4,9 @@
 
 use crate::{evaluate_model, improvement_percent, Summary};
 use drive_models::{fit_named, DifferentialDrive};
-use drive_samplers::{sampler_over, RobotSpec, RunnerConfig, SamplerError, WINDOWS_PER_INTERVAL};
+use drive_samplers::{sampler_over, RobotSpec, RunnerConfig, SamplerError};
 use drive_sim::{simulate, SimError, Simulation, SimulationConfig, Terrain};
-use drive_traits::{CommandModel, Dataset, FitError, Input, InputSampler};
+use drive_traits::{CommandModel, FitError, Input, InputSampler, WindowSet};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::sync::{Arc, Mutex};
@@ -357,7 +357,8 @@ fn run_task(
         let intervals = intervals_in(driving_s)?;
         for sampler in &study.samplers {
             let train = simulate_protocol(robot, terrain, sampler, intervals, seed)?.dataset;
-            let (translational, rotational) = train_and_test(&study.model, &train, &test)?;
+            let (translational, rotational) =
+                train_and_test(&study.model, &train.all(), &train.robot.name, &test.all())?;
             cells.push(ProtocolCell {
                 robot: robot.name.clone(),
                 terrain: terrain.name.to_string(),
@@ -374,36 +375,31 @@ fn run_task(
     Ok(cells)
 }
 
-/// Fits `model` on all of `train` and scores it on all of `test`.
-fn train_and_test(
+/// Fits `model` on `train` (`what` names it in errors) and scores it on every window of
+/// `test`: the summaries of the translational and rotational errors (eq. 8).
+pub(crate) fn train_and_test(
     model: &str,
-    train: &Dataset,
-    test: &Dataset,
+    train: &WindowSet<'_>,
+    what: &str,
+    test: &WindowSet<'_>,
 ) -> Result<(Summary, Summary), ExperimentError> {
-    let not_enough = || {
-        ExperimentError::NotEnoughData(format!(
-            "{} recorded {} windows, {} {} (at least {WINDOWS_PER_INTERVAL} each)",
-            train.robot.name,
-            train.windows.len(),
-            test.robot.name,
-            test.windows.len()
-        ))
-    };
-    let fitted = fit_named(model, &train.all())
+    let fitted = fit_named(model, train)
         .ok_or_else(|| ExperimentError::UnknownModel(model.to_string()))?
         .map_err(|reason| ExperimentError::Fit {
             model: model.to_string(),
-            data: train.robot.name.clone(),
+            data: what.to_string(),
             reason,
         })?;
-    let report = evaluate_model(fitted.as_ref(), &test.all());
+    let report = evaluate_model(fitted.as_ref(), test);
+    let empty = || ExperimentError::NotEnoughData(format!("no test window for {what}"));
     Ok((
-        report.translational(None).ok_or_else(not_enough)?,
-        report.rotational(None).ok_or_else(not_enough)?,
+        report.translational(None).ok_or_else(empty)?,
+        report.rotational(None).ok_or_else(empty)?,
     ))
 }
 
-fn median(values: impl IntoIterator<Item = f64>) -> f64 {
+/// The median of `values` (NaN when there are none).
+pub(crate) fn median(values: impl IntoIterator<Item = f64>) -> f64 {
     Summary::of(values).map_or(f64::NAN, |s| s.median)
 }
 

@@ -3,8 +3,9 @@
 //! models trained on as many intervals drawn from all of J, all evaluated on the same
 //! evaluation part.
 
-use crate::{evaluate_model, improvement_percent, split_by_interval, ExperimentError, Summary};
-use drive_models::{fit_named, DifferentialDrive};
+use crate::protocols::{median, train_and_test};
+use crate::{improvement_percent, split_by_interval, ExperimentError, Summary};
+use drive_models::DifferentialDrive;
 use drive_traits::{CommandModel, Dataset, Input, Window, WindowSet};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
@@ -188,19 +189,7 @@ pub fn compare_regions(
             robot: &data.robot,
             windows,
         };
-        let model = fit_named(&study.model, &set)
-            .ok_or_else(|| ExperimentError::UnknownModel(study.model.clone()))?
-            .map_err(|reason| ExperimentError::Fit {
-                model: study.model.clone(),
-                data: what.to_string(),
-                reason,
-            })?;
-        let report = evaluate_model(model.as_ref(), &eval);
-        let empty = || ExperimentError::NotEnoughData("no evaluation window".into());
-        Ok::<_, ExperimentError>((
-            report.translational(None).ok_or_else(empty)?,
-            report.rotational(None).ok_or_else(empty)?,
-        ))
+        train_and_test(&study.model, &set, what, &eval)
     };
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(study.seed);
     let mut results = Vec::new();
@@ -244,8 +233,8 @@ pub fn compare_regions(
             ]
         };
         let (ut, ur) = (
-            Summary::of(uniform_t.iter().copied()).map_or(f64::NAN, |s| s.median),
-            Summary::of(uniform_r.iter().copied()).map_or(f64::NAN, |s| s.median),
+            median(uniform_t.iter().copied()),
+            median(uniform_r.iter().copied()),
         );
         results.push(RegionResult {
             region: name.to_string(),

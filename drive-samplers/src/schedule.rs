@@ -4,12 +4,8 @@
 
 use crate::RobotSpec;
 use drive_traits::{BodyVelocity, CommandModel, Input, InputSampler, Phase};
+pub use drive_traits::{WINDOWS_PER_INTERVAL, WINDOW_S};
 use std::fmt::Write as _;
-
-/// Duration of a DRIVE window (s).
-pub const WINDOW_S: f64 = 2.0;
-/// Windows per interval: one transient, two steady.
-pub const WINDOWS_PER_INTERVAL: usize = 3;
 
 /// One command of the schedule.
 #[derive(Debug, Clone, Copy, PartialEq)]

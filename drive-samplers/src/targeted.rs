@@ -2,7 +2,10 @@
 //! next input from what the protocol has measured so far instead of blindly.
 
 use drive_models::learners::SlipBlr;
-use drive_traits::{Input, InputSampler, InputSpace, Learner, RobotDescription, Window, WindowSet};
+use drive_traits::{
+    Input, InputSampler, InputSpace, Learner, RobotDescription, Window, WindowSet,
+    WINDOWS_PER_INTERVAL,
+};
 
 /// What a [`TargetedSampler`] aims at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -116,7 +119,7 @@ impl TargetedSampler {
 impl InputSampler for TargetedSampler {
     fn next_input(&mut self) -> Input {
         let warming_up = match self.target {
-            Target::SlipVariance => self.seen.len() < 3 * self.warmup,
+            Target::SlipVariance => self.seen.len() < WINDOWS_PER_INTERVAL * self.warmup,
             Target::Coverage => self.held.is_empty(),
         };
         // While warming up, exactly the base sampler's sequence.

@@ -36,7 +36,7 @@ pub enum SamplerError {
         expected: &'static str,
     },
     /// No sampler of that name.
-    #[error("unknown sampler '{0}' (the samplers are: uniform, grid, linear, angular, targeted, targeted-coverage)")]
+    #[error("unknown sampler '{0}' (the samplers are: {names})", names = crate::SAMPLER_NAMES.join(", "))]
     Unknown(String),
 }
 

@@ -7,7 +7,7 @@ use drive_samplers::{
     RunnerInput, RunnerState, SampleTag, StopReason, WINDOWS_PER_INTERVAL,
 };
 use drive_traits::{
-    wrap_angle, CommandModel, Dataset, Input, InputSampler, InputSpace, Phase, Pose,
+    relative_pose, CommandModel, Dataset, Input, InputSampler, InputSpace, Phase, Pose,
     RobotDescription, Window,
 };
 use rand::rngs::Xoshiro256PlusPlus;
@@ -253,7 +253,6 @@ pub fn simulate(
 /// body frame at the window start.
 fn window_from(samples: &[Recorded], index: usize) -> Window {
     let p0 = samples[0].pose;
-    let (s, c) = p0.z.sin_cos();
     let tag = samples[0].tag;
     Window {
         index,
@@ -267,14 +266,7 @@ fn window_from(samples: &[Recorded], index: usize) -> Window {
         encoder: samples.iter().map(|r| r.encoder).collect(),
         pose: samples
             .iter()
-            .map(|r| {
-                let (dx, dy) = (r.pose.x - p0.x, r.pose.y - p0.y);
-                Pose::new(
-                    c * dx + s * dy,
-                    -s * dx + c * dy,
-                    wrap_angle(r.pose.z - p0.z),
-                )
-            })
+            .map(|r| relative_pose(&p0, &r.pose))
             .collect(),
         imu_yaw_rate: samples.iter().map(|r| r.imu).collect(),
     }

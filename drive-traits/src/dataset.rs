@@ -3,6 +3,11 @@
 use crate::{BodyVelocity, CommandModel, Input, Pose, StartState};
 use serde::{Deserialize, Serialize};
 
+/// Duration of a DRIVE window (s, Sec. III-A).
+pub const WINDOW_S: f64 = 2.0;
+/// Windows per DRIVE interval: one transient, two steady (6 s in all).
+pub const WINDOWS_PER_INTERVAL: usize = 3;
+
 /// The phase of a window inside a DRIVE training interval (Sec. III-A): one transient window
 /// (the command just changed) followed by steady windows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -26,11 +26,16 @@ mod powertrain;
 mod sampler;
 mod vehicle;
 
-pub use dataset::{assign_intervals, Dataset, Phase, RobotDescription, Window, WindowSet};
+pub use dataset::{
+    assign_intervals, Dataset, Phase, RobotDescription, Window, WindowSet, WINDOWS_PER_INTERVAL,
+    WINDOW_S,
+};
 pub use error::{FitError, MotionError};
 pub use learner::Learner;
 pub use motion::{MotionModel, StartState};
-pub use pose::{euler_step, unwrap_angles, wrap_angle, BodyVelocity, Input, Pose, PoseCovariance};
+pub use pose::{
+    euler_step, relative_pose, unwrap_angles, wrap_angle, BodyVelocity, Input, Pose, PoseCovariance,
+};
 pub use powertrain::{Powertrain, PowertrainLearner};
 pub use sampler::InputSampler;
 pub use vehicle::{CommandModel, InputSpace};

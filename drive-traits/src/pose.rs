@@ -53,6 +53,26 @@ pub fn wrap_angle(a: f64) -> f64 {
     }
 }
 
+/// `pose` seen from `origin`: its position in the body frame at `origin`, and its yaw
+/// relative to `origin`'s, wrapped to [-pi, pi]. How DRIVE windows re-base their poses to
+/// the window's start.
+///
+/// ```
+/// use drive_traits::{relative_pose, Pose};
+/// let origin = Pose::new(1.0, 1.0, std::f64::consts::FRAC_PI_2);
+/// let p = relative_pose(&origin, &Pose::new(1.0, 3.0, std::f64::consts::PI));
+/// assert!((p - Pose::new(2.0, 0.0, std::f64::consts::FRAC_PI_2)).norm() < 1e-12);
+/// ```
+pub fn relative_pose(origin: &Pose, pose: &Pose) -> Pose {
+    let (s, c) = origin.z.sin_cos();
+    let (dx, dy) = (pose.x - origin.x, pose.y - origin.y);
+    Pose::new(
+        c * dx + s * dy,
+        -s * dx + c * dy,
+        wrap_angle(pose.z - origin.z),
+    )
+}
+
 /// Unwraps a sequence of angles in place so that consecutive values never jump by more
 /// than pi (the sequence then stays continuous across the ±pi boundary).
 ///
