@@ -48,7 +48,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .fit(&train)?,
             ),
         ),
-        ("acc-blr", Box::new(AccBlr::default().fit(&train)?)),
+        ("acc-blr", Box::new(AccBlr::<Ideal>::default().fit(&train)?)),
     ];
 
     println!(

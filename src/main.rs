@@ -3,9 +3,9 @@
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use drive::data::{read_dataset, DataError};
-use drive::eval::{compare, Comparison};
+use drive::eval::{compare_with, Comparison};
 use drive::models::model_file::{model_from_json, model_to_json};
-use drive::models::{DifferentialDrive, MODEL_NAMES};
+use drive::models::{DifferentialDrive, LearnerRegistry, PowertrainChoice, MODEL_NAMES};
 use drive::traits::{Dataset, Input, Pose, StartState, WindowSet};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -13,6 +13,7 @@ use std::process::ExitCode;
 
 mod compare_protocols;
 mod import_log;
+mod matrix;
 
 #[derive(Parser)]
 #[command(
@@ -51,6 +52,11 @@ enum Command {
             default_value = "naive,powertrain,slip-blr,acc-blr"
         )]
         models: Vec<String>,
+        /// Powertrain of the models built on one: commanded (wheel velocities = commands) or
+        /// fopdt (eq. 3). Default: each model's own (fopdt for powertrain and slip-blr,
+        /// commanded for acc-blr, as in the paper).
+        #[arg(long, value_parser = parse_powertrain)]
+        powertrain: Option<PowertrainChoice>,
         /// Print one JSON object on stdout instead of the table.
         #[arg(long)]
         json: bool,
@@ -209,6 +215,21 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Score every combination of a sweep file (datasets or simulated runs x learners x
+    /// powertrains x splits) and write DIR/matrix.csv (one row per combination and metric),
+    /// DIR/matrix.json and DIR/summary.md (median, IQR, improvement over the baseline with a
+    /// bootstrap interval). See examples/sweep.toml.
+    Matrix {
+        /// The sweep file (TOML).
+        #[arg(long)]
+        config: PathBuf,
+        /// Output folder (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// Print the JSON document on stdout instead of the Markdown summary.
+        #[arg(long)]
+        json: bool,
+    },
     /// Predict poses from a saved model and a command sequence.
     Predict {
         /// Model file written by `drive train`.
@@ -241,6 +262,10 @@ fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
             .ok_or_else(|| format!("'{p}' is not a finite number"))?;
     }
     Ok(out)
+}
+fn parse_powertrain(s: &str) -> Result<PowertrainChoice, String> {
+    PowertrainChoice::parse(s)
+        .ok_or_else(|| format!("unknown powertrain '{s}' (the powertrains are: commanded, fopdt)"))
 }
 fn parse_triplet(s: &str) -> Result<[f64; 3], String> {
     parse_numbers::<3>(s)
@@ -296,9 +321,10 @@ fn main() -> ExitCode {
             data,
             split,
             models,
+            powertrain,
             json,
             per_window,
-        } => run_eval(&data, split, &models, json, per_window.as_deref()),
+        } => run_eval(&data, split, &models, powertrain, json, per_window.as_deref()),
         Command::Train {
             data,
             model,
@@ -393,6 +419,14 @@ fn main() -> ExitCode {
             },
             json,
         ),
+        Command::Matrix { config, out, json } => matrix::run_with(
+            &config,
+            &out,
+            json,
+            &drive::models::LearnerRegistry::builtin(),
+            &drive::samplers::SamplerRegistry::builtin(),
+        )
+        .map(|_| ()),
         Command::Predict {
             model,
             commands,
@@ -413,6 +447,7 @@ fn run_eval(
     data: &DataArgs,
     split: f64,
     models: &[String],
+    powertrain: Option<PowertrainChoice>,
     json: bool,
     per_window: Option<&Path>,
 ) -> Result<()> {
@@ -428,7 +463,13 @@ fn run_eval(
             MODEL_NAMES.join(", ")
         );
     }
-    let cmp = compare(&dataset, split, &names)?;
+    let cmp = compare_with(
+        &LearnerRegistry::builtin(),
+        &dataset,
+        split,
+        &names,
+        powertrain,
+    )?;
     if let Some(path) = per_window {
         std::fs::write(path, per_window_csv(&cmp))
             .with_context(|| format!("writing {}", path.display()))?;
@@ -486,6 +527,14 @@ fn table(cmp: &Comparison) -> String {
         "train: first {} intervals ({} windows); evaluate: last {} intervals ({} windows); split {}",
         cmp.train_intervals, cmp.train_windows, cmp.eval_intervals, cmp.eval_windows, cmp.split
     );
+    let powertrains: Vec<String> = cmp
+        .models
+        .iter()
+        .filter_map(|m| m.powertrain.map(|p| format!("{} on {}", m.name, p.name())))
+        .collect();
+    if !powertrains.is_empty() {
+        let _ = writeln!(s, "powertrains: {}", powertrains.join(", "));
+    }
     let _ = writeln!(
         s,
         "MRMSE over the 2 s windows (paper eq. 8): median [IQR], improvement over naive\n"

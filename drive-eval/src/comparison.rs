@@ -4,7 +4,9 @@
 use crate::{
     evaluate_model, improvement_percent, split_by_interval, ModelReport, SplitError, Summary,
 };
-use drive_traits::{Dataset, FitError, MotionModel, Phase};
+use drive_models::learners::Naive;
+use drive_models::{LearnerRegistry, PowertrainChoice};
+use drive_traits::{Dataset, FitError, Learner, MotionModel, Phase};
 use serde::Serialize;
 use std::time::Instant;
 use thiserror::Error;
@@ -16,8 +18,13 @@ pub enum CompareError {
     #[error(transparent)]
     Split(#[from] SplitError),
     /// A model name is not registered.
-    #[error("unknown model '{0}' (the models are: {names})", names = drive_models::MODEL_NAMES.join(", "))]
-    UnknownModel(String),
+    #[error("unknown model '{name}' (the models are: {known})")]
+    UnknownModel {
+        /// The name asked for.
+        name: String,
+        /// The registered names, comma-separated.
+        known: String,
+    },
     /// A model could not be fitted on the training intervals.
     #[error("fitting {model}: {reason}")]
     Fit {
@@ -55,6 +62,8 @@ pub struct PhaseSummary {
 pub struct ModelResult {
     /// Model name.
     pub name: String,
+    /// The powertrain the model was fitted with (`None` for a model without one).
+    pub powertrain: Option<PowertrainChoice>,
     /// Median translational MRMSE (m).
     pub translational_median_m: f64,
     /// Median rotational MRMSE (rad).
@@ -122,35 +131,57 @@ fn summarize(
 /// Fits each model of `names` (registered names, see [`drive_models::MODEL_NAMES`]) on the
 /// first `floor(split x intervals)` intervals and evaluates it on the rest.
 pub fn compare(data: &Dataset, split: f64, names: &[&str]) -> Result<Comparison, CompareError> {
+    compare_with(&LearnerRegistry::builtin(), data, split, names, None)
+}
+
+/// Like [`compare`] with the learners taken from `registry`, each on `powertrain` (the
+/// learner's default when `None`; learners without a powertrain ignore it).
+///
+/// ```no_run
+/// # fn demo(data: &drive_traits::Dataset) -> Result<(), drive_eval::CompareError> {
+/// use drive_models::{LearnerRegistry, PowertrainChoice};
+/// let cmp = drive_eval::compare_with(
+///     &LearnerRegistry::builtin(), data, 0.5, &["slip-blr", "acc-blr"],
+///     Some(PowertrainChoice::Commanded),
+/// )?;
+/// assert_eq!(cmp.models[0].powertrain, Some(PowertrainChoice::Commanded));
+/// # Ok(()) }
+/// ```
+pub fn compare_with(
+    registry: &LearnerRegistry,
+    data: &Dataset,
+    split: f64,
+    names: &[&str],
+    powertrain: Option<PowertrainChoice>,
+) -> Result<Comparison, CompareError> {
     let (train, eval) = split_by_interval(data, split)?;
-    if let Some(bad) = names
+    let unknown = |name: &str| CompareError::UnknownModel {
+        name: name.to_string(),
+        known: registry.names().join(", "),
+    };
+    let entries = names
         .iter()
-        .find(|n| !drive_models::MODEL_NAMES.contains(n))
-    {
-        return Err(CompareError::UnknownModel(bad.to_string()));
-    }
-    let fit = |name: &str| -> Result<(Box<dyn MotionModel>, f64), CompareError> {
-        let start = Instant::now();
-        // Names were checked against the registry above.
-        let model = drive_models::fit_named(name, &train)
-            .ok_or_else(|| CompareError::UnknownModel(name.to_string()))?
-            .map_err(|reason| CompareError::Fit {
-                model: name.to_string(),
-                reason,
-            })?;
-        Ok((model, start.elapsed().as_secs_f64()))
+        .map(|n| registry.get(n).ok_or_else(|| unknown(n)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let fit_error = |name: &str| {
+        let model = name.to_string();
+        move |reason| CompareError::Fit { model, reason }
     };
     // The naive model is the reference of every improvement figure.
-    let (naive_model, _) = fit("naive")?;
-    let naive = evaluate_model(naive_model.as_ref(), &eval);
+    let naive_model = Naive.fit(&train).map_err(fit_error("naive"))?;
+    let naive = evaluate_model(&naive_model, &eval);
     let mut models = Vec::new();
-    for name in names {
-        let (model, fit_seconds) = fit(name)?;
+    for entry in entries {
+        let start = Instant::now();
+        let model = entry.fit(&train, powertrain).map_err(fit_error(entry.name()))?;
+        let fit_seconds = start.elapsed().as_secs_f64();
+        let used = powertrain.or(entry.default_powertrain());
         let report = evaluate_model(model.as_ref(), &eval);
         // The evaluation set is non-empty (the split guarantees it), so summaries exist.
         let all = summarize(&report, &naive, None).expect("the evaluation set is not empty");
         models.push(ModelResult {
-            name: name.to_string(),
+            name: entry.name().to_string(),
+            powertrain: used.filter(|_| entry.uses_powertrain()),
             translational_median_m: all.translational_m.median,
             rotational_median_rad: all.rotational_rad.median,
             translational_iqr_m: all.translational_m.iqr,

@@ -16,6 +16,7 @@
 mod compare;
 mod comparison;
 mod convergence;
+mod matrix;
 mod metric;
 mod protocols;
 mod regions;
@@ -23,11 +24,16 @@ mod split;
 mod stats;
 
 pub use compare::{evaluate_model, ModelReport, WindowErrors};
-pub use comparison::{compare, CompareError, Comparison, ErrorSummary, ModelResult, PhaseSummary};
+pub use comparison::{compare, compare_with, CompareError, Comparison, ErrorSummary, ModelResult, PhaseSummary};
 pub use convergence::{convergence, convergence_time, Convergence, ConvergencePoint, SkippedPoint};
+pub use matrix::{
+    run_matrix, BootstrapConfig, DatasetSource, Improvement, Matrix, MatrixCell, MatrixError,
+    MatrixResult, ModelKey, Scenario, SimulatedPlan, SimulatedSweep, SummaryRow, SweepFile,
+};
 pub use metric::{mrmse, Mrmse};
 pub use protocols::{
-    compare_protocols, intervals_in, simulate_protocol, simulate_with, ExperimentError,
+    compare_protocols, intervals_in, simulate_protocol, simulate_with, simulate_with_samplers,
+    ExperimentError,
     ProtocolCell, ProtocolComparison, ProtocolRow, ProtocolStudy, INTERVAL_S,
 };
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};

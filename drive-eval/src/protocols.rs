@@ -4,7 +4,7 @@
 
 use crate::{evaluate_model, improvement_percent, Summary};
 use drive_models::{fit_named, DifferentialDrive};
-use drive_samplers::{sampler_over, RobotSpec, RunnerConfig, SamplerError};
+use drive_samplers::{RobotSpec, RunnerConfig, SamplerContext, SamplerError, SamplerRegistry};
 use drive_sim::{simulate, SimError, Simulation, SimulationConfig, Terrain};
 use drive_traits::{CommandModel, FitError, Input, InputSampler, WindowSet};
 use rayon::prelude::*;
@@ -104,23 +104,60 @@ pub fn simulate_with(
     runner: RunnerConfig,
     seed: u64,
 ) -> Result<Simulation, ExperimentError> {
+    simulate_with_samplers(&SamplerRegistry::builtin(), robot, terrain, sampler, runner, seed)
+}
+
+/// Like [`simulate_with`] with the sampler taken from `samplers` (a registry holding a
+/// researcher's own samplers, say).
+pub fn simulate_with_samplers(
+    samplers: &SamplerRegistry,
+    robot: &RobotSpec,
+    terrain: Terrain,
+    sampler: &str,
+    runner: RunnerConfig,
+    seed: u64,
+) -> Result<Simulation, ExperimentError> {
     let (r, b) = (robot.wheel_radius, robot.baseline);
     let vehicle = move || Box::new(DifferentialDrive::new(r, b)) as Box<dyn CommandModel>;
     let sampler_error = |reason| ExperimentError::Sampler {
         name: sampler.to_string(),
         reason,
     };
+    let build = |registry: &SamplerRegistry, space, spec: &RobotSpec| {
+        registry.build(
+            sampler,
+            &SamplerContext {
+                space,
+                robot: spec,
+                vehicle: &vehicle,
+                seed,
+            },
+        )
+    };
     // Fail early on a name or limits that cannot work over the nominal input space.
-    sampler_over(sampler, robot.input_space(), robot, vehicle, seed).map_err(sampler_error)?;
+    build(samplers, robot.input_space(), robot).map_err(sampler_error)?;
     // The sampler is built over the characterized space, inside the runner; an error there
     // is kept and returned after the run (the runner then holds still).
     let failure: Arc<Mutex<Option<SamplerError>>> = Arc::default();
-    let (name, spec, slot) = (sampler.to_string(), robot.clone(), failure.clone());
-    let factory = move |space| match sampler_over(&name, space, &spec, vehicle, seed) {
-        Ok(s) => s,
-        Err(e) => {
-            *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
-            Box::new(HoldStill) as Box<dyn InputSampler>
+    let (name, spec, slot, registry) = (
+        sampler.to_string(),
+        robot.clone(),
+        failure.clone(),
+        samplers.clone(),
+    );
+    let factory = move |space| {
+        let ctx = SamplerContext {
+            space,
+            robot: &spec,
+            vehicle: &vehicle,
+            seed,
+        };
+        match registry.build(&name, &ctx) {
+            Ok(s) => s,
+            Err(e) => {
+                *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                Box::new(HoldStill) as Box<dyn InputSampler>
+            }
         }
     };
     let config = SimulationConfig {

@@ -23,5 +23,7 @@ pub mod rollout;
 pub mod vehicles;
 pub mod velocity;
 
-pub use registry::{fit_named, MODEL_NAMES};
+pub use registry::{
+    fit_named, LearnerEntry, LearnerRegistry, PowertrainChoice, RegistryError, MODEL_NAMES,
+};
 pub use vehicles::DifferentialDrive;

@@ -311,7 +311,7 @@ fn acc_blr_recovers_first_order_body_dynamics() {
             poses,
         ));
     }
-    let m = AccBlr::default()
+    let m = AccBlr::<Ideal>::default()
         .fit(&WindowSet::new(&r, &windows))
         .unwrap();
     assert_abs_diff_eq!(m.accel_x.mean[0], 0.1, epsilon = 5e-3);
@@ -354,7 +354,7 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
         Box::new(Naive.fit(&set).unwrap()),
         Box::new(PowertrainAware { powertrain: Ideal }.fit(&set).unwrap()),
         Box::new(SlipBlr::<Ideal>::default().fit(&set).unwrap()),
-        Box::new(AccBlr::default().fit(&set).unwrap()),
+        Box::new(AccBlr::<Ideal>::default().fit(&set).unwrap()),
     ];
     let start = StartState {
         pose: Pose::new(1.0, -2.0, 0.3),

@@ -5,6 +5,7 @@
 #![warn(missing_docs)]
 
 mod others;
+mod registry;
 mod robot;
 mod runner;
 mod schedule;
@@ -12,6 +13,7 @@ mod targeted;
 mod uniform;
 
 pub use others::{AngularSampler, GridSampler, LinearSampler};
+pub use registry::{SamplerContext, SamplerRegistry};
 pub use robot::{RobotError, RobotSpec};
 pub use runner::{
     Characterization, Characterize, PauseReason, ProtocolRunner, RunnerConfig, RunnerInput,
@@ -26,7 +28,7 @@ pub use uniform::{BodyLimits, SamplerError, UniformSampler};
 
 use drive_traits::{CommandModel, InputSampler};
 
-/// The names of the samplers, for the command line.
+/// The names of the built-in samplers, in registration order (see [`SamplerRegistry`]).
 pub const SAMPLER_NAMES: [&str; 6] = [
     "uniform",
     "grid",
@@ -36,8 +38,8 @@ pub const SAMPLER_NAMES: [&str; 6] = [
     "targeted-coverage",
 ];
 
-/// Builds the sampler registered under `name` for a robot over its input space; `vehicle`
-/// maps inputs to body velocities (and back). The one place a new sampler is registered.
+/// Builds the built-in sampler registered under `name` for a robot over its input space;
+/// `vehicle` maps inputs to body velocities (and back).
 pub fn sampler_named(
     name: &str,
     robot: &RobotSpec,
@@ -56,34 +58,10 @@ pub fn sampler_over(
     vehicle: impl Fn() -> Box<dyn CommandModel>,
     seed: u64,
 ) -> Result<Box<dyn InputSampler>, SamplerError> {
-    let uniform = |vehicle: Box<dyn CommandModel>| -> Result<Box<dyn InputSampler>, SamplerError> {
-        let s = UniformSampler::new(space, seed)?;
-        Ok(
-            match (robot.controller_max_linear, robot.controller_max_angular) {
-                (None, None) => Box::new(s),
-                (lin, ang) => Box::new(s.with_body_limits(BodyLimits {
-                    vehicle,
-                    max_linear: lin.unwrap_or(f64::INFINITY),
-                    max_angular: ang.unwrap_or(f64::INFINITY),
-                })?),
-            },
-        )
-    };
-    Ok(match name {
-        "uniform" => uniform(vehicle())?,
-        "grid" => Box::new(GridSampler::new(space, 10, seed)?),
-        "linear" => Box::new(LinearSampler::new(space, vehicle(), seed)),
-        "angular" => Box::new(AngularSampler::new(space, vehicle(), seed)),
-        "targeted" => Box::new(TargetedSampler::new(
-            space,
-            uniform(vehicle())?,
-            Target::SlipVariance,
-        )),
-        "targeted-coverage" => Box::new(TargetedSampler::new(
-            space,
-            uniform(vehicle())?,
-            Target::Coverage,
-        )),
-        other => return Err(SamplerError::Unknown(other.to_string())),
+    SamplerRegistry::builtin().build(name, &SamplerContext {
+        space,
+        robot,
+        vehicle: &vehicle,
+        seed,
     })
 }

@@ -36,8 +36,13 @@ pub enum SamplerError {
         expected: &'static str,
     },
     /// No sampler of that name.
-    #[error("unknown sampler '{0}' (the samplers are: {names})", names = crate::SAMPLER_NAMES.join(", "))]
-    Unknown(String),
+    #[error("unknown sampler '{name}' (the samplers are: {known})")]
+    Unknown {
+        /// The name asked for.
+        name: String,
+        /// The registered names, comma-separated.
+        known: String,
+    },
 }
 
 /// The low-level controller's body speed limits: a sample whose commanded body velocity

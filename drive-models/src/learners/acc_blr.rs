@@ -1,11 +1,12 @@
 use crate::blr::{BlrPosterior, Prior};
 use crate::learners::check_common;
+use crate::powertrain::{Ideal, IdealPowertrain};
 use crate::rollout::{integrate, integrate_with_covariance};
 use crate::velocity::BodyVelocityEstimator;
 use crate::DifferentialDrive;
 use drive_traits::{
     BodyVelocity, FitError, Input, Learner, MotionError, MotionModel, Pose, PoseCovariance,
-    StartState, WindowSet,
+    Powertrain, PowertrainLearner, StartState, WindowSet,
 };
 use serde::{Deserialize, Serialize};
 
@@ -14,12 +15,41 @@ use serde::{Deserialize, Serialize};
 /// one-step velocity change `v[k+1] - v[k]` on `[f[k], v[k]]`, with `f` the commanded body
 /// velocity (eq. 4 on the commanded wheel velocities) and `v` the measured body velocity.
 /// The lateral velocity is zero. Rolled out from the body velocity measured at the start.
+///
+/// As in the paper, `f` comes from the commands themselves ([`Ideal`], the default); with
+/// another powertrain learner (for instance [`Fopdt`](crate::powertrain::Fopdt)) `f` is eq. 4
+/// on the powertrain's predicted wheel velocities instead.
+///
+/// ```
+/// use drive_models::learners::AccBlr;
+/// use drive_models::powertrain::{Fopdt, Ideal};
+/// assert_eq!(AccBlr::<Ideal>::default().powertrain, Ideal);
+/// let on_fopdt = AccBlr::<Ideal>::default().with_powertrain(Fopdt::default());
+/// assert_eq!(on_fopdt.powertrain, Fopdt::default());
+/// ```
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct AccBlr {
+pub struct AccBlr<P = Ideal> {
+    /// The powertrain learner whose predicted wheel velocities give `f`.
+    pub powertrain: P,
     /// Priors of the longitudinal and angular regressions.
     pub priors: [Prior; 2],
     /// How the measured body velocities are derived from the poses.
     pub velocity: BodyVelocityEstimator,
+}
+
+impl<P> AccBlr<P> {
+    /// The same learner with another powertrain learner.
+    pub fn with_powertrain<Q>(self, powertrain: Q) -> AccBlr<Q> {
+        AccBlr {
+            powertrain,
+            priors: self.priors,
+            velocity: self.velocity,
+        }
+    }
+}
+
+fn ideal_powertrain() -> Box<dyn Powertrain> {
+    Box::new(IdealPowertrain)
 }
 
 /// Fitted acceleration-BLR model.
@@ -27,6 +57,10 @@ pub struct AccBlr {
 pub struct AccBlrModel {
     /// The vehicle's command model.
     pub vehicle: DifferentialDrive,
+    /// The fitted powertrain (the commands themselves by default; files written before the
+    /// powertrain option read as such).
+    #[serde(default = "ideal_powertrain")]
+    pub powertrain: Box<dyn Powertrain>,
     /// Posterior of the longitudinal velocity change on `[f_x, v_x]`.
     pub accel_x: BlrPosterior,
     /// Posterior of the angular velocity change on `[f_w, v_w]`.
@@ -35,7 +69,7 @@ pub struct AccBlrModel {
     pub dt: f64,
 }
 
-impl Learner for AccBlr {
+impl<P: PowertrainLearner> Learner for AccBlr<P> {
     type Fitted = AccBlrModel;
 
     fn fit(&self, train: &WindowSet<'_>) -> Result<AccBlrModel, FitError> {
@@ -46,18 +80,21 @@ impl Learner for AccBlr {
         if train.is_empty() {
             return Err(FitError::EmptyTrainingSet);
         }
+        let powertrain = self.powertrain.fit(train)?;
         let vehicle = DifferentialDrive::from_robot(train.robot);
         let dt = train.robot.dt();
         let mut xs: [Vec<f64>; 2] = Default::default();
         let mut gs: [Vec<f64>; 2] = Default::default();
         let mut measured = Vec::new();
+        let mut wheels = Vec::new();
         for w in &train.windows {
             self.velocity.estimate(w, dt, &mut measured);
+            powertrain.predict_into(&w.encoder[0], &w.command, &mut wheels);
             for k in 0..w.len().saturating_sub(1) {
                 let (Some(v0), Some(v1)) = (measured[k], measured[k + 1]) else {
                     continue;
                 };
-                let f = vehicle.eq4(&w.command[k]);
+                let f = vehicle.eq4(&wheels[k]);
                 for (j, d) in [0usize, 2].into_iter().enumerate() {
                     xs[j].extend_from_slice(&[f[d], v0[d]]);
                     gs[j].push(v1[d] - v0[d]);
@@ -74,6 +111,7 @@ impl Learner for AccBlr {
             )?,
             accel_yaw: BlrPosterior::fit(&xs[1], 2, &gs[1], &self.priors[1], "acc-BLR, angular")?,
             vehicle,
+            powertrain: Box::new(powertrain),
             dt,
         })
     }
@@ -92,7 +130,8 @@ impl AccBlrModel {
         if let Some(vs) = variances.as_deref_mut() {
             vs.clear();
         }
-        for u in commands {
+        let wheels = self.powertrain.predict(&start.input, commands);
+        for u in &wheels {
             out.push(v);
             if let Some(vs) = variances.as_deref_mut() {
                 vs.push(var);
@@ -129,6 +168,7 @@ impl MotionModel for AccBlrModel {
     }
     fn check(&self) -> Result<(), String> {
         check_common(self.dt, &self.vehicle)?;
+        self.powertrain.check()?;
         self.accel_x.check(2, "accel_x")?;
         self.accel_yaw.check(2, "accel_yaw")
     }

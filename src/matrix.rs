@@ -1,0 +1,113 @@
+//! `drive matrix`: every combination of a sweep file, with a progress bar on a terminal.
+
+use anyhow::{Context, Result};
+use drive::eval::{run_matrix, DatasetSource, MatrixResult, SweepFile};
+use drive::models::LearnerRegistry;
+use drive::samplers::SamplerRegistry;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::Path;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// Resolves a sweep's dataset: a bundled name, or a file relative to the sweep file.
+fn load_source(base: &Path, source: &DatasetSource) -> Result<drive::traits::Dataset, String> {
+    if let Some(name) = &source.bundled {
+        return match name.as_str() {
+            "husky" => drive::bundled::husky().map_err(|e| e.to_string()),
+            other => Err(format!(
+                "no bundled dataset '{other}' (the bundled datasets are: husky)"
+            )),
+        };
+    }
+    // The plan checks that exactly one of file and bundled is given.
+    let file = source.file.as_ref().ok_or("no file given")?;
+    let sidecar = source.sidecar.as_ref().map(|s| base.join(s));
+    drive::data::read_dataset(&base.join(file), sidecar.as_deref()).map_err(|e| e.to_string())
+}
+
+/// A progress bar drawn on stderr once the run has lasted a second, when stderr is a
+/// terminal; nothing otherwise.
+struct Progress {
+    bar: ProgressBar,
+    start: Instant,
+    shown: Mutex<bool>,
+    terminal: bool,
+}
+
+impl Progress {
+    fn new() -> Self {
+        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} matrix [{elapsed_precise}] {wide_bar} {pos}/{len} (eta {eta})",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        Progress {
+            bar,
+            start: Instant::now(),
+            shown: Mutex::new(false),
+            terminal: std::io::stderr().is_terminal(),
+        }
+    }
+
+    fn update(&self, done: usize, total: usize) {
+        self.bar.set_length(total as u64);
+        self.bar.set_position(done as u64);
+        if self.terminal && self.start.elapsed() > Duration::from_secs(1) {
+            let mut shown = self.shown.lock().unwrap_or_else(|p| p.into_inner());
+            if !*shown {
+                *shown = true;
+                self.bar.set_draw_target(ProgressDrawTarget::stderr());
+                self.bar.enable_steady_tick(Duration::from_millis(200));
+            }
+        }
+    }
+}
+
+/// Runs `drive matrix` with the given registries (the built-in ones from the command line;
+/// a researcher's own from an example or program).
+pub fn run_with(
+    config: &Path,
+    out: &Path,
+    json: bool,
+    learners: &LearnerRegistry,
+    samplers: &SamplerRegistry,
+) -> Result<MatrixResult> {
+    let name = config.display().to_string();
+    let text = std::fs::read_to_string(config).with_context(|| format!("reading {name}"))?;
+    let sweep = SweepFile::parse(&name, &text)?;
+    let base = config.parent().unwrap_or(Path::new("."));
+    let plan = sweep.plan(learners, samplers, &|s| load_source(base, s))?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let progress = Progress::new();
+    let result = run_matrix(&plan, learners, samplers, &|d, t| progress.update(d, t))?;
+    progress.bar.finish_and_clear();
+    let write = |file: &str, text: String| {
+        let path = out.join(file);
+        std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
+    };
+    let markdown = result.to_markdown();
+    write("matrix.csv", result.to_csv())?;
+    write("matrix.json", serde_json::to_string_pretty(&result)?)?;
+    write("summary.md", markdown.clone())?;
+    if json {
+        println!("{}", serde_json::to_string(&result)?);
+    } else {
+        print!("{markdown}");
+    }
+    let failed = result.cells.iter().filter(|c| c.failure.is_some()).count();
+    eprintln!(
+        "{} combinations in {:.1} s{}; written to {}/matrix.csv, matrix.json, summary.md",
+        result.cells.len(),
+        progress.start.elapsed().as_secs_f64(),
+        if failed > 0 {
+            format!(" ({failed} fits failed, listed in summary.md)")
+        } else {
+            String::new()
+        },
+        out.display()
+    );
+    Ok(result)
+}
