@@ -8,7 +8,8 @@
 //! - [`models`] (drive-models): vehicles, powertrains, BLR, learners;
 //! - [`samplers`] (drive-samplers): input-space samplers of the protocol;
 //! - [`eval`] (drive-eval): the eq. 8 metric, splits, comparisons;
-//! - [`sim`] (drive-sim): a simulated UGV to run the protocol without a robot.
+//! - [`sim`] (drive-sim): a simulated UGV to run the protocol without a robot;
+//! - [`report`] (drive-report): the paper's figures and a Markdown report for one dataset.
 //!
 //! ```
 //! use drive::traits::Learner;
@@ -25,6 +26,7 @@
 pub use drive_data as data;
 pub use drive_eval as eval;
 pub use drive_models as models;
+pub use drive_report as report;
 pub use drive_samplers as samplers;
 pub use drive_sim as sim;
 pub use drive_traits as traits;

@@ -230,6 +230,23 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Write DIR/report.md (model comparison, convergence time, fitted parameters,
+    /// uncertainty calibration) and the paper's figures as PNG and SVG for one dataset.
+    Report {
+        #[command(flatten)]
+        data: DataArgs,
+        /// Output folder (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// The robot's manufacturer limits for the input-space figure: a preset (husky, hd2,
+        /// warthog) or a TOML file. Default: the husky preset for the bundled data, none
+        /// otherwise.
+        #[arg(long)]
+        robot: Option<String>,
+        /// Fraction of the DRIVE intervals (in recording order) used for training.
+        #[arg(long, default_value_t = 0.5)]
+        split: f64,
+    },
     /// Predict poses from a saved model and a command sequence.
     Predict {
         /// Model file written by `drive train`.
@@ -324,7 +341,14 @@ fn main() -> ExitCode {
             powertrain,
             json,
             per_window,
-        } => run_eval(&data, split, &models, powertrain, json, per_window.as_deref()),
+        } => run_eval(
+            &data,
+            split,
+            &models,
+            powertrain,
+            json,
+            per_window.as_deref(),
+        ),
         Command::Train {
             data,
             model,
@@ -419,6 +443,12 @@ fn main() -> ExitCode {
             },
             json,
         ),
+        Command::Report {
+            data,
+            out,
+            robot,
+            split,
+        } => run_report(&data, &out, robot.as_deref(), split),
         Command::Matrix { config, out, json } => matrix::run_with(
             &config,
             &out,
@@ -579,6 +609,38 @@ fn table(cmp: &Comparison) -> String {
     section(&mut s, "transient windows", &|m| m.transient);
     section(&mut s, "steady windows", &|m| m.steady);
     s
+}
+
+fn run_report(data: &DataArgs, out: &Path, robot: Option<&str>, split: f64) -> Result<()> {
+    let dataset = load(data)?;
+    let robot = robot.or(data.data.is_none().then_some("husky"));
+    let naive_input_space = match robot {
+        Some(r) => {
+            let spec = drive::samplers::RobotSpec::load(r)?;
+            Some((
+                format!("naive input space ({} manufacturer limits)", spec.name),
+                spec.input_space(),
+            ))
+        }
+        None => None,
+    };
+    let options = drive::report::ReportOptions {
+        split,
+        naive_input_space,
+        ..Default::default()
+    };
+    let report = drive::report::Report::build(&dataset, &options)?;
+    let files = report.write(out)?;
+    if let Err(reason) = &report.protocols {
+        eprintln!("note: no protocol figure: {reason}");
+    }
+    eprintln!(
+        "report on {}: {} files written to {} (open report.md)",
+        dataset.robot.name,
+        files.len(),
+        out.display()
+    );
+    Ok(())
 }
 
 fn run_protocol(robot: &str, sampler: &str, intervals: usize, seed: u64, out: &Path) -> Result<()> {

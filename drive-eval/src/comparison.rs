@@ -173,7 +173,9 @@ pub fn compare_with(
     let mut models = Vec::new();
     for entry in entries {
         let start = Instant::now();
-        let model = entry.fit(&train, powertrain).map_err(fit_error(entry.name()))?;
+        let model = entry
+            .fit(&train, powertrain)
+            .map_err(fit_error(entry.name()))?;
         let fit_seconds = start.elapsed().as_secs_f64();
         let used = powertrain.or(entry.default_powertrain());
         let report = evaluate_model(model.as_ref(), &eval);

@@ -24,7 +24,9 @@ mod split;
 mod stats;
 
 pub use compare::{evaluate_model, ModelReport, WindowErrors};
-pub use comparison::{compare, compare_with, CompareError, Comparison, ErrorSummary, ModelResult, PhaseSummary};
+pub use comparison::{
+    compare, compare_with, CompareError, Comparison, ErrorSummary, ModelResult, PhaseSummary,
+};
 pub use convergence::{convergence, convergence_time, Convergence, ConvergencePoint, SkippedPoint};
 pub use matrix::{
     run_matrix, BootstrapConfig, DatasetSource, Improvement, Matrix, MatrixCell, MatrixError,
@@ -33,8 +35,7 @@ pub use matrix::{
 pub use metric::{mrmse, Mrmse};
 pub use protocols::{
     compare_protocols, intervals_in, simulate_protocol, simulate_with, simulate_with_samplers,
-    ExperimentError,
-    ProtocolCell, ProtocolComparison, ProtocolRow, ProtocolStudy, INTERVAL_S,
+    ExperimentError, ProtocolCell, ProtocolComparison, ProtocolRow, ProtocolStudy, INTERVAL_S,
 };
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use split::{split_by_interval, SplitError};

@@ -374,12 +374,9 @@ impl SimulatedPlan {
                 )));
             }
         }
-        let test_duration = s.test_duration.unwrap_or_else(|| {
-            s.durations
-                .iter()
-                .copied()
-                .fold(300.0, f64::max)
-        });
+        let test_duration = s
+            .test_duration
+            .unwrap_or_else(|| s.durations.iter().copied().fold(300.0, f64::max));
         for d in s.durations.iter().chain([&test_duration]) {
             intervals_in(*d).map_err(|e| invalid(format!("[simulated] {e}")))?;
         }
@@ -623,7 +620,10 @@ pub fn run_matrix(
                 ),
                 (None, None) => unreachable!("runs are only made from the simulated plan"),
             };
-            let what = format!("{} on {} with {sampler}, seed {seed}", robot.name, terrain.name);
+            let what = format!(
+                "{} on {} with {sampler}, seed {seed}",
+                robot.name, terrain.name
+            );
             let fail = |reason| MatrixError::Simulation {
                 what: what.clone(),
                 reason,
@@ -673,7 +673,10 @@ pub fn run_matrix(
         let test = test.expect("the test run is pushed before its training runs");
         if data.windows.is_empty() || test.windows.is_empty() {
             return Err(MatrixError::Simulation {
-                what: format!("{} on {} with {sampler}, seed {seed}", robot.name, terrain.name),
+                what: format!(
+                    "{} on {} with {sampler}, seed {seed}",
+                    robot.name, terrain.name
+                ),
                 reason: ExperimentError::NotEnoughData("the run recorded no interval".into()),
             });
         }
@@ -775,7 +778,11 @@ fn summarize(matrix: &Matrix, cells: &[MatrixCell]) -> Vec<SummaryRow> {
             };
             let mine = of(model);
             let base = of(&matrix.baseline);
-            let ok: Vec<&MatrixCell> = mine.iter().copied().filter(|c| c.failure.is_none()).collect();
+            let ok: Vec<&MatrixCell> = mine
+                .iter()
+                .copied()
+                .filter(|c| c.failure.is_none())
+                .collect();
             let pooled = |pick: fn(&Mrmse) -> f64| {
                 Summary::of(ok.iter().flat_map(|c| c.errors.iter().map(pick)))
             };
@@ -929,13 +936,7 @@ impl MatrixResult {
         let _ = writeln!(s, "|---|---|---:|---:|---|---|---|---|");
         let cell = |x: Option<Summary>, digits: usize| {
             x.map_or("failed".into(), |x| {
-                format!(
-                    "{:.d$} [{:.d$}, {:.d$}]",
-                    x.median,
-                    x.q1,
-                    x.q3,
-                    d = digits
-                )
+                format!("{:.d$} [{:.d$}, {:.d$}]", x.median, x.q1, x.q3, d = digits)
             })
         };
         let imp = |i: Option<Improvement>, is_baseline: bool| match i {
@@ -963,7 +964,8 @@ impl MatrixResult {
                 imp(r.rotational_improvement, is_base),
             );
         }
-        let failures: Vec<&MatrixCell> = self.cells.iter().filter(|c| c.failure.is_some()).collect();
+        let failures: Vec<&MatrixCell> =
+            self.cells.iter().filter(|c| c.failure.is_some()).collect();
         if !failures.is_empty() {
             let _ = writeln!(s, "\n## Failed fits\n");
             for c in failures {

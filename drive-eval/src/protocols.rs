@@ -2,7 +2,7 @@
 //! time with each sampler, one model trained on each, all evaluated on one common held-out
 //! test set gathered with the reference sampler (DRIVE's `uniform`).
 
-use crate::{evaluate_model, improvement_percent, Summary};
+use crate::{evaluate_model, improvement_percent, Mrmse, Summary};
 use drive_models::{fit_named, DifferentialDrive};
 use drive_samplers::{RobotSpec, RunnerConfig, SamplerContext, SamplerError, SamplerRegistry};
 use drive_sim::{simulate, SimError, Simulation, SimulationConfig, Terrain};
@@ -104,7 +104,14 @@ pub fn simulate_with(
     runner: RunnerConfig,
     seed: u64,
 ) -> Result<Simulation, ExperimentError> {
-    simulate_with_samplers(&SamplerRegistry::builtin(), robot, terrain, sampler, runner, seed)
+    simulate_with_samplers(
+        &SamplerRegistry::builtin(),
+        robot,
+        terrain,
+        sampler,
+        runner,
+        seed,
+    )
 }
 
 /// Like [`simulate_with`] with the sampler taken from `samplers` (a registry holding a
@@ -394,7 +401,7 @@ fn run_task(
         let intervals = intervals_in(driving_s)?;
         for sampler in &study.samplers {
             let train = simulate_protocol(robot, terrain, sampler, intervals, seed)?.dataset;
-            let (translational, rotational) =
+            let (translational, rotational, _) =
                 train_and_test(&study.model, &train.all(), &train.robot.name, &test.all())?;
             cells.push(ProtocolCell {
                 robot: robot.name.clone(),
@@ -413,13 +420,14 @@ fn run_task(
 }
 
 /// Fits `model` on `train` (`what` names it in errors) and scores it on every window of
-/// `test`: the summaries of the translational and rotational errors (eq. 8).
+/// `test`: the summaries of the translational and rotational errors (eq. 8) and every
+/// window's errors.
 pub(crate) fn train_and_test(
     model: &str,
     train: &WindowSet<'_>,
     what: &str,
     test: &WindowSet<'_>,
-) -> Result<(Summary, Summary), ExperimentError> {
+) -> Result<(Summary, Summary, Vec<Mrmse>), ExperimentError> {
     let fitted = fit_named(model, train)
         .ok_or_else(|| ExperimentError::UnknownModel(model.to_string()))?
         .map_err(|reason| ExperimentError::Fit {
@@ -432,6 +440,7 @@ pub(crate) fn train_and_test(
     Ok((
         report.translational(None).ok_or_else(empty)?,
         report.rotational(None).ok_or_else(empty)?,
+        report.windows.iter().map(|w| w.error).collect(),
     ))
 }
 

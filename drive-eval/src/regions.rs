@@ -4,7 +4,7 @@
 //! evaluation part.
 
 use crate::protocols::{median, train_and_test};
-use crate::{improvement_percent, split_by_interval, ExperimentError, Summary};
+use crate::{improvement_percent, split_by_interval, ExperimentError, Mrmse, Summary};
 use drive_models::DifferentialDrive;
 use drive_traits::{CommandModel, Dataset, Input, Window, WindowSet};
 use rand::rngs::Xoshiro256PlusPlus;
@@ -69,6 +69,12 @@ pub struct RegionResult {
     pub improvement_translational_percent: f64,
     /// Improvement of uniform over the region in rotation (%).
     pub improvement_rotational_percent: f64,
+    /// Every evaluation window's errors of the model trained on the region.
+    #[serde(skip)]
+    pub region_errors: Vec<Mrmse>,
+    /// Every evaluation window's errors of the models trained on the uniform draws, pooled.
+    #[serde(skip)]
+    pub uniform_errors: Vec<Mrmse>,
 }
 
 /// What [`compare_regions`] found.
@@ -209,7 +215,9 @@ pub fn compare_regions(
                 .flat_map(|&i| intervals[i].0.iter().copied())
                 .collect()
         };
-        let (rt, rr) = fit_and_score(windows_of(&chosen), &format!("the {name} region"))?;
+        let (rt, rr, region_errors) =
+            fit_and_score(windows_of(&chosen), &format!("the {name} region"))?;
+        let mut uniform_errors = Vec::new();
         let mut uniform_t = Vec::with_capacity(study.draws);
         let mut uniform_r = Vec::with_capacity(study.draws);
         let mut order: Vec<usize> = (0..intervals.len()).collect();
@@ -222,7 +230,8 @@ pub fn compare_regions(
             }
             let mut picked = order[..chosen.len()].to_vec();
             picked.sort_unstable();
-            let (t, r) = fit_and_score(windows_of(&picked), "a uniform draw")?;
+            let (t, r, errors) = fit_and_score(windows_of(&picked), "a uniform draw")?;
+            uniform_errors.extend(errors);
             uniform_t.push(t.median);
             uniform_r.push(r.median);
         }
@@ -248,6 +257,8 @@ pub fn compare_regions(
             uniform_rotational_range_rad: range(&uniform_r),
             improvement_translational_percent: improvement_percent(ut, rt.median),
             improvement_rotational_percent: improvement_percent(ur, rr.median),
+            region_errors,
+            uniform_errors,
         });
     }
     Ok(RegionComparison {

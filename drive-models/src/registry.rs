@@ -59,8 +59,9 @@ pub enum RegistryError {
     BadName(String),
 }
 
-type FitFn =
-    dyn Fn(&WindowSet<'_>, PowertrainChoice) -> Result<Box<dyn MotionModel>, FitError> + Send + Sync;
+type FitFn = dyn Fn(&WindowSet<'_>, PowertrainChoice) -> Result<Box<dyn MotionModel>, FitError>
+    + Send
+    + Sync;
 
 /// One registered learner.
 #[derive(Clone)]

@@ -58,10 +58,13 @@ pub fn sampler_over(
     vehicle: impl Fn() -> Box<dyn CommandModel>,
     seed: u64,
 ) -> Result<Box<dyn InputSampler>, SamplerError> {
-    SamplerRegistry::builtin().build(name, &SamplerContext {
-        space,
-        robot,
-        vehicle: &vehicle,
-        seed,
-    })
+    SamplerRegistry::builtin().build(
+        name,
+        &SamplerContext {
+            space,
+            robot,
+            vehicle: &vehicle,
+            seed,
+        },
+    )
 }

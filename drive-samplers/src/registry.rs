@@ -98,7 +98,11 @@ impl SamplerRegistry {
         })
         .expect(fresh);
         r.register("angular", |c: &SamplerContext<'_>| {
-            Ok(Box::new(AngularSampler::new(c.space, (c.vehicle)(), c.seed)))
+            Ok(Box::new(AngularSampler::new(
+                c.space,
+                (c.vehicle)(),
+                c.seed,
+            )))
         })
         .expect(fresh);
         r.register("targeted", |c: &SamplerContext<'_>| {

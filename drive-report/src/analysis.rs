@@ -1,0 +1,341 @@
+//! What the figures show, computed from a dataset and its fitted models.
+
+use drive_models::velocity::BodyVelocityEstimator;
+use drive_models::DifferentialDrive;
+use drive_traits::{
+    BodyVelocity, Input, InputSpace, MotionModel, Phase, Pose, PoseCovariance, Powertrain,
+    WindowSet,
+};
+use serde::Serialize;
+
+/// The 95% quantile of the chi-square distribution with 2 degrees of freedom, `-2 ln 0.05`:
+/// a position error `e` is inside the predicted 95% ellipse when `e^T S^-1 e <= CHI2_2_95`.
+pub const CHI2_2_95: f64 = 5.991_464_547_107_979;
+
+/// The four corners of a wheel-velocity box mapped to body velocities by eq. 4: the
+/// parallelogram a box of inputs spans in the (forward speed, yaw rate) plane.
+pub fn body_polygon(vehicle: &DifferentialDrive, space: &InputSpace) -> [BodyVelocity; 4] {
+    let (lo, hi) = (space.min, space.max);
+    [
+        vehicle.eq4(&Input::new(lo.x, lo.y)),
+        vehicle.eq4(&Input::new(hi.x, lo.y)),
+        vehicle.eq4(&Input::new(hi.x, hi.y)),
+        vehicle.eq4(&Input::new(lo.x, hi.y)),
+    ]
+}
+
+/// The box spanned by a set of inputs; `None` when there are none.
+pub fn bounding_box<'a>(inputs: impl IntoIterator<Item = &'a Input>) -> Option<InputSpace> {
+    let mut it = inputs.into_iter();
+    let first = *it.next()?;
+    let (lo, hi) = it.fold((first, first), |(lo, hi), u| (lo.inf(u), hi.sup(u)));
+    InputSpace::new(lo, hi)
+}
+
+/// Paper Fig. 1 in the body-velocity plane.
+#[derive(Debug, Clone, Serialize)]
+pub struct InputSpaceFigure {
+    /// The manufacturer's (naive) input space and where it comes from; `None` without a
+    /// robot description.
+    pub naive: Option<(String, InputSpace)>,
+    /// The space the commands spanned.
+    pub commanded: InputSpace,
+    /// The true input space: the wheel velocities the encoders reached.
+    pub reached: InputSpace,
+    /// The commanded body velocity each interval held (eq. 4 on its last command).
+    pub commands: Vec<BodyVelocity>,
+    /// The measured body velocity of each steady window (mean over the window).
+    pub measured: Vec<BodyVelocity>,
+}
+
+/// Builds the input-space figure's data from every window of a dataset.
+pub fn input_space(
+    all: &WindowSet<'_>,
+    naive: Option<(String, InputSpace)>,
+) -> Option<InputSpaceFigure> {
+    let vehicle = DifferentialDrive::from_robot(all.robot);
+    let commanded = bounding_box(all.windows.iter().flat_map(|w| w.command.iter()))?;
+    let reached = bounding_box(all.windows.iter().flat_map(|w| w.encoder.iter()))?;
+    let mut commands = Vec::new();
+    let mut measured = Vec::new();
+    let estimator = BodyVelocityEstimator::default();
+    let mut v = Vec::new();
+    for w in &all.windows {
+        if w.phase == Phase::Transient {
+            continue;
+        }
+        if let Some(u) = w.command.last() {
+            commands.push(vehicle.eq4(u));
+        }
+        estimator.estimate(w, all.robot.dt(), &mut v);
+        let known: Vec<&BodyVelocity> = v.iter().flatten().collect();
+        if !known.is_empty() {
+            measured.push(known.iter().copied().sum::<BodyVelocity>() / known.len() as f64);
+        }
+    }
+    Some(InputSpaceFigure {
+        naive,
+        commanded,
+        reached,
+        commands,
+        measured,
+    })
+}
+
+/// Paper Fig. 3: wheel velocities over consecutive windows.
+#[derive(Debug, Clone, Serialize)]
+pub struct PowertrainTrace {
+    /// Time of each sample (s) from the first window's start.
+    pub t: Vec<f64>,
+    /// Commanded wheel velocities (rad/s).
+    pub commanded: Vec<Input>,
+    /// Encoder-measured wheel velocities (rad/s).
+    pub measured: Vec<Input>,
+    /// The powertrain model's prediction, started at each window from the measured velocity.
+    pub modeled: Vec<Input>,
+    /// Each window's time span and phase.
+    pub windows: Vec<(f64, f64, Phase)>,
+}
+
+/// The first `intervals` whole intervals of `eval` predicted by `powertrain`, window by
+/// window as a motion model uses it.
+pub fn powertrain_trace(
+    eval: &WindowSet<'_>,
+    powertrain: &dyn Powertrain,
+    intervals: usize,
+) -> PowertrainTrace {
+    let dt = eval.robot.dt();
+    let mut trace = PowertrainTrace {
+        t: Vec::new(),
+        commanded: Vec::new(),
+        measured: Vec::new(),
+        modeled: Vec::new(),
+        windows: Vec::new(),
+    };
+    // Start at the first transient window, so that the trace opens on a new command.
+    let first = eval
+        .windows
+        .iter()
+        .position(|w| w.phase == Phase::Transient)
+        .unwrap_or(0);
+    let Some(w0) = eval.windows.get(first) else {
+        return trace;
+    };
+    let last_interval = w0.interval + intervals;
+    let mut t0 = 0.0;
+    for w in eval.windows[first..]
+        .iter()
+        .take_while(|w| w.interval < last_interval)
+    {
+        let modeled = powertrain.predict(&w.encoder[0], &w.command);
+        for k in 0..w.len() {
+            trace.t.push(t0 + k as f64 * dt);
+            trace.commanded.push(w.command[k]);
+            trace.measured.push(w.encoder[k]);
+            trace.modeled.push(modeled[k]);
+        }
+        let t1 = t0 + w.len() as f64 * dt;
+        trace.windows.push((t0, t1, w.phase));
+        t0 = t1;
+    }
+    trace
+}
+
+/// One evaluation window's measured path and the models' predictions.
+#[derive(Debug, Clone)]
+pub struct Trajectory {
+    /// Window index in the dataset.
+    pub window: usize,
+    /// Measured poses.
+    pub measured: Vec<Pose>,
+    /// Per model: name, predicted poses, and the pose covariances when the model has them.
+    pub predicted: Vec<(String, Vec<Pose>, Option<Vec<PoseCovariance>>)>,
+}
+
+/// `count` evaluation windows with distinct motions: steady windows ordered by how much the
+/// robot turned, taken at evenly spaced ranks.
+pub fn trajectories(
+    eval: &WindowSet<'_>,
+    models: &[(&str, &dyn MotionModel)],
+    count: usize,
+) -> Vec<Trajectory> {
+    let vehicle = DifferentialDrive::from_robot(eval.robot);
+    let mut steady: Vec<_> = eval
+        .windows
+        .iter()
+        .filter(|w| w.phase == Phase::Steady && w.len() >= 2)
+        .collect();
+    let turn = |w: &drive_traits::Window| w.pose[w.len() - 1].z.abs();
+    steady.sort_by(|a, b| turn(a).total_cmp(&turn(b)));
+    if steady.is_empty() || count == 0 {
+        return Vec::new();
+    }
+    let picks: Vec<usize> = (0..count)
+        .map(|i| ((i as f64 + 0.5) / count as f64 * steady.len() as f64) as usize)
+        .map(|i| i.min(steady.len() - 1))
+        .collect();
+    let mut out: Vec<Trajectory> = Vec::new();
+    for i in picks {
+        let w = steady[i];
+        if out.iter().any(|t| t.window == w.index) {
+            continue;
+        }
+        let start = w.start_state(&vehicle);
+        let predicted = models
+            .iter()
+            .map(|(name, m)| {
+                let (mut poses, mut covs) = (Vec::new(), Vec::new());
+                let cov = m
+                    .predict_with_covariance_into(&start, &w.command, &mut poses, &mut covs)
+                    .is_ok();
+                if !cov {
+                    m.predict_into(&start, &w.command, &mut poses);
+                }
+                (name.to_string(), poses, cov.then_some(covs))
+            })
+            .collect();
+        out.push(Trajectory {
+            window: w.index,
+            measured: w.pose.clone(),
+            predicted,
+        });
+    }
+    out
+}
+
+/// How well a model's predicted uncertainty matches its errors on the evaluation windows.
+#[derive(Debug, Clone, Serialize)]
+pub struct Calibration {
+    /// Model name.
+    pub model: String,
+    /// Per horizon step k (k = 1 .. n-1; k = 0 is the known start): the fraction of
+    /// evaluation windows whose measured position lies inside the predicted 95% ellipse.
+    pub inside_fraction: Vec<f64>,
+    /// The same over every step and window.
+    pub inside_overall: f64,
+    /// Mean negative log-likelihood of the measured position under the predicted Gaussian
+    /// (nats, over every step and window with a positive-definite covariance).
+    pub mean_nll: f64,
+    /// Steps whose predicted position covariance was not positive definite (counted as
+    /// outside, left out of the NLL).
+    pub degenerate: usize,
+}
+
+/// The calibration of a model with pose covariances (eq. 7 propagated); `None` for a model
+/// without them.
+pub fn calibration(
+    name: &str,
+    model: &dyn MotionModel,
+    eval: &WindowSet<'_>,
+) -> Option<Calibration> {
+    let vehicle = DifferentialDrive::from_robot(eval.robot);
+    let n = eval.windows.iter().map(|w| w.len()).max()?;
+    let mut inside = vec![0usize; n];
+    let mut counted = vec![0usize; n];
+    let (mut nll, mut nll_count, mut degenerate) = (0.0, 0usize, 0usize);
+    let (mut poses, mut covs) = (Vec::new(), Vec::new());
+    for w in &eval.windows {
+        model
+            .predict_with_covariance_into(
+                &w.start_state(&vehicle),
+                &w.command,
+                &mut poses,
+                &mut covs,
+            )
+            .ok()?;
+        for k in 1..w.len().min(poses.len()) {
+            let e = [w.pose[k].x - poses[k].x, w.pose[k].y - poses[k].y];
+            let c = &covs[k];
+            let (a, b, d) = (c[(0, 0)], c[(0, 1)], c[(1, 1)]);
+            let det = a * d - b * b;
+            counted[k] += 1;
+            if !(a > 0.0 && det > 0.0 && det.is_finite()) {
+                degenerate += 1;
+                continue;
+            }
+            // e^T S^-1 e with the 2x2 inverse written out.
+            let m2 = (d * e[0] * e[0] - 2.0 * b * e[0] * e[1] + a * e[1] * e[1]) / det;
+            if m2 <= CHI2_2_95 {
+                inside[k] += 1;
+            }
+            nll += 0.5 * (m2 + det.ln()) + (2.0 * std::f64::consts::PI).ln();
+            nll_count += 1;
+        }
+    }
+    let inside_fraction: Vec<f64> = (1..n)
+        .map(|k| {
+            if counted[k] == 0 {
+                f64::NAN
+            } else {
+                inside[k] as f64 / counted[k] as f64
+            }
+        })
+        .collect();
+    let total: usize = counted.iter().sum();
+    Some(Calibration {
+        model: name.to_string(),
+        inside_fraction,
+        inside_overall: inside.iter().sum::<usize>() as f64 / total.max(1) as f64,
+        mean_nll: if nll_count > 0 {
+            nll / nll_count as f64
+        } else {
+            f64::NAN
+        },
+        degenerate,
+    })
+}
+
+/// The 95% ellipse of a 2x2 position covariance as a closed polygon around `center`.
+pub fn ellipse(center: (f64, f64), cov: &PoseCovariance, points: usize) -> Vec<(f64, f64)> {
+    let (a, b, d) = (cov[(0, 0)], cov[(0, 1)], cov[(1, 1)]);
+    // Eigen-decomposition of [[a, b], [b, d]].
+    let mean = 0.5 * (a + d);
+    let diff = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    let (l1, l2) = ((mean + diff).max(0.0), (mean - diff).max(0.0));
+    let angle = 0.5 * (2.0 * b).atan2(a - d);
+    let (r1, r2) = ((CHI2_2_95 * l1).sqrt(), (CHI2_2_95 * l2).sqrt());
+    let (ca, sa) = (angle.cos(), angle.sin());
+    (0..=points)
+        .map(|i| {
+            let t = i as f64 / points as f64 * std::f64::consts::TAU;
+            let (u, v) = (r1 * t.cos(), r2 * t.sin());
+            (center.0 + ca * u - sa * v, center.1 + sa * u + ca * v)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ellipse_of_an_axis_aligned_covariance_has_the_chi2_radii() {
+        let cov = PoseCovariance::from_diagonal(&drive_traits::Pose::new(4.0, 1.0, 0.0));
+        let pts = ellipse((1.0, 2.0), &cov, 4);
+        // t = 0: along the larger axis (x), radius sqrt(5.991 x 4).
+        assert!((pts[0].0 - (1.0 + (CHI2_2_95 * 4.0).sqrt())).abs() < 1e-12);
+        assert!((pts[0].1 - 2.0).abs() < 1e-12);
+        // t = pi/2: along y, radius sqrt(5.991).
+        assert!((pts[1].1 - (2.0 + CHI2_2_95.sqrt())).abs() < 1e-12);
+    }
+
+    #[test]
+    fn chi2_quantile_is_minus_two_ln_005() {
+        assert!((CHI2_2_95 + 2.0 * 0.05f64.ln()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bounding_box_and_polygon() {
+        let inputs = [Input::new(-1.0, 2.0), Input::new(3.0, -4.0)];
+        let b = bounding_box(&inputs).unwrap();
+        assert_eq!(
+            (b.min, b.max),
+            (Input::new(-1.0, -4.0), Input::new(3.0, 2.0))
+        );
+        let vehicle = DifferentialDrive::new(0.5, 1.0);
+        let p = body_polygon(&vehicle, &b);
+        // (left 3, right -4): forward 0.5 x 0.5 x (3 - 4) = -0.25 m/s, yaw 0.5 (-4 - 3) = -3.5.
+        assert!((p[1].x + 0.25).abs() < 1e-12 && (p[1].z + 3.5).abs() < 1e-12);
+        assert!(bounding_box(&[]).is_none());
+    }
+}

@@ -1,0 +1,513 @@
+//! DRIVE reports for one dataset: the model comparison, the convergence time and the fitted
+//! parameters in `report.md`, and the paper's figures as PNG and SVG (plotters, with an
+//! embedded DejaVu Sans font so that no system font is needed):
+//!
+//! | file | shows | paper |
+//! |---|---|---|
+//! | `input_space` | naive and true input spaces, commands sent, measured body velocities | Fig. 1 |
+//! | `powertrain` | commanded, encoder-measured and FOPDT-modeled wheel velocities | Fig. 3 |
+//! | `errors_per_model` | MRMSE box plots per model | Fig. 6 |
+//! | `errors_per_protocol` | MRMSE box plots per data-gathering protocol (regions vs uniform) | Fig. 5 |
+//! | `convergence` | error against training time (log-log), convergence time marked | Fig. 7 |
+//! | `trajectories` | predicted and measured paths with 95% ellipses | |
+//! | `calibration` | fraction of measured positions inside the 95% ellipse per horizon step | |
+//!
+//! ```no_run
+//! # fn demo(data: &drive_traits::Dataset) -> Result<(), drive_report::ReportError> {
+//! let report = drive_report::Report::build(data, &drive_report::ReportOptions::default())?;
+//! let files = report.write(std::path::Path::new("report-out"))?;
+//! assert!(files.iter().any(|f| f.ends_with("report.md")));
+//! # Ok(()) }
+//! ```
+
+#![warn(missing_docs)]
+
+pub mod analysis;
+pub mod figures;
+
+use analysis::{Calibration, InputSpaceFigure, PowertrainTrace, Trajectory};
+use drive_eval::{
+    compare, compare_regions, convergence, split_by_interval, Comparison, Convergence, Mrmse,
+    RegionComparison, RegionStudy,
+};
+use drive_models::learners::{AccBlr, AccBlrModel, SlipBlr, SlipBlrModel};
+use drive_models::powertrain::{Fopdt, FopdtPowertrain, Ideal};
+use drive_models::{DifferentialDrive, MODEL_NAMES};
+use drive_traits::{Dataset, InputSpace, Learner, MotionModel, PowertrainLearner};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Why a report could not be made.
+#[derive(Debug, Error)]
+pub enum ReportError {
+    /// The model comparison failed (split, fit).
+    #[error(transparent)]
+    Compare(#[from] drive_eval::CompareError),
+    /// The split is not valid for this dataset.
+    #[error(transparent)]
+    Split(#[from] drive_eval::SplitError),
+    /// A model needed by the figures could not be fitted.
+    #[error("fitting {model}: {reason}")]
+    Fit {
+        /// Model.
+        model: &'static str,
+        /// Why.
+        reason: drive_traits::FitError,
+    },
+    /// The dataset has no command or encoder sample.
+    #[error("the dataset has no samples to draw")]
+    Empty,
+    /// A file could not be written.
+    #[error("writing {path}: {reason}")]
+    Write {
+        /// The file.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// What the report is made with.
+#[derive(Debug, Clone)]
+pub struct ReportOptions {
+    /// Training fraction of the intervals (the rest evaluates).
+    pub split: f64,
+    /// The manufacturer's input space and where it comes from (for Fig. 1); `None` when
+    /// unknown.
+    pub naive_input_space: Option<(String, InputSpace)>,
+    /// Intervals shown in the powertrain figure.
+    pub powertrain_intervals: usize,
+    /// Evaluation windows shown in the trajectory figure.
+    pub trajectories: usize,
+    /// Convergence gradient thresholds (m/s, rad/s).
+    pub thresholds: [f64; 2],
+    /// Uniform draws of the protocol comparison.
+    pub draws: usize,
+    /// Figure size in pixels (PNG) and points (SVG).
+    pub size: (u32, u32),
+}
+
+impl Default for ReportOptions {
+    fn default() -> Self {
+        ReportOptions {
+            split: 0.5,
+            naive_input_space: None,
+            powertrain_intervals: 3,
+            trajectories: 4,
+            thresholds: [0.01, 0.01],
+            draws: 25,
+            size: (1200, 800),
+        }
+    }
+}
+
+/// The fitted parameters reported.
+#[derive(Debug, Clone)]
+pub struct FittedParameters {
+    /// The FOPDT powertrain (eq. 3).
+    pub fopdt: FopdtPowertrain,
+    /// Slip-BLR on the FOPDT (eq. 5-7).
+    pub slip_blr: SlipBlrModel,
+    /// Acceleration BLR on the commands.
+    pub acc_blr: AccBlrModel,
+}
+
+/// Everything a report holds, computed once and then written.
+pub struct Report {
+    /// Dataset and robot names.
+    pub dataset: String,
+    /// The options used.
+    pub options: ReportOptions,
+    /// The four models compared (eq. 8).
+    pub comparison: Comparison,
+    /// Slip-BLR's convergence (Fig. 7).
+    pub convergence: Convergence,
+    /// The protocol comparison on the recorded data, or why it could not run.
+    pub protocols: Result<RegionComparison, String>,
+    /// Fitted parameters.
+    pub fitted: FittedParameters,
+    /// Fig. 1 data.
+    pub input_space: InputSpaceFigure,
+    /// Fig. 3 data.
+    pub powertrain: PowertrainTrace,
+    /// Trajectory figure data.
+    pub trajectories: Vec<Trajectory>,
+    /// Calibration of the BLR models.
+    pub calibration: Vec<Calibration>,
+    vehicle: DifferentialDrive,
+    dt: f64,
+}
+
+/// A negative log-likelihood for reading: plain below 10^4, scientific above (an
+/// overconfident model's NLL runs to astronomical values).
+pub fn nll_text(nll: f64) -> String {
+    if nll.abs() < 1e4 {
+        format!("{nll:.2}")
+    } else {
+        format!("{nll:.2e}")
+    }
+}
+
+/// Registers the embedded font once (plotters' ab_glyph text renderer has no font of its own).
+fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // The font file is part of this crate and parses (tested).
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            include_bytes!("../fonts/DejaVuSans.ttf"),
+        );
+    });
+}
+
+impl Report {
+    /// Fits and evaluates everything the report shows.
+    pub fn build(data: &Dataset, options: &ReportOptions) -> Result<Report, ReportError> {
+        let comparison = compare(data, options.split, &MODEL_NAMES)?;
+        let (train, eval) = split_by_interval(data, options.split)?;
+        let convergence = convergence(data, options.split, options.thresholds, |set| {
+            SlipBlr::<Fopdt>::default()
+                .fit(set)
+                .map(|m| Box::new(m) as Box<dyn MotionModel>)
+        })?;
+        let protocols = compare_regions(
+            data,
+            &RegionStudy {
+                split: options.split,
+                draws: options.draws,
+                ..RegionStudy::default()
+            },
+        )
+        .map_err(|e| e.to_string());
+        let fit_error = |model| move |reason| ReportError::Fit { model, reason };
+        let fitted = FittedParameters {
+            fopdt: Fopdt::default().fit(&train).map_err(fit_error("fopdt"))?,
+            slip_blr: SlipBlr::<Fopdt>::default()
+                .fit(&train)
+                .map_err(fit_error("slip-blr"))?,
+            acc_blr: AccBlr::<Ideal>::default()
+                .fit(&train)
+                .map_err(fit_error("acc-blr"))?,
+        };
+        let input_space = analysis::input_space(&data.all(), options.naive_input_space.clone())
+            .ok_or(ReportError::Empty)?;
+        let powertrain =
+            analysis::powertrain_trace(&eval, &fitted.fopdt, options.powertrain_intervals);
+        let models: Vec<(&str, &dyn MotionModel)> = comparison
+            .models
+            .iter()
+            .filter_map(|m| m.model.as_deref().map(|f| (m.name.as_str(), f)))
+            .collect();
+        let trajectories = analysis::trajectories(&eval, &models, options.trajectories);
+        let calibration = models
+            .iter()
+            .filter_map(|(name, m)| analysis::calibration(name, *m, &eval))
+            .collect();
+        Ok(Report {
+            dataset: format!("{} ({})", data.robot.name, data.robot.robot),
+            options: options.clone(),
+            comparison,
+            convergence,
+            protocols,
+            fitted,
+            input_space,
+            powertrain,
+            trajectories,
+            calibration,
+            vehicle: DifferentialDrive::from_robot(&data.robot),
+            dt: data.robot.dt(),
+        })
+    }
+
+    /// Writes `report.md` and every figure as PNG and SVG into `dir` (created if missing);
+    /// returns the files written.
+    pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+        register_font();
+        let failed = |path: &Path, reason: String| ReportError::Write {
+            path: path.display().to_string(),
+            reason,
+        };
+        std::fs::create_dir_all(dir).map_err(|e| failed(dir, e.to_string()))?;
+        let mut files = Vec::new();
+        for (name, _) in self.figures() {
+            for ext in ["png", "svg"] {
+                let path = dir.join(format!("{name}.{ext}"));
+                let drawn = if ext == "png" {
+                    let root = BitMapBackend::new(&path, self.options.size).into_drawing_area();
+                    self.draw(name, &root)
+                } else {
+                    let root = SVGBackend::new(&path, self.options.size).into_drawing_area();
+                    self.draw(name, &root)
+                };
+                drawn.map_err(|e| failed(&path, e.to_string()))?;
+                files.push(path);
+            }
+        }
+        let md = dir.join("report.md");
+        std::fs::write(&md, self.markdown()).map_err(|e| failed(&md, e.to_string()))?;
+        files.push(md);
+        Ok(files)
+    }
+
+    /// The figures this report draws: file stem and caption.
+    pub fn figures(&self) -> Vec<(&'static str, &'static str)> {
+        let mut f = vec![
+            ("input_space", "Input space (paper Fig. 1)"),
+            ("powertrain", "Powertrain (paper Fig. 3)"),
+            (
+                "errors_per_model",
+                "Prediction errors per model (paper Fig. 6)",
+            ),
+        ];
+        if self.protocols.is_ok() {
+            f.push((
+                "errors_per_protocol",
+                "Prediction errors per data-gathering protocol (paper Fig. 5)",
+            ));
+        }
+        f.extend([
+            ("convergence", "Convergence (paper Fig. 7)"),
+            ("trajectories", "Predicted and measured paths"),
+        ]);
+        if !self.calibration.is_empty() {
+            f.push(("calibration", "Uncertainty calibration"));
+        }
+        f
+    }
+
+    fn draw<DB: DrawingBackend>(
+        &self,
+        name: &str,
+        root: &DrawingArea<DB, Shift>,
+    ) -> figures::DrawResult
+    where
+        DB::ErrorType: 'static,
+    {
+        match name {
+            "input_space" => figures::input_space(root, &self.input_space, &self.vehicle),
+            "powertrain" => figures::powertrain(root, &self.powertrain),
+            "errors_per_model" => {
+                let groups: Vec<(String, Vec<Mrmse>)> = self
+                    .comparison
+                    .models
+                    .iter()
+                    .map(|m| {
+                        (
+                            m.name.clone(),
+                            m.report.windows.iter().map(|w| w.error).collect(),
+                        )
+                    })
+                    .collect();
+                figures::error_boxes(
+                    root,
+                    &format!(
+                        "Prediction errors per model ({} evaluation windows, 2 s horizon, eq. 8)",
+                        self.comparison.eval_windows
+                    ),
+                    &groups,
+                )
+            }
+            "errors_per_protocol" => {
+                let Ok(p) = &self.protocols else {
+                    return Ok(());
+                };
+                let mut groups = Vec::new();
+                for r in &p.regions {
+                    groups.push((format!("{} region", r.region), r.region_errors.clone()));
+                    groups.push((
+                        format!("uniform (as {})", r.region),
+                        r.uniform_errors.clone(),
+                    ));
+                }
+                figures::error_boxes(
+                    root,
+                    &format!(
+                        "Prediction errors per protocol ({} trained on a region or on as many uniform intervals)",
+                        p.model
+                    ),
+                    &groups,
+                )
+            }
+            "convergence" => figures::convergence(root, "slip-blr", &self.convergence),
+            "trajectories" => figures::trajectories(root, &self.trajectories),
+            "calibration" => figures::calibration(root, &self.calibration, self.dt),
+            other => Err(format!("no figure named {other}").into()),
+        }
+    }
+
+    /// The Markdown report.
+    pub fn markdown(&self) -> String {
+        let mut s = String::new();
+        let c = &self.comparison;
+        let _ = writeln!(s, "# DRIVE report: {}\n", self.dataset);
+        let _ = writeln!(
+            s,
+            "Training: first {} intervals ({} windows); evaluation: last {} intervals ({} windows); split {}.\n",
+            c.train_intervals, c.train_windows, c.eval_intervals, c.eval_windows, c.split
+        );
+        let _ = writeln!(s, "## Model comparison (MRMSE over 2 s windows, eq. 8)\n");
+        let _ = writeln!(
+            s,
+            "| model | powertrain | transl. median [m] | transl. IQR [m] | rot. median [rad] | rot. IQR [rad] | vs naive (transl. / rot.) |"
+        );
+        let _ = writeln!(s, "|---|---|---:|---|---:|---|---|");
+        for m in &c.models {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.4} | [{:.4}, {:.4}] | {:.4} | [{:.4}, {:.4}] | {:+.1}% / {:+.1}% |",
+                m.name,
+                m.powertrain.map_or("-", |p| p.name()),
+                m.translational_median_m,
+                m.translational_iqr_m[0],
+                m.translational_iqr_m[1],
+                m.rotational_median_rad,
+                m.rotational_iqr_rad[0],
+                m.rotational_iqr_rad[1],
+                m.all.translational_m.improvement_over_naive_percent,
+                m.all.rotational_rad.improvement_over_naive_percent,
+            );
+        }
+        let conv = &self.convergence;
+        let _ = writeln!(s, "\n## Convergence (Fig. 7)\n");
+        match conv.convergence_time_s {
+            Some(t) => {
+                let _ = writeln!(
+                    s,
+                    "slip-BLR converges after **{t:.1} s** of training driving (every later gradient under {} m/s and {} rad/s; the paper found 46 s).",
+                    conv.thresholds[0], conv.thresholds[1]
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    s,
+                    "slip-BLR's curve never meets the convergence rule on this data."
+                );
+            }
+        }
+        let _ = writeln!(s, "\n## Fitted parameters (training part)\n");
+        let f = &self.fitted;
+        let _ = writeln!(
+            s,
+            "| powertrain (eq. 3) | time constant [s] | dead time [s] | limits [rad/s] |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---|");
+        for (side, r, lo, hi) in [
+            (
+                "left",
+                f.fopdt.left,
+                f.fopdt.limits.min.x,
+                f.fopdt.limits.max.x,
+            ),
+            (
+                "right",
+                f.fopdt.right,
+                f.fopdt.limits.min.y,
+                f.fopdt.limits.max.y,
+            ),
+        ] {
+            let _ = writeln!(
+                s,
+                "| {side} | {:.3} | {:.3} | [{lo:.2}, {hi:.2}] |",
+                r.time_constant, r.delay
+            );
+        }
+        let w = |v: &[f64]| {
+            v.iter()
+                .map(|x| format!("{x:.4}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let _ = writeln!(s, "\n| regression | inputs | posterior mean weights |");
+        let _ = writeln!(s, "|---|---|---|");
+        let sb = &f.slip_blr;
+        let ab = &f.acc_blr;
+        for (name, inputs, mean) in [
+            ("slip-BLR longitudinal slip (eq. 5)", "f_x", &sb.slip_x.mean),
+            (
+                "slip-BLR lateral slip",
+                "centripetal f_x f_ω",
+                &sb.slip_y.mean,
+            ),
+            (
+                "slip-BLR angular slip",
+                "centripetal, f_x, f_ω",
+                &sb.slip_yaw.mean,
+            ),
+            (
+                "acc-BLR forward velocity change",
+                "f_x, v_x",
+                &ab.accel_x.mean,
+            ),
+            ("acc-BLR yaw-rate change", "f_ω, v_ω", &ab.accel_yaw.mean),
+        ] {
+            let _ = writeln!(s, "| {name} | {inputs} | {} |", w(mean));
+        }
+        let _ = writeln!(s, "\n## Uncertainty calibration\n");
+        if self.calibration.is_empty() {
+            let _ = writeln!(s, "No model gives covariances.");
+        }
+        for cal in &self.calibration {
+            let last = cal.inside_fraction.last().copied().unwrap_or(f64::NAN);
+            let _ = writeln!(
+                s,
+                "- {}: {:.1}% of measured positions inside the predicted 95% ellipse over every step ({:.1}% at the 2 s horizon), mean negative log-likelihood {} nats{}.",
+                cal.model,
+                100.0 * cal.inside_overall,
+                100.0 * last,
+                nll_text(cal.mean_nll),
+                if cal.degenerate > 0 {
+                    format!(" ({} steps with a degenerate covariance counted as outside)", cal.degenerate)
+                } else {
+                    String::new()
+                }
+            );
+        }
+        let _ = writeln!(s, "\n## Data-gathering protocols on this data (Fig. 5)\n");
+        match &self.protocols {
+            Ok(p) => {
+                for r in &p.regions {
+                    let _ = writeln!(
+                        s,
+                        "- {} region ({}, {} intervals): {:.4} m / {:.4} rad; as many uniform intervals ({} draws): {:.4} m / {:.4} rad.",
+                        r.region,
+                        r.definition,
+                        r.intervals,
+                        r.region_translational.median,
+                        r.region_rotational.median,
+                        p.draws,
+                        r.uniform_translational_median_m,
+                        r.uniform_rotational_median_rad
+                    );
+                }
+            }
+            Err(e) => {
+                let _ = writeln!(s, "Not drawn: {e}.");
+            }
+        }
+        let _ = writeln!(s, "\n## Figures\n");
+        for (name, caption) in self.figures() {
+            let _ = writeln!(
+                s,
+                "### {caption}\n\n![{caption}]({name}.png)\n\n([SVG]({name}.svg))\n"
+            );
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_embedded_font_parses() {
+        assert!(plotters::style::register_font(
+            "test-font",
+            plotters::style::FontStyle::Normal,
+            include_bytes!("../fonts/DejaVuSans.ttf"),
+        )
+        .is_ok());
+    }
+}
