@@ -47,7 +47,7 @@ pub enum MatrixError {
         /// Robot, terrain, sampler, seed.
         what: String,
         /// Why.
-        reason: ExperimentError,
+        reason: Box<ExperimentError>,
     },
 }
 
@@ -605,7 +605,14 @@ pub fn run_matrix(
     }
     let settings_per_data: usize = matrix.datasets.len() * matrix.splits.len();
     let sim_settings = runs.iter().filter(|r| r.3.is_some()).count();
-    let total = runs.len() + (settings_per_data + sim_settings) * matrix.models.len();
+    let sim_scenarios = matrix
+        .simulated
+        .as_ref()
+        .map_or(0, |s| sim_settings / s.seeds.len().max(1));
+    // Simulated runs, fits, then one summary row per scenario and model.
+    let total = runs.len()
+        + (settings_per_data + sim_settings) * matrix.models.len()
+        + (settings_per_data + sim_scenarios) * matrix.models.len();
     let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
     let simulated: Vec<Dataset> = runs
         .par_iter()
@@ -626,7 +633,7 @@ pub fn run_matrix(
             );
             let fail = |reason| MatrixError::Simulation {
                 what: what.clone(),
-                reason,
+                reason: Box::new(reason),
             };
             let runner = RunnerConfig {
                 max_intervals: Some(intervals_in(driving).map_err(fail)?),
@@ -677,7 +684,9 @@ pub fn run_matrix(
                     "{} on {} with {sampler}, seed {seed}",
                     robot.name, terrain.name
                 ),
-                reason: ExperimentError::NotEnoughData("the run recorded no interval".into()),
+                reason: Box::new(ExperimentError::NotEnoughData(
+                    "the run recorded no interval".into(),
+                )),
             });
         }
         settings.push(Setting {
@@ -707,7 +716,7 @@ pub fn run_matrix(
             cell
         })
         .collect();
-    let summary = summarize(matrix, &cells);
+    let summary = summarize(matrix, &cells, &tick);
     Ok(MatrixResult {
         baseline: matrix.baseline.clone(),
         bootstrap: matrix.bootstrap,
@@ -748,28 +757,45 @@ fn score(setting: &Setting<'_>, model: &ModelKey, learners: &LearnerRegistry) ->
     cell
 }
 
-/// The median of `values` (reordered in place); NaN when empty.
+/// The median of `values` (reordered in place; NaN-free), as [`quantile`] at 0.5 gives it;
+/// NaN when empty. Linear time (selection, no sort): the bootstrap calls it for every draw.
 fn median_of(values: &mut [f64]) -> f64 {
-    values.sort_unstable_by(f64::total_cmp);
-    quantile(values, 0.5).unwrap_or(f64::NAN)
+    let n = values.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    let (left, mid, _) = values.select_nth_unstable_by(n / 2, f64::total_cmp);
+    let upper = *mid;
+    if n % 2 == 1 {
+        return upper;
+    }
+    // The lower middle value is the largest of the left part.
+    let lower = left.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    lower + (upper - lower) * 0.5
 }
 
 /// Pooled summaries per scenario and model, with improvements over the baseline.
-fn summarize(matrix: &Matrix, cells: &[MatrixCell]) -> Vec<SummaryRow> {
+fn summarize(matrix: &Matrix, cells: &[MatrixCell], tick: &(dyn Fn() + Sync)) -> Vec<SummaryRow> {
     let mut scenarios: Vec<&Scenario> = Vec::new();
     for c in cells {
         if !scenarios.contains(&&c.scenario) {
             scenarios.push(&c.scenario);
         }
     }
-    let jobs: Vec<(usize, &Scenario, &ModelKey)> = scenarios
+    let jobs: Vec<(&Scenario, &ModelKey)> = scenarios
         .iter()
         .flat_map(|s| matrix.models.iter().map(move |m| (*s, m)))
-        .enumerate()
-        .map(|(i, (s, m))| (i, s, m))
         .collect();
     jobs.par_iter()
-        .map(|&(index, scenario, model)| {
+        .map(|&(scenario, model)| {
+            // Each row's resampling stream depends on what it compares only, so a row's
+            // interval is the same in any sweep that holds it.
+            let index = fnv1a(&format!(
+                "{}|{:?}|{}",
+                scenario.label(),
+                scenario.split,
+                model.label()
+            ));
             let of = |m: &ModelKey| -> Vec<&MatrixCell> {
                 cells
                     .iter()
@@ -797,11 +823,10 @@ fn summarize(matrix: &Matrix, cells: &[MatrixCell]) -> Vec<SummaryRow> {
                 .collect();
             let complete = !pairs.is_empty() && pairs.len() == mine.len();
             let improvement = |pick: fn(&Mrmse) -> f64, salt: u64| {
-                complete.then(|| {
-                    bootstrap_improvement(&pairs, pick, &matrix.bootstrap, index as u64, salt)
-                })
+                complete
+                    .then(|| bootstrap_improvement(&pairs, pick, &matrix.bootstrap, index, salt))
             };
-            SummaryRow {
+            let row = SummaryRow {
                 scenario: scenario.clone(),
                 model: model.clone(),
                 runs: mine.len(),
@@ -811,9 +836,18 @@ fn summarize(matrix: &Matrix, cells: &[MatrixCell]) -> Vec<SummaryRow> {
                 translational_improvement: improvement(|e| e.translational, 0),
                 rotational_improvement: improvement(|e| e.rotational, 1),
                 failed: mine.len() - ok.len(),
-            }
+            };
+            tick();
+            row
         })
         .collect()
+}
+
+/// FNV-1a of a text: a fixed, platform-independent hash.
+fn fnv1a(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
 }
 
 /// The improvement of the pooled median over the baseline's, and its bootstrap percentile
@@ -980,5 +1014,117 @@ impl MatrixResult {
             }
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cell(seed: u64, errors: &[f64]) -> MatrixCell {
+        MatrixCell {
+            scenario: Scenario {
+                dataset: "d".into(),
+                robot: "r".into(),
+                terrain: None,
+                sampler: None,
+                duration_s: None,
+                split: Some(0.5),
+            },
+            seed: Some(seed),
+            model: ModelKey::new("m", None),
+            train_windows: 1,
+            eval_windows: errors.len(),
+            fit_seconds: 0.0,
+            translational: Summary::of(errors.iter().copied()),
+            rotational: Summary::of(errors.iter().copied()),
+            failure: None,
+            errors: errors
+                .iter()
+                .map(|&e| Mrmse {
+                    translational: e,
+                    rotational: 2.0 * e,
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn median_by_selection_equals_the_interpolated_quantile() {
+        for n in 1..12 {
+            let mut v: Vec<f64> = (0..n).map(|i| ((i * 7919) % 13) as f64 * 0.5).collect();
+            let mut sorted = v.clone();
+            sorted.sort_by(f64::total_cmp);
+            assert_eq!(
+                median_of(&mut v),
+                quantile(&sorted, 0.5).unwrap(),
+                "n = {n}"
+            );
+        }
+        assert!(median_of(&mut []).is_nan());
+    }
+
+    #[test]
+    fn a_model_with_half_the_baseline_errors_improves_by_exactly_fifty_percent() {
+        let base = cell(1, &[0.2, 0.4, 0.6, 0.8, 1.0]);
+        let half = cell(1, &[0.1, 0.2, 0.3, 0.4, 0.5]);
+        let config = BootstrapConfig::default();
+        let i = bootstrap_improvement(&[(&half, &base)], |e| e.translational, &config, 0, 0);
+        // Paired resampling keeps the ratio of every draw at 1/2, so the interval is a point.
+        assert!((i.percent - 50.0).abs() < 1e-9);
+        assert!((i.ci[0] - 50.0).abs() < 1e-9 && (i.ci[1] - 50.0).abs() < 1e-9);
+        let same = bootstrap_improvement(&[(&base, &base)], |e| e.rotational, &config, 0, 1);
+        assert_eq!((same.percent, same.ci), (0.0, [0.0, 0.0]));
+    }
+
+    #[test]
+    fn the_interval_widens_with_noisy_pairs_and_brackets_the_estimate() {
+        let base = cell(1, &[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]);
+        let model = cell(1, &[0.2, 0.9, 0.4, 1.2, 0.6, 0.3, 1.1, 0.5]);
+        let config = BootstrapConfig::default();
+        let i = bootstrap_improvement(&[(&model, &base)], |e| e.translational, &config, 3, 0);
+        // Median of the model: (0.5 + 0.6) / 2 = 0.55, so 45% better than 1.0.
+        assert!((i.percent - 45.0).abs() < 1e-9);
+        assert!(i.ci[0] < 45.0 && i.ci[1] > 45.0, "{:?}", i.ci);
+        // Same seed, same interval.
+        let again = bootstrap_improvement(&[(&model, &base)], |e| e.translational, &config, 3, 0);
+        assert_eq!(i, again);
+    }
+
+    #[test]
+    fn model_keys_read_learner_and_powertrain() {
+        let r = LearnerRegistry::builtin();
+        assert_eq!(
+            ModelKey::parse("slip-blr", &r).unwrap().label(),
+            "slip-blr/fopdt"
+        );
+        assert_eq!(
+            ModelKey::parse("acc-blr", &r).unwrap().label(),
+            "acc-blr/commanded"
+        );
+        assert_eq!(ModelKey::parse("naive", &r).unwrap().label(), "naive");
+        assert!(ModelKey::parse("naive/fopdt", &r).is_err());
+        assert!(ModelKey::parse("slip-blr/turbo", &r).is_err());
+        assert!(ModelKey::parse("gp", &r).is_err());
+    }
+
+    #[test]
+    fn a_sweep_expands_learners_over_powertrains_only_where_they_have_one() {
+        let sweep = SweepFile::parse(
+            "t",
+            "learners = [\"naive\", \"slip-blr\"]\n[simulated]\nrobots = [\"husky\"]\nterrains = [\"ice\"]\nsamplers = [\"uniform\"]\ndurations = [12]\nseeds = [1]\n",
+        )
+        .unwrap();
+        let plan = sweep
+            .plan(
+                &LearnerRegistry::builtin(),
+                &SamplerRegistry::builtin(),
+                &|_| Err("no files here".into()),
+            )
+            .unwrap();
+        let labels: Vec<String> = plan.models.iter().map(ModelKey::label).collect();
+        assert_eq!(labels, ["naive", "slip-blr/commanded", "slip-blr/fopdt"]);
+        // The test run defaults to the longest duration, at least 300 s.
+        assert_eq!(plan.simulated.unwrap().test_duration, 300.0);
     }
 }

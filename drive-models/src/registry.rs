@@ -271,3 +271,37 @@ pub fn fit_named(
 ) -> Option<Result<Box<dyn MotionModel>, FitError>> {
     LearnerRegistry::builtin().fit(name, train, None)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::learners::Naive;
+
+    #[test]
+    fn names_are_unique_and_well_formed() {
+        let mut r = LearnerRegistry::builtin();
+        assert_eq!(r.names(), MODEL_NAMES);
+        assert_eq!(
+            r.register("slip-blr", Naive).unwrap_err(),
+            RegistryError::Duplicate("slip-blr".into())
+        );
+        for bad in ["", "a,b", "with space", "a/b"] {
+            assert_eq!(
+                r.register(bad, Naive).unwrap_err(),
+                RegistryError::BadName(bad.into())
+            );
+        }
+        assert!(r.register("my_model-2", Naive).is_ok());
+        assert!(r.get("my_model-2").is_some_and(|e| !e.uses_powertrain()));
+    }
+
+    #[test]
+    fn default_powertrains_follow_the_paper() {
+        let r = LearnerRegistry::builtin();
+        let default = |n| r.get(n).unwrap().default_powertrain();
+        assert_eq!(default("naive"), None);
+        assert_eq!(default("powertrain"), Some(PowertrainChoice::Fopdt));
+        assert_eq!(default("slip-blr"), Some(PowertrainChoice::Fopdt));
+        assert_eq!(default("acc-blr"), Some(PowertrainChoice::Commanded));
+    }
+}

@@ -256,6 +256,7 @@ fn acc_blr_prediction_hand_computed() {
     // dv = 0.5 (f - v) in both dimensions.
     let m = AccBlrModel {
         vehicle: DifferentialDrive::new(0.1, 0.5),
+        powertrain: Box::new(IdealPowertrain),
         accel_x: post(vec![0.5, -0.5]),
         accel_yaw: post(vec![0.5, -0.5]),
         dt: 0.1,
@@ -270,6 +271,35 @@ fn acc_blr_prediction_hand_computed() {
     assert_abs_diff_eq!(p[1], Pose::new(0.02, 0.0, 0.0), epsilon = 1e-12);
     assert_abs_diff_eq!(p[2], Pose::new(0.08, 0.0, 0.0), epsilon = 1e-12);
     assert_abs_diff_eq!(p[3], Pose::new(0.16, 0.0, 0.0), epsilon = 1e-12);
+
+    // On a powertrain that never moves the wheels (huge time constant, start at rest),
+    // f stays 0: v1 = 0.2 + 0.5 (0 - 0.2) = 0.1, so the poses advance by 0.02 then 0.01.
+    let frozen = SideResponse {
+        time_constant: 1e12,
+        delay: 0.0,
+    };
+    let on_fopdt = AccBlrModel {
+        powertrain: Box::new(FopdtPowertrain {
+            left: frozen,
+            right: frozen,
+            limits: drive_traits::InputSpace::new(Input::repeat(-20.0), Input::repeat(20.0))
+                .unwrap(),
+            dt: 0.1,
+        }),
+        ..m.clone()
+    };
+    let p = on_fopdt.predict(&start, &[Input::new(10.0, 10.0); 3]);
+    assert_abs_diff_eq!(p[1], Pose::new(0.02, 0.0, 0.0), epsilon = 1e-9);
+    assert_abs_diff_eq!(p[2], Pose::new(0.03, 0.0, 0.0), epsilon = 1e-9);
+
+    // A model file written before the powertrain option reads as on the commands.
+    let mut old = serde_json::to_value(&m).unwrap();
+    old.as_object_mut().unwrap().remove("powertrain");
+    let read: AccBlrModel = serde_json::from_value(old).unwrap();
+    assert_eq!(
+        read.predict(&start, &[Input::new(10.0, 10.0); 4]),
+        m.predict(&start, &[Input::new(10.0, 10.0); 4])
+    );
 }
 
 #[test]

@@ -128,11 +128,11 @@ pub fn powertrain_trace(
         .take_while(|w| w.interval < last_interval)
     {
         let modeled = powertrain.predict(&w.encoder[0], &w.command);
-        for k in 0..w.len() {
+        for (k, ((c, e), m)) in w.command.iter().zip(&w.encoder).zip(&modeled).enumerate() {
             trace.t.push(t0 + k as f64 * dt);
-            trace.commanded.push(w.command[k]);
-            trace.measured.push(w.encoder[k]);
-            trace.modeled.push(modeled[k]);
+            trace.commanded.push(*c);
+            trace.measured.push(*e);
+            trace.modeled.push(*m);
         }
         let t1 = t0 + w.len() as f64 * dt;
         trace.windows.push((t0, t1, w.phase));

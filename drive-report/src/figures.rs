@@ -56,8 +56,8 @@ pub enum Key {
 
 /// Draws the title and a legend laid out in rows above the plots (so that no legend covers
 /// data), and returns the area left for the plots.
-fn header<'a, DB: DrawingBackend>(
-    root: &'a DrawingArea<DB, Shift>,
+fn header<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
     title: &str,
     keys: &[(String, Key)],
 ) -> Result<DrawingArea<DB, Shift>, Box<dyn Error>>
@@ -77,7 +77,9 @@ where
             rows.push(Vec::new());
             x = 20;
         }
-        rows.last_mut().map(|r| r.push((x, i)));
+        if let Some(r) = rows.last_mut() {
+            r.push((x, i));
+        }
         x += item;
     }
     let row_h = 24;

@@ -1,0 +1,277 @@
+//! `drive report` and `drive matrix` through the real command line: the files exist and
+//! parse (PNG, SVG, CSV, JSON), and the matrix's numbers are those of `drive eval` for the
+//! same combination.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn drive(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_drive"))
+        .args(args)
+        .output()
+        .expect("the drive binary runs")
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = drive(args);
+    assert!(
+        out.status.success(),
+        "drive {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Decodes a PNG fully and returns its size.
+fn png_size(path: &Path) -> (u32, u32) {
+    let file = std::fs::File::open(path).unwrap();
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    // Not a blank canvas: more than one colour.
+    let first = &buf[..3];
+    assert!(
+        buf.chunks(3).any(|px| px != first),
+        "{} is one flat colour",
+        path.display()
+    );
+    (info.width, info.height)
+}
+
+/// Parses an SVG as XML and returns its number of text elements.
+fn svg_texts(path: &Path) -> usize {
+    let text = std::fs::read_to_string(path).unwrap();
+    let doc =
+        roxmltree::Document::parse(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert_eq!(doc.root_element().tag_name().name(), "svg");
+    doc.descendants().filter(|n| n.has_tag_name("text")).count()
+}
+
+const FIGURES: [&str; 7] = [
+    "input_space",
+    "powertrain",
+    "errors_per_model",
+    "errors_per_protocol",
+    "convergence",
+    "trajectories",
+    "calibration",
+];
+
+#[test]
+fn report_on_the_bundled_data_writes_every_figure_as_png_and_svg() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    ok(&["report", "--out", out.to_str().unwrap()]);
+    for name in FIGURES {
+        assert_eq!(
+            png_size(&out.join(format!("{name}.png"))),
+            (1200, 800),
+            "{name}"
+        );
+        // Titles, axis labels, tick labels and legends are text.
+        assert!(svg_texts(&out.join(format!("{name}.svg"))) > 10, "{name}");
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    // The comparison, the convergence time and the fitted parameters, as `drive eval` and
+    // `drive converge` give them.
+    assert!(md.contains("| slip-blr | fopdt | 0.1357 |"), "{md}");
+    assert!(md.contains("converges after **12.0 s**"), "{md}");
+    assert!(
+        md.contains("| left |") && md.contains("slip-BLR angular slip"),
+        "{md}"
+    );
+    assert!(md.contains("inside the predicted 95% ellipse"), "{md}");
+    for name in FIGURES {
+        assert!(md.contains(&format!("]({name}.png)")), "{name} not linked");
+    }
+}
+
+#[test]
+fn report_works_on_another_robots_data_without_a_robot_description() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("warthog.csv");
+    ok(&[
+        "simulate",
+        "--robot",
+        "warthog",
+        "--terrain",
+        "snow",
+        "--duration",
+        "150",
+        "--seed",
+        "3",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    let out = dir.path().join("report");
+    ok(&[
+        "report",
+        "--data",
+        csv.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    for name in [
+        "input_space",
+        "powertrain",
+        "errors_per_model",
+        "convergence",
+        "trajectories",
+    ] {
+        png_size(&out.join(format!("{name}.png")));
+        svg_texts(&out.join(format!("{name}.svg")));
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("# DRIVE report: sim-warthog-snow"), "{md}");
+}
+
+fn eval_median(powertrain: Option<&str>, model: &str) -> (f64, f64) {
+    let mut args = vec!["eval", "--json", "--models", model];
+    if let Some(p) = powertrain {
+        args.extend(["--powertrain", p]);
+    }
+    let v: serde_json::Value = serde_json::from_str(&ok(&args)).unwrap();
+    let m = &v["models"][0];
+    (
+        m["translational_median_m"].as_f64().unwrap(),
+        m["rotational_median_rad"].as_f64().unwrap(),
+    )
+}
+
+#[test]
+fn matrix_numbers_equal_drive_eval_and_every_combination_is_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = dir.path().join("sweep.toml");
+    std::fs::write(
+        &sweep,
+        r#"
+        learners = ["naive", "slip-blr", "acc-blr"]
+        powertrains = ["commanded", "fopdt"]
+        baseline = "naive"
+        [[datasets]]
+        bundled = "husky"
+        [simulated]
+        robots = ["husky"]
+        terrains = ["gravel", "ice"]
+        samplers = ["uniform", "angular"]
+        durations = [60]
+        seeds = [1, 2]
+        test_duration = 60
+        [bootstrap]
+        resamples = 200
+        "#,
+    )
+    .unwrap();
+    let out = dir.path().join("m");
+    let json = ok(&[
+        "matrix",
+        "--config",
+        sweep.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let cells = v["cells"].as_array().unwrap();
+    // 5 models (naive, slip-blr x 2, acc-blr x 2) x (1 recorded split + 2 terrains x 2
+    // samplers x 2 seeds).
+    assert_eq!(cells.len(), 5 * (1 + 2 * 2 * 2));
+    let csv = std::fs::read_to_string(out.join("matrix.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2 * cells.len());
+    let on_file = |learner: &str, pt: Option<&str>| -> (f64, f64) {
+        let c = cells
+            .iter()
+            .find(|c| {
+                c["scenario"]["dataset"] == "husky"
+                    && c["model"]["learner"] == learner
+                    && c["model"]["powertrain"].as_str() == pt
+            })
+            .unwrap();
+        (
+            c["translational"]["median"].as_f64().unwrap(),
+            c["rotational"]["median"].as_f64().unwrap(),
+        )
+    };
+    assert_eq!(
+        on_file("slip-blr", Some("fopdt")),
+        eval_median(None, "slip-blr")
+    );
+    assert_eq!(
+        on_file("slip-blr", Some("commanded")),
+        eval_median(Some("commanded"), "slip-blr")
+    );
+    assert_eq!(
+        on_file("acc-blr", Some("commanded")),
+        eval_median(None, "acc-blr")
+    );
+    assert_eq!(
+        on_file("acc-blr", Some("fopdt")),
+        eval_median(Some("fopdt"), "acc-blr")
+    );
+    assert_eq!(on_file("naive", None), eval_median(None, "naive"));
+    // The CSV row of a combination carries the same median.
+    let (t, _) = on_file("slip-blr", Some("fopdt"));
+    assert!(csv.lines().any(|l| l
+        .starts_with("husky,Clearpath Husky,,,,0.5,,slip-blr,fopdt,translational_mrmse,m,303,")
+        && l.contains(&format!(",{t},"))));
+    // The summary: one row per scenario and model, the baseline marked, intervals around
+    // each improvement.
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    let rows: Vec<&str> = md.lines().filter(|l| l.starts_with("| husky")).collect();
+    assert_eq!(rows.len(), 5 * (1 + 2 * 2));
+    assert!(rows.iter().filter(|r| r.contains("| baseline |")).count() == 5);
+    let summary = v["summary"].as_array().unwrap();
+    for r in summary {
+        if r["model"]["learner"] == "naive" {
+            continue;
+        }
+        let i = &r["translational_improvement"];
+        let (p, lo, hi) = (
+            i["percent"].as_f64().unwrap(),
+            i["ci"][0].as_f64().unwrap(),
+            i["ci"][1].as_f64().unwrap(),
+        );
+        assert!(lo <= hi, "{r}");
+        // A percentile interval of a paired bootstrap brackets the point estimate but for
+        // resampling noise; it never sits entirely far off it.
+        assert!(lo - 5.0 <= p && p <= hi + 5.0, "{r}");
+    }
+}
+
+#[test]
+fn matrix_refuses_a_bad_sweep_with_one_clear_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        ("learners = [\"gp\"]\n[[datasets]]\nbundled = \"husky\"\n", "unknown learner 'gp'"),
+        (
+            "learners = [\"slip-blr\"]\n[[datasets]]\nbundled = \"husky\"\n",
+            "the baseline 'naive' is not one of the sweep's models",
+        ),
+        ("colour = 3\n", "unknown field `colour`"),
+        ("learners = [\"naive\"]\n", "the sweep has no dataset"),
+        (
+            "[simulated]\nrobots = [\"husky\"]\nterrains = [\"mud\"]\nsamplers = [\"uniform\"]\ndurations = [60]\nseeds = [1]\n",
+            "unknown terrain 'mud'",
+        ),
+        ("[[datasets]]\nfile = \"missing.csv\"\n", "dataset missing"),
+    ];
+    for (i, (text, expected)) in cases.iter().enumerate() {
+        let sweep = dir.path().join(format!("bad{i}.toml"));
+        std::fs::write(&sweep, text).unwrap();
+        let out_dir = dir.path().join(format!("out{i}"));
+        let out = drive(&[
+            "matrix",
+            "--config",
+            sweep.to_str().unwrap(),
+            "--out",
+            out_dir.to_str().unwrap(),
+        ]);
+        assert!(!out.status.success());
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains(expected), "case {i}: {err}");
+        assert!(!out_dir.join("matrix.csv").exists());
+    }
+}
