@@ -948,7 +948,7 @@ impl MatrixResult {
         out
     }
 
-    /// The Markdown summary: per scenario and model, median [IQR] of both errors (every
+    /// The Markdown summary: per scenario and model, the median and IQR of both errors (every
     /// run's evaluation windows pooled) and the improvement over the baseline with its
     /// bootstrap confidence interval.
     pub fn to_markdown(&self) -> String {
