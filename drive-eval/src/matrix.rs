@@ -5,7 +5,7 @@
 
 use crate::{evaluate_model, improvement_percent, intervals_in, quantile, simulate_with_samplers};
 use crate::{split_by_interval, ExperimentError, Mrmse, Summary};
-use drive_models::{LearnerRegistry, PowertrainChoice};
+use drive_models::{LearnerEntry, LearnerRegistry, PowertrainChoice};
 use drive_samplers::{RobotSpec, RunnerConfig, SamplerRegistry};
 use drive_sim::Terrain;
 use drive_traits::{Dataset, WindowSet};
@@ -584,6 +584,21 @@ pub fn run_matrix(
     samplers: &SamplerRegistry,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<MatrixResult, MatrixError> {
+    // Every model's learner, resolved before anything runs (a plan made with another
+    // registry fails here, not after the simulations).
+    let entries = matrix
+        .models
+        .iter()
+        .map(|m| {
+            learners.get(&m.learner).ok_or_else(|| {
+                MatrixError::Invalid(format!(
+                    "learner '{}' is not in the registry the matrix runs with (it has: {})",
+                    m.learner,
+                    learners.names().join(", ")
+                ))
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let done = AtomicUsize::new(0);
     // Simulated runs first: (robot, terrain, seed, Some(sampler, duration)) trains,
     // (robot, terrain, seed, None) is the test run.
@@ -704,14 +719,20 @@ pub fn run_matrix(
         });
     }
 
-    let tasks: Vec<(&Setting<'_>, &ModelKey)> = settings
+    let tasks: Vec<(&Setting<'_>, &ModelKey, &LearnerEntry)> = settings
         .iter()
-        .flat_map(|s| matrix.models.iter().map(move |m| (s, m)))
+        .flat_map(|s| {
+            matrix
+                .models
+                .iter()
+                .zip(&entries)
+                .map(move |(m, e)| (s, m, *e))
+        })
         .collect();
     let cells: Vec<MatrixCell> = tasks
         .par_iter()
-        .map(|(setting, model)| {
-            let cell = score(setting, model, learners);
+        .map(|(setting, model, entry)| {
+            let cell = score(setting, model, entry);
             tick();
             cell
         })
@@ -726,12 +747,9 @@ pub fn run_matrix(
 }
 
 /// Fits one model on a setting's training set and scores it on its evaluation set.
-fn score(setting: &Setting<'_>, model: &ModelKey, learners: &LearnerRegistry) -> MatrixCell {
+fn score(setting: &Setting<'_>, model: &ModelKey, learner: &LearnerEntry) -> MatrixCell {
     let start = Instant::now();
-    // Models were checked against this registry when the plan was made.
-    let fitted = learners
-        .fit(&model.learner, &setting.train, model.powertrain)
-        .unwrap_or_else(|| Err(drive_traits::FitError::EmptyTrainingSet));
+    let fitted = learner.fit(&setting.train, model.powertrain);
     let fit_seconds = start.elapsed().as_secs_f64();
     let mut cell = MatrixCell {
         scenario: setting.scenario.clone(),

@@ -130,9 +130,11 @@ pub fn simulate_with_samplers(
         name: sampler.to_string(),
         reason,
     };
-    let build = |registry: &SamplerRegistry, space, spec: &RobotSpec| {
+    // One way to build the sampler, over the nominal space here and the characterized one
+    // inside the runner.
+    let build = move |registry: &SamplerRegistry, name: &str, space, spec: &RobotSpec| {
         registry.build(
-            sampler,
+            name,
             &SamplerContext {
                 space,
                 robot: spec,
@@ -142,7 +144,7 @@ pub fn simulate_with_samplers(
         )
     };
     // Fail early on a name or limits that cannot work over the nominal input space.
-    build(samplers, robot.input_space(), robot).map_err(sampler_error)?;
+    build(samplers, sampler, robot.input_space(), robot).map_err(sampler_error)?;
     // The sampler is built over the characterized space, inside the runner; an error there
     // is kept and returned after the run (the runner then holds still).
     let failure: Arc<Mutex<Option<SamplerError>>> = Arc::default();
@@ -152,19 +154,11 @@ pub fn simulate_with_samplers(
         failure.clone(),
         samplers.clone(),
     );
-    let factory = move |space| {
-        let ctx = SamplerContext {
-            space,
-            robot: &spec,
-            vehicle: &vehicle,
-            seed,
-        };
-        match registry.build(&name, &ctx) {
-            Ok(s) => s,
-            Err(e) => {
-                *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
-                Box::new(HoldStill) as Box<dyn InputSampler>
-            }
+    let factory = move |space| match build(&registry, &name, space, &spec) {
+        Ok(s) => s,
+        Err(e) => {
+            *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+            Box::new(HoldStill) as Box<dyn InputSampler>
         }
     };
     let config = SimulationConfig {
