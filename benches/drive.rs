@@ -6,10 +6,16 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use drive::eval::{compare, evaluate_model, split_by_interval};
 use drive::models::batch::predict_batch_parallel;
-use drive::models::learners::SlipBlr;
 use drive::models::powertrain::Fopdt;
-use drive::models::DifferentialDrive;
+use drive::models::slip::SlipBlr;
+use drive::models::Composed;
 use drive::traits::{Input, Learner, MotionModel, Pose, StartState};
+use drive::Registries;
+
+/// The paper's slip-BLR: slip-BLR on the FOPDT, composed with the data's vehicle.
+fn slip_blr() -> Composed {
+    Composed::new(Fopdt::default(), SlipBlr::default())
+}
 use std::hint::black_box;
 
 fn load(c: &mut Criterion) {
@@ -23,7 +29,7 @@ fn train(c: &mut Criterion) {
     let (train, _) = split_by_interval(&data, 0.5).unwrap();
     c.bench_function(
         "train/slip-blr (powertrain both sides + BLR), husky training half",
-        |b| b.iter(|| SlipBlr::<Fopdt>::default().fit(black_box(&train)).unwrap()),
+        |b| b.iter(|| slip_blr().fit(black_box(&train)).unwrap()),
     );
     c.bench_function("train/powertrain only", |b| {
         b.iter(|| {
@@ -35,11 +41,12 @@ fn train(c: &mut Criterion) {
 fn eval(c: &mut Criterion) {
     let data = drive::bundled::husky().unwrap();
     let names = ["naive", "powertrain", "slip-blr", "acc-blr"];
+    let registries = Registries::builtin();
     c.bench_function("eval/4 models, fit + score, husky (excluding load)", |b| {
-        b.iter(|| compare(black_box(&data), 0.5, &names).unwrap())
+        b.iter(|| compare(&registries, black_box(&data), 0.5, &names).unwrap())
     });
     let (train, eval) = split_by_interval(&data, 0.5).unwrap();
-    let model = SlipBlr::<Fopdt>::default().fit(&train).unwrap();
+    let model = slip_blr().fit(&train).unwrap();
     c.bench_function("eval/score slip-blr on 303 windows", |b| {
         b.iter(|| evaluate_model(black_box(&model), &eval))
     });
@@ -49,13 +56,13 @@ fn eval(c: &mut Criterion) {
 fn fixture(n: usize) -> (Box<dyn MotionModel>, Vec<StartState>, Vec<Input>) {
     let data = drive::bundled::husky().unwrap();
     let (train, eval) = split_by_interval(&data, 0.5).unwrap();
-    let model = SlipBlr::<Fopdt>::default().fit(&train).unwrap();
-    let vehicle = DifferentialDrive::from_robot(&data.robot);
+    let model = slip_blr().fit(&train).unwrap();
+    let vehicle = data.robot.vehicle.as_ref();
     let mut starts = Vec::with_capacity(n);
     let mut commands = Vec::with_capacity(n * 40);
     for i in 0..n {
         let w = eval.windows[i % eval.len()];
-        starts.push(w.start_state(&vehicle));
+        starts.push(w.start_state(vehicle));
         // Perturb so that no two sequences are the same.
         let e = (i as f64 * 0.618).fract() - 0.5;
         commands.extend(w.command.iter().map(|u| u + Input::new(e, -e)));

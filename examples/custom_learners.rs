@@ -3,56 +3,62 @@
 //! Run with `cargo run --release --example custom_learners`.
 
 use drive::eval::{evaluate_model, split_by_interval};
-use drive::models::learners::{AccBlr, Naive, SlipBlr};
-use drive::models::powertrain::{Fopdt, Ideal};
-use drive::models::velocity::BodyVelocityEstimator;
-use drive::traits::{Learner, MotionModel};
+use drive::models::baselines::AccBlr;
+use drive::models::powertrain::{Commanded, Fopdt, RateLimited};
+use drive::models::slip::{NoSlip, SlipBlr};
+use drive::models::Composed;
+use drive::traits::{Baseline, BodyVelocityEstimator, Learner, MotionModel};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let data = drive::bundled::husky()?;
     let (train, eval) = split_by_interval(&data, 0.5)?;
+    let span = |span_s| SlipBlr {
+        velocity: BodyVelocityEstimator { span_s },
+        ..SlipBlr::default()
+    };
 
-    // The paper's slip-BLR, the same on the commanded wheel velocities (no powertrain),
-    // a weak prior (phi = 1 halves the posterior mean, eq. 6), and a wider velocity span.
+    // The naive model, the paper's slip-BLR, the same on the commanded wheel velocities (no
+    // powertrain) or on a rate-limited powertrain, a weak prior (phi = 1 halves the
+    // posterior mean, eq. 6), other velocity spans, and the acceleration baseline.
     let candidates: Vec<(&str, Box<dyn MotionModel>)> = vec![
-        ("naive", Box::new(Naive.fit(&train)?)),
+        (
+            "naive",
+            Box::new(Composed::new(Commanded, NoSlip).fit(&train)?),
+        ),
         (
             "slip-blr (paper)",
-            Box::new(SlipBlr::<Fopdt>::default().fit(&train)?),
+            Box::new(Composed::new(Fopdt::default(), SlipBlr::default()).fit(&train)?),
         ),
         (
             "slip-blr, no powertrain",
-            Box::new(SlipBlr::<Ideal>::default().fit(&train)?),
+            Box::new(Composed::new(Commanded, SlipBlr::default()).fit(&train)?),
+        ),
+        (
+            "slip-blr, rate-limited powertrain",
+            Box::new(Composed::new(RateLimited::default(), SlipBlr::default()).fit(&train)?),
         ),
         (
             "slip-blr, phi = 1",
-            Box::new(SlipBlr::<Fopdt>::default().with_phi(1.0).fit(&train)?),
+            Box::new(
+                Composed::new(Fopdt::default(), SlipBlr::default().with_phi(1.0)).fit(&train)?,
+            ),
         ),
         (
             "slip-blr, 0.1 s velocity span",
-            Box::new(
-                SlipBlr {
-                    velocity: BodyVelocityEstimator { span_s: 0.1 },
-                    ..SlipBlr::<Fopdt>::default()
-                }
-                .fit(&train)?,
-            ),
+            Box::new(Composed::new(Fopdt::default(), span(0.1)).fit(&train)?),
         ),
         (
             "slip-blr, 0.4 s velocity span",
-            Box::new(
-                SlipBlr {
-                    velocity: BodyVelocityEstimator { span_s: 0.4 },
-                    ..SlipBlr::<Fopdt>::default()
-                }
-                .fit(&train)?,
-            ),
+            Box::new(Composed::new(Fopdt::default(), span(0.4)).fit(&train)?),
         ),
-        ("acc-blr", Box::new(AccBlr::<Ideal>::default().fit(&train)?)),
+        (
+            "acc-blr",
+            AccBlr::default().fit_with(&train, Some(&Commanded))?,
+        ),
     ];
 
     println!(
-        "{:<32} {:>18} {:>18}",
+        "{:<36} {:>18} {:>18}",
         "model", "translational [m]", "rotational [rad]"
     );
     for (label, model) in &candidates {
@@ -62,7 +68,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             report.translational(None).unwrap(),
             report.rotational(None).unwrap(),
         );
-        println!("{label:<32} {:>18.4} {:>18.4}", t.median, r.median);
+        println!("{label:<36} {:>18.4} {:>18.4}", t.median, r.median);
     }
     Ok(())
 }

@@ -1,35 +1,42 @@
-//! A researcher's own learner and sampler in the evaluation matrix, from outside the
-//! workspace's crates: implement the traits, register each under a name (one line each),
-//! and every combination of the sweep includes them.
+//! A researcher's own whole-model learner and sampler in the evaluation matrix, through the
+//! library: implement the traits, register each under a name (one line each), and every
+//! combination of the sweep includes them. (`examples/plugin/` does the same for a slip
+//! learner, a powertrain, a sampler and a vehicle, and runs the whole command line.)
 //!
 //! Run with `cargo run --release --example toy_learner`.
 //!
-//! The toy learner, `scaled-drive`, is eq. 4 on the commands with one least-squares gain per
-//! body dimension (forward speed and yaw rate) from the measured body velocities: a crude
-//! slip model with no powertrain. The toy sampler, `forward-only`, draws uniformly over the
-//! part of the input space where both wheels turn forward.
+//! The toy learner, `scaled-drive`, is the vehicle's command model on the commands with one
+//! least-squares gain per body dimension (forward speed and yaw rate) from the measured
+//! body velocities: a crude slip model with no powertrain, written as a baseline. The toy
+//! sampler, `forward-only`, draws uniformly over the part of the input space where both
+//! inputs are positive.
 
 use drive::eval::{run_matrix, SweepFile};
 use drive::models::rollout::integrate;
-use drive::models::velocity::BodyVelocityEstimator;
-use drive::models::{DifferentialDrive, LearnerRegistry};
-use drive::samplers::{SamplerContext, SamplerRegistry, UniformSampler};
+use drive::samplers::{SamplerContext, UniformSampler};
 use drive::traits::{
-    BodyVelocity, FitError, Input, Learner, MotionModel, Pose, StartState, WindowSet,
+    BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, Input, InputSampler, Learner,
+    MotionModel, Pose, StartState, Tagged, WindowSet,
 };
+use drive::Registries;
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// The unfitted configuration (no hyperparameters).
 #[derive(Debug, Clone, Copy, Default)]
 struct ScaledDrive;
 
-/// The fitted model: eq. 4 scaled by `gain_x` (forward) and `gain_yaw` (yaw rate).
+/// The fitted model: the command model scaled by `gain_x` (forward) and `gain_yaw` (yaw rate).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 struct ScaledDriveModel {
-    vehicle: DifferentialDrive,
+    vehicle: Arc<dyn CommandModel>,
     gain_x: f64,
     gain_yaw: f64,
     dt: f64,
+}
+
+impl Tagged for ScaledDriveModel {
+    const TAG: &'static str = "scaled-drive";
 }
 
 impl Learner for ScaledDrive {
@@ -39,7 +46,7 @@ impl Learner for ScaledDrive {
         if train.is_empty() {
             return Err(FitError::EmptyTrainingSet);
         }
-        let vehicle = DifferentialDrive::from_robot(train.robot);
+        let vehicle = Arc::clone(&train.robot.vehicle);
         let dt = train.robot.dt();
         // Least squares through the origin: gain = sum(f v) / sum(f f) per dimension.
         let (mut fv, mut ff) = ([0.0; 2], [0.0; 2]);
@@ -48,7 +55,7 @@ impl Learner for ScaledDrive {
             BodyVelocityEstimator::default().estimate(w, dt, &mut measured);
             for (u, v) in w.command.iter().zip(&measured) {
                 let Some(v) = v else { continue };
-                let f = vehicle.eq4(u);
+                let f = vehicle.body_velocity(u);
                 for (j, d) in [0usize, 2].into_iter().enumerate() {
                     fv[j] += f[d] * v[d];
                     ff[j] += f[d] * f[d];
@@ -67,8 +74,8 @@ impl Learner for ScaledDrive {
 
 #[typetag::serde(name = "scaled-drive")]
 impl MotionModel for ScaledDriveModel {
-    fn name(&self) -> &'static str {
-        "scaled-drive"
+    fn name(&self) -> String {
+        "scaled-drive".into()
     }
     fn dt(&self) -> f64 {
         self.dt
@@ -77,7 +84,7 @@ impl MotionModel for ScaledDriveModel {
         let v: Vec<BodyVelocity> = commands
             .iter()
             .map(|u| {
-                let f = self.vehicle.eq4(u);
+                let f = self.vehicle.body_velocity(u);
                 BodyVelocity::new(self.gain_x * f.x, 0.0, self.gain_yaw * f.z)
             })
             .collect();
@@ -87,21 +94,27 @@ impl MotionModel for ScaledDriveModel {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The one place each new piece is registered.
-    let mut learners = LearnerRegistry::builtin();
-    learners.register("scaled-drive", ScaledDrive)?;
-    let mut samplers = SamplerRegistry::builtin();
-    samplers.register("forward-only", |ctx: &SamplerContext<'_>| {
-        let mut space = ctx.space;
-        space.min.x = space.min.x.max(0.0);
-        space.min.y = space.min.y.max(0.0);
-        Ok(Box::new(UniformSampler::new(space, ctx.seed)?))
-    })?;
+    let mut registries = Registries::builtin();
+    registries.baselines.register(
+        "scaled-drive",
+        "the command model with a least-squares gain per body dimension",
+        Arc::new(ScaledDrive),
+    )?;
+    registries.samplers.register(
+        "forward-only",
+        "uniform where both inputs are positive",
+        Arc::new(|ctx: &SamplerContext<'_>| {
+            let mut space = ctx.space;
+            space.min.x = space.min.x.max(0.0);
+            space.min.y = space.min.y.max(0.0);
+            Ok(Box::new(UniformSampler::new(space, ctx.seed)?) as Box<dyn InputSampler>)
+        }),
+    )?;
 
     let sweep = SweepFile::parse(
         "toy sweep",
         r#"
         learners = ["naive", "slip-blr", "scaled-drive"]
-        powertrains = ["fopdt"]
         baseline = "naive"
         [[datasets]]
         bundled = "husky"
@@ -113,15 +126,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         seeds = [1, 2]
         "#,
     )?;
-    let plan = sweep.plan(
-        &learners,
-        &samplers,
-        &|source| match source.bundled.as_deref() {
-            Some("husky") => drive::bundled::husky().map_err(|e| e.to_string()),
-            _ => Err("this example knows the bundled Husky data only".into()),
-        },
-    )?;
-    let result = run_matrix(&plan, &learners, &samplers, &|_, _| {})?;
+    let plan = sweep.plan(&registries, &|source| match source.bundled.as_deref() {
+        Some("husky") => drive::bundled::husky().map_err(|e| e.to_string()),
+        _ => Err("this example knows the bundled Husky data only".into()),
+    })?;
+    let result = run_matrix(&plan, &registries, &|_, _| {})?;
     print!("{}", result.to_markdown());
     Ok(())
 }

@@ -16,7 +16,7 @@ const HUSKY_SIDECAR: &str = include_str!("../data/husky_drive.json");
 /// let data = drive::bundled::husky().unwrap();
 /// assert_eq!(data.windows.len(), 603);
 /// assert_eq!(data.interval_count(), 201);
-/// assert_eq!(data.robot.wheel_radius, 0.165);
+/// assert_eq!(data.robot.vehicle.geometry(), vec![("wheel_radius", 0.165), ("baseline", 0.55)]);
 /// ```
 pub fn husky() -> Result<Dataset, DataError> {
     let mut text = String::new();

@@ -34,14 +34,13 @@ pub fn raw_log(bytes: &[u8]) -> bool {
     let Ok(log) = parse_raw_log("fuzz.csv", text) else {
         return false;
     };
-    let robot = RobotDescription {
-        name: "fuzz".into(),
-        robot: "fuzz".into(),
-        rate_hz: 20.0,
-        window_len: 2,
-        wheel_radius: 0.3,
-        baseline: 1.2,
-    };
+    let robot = RobotDescription::new(
+        "fuzz",
+        "fuzz",
+        20.0,
+        2,
+        crate::models::DifferentialDrive::new(0.3, 1.2),
+    );
     import_raw(&log, &robot, &ImportConfig::default()).is_ok()
 }
 

@@ -1,21 +1,29 @@
 //! DRIVE: data-driven identification of how an uncrewed ground vehicle really moves on its
 //! terrain, after Baril et al., "DRIVE: Data-driven Robot Input Vector Exploration".
 //!
-//! This facade re-exports the workspace crates and carries the bundled Husky dataset:
+//! This facade re-exports the workspace crates, carries the bundled Husky dataset and, with
+//! the `cli` feature (on by default), the `drive` command line as a library:
 //!
-//! - [`traits`] (drive-traits): the plug-in traits and dataset types;
-//! - [`data`] (drive-data): window CSV + sidecar reading and writing;
-//! - [`models`] (drive-models): vehicles, powertrains, BLR, learners;
-//! - [`samplers`] (drive-samplers): input-space samplers of the protocol;
-//! - [`eval`] (drive-eval): the eq. 8 metric, splits, comparisons;
-//! - [`sim`] (drive-sim): a simulated UGV to run the protocol without a robot;
-//! - [`report`] (drive-report): the paper's figures and a Markdown report for one dataset.
+//! - [`traits`] (drive-traits): the plug-in traits, the registries and dataset types;
+//! - [`data`] (drive-data): window CSV + sidecar reading and writing, raw-log import;
+//! - [`models`] (drive-models): vehicles, powertrains, slip models, the composed model,
+//!   baselines;
+//! - [`samplers`] (drive-samplers): robots, input-space samplers, the protocol runner;
+//! - [`eval`] (drive-eval): the eq. 8 metric, the experiment engine and the analyses;
+//! - [`sim`] (drive-sim): simulated UGVs to run the protocol without a robot;
+//! - [`report`] (drive-report): the paper's figures and a Markdown report for one dataset;
+//! - [`cli`]: the command line, runnable with a researcher's own [`Registries`].
+//!
+//! [`serde`], [`typetag`] and [`nalgebra`] are re-exported for plug-ins (see README,
+//! "Writing a plug-in").
 //!
 //! ```
 //! use drive::traits::Learner;
+//! use drive::models::{Composed, powertrain::Fopdt, slip::SlipBlr};
 //! let data = drive::bundled::husky().unwrap();
 //! let (train, eval) = drive::eval::split_by_interval(&data, 0.5).unwrap();
-//! let model = drive::models::learners::SlipBlr::<drive::models::powertrain::Fopdt>::default().fit(&train).unwrap();
+//! // The paper's slip-BLR: slip-BLR on the FOPDT powertrain, on the data's vehicle.
+//! let model = Composed::new(Fopdt::default(), SlipBlr::default()).fit(&train).unwrap();
 //! let report = drive::eval::evaluate_model(&model, &eval);
 //! assert_eq!(report.windows.len(), 303);
 //! assert!(report.translational(None).unwrap().median < 0.2);
@@ -31,5 +39,10 @@ pub use drive_samplers as samplers;
 pub use drive_sim as sim;
 pub use drive_traits as traits;
 
+pub use drive_eval::Registries;
+pub use drive_traits::{nalgebra, serde, typetag};
+
 pub mod bundled;
+#[cfg(feature = "cli")]
+pub mod cli;
 pub mod fuzz;

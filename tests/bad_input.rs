@@ -74,7 +74,9 @@ fn cases() -> Vec<Case> {
             args: &["eval", "--data", "{data}"], says: &["line 4, column 'k'", "not a non-negative integer"] },
         // Sidecar.
         Case { name: "sidecar negative radius", file: ds(keep, |s| s.replace("\"wheel_radius\": 0.3", "\"wheel_radius\": -0.3")),
-            args: &["eval", "--data", "{data}"], says: &["data.json, field 'wheel_radius'"] },
+            args: &["eval", "--data", "{data}"], says: &["data.json, field 'vehicle'", "wheel_radius = -0.3"] },
+        Case { name: "sidecar unknown vehicle", file: ds(keep, |s| s.replace("\"differential\"", "\"hovercraft\"")),
+            args: &["eval", "--data", "{data}"], says: &["data.json, field 'vehicle'", "hovercraft"] },
         Case { name: "sidecar zero rate", file: ds(keep, |s| s.replace("\"rate_hz\": 20", "\"rate_hz\": 0")),
             args: &["eval", "--data", "{data}"], says: &["data.json, field 'rate_hz'"] },
         Case { name: "sidecar window count", file: ds(keep, |s| s.replace("\"windows\": 12", "\"windows\": 13")),
@@ -109,7 +111,7 @@ fn cases() -> Vec<Case> {
             says: &["max_gap_s", "not a positive number of seconds"] },
         // Robot TOML.
         Case { name: "robot negative baseline", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = -0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),
-            args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["robot.toml, field 'baseline'", "positive"] },
+            args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["robot.toml, field 'vehicle'", "baseline = -0.5", "positive"] },
         Case { name: "robot unknown field", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = 0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\ntop_speed = 3\n"),
             args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["robot.toml", "unknown field `top_speed`"] },
         Case { name: "robot missing field", file: File::Robot("name = 'r'\nmass_kg = 50\nbaseline = 0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),
@@ -121,11 +123,11 @@ fn cases() -> Vec<Case> {
         Case { name: "robot unknown preset", file: File::None,
             args: &["import", "--raw", "{raw}", "--robot", "husky2", "--out", "{out}"], says: &["unknown robot 'husky2'"] },
         // Model JSON.
-        Case { name: "model newer version", file: File::Model(|m| m.replace("\"format_version\": 1", "\"format_version\": 2")),
-            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json, field 'format_version'", "version 2 is not supported"] },
+        Case { name: "model newer version", file: File::Model(|m| m.replace("\"format_version\": 2", "\"format_version\": 3")),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json, field 'format_version'", "version 3 is not supported"] },
         Case { name: "model not JSON", file: File::Model(|m| m[..m.len() / 2].to_string()),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json, line", "not a valid model file"] },
-        Case { name: "model without version", file: File::Model(|m| m.replace("\"format_version\": 1,", "")),
+        Case { name: "model without version", file: File::Model(|m| m.replace("\"format_version\": 2,", "")),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["field 'format_version': missing"] },
         Case { name: "model unknown type", file: File::Model(|m| m.replace("\"slip-blr\"", "\"gp\"")),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json, field 'model'", "gp"] },
@@ -156,9 +158,8 @@ fn drive(args: &[String]) -> std::process::Output {
 /// a command file, made once.
 fn fixtures(dir: &Path) -> (String, String, String, String) {
     let csv = dir.join("data.csv");
-    let warthog = drive::samplers::RobotSpec::preset("warthog").unwrap();
-    let gravel = drive::sim::Terrain::preset("gravel").unwrap();
-    let data = drive::eval::simulate_protocol(&warthog, gravel, "uniform", 4, 2)
+    let registries = drive::Registries::builtin();
+    let data = drive::eval::simulate_protocol(&registries, "warthog", "gravel", "uniform", 4, 2)
         .unwrap()
         .dataset;
     drive::data::write_dataset(&data, &csv).unwrap();

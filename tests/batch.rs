@@ -2,21 +2,21 @@
 
 use drive::eval::split_by_interval;
 use drive::models::batch::predict_batch_parallel;
-use drive::models::DifferentialDrive;
 use drive::traits::{Input, MotionError, Pose};
+use drive::Registries;
 
 #[test]
 fn batch_and_parallel_batch_equal_single_rollouts_for_every_model() {
     let data = drive::bundled::husky().unwrap();
     let (train, eval) = split_by_interval(&data, 0.5).unwrap();
-    let vehicle = DifferentialDrive::from_robot(&data.robot);
+    let vehicle = data.robot.vehicle.as_ref();
     // 1001 sequences: not a multiple of any chunk size, commands perturbed per sequence.
     let (n, horizon) = (1001, 40);
     let mut starts = Vec::new();
     let mut commands = Vec::new();
     for i in 0..n {
         let w = eval.windows[(i * 7) % eval.len()];
-        let mut s = w.start_state(&vehicle);
+        let mut s = w.start_state(vehicle);
         s.pose = Pose::new(
             i as f64 * 0.01,
             -(i as f64) * 0.02,
@@ -26,8 +26,10 @@ fn batch_and_parallel_batch_equal_single_rollouts_for_every_model() {
         let e = (i as f64 * 0.618).fract() - 0.5;
         commands.extend(w.command.iter().map(|u| u + Input::new(3.0 * e, -2.0 * e)));
     }
-    for name in drive::models::MODEL_NAMES {
-        let model = drive::models::fit_named(name, &train).unwrap().unwrap();
+    // Every registered combination of slip learner (or baseline) and powertrain.
+    for spec in Registries::builtin().models().all() {
+        let name = spec.canonical();
+        let model = spec.fit(&train).unwrap();
         let mut batch = vec![Pose::zeros(); n * horizon];
         model
             .predict_batch_into(&starts, &commands, horizon, &mut batch)
@@ -62,8 +64,10 @@ fn batch_and_parallel_batch_equal_single_rollouts_for_every_model() {
 fn batch_shape_mismatch_is_an_error() {
     let data = drive::bundled::husky().unwrap();
     let (train, _) = split_by_interval(&data, 0.5).unwrap();
-    let model = drive::models::fit_named("slip-blr", &train)
+    let model = Registries::builtin()
+        .model("slip-blr")
         .unwrap()
+        .fit(&train)
         .unwrap();
     let starts = vec![drive::traits::StartState::at_rest(Pose::zeros()); 3];
     let commands = vec![Input::zeros(); 3 * 40];

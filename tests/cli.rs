@@ -185,7 +185,7 @@ fn train_then_predict_matches_the_library() {
         let start = drive::traits::StartState {
             pose: drive::traits::Pose::new(1.0, -1.0, 0.5),
             input: wheels,
-            body_velocity: drive::models::DifferentialDrive::from_robot(&robot).eq4(&wheels),
+            body_velocity: robot.vehicle.body_velocity(&wheels),
         };
         let cmds: Vec<_> = (0..40)
             .map(|k| drive::traits::Input::new(2.0 + 0.1 * k as f64, 5.0))
@@ -203,11 +203,11 @@ fn train_then_predict_matches_the_library() {
 
 fn write_small_dataset(dir: &Path) -> std::path::PathBuf {
     let csv = dir.join("small.csv");
-    let warthog = drive::samplers::RobotSpec::preset("warthog").unwrap();
-    let gravel = drive::sim::Terrain::preset("gravel").unwrap();
-    let mut data = drive::eval::simulate_protocol(&warthog, gravel, "uniform", 4, 1)
-        .unwrap()
-        .dataset;
+    let registries = drive::Registries::builtin();
+    let mut data =
+        drive::eval::simulate_protocol(&registries, "warthog", "gravel", "uniform", 4, 1)
+            .unwrap()
+            .dataset;
     data.robot.name = "small".into();
     drive::data::write_dataset(&data, &csv).unwrap();
     csv
@@ -265,7 +265,7 @@ fn other_user_errors() {
     ok(&["train", "--model", "naive", "--out", out.to_str().unwrap()]);
     let newer = std::fs::read_to_string(&out)
         .unwrap()
-        .replace("\"format_version\": 1", "\"format_version\": 7");
+        .replace("\"format_version\": 2", "\"format_version\": 7");
     std::fs::write(&out, newer).unwrap();
     let cmds = dir.path().join("c.csv");
     std::fs::write(&cmds, "t,cmd_left,cmd_right\n0,1,1\n0.05,1,1\n").unwrap();
@@ -632,4 +632,120 @@ fn simulate_raw_log_then_import_then_eval() {
         &p("w2.csv"),
     ]);
     assert!(text.contains("33 windows kept, 3 dropped"), "{text}");
+}
+
+#[test]
+fn list_names_every_registered_part() {
+    let v: serde_json::Value = serde_json::from_str(&ok(&["list", "--json"])).unwrap();
+    let names = |kind: &str| -> Vec<String> {
+        v[kind]
+            .as_array()
+            .unwrap_or_else(|| panic!("no list {kind}"))
+            .iter()
+            .map(|e| {
+                assert!(!e["description"].as_str().unwrap().is_empty(), "{e}");
+                e["name"].as_str().unwrap().to_string()
+            })
+            .collect()
+    };
+    assert_eq!(names("vehicles"), ["differential"]);
+    assert_eq!(names("powertrains"), ["commanded", "fopdt", "rate-limited"]);
+    let learners = names("learners");
+    for paper in ["naive", "powertrain", "slip-blr", "acc-blr"] {
+        assert!(learners.contains(&paper.to_string()), "{learners:?}");
+    }
+    assert!(names("samplers").len() >= 6);
+    assert_eq!(names("terrains"), ["tile", "gravel", "snow", "ice"]);
+    assert_eq!(names("robots"), ["husky", "hd2", "warthog"]);
+    for r in v["robots"].as_array().unwrap() {
+        assert_eq!(r["vehicle"], "differential");
+    }
+    // The text form lists the same.
+    let text = ok(&["list"]);
+    assert!(text.contains("rate-limited") && text.contains("= no-slip+commanded"));
+}
+
+#[test]
+fn eval_all_scores_every_combination_and_names_combine_in_every_command() {
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["eval", "--json", "--models", "all"])).unwrap();
+    let models = v["models"].as_array().unwrap();
+    assert!(models.len() >= 8, "{}", models.len());
+    let of = |name: &str| model(&v, name);
+    // The paper's names keep their numbers under their full names.
+    let paper: serde_json::Value = serde_json::from_str(&ok(&["eval", "--json"])).unwrap();
+    for (short, full) in [
+        ("naive", "no-slip+commanded"),
+        ("powertrain", "no-slip+fopdt"),
+        ("slip-blr", "slip-blr+fopdt"),
+        ("acc-blr", "acc-blr+commanded"),
+    ] {
+        assert_eq!(model(&paper, short)["model"], full);
+        assert_eq!(
+            model(&paper, short)["translational_median_m"],
+            of(full)["translational_median_m"]
+        );
+    }
+    // `--powertrain` is the same as naming it.
+    let on_commands: serde_json::Value = serde_json::from_str(&ok(&[
+        "eval",
+        "--json",
+        "--models",
+        "slip-blr",
+        "--powertrain",
+        "commanded",
+    ]))
+    .unwrap();
+    assert_eq!(
+        on_commands["models"][0]["rotational_median_rad"],
+        of("slip-blr+commanded")["rotational_median_rad"]
+    );
+    // A combined name in train, converge and compare-protocols.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("m.json");
+    ok(&[
+        "train",
+        "--model",
+        "slip-blr+rate-limited",
+        "--split",
+        "0.5",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    let saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    assert_eq!(saved["model"]["label"], "slip-blr+rate-limited");
+    assert_eq!(saved["model"]["powertrain"]["type"], "rate-limited");
+    let c: serde_json::Value = serde_json::from_str(&ok(&[
+        "converge",
+        "--json",
+        "--model",
+        "slip-blr+commanded",
+    ]))
+    .unwrap();
+    assert_eq!(c["model"], "slip-blr+commanded");
+    let last = c["curve"].as_array().unwrap().last().unwrap().clone();
+    assert_eq!(
+        last["translational_median_m"],
+        of("slip-blr+commanded")["translational_median_m"]
+    );
+    let t: serde_json::Value = serde_json::from_str(&ok(&[
+        "compare-protocols",
+        "--real",
+        "--json",
+        "--model",
+        "no-slip+fopdt",
+        "--draws",
+        "2",
+    ]))
+    .unwrap();
+    assert_eq!(t["model"], "no-slip+fopdt");
+    // Bad names name what exists.
+    let err = user_error(&["eval", "--models", "slip-blr+turbo"]);
+    assert!(
+        err.contains("unknown powertrain 'turbo'") && err.contains("rate-limited"),
+        "{err}"
+    );
+    let err = user_error(&["eval", "--models", "naive+fopdt"]);
+    assert!(err.contains("names a whole model"), "{err}");
 }

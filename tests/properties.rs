@@ -4,7 +4,6 @@
 //! the rotated rollout from yaw zero.
 
 use drive::models::blr::{BlrPosterior, Prior};
-use drive::models::{fit_named, MODEL_NAMES};
 use drive::traits::{wrap_angle, Input, MotionModel, Pose, StartState};
 use proptest::prelude::*;
 use std::sync::OnceLock;
@@ -83,15 +82,17 @@ proptest! {
     }
 }
 
-/// The four models fitted on the bundled Husky data's training half, once.
+/// Every registered combination fitted on the bundled Husky data's training half, once.
 fn models() -> &'static Vec<Box<dyn MotionModel>> {
     static MODELS: OnceLock<Vec<Box<dyn MotionModel>>> = OnceLock::new();
     MODELS.get_or_init(|| {
         let data = drive::bundled::husky().unwrap();
         let (train, _) = drive::eval::split_by_interval(&data, 0.5).unwrap();
-        MODEL_NAMES
+        drive::Registries::builtin()
+            .models()
+            .all()
             .iter()
-            .map(|name| fit_named(name, &train).unwrap().unwrap())
+            .map(|spec| spec.fit(&train).unwrap())
             .collect()
     })
 }

@@ -210,7 +210,11 @@ fn matrix_numbers_equal_drive_eval_and_every_combination_is_reported() {
         on_file("acc-blr", Some("fopdt")),
         eval_median(Some("fopdt"), "acc-blr")
     );
-    assert_eq!(on_file("naive", None), eval_median(None, "naive"));
+    // The naive model is no slip on the commanded powertrain.
+    assert_eq!(
+        on_file("no-slip", Some("commanded")),
+        eval_median(None, "naive")
+    );
     // The CSV row of a combination carries the same median.
     let (t, _) = on_file("slip-blr", Some("fopdt"));
     assert!(csv.lines().any(|l| l
@@ -224,7 +228,7 @@ fn matrix_numbers_equal_drive_eval_and_every_combination_is_reported() {
     assert!(rows.iter().filter(|r| r.contains("| baseline |")).count() == 5);
     let summary = v["summary"].as_array().unwrap();
     for r in summary {
-        if r["model"]["learner"] == "naive" {
+        if r["model"]["learner"] == "no-slip" && r["model"]["powertrain"] == "commanded" {
             continue;
         }
         let i = &r["translational_improvement"];
@@ -244,10 +248,14 @@ fn matrix_numbers_equal_drive_eval_and_every_combination_is_reported() {
 fn matrix_refuses_a_bad_sweep_with_one_clear_line() {
     let dir = tempfile::tempdir().unwrap();
     let cases = [
-        ("learners = [\"gp\"]\n[[datasets]]\nbundled = \"husky\"\n", "unknown learner 'gp'"),
+        ("learners = [\"gp\"]\n[[datasets]]\nbundled = \"husky\"\n", "unknown model 'gp'"),
         (
             "learners = [\"slip-blr\"]\n[[datasets]]\nbundled = \"husky\"\n",
-            "the baseline 'naive' is not one of the sweep's models",
+            "the baseline 'naive' (no-slip+commanded) is not one of the sweep's models",
+        ),
+        (
+            "powertrains = [\"turbo\"]\n[[datasets]]\nbundled = \"husky\"\n",
+            "unknown powertrain 'turbo'",
         ),
         ("colour = 3\n", "unknown field `colour`"),
         ("learners = [\"naive\"]\n", "the sweep has no dataset"),

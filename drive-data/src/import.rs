@@ -4,7 +4,8 @@
 
 use crate::{CalibState, DataError, DataErrorKind, Location, RawLog, RawRow};
 use drive_traits::{
-    relative_pose, Dataset, Input, Phase, Pose, RobotDescription, Window, WINDOWS_PER_INTERVAL,
+    relative_pose, BodyVelocity, Dataset, Phase, Pose, RobotDescription, Window,
+    WINDOWS_PER_INTERVAL,
 };
 use std::fmt;
 
@@ -62,6 +63,12 @@ pub enum DropReason {
         /// line where it froze
         line: usize,
     },
+    /// A body command the vehicle cannot be given as inputs (a yaw rate at zero speed for
+    /// a car, say).
+    CommandNotAnInput {
+        /// line
+        line: usize,
+    },
 }
 
 impl DropReason {
@@ -74,6 +81,7 @@ impl DropReason {
             DropReason::LocalizationMissing => "localization_missing",
             DropReason::BadQuaternion { .. } => "bad_quaternion",
             DropReason::LocalizationFrozen { .. } => "localization_frozen",
+            DropReason::CommandNotAnInput { .. } => "command_not_an_input",
         }
     }
 }
@@ -98,6 +106,10 @@ impl fmt::Display for DropReason {
             DropReason::LocalizationFrozen { for_s, line } => {
                 write!(f, "localization frozen for {for_s:.2} s from line {line}")
             }
+            DropReason::CommandNotAnInput { line } => write!(
+                f,
+                "the body command on line {line} is not one the vehicle can be given as inputs"
+            ),
         }
     }
 }
@@ -287,8 +299,7 @@ fn seconds(ns: i64) -> f64 {
 /// ```
 /// use drive_data::{import_raw, ImportConfig, RawRow, CalibState, RawLog};
 /// use drive_traits::RobotDescription;
-/// let robot = RobotDescription { name: "toy".into(), robot: String::new(), rate_hz: 2.0,
-///     window_len: 4, wheel_radius: 0.5, baseline: 1.0 };
+/// let robot = RobotDescription::new("toy", "", 2.0, 4, drive_models::DifferentialDrive::new(0.5, 1.0));
 /// // 6.5 s of driving straight at 1 m/s, localized at every tick.
 /// let rows: Vec<RawRow> = (0..14).map(|i| {
 ///     let mut r = RawRow::at_rest(i + 2, 1_000_000_000 + i as i64 * 500_000_000);
@@ -498,16 +509,21 @@ fn cut_interval(
     if let Some((for_s, line)) = frozen {
         return Err(DropReason::LocalizationFrozen { for_s, line });
     }
-    let (r, b) = (robot.wheel_radius, robot.baseline);
-    let wheels = |row: &RawRow| {
+    // Body commands into the vehicle's inputs (wheel velocities for a differential drive).
+    let mut commands = Vec::with_capacity(picked.len());
+    for row in &picked {
         let [v, w] = row.body_command;
-        Input::new((v - 0.5 * b * w) / r, (v + 0.5 * b * w) / r)
-    };
+        match robot.vehicle.input_for(&BodyVelocity::new(v, 0.0, w)) {
+            Some(u) => commands.push(u),
+            None => return Err(DropReason::CommandNotAnInput { line: row.line }),
+        }
+    }
     let len = robot.window_len;
     Ok(picked
         .chunks(len)
+        .zip(commands.chunks(len))
         .enumerate()
-        .map(|(i, chunk)| {
+        .map(|(i, (chunk, command))| {
             // Checked above: every used row's quaternion is a rotation.
             let pose = |row: &RawRow| {
                 Pose::new(row.position[0], row.position[1], row.yaw().unwrap_or(0.0))
@@ -521,8 +537,8 @@ fn cut_interval(
                 } else {
                     Phase::Steady
                 },
-                command: chunk.iter().map(|row| wheels(row)).collect(),
-                encoder: chunk.iter().map(|row| row.wheels).collect(),
+                command: command.to_vec(),
+                measured: chunk.iter().map(|row| row.wheels).collect(),
                 pose: chunk
                     .iter()
                     .map(|row| relative_pose(&p0, &pose(row)))

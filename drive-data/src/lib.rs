@@ -1,6 +1,7 @@
 //! Reading and writing DRIVE window datasets: the long-format window CSV (one row per
-//! sample) and its sidecar JSON (robot geometry and rates); and the DRIVE logger's raw CSV
-//! ([`parse_raw_log`]) cut into windows by [`import_raw`], with a keep/drop report.
+//! sample, input columns named by the vehicle) and its sidecar JSON (the vehicle with its
+//! geometry, and rates); and the DRIVE logger's raw CSV ([`parse_raw_log`]) cut into
+//! windows by [`import_raw`], with a keep/drop report.
 //!
 //! Every problem in the input is reported as a [`DataError`] that names the file, the line
 //! and the column (or the sidecar field), and what was expected. Nothing here panics on
@@ -28,7 +29,7 @@ pub use error::{DataError, DataErrorKind, Location};
 pub use import::{import_raw, DropReason, ImportConfig, ImportReport, StepOutcome};
 pub use raw_log::{parse_raw_log, write_raw_log, CalibState, RawLog, RawRow, RAW_COLUMNS};
 pub use sidecar::{parse_sidecar, sidecar_json};
-pub use window_csv::{parse_windows, write_windows_csv, COLUMNS, OPTIONAL_COLUMNS};
+pub use window_csv::{columns, parse_windows, write_windows_csv, OPTIONAL_COLUMNS};
 
 use drive_traits::Dataset;
 use std::path::{Path, PathBuf};
@@ -101,8 +102,13 @@ pub fn write_dataset(dataset: &Dataset, csv: &Path) -> Result<(), DataError> {
     write_windows_csv(&dataset.windows, &dataset.robot, &mut text);
     std::fs::write(csv, text).map_err(|e| io(csv, e))?;
     let side = sidecar_path(csv);
-    std::fs::write(&side, sidecar_json(&dataset.robot, dataset.windows.len()))
-        .map_err(|e| io(&side, e))
+    let sidecar = sidecar_json(&dataset.robot, dataset.windows.len()).map_err(|e| {
+        DataError::new(
+            Location::file(&side.display().to_string()),
+            DataErrorKind::Io(e),
+        )
+    })?;
+    std::fs::write(&side, sidecar).map_err(|e| io(&side, e))
 }
 
 /// Reads a raw log file (see [`parse_raw_log`]).

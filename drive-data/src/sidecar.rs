@@ -1,15 +1,29 @@
-//! The sidecar JSON: robot geometry and rates of a window dataset.
+//! The sidecar JSON: the vehicle (with its geometry) and rates of a window dataset.
 
 use crate::{DataError, DataErrorKind, Location};
-use drive_traits::RobotDescription;
+use drive_models::DifferentialDrive;
+use drive_traits::{CommandModel, RobotDescription};
 use serde_json::{Map, Value};
+use std::sync::Arc;
 
 /// Parses and validates a sidecar. Returns the robot description and, when the sidecar
 /// announces it, the number of windows.
 ///
-/// Required fields: `name` (string), `rate_hz`, `wheel_radius`, `baseline` (positive
-/// numbers) and `window_len` (integer >= 2). Optional: `robot` (string), `windows`
-/// (integer). Other fields are kept by the writer's caller, ignored here.
+/// Required fields: `name` (string), `rate_hz` (a positive number), `window_len` (an
+/// integer of at least 2) and the vehicle: `vehicle`, an object naming its type and geometry
+/// (`{"type": "differential", "wheel_radius": 0.165, "baseline": 0.55}`), or, as the DRIVE
+/// datasets have it, `wheel_radius` and `baseline` (positive numbers) for a differential
+/// drive. Optional: `robot` (string), `windows` (integer). Other fields are ignored.
+///
+/// ```
+/// let side = r#"{"name": "run", "rate_hz": 20, "window_len": 40,
+///                "vehicle": {"type": "differential", "wheel_radius": 0.3, "baseline": 1.2}}"#;
+/// let (robot, windows) = drive_data::parse_sidecar("run.json", side).unwrap();
+/// assert_eq!(robot.vehicle.axes()[1].measured_column, "enc_right");
+/// assert_eq!(windows, None);
+/// let legacy = r#"{"name": "run", "rate_hz": 20, "window_len": 40, "wheel_radius": 0.3, "baseline": 1.2}"#;
+/// assert_eq!(drive_data::parse_sidecar("run.json", legacy).unwrap().0, robot);
+/// ```
 pub fn parse_sidecar(
     file: &str,
     text: &str,
@@ -78,8 +92,26 @@ pub fn parse_sidecar(
             "missing field (samples per window, an integer >= 2)".into(),
         )
     })?;
-    let wheel_radius = positive("wheel_radius")?;
-    let baseline = positive("baseline")?;
+    let vehicle: Arc<dyn CommandModel> = match required(obj, "vehicle") {
+        Some(v) => {
+            for field in ["wheel_radius", "baseline"] {
+                if required(obj, field).is_some() {
+                    return Err(bad(
+                        field,
+                        "give the geometry inside 'vehicle' only (the top-level field is the older form of a differential drive's)".into(),
+                    ));
+                }
+            }
+            let vehicle: Box<dyn CommandModel> = serde_json::from_value(v.clone())
+                .map_err(|e| bad("vehicle", format!("not a known vehicle: {e}")))?;
+            vehicle.check().map_err(|e| bad("vehicle", e.to_string()))?;
+            Arc::from(vehicle)
+        }
+        None => Arc::new(DifferentialDrive::new(
+            positive("wheel_radius")?,
+            positive("baseline")?,
+        )),
+    };
     let windows = integer("windows", 0)?;
     Ok((
         RobotDescription {
@@ -87,8 +119,7 @@ pub fn parse_sidecar(
             robot,
             rate_hz,
             window_len,
-            wheel_radius,
-            baseline,
+            vehicle,
         },
         windows,
     ))
@@ -98,17 +129,20 @@ fn required<'a>(obj: &'a Map<String, Value>, field: &str) -> Option<&'a Value> {
     obj.get(field).filter(|v| !v.is_null())
 }
 
-/// The sidecar JSON text for a robot description and a window count.
-pub fn sidecar_json(robot: &RobotDescription, windows: usize) -> String {
+/// The sidecar JSON text for a robot description and a window count; an error when the
+/// vehicle does not serialize (a plug-in vehicle with, say, a map keyed by numbers).
+pub fn sidecar_json(robot: &RobotDescription, windows: usize) -> Result<String, String> {
+    let vehicle = serde_json::to_value(robot.vehicle.as_ref())
+        .map_err(|e| format!("the vehicle cannot be saved: {e}"))?;
     let value = serde_json::json!({
         "name": robot.name,
         "robot": robot.robot,
         "rate_hz": robot.rate_hz,
         "window_len": robot.window_len,
-        "wheel_radius": robot.wheel_radius,
-        "baseline": robot.baseline,
+        "vehicle": vehicle,
         "windows": windows,
     });
-    // Serializing a `Value` built from plain fields cannot fail.
-    serde_json::to_string_pretty(&value).expect("a JSON value always serializes") + "\n"
+    serde_json::to_string_pretty(&value)
+        .map(|t| t + "\n")
+        .map_err(|e| format!("the sidecar cannot be written: {e}"))
 }

@@ -4,21 +4,33 @@ use crate::{DataError, DataErrorKind, Location};
 use drive_traits::{assign_intervals, Input, Phase, Pose, RobotDescription, Window};
 use std::fmt::Write as _;
 
-/// The required columns, in the order the writer uses.
-pub const COLUMNS: [&str; 12] = [
-    "window",
-    "phase",
-    "k",
-    "t",
-    "cmd_left",
-    "cmd_right",
-    "enc_left",
-    "enc_right",
-    "x",
-    "y",
-    "yaw",
-    "imu_yaw_rate",
-];
+/// The required columns of a dataset of `robot`, in the order the writer uses: `window,
+/// phase, k, t`, the commanded then the measured value of each of the vehicle's input axes
+/// (`cmd_left, cmd_right, enc_left, enc_right` for a differential drive), then `x, y, yaw,
+/// imu_yaw_rate`.
+///
+/// ```
+/// use drive_traits::RobotDescription;
+/// let robot = RobotDescription::new("r", "", 20.0, 40, drive_models::DifferentialDrive::new(0.1, 0.5));
+/// assert_eq!(drive_data::columns(&robot)[4..8], ["cmd_left", "cmd_right", "enc_left", "enc_right"]);
+/// ```
+pub fn columns(robot: &RobotDescription) -> [&'static str; 12] {
+    let [a, b] = robot.vehicle.axes();
+    [
+        "window",
+        "phase",
+        "k",
+        "t",
+        a.command_column,
+        b.command_column,
+        a.measured_column,
+        b.measured_column,
+        "x",
+        "y",
+        "yaw",
+        "imu_yaw_rate",
+    ]
+}
 
 /// Columns that may be present and are ignored (`calib_step` is the logger's interval
 /// counter, not reliable: intervals are found from `phase`).
@@ -33,7 +45,7 @@ struct Pending {
     index: usize,
     phase: Phase,
     command: Vec<Input>,
-    encoder: Vec<Input>,
+    measured: Vec<Input>,
     pose: Vec<Pose>,
     imu: Vec<f64>,
 }
@@ -44,20 +56,21 @@ impl Pending {
             index,
             phase,
             command: Vec::with_capacity(len),
-            encoder: Vec::with_capacity(len),
+            measured: Vec::with_capacity(len),
             pose: Vec::with_capacity(len),
             imu: Vec::with_capacity(len),
         }
     }
 }
 
-/// Parses the window CSV text of `file` for the given robot description (its `window_len`
-/// and `rate_hz` are checked against the data).
+/// Parses the window CSV text of `file` for the given robot description (its vehicle names
+/// the input columns; its `window_len` and `rate_hz` are checked against the data).
 pub fn parse_windows(
     file: &str,
     text: &str,
     robot: &RobotDescription,
 ) -> Result<Vec<Window>, DataError> {
+    let columns = columns(robot);
     let mut lines = text
         .lines()
         .enumerate()
@@ -72,7 +85,7 @@ pub fn parse_windows(
     let (header_line, header_text) = header;
     // Position in the row of each required column; None for ignored optional columns.
     let mut slot_of_field: Vec<Option<usize>> = Vec::new();
-    let mut position_of = [usize::MAX; COLUMNS.len()];
+    let mut position_of = [usize::MAX; 12];
     let mut seen = std::collections::HashSet::new();
     for (pos, raw) in header_text.split(',').enumerate() {
         let name = raw.trim();
@@ -82,13 +95,13 @@ pub fn parse_windows(
                 DataErrorKind::DuplicateColumn,
             ));
         }
-        if let Some(slot) = COLUMNS.iter().position(|c| *c == name) {
+        if let Some(slot) = columns.iter().position(|c| *c == name) {
             position_of[slot] = pos;
             slot_of_field.push(Some(slot));
         } else if OPTIONAL_COLUMNS.contains(&name) {
             slot_of_field.push(None);
         } else {
-            let known = COLUMNS
+            let known = columns
                 .iter()
                 .chain(OPTIONAL_COLUMNS.iter())
                 .copied()
@@ -102,8 +115,8 @@ pub fn parse_windows(
     }
     if let Some(slot) = position_of.iter().position(|p| *p == usize::MAX) {
         return Err(DataError::new(
-            Location::cell(file, header_line, COLUMNS[slot]),
-            DataErrorKind::MissingColumn(COLUMNS.join(", ")),
+            Location::cell(file, header_line, columns[slot]),
+            DataErrorKind::MissingColumn(columns.join(", ")),
         ));
     }
     let n_fields = slot_of_field.len();
@@ -114,7 +127,7 @@ pub fn parse_windows(
     let mut phases: Vec<Phase> = Vec::new();
     let mut pending: Option<Pending> = None;
     let mut last_line = header_line;
-    let mut values = [0.0f64; COLUMNS.len()];
+    let mut values = [0.0f64; 12];
     let mut fields: Vec<&str> = Vec::with_capacity(n_fields);
 
     let finish = |p: Pending,
@@ -138,7 +151,7 @@ pub fn parse_windows(
             interval: 0,
             phase: p.phase,
             command: p.command,
-            encoder: p.encoder,
+            measured: p.measured,
             pose: p.pose,
             imu_yaw_rate: p.imu,
         });
@@ -164,7 +177,7 @@ pub fn parse_windows(
         for (field, slot) in fields.iter().zip(&slot_of_field) {
             let Some(slot) = *slot else { continue };
             let raw = field.trim();
-            let at = || Location::cell(file, line_no, COLUMNS[slot]);
+            let at = || Location::cell(file, line_no, columns[slot]);
             if slot == PHASE {
                 phase = match raw {
                     "transient" => Phase::Transient,
@@ -264,7 +277,7 @@ pub fn parse_windows(
             ));
         }
         p.command.push(Input::new(values[4], values[5]));
-        p.encoder.push(Input::new(values[6], values[7]));
+        p.measured.push(Input::new(values[6], values[7]));
         p.pose.push(Pose::new(values[8], values[9], values[10]));
         p.imu.push(values[11]);
         last_line = line_no;
@@ -281,13 +294,13 @@ pub fn parse_windows(
     Ok(windows)
 }
 
-/// Appends the window CSV text (header and rows, columns [`COLUMNS`]) of `windows` to `out`.
+/// Appends the window CSV text (header and rows, see [`columns`]) of `windows` to `out`.
 pub fn write_windows_csv(windows: &[Window], robot: &RobotDescription, out: &mut String) {
-    out.push_str(&COLUMNS.join(","));
+    out.push_str(&columns(robot).join(","));
     out.push('\n');
     for w in windows {
         for k in 0..w.len() {
-            let (c, e, p) = (w.command[k], w.encoder[k], w.pose[k]);
+            let (c, e, p) = (w.command[k], w.measured[k], w.pose[k]);
             // Writing into a String cannot fail.
             let _ = writeln!(
                 out,

@@ -295,6 +295,24 @@ fn sidecar_bad_or_missing_fields() {
             "window_len",
         ),
         (SIDECAR.replace("\"name\": \"t\", ", ""), "name"),
+        // The vehicle object form: an unknown type, a geometry field the type does not have,
+        // an invalid geometry, and both forms at once.
+        (
+            VEHICLE_SIDECAR.replace("\"differential\"", "\"hovercraft\""),
+            "vehicle",
+        ),
+        (
+            VEHICLE_SIDECAR.replace("\"baseline\": 0.5", "\"baseline\": 0.5, \"wheelbase\": 1"),
+            "vehicle",
+        ),
+        (
+            VEHICLE_SIDECAR.replace("\"wheel_radius\": 0.1", "\"wheel_radius\": 0"),
+            "vehicle",
+        ),
+        (
+            VEHICLE_SIDECAR.replace("\"window_len\": 3", "\"window_len\": 3, \"baseline\": 0.5"),
+            "baseline",
+        ),
     ];
     for (side, field) in cases {
         let err = parse_dataset("d.csv", &good().join("\n"), "d.json", &side).unwrap_err();
@@ -302,6 +320,21 @@ fn sidecar_bad_or_missing_fields() {
         assert_eq!(err.location.field.as_deref(), Some(field), "{err}");
         assert_eq!(err.location.file, "d.json");
     }
+}
+
+/// The same robot as [`SIDECAR`], with the vehicle named.
+const VEHICLE_SIDECAR: &str = r#"{"name": "t", "rate_hz": 20, "window_len": 3, "vehicle": {"type": "differential", "wheel_radius": 0.1, "baseline": 0.5}}"#;
+
+#[test]
+fn the_vehicle_form_and_the_older_form_give_the_same_dataset() {
+    let a = parse_dataset("d.csv", &good().join("\n"), "d.json", SIDECAR).unwrap();
+    let b = parse_dataset("d.csv", &good().join("\n"), "d.json", VEHICLE_SIDECAR).unwrap();
+    assert_eq!(a, b);
+    // The writer names the vehicle.
+    let text = drive_data::sidecar_json(&a.robot, a.windows.len()).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["vehicle"]["type"], "differential");
+    assert_eq!(v["vehicle"]["baseline"], 0.5);
 }
 
 #[test]

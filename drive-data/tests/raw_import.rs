@@ -9,14 +9,13 @@ use drive_traits::RobotDescription;
 use std::path::Path;
 
 fn warthog() -> RobotDescription {
-    RobotDescription {
-        name: "bench".into(),
-        robot: "warthog".into(),
-        rate_hz: 20.0,
-        window_len: 40,
-        wheel_radius: 0.3,
-        baseline: 1.1652,
-    }
+    RobotDescription::new(
+        "bench",
+        "warthog",
+        20.0,
+        40,
+        drive_models::DifferentialDrive::new(0.3, 1.1652),
+    )
 }
 
 /// `n` ticks of driving interval `step` at 1 m/s straight ahead, localized at 10 Hz.
@@ -141,7 +140,7 @@ fn every_unusable_interval_is_dropped_with_its_reason() {
         ]
     );
     // The kept interval is the stretch after the takeover, starting with its first row.
-    assert_eq!(data.windows[0].encoder.len(), 40);
+    assert_eq!(data.windows[0].measured.len(), 40);
     assert!(
         report.notes[0].contains("calib_step 0 lasts"),
         "{:?}",

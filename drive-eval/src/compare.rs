@@ -1,5 +1,4 @@
 use crate::{mrmse, Mrmse, Summary};
-use drive_models::DifferentialDrive;
 use drive_traits::{MotionModel, Phase, WindowSet};
 use serde::Serialize;
 
@@ -43,16 +42,17 @@ impl ModelReport {
     }
 }
 
-/// Predicts every evaluation window with `model` from the window's start state and its
-/// commands, and scores it with eq. 8 against the measured poses.
+/// Predicts every evaluation window with `model` from the window's start state (measured
+/// through the data's vehicle) and its commands, and scores it with eq. 8 against the
+/// measured poses.
 pub fn evaluate_model(model: &dyn MotionModel, eval: &WindowSet<'_>) -> ModelReport {
-    let vehicle = DifferentialDrive::from_robot(eval.robot);
+    let vehicle = eval.robot.vehicle.as_ref();
     let mut poses = Vec::new();
     let windows = eval
         .windows
         .iter()
         .map(|w| {
-            model.predict_into(&w.start_state(&vehicle), &w.command, &mut poses);
+            model.predict_into(&w.start_state(vehicle), &w.command, &mut poses);
             WindowErrors {
                 window: w.index,
                 interval: w.interval,
@@ -62,7 +62,7 @@ pub fn evaluate_model(model: &dyn MotionModel, eval: &WindowSet<'_>) -> ModelRep
         })
         .collect();
     ModelReport {
-        name: model.name().to_string(),
+        name: model.name(),
         windows,
     }
 }

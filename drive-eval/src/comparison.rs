@@ -2,13 +2,14 @@
 //! training intervals, score it on the evaluation intervals with eq. 8.
 
 use crate::{
-    evaluate_model, improvement_percent, split_by_interval, ModelReport, SplitError, Summary,
+    evaluate_model, improvement_percent, run_cells, split_by_interval, ModelReport, Registries,
+    Setting, SplitError, Summary,
 };
-use drive_models::learners::Naive;
-use drive_models::{LearnerRegistry, PowertrainChoice};
-use drive_traits::{Dataset, FitError, Learner, MotionModel, Phase};
+use drive_models::powertrain::Commanded;
+use drive_models::slip::NoSlip;
+use drive_models::{Composed, ModelSpec};
+use drive_traits::{Dataset, FitError, Learner, MotionModel, Phase, RegistryError};
 use serde::Serialize;
-use std::time::Instant;
 use thiserror::Error;
 
 /// Why a comparison could not run.
@@ -17,14 +18,9 @@ pub enum CompareError {
     /// The split is invalid for this dataset.
     #[error(transparent)]
     Split(#[from] SplitError),
-    /// A model name is not registered.
-    #[error("unknown model '{name}' (the models are: {known})")]
-    UnknownModel {
-        /// The name asked for.
-        name: String,
-        /// The registered names, comma-separated.
-        known: String,
-    },
+    /// A model name does not resolve.
+    #[error(transparent)]
+    Model(#[from] RegistryError),
     /// A model could not be fitted on the training intervals.
     #[error("fitting {model}: {reason}")]
     Fit {
@@ -60,10 +56,14 @@ pub struct PhaseSummary {
 /// One model's result.
 #[derive(Debug, Serialize)]
 pub struct ModelResult {
-    /// Model name.
+    /// Model name, as asked (`slip-blr`).
     pub name: String,
-    /// The powertrain the model was fitted with (`None` for a model without one).
-    pub powertrain: Option<PowertrainChoice>,
+    /// The model's full name (`slip-blr+fopdt`).
+    pub model: String,
+    /// Its learner (a slip learner or a baseline).
+    pub learner: String,
+    /// The powertrain the model was fitted with (`None` for a baseline without one).
+    pub powertrain: Option<String>,
     /// Median translational MRMSE (m).
     pub translational_median_m: f64,
     /// Median rotational MRMSE (rad).
@@ -85,7 +85,7 @@ pub struct ModelResult {
     pub report: ModelReport,
     /// The fitted model.
     #[serde(skip)]
-    pub model: Option<Box<dyn MotionModel>>,
+    pub fitted: Option<Box<dyn MotionModel>>,
 }
 
 /// The result of a comparison.
@@ -95,6 +95,8 @@ pub struct Comparison {
     pub dataset: String,
     /// Robot name (from the sidecar).
     pub robot: String,
+    /// The vehicle type (from the sidecar).
+    pub vehicle: String,
     /// Split fraction.
     pub split: f64,
     /// Training intervals.
@@ -128,62 +130,70 @@ fn summarize(
     })
 }
 
-/// Fits each model of `names` (registered names, see [`drive_models::MODEL_NAMES`]) on the
-/// first `floor(split x intervals)` intervals and evaluates it on the rest.
-pub fn compare(data: &Dataset, split: f64, names: &[&str]) -> Result<Comparison, CompareError> {
-    compare_with(&LearnerRegistry::builtin(), data, split, names, None)
+/// The vehicle type of a dataset (its sidecar's `vehicle.type`).
+pub fn vehicle_type(data: &Dataset) -> String {
+    serde_json::to_value(data.robot.vehicle.as_ref())
+        .ok()
+        .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(String::from))
+        .unwrap_or_default()
 }
 
-/// Like [`compare`] with the learners taken from `registry`, each on `powertrain` (the
-/// learner's default when `None`; learners without a powertrain ignore it).
+/// Fits each model of `names` (model names resolved by `registries`; `all` for every
+/// registered combination) on the first `floor(split x intervals)` intervals and evaluates
+/// it on the rest; the improvements are over the naive model (eq. 4 on the commands).
 ///
 /// ```no_run
 /// # fn demo(data: &drive_traits::Dataset) -> Result<(), drive_eval::CompareError> {
-/// use drive_models::{LearnerRegistry, PowertrainChoice};
-/// let cmp = drive_eval::compare_with(
-///     &LearnerRegistry::builtin(), data, 0.5, &["slip-blr", "acc-blr"],
-///     Some(PowertrainChoice::Commanded),
-/// )?;
-/// assert_eq!(cmp.models[0].powertrain, Some(PowertrainChoice::Commanded));
+/// use drive_eval::{compare, Registries};
+/// let cmp = compare(&Registries::builtin(), data, 0.5, &["slip-blr", "slip-blr+commanded"])?;
+/// assert_eq!(cmp.models[1].powertrain.as_deref(), Some("commanded"));
 /// # Ok(()) }
 /// ```
-pub fn compare_with(
-    registry: &LearnerRegistry,
+pub fn compare<S: AsRef<str>>(
+    registries: &Registries,
     data: &Dataset,
     split: f64,
-    names: &[&str],
-    powertrain: Option<PowertrainChoice>,
+    names: &[S],
+) -> Result<Comparison, CompareError> {
+    let specs = registries.models().resolve_list(names)?;
+    compare_specs(data, split, &specs)
+}
+
+/// Like [`compare`] with the models resolved.
+pub fn compare_specs(
+    data: &Dataset,
+    split: f64,
+    specs: &[ModelSpec],
 ) -> Result<Comparison, CompareError> {
     let (train, eval) = split_by_interval(data, split)?;
-    let unknown = |name: &str| CompareError::UnknownModel {
-        name: name.to_string(),
-        known: registry.names().join(", "),
-    };
-    let entries = names
-        .iter()
-        .map(|n| registry.get(n).ok_or_else(|| unknown(n)))
-        .collect::<Result<Vec<_>, _>>()?;
-    let fit_error = |name: &str| {
-        let model = name.to_string();
-        move |reason| CompareError::Fit { model, reason }
-    };
     // The naive model is the reference of every improvement figure.
-    let naive_model = Naive.fit(&train).map_err(fit_error("naive"))?;
+    let naive_model =
+        Learner::fit(&Composed::new(Commanded, NoSlip), &train).map_err(|reason| {
+            CompareError::Fit {
+                model: "naive".into(),
+                reason,
+            }
+        })?;
     let naive = evaluate_model(&naive_model, &eval);
+    let setting = [Setting {
+        train: train.clone(),
+        eval: eval.clone(),
+    }];
+    let cells = run_cells(&setting, specs, true, &|| {});
     let mut models = Vec::new();
-    for entry in entries {
-        let start = Instant::now();
-        let model = entry
-            .fit(&train, powertrain)
-            .map_err(fit_error(entry.name()))?;
-        let fit_seconds = start.elapsed().as_secs_f64();
-        let used = powertrain.or(entry.default_powertrain());
-        let report = evaluate_model(model.as_ref(), &eval);
+    for (spec, cell) in specs.iter().zip(cells) {
+        let scored = cell.outcome.map_err(|reason| CompareError::Fit {
+            model: spec.name.clone(),
+            reason,
+        })?;
+        let report = scored.report;
         // The evaluation set is non-empty (the split guarantees it), so summaries exist.
         let all = summarize(&report, &naive, None).expect("the evaluation set is not empty");
         models.push(ModelResult {
-            name: entry.name().to_string(),
-            powertrain: used.filter(|_| entry.uses_powertrain()),
+            name: spec.name.clone(),
+            model: spec.canonical(),
+            learner: spec.learner.clone(),
+            powertrain: spec.powertrain.clone(),
             translational_median_m: all.translational_m.median,
             rotational_median_rad: all.rotational_rad.median,
             translational_iqr_m: all.translational_m.iqr,
@@ -191,9 +201,9 @@ pub fn compare_with(
             all,
             transient: summarize(&report, &naive, Some(Phase::Transient)),
             steady: summarize(&report, &naive, Some(Phase::Steady)),
-            fit_seconds,
+            fit_seconds: cell.fit_seconds,
             report,
-            model: Some(model),
+            fitted: scored.model,
         });
     }
     let intervals = data.interval_count();
@@ -201,6 +211,7 @@ pub fn compare_with(
     Ok(Comparison {
         dataset: data.robot.name.clone(),
         robot: data.robot.robot.clone(),
+        vehicle: vehicle_type(data),
         split,
         train_intervals,
         eval_intervals: intervals - train_intervals,

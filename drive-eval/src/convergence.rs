@@ -1,7 +1,8 @@
 //! The paper's Fig. 7 analysis: prediction error against training driving time.
 
-use crate::{evaluate_model, split_by_interval, SplitError, Summary};
-use drive_traits::{Dataset, FitError, WindowSet};
+use crate::{run_cells, split_by_interval, Setting, SplitError, Summary};
+use drive_models::ModelSpec;
+use drive_traits::{Dataset, WindowSet};
 use serde::Serialize;
 
 /// One point of the convergence curve.
@@ -29,6 +30,8 @@ pub struct SkippedPoint {
 /// The convergence analysis.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Convergence {
+    /// The model (its full name).
+    pub model: String,
     /// The paper's rule (Sec. IV-C): the smallest training time from which every later
     /// step's gradient of both errors with respect to training time stays under the
     /// thresholds; `None` when the curve never meets it.
@@ -45,36 +48,44 @@ pub struct Convergence {
     pub skipped: Vec<SkippedPoint>,
 }
 
-/// Trains with `fit` on the first 1, 2, 3, ... intervals of the training part of the
-/// `split` (in recording order) and evaluates every fit on the same evaluation part.
-/// `interval_s` is the duration of one interval (windows per interval x window duration).
-pub fn convergence<F>(
+/// Trains `model` on the first 1, 2, 3, ... intervals of the training part of the `split`
+/// (in recording order) and evaluates every fit on the same evaluation part; the fits run in
+/// parallel (the experiment engine).
+pub fn convergence(
     data: &Dataset,
     split: f64,
     thresholds: [f64; 2],
-    fit: F,
-) -> Result<Convergence, SplitError>
-where
-    F: Fn(&WindowSet<'_>) -> Result<Box<dyn drive_traits::MotionModel>, FitError>,
-{
+    model: &ModelSpec,
+) -> Result<Convergence, SplitError> {
     let (train, eval) = split_by_interval(data, split)?;
     let train_intervals = train.windows.last().map_or(0, |w| w.interval + 1);
     let window_s = data.robot.window_len as f64 / data.robot.rate_hz;
     // The mean number of windows per interval of the whole dataset (3 in DRIVE).
     let interval_s = window_s * data.windows.len() as f64 / data.interval_count().max(1) as f64;
+    let settings: Vec<Setting<'_>> = (1..=train_intervals)
+        .map(|n| {
+            let cut = train.windows.partition_point(|w| w.interval < n);
+            Setting {
+                train: WindowSet {
+                    robot: train.robot,
+                    windows: train.windows[..cut].to_vec(),
+                },
+                eval: eval.clone(),
+            }
+        })
+        .collect();
+    let cells = run_cells(&settings, std::slice::from_ref(model), false, &|| {});
     let mut curve = Vec::new();
     let mut skipped = Vec::new();
-    for n in 1..=train_intervals {
-        let cut = train.windows.partition_point(|w| w.interval < n);
-        let subset = WindowSet {
-            robot: train.robot,
-            windows: train.windows[..cut].to_vec(),
-        };
-        match fit(&subset) {
-            Ok(model) => {
-                let report = evaluate_model(model.as_ref(), &eval);
+    for cell in cells {
+        let n = cell.setting + 1;
+        match cell.outcome {
+            Ok(scored) => {
                 // The evaluation set is non-empty (guaranteed by the split).
-                let (t, r) = (report.translational(None), report.rotational(None));
+                let (t, r) = (
+                    scored.report.translational(None),
+                    scored.report.rotational(None),
+                );
                 if let (Some(Summary { median: tm, .. }), Some(Summary { median: rm, .. })) = (t, r)
                 {
                     curve.push(ConvergencePoint {
@@ -92,6 +103,7 @@ where
         }
     }
     Ok(Convergence {
+        model: model.canonical(),
         convergence_time_s: convergence_time(&curve, thresholds),
         thresholds,
         interval_s,

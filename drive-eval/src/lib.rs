@@ -1,5 +1,16 @@
 //! Evaluation of DRIVE motion models: the multi-step RMSE of paper eq. 8, the interval
-//! split, robust summaries and model comparisons over any set of fitted models.
+//! split, robust summaries, and the analyses of the paper, all run by one experiment engine
+//! over the parts of the [`Registries`].
+//!
+//! | file | job |
+//! |---|---|
+//! | `metric.rs`, `split.rs`, `stats.rs` | eq. 8, the interval split, quantiles |
+//! | `registries.rs` | every registry of parts ([`Registries`]) and their catalog |
+//! | `experiment.rs` | the engine: settings x models -> cells, simulated runs ([`run_cells`], [`simulate_runs`]) |
+//! | `comparison.rs` | the model comparison (Fig. 6) |
+//! | `convergence.rs` | error against training time (Fig. 7) |
+//! | `protocols.rs`, `regions.rs` | data-gathering protocols (Table I) on the simulator and on recorded data |
+//! | `matrix/` | the evaluation matrix: sweep file, run, statistics, outputs |
 //!
 //! ```
 //! use drive_eval::{mrmse, Mrmse};
@@ -16,27 +27,32 @@
 mod compare;
 mod comparison;
 mod convergence;
+mod experiment;
 mod matrix;
 mod metric;
 mod protocols;
 mod regions;
+mod registries;
 mod split;
 mod stats;
 
 pub use compare::{evaluate_model, ModelReport, WindowErrors};
 pub use comparison::{
-    compare, compare_with, CompareError, Comparison, ErrorSummary, ModelResult, PhaseSummary,
+    compare, compare_specs, vehicle_type, CompareError, Comparison, ErrorSummary, ModelResult,
+    PhaseSummary,
 };
 pub use convergence::{convergence, convergence_time, Convergence, ConvergencePoint, SkippedPoint};
+pub use experiment::{run_cells, simulate_run, simulate_runs, Cell, Scored, Setting, SimRun};
 pub use matrix::{
     run_matrix, BootstrapConfig, DatasetSource, Improvement, Matrix, MatrixCell, MatrixError,
-    MatrixResult, ModelKey, Scenario, SimulatedPlan, SimulatedSweep, SummaryRow, SweepFile,
+    MatrixResult, Scenario, SimulatedPlan, SimulatedSweep, SummaryRow, SweepFile,
 };
 pub use metric::{mrmse, Mrmse};
 pub use protocols::{
-    compare_protocols, intervals_in, simulate_protocol, simulate_with, simulate_with_samplers,
-    ExperimentError, ProtocolCell, ProtocolComparison, ProtocolRow, ProtocolStudy, INTERVAL_S,
+    compare_protocols, intervals_in, simulate_protocol, ExperimentError, ProtocolCell,
+    ProtocolComparison, ProtocolRow, ProtocolStudy, INTERVAL_S,
 };
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
+pub use registries::{Catalog, Listed, Registries};
 pub use split::{split_by_interval, SplitError};
 pub use stats::{improvement_percent, quantile, Summary};

@@ -2,14 +2,14 @@
 //! time with each sampler, one model trained on each, all evaluated on one common held-out
 //! test set gathered with the reference sampler (DRIVE's `uniform`).
 
-use crate::{evaluate_model, improvement_percent, Mrmse, Summary};
-use drive_models::{fit_named, DifferentialDrive};
-use drive_samplers::{RobotSpec, RunnerConfig, SamplerContext, SamplerError, SamplerRegistry};
-use drive_sim::{simulate, SimError, Simulation, SimulationConfig, Terrain};
-use drive_traits::{CommandModel, FitError, Input, InputSampler, WindowSet};
-use rayon::prelude::*;
+use crate::{
+    improvement_percent, run_cells, simulate_run, simulate_runs, Registries, Setting, SimRun,
+    Summary,
+};
+use drive_samplers::{RobotSpec, SamplerError};
+use drive_sim::{SimError, Simulation, Terrain};
+use drive_traits::{FitError, RegistryError};
 use serde::Serialize;
-use std::sync::{Arc, Mutex};
 use thiserror::Error;
 
 /// Length of one DRIVE interval (s): one transient and two steady 2 s windows.
@@ -39,9 +39,12 @@ pub enum ExperimentError {
         /// cause
         reason: FitError,
     },
-    /// No model of that name.
-    #[error("unknown model '{0}' (the models are: {models})", models = drive_models::MODEL_NAMES.join(", "))]
-    UnknownModel(String),
+    /// A part's name is not registered (model, robot, terrain, ...).
+    #[error(transparent)]
+    Registry(#[from] RegistryError),
+    /// A robot description is invalid.
+    #[error("{0}")]
+    Robot(String),
     /// A driving time shorter than one interval, or not finite.
     #[error("driving time {0} s is shorter than one {INTERVAL_S} s DRIVE interval")]
     TooShort(f64),
@@ -70,120 +73,30 @@ pub fn intervals_in(driving_s: f64) -> Result<usize, ExperimentError> {
 }
 
 /// Runs the DRIVE protocol on the simulator: characterization, then `intervals` intervals
-/// with the sampler registered as `sampler` ([`drive_samplers::sampler_over`]), the
-/// simulator's noise and the sampler seeded with `seed`.
+/// with the registered sampler `sampler`; robot and terrain are registered names (or a robot
+/// TOML file); the simulator's noise and the sampler are seeded with `seed`.
 ///
 /// ```
-/// use drive_eval::simulate_protocol;
-/// use drive_samplers::RobotSpec;
-/// use drive_sim::Terrain;
-/// let husky = RobotSpec::preset("husky").unwrap();
-/// let run = simulate_protocol(&husky, Terrain::preset("snow").unwrap(), "uniform", 2, 1).unwrap();
+/// use drive_eval::{simulate_protocol, Registries};
+/// let run = simulate_protocol(&Registries::builtin(), "husky", "snow", "uniform", 2, 1).unwrap();
 /// assert_eq!(run.dataset.windows.len(), 6);
 /// ```
 pub fn simulate_protocol(
-    robot: &RobotSpec,
-    terrain: Terrain,
+    registries: &Registries,
+    robot: &str,
+    terrain: &str,
     sampler: &str,
     intervals: usize,
     seed: u64,
 ) -> Result<Simulation, ExperimentError> {
-    let runner = RunnerConfig {
-        max_intervals: Some(intervals),
-        ..RunnerConfig::default()
-    };
-    simulate_with(robot, terrain, sampler, runner, seed)
-}
-
-/// Like [`simulate_protocol`] with the runner's configuration given (for instance a
-/// duration instead of a number of intervals).
-pub fn simulate_with(
-    robot: &RobotSpec,
-    terrain: Terrain,
-    sampler: &str,
-    runner: RunnerConfig,
-    seed: u64,
-) -> Result<Simulation, ExperimentError> {
-    simulate_with_samplers(
-        &SamplerRegistry::builtin(),
-        robot,
-        terrain,
-        sampler,
-        runner,
-        seed,
+    let robot = registries
+        .robot(robot)
+        .map_err(|e| ExperimentError::Robot(e.to_string()))?;
+    let terrain = registries.terrain(terrain)?;
+    simulate_run(
+        registries,
+        &SimRun::intervals(&robot, &terrain, sampler, intervals, seed),
     )
-}
-
-/// Like [`simulate_with`] with the sampler taken from `samplers` (a registry holding a
-/// researcher's own samplers, say).
-pub fn simulate_with_samplers(
-    samplers: &SamplerRegistry,
-    robot: &RobotSpec,
-    terrain: Terrain,
-    sampler: &str,
-    runner: RunnerConfig,
-    seed: u64,
-) -> Result<Simulation, ExperimentError> {
-    let (r, b) = (robot.wheel_radius, robot.baseline);
-    let vehicle = move || Box::new(DifferentialDrive::new(r, b)) as Box<dyn CommandModel>;
-    let sampler_error = |reason| ExperimentError::Sampler {
-        name: sampler.to_string(),
-        reason,
-    };
-    // One way to build the sampler, over the nominal space here and the characterized one
-    // inside the runner.
-    let build = move |registry: &SamplerRegistry, name: &str, space, spec: &RobotSpec| {
-        registry.build(
-            name,
-            &SamplerContext {
-                space,
-                robot: spec,
-                vehicle: &vehicle,
-                seed,
-            },
-        )
-    };
-    // Fail early on a name or limits that cannot work over the nominal input space.
-    build(samplers, sampler, robot.input_space(), robot).map_err(sampler_error)?;
-    // The sampler is built over the characterized space, inside the runner; an error there
-    // is kept and returned after the run (the runner then holds still).
-    let failure: Arc<Mutex<Option<SamplerError>>> = Arc::default();
-    let (name, spec, slot, registry) = (
-        sampler.to_string(),
-        robot.clone(),
-        failure.clone(),
-        samplers.clone(),
-    );
-    let factory = move |space| match build(&registry, &name, space, &spec) {
-        Ok(s) => s,
-        Err(e) => {
-            *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
-            Box::new(HoldStill) as Box<dyn InputSampler>
-        }
-    };
-    let config = SimulationConfig {
-        name: format!("sim-{}-{}-{}-s{seed}", robot.name, terrain.name, sampler),
-        robot: robot.clone(),
-        terrain,
-        seed,
-        runner,
-        events: Vec::new(),
-    };
-    let run = simulate(config, vehicle(), factory, None)?;
-    let failed = failure.lock().unwrap_or_else(|p| p.into_inner()).take();
-    match failed {
-        Some(e) => Err(sampler_error(e)),
-        None => Ok(run),
-    }
-}
-
-/// Stands in for a sampler that could not be built.
-struct HoldStill;
-
-impl InputSampler for HoldStill {
-    fn next_input(&mut self) -> Input {
-        Input::zeros()
-    }
 }
 
 /// The paper's Table I experiment, over any robots, terrains, samplers, driving times and
@@ -202,7 +115,7 @@ pub struct ProtocolStudy {
     pub seeds: Vec<u64>,
     /// Driving time of the held-out test set (s), gathered with the reference sampler.
     pub test_driving_s: f64,
-    /// Model trained on each run (a registered name, [`drive_models::MODEL_NAMES`]).
+    /// Model trained on each run (a model name: `slip-blr`, `slip-blr+rate-limited`, ...).
     pub model: String,
 }
 
@@ -295,20 +208,22 @@ pub struct ProtocolComparison {
     pub cells: Vec<ProtocolCell>,
 }
 
-/// Runs a [`ProtocolStudy`], in parallel over robots, terrains and seeds (rayon).
+/// Runs a [`ProtocolStudy`] with the registered samplers and model: every simulation in
+/// parallel, then every fit (the experiment engine).
 ///
 /// ```no_run
-/// use drive_eval::{compare_protocols, ProtocolStudy};
-/// use drive_samplers::RobotSpec;
-/// use drive_sim::Terrain;
-/// let study = ProtocolStudy::table_one(
-///     RobotSpec::preset("husky").unwrap(), Terrain::preset("snow").unwrap(), 300.0, 1);
-/// let table = compare_protocols(&study).unwrap();
+/// use drive_eval::{compare_protocols, ProtocolStudy, Registries};
+/// let r = Registries::builtin();
+/// let study = ProtocolStudy::table_one(r.robot("husky").unwrap(), r.terrain("snow").unwrap(), 300.0, 1);
+/// let table = compare_protocols(&r, &study).unwrap();
 /// for row in &table.rows {
 ///     println!("{}: {:.3} m", row.sampler, row.translational_median_m);
 /// }
 /// ```
-pub fn compare_protocols(study: &ProtocolStudy) -> Result<ProtocolComparison, ExperimentError> {
+pub fn compare_protocols(
+    registries: &Registries,
+    study: &ProtocolStudy,
+) -> Result<ProtocolComparison, ExperimentError> {
     for (what, empty) in [
         ("robots", study.robots.is_empty()),
         ("terrains", study.terrains.is_empty()),
@@ -320,27 +235,79 @@ pub fn compare_protocols(study: &ProtocolStudy) -> Result<ProtocolComparison, Ex
             return Err(ExperimentError::Empty(what));
         }
     }
-    if !drive_models::MODEL_NAMES.contains(&study.model.as_str()) {
-        return Err(ExperimentError::UnknownModel(study.model.clone()));
+    let model = registries.model(&study.model)?;
+    for s in &study.samplers {
+        registries.samplers.get(s)?;
     }
     let test_intervals = intervals_in(study.test_driving_s)?;
     for d in &study.driving_s {
         intervals_in(*d)?;
     }
-    let mut tasks = Vec::new();
+    let reference = &study.samplers[0];
+    // Per robot, terrain and seed: the test run, then every driving time and sampler.
+    let mut runs = Vec::new();
+    let mut tests = Vec::new();
+    let mut trains = Vec::new();
     for robot in &study.robots {
         for terrain in &study.terrains {
-            for seed in &study.seeds {
-                tasks.push((robot, *terrain, *seed));
+            for &seed in &study.seeds {
+                let test = runs.len();
+                tests.push(test);
+                runs.push(SimRun::intervals(
+                    robot,
+                    terrain,
+                    reference,
+                    test_intervals,
+                    ProtocolStudy::test_seed(seed),
+                ));
+                for &driving_s in &study.driving_s {
+                    for sampler in &study.samplers {
+                        trains.push((runs.len(), test, robot, terrain, seed, driving_s, sampler));
+                        runs.push(SimRun::intervals(
+                            robot,
+                            terrain,
+                            sampler,
+                            intervals_in(driving_s)?,
+                            seed,
+                        ));
+                    }
+                }
             }
         }
     }
-    let per_task: Vec<Vec<ProtocolCell>> = tasks
-        .par_iter()
-        .map(|(robot, terrain, seed)| run_task(study, robot, *terrain, *seed, test_intervals))
-        .collect::<Result<_, _>>()?;
-    let cells: Vec<ProtocolCell> = per_task.into_iter().flatten().collect();
-    let reference = &study.samplers[0];
+    let sims = simulate_runs(registries, &runs, &|| {})?;
+    let settings: Vec<Setting<'_>> = trains
+        .iter()
+        .map(|&(train, test, ..)| Setting {
+            train: sims[train].dataset.all(),
+            eval: sims[test].dataset.all(),
+        })
+        .collect();
+    let scored = run_cells(&settings, std::slice::from_ref(&model), false, &|| {});
+    let mut cells = Vec::new();
+    for (cell, &(train, test, robot, terrain, seed, driving_s, sampler)) in
+        scored.into_iter().zip(&trains)
+    {
+        let data = &sims[train].dataset;
+        let report = cell.outcome.map_err(|reason| ExperimentError::Fit {
+            model: model.name.clone(),
+            data: data.robot.name.clone(),
+            reason,
+        })?;
+        let empty =
+            || ExperimentError::NotEnoughData(format!("no test window for {}", data.robot.name));
+        cells.push(ProtocolCell {
+            robot: robot.name.clone(),
+            terrain: terrain.name.clone(),
+            driving_s,
+            sampler: sampler.clone(),
+            seed,
+            train_windows: data.windows.len(),
+            test_windows: sims[test].dataset.windows.len(),
+            translational: report.report.translational(None).ok_or_else(empty)?,
+            rotational: report.report.rotational(None).ok_or_else(empty)?,
+        });
+    }
     let mut rows = Vec::new();
     for robot in &study.robots {
         for terrain in &study.terrains {
@@ -365,77 +332,12 @@ pub fn compare_protocols(study: &ProtocolStudy) -> Result<ProtocolComparison, Ex
         }
     }
     Ok(ProtocolComparison {
-        model: study.model.clone(),
+        model: model.name.clone(),
         reference: reference.clone(),
         test_driving_s: study.test_driving_s,
         rows,
         cells,
     })
-}
-
-/// One robot, terrain and seed: the test set, then every sampler and driving time.
-fn run_task(
-    study: &ProtocolStudy,
-    robot: &RobotSpec,
-    terrain: Terrain,
-    seed: u64,
-    test_intervals: usize,
-) -> Result<Vec<ProtocolCell>, ExperimentError> {
-    let reference = &study.samplers[0];
-    let test = simulate_protocol(
-        robot,
-        terrain,
-        reference,
-        test_intervals,
-        ProtocolStudy::test_seed(seed),
-    )?
-    .dataset;
-    let mut cells = Vec::new();
-    for &driving_s in &study.driving_s {
-        let intervals = intervals_in(driving_s)?;
-        for sampler in &study.samplers {
-            let train = simulate_protocol(robot, terrain, sampler, intervals, seed)?.dataset;
-            let (translational, rotational, _) =
-                train_and_test(&study.model, &train.all(), &train.robot.name, &test.all())?;
-            cells.push(ProtocolCell {
-                robot: robot.name.clone(),
-                terrain: terrain.name.to_string(),
-                driving_s,
-                sampler: sampler.clone(),
-                seed,
-                train_windows: train.windows.len(),
-                test_windows: test.windows.len(),
-                translational,
-                rotational,
-            });
-        }
-    }
-    Ok(cells)
-}
-
-/// Fits `model` on `train` (`what` names it in errors) and scores it on every window of
-/// `test`: the summaries of the translational and rotational errors (eq. 8) and every
-/// window's errors.
-pub(crate) fn train_and_test(
-    model: &str,
-    train: &WindowSet<'_>,
-    what: &str,
-    test: &WindowSet<'_>,
-) -> Result<(Summary, Summary, Vec<Mrmse>), ExperimentError> {
-    let fitted = fit_named(model, train)
-        .ok_or_else(|| ExperimentError::UnknownModel(model.to_string()))?
-        .map_err(|reason| ExperimentError::Fit {
-            model: model.to_string(),
-            data: what.to_string(),
-            reason,
-        })?;
-    let report = evaluate_model(fitted.as_ref(), test);
-    let empty = || ExperimentError::NotEnoughData(format!("no test window for {what}"));
-    Ok((
-        report.translational(None).ok_or_else(empty)?,
-        report.rotational(None).ok_or_else(empty)?,
-        report.windows.iter().map(|w| w.error).collect(),
-    ))
 }
 
 /// The median of `values` (NaN when there are none).
@@ -468,7 +370,7 @@ fn row(
     };
     ProtocolRow {
         robot: robot.name.clone(),
-        terrain: terrain.name.to_string(),
+        terrain: terrain.name.clone(),
         driving_s,
         sampler: sampler.to_string(),
         translational_median_m: t,

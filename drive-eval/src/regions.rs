@@ -3,10 +3,12 @@
 //! models trained on as many intervals drawn from all of J, all evaluated on the same
 //! evaluation part.
 
-use crate::protocols::{median, train_and_test};
-use crate::{improvement_percent, split_by_interval, ExperimentError, Mrmse, Summary};
-use drive_models::DifferentialDrive;
-use drive_traits::{CommandModel, Dataset, Input, Window, WindowSet};
+use crate::protocols::median;
+use crate::{
+    improvement_percent, run_cells, split_by_interval, ExperimentError, Mrmse, Registries, Setting,
+    Summary,
+};
+use drive_traits::{Dataset, Input, Window, WindowSet};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use serde::Serialize;
@@ -17,7 +19,7 @@ pub struct RegionStudy {
     /// Fraction of the intervals (recording order) the regions are taken from; the rest
     /// evaluates.
     pub split: f64,
-    /// Model trained (a registered name).
+    /// Model trained (a model name).
     pub model: String,
     /// Random subsets of the training intervals drawn for the uniform baseline.
     pub draws: usize,
@@ -90,8 +92,8 @@ pub struct RegionComparison {
     pub eval_windows: usize,
     /// Uniform draws per region.
     pub draws: usize,
-    /// The input space spanned by the training commands: `[[left min, left max], [right
-    /// min, right max]]` (rad/s).
+    /// The input space spanned by the training commands, per axis: `[[min, max], [min,
+    /// max]]` (the vehicle's units: rad/s for wheel velocities).
     pub input_space: [[f64; 2]; 2],
     /// Top forward speed in that space (m/s).
     pub top_speed_m_s: f64,
@@ -113,25 +115,20 @@ fn held_input(windows: &[&Window]) -> Option<Input> {
 /// Runs the region study on a recorded dataset.
 ///
 /// ```
-/// use drive_eval::{compare_regions, simulate_protocol, RegionStudy};
-/// use drive_samplers::RobotSpec;
-/// use drive_sim::Terrain;
-/// let husky = RobotSpec::preset("husky").unwrap();
-/// let data = simulate_protocol(&husky, Terrain::preset("gravel").unwrap(), "uniform", 40, 2)
-///     .unwrap()
-///     .dataset;
+/// use drive_eval::{compare_regions, simulate_protocol, RegionStudy, Registries};
+/// let r = Registries::builtin();
+/// let data = simulate_protocol(&r, "husky", "gravel", "uniform", 40, 2).unwrap().dataset;
 /// let study = RegionStudy { draws: 3, ..RegionStudy::default() };
-/// let table = compare_regions(&data, &study).unwrap();
+/// let table = compare_regions(&r, &data, &study).unwrap();
 /// assert_eq!(table.regions.len(), 2);
 /// assert_eq!(table.regions[0].region, "linear");
 /// ```
 pub fn compare_regions(
+    registries: &Registries,
     data: &Dataset,
     study: &RegionStudy,
 ) -> Result<RegionComparison, ExperimentError> {
-    if !drive_models::MODEL_NAMES.contains(&study.model.as_str()) {
-        return Err(ExperimentError::UnknownModel(study.model.clone()));
-    }
+    let model = registries.model(&study.model)?;
     if study.draws == 0 {
         return Err(ExperimentError::Empty("uniform draws"));
     }
@@ -156,7 +153,7 @@ pub fn compare_regions(
         ),
         |(lo, hi), (_, u)| (lo.inf(u), hi.sup(u)),
     );
-    let vehicle = DifferentialDrive::from_robot(&data.robot);
+    let vehicle = data.robot.vehicle.as_ref();
     let top_speed = vehicle.body_velocity(&max).x;
     let turn_rate = vehicle.body_velocity(&Input::new(min.x, max.y)).z.abs();
     if !(top_speed > 0.0 && turn_rate > 0.0) {
@@ -190,15 +187,10 @@ pub fn compare_regions(
             }),
         ),
     ];
-    let fit_and_score = |windows: Vec<&Window>, what: &str| {
-        let set = WindowSet {
-            robot: &data.robot,
-            windows,
-        };
-        train_and_test(&study.model, &set, what, &eval)
-    };
+    // Every training subset first (the draws in a fixed order), then every fit at once.
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(study.seed);
-    let mut results = Vec::new();
+    let mut subsets: Vec<Vec<&Window>> = Vec::new();
+    let mut plan = Vec::new();
     for (name, definition, inside) in &regions {
         let chosen: Vec<usize> = (0..intervals.len())
             .filter(|&i| inside(&intervals[i].1))
@@ -215,11 +207,8 @@ pub fn compare_regions(
                 .flat_map(|&i| intervals[i].0.iter().copied())
                 .collect()
         };
-        let (rt, rr, region_errors) =
-            fit_and_score(windows_of(&chosen), &format!("the {name} region"))?;
-        let mut uniform_errors = Vec::new();
-        let mut uniform_t = Vec::with_capacity(study.draws);
-        let mut uniform_r = Vec::with_capacity(study.draws);
+        let first = subsets.len();
+        subsets.push(windows_of(&chosen));
         let mut order: Vec<usize> = (0..intervals.len()).collect();
         for _ in 0..study.draws {
             // A partial Fisher-Yates shuffle: the first n are a uniform draw without
@@ -230,11 +219,48 @@ pub fn compare_regions(
             }
             let mut picked = order[..chosen.len()].to_vec();
             picked.sort_unstable();
-            let (t, r, errors) = fit_and_score(windows_of(&picked), "a uniform draw")?;
-            uniform_errors.extend(errors);
-            uniform_t.push(t.median);
-            uniform_r.push(r.median);
+            subsets.push(windows_of(&picked));
         }
+        plan.push((name, definition, chosen.len(), first));
+    }
+    let settings: Vec<Setting<'_>> = subsets
+        .into_iter()
+        .map(|windows| Setting {
+            train: WindowSet {
+                robot: &data.robot,
+                windows,
+            },
+            eval: eval.clone(),
+        })
+        .collect();
+    let cells = run_cells(&settings, std::slice::from_ref(&model), false, &|| {});
+    let mut scores = Vec::with_capacity(cells.len());
+    for (i, cell) in cells.into_iter().enumerate() {
+        let what = if plan.iter().any(|p| p.3 == i) {
+            "a region"
+        } else {
+            "a uniform draw"
+        };
+        let scored = cell.outcome.map_err(|reason| ExperimentError::Fit {
+            model: model.name.clone(),
+            data: what.to_string(),
+            reason,
+        })?;
+        let empty = || ExperimentError::NotEnoughData(format!("no evaluation window for {what}"));
+        let r = &scored.report;
+        scores.push((
+            r.translational(None).ok_or_else(empty)?,
+            r.rotational(None).ok_or_else(empty)?,
+            r.windows.iter().map(|w| w.error).collect::<Vec<Mrmse>>(),
+        ));
+    }
+    let mut results = Vec::new();
+    for (name, definition, count, first) in plan {
+        let (rt, rr, region_errors) = scores[first].clone();
+        let draws = &scores[first + 1..first + 1 + study.draws];
+        let uniform_t: Vec<f64> = draws.iter().map(|d| d.0.median).collect();
+        let uniform_r: Vec<f64> = draws.iter().map(|d| d.1.median).collect();
+        let uniform_errors: Vec<Mrmse> = draws.iter().flat_map(|d| d.2.iter().copied()).collect();
         let range = |v: &[f64]| {
             [
                 v.iter().copied().fold(f64::INFINITY, f64::min),
@@ -248,7 +274,7 @@ pub fn compare_regions(
         results.push(RegionResult {
             region: name.to_string(),
             definition: definition.clone(),
-            intervals: chosen.len(),
+            intervals: count,
             region_translational: rt,
             region_rotational: rr,
             uniform_translational_median_m: ut,
@@ -263,7 +289,7 @@ pub fn compare_regions(
     }
     Ok(RegionComparison {
         dataset: data.robot.name.clone(),
-        model: study.model.clone(),
+        model: model.name.clone(),
         train_intervals: intervals.len(),
         eval_windows: eval.len(),
         draws: study.draws,

@@ -4,17 +4,15 @@
 
 use drive_eval::{
     compare_protocols, compare_regions, evaluate_model, improvement_percent, simulate_protocol,
-    ExperimentError, ProtocolStudy, RegionStudy,
+    ExperimentError, ProtocolStudy, RegionStudy, Registries,
 };
-use drive_models::{fit_named, DifferentialDrive};
-use drive_samplers::RobotSpec;
-use drive_sim::Terrain;
-use drive_traits::{CommandModel, Input};
+use drive_traits::{Input, RegistryError};
 
 fn small_study() -> ProtocolStudy {
+    let r = Registries::builtin();
     ProtocolStudy {
-        robots: vec![RobotSpec::preset("husky").unwrap()],
-        terrains: vec![Terrain::preset("gravel").unwrap()],
+        robots: vec![r.robot("husky").unwrap()],
+        terrains: vec![r.terrain("gravel").unwrap()],
         samplers: vec!["uniform".into(), "angular".into()],
         driving_s: vec![36.0],
         seeds: vec![4, 5],
@@ -26,18 +24,18 @@ fn small_study() -> ProtocolStudy {
 #[test]
 fn study_cells_are_the_errors_of_training_and_testing_each_run() {
     let study = small_study();
-    let table = compare_protocols(&study).unwrap();
+    let r = Registries::builtin();
+    let table = compare_protocols(&r, &study).unwrap();
     assert_eq!(table.cells.len(), 4);
     assert_eq!(table.rows.len(), 2);
-    let husky = &study.robots[0];
-    let gravel = study.terrains[0];
     for cell in &table.cells {
-        let train = simulate_protocol(husky, gravel, &cell.sampler, 6, cell.seed)
+        let train = simulate_protocol(&r, "husky", "gravel", &cell.sampler, 6, cell.seed)
             .unwrap()
             .dataset;
         let test = simulate_protocol(
-            husky,
-            gravel,
+            &r,
+            "husky",
+            "gravel",
             "uniform",
             10,
             ProtocolStudy::test_seed(cell.seed),
@@ -45,7 +43,7 @@ fn study_cells_are_the_errors_of_training_and_testing_each_run() {
         .unwrap()
         .dataset;
         assert_eq!((cell.train_windows, cell.test_windows), (18, 30));
-        let model = fit_named("slip-blr", &train.all()).unwrap().unwrap();
+        let model = r.model("slip-blr").unwrap().fit(&train.all()).unwrap();
         let report = evaluate_model(model.as_ref(), &test.all());
         assert_eq!(cell.translational, report.translational(None).unwrap());
         assert_eq!(cell.rotational, report.rotational(None).unwrap());
@@ -78,48 +76,56 @@ fn study_cells_are_the_errors_of_training_and_testing_each_run() {
 
 #[test]
 fn a_study_is_deterministic() {
-    let a = compare_protocols(&small_study()).unwrap();
-    let b = compare_protocols(&small_study()).unwrap();
+    let r = Registries::builtin();
+    let a = compare_protocols(&r, &small_study()).unwrap();
+    let b = compare_protocols(&r, &small_study()).unwrap();
     assert_eq!(a, b);
 }
 
 #[test]
 fn a_study_refuses_what_cannot_run() {
+    let r = Registries::builtin();
     let mut s = small_study();
     s.driving_s = vec![2.0];
-    assert_eq!(compare_protocols(&s), Err(ExperimentError::TooShort(2.0)));
-    let mut s = small_study();
-    s.model = "gp".into();
     assert_eq!(
-        compare_protocols(&s),
-        Err(ExperimentError::UnknownModel("gp".into()))
+        compare_protocols(&r, &s),
+        Err(ExperimentError::TooShort(2.0))
     );
     let mut s = small_study();
+    s.model = "gp".into();
+    assert!(matches!(
+        compare_protocols(&r, &s),
+        Err(ExperimentError::Registry(RegistryError::Unknown { name, .. })) if name == "gp"
+    ));
+    let mut s = small_study();
     s.seeds.clear();
-    assert_eq!(compare_protocols(&s), Err(ExperimentError::Empty("seeds")));
+    assert_eq!(
+        compare_protocols(&r, &s),
+        Err(ExperimentError::Empty("seeds"))
+    );
     let mut s = small_study();
     s.samplers.push("zigzag".into());
     assert!(matches!(
-        compare_protocols(&s),
-        Err(ExperimentError::Sampler { name, .. }) if name == "zigzag"
+        compare_protocols(&r, &s),
+        Err(ExperimentError::Registry(RegistryError::Unknown { name, .. })) if name == "zigzag"
     ));
 }
 
 #[test]
 fn regions_hold_the_intervals_their_definition_selects() {
-    let husky = RobotSpec::preset("husky").unwrap();
-    let data = simulate_protocol(&husky, Terrain::preset("snow").unwrap(), "uniform", 60, 8)
+    let r = Registries::builtin();
+    let data = simulate_protocol(&r, "husky", "snow", "uniform", 60, 8)
         .unwrap()
         .dataset;
     let study = RegionStudy {
         draws: 4,
         ..RegionStudy::default()
     };
-    let table = compare_regions(&data, &study).unwrap();
+    let table = compare_regions(&r, &data, &study).unwrap();
     assert_eq!(table.train_intervals, 30);
     assert_eq!(table.eval_windows, 90);
     // Recount from the held commands (the last command of each training interval).
-    let vehicle = DifferentialDrive::new(husky.wheel_radius, husky.baseline);
+    let vehicle = data.robot.vehicle.as_ref();
     let held: Vec<Input> = data.windows[..90]
         .chunks(3)
         .map(|w| *w[2].command.last().unwrap())
@@ -156,8 +162,8 @@ fn regions_hold_the_intervals_their_definition_selects() {
 #[test]
 fn regions_refuse_a_dataset_without_turns() {
     // Straight driving only: no turning-in-place rate to cut the regions with.
-    let husky = RobotSpec::preset("husky").unwrap();
-    let mut data = simulate_protocol(&husky, Terrain::preset("tile").unwrap(), "uniform", 8, 1)
+    let r = Registries::builtin();
+    let mut data = simulate_protocol(&r, "husky", "tile", "uniform", 8, 1)
         .unwrap()
         .dataset;
     for w in &mut data.windows {
@@ -165,7 +171,7 @@ fn regions_refuse_a_dataset_without_turns() {
             *c = Input::new(2.0, 2.0);
         }
     }
-    let err = compare_regions(&data, &RegionStudy::default()).unwrap_err();
+    let err = compare_regions(&r, &data, &RegionStudy::default()).unwrap_err();
     assert!(
         matches!(err, ExperimentError::NotEnoughData(ref m) if m.contains("no turn")),
         "{err}"

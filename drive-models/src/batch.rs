@@ -9,9 +9,12 @@ use rayon::prelude::*;
 /// same as the sequential call's.
 ///
 /// ```
-/// use drive_models::{batch::predict_batch_parallel, learners::NaiveModel, DifferentialDrive};
+/// use drive_models::{batch::predict_batch_parallel, ComposedModel, DifferentialDrive};
+/// use drive_models::{powertrain::CommandedPowertrain, slip::NoSlipModel};
 /// use drive_traits::{Input, MotionModel, Pose, StartState};
-/// let model = NaiveModel { vehicle: DifferentialDrive::new(0.1, 0.5), dt: 0.05 };
+/// use std::sync::Arc;
+/// let model = ComposedModel { label: "naive".into(), vehicle: Arc::new(DifferentialDrive::new(0.1, 0.5)),
+///     powertrain: Box::new(CommandedPowertrain), slip: Box::new(NoSlipModel), dt: 0.05 };
 /// let (n, horizon) = (100, 40);
 /// let starts = vec![StartState::at_rest(Pose::zeros()); n];
 /// let commands: Vec<Input> = (0..n * horizon).map(|i| Input::new(1.0, (i % 7) as f64)).collect();

@@ -1,29 +1,30 @@
-//! The DRIVE motion models (Sec. III-B of Baril et al.): vehicles, powertrains, the
-//! Bayesian linear regression and the learners.
+//! The DRIVE motion models (Sec. III-B of Baril et al.), as parts composed into one model:
 //!
-//! | model | learner | fitted |
+//! | part | here | paper |
 //! |---|---|---|
-//! | naive (eq. 4 on the commands) | [`learners::Naive`] | [`learners::NaiveModel`] |
-//! | powertrain-aware (eq. 3 + 4) | [`learners::PowertrainAware`] | [`learners::PowertrainAwareModel`] |
-//! | slip-BLR (eq. 3-7) | [`learners::SlipBlr`] | [`learners::SlipBlrModel`] |
-//! | acceleration BLR (McKinnon 2019) | [`learners::AccBlr`] | [`learners::AccBlrModel`] |
+//! | vehicle | [`vehicles`]: [`DifferentialDrive`] | eq. 4 |
+//! | powertrain | [`powertrain`]: commanded, FOPDT, rate-limited | eq. 3 |
+//! | slip model | [`slip`]: none, slip-BLR | eq. 5-7 |
+//! | the composed model | [`Composed`] -> [`ComposedModel`] | eq. 1-2 |
+//! | baselines | [`baselines`]: acc-BLR | Fig. 6 |
 //!
-//! Every learner is an unfitted configuration implementing [`drive_traits::Learner`]; its
-//! `fit` returns a separate fitted type implementing [`drive_traits::MotionModel`].
+//! Learners are unfitted configurations implementing the learner traits of
+//! [`drive_traits`]; their `fit` returns a separate fitted type. [`registry`] names every part
+//! and resolves model names such as `slip-blr+fopdt`.
 
 #![warn(missing_docs)]
 
+pub mod baselines;
 pub mod batch;
 pub mod blr;
-pub mod learners;
+mod composed;
 pub mod model_file;
 pub mod powertrain;
-mod registry;
+pub mod registry;
 pub mod rollout;
+pub mod slip;
 pub mod vehicles;
-pub mod velocity;
 
-pub use registry::{
-    fit_named, LearnerEntry, LearnerRegistry, PowertrainChoice, RegistryError, MODEL_NAMES,
-};
+pub use composed::{Composed, ComposedModel};
+pub use registry::{LearnerKind, ModelAlias, ModelSpec, Models};
 pub use vehicles::DifferentialDrive;

@@ -1,13 +1,17 @@
 //! Fitted models saved as JSON and loaded back as trait objects (typetag), with a format
 //! version so that a file from a newer or unknown format is refused, never misread.
+//!
+//! Version 2 saves the model as its parts (`{"type": "composed", "vehicle": {...},
+//! "powertrain": {...}, "slip": {...}}`, or a baseline's own fields); files of version 1
+//! (the paper's four models, written before the parts) are converted when read.
 
 use drive_traits::{MotionModel, RobotDescription};
 use serde::Serialize;
-use serde_json::Value;
+use serde_json::{json, Map, Value};
 use thiserror::Error;
 
-/// The format version this build writes and reads.
-pub const MODEL_FORMAT_VERSION: u64 = 1;
+/// The format version this build writes.
+pub const MODEL_FORMAT_VERSION: u64 = 2;
 
 const FORMAT_NAME: &str = "drive-motion-model";
 
@@ -33,7 +37,7 @@ pub enum ModelFileError {
         field: &'static str,
     },
     /// The format version is not one this build reads.
-    #[error("{file}, field 'format_version': version {found} is not supported (this build reads version {supported}; a newer file needs a newer drive)")]
+    #[error("{file}, field 'format_version': version {found} is not supported (this build reads versions 1 to {supported}; a newer file needs a newer drive)")]
     UnsupportedVersion {
         /// file name
         file: String,
@@ -60,16 +64,19 @@ struct ModelFileOut<'a> {
     model: &'a dyn MotionModel,
 }
 
-/// The JSON text of a fitted model file.
-pub fn model_to_json(model: &dyn MotionModel, robot: &RobotDescription) -> String {
+/// The JSON text of a fitted model file; an error when a part does not serialize (a
+/// plug-in's part with, say, a map keyed by numbers).
+pub fn model_to_json(
+    model: &dyn MotionModel,
+    robot: &RobotDescription,
+) -> Result<String, serde_json::Error> {
     let file = ModelFileOut {
         format: FORMAT_NAME,
         format_version: MODEL_FORMAT_VERSION,
         robot,
         model,
     };
-    // The fitted models hold plain numbers and strings: serialization cannot fail.
-    serde_json::to_string_pretty(&file).expect("fitted models always serialize") + "\n"
+    Ok(serde_json::to_string_pretty(&file)? + "\n")
 }
 
 /// Loads a model file's text (`file` names it in errors): the model and the robot it was
@@ -94,12 +101,21 @@ pub fn model_from_json(
             file: file.into(),
             field: "format_version",
         })?;
-    if version.as_u64() != Some(MODEL_FORMAT_VERSION) {
-        return Err(ModelFileError::UnsupportedVersion {
+    let version = match version.as_u64() {
+        Some(v @ (1 | MODEL_FORMAT_VERSION)) => v,
+        _ => {
+            return Err(ModelFileError::UnsupportedVersion {
+                file: file.into(),
+                found: version.to_string(),
+                supported: MODEL_FORMAT_VERSION,
+            })
+        }
+    };
+    if version == 1 {
+        upgrade_v1(obj).map_err(|message| ModelFileError::Model {
             file: file.into(),
-            found: version.to_string(),
-            supported: MODEL_FORMAT_VERSION,
-        });
+            message: format!("a version 1 file that cannot be read: {message}"),
+        })?;
     }
     let robot = obj.remove("robot").ok_or(ModelFileError::MissingField {
         file: file.into(),
@@ -124,4 +140,81 @@ pub fn model_from_json(
         message,
     })?;
     Ok((model, robot))
+}
+
+/// Rewrites a version 1 file (in place) as version 2: the robot's wheel radius and baseline
+/// become a differential-drive vehicle, and the four models of version 1 become their
+/// parts (`naive` is `no-slip+commanded`, `powertrain` is `no-slip` on its powertrain,
+/// `slip-blr` is the slip model on its powertrain, `acc-blr` keeps its regressions).
+fn upgrade_v1(file: &mut Map<String, Value>) -> Result<(), String> {
+    let vehicle = |v: &Value| -> Result<Value, String> {
+        let r = v.get("wheel_radius").cloned().ok_or("no wheel_radius")?;
+        let b = v.get("baseline").cloned().ok_or("no baseline")?;
+        Ok(json!({"type": "differential", "wheel_radius": r, "baseline": b}))
+    };
+    if let Some(Value::Object(robot)) = file.get_mut("robot") {
+        let v = vehicle(&Value::Object(robot.clone()))?;
+        robot.remove("wheel_radius");
+        robot.remove("baseline");
+        robot.insert("vehicle".into(), v);
+    }
+    let Some(Value::Object(model)) = file.get_mut("model") else {
+        return Err("no model".into());
+    };
+    let kind = model
+        .get("model")
+        .and_then(Value::as_str)
+        .ok_or("no model name")?
+        .to_string();
+    let vehicle = vehicle(model.get("vehicle").ok_or("no vehicle")?)?;
+    let powertrain = match model.get("powertrain") {
+        None => json!({"type": "commanded"}),
+        Some(p) => match p.get("powertrain").and_then(Value::as_str) {
+            Some("ideal") => json!({"type": "commanded"}),
+            Some("fopdt") => json!({
+                "type": "fopdt",
+                "axes": [p.get("left").ok_or("no left side")?, p.get("right").ok_or("no right side")?],
+                "limits": p.get("limits").ok_or("no limits")?,
+                "dt": p.get("dt").ok_or("no powertrain dt")?,
+            }),
+            other => return Err(format!("unknown powertrain {other:?}")),
+        },
+    };
+    let dt = model.get("dt").cloned().ok_or("no dt")?;
+    let pt_name = powertrain["type"].as_str().unwrap_or_default().to_string();
+    let upgraded = match kind.as_str() {
+        "naive" | "powertrain" => json!({
+            "type": "composed",
+            "label": format!("no-slip+{pt_name}"),
+            "vehicle": vehicle,
+            "powertrain": if kind == "naive" { json!({"type": "commanded"}) } else { powertrain },
+            "slip": {"type": "no-slip"},
+            "dt": dt,
+        }),
+        "slip-blr" => json!({
+            "type": "composed",
+            "label": format!("slip-blr+{pt_name}"),
+            "vehicle": vehicle,
+            "powertrain": powertrain,
+            "slip": {
+                "type": "slip-blr",
+                "slip_x": model.get("slip_x").ok_or("no slip_x")?,
+                "slip_y": model.get("slip_y").ok_or("no slip_y")?,
+                "slip_yaw": model.get("slip_yaw").ok_or("no slip_yaw")?,
+            },
+            "dt": dt,
+        }),
+        "acc-blr" => json!({
+            "type": "acc-blr",
+            "label": format!("acc-blr+{pt_name}"),
+            "vehicle": vehicle,
+            "powertrain": powertrain,
+            "accel_x": model.get("accel_x").ok_or("no accel_x")?,
+            "accel_yaw": model.get("accel_yaw").ok_or("no accel_yaw")?,
+            "dt": dt,
+        }),
+        other => return Err(format!("unknown model '{other}'")),
+    };
+    file.insert("model".into(), upgraded);
+    Ok(())
 }

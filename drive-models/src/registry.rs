@@ -1,307 +1,449 @@
-//! The one place where model names map to learners. [`LearnerRegistry::builtin`] holds the
-//! project's learners; a researcher's own learner is one [`LearnerRegistry::register`] call
-//! away from every comparison that takes a registry (`drive_eval::compare_with`, the
-//! evaluation matrix).
+//! The project's model parts by name, and model names resolved into parts.
+//!
+//! A model is named by its parts, `SLIP_LEARNER+POWERTRAIN` (`slip-blr+fopdt`) or
+//! `BASELINE+POWERTRAIN` (`acc-blr+commanded`); the vehicle comes from the data. A learner
+//! named alone runs on its default powertrain, and the paper's names are aliases:
+//!
+//! | name | means |
+//! |---|---|
+//! | `naive` | `no-slip+commanded`: eq. 4 on the commands |
+//! | `powertrain` | `no-slip+fopdt`: the powertrain-aware model (eq. 3 + 4) |
+//! | `slip-blr` | `slip-blr+fopdt`: the paper's slip-based BLR (eq. 3-7) |
+//! | `acc-blr` | `acc-blr+commanded`: the acceleration-BLR baseline |
 
-use crate::learners::{AccBlr, Naive, PowertrainAware, SlipBlr};
-use crate::powertrain::{Fopdt, Ideal};
-use drive_traits::{FitError, Learner, MotionModel, WindowSet};
-use serde::{Deserialize, Serialize};
+use crate::baselines::AccBlr;
+use crate::powertrain::{Commanded, Fopdt, RateLimited};
+use crate::slip::{NoSlip, SlipBlr};
+use crate::{Composed, DifferentialDrive};
+use drive_traits::{
+    Baseline, CommandModel, FitError, FitPowertrain, FitSlip, Learner, MotionModel, Registry,
+    RegistryError, RegistryItem, WindowSet,
+};
+use serde::Serialize;
 use std::sync::Arc;
-use thiserror::Error;
 
-/// The names of the built-in models, in the order the comparison reports them.
-pub const MODEL_NAMES: [&str; 4] = ["naive", "powertrain", "slip-blr", "acc-blr"];
+/// The paper's powertrain, used by a slip learner named without one.
+pub const DEFAULT_POWERTRAIN: &str = "fopdt";
 
-/// Where a learner's wheel velocities come from: the commands themselves (the ideal
-/// powertrain, what the manufacturer assumes) or the fitted FOPDT of eq. 3.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum PowertrainChoice {
-    /// Commanded wheel velocities, reached at once ([`Ideal`]).
-    Commanded,
-    /// First-order plus dead time per side, fitted on the transient windows ([`Fopdt`], eq. 3).
-    Fopdt,
+/// A model name that stands for another (`naive` for `no-slip+commanded`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ModelAlias {
+    /// The model name it stands for.
+    pub target: String,
 }
 
-impl PowertrainChoice {
-    /// Every choice, in report order.
-    pub const ALL: [PowertrainChoice; 2] = [PowertrainChoice::Commanded, PowertrainChoice::Fopdt];
+impl RegistryItem for ModelAlias {}
 
-    /// The name used on the command line and in sweep files.
-    ///
-    /// ```
-    /// use drive_models::PowertrainChoice;
-    /// assert_eq!(PowertrainChoice::parse("fopdt"), Some(PowertrainChoice::Fopdt));
-    /// assert_eq!(PowertrainChoice::Commanded.name(), "commanded");
-    /// ```
-    pub fn name(self) -> &'static str {
-        match self {
-            PowertrainChoice::Commanded => "commanded",
-            PowertrainChoice::Fopdt => "fopdt",
-        }
-    }
-
-    /// The choice named `name`; `None` for an unknown name.
-    pub fn parse(name: &str) -> Option<PowertrainChoice> {
-        Self::ALL.into_iter().find(|c| c.name() == name)
-    }
+/// The vehicles of this project: `differential` (eq. 4).
+pub fn builtin_vehicles() -> Registry<dyn CommandModel> {
+    let mut r: Registry<dyn CommandModel> = Registry::new("vehicle");
+    // One built-in name: it cannot clash.
+    r.register_trusted(
+        "differential",
+        "ideal differential drive of a skid-steer robot (eq. 4); inputs: left and right wheel angular velocities [rad/s]; geometry: wheel_radius, baseline",
+        Arc::new(DifferentialDrive::new(0.165, 0.55)),
+    )
+    .expect("a fresh registry");
+    r
 }
 
-/// Why a registration was refused.
-#[derive(Debug, Error, PartialEq)]
-pub enum RegistryError {
-    /// The name is already registered.
-    #[error("a learner named '{0}' is already registered")]
-    Duplicate(String),
-    /// The name is empty or holds characters that break the CSV and command-line lists.
-    #[error("'{0}' is not a usable learner name (non-empty; letters, digits, '-' and '_')")]
-    BadName(String),
+/// The powertrains of this project: `commanded`, `fopdt` (eq. 3), `rate-limited`.
+pub fn builtin_powertrains() -> Registry<dyn FitPowertrain> {
+    let mut r: Registry<dyn FitPowertrain> = Registry::new("powertrain");
+    let parts: [(&str, &str, Arc<dyn FitPowertrain>); 3] = [
+        (
+            "commanded",
+            "the commands, reached at once and unbounded (the manufacturer's assumption)",
+            Arc::new(Commanded),
+        ),
+        (
+            "fopdt",
+            "first order plus dead time per input axis, saturated at the measured limits (eq. 3)",
+            Arc::new(Fopdt::default()),
+        ),
+        (
+            "rate-limited",
+            "first order plus dead time with a rate (acceleration) limit per input axis",
+            Arc::new(RateLimited::default()),
+        ),
+    ];
+    for (name, description, part) in parts {
+        // Distinct built-in names and tags.
+        r.register_trusted(name, description, part)
+            .expect("distinct built-in powertrains");
+    }
+    r
 }
 
-type FitFn = dyn Fn(&WindowSet<'_>, PowertrainChoice) -> Result<Box<dyn MotionModel>, FitError>
-    + Send
-    + Sync;
-
-/// One registered learner.
-#[derive(Clone)]
-pub struct LearnerEntry {
-    name: String,
-    default_powertrain: Option<PowertrainChoice>,
-    fit: Arc<FitFn>,
-}
-
-impl LearnerEntry {
-    /// The registered name.
-    pub fn name(&self) -> &str {
-        &self.name
-    }
-    /// The powertrain used when none is asked for; `None` for a learner without a
-    /// powertrain (the naive model, a user's learner registered with
-    /// [`LearnerRegistry::register`]).
-    pub fn default_powertrain(&self) -> Option<PowertrainChoice> {
-        self.default_powertrain
-    }
-    /// Whether the learner is built on a powertrain (and so gives a different model per
-    /// [`PowertrainChoice`]).
-    pub fn uses_powertrain(&self) -> bool {
-        self.default_powertrain.is_some()
-    }
-    /// Fits the learner with `powertrain` (ignored by a learner without one; its default
-    /// when `None`).
-    pub fn fit(
-        &self,
-        train: &WindowSet<'_>,
-        powertrain: Option<PowertrainChoice>,
-    ) -> Result<Box<dyn MotionModel>, FitError> {
-        let choice = powertrain
-            .or(self.default_powertrain)
-            .unwrap_or(PowertrainChoice::Commanded);
-        (self.fit)(train, choice)
-    }
-}
-
-impl std::fmt::Debug for LearnerEntry {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("LearnerEntry")
-            .field("name", &self.name)
-            .field("default_powertrain", &self.default_powertrain)
-            .finish_non_exhaustive()
-    }
-}
-
-fn boxed<L: Learner>(learner: &L, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, FitError> {
-    learner
-        .fit(train)
-        .map(|m| Box::new(m) as Box<dyn MotionModel>)
-}
-
-/// Learners by name, in registration order.
-///
-/// ```
-/// use drive_models::{LearnerRegistry, PowertrainChoice};
-/// use drive_models::learners::Naive;
-/// let mut registry = LearnerRegistry::builtin();
-/// // A researcher's learner joins every comparison with one line (here the naive model again).
-/// registry.register("my-naive", Naive).unwrap();
-/// assert_eq!(registry.names(), ["naive", "powertrain", "slip-blr", "acc-blr", "my-naive"]);
-/// assert!(registry.register("naive", Naive).is_err()); // names are unique
-/// assert_eq!(registry.get("slip-blr").unwrap().default_powertrain(), Some(PowertrainChoice::Fopdt));
-/// ```
-#[derive(Clone, Debug, Default)]
-pub struct LearnerRegistry {
-    entries: Vec<LearnerEntry>,
-}
-
-impl LearnerRegistry {
-    /// A registry with no learner.
-    pub fn empty() -> Self {
-        Self::default()
-    }
-
-    /// The project's learners: `naive` (eq. 4 on the commands), `powertrain` (eq. 3 + 4),
-    /// `slip-blr` (eq. 3-7) and `acc-blr` (the acceleration baseline). The last three
-    /// run on either powertrain; `powertrain` and `slip-blr` default to the FOPDT as in the
-    /// paper, `acc-blr` to the commands as in McKinnon and Schoellig.
-    pub fn builtin() -> Self {
-        use PowertrainChoice::{Commanded, Fopdt as OnFopdt};
-        let mut r = Self::empty();
-        let fresh = "the built-in names are distinct and well formed";
-        r.register("naive", Naive).expect(fresh);
-        r.register_on_powertrain(
-            "powertrain",
-            OnFopdt,
-            PowertrainAware { powertrain: Ideal },
-            PowertrainAware::<Fopdt>::default(),
-        )
-        .expect(fresh);
-        r.register_on_powertrain(
+/// The slip learners of this project: `no-slip`, `slip-blr` (eq. 5-7).
+pub fn builtin_slip_learners() -> Registry<dyn FitSlip> {
+    let mut r: Registry<dyn FitSlip> = Registry::new("slip learner");
+    let parts: [(&str, &str, Arc<dyn FitSlip>); 2] = [
+        (
+            "no-slip",
+            "no slip (g = 0): the vehicle moves at the commanded body velocity",
+            Arc::new(NoSlip),
+        ),
+        (
             "slip-blr",
-            OnFopdt,
-            SlipBlr::<Fopdt>::default().with_powertrain(Ideal),
-            SlipBlr::<Fopdt>::default(),
-        )
-        .expect(fresh);
-        r.register_on_powertrain(
-            "acc-blr",
-            Commanded,
-            AccBlr::<Ideal>::default(),
-            AccBlr::<Ideal>::default().with_powertrain(Fopdt::default()),
-        )
-        .expect(fresh);
-        r
+            "the paper's slip-based Bayesian linear regression (eq. 5-7)",
+            Arc::new(SlipBlr::default()),
+        ),
+    ];
+    for (name, description, part) in parts {
+        // Distinct built-in names and tags.
+        r.register_trusted(name, description, part)
+            .expect("distinct built-in slip learners");
     }
+    r
+}
 
-    fn push(
-        &mut self,
-        name: &str,
-        default_powertrain: Option<PowertrainChoice>,
-        fit: Arc<FitFn>,
-    ) -> Result<&mut Self, RegistryError> {
-        let usable = !name.is_empty()
-            && name
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
-        if !usable {
-            return Err(RegistryError::BadName(name.to_string()));
-        }
-        if self.get(name).is_some() {
-            return Err(RegistryError::Duplicate(name.to_string()));
-        }
-        self.entries.push(LearnerEntry {
-            name: name.to_string(),
-            default_powertrain,
-            fit,
-        });
-        Ok(self)
-    }
+/// The baselines of this project: `acc-blr`.
+pub fn builtin_baselines() -> Registry<dyn Baseline> {
+    let mut r: Registry<dyn Baseline> = Registry::new("baseline");
+    // One built-in name: it cannot clash.
+    r.register_trusted(
+        "acc-blr",
+        "acceleration-based BLR (McKinnon and Schoellig 2019), the paper's baseline; on the commanded powertrain by default",
+        Arc::new(AccBlr::default()),
+    )
+    .expect("a fresh registry");
+    r
+}
 
-    /// Registers a learner that has no powertrain option (it fits the same way whatever
-    /// [`PowertrainChoice`] a comparison asks for).
-    pub fn register<L>(&mut self, name: &str, learner: L) -> Result<&mut Self, RegistryError>
-    where
-        L: Learner + Send + Sync + 'static,
-    {
-        self.push(name, None, Arc::new(move |train, _| boxed(&learner, train)))
-    }
-
-    /// Registers a learner built on a powertrain, as its configuration on the commanded
-    /// wheel velocities and on the fitted FOPDT; `default` is used when a comparison asks for
-    /// no powertrain in particular.
-    pub fn register_on_powertrain<A, B>(
-        &mut self,
-        name: &str,
-        default: PowertrainChoice,
-        on_commands: A,
-        on_fopdt: B,
-    ) -> Result<&mut Self, RegistryError>
-    where
-        A: Learner + Send + Sync + 'static,
-        B: Learner + Send + Sync + 'static,
-    {
-        self.push(
+/// The paper's model names: `naive` and `powertrain`.
+pub fn builtin_aliases() -> Registry<ModelAlias> {
+    let mut r: Registry<ModelAlias> = Registry::new("model alias");
+    for (name, description, target) in [
+        (
+            "naive",
+            "the manufacturer's model: eq. 4 on the commands",
+            "no-slip+commanded",
+        ),
+        (
+            "powertrain",
+            "the paper's powertrain-aware model: eq. 4 on the FOPDT's predictions",
+            "no-slip+fopdt",
+        ),
+    ] {
+        r.register_trusted(
             name,
-            Some(default),
-            Arc::new(move |train, choice| match choice {
-                PowertrainChoice::Commanded => boxed(&on_commands, train),
-                PowertrainChoice::Fopdt => boxed(&on_fopdt, train),
+            description,
+            Arc::new(ModelAlias {
+                target: target.into(),
             }),
         )
+        .expect("distinct built-in aliases");
     }
+    r
+}
 
-    /// The entry registered under `name`.
-    pub fn get(&self, name: &str) -> Option<&LearnerEntry> {
-        self.entries.iter().find(|e| e.name == name)
-    }
+/// What a model is built from.
+#[derive(Clone)]
+enum Parts {
+    Composed(Arc<dyn FitPowertrain>, Arc<dyn FitSlip>),
+    Baseline(Arc<dyn Baseline>, Option<Arc<dyn FitPowertrain>>),
+}
 
-    /// The registered names, in registration order.
-    pub fn names(&self) -> Vec<&str> {
-        self.entries.iter().map(|e| e.name.as_str()).collect()
-    }
+/// Whether a model's learner is a slip learner (composed with the vehicle and a
+/// powertrain) or a baseline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LearnerKind {
+    /// A slip learner.
+    Slip,
+    /// A whole-model baseline.
+    Baseline,
+}
 
-    /// Every entry, in registration order.
-    pub fn entries(&self) -> &[LearnerEntry] {
-        &self.entries
-    }
+/// A resolved model name: its learner, its powertrain and the parts to fit.
+#[derive(Clone, Serialize)]
+pub struct ModelSpec {
+    /// The name asked for (`slip-blr`, `naive`, `slip-blr+commanded`).
+    pub name: String,
+    /// The learner: a registered slip learner or baseline.
+    pub learner: String,
+    /// The powertrain (`None` for a baseline without one).
+    pub powertrain: Option<String>,
+    /// Slip learner or baseline.
+    pub kind: LearnerKind,
+    #[serde(skip)]
+    parts: Parts,
+}
 
-    /// Fits the learner registered under `name` (see [`LearnerEntry::fit`]); `None` for an
-    /// unknown name.
-    pub fn fit(
-        &self,
-        name: &str,
-        train: &WindowSet<'_>,
-        powertrain: Option<PowertrainChoice>,
-    ) -> Option<Result<Box<dyn MotionModel>, FitError>> {
-        Some(self.get(name)?.fit(train, powertrain))
+impl std::fmt::Debug for ModelSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ModelSpec")
+            .field("name", &self.name)
+            .field("model", &self.canonical())
+            .finish()
     }
 }
 
-/// Fits the built-in model registered under `name` with its default configuration; `None`
-/// for an unknown name.
-///
-/// ```no_run
-/// # fn demo(train: &drive_traits::WindowSet<'_>) {
-/// let model = drive_models::fit_named("slip-blr", train).expect("a registered name").unwrap();
-/// assert_eq!(model.name(), "slip-blr");
-/// # }
-/// ```
-pub fn fit_named(
-    name: &str,
-    train: &WindowSet<'_>,
-) -> Option<Result<Box<dyn MotionModel>, FitError>> {
-    LearnerRegistry::builtin().fit(name, train, None)
+impl PartialEq for ModelSpec {
+    /// Two specs are the same model when their parts are (whatever they were called).
+    fn eq(&self, other: &Self) -> bool {
+        self.canonical() == other.canonical()
+    }
+}
+
+impl ModelSpec {
+    /// The model's full name, `learner+powertrain` (or the learner of a baseline without a
+    /// powertrain).
+    pub fn canonical(&self) -> String {
+        match &self.powertrain {
+            Some(p) => format!("{}+{p}", self.learner),
+            None => self.learner.clone(),
+        }
+    }
+
+    /// Fits the model on the training windows.
+    pub fn fit(&self, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, FitError> {
+        match &self.parts {
+            Parts::Composed(powertrain, slip) => Ok(Box::new(Learner::fit(
+                &Composed::from_parts(self.canonical(), powertrain.clone(), slip.clone()),
+                train,
+            )?)),
+            Parts::Baseline(baseline, powertrain) => {
+                baseline.fit_with(train, powertrain.as_deref())
+            }
+        }
+    }
+
+    /// The same model under another name.
+    pub fn named(mut self, name: &str) -> Self {
+        self.name = name.to_string();
+        self
+    }
+}
+
+/// The model-part registries, borrowed: resolves model names and lists every combination.
+#[derive(Clone, Copy)]
+pub struct Models<'a> {
+    /// Powertrains.
+    pub powertrains: &'a Registry<dyn FitPowertrain>,
+    /// Slip learners.
+    pub slip_learners: &'a Registry<dyn FitSlip>,
+    /// Baselines.
+    pub baselines: &'a Registry<dyn Baseline>,
+    /// The paper's names and other aliases.
+    pub aliases: &'a Registry<ModelAlias>,
+}
+
+impl<'a> Models<'a> {
+    /// Resolves a model name: `learner+powertrain`, a learner alone (on its default
+    /// powertrain) or an alias.
+    ///
+    /// ```
+    /// use drive_models::registry::*;
+    /// let (p, s, b, a) = (builtin_powertrains(), builtin_slip_learners(), builtin_baselines(), builtin_aliases());
+    /// let models = Models { powertrains: &p, slip_learners: &s, baselines: &b, aliases: &a };
+    /// assert_eq!(models.resolve("slip-blr").unwrap().canonical(), "slip-blr+fopdt");
+    /// assert_eq!(models.resolve("naive").unwrap().canonical(), "no-slip+commanded");
+    /// assert_eq!(models.resolve("acc-blr").unwrap().canonical(), "acc-blr+commanded");
+    /// assert_eq!(models.resolve("slip-blr+rate-limited").unwrap().powertrain.as_deref(), Some("rate-limited"));
+    /// assert!(models.resolve("slip-blr+turbo").is_err());
+    /// assert!(models.resolve("magic").unwrap_err().to_string().starts_with("unknown model 'magic'"));
+    /// ```
+    pub fn resolve(&self, name: &str) -> Result<ModelSpec, RegistryError> {
+        self.resolve_depth(name, 0)
+    }
+
+    fn resolve_depth(&self, name: &str, depth: usize) -> Result<ModelSpec, RegistryError> {
+        let bad = |reason: String| RegistryError::BadModel {
+            name: name.to_string(),
+            reason,
+        };
+        // `/` is accepted for the sweep files written before `+`.
+        if let Some((learner, powertrain)) = name.split_once(['+', '/']) {
+            let pt = self.powertrains.get(powertrain)?;
+            if let Some(slip) = self.slip_learners.find(learner) {
+                return Ok(ModelSpec {
+                    name: name.to_string(),
+                    learner: learner.to_string(),
+                    powertrain: Some(powertrain.to_string()),
+                    kind: LearnerKind::Slip,
+                    parts: Parts::Composed(pt.part().clone(), slip.part().clone()),
+                });
+            }
+            if let Some(b) = self.baselines.find(learner) {
+                if b.part().default_powertrain().is_none() {
+                    return Err(bad(format!(
+                        "the baseline '{learner}' takes no powertrain; write '{learner}' alone"
+                    )));
+                }
+                return Ok(ModelSpec {
+                    name: name.to_string(),
+                    learner: learner.to_string(),
+                    powertrain: Some(powertrain.to_string()),
+                    kind: LearnerKind::Baseline,
+                    parts: Parts::Baseline(b.part().clone(), Some(pt.part().clone())),
+                });
+            }
+            if let Some(a) = self.aliases.find(learner) {
+                return Err(bad(format!(
+                    "'{learner}' names a whole model ({}); write it alone, or name a slip learner and a powertrain",
+                    a.part().target
+                )));
+            }
+            return Err(self.unknown(name));
+        }
+        if let Some(a) = self.aliases.find(name) {
+            if depth > 8 {
+                return Err(bad("the alias refers to itself".into()));
+            }
+            return Ok(self.resolve_depth(&a.part().target, depth + 1)?.named(name));
+        }
+        if self.slip_learners.contains(name) {
+            return Ok(self
+                .resolve_depth(&format!("{name}+{DEFAULT_POWERTRAIN}"), depth + 1)?
+                .named(name));
+        }
+        if let Some(b) = self.baselines.find(name) {
+            return match b.part().default_powertrain() {
+                Some(p) => Ok(self
+                    .resolve_depth(&format!("{name}+{p}"), depth + 1)?
+                    .named(name)),
+                None => Ok(ModelSpec {
+                    name: name.to_string(),
+                    learner: name.to_string(),
+                    powertrain: None,
+                    kind: LearnerKind::Baseline,
+                    parts: Parts::Baseline(b.part().clone(), None),
+                }),
+            };
+        }
+        Err(self.unknown(name))
+    }
+
+    fn unknown(&self, name: &str) -> RegistryError {
+        let mut known: Vec<&str> = self.aliases.names();
+        known.extend(self.slip_learners.names());
+        known.extend(self.baselines.names());
+        RegistryError::Unknown {
+            kind: "model",
+            name: name.to_string(),
+            known: format!(
+                "{}, or LEARNER+POWERTRAIN with the powertrains {}",
+                known.join(", "),
+                self.powertrains.names().join(", ")
+            ),
+        }
+    }
+
+    /// Every registered combination: each slip learner on each powertrain, each baseline on
+    /// each powertrain (or alone when it takes none). Named by their full names.
+    pub fn all(&self) -> Vec<ModelSpec> {
+        let mut out = Vec::new();
+        for s in self.slip_learners.names() {
+            for p in self.powertrains.names() {
+                // Both names are registered.
+                if let Ok(m) = self.resolve(&format!("{s}+{p}")) {
+                    out.push(m);
+                }
+            }
+        }
+        for b in self.baselines.entries() {
+            if b.part().default_powertrain().is_some() {
+                for p in self.powertrains.names() {
+                    if let Ok(m) = self.resolve(&format!("{}+{p}", b.name())) {
+                        out.push(m);
+                    }
+                }
+            } else if let Ok(m) = self.resolve(b.name()) {
+                out.push(m);
+            }
+        }
+        out
+    }
+
+    /// Resolves a list of names; `all` stands for [`Models::all`].
+    pub fn resolve_list<S: AsRef<str>>(
+        &self,
+        names: &[S],
+    ) -> Result<Vec<ModelSpec>, RegistryError> {
+        let mut out = Vec::new();
+        for n in names {
+            match n.as_ref() {
+                "all" => out.extend(self.all()),
+                n => out.push(self.resolve(n)?),
+            }
+        }
+        Ok(out)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::learners::Naive;
 
-    #[test]
-    fn names_are_unique_and_well_formed() {
-        let mut r = LearnerRegistry::builtin();
-        assert_eq!(r.names(), MODEL_NAMES);
-        assert_eq!(
-            r.register("slip-blr", Naive).unwrap_err(),
-            RegistryError::Duplicate("slip-blr".into())
-        );
-        for bad in ["", "a,b", "with space", "a/b"] {
-            assert_eq!(
-                r.register(bad, Naive).unwrap_err(),
-                RegistryError::BadName(bad.into())
-            );
+    struct Builtin {
+        p: Registry<dyn FitPowertrain>,
+        s: Registry<dyn FitSlip>,
+        b: Registry<dyn Baseline>,
+        a: Registry<ModelAlias>,
+    }
+    impl Builtin {
+        fn new() -> Self {
+            Builtin {
+                p: builtin_powertrains(),
+                s: builtin_slip_learners(),
+                b: builtin_baselines(),
+                a: builtin_aliases(),
+            }
         }
-        assert!(r.register("my_model-2", Naive).is_ok());
-        assert!(r.get("my_model-2").is_some_and(|e| !e.uses_powertrain()));
+        fn models(&self) -> Models<'_> {
+            Models {
+                powertrains: &self.p,
+                slip_learners: &self.s,
+                baselines: &self.b,
+                aliases: &self.a,
+            }
+        }
     }
 
     #[test]
-    fn default_powertrains_follow_the_paper() {
-        let r = LearnerRegistry::builtin();
-        let default = |n| r.get(n).unwrap().default_powertrain();
-        assert_eq!(default("naive"), None);
-        assert_eq!(default("powertrain"), Some(PowertrainChoice::Fopdt));
-        assert_eq!(default("slip-blr"), Some(PowertrainChoice::Fopdt));
-        assert_eq!(default("acc-blr"), Some(PowertrainChoice::Commanded));
+    fn the_papers_names_mean_what_they_meant() {
+        let b = Builtin::new();
+        let m = b.models();
+        for (name, canonical) in [
+            ("naive", "no-slip+commanded"),
+            ("powertrain", "no-slip+fopdt"),
+            ("slip-blr", "slip-blr+fopdt"),
+            ("acc-blr", "acc-blr+commanded"),
+            ("slip-blr/commanded", "slip-blr+commanded"),
+        ] {
+            let spec = m.resolve(name).unwrap();
+            assert_eq!(spec.canonical(), canonical);
+            assert_eq!(spec.name, name);
+        }
+    }
+
+    #[test]
+    fn all_combinations_and_bad_names() {
+        let b = Builtin::new();
+        let m = b.models();
+        let all: Vec<String> = m.all().iter().map(ModelSpec::canonical).collect();
+        assert_eq!(all.len(), 2 * 3 + 3);
+        assert!(all.contains(&"slip-blr+rate-limited".to_string()));
+        assert!(all.contains(&"acc-blr+fopdt".to_string()));
+        for (bad, needle) in [
+            ("naive+fopdt", "names a whole model"),
+            ("slip-blr+turbo", "unknown powertrain 'turbo'"),
+            ("gp", "unknown model 'gp'"),
+            ("gp+fopdt", "unknown model 'gp+fopdt'"),
+        ] {
+            let e = m.resolve(bad).unwrap_err().to_string();
+            assert!(e.contains(needle), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn builtin_tags_are_checked_by_typetag() {
+        let b = Builtin::new();
+        b.p.check_tags().unwrap();
+        b.s.check_tags().unwrap();
+        b.b.check_tags().unwrap();
+        builtin_vehicles().check_tags().unwrap();
     }
 }

@@ -92,6 +92,21 @@ pub fn integrate(start: &Pose, velocities: &[BodyVelocity], dt: f64, poses: &mut
     }
 }
 
+/// Like [`integrate`] into a slice: `out[k]` for every `k < out.len()` (one pose per
+/// velocity; `out` no longer than `velocities`). What batched rollouts write into their
+/// caller's buffer.
+#[inline]
+pub fn integrate_into(start: &Pose, velocities: &[BodyVelocity], dt: f64, out: &mut [Pose]) {
+    let mut it = Integrator::new(start, dt);
+    let n = out.len();
+    for (k, (slot, v)) in out.iter_mut().zip(velocities).enumerate() {
+        *slot = it.pose();
+        if k + 1 < n {
+            it.step(v);
+        }
+    }
+}
+
 /// Propagates the pose covariance along a rollout: `P_{k+1} = F P_k F^T + G S_k G^T`, with
 /// `F` the Jacobian of eq. 1 with respect to the pose, `G = T(yaw_k) dt` and `S_k` the
 /// covariance of the body velocity at step k (here diagonal: the slip dimensions are

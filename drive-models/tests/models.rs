@@ -1,26 +1,41 @@
 //! Each model on hand-computed cases, and each learner recovering known parameters.
 
 use approx::assert_abs_diff_eq;
+use drive_models::baselines::{AccBlr, AccBlrModel};
 use drive_models::blr::BlrPosterior;
-use drive_models::learners::{
-    AccBlr, AccBlrModel, Naive, PowertrainAware, PowertrainAwareModel, SlipBlr, SlipBlrModel,
-};
 use drive_models::model_file::{model_from_json, model_to_json, ModelFileError};
-use drive_models::powertrain::{Fopdt, FopdtPowertrain, Ideal, IdealPowertrain, SideResponse};
-use drive_models::DifferentialDrive;
+use drive_models::powertrain::{
+    Commanded, CommandedPowertrain, Fopdt, FopdtPowertrain, RateLimited, RateLimitedPowertrain,
+    RateLimitedResponse, SideResponse,
+};
+use drive_models::slip::{NoSlip, NoSlipModel, SlipBlr, SlipBlrModel};
+use drive_models::{Composed, ComposedModel, DifferentialDrive};
 use drive_traits::{
-    BodyVelocity, Input, InputSpace, Learner, MotionModel, Phase, Pose, Powertrain,
+    Baseline, BodyVelocity, Input, InputSpace, Learner, MotionModel, Phase, Pose, Powertrain,
     PowertrainLearner, RobotDescription, StartState, Window, WindowSet,
 };
+use std::sync::Arc;
 
 fn robot() -> RobotDescription {
-    RobotDescription {
-        name: "test".into(),
-        robot: String::new(),
-        rate_hz: 20.0,
-        window_len: 40,
-        wheel_radius: 0.1,
-        baseline: 0.5,
+    RobotDescription::new("test", "", 20.0, 40, DifferentialDrive::new(0.1, 0.5))
+}
+
+fn vehicle() -> DifferentialDrive {
+    DifferentialDrive::new(0.1, 0.5)
+}
+
+/// A composed model of the test vehicle.
+fn composed(
+    powertrain: impl Powertrain + 'static,
+    slip: impl drive_traits::SlipModel + 'static,
+    dt: f64,
+) -> ComposedModel {
+    ComposedModel {
+        label: "test".into(),
+        vehicle: Arc::new(vehicle()),
+        powertrain: Box::new(powertrain),
+        slip: Box::new(slip),
+        dt,
     }
 }
 
@@ -28,7 +43,7 @@ fn window(
     index: usize,
     phase: Phase,
     command: Vec<Input>,
-    encoder: Vec<Input>,
+    measured: Vec<Input>,
     pose: Vec<Pose>,
 ) -> Window {
     let n = pose.len();
@@ -37,7 +52,7 @@ fn window(
         interval: index / 3,
         phase,
         command,
-        encoder,
+        measured,
         pose,
         imu_yaw_rate: vec![0.0; n],
     }
@@ -64,10 +79,7 @@ fn arc(v: BodyVelocity, dt: f64, n: usize) -> Vec<Pose> {
 
 #[test]
 fn naive_turning_hand_computed() {
-    let m = NaiveModel {
-        vehicle: DifferentialDrive::new(0.1, 0.5),
-        dt: 0.1,
-    };
+    let m = composed(CommandedPowertrain, NoSlipModel, 0.1);
     // Left 0, right 10 rad/s: v = 0.1 * 5 = 0.5 m/s, w = 0.1 * 10 / 0.5 = 2 rad/s.
     let p = m.predict(
         &StartState::at_rest(Pose::zeros()),
@@ -80,8 +92,6 @@ fn naive_turning_hand_computed() {
         epsilon = 1e-12
     );
 }
-use drive_models::learners::NaiveModel;
-
 #[test]
 fn powertrain_aware_hand_computed() {
     // tau_c = dt / ln 2 halves the gap each step; no delay; limits +-4.
@@ -92,16 +102,11 @@ fn powertrain_aware_hand_computed() {
     };
     let limits = InputSpace::new(Input::new(-4.0, -4.0), Input::new(4.0, 4.0)).unwrap();
     let pt = FopdtPowertrain {
-        left: side,
-        right: side,
+        axes: [side, side],
         limits,
         dt,
     };
-    let m = PowertrainAwareModel {
-        vehicle: DifferentialDrive::new(0.1, 0.5),
-        powertrain: Box::new(pt),
-        dt,
-    };
+    let m = composed(pt, NoSlipModel, dt);
     // Command 8 saturates at 4: wheels 0 -> 2 -> 3; body speed 0, 0.2, 0.3 m/s.
     let p = m.predict(
         &StartState::at_rest(Pose::zeros()),
@@ -114,14 +119,16 @@ fn powertrain_aware_hand_computed() {
 #[test]
 fn fopdt_fit_recovers_known_responses() {
     let truth = FopdtPowertrain {
-        left: SideResponse {
-            time_constant: 0.42,
-            delay: 0.17,
-        },
-        right: SideResponse {
-            time_constant: 0.55,
-            delay: 0.06,
-        },
+        axes: [
+            SideResponse {
+                time_constant: 0.42,
+                delay: 0.17,
+            },
+            SideResponse {
+                time_constant: 0.55,
+                delay: 0.06,
+            },
+        ],
         limits: InputSpace::new(Input::new(-6.0, -5.5), Input::new(6.5, 6.0)).unwrap(),
         dt: 0.05,
     };
@@ -149,13 +156,109 @@ fn fopdt_fit_recovers_known_responses() {
     }
     let r = robot();
     let fitted = Fopdt::default().fit(&WindowSet::new(&r, &windows)).unwrap();
-    assert_abs_diff_eq!(fitted.left.time_constant, 0.42, epsilon = 1e-3);
-    assert_abs_diff_eq!(fitted.left.delay, 0.17, epsilon = 1e-3);
-    assert_abs_diff_eq!(fitted.right.time_constant, 0.55, epsilon = 1e-3);
-    assert_abs_diff_eq!(fitted.right.delay, 0.06, epsilon = 1e-3);
+    assert_abs_diff_eq!(fitted.axes[0].time_constant, 0.42, epsilon = 1e-3);
+    assert_abs_diff_eq!(fitted.axes[0].delay, 0.17, epsilon = 1e-3);
+    assert_abs_diff_eq!(fitted.axes[1].time_constant, 0.55, epsilon = 1e-3);
+    assert_abs_diff_eq!(fitted.axes[1].delay, 0.06, epsilon = 1e-3);
     // The limits are the extremes seen; with these time constants the wheels reach them.
     assert_abs_diff_eq!(fitted.limits.max, Input::new(6.5, 6.0), epsilon = 1e-3);
     assert_abs_diff_eq!(fitted.limits.min, Input::new(-6.0, -5.5), epsilon = 1e-3);
+}
+
+/// Transient windows of 40 samples driven through `truth` from varied commands.
+fn powertrain_windows(truth: &dyn Powertrain) -> Vec<Window> {
+    let mut windows = Vec::new();
+    let mut state = Input::zeros();
+    for i in 0..30 {
+        let target = Input::new(((i * 37) % 17) as f64 - 8.0, ((i * 53) % 15) as f64 - 7.0);
+        let cmds = vec![target; 40];
+        let measured = truth.predict(&state, &cmds);
+        state = measured[39];
+        windows.push(window(
+            i,
+            Phase::Transient,
+            cmds,
+            measured,
+            vec![Pose::zeros(); 40],
+        ));
+    }
+    windows
+}
+
+#[test]
+fn rate_limited_fit_recovers_a_binding_rate_limit() {
+    let truth = RateLimitedPowertrain {
+        axes: [
+            RateLimitedResponse {
+                time_constant: 0.25,
+                delay: 0.1,
+                max_rate: 3.0,
+            },
+            RateLimitedResponse {
+                time_constant: 0.4,
+                delay: 0.15,
+                max_rate: 6.0,
+            },
+        ],
+        limits: InputSpace::new(Input::repeat(-8.0), Input::repeat(8.0)).unwrap(),
+        dt: 0.05,
+    };
+    let windows = powertrain_windows(&truth);
+    let r = robot();
+    let fit = RateLimited::default()
+        .fit(&WindowSet::new(&r, &windows))
+        .unwrap();
+    for (got, want) in fit.axes.iter().zip(&truth.axes) {
+        assert!((got.max_rate / want.max_rate - 1.0).abs() < 0.02, "{got:?}");
+        assert!(
+            (got.time_constant / want.time_constant - 1.0).abs() < 0.05,
+            "{got:?}"
+        );
+        assert_abs_diff_eq!(got.delay, want.delay, epsilon = 5e-3);
+    }
+    // The FOPDT cannot follow the ramps: its error on the same windows is larger.
+    let fopdt = Fopdt::default().fit(&WindowSet::new(&r, &windows)).unwrap();
+    let sse = |pt: &dyn Powertrain| -> f64 {
+        windows
+            .iter()
+            .map(|w| {
+                pt.predict(&w.measured[0], &w.command)
+                    .iter()
+                    .zip(&w.measured)
+                    .map(|(p, m)| (p - m).norm_squared())
+                    .sum::<f64>()
+            })
+            .sum()
+    };
+    assert!(
+        sse(&fit) < 0.01 * sse(&fopdt),
+        "{} vs {}",
+        sse(&fit),
+        sse(&fopdt)
+    );
+}
+
+#[test]
+fn without_a_binding_limit_the_rate_limited_fit_is_the_fopdt() {
+    let truth = FopdtPowertrain {
+        axes: [SideResponse {
+            time_constant: 0.3,
+            delay: 0.1,
+        }; 2],
+        limits: InputSpace::new(Input::repeat(-8.0), Input::repeat(8.0)).unwrap(),
+        dt: 0.05,
+    };
+    let windows = powertrain_windows(&truth);
+    let r = robot();
+    let fit = RateLimited::default()
+        .fit(&WindowSet::new(&r, &windows))
+        .unwrap();
+    for a in &fit.axes {
+        assert_abs_diff_eq!(a.time_constant, 0.3, epsilon = 2e-3);
+        assert_abs_diff_eq!(a.delay, 0.1, epsilon = 2e-3);
+        // The limit never binds: faster than any step of the data (8 / 0.3 s).
+        assert!(a.max_rate > 100.0, "{a:?}");
+    }
 }
 
 #[test]
@@ -177,7 +280,7 @@ fn fopdt_without_transient_window_is_refused() {
 /// Steady windows whose body velocity is `f - g` with the slip of known weights.
 fn slip_windows(gx: f64, gy: f64, gw: [f64; 3]) -> Vec<Window> {
     let r = robot();
-    let vehicle = DifferentialDrive::from_robot(&r);
+    let vehicle = vehicle();
     let mut out = Vec::new();
     for i in 0..40 {
         let u = Input::new(((i * 7) % 13) as f64 - 6.0, ((i * 11) % 17) as f64 - 8.0);
@@ -194,8 +297,9 @@ fn slip_windows(gx: f64, gy: f64, gw: [f64; 3]) -> Vec<Window> {
 fn slip_blr_recovers_known_slip_weights() {
     let r = robot();
     let windows = slip_windows(0.2, -0.05, [0.03, 0.1, 0.4]);
-    let learner = SlipBlr::<Ideal>::default();
-    let m: SlipBlrModel = learner.fit(&WindowSet::new(&r, &windows)).unwrap();
+    let set = WindowSet::new(&r, &windows);
+    let data = drive_traits::SlipData::new(&set, &CommandedPowertrain);
+    let m: SlipBlrModel = drive_traits::SlipLearner::fit(&SlipBlr::default(), &data).unwrap();
     // The labels come from a 0.2 s chord of an arc: exact up to sin(x)/x ~ 1e-3.
     assert_abs_diff_eq!(m.slip_x.mean[0], 0.2, epsilon = 5e-3);
     assert_abs_diff_eq!(m.slip_y.mean[0], -0.05, epsilon = 5e-3);
@@ -212,14 +316,15 @@ fn slip_blr_prediction_hand_computed() {
         a: 10.0,
         b: 1.0,
     };
-    let m = SlipBlrModel {
-        vehicle: DifferentialDrive::new(0.1, 0.5),
-        powertrain: Box::new(IdealPowertrain),
-        slip_x: post(vec![0.1]),
-        slip_y: post(vec![0.0]),
-        slip_yaw: post(vec![0.0, 0.0, 0.5]),
-        dt: 0.1,
-    };
+    let m = composed(
+        CommandedPowertrain,
+        SlipBlrModel {
+            slip_x: post(vec![0.1]),
+            slip_y: post(vec![0.0]),
+            slip_yaw: post(vec![0.0, 0.0, 0.5]),
+        },
+        0.1,
+    );
     // Wheels 10, 10: f = (1, 0, 0); g = (0.1, 0, 0); v = 0.9 m/s.
     let p = m.predict(
         &StartState::at_rest(Pose::zeros()),
@@ -255,8 +360,9 @@ fn acc_blr_prediction_hand_computed() {
     };
     // dv = 0.5 (f - v) in both dimensions.
     let m = AccBlrModel {
-        vehicle: DifferentialDrive::new(0.1, 0.5),
-        powertrain: Box::new(IdealPowertrain),
+        label: "acc-blr+commanded".into(),
+        vehicle: Arc::new(vehicle()),
+        powertrain: Box::new(CommandedPowertrain),
         accel_x: post(vec![0.5, -0.5]),
         accel_yaw: post(vec![0.5, -0.5]),
         dt: 0.1,
@@ -280,8 +386,7 @@ fn acc_blr_prediction_hand_computed() {
     };
     let on_fopdt = AccBlrModel {
         powertrain: Box::new(FopdtPowertrain {
-            left: frozen,
-            right: frozen,
+            axes: [frozen, frozen],
             limits: drive_traits::InputSpace::new(Input::repeat(-20.0), Input::repeat(20.0))
                 .unwrap(),
             dt: 0.1,
@@ -291,22 +396,13 @@ fn acc_blr_prediction_hand_computed() {
     let p = on_fopdt.predict(&start, &[Input::new(10.0, 10.0); 3]);
     assert_abs_diff_eq!(p[1], Pose::new(0.02, 0.0, 0.0), epsilon = 1e-9);
     assert_abs_diff_eq!(p[2], Pose::new(0.03, 0.0, 0.0), epsilon = 1e-9);
-
-    // A model file written before the powertrain option reads as on the commands.
-    let mut old = serde_json::to_value(&m).unwrap();
-    old.as_object_mut().unwrap().remove("powertrain");
-    let read: AccBlrModel = serde_json::from_value(old).unwrap();
-    assert_eq!(
-        read.predict(&start, &[Input::new(10.0, 10.0); 4]),
-        m.predict(&start, &[Input::new(10.0, 10.0); 4])
-    );
 }
 
 #[test]
 fn acc_blr_recovers_first_order_body_dynamics() {
     // Body velocity relaxes towards the commanded one: v[k+1] = v[k] + 0.1 (f - v[k]).
     let r = robot();
-    let vehicle = DifferentialDrive::from_robot(&r);
+    let vehicle = vehicle();
     let mut windows = Vec::new();
     let mut v = BodyVelocity::zeros();
     let mut pose = Pose::zeros();
@@ -341,8 +437,12 @@ fn acc_blr_recovers_first_order_body_dynamics() {
             poses,
         ));
     }
-    let m = AccBlr::<Ideal>::default()
-        .fit(&WindowSet::new(&r, &windows))
+    let m = AccBlr::default()
+        .fit_on(
+            &WindowSet::new(&r, &windows),
+            Box::new(CommandedPowertrain),
+            "acc-blr".into(),
+        )
         .unwrap();
     assert_abs_diff_eq!(m.accel_x.mean[0], 0.1, epsilon = 5e-3);
     assert_abs_diff_eq!(m.accel_x.mean[1], -0.1, epsilon = 5e-3);
@@ -356,7 +456,7 @@ fn straight_driving_only_gives_a_clear_error_not_a_nan_model() {
     let windows: Vec<Window> = (0..6)
         .map(|i| {
             let u = Input::new(5.0 + i as f64, 5.0 + i as f64);
-            let f = DifferentialDrive::from_robot(&r).eq4(&u);
+            let f = vehicle().eq4(&u);
             window(
                 i,
                 Phase::Steady,
@@ -366,7 +466,7 @@ fn straight_driving_only_gives_a_clear_error_not_a_nan_model() {
             )
         })
         .collect();
-    let err = SlipBlr::<Ideal>::default()
+    let err = Composed::new(Commanded, SlipBlr::default())
         .fit(&WindowSet::new(&r, &windows))
         .unwrap_err();
     assert!(
@@ -381,10 +481,13 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
     let windows = slip_windows(0.2, -0.05, [0.03, 0.1, 0.4]);
     let set = WindowSet::new(&r, &windows);
     let models: Vec<Box<dyn MotionModel>> = vec![
-        Box::new(Naive.fit(&set).unwrap()),
-        Box::new(PowertrainAware { powertrain: Ideal }.fit(&set).unwrap()),
-        Box::new(SlipBlr::<Ideal>::default().fit(&set).unwrap()),
-        Box::new(AccBlr::<Ideal>::default().fit(&set).unwrap()),
+        Box::new(Composed::new(Commanded, NoSlip).fit(&set).unwrap()),
+        Box::new(
+            Composed::new(Commanded, SlipBlr::default())
+                .fit(&set)
+                .unwrap(),
+        ),
+        AccBlr::default().fit_with(&set, Some(&Commanded)).unwrap(),
     ];
     let start = StartState {
         pose: Pose::new(1.0, -2.0, 0.3),
@@ -395,17 +498,17 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
         .map(|k| Input::new(k as f64 * 0.1, 3.0 - k as f64 * 0.05))
         .collect();
     for m in &models {
-        let text = model_to_json(m.as_ref(), &r);
+        let text = model_to_json(m.as_ref(), &r).unwrap();
         let (back, robot_back) = model_from_json("m.json", &text).unwrap();
         assert_eq!(back.name(), m.name());
         assert_eq!(robot_back, r);
         assert_eq!(back.predict(&start, &cmds), m.predict(&start, &cmds));
-        let newer = text.replace("\"format_version\": 1", "\"format_version\": 2");
+        let newer = text.replace("\"format_version\": 2", "\"format_version\": 3");
         assert!(matches!(
             model_from_json("m.json", &newer),
             Err(ModelFileError::UnsupportedVersion { .. })
         ));
-        let unversioned = text.replace("\"format_version\": 1,", "");
+        let unversioned = text.replace("\"format_version\": 2,", "");
         assert!(matches!(
             model_from_json("m.json", &unversioned),
             Err(ModelFileError::MissingField {
@@ -419,11 +522,50 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
         Err(ModelFileError::Parse { line: 1, .. })
     ));
     let unknown = model_to_json(models[0].as_ref(), &r)
-        .replace("\"model\": \"naive\"", "\"model\": \"mystery\"");
-    assert!(matches!(
-        model_from_json("m.json", &unknown),
-        Err(ModelFileError::Model { .. })
-    ));
+        .unwrap()
+        .replace("\"type\": \"no-slip\"", "\"type\": \"mystery\"");
+    let err = model_from_json("m.json", &unknown).unwrap_err();
+    assert!(
+        matches!(err, ModelFileError::Model { .. }) && err.to_string().contains("mystery"),
+        "{err}"
+    );
+}
+
+/// The version 1 files written by `drive train` before the models were composed of parts
+/// (the previous release, on the bundled Husky data's training half), and what they
+/// predicted, from `tests/data/v1/`.
+#[test]
+fn version_1_model_files_read_as_their_parts_and_predict_the_same() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/v1");
+    for name in ["naive", "powertrain", "slip-blr", "acc-blr"] {
+        let text = std::fs::read_to_string(dir.join(format!("{name}.json"))).unwrap();
+        let (model, robot) = model_from_json(name, &text).unwrap();
+        assert_eq!(robot.name, "husky-drive");
+        assert_eq!(
+            robot.vehicle.geometry(),
+            vec![("wheel_radius", 0.165), ("baseline", 0.55)]
+        );
+        // What the previous release printed with `drive predict` for these commands.
+        let expected = std::fs::read_to_string(dir.join(format!("{name}.predict.csv"))).unwrap();
+        let cmds: Vec<Input> = (0..40)
+            .map(|k| Input::new(2.0 + 0.1 * k as f64, 5.0))
+            .collect();
+        let start = StartState {
+            pose: Pose::new(0.5, -1.0, 0.3),
+            input: Input::new(1.0, 2.0),
+            body_velocity: robot.vehicle.body_velocity(&Input::new(1.0, 2.0)),
+        };
+        let poses = model.predict(&start, &cmds);
+        for (line, p) in expected.lines().skip(1).zip(&poses) {
+            let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+            assert!(
+                (v[2] - p.x).abs() < 1e-12
+                    && (v[3] - p.y).abs() < 1e-12
+                    && (v[4] - p.z).abs() < 1e-12,
+                "{name}: {line} vs {p:?}"
+            );
+        }
+    }
 }
 
 #[test]
@@ -434,21 +576,35 @@ fn malformed_model_files_are_refused() {
         w.phase = Phase::Transient;
     }
     let set = WindowSet::new(&r, &windows);
-    let slip = model_to_json(&SlipBlr::<Fopdt>::default().fit(&set).unwrap(), &r);
+    let model = Composed::new(Fopdt::default(), SlipBlr::default())
+        .fit(&set)
+        .unwrap();
+    let slip = model_to_json(&model, &r).unwrap();
     let v: serde_json::Value = serde_json::from_str(&slip).unwrap();
-    let edits: [(&str, serde_json::Value); 5] = [
-        ("/model/slip_yaw/mean", serde_json::json!([0.1, 0.2])),
+    let edits: [(&str, serde_json::Value); 6] = [
+        ("/model/slip/slip_yaw/mean", serde_json::json!([0.1, 0.2])),
         (
-            "/model/powertrain/left/time_constant",
+            "/model/powertrain/axes/0/time_constant",
             serde_json::json!(-1.0),
         ),
         ("/model/dt", serde_json::json!(0.0)),
         ("/model/vehicle/baseline", serde_json::json!(-0.5)),
-        ("/model/slip_x/b", serde_json::json!(-3.0)),
+        ("/model/slip/slip_x/b", serde_json::json!(-3.0)),
+        ("/model/vehicle/wheelbase", serde_json::json!(1.0)),
     ];
     for (pointer, value) in edits {
         let mut bad = v.clone();
-        *bad.pointer_mut(pointer).unwrap() = value;
+        match bad.pointer_mut(pointer) {
+            Some(slot) => *slot = value,
+            None => {
+                // A field the vehicle does not have.
+                bad.pointer_mut("/model/vehicle")
+                    .unwrap()
+                    .as_object_mut()
+                    .unwrap()
+                    .insert("wheelbase".into(), value);
+            }
+        }
         let err = model_from_json("m.json", &bad.to_string()).unwrap_err();
         assert!(
             matches!(err, ModelFileError::Model { .. }),
@@ -458,9 +614,9 @@ fn malformed_model_files_are_refused() {
 }
 
 #[test]
-fn ideal_powertrain_learner_needs_nothing() {
+fn commanded_powertrain_learner_needs_nothing() {
     let r = robot();
-    let pt = Ideal
+    let pt = Commanded
         .fit(&WindowSet {
             robot: &r,
             windows: vec![],
@@ -470,4 +626,38 @@ fn ideal_powertrain_learner_needs_nothing() {
         pt.predict(&Input::zeros(), &[Input::new(1.0, 2.0)]),
         vec![Input::new(1.0, 2.0)]
     );
+}
+
+#[test]
+fn a_composed_model_rolls_out_in_batch_as_one_by_one() {
+    let m = composed(
+        RateLimitedPowertrain {
+            axes: [RateLimitedResponse {
+                time_constant: 0.3,
+                delay: 0.07,
+                max_rate: 5.0,
+            }; 2],
+            limits: InputSpace::new(Input::repeat(-6.0), Input::repeat(6.0)).unwrap(),
+            dt: 0.05,
+        },
+        NoSlipModel,
+        0.05,
+    );
+    let starts: Vec<StartState> = (0..5)
+        .map(|i| StartState {
+            pose: Pose::new(i as f64, 0.0, 0.1 * i as f64),
+            input: Input::new(0.5 * i as f64, 0.0),
+            body_velocity: BodyVelocity::zeros(),
+        })
+        .collect();
+    let commands: Vec<Input> = (0..5 * 20)
+        .map(|k| Input::new((k % 7) as f64, 3.0 - (k % 5) as f64))
+        .collect();
+    let mut batch = vec![Pose::zeros(); commands.len()];
+    m.predict_batch_into(&starts, &commands, 20, &mut batch)
+        .unwrap();
+    for (i, s) in starts.iter().enumerate() {
+        let one = m.predict(s, &commands[i * 20..(i + 1) * 20]);
+        assert_eq!(&batch[i * 20..(i + 1) * 20], one.as_slice());
+    }
 }

@@ -1,10 +1,8 @@
 //! What the figures show, computed from a dataset and its fitted models.
 
-use drive_models::velocity::BodyVelocityEstimator;
-use drive_models::DifferentialDrive;
 use drive_traits::{
-    BodyVelocity, Input, InputSpace, MotionModel, Phase, Pose, PoseCovariance, Powertrain,
-    WindowSet,
+    BodyVelocity, BodyVelocityEstimator, CommandModel, Input, InputAxis, InputSpace, MotionModel,
+    Phase, Pose, PoseCovariance, Powertrain, WindowSet,
 };
 use serde::Serialize;
 
@@ -12,15 +10,16 @@ use serde::Serialize;
 /// a position error `e` is inside the predicted 95% ellipse when `e^T S^-1 e <= CHI2_2_95`.
 pub const CHI2_2_95: f64 = 5.991_464_547_107_979;
 
-/// The four corners of a wheel-velocity box mapped to body velocities by eq. 4: the
-/// parallelogram a box of inputs spans in the (forward speed, yaw rate) plane.
-pub fn body_polygon(vehicle: &DifferentialDrive, space: &InputSpace) -> [BodyVelocity; 4] {
+/// The four corners of an input box mapped to body velocities by the vehicle (eq. 4 for a
+/// differential drive): the polygon a box of inputs spans in the (forward speed, yaw rate)
+/// plane.
+pub fn body_polygon(vehicle: &dyn CommandModel, space: &InputSpace) -> [BodyVelocity; 4] {
     let (lo, hi) = (space.min, space.max);
     [
-        vehicle.eq4(&Input::new(lo.x, lo.y)),
-        vehicle.eq4(&Input::new(hi.x, lo.y)),
-        vehicle.eq4(&Input::new(hi.x, hi.y)),
-        vehicle.eq4(&Input::new(lo.x, hi.y)),
+        vehicle.body_velocity(&Input::new(lo.x, lo.y)),
+        vehicle.body_velocity(&Input::new(hi.x, lo.y)),
+        vehicle.body_velocity(&Input::new(hi.x, hi.y)),
+        vehicle.body_velocity(&Input::new(lo.x, hi.y)),
     ]
 }
 
@@ -40,9 +39,10 @@ pub struct InputSpaceFigure {
     pub naive: Option<(String, InputSpace)>,
     /// The space the commands spanned.
     pub commanded: InputSpace,
-    /// The true input space: the wheel velocities the encoders reached.
+    /// The true input space: the inputs the measurements reached.
     pub reached: InputSpace,
-    /// The commanded body velocity each interval held (eq. 4 on its last command).
+    /// The commanded body velocity each steady window held (the vehicle's eq. 4 on its last
+    /// command).
     pub commands: Vec<BodyVelocity>,
     /// The measured body velocity of each steady window (mean over the window).
     pub measured: Vec<BodyVelocity>,
@@ -53,9 +53,9 @@ pub fn input_space(
     all: &WindowSet<'_>,
     naive: Option<(String, InputSpace)>,
 ) -> Option<InputSpaceFigure> {
-    let vehicle = DifferentialDrive::from_robot(all.robot);
+    let vehicle = all.robot.vehicle.as_ref();
     let commanded = bounding_box(all.windows.iter().flat_map(|w| w.command.iter()))?;
-    let reached = bounding_box(all.windows.iter().flat_map(|w| w.encoder.iter()))?;
+    let reached = bounding_box(all.windows.iter().flat_map(|w| w.measured.iter()))?;
     let mut commands = Vec::new();
     let mut measured = Vec::new();
     let estimator = BodyVelocityEstimator::default();
@@ -65,7 +65,7 @@ pub fn input_space(
             continue;
         }
         if let Some(u) = w.command.last() {
-            commands.push(vehicle.eq4(u));
+            commands.push(vehicle.body_velocity(u));
         }
         estimator.estimate(w, all.robot.dt(), &mut v);
         let known: Vec<&BodyVelocity> = v.iter().flatten().collect();
@@ -82,14 +82,18 @@ pub fn input_space(
     })
 }
 
-/// Paper Fig. 3: wheel velocities over consecutive windows.
+/// Paper Fig. 3: the vehicle's inputs over consecutive windows.
 #[derive(Debug, Clone, Serialize)]
 pub struct PowertrainTrace {
+    /// The vehicle's input axes.
+    pub axes: [InputAxis; 2],
+    /// The powertrain's name.
+    pub powertrain: String,
     /// Time of each sample (s) from the first window's start.
     pub t: Vec<f64>,
-    /// Commanded wheel velocities (rad/s).
+    /// Commanded inputs.
     pub commanded: Vec<Input>,
-    /// Encoder-measured wheel velocities (rad/s).
+    /// Measured inputs.
     pub measured: Vec<Input>,
     /// The powertrain model's prediction, started at each window from the measured velocity.
     pub modeled: Vec<Input>,
@@ -101,11 +105,14 @@ pub struct PowertrainTrace {
 /// window as a motion model uses it.
 pub fn powertrain_trace(
     eval: &WindowSet<'_>,
+    name: &str,
     powertrain: &dyn Powertrain,
     intervals: usize,
 ) -> PowertrainTrace {
     let dt = eval.robot.dt();
     let mut trace = PowertrainTrace {
+        axes: eval.robot.vehicle.axes(),
+        powertrain: name.to_string(),
         t: Vec::new(),
         commanded: Vec::new(),
         measured: Vec::new(),
@@ -127,8 +134,8 @@ pub fn powertrain_trace(
         .iter()
         .take_while(|w| w.interval < last_interval)
     {
-        let modeled = powertrain.predict(&w.encoder[0], &w.command);
-        for (k, ((c, e), m)) in w.command.iter().zip(&w.encoder).zip(&modeled).enumerate() {
+        let modeled = powertrain.predict(&w.measured[0], &w.command);
+        for (k, ((c, e), m)) in w.command.iter().zip(&w.measured).zip(&modeled).enumerate() {
             trace.t.push(t0 + k as f64 * dt);
             trace.commanded.push(*c);
             trace.measured.push(*e);
@@ -159,7 +166,7 @@ pub fn trajectories(
     models: &[(&str, &dyn MotionModel)],
     count: usize,
 ) -> Vec<Trajectory> {
-    let vehicle = DifferentialDrive::from_robot(eval.robot);
+    let vehicle = eval.robot.vehicle.as_ref();
     let mut steady: Vec<_> = eval
         .windows
         .iter()
@@ -180,7 +187,7 @@ pub fn trajectories(
         if out.iter().any(|t| t.window == w.index) {
             continue;
         }
-        let start = w.start_state(&vehicle);
+        let start = w.start_state(vehicle);
         let predicted = models
             .iter()
             .map(|(name, m)| {
@@ -228,7 +235,7 @@ pub fn calibration(
     model: &dyn MotionModel,
     eval: &WindowSet<'_>,
 ) -> Option<Calibration> {
-    let vehicle = DifferentialDrive::from_robot(eval.robot);
+    let vehicle = eval.robot.vehicle.as_ref();
     let n = eval.windows.iter().map(|w| w.len()).max()?;
     let mut inside = vec![0usize; n];
     let mut counted = vec![0usize; n];
@@ -237,7 +244,7 @@ pub fn calibration(
     for w in &eval.windows {
         model
             .predict_with_covariance_into(
-                &w.start_state(&vehicle),
+                &w.start_state(vehicle),
                 &w.command,
                 &mut poses,
                 &mut covs,
@@ -332,7 +339,7 @@ mod tests {
             (b.min, b.max),
             (Input::new(-1.0, -4.0), Input::new(3.0, 2.0))
         );
-        let vehicle = DifferentialDrive::new(0.5, 1.0);
+        let vehicle = drive_models::DifferentialDrive::new(0.5, 1.0);
         let p = body_polygon(&vehicle, &b);
         // (left 3, right -4): forward 0.5 x 0.5 x (3 - 4) = -0.25 m/s, yaw 0.5 (-4 - 3) = -3.5.
         assert!((p[1].x + 0.25).abs() < 1e-12 && (p[1].z + 3.5).abs() < 1e-12);

@@ -4,7 +4,7 @@ use crate::analysis::{
     body_polygon, ellipse, Calibration, InputSpaceFigure, PowertrainTrace, Trajectory,
 };
 use drive_eval::{Convergence, Mrmse};
-use drive_models::DifferentialDrive;
+use drive_traits::CommandModel;
 use drive_traits::Phase;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -126,7 +126,7 @@ where
 pub fn input_space<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     fig: &InputSpaceFigure,
-    vehicle: &DifferentialDrive,
+    vehicle: &dyn CommandModel,
 ) -> DrawResult
 where
     DB::ErrorType: 'static,
@@ -139,7 +139,7 @@ where
             COLOURS[0],
         ),
         (
-            "true input space (wheel velocities reached)".to_string(),
+            "true input space (inputs reached)".to_string(),
             body_polygon(vehicle, &fig.reached),
             COLOURS[2],
         ),
@@ -208,7 +208,8 @@ where
     Ok(())
 }
 
-/// Paper Fig. 3: commanded, measured and modeled wheel velocities, left and right.
+/// Paper Fig. 3: commanded, measured and modeled inputs (wheel velocities for a skid-steer),
+/// one panel per input axis.
 pub fn powertrain<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     trace: &PowertrainTrace,
@@ -221,9 +222,12 @@ where
     let steady = COLOURS[0].mix(0.08);
     let keys = [
         ("commanded".to_string(), Key::Line(BLACK, 2)),
-        ("encoder-measured".to_string(), Key::Line(COLOURS[3], 2)),
+        ("measured".to_string(), Key::Line(COLOURS[3], 2)),
         (
-            "FOPDT model, restarted from the measured velocity at each window".to_string(),
+            format!(
+                "{} model, restarted from the measured input at each window",
+                trace.powertrain
+            ),
             Key::Line(COLOURS[0], 2),
         ),
         ("transient window".to_string(), Key::Fill(transient)),
@@ -231,7 +235,10 @@ where
     ];
     let body = header(
         root,
-        "Powertrain: wheel velocities over three DRIVE intervals (eq. 3)",
+        &format!(
+            "Powertrain: {} and {} over three DRIVE intervals (eq. 3)",
+            trace.axes[0].name, trace.axes[1].name
+        ),
         &keys,
     )?;
     let panels = body.split_evenly((2, 1));
@@ -250,14 +257,11 @@ where
             .x_label_area_size(45)
             .y_label_area_size(65)
             .build_cartesian_2d(0.0..t1, y0..y1)?;
+        let axis = trace.axes[side];
         chart
             .configure_mesh()
             .x_desc("time [s]")
-            .y_desc(if side == 0 {
-                "left wheel [rad/s]"
-            } else {
-                "right wheel [rad/s]"
-            })
+            .y_desc(format!("{} [{}]", axis.name, axis.unit))
             .axis_desc_style((FONT, LABEL))
             .label_style((FONT, LABEL - 2))
             .x_label_formatter(&|v| format!("{v:.0}"))

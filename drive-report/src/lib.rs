@@ -14,7 +14,8 @@
 //!
 //! ```no_run
 //! # fn demo(data: &drive_traits::Dataset) -> Result<(), drive_report::ReportError> {
-//! let report = drive_report::Report::build(data, &drive_report::ReportOptions::default())?;
+//! let registries = drive_eval::Registries::builtin();
+//! let report = drive_report::Report::build(&registries, data, &drive_report::ReportOptions::default())?;
 //! let files = report.write(std::path::Path::new("report-out"))?;
 //! assert!(files.iter().any(|f| f.ends_with("report.md")));
 //! # Ok(()) }
@@ -28,16 +29,19 @@ pub mod figures;
 use analysis::{Calibration, InputSpaceFigure, PowertrainTrace, Trajectory};
 use drive_eval::{
     compare, compare_regions, convergence, split_by_interval, Comparison, Convergence, Mrmse,
-    RegionComparison, RegionStudy,
+    RegionComparison, RegionStudy, Registries,
 };
-use drive_models::learners::{AccBlr, AccBlrModel, SlipBlr, SlipBlrModel};
-use drive_models::powertrain::{Fopdt, FopdtPowertrain, Ideal};
-use drive_models::{DifferentialDrive, MODEL_NAMES};
-use drive_traits::{Dataset, InputSpace, Learner, MotionModel, PowertrainLearner};
+use drive_models::baselines::{AccBlr, AccBlrModel};
+use drive_models::powertrain::{CommandedPowertrain, Fopdt, FopdtPowertrain};
+use drive_models::slip::{SlipBlr, SlipBlrModel};
+use drive_traits::{
+    CommandModel, Dataset, InputSpace, MotionModel, PowertrainLearner, SlipData, SlipLearner,
+};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use thiserror::Error;
 
 /// Why a report could not be made.
@@ -49,6 +53,9 @@ pub enum ReportError {
     /// The split is not valid for this dataset.
     #[error(transparent)]
     Split(#[from] drive_eval::SplitError),
+    /// A model or part name does not resolve.
+    #[error(transparent)]
+    Registry(#[from] drive_traits::RegistryError),
     /// A model needed by the figures could not be fitted.
     #[error("fitting {model}: {reason}")]
     Fit {
@@ -75,6 +82,11 @@ pub enum ReportError {
 pub struct ReportOptions {
     /// Training fraction of the intervals (the rest evaluates).
     pub split: f64,
+    /// The models compared (model names); the paper's four by default.
+    pub models: Vec<String>,
+    /// The model whose convergence is analysed (Fig. 7) and trained on the protocol
+    /// regions (Fig. 5).
+    pub model: String,
     /// The manufacturer's input space and where it comes from (for Fig. 1); `None` when
     /// unknown.
     pub naive_input_space: Option<(String, InputSpace)>,
@@ -94,6 +106,10 @@ impl Default for ReportOptions {
     fn default() -> Self {
         ReportOptions {
             split: 0.5,
+            models: ["naive", "powertrain", "slip-blr", "acc-blr"]
+                .map(String::from)
+                .to_vec(),
+            model: "slip-blr".into(),
             naive_input_space: None,
             powertrain_intervals: 3,
             trajectories: 4,
@@ -104,7 +120,7 @@ impl Default for ReportOptions {
     }
 }
 
-/// The fitted parameters reported.
+/// The fitted parameters of the paper's models reported.
 #[derive(Debug, Clone)]
 pub struct FittedParameters {
     /// The FOPDT powertrain (eq. 3).
@@ -121,9 +137,9 @@ pub struct Report {
     pub dataset: String,
     /// The options used.
     pub options: ReportOptions,
-    /// The four models compared (eq. 8).
+    /// The models compared (eq. 8).
     pub comparison: Comparison,
-    /// Slip-BLR's convergence (Fig. 7).
+    /// The convergence of the analysed model (Fig. 7).
     pub convergence: Convergence,
     /// The protocol comparison on the recorded data, or why it could not run.
     pub protocols: Result<RegionComparison, String>,
@@ -137,7 +153,7 @@ pub struct Report {
     pub trajectories: Vec<Trajectory>,
     /// Calibration of the BLR models.
     pub calibration: Vec<Calibration>,
-    vehicle: DifferentialDrive,
+    vehicle: Arc<dyn CommandModel>,
     dt: f64,
 }
 
@@ -165,42 +181,50 @@ fn register_font() {
 }
 
 impl Report {
-    /// Fits and evaluates everything the report shows.
-    pub fn build(data: &Dataset, options: &ReportOptions) -> Result<Report, ReportError> {
-        let comparison = compare(data, options.split, &MODEL_NAMES)?;
+    /// Fits and evaluates everything the report shows, with the models of `registries`.
+    pub fn build(
+        registries: &Registries,
+        data: &Dataset,
+        options: &ReportOptions,
+    ) -> Result<Report, ReportError> {
+        let comparison = compare(registries, data, options.split, &options.models)?;
         let (train, eval) = split_by_interval(data, options.split)?;
-        let convergence = convergence(data, options.split, options.thresholds, |set| {
-            SlipBlr::<Fopdt>::default()
-                .fit(set)
-                .map(|m| Box::new(m) as Box<dyn MotionModel>)
-        })?;
+        let model = registries.model(&options.model)?;
+        let convergence = convergence(data, options.split, options.thresholds, &model)?;
         let protocols = compare_regions(
+            registries,
             data,
             &RegionStudy {
                 split: options.split,
                 draws: options.draws,
+                model: options.model.clone(),
                 ..RegionStudy::default()
             },
         )
         .map_err(|e| e.to_string());
         let fit_error = |model| move |reason| ReportError::Fit { model, reason };
+        let fopdt = Fopdt::default().fit(&train).map_err(fit_error("fopdt"))?;
         let fitted = FittedParameters {
-            fopdt: Fopdt::default().fit(&train).map_err(fit_error("fopdt"))?,
-            slip_blr: SlipBlr::<Fopdt>::default()
-                .fit(&train)
+            slip_blr: SlipBlr::default()
+                .fit(&SlipData::new(&train, &fopdt))
                 .map_err(fit_error("slip-blr"))?,
-            acc_blr: AccBlr::<Ideal>::default()
-                .fit(&train)
+            acc_blr: AccBlr::default()
+                .fit_on(
+                    &train,
+                    Box::new(CommandedPowertrain),
+                    "acc-blr+commanded".into(),
+                )
                 .map_err(fit_error("acc-blr"))?,
+            fopdt,
         };
         let input_space = analysis::input_space(&data.all(), options.naive_input_space.clone())
             .ok_or(ReportError::Empty)?;
         let powertrain =
-            analysis::powertrain_trace(&eval, &fitted.fopdt, options.powertrain_intervals);
+            analysis::powertrain_trace(&eval, "FOPDT", &fitted.fopdt, options.powertrain_intervals);
         let models: Vec<(&str, &dyn MotionModel)> = comparison
             .models
             .iter()
-            .filter_map(|m| m.model.as_deref().map(|f| (m.name.as_str(), f)))
+            .filter_map(|m| m.fitted.as_deref().map(|f| (m.name.as_str(), f)))
             .collect();
         let trajectories = analysis::trajectories(&eval, &models, options.trajectories);
         let calibration = models
@@ -218,7 +242,7 @@ impl Report {
             powertrain,
             trajectories,
             calibration,
-            vehicle: DifferentialDrive::from_robot(&data.robot),
+            vehicle: Arc::clone(&data.robot.vehicle),
             dt: data.robot.dt(),
         })
     }
@@ -288,7 +312,7 @@ impl Report {
         DB::ErrorType: 'static,
     {
         match name {
-            "input_space" => figures::input_space(root, &self.input_space, &self.vehicle),
+            "input_space" => figures::input_space(root, &self.input_space, self.vehicle.as_ref()),
             "powertrain" => figures::powertrain(root, &self.powertrain),
             "errors_per_model" => {
                 let groups: Vec<(String, Vec<Mrmse>)> = self
@@ -332,7 +356,7 @@ impl Report {
                     &groups,
                 )
             }
-            "convergence" => figures::convergence(root, "slip-blr", &self.convergence),
+            "convergence" => figures::convergence(root, &self.options.model, &self.convergence),
             "trajectories" => figures::trajectories(root, &self.trajectories),
             "calibration" => figures::calibration(root, &self.calibration, self.dt),
             other => Err(format!("no figure named {other}").into()),
@@ -360,7 +384,7 @@ impl Report {
                 s,
                 "| {} | {} | {:.4} | [{:.4}, {:.4}] | {:.4} | [{:.4}, {:.4}] | {:+.1}% / {:+.1}% |",
                 m.name,
-                m.powertrain.map_or("-", |p| p.name()),
+                m.powertrain.as_deref().unwrap_or("-"),
                 m.translational_median_m,
                 m.translational_iqr_m[0],
                 m.translational_iqr_m[1],
@@ -377,14 +401,15 @@ impl Report {
             Some(t) => {
                 let _ = writeln!(
                     s,
-                    "slip-BLR converges after **{t:.1} s** of training driving (every later gradient under {} m/s and {} rad/s; the paper found 46 s).",
-                    conv.thresholds[0], conv.thresholds[1]
+                    "{} converges after **{t:.1} s** of training driving (every later gradient under {} m/s and {} rad/s; the paper found 46 s for slip-BLR).",
+                    conv.model, conv.thresholds[0], conv.thresholds[1]
                 );
             }
             None => {
                 let _ = writeln!(
                     s,
-                    "slip-BLR's curve never meets the convergence rule on this data."
+                    "{}'s curve never meets the convergence rule on this data.",
+                    conv.model
                 );
             }
         }
@@ -392,27 +417,16 @@ impl Report {
         let f = &self.fitted;
         let _ = writeln!(
             s,
-            "| powertrain (eq. 3) | time constant [s] | dead time [s] | limits [rad/s] |"
+            "| powertrain (eq. 3), input axis | time constant [s] | dead time [s] | limits |"
         );
         let _ = writeln!(s, "|---|---:|---:|---|");
-        for (side, r, lo, hi) in [
-            (
-                "left",
-                f.fopdt.left,
-                f.fopdt.limits.min.x,
-                f.fopdt.limits.max.x,
-            ),
-            (
-                "right",
-                f.fopdt.right,
-                f.fopdt.limits.min.y,
-                f.fopdt.limits.max.y,
-            ),
-        ] {
+        for (i, axis) in self.vehicle.axes().iter().enumerate() {
+            let r = f.fopdt.axes[i];
+            let (lo, hi) = (f.fopdt.limits.min[i], f.fopdt.limits.max[i]);
             let _ = writeln!(
                 s,
-                "| {side} | {:.3} | {:.3} | [{lo:.2}, {hi:.2}] |",
-                r.time_constant, r.delay
+                "| {} | {:.3} | {:.3} | [{lo:.2}, {hi:.2}] {} |",
+                axis.name, r.time_constant, r.delay, axis.unit
             );
         }
         let w = |v: &[f64]| {

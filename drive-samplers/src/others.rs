@@ -5,6 +5,7 @@ use crate::SamplerError;
 use drive_traits::{BodyVelocity, CommandModel, Input, InputSampler, InputSpace};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
+use std::sync::Arc;
 
 /// A regular `n x n` grid over J, visited in a seeded random order, reshuffled at every
 /// pass.
@@ -74,7 +75,7 @@ impl InputSampler for GridSampler {
 /// Body commands converted to inputs and clamped into J.
 #[derive(Debug)]
 struct BodyToInput {
-    vehicle: Box<dyn CommandModel>,
+    vehicle: Arc<dyn CommandModel>,
     space: InputSpace,
 }
 
@@ -89,7 +90,8 @@ impl BodyToInput {
         self.space.clamp(&u)
     }
 
-    /// Top forward speed and top yaw rate (turning in place) inside J.
+    /// Top forward speed (all inputs at their maximum) and top yaw rate (first input at its
+    /// minimum, second at its maximum: turning in place for a skid-steer) inside J.
     fn reach(&self) -> (f64, f64) {
         let fwd = self.vehicle.body_velocity(&self.space.max).x.abs();
         let turn = self
@@ -113,7 +115,7 @@ pub struct LinearSampler {
 
 impl LinearSampler {
     /// Over J = `space` for `vehicle`, seeded.
-    pub fn new(space: InputSpace, vehicle: Box<dyn CommandModel>, seed: u64) -> Self {
+    pub fn new(space: InputSpace, vehicle: Arc<dyn CommandModel>, seed: u64) -> Self {
         LinearSampler {
             map: BodyToInput { vehicle, space },
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
@@ -146,7 +148,7 @@ pub struct AngularSampler {
 
 impl AngularSampler {
     /// Over J = `space` for `vehicle`, seeded.
-    pub fn new(space: InputSpace, vehicle: Box<dyn CommandModel>, seed: u64) -> Self {
+    pub fn new(space: InputSpace, vehicle: Arc<dyn CommandModel>, seed: u64) -> Self {
         AngularSampler {
             map: BodyToInput { vehicle, space },
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),

@@ -1,62 +1,87 @@
-//! The one place where sampler names map to samplers. [`SamplerRegistry::builtin`] holds the
-//! project's samplers; a researcher's own sampler is one [`SamplerRegistry::register`] call
-//! away from every simulated experiment that takes a registry.
+//! Samplers by name: [`builtin_samplers`] holds the project's; a researcher's own sampler is
+//! one [`Registry::register`] call away from every experiment that takes the registry.
 
 use crate::{
     AngularSampler, BodyLimits, GridSampler, LinearSampler, RobotSpec, SamplerError, Target,
     TargetedSampler, UniformSampler,
 };
-use drive_traits::{CommandModel, InputSampler, InputSpace};
+use drive_traits::{InputSampler, InputSpace, Registry, RegistryItem};
 use std::sync::Arc;
 
 /// What a sampler is built from.
+#[derive(Debug, Clone)]
 pub struct SamplerContext<'a> {
     /// The input space to sample (the characterized one during a protocol run).
     pub space: InputSpace,
-    /// The robot (rate, controller limits, acceleration limits).
+    /// The robot (vehicle, rate, controller limits, acceleration limits).
     pub robot: &'a RobotSpec,
-    /// Makes the vehicle's command model (inputs to body velocities and back).
-    pub vehicle: &'a dyn Fn() -> Box<dyn CommandModel>,
     /// Seed of the sampler.
     pub seed: u64,
 }
 
-type MakeFn =
-    dyn Fn(&SamplerContext<'_>) -> Result<Box<dyn InputSampler>, SamplerError> + Send + Sync;
+impl<'a> SamplerContext<'a> {
+    /// A context over the robot's input space.
+    pub fn new(robot: &'a RobotSpec, seed: u64) -> Self {
+        SamplerContext {
+            space: robot.input_space(),
+            robot,
+            seed,
+        }
+    }
 
-/// Samplers by name, in registration order.
+    /// The same context over another input space (the one the characterization found).
+    pub fn over(mut self, space: InputSpace) -> Self {
+        self.space = space;
+        self
+    }
+}
+
+/// Builds a seeded sampler from a context: what the sampler registry holds. Implemented for
+/// every function or closure `Fn(&SamplerContext) -> Result<Box<dyn InputSampler>,
+/// SamplerError>`.
 ///
 /// ```
-/// use drive_samplers::{RobotSpec, SamplerContext, SamplerRegistry, UniformSampler};
-/// use drive_models::DifferentialDrive;
-/// use drive_traits::CommandModel;
-/// let mut registry = SamplerRegistry::builtin();
+/// use drive_samplers::{builtin_robots, builtin_samplers, build_sampler, SamplerContext, UniformSampler};
+/// use std::sync::Arc;
+/// let mut samplers = builtin_samplers();
 /// // A researcher's sampler: uniform over the forward half of the input space only.
-/// registry
-///     .register("forward-half", |ctx: &SamplerContext<'_>| {
+/// samplers
+///     .register("forward-half", "uniform over the forward half of J", Arc::new(|ctx: &SamplerContext<'_>| {
 ///         let mut space = ctx.space;
 ///         space.min.x = space.min.x.max(0.0);
 ///         space.min.y = space.min.y.max(0.0);
-///         Ok(Box::new(UniformSampler::new(space, ctx.seed)?))
-///     })
+///         Ok(Box::new(UniformSampler::new(space, ctx.seed)?) as Box<dyn drive_traits::InputSampler>)
+///     }))
 ///     .unwrap();
-/// let robot = RobotSpec::preset("husky").unwrap();
-/// let vehicle = || Box::new(DifferentialDrive::new(0.165, 0.555)) as Box<dyn CommandModel>;
-/// let ctx = SamplerContext { space: robot.input_space(), robot: &robot, vehicle: &vehicle, seed: 1 };
-/// let mut sampler = registry.build("forward-half", &ctx).unwrap();
+/// let husky = builtin_robots().get("husky").unwrap().part().as_ref().clone();
+/// let mut sampler = build_sampler(&samplers, "forward-half", &SamplerContext::new(&husky, 1)).unwrap();
 /// let u = sampler.next_input();
 /// assert!(u.x >= 0.0 && u.y >= 0.0);
-/// assert!(registry.build("nope", &ctx).is_err());
+/// assert!(build_sampler(&samplers, "nope", &SamplerContext::new(&husky, 1)).is_err());
 /// ```
-#[derive(Clone, Default)]
-pub struct SamplerRegistry {
-    entries: Vec<(String, Arc<MakeFn>)>,
+pub trait MakeSampler: Send + Sync {
+    /// A sampler for this context.
+    fn make(&self, ctx: &SamplerContext<'_>) -> Result<Box<dyn InputSampler>, SamplerError>;
 }
 
-impl std::fmt::Debug for SamplerRegistry {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_list().entries(self.names()).finish()
+impl<F> MakeSampler for F
+where
+    F: Fn(&SamplerContext<'_>) -> Result<Box<dyn InputSampler>, SamplerError> + Send + Sync,
+{
+    fn make(&self, ctx: &SamplerContext<'_>) -> Result<Box<dyn InputSampler>, SamplerError> {
+        self(ctx)
     }
+}
+
+impl RegistryItem for dyn MakeSampler {}
+
+/// Builds the sampler registered as `name` in `samplers`.
+pub fn build_sampler(
+    samplers: &Registry<dyn MakeSampler>,
+    name: &str,
+    ctx: &SamplerContext<'_>,
+) -> Result<Box<dyn InputSampler>, SamplerError> {
+    samplers.get(name)?.part().make(ctx)
 }
 
 /// The uniform sampler of DRIVE, with the controller's body-velocity limits when the robot
@@ -68,7 +93,7 @@ fn uniform(ctx: &SamplerContext<'_>) -> Result<Box<dyn InputSampler>, SamplerErr
         match (robot.controller_max_linear, robot.controller_max_angular) {
             (None, None) => Box::new(s),
             (lin, ang) => Box::new(s.with_body_limits(BodyLimits {
-                vehicle: (ctx.vehicle)(),
+                vehicle: Arc::clone(&robot.vehicle),
                 max_linear: lin.unwrap_or(f64::INFINITY),
                 max_angular: ang.unwrap_or(f64::INFINITY),
             })?),
@@ -76,94 +101,66 @@ fn uniform(ctx: &SamplerContext<'_>) -> Result<Box<dyn InputSampler>, SamplerErr
     )
 }
 
-impl SamplerRegistry {
-    /// A registry with no sampler.
-    pub fn empty() -> Self {
-        Self::default()
+/// The project's samplers: `uniform` (DRIVE), `grid`, `linear`, `angular`, `targeted`
+/// (largest slip-BLR uncertainty) and `targeted-coverage` (farthest from the inputs held).
+pub fn builtin_samplers() -> Registry<dyn MakeSampler> {
+    let mut r: Registry<dyn MakeSampler> = Registry::new("sampler");
+    let parts: [(&str, &str, Arc<dyn MakeSampler>); 6] = [
+        (
+            "uniform",
+            "DRIVE: uniform over the input space J, within the controller's limits (Sec. III-A)",
+            Arc::new(uniform),
+        ),
+        (
+            "grid",
+            "a regular 10 x 10 grid over J, visited in a seeded random order",
+            Arc::new(|c: &SamplerContext<'_>| {
+                Ok(Box::new(GridSampler::new(c.space, 10, c.seed)?) as Box<dyn InputSampler>)
+            }),
+        ),
+        (
+            "linear",
+            "human-like, linear-focused: mostly forward at 30-100% of the top speed, small turns",
+            Arc::new(|c: &SamplerContext<'_>| {
+                Ok(Box::new(LinearSampler::new(
+                    c.space,
+                    Arc::clone(&c.robot.vehicle),
+                    c.seed,
+                )) as Box<dyn InputSampler>)
+            }),
+        ),
+        (
+            "angular",
+            "human-like, angular-focused: half the top speed with a varying curvature",
+            Arc::new(|c: &SamplerContext<'_>| {
+                Ok(Box::new(AngularSampler::new(
+                    c.space,
+                    Arc::clone(&c.robot.vehicle),
+                    c.seed,
+                )) as Box<dyn InputSampler>)
+            }),
+        ),
+        (
+            "targeted",
+            "the input where the slip-BLR fitted so far is least sure of the slip, among 64 uniform candidates",
+            Arc::new(|c: &SamplerContext<'_>| {
+                Ok(Box::new(TargetedSampler::new(c.space, uniform(c)?, Target::SlipVariance))
+                    as Box<dyn InputSampler>)
+            }),
+        ),
+        (
+            "targeted-coverage",
+            "the uniform candidate farthest from every input held so far (maximin design over J)",
+            Arc::new(|c: &SamplerContext<'_>| {
+                Ok(Box::new(TargetedSampler::new(c.space, uniform(c)?, Target::Coverage))
+                    as Box<dyn InputSampler>)
+            }),
+        ),
+    ];
+    for (name, description, part) in parts {
+        // Distinct built-in names.
+        r.register_trusted(name, description, part)
+            .expect("distinct built-in samplers");
     }
-
-    /// The project's samplers ([`crate::SAMPLER_NAMES`]): `uniform` (DRIVE), `grid`,
-    /// `linear`, `angular`, `targeted` (largest slip-BLR uncertainty) and
-    /// `targeted-coverage` (farthest from the inputs held).
-    pub fn builtin() -> Self {
-        let mut r = Self::empty();
-        let fresh = "the built-in names are distinct";
-        r.register("uniform", uniform).expect(fresh);
-        r.register("grid", |c: &SamplerContext<'_>| {
-            Ok(Box::new(GridSampler::new(c.space, 10, c.seed)?))
-        })
-        .expect(fresh);
-        r.register("linear", |c: &SamplerContext<'_>| {
-            Ok(Box::new(LinearSampler::new(c.space, (c.vehicle)(), c.seed)))
-        })
-        .expect(fresh);
-        r.register("angular", |c: &SamplerContext<'_>| {
-            Ok(Box::new(AngularSampler::new(
-                c.space,
-                (c.vehicle)(),
-                c.seed,
-            )))
-        })
-        .expect(fresh);
-        r.register("targeted", |c: &SamplerContext<'_>| {
-            Ok(Box::new(TargetedSampler::new(
-                c.space,
-                uniform(c)?,
-                Target::SlipVariance,
-            )))
-        })
-        .expect(fresh);
-        r.register("targeted-coverage", |c: &SamplerContext<'_>| {
-            Ok(Box::new(TargetedSampler::new(
-                c.space,
-                uniform(c)?,
-                Target::Coverage,
-            )))
-        })
-        .expect(fresh);
-        r
-    }
-
-    /// Registers a sampler under `name`; refused (with the name back) when the name is
-    /// empty or taken.
-    pub fn register<F>(&mut self, name: &str, make: F) -> Result<&mut Self, String>
-    where
-        F: Fn(&SamplerContext<'_>) -> Result<Box<dyn InputSampler>, SamplerError>
-            + Send
-            + Sync
-            + 'static,
-    {
-        if name.is_empty() || self.contains(name) {
-            return Err(name.to_string());
-        }
-        self.entries.push((name.to_string(), Arc::new(make)));
-        Ok(self)
-    }
-
-    /// Whether `name` is registered.
-    pub fn contains(&self, name: &str) -> bool {
-        self.entries.iter().any(|(n, _)| n == name)
-    }
-
-    /// The registered names, in registration order.
-    pub fn names(&self) -> Vec<&str> {
-        self.entries.iter().map(|(n, _)| n.as_str()).collect()
-    }
-
-    /// Builds the sampler registered under `name`.
-    pub fn build(
-        &self,
-        name: &str,
-        ctx: &SamplerContext<'_>,
-    ) -> Result<Box<dyn InputSampler>, SamplerError> {
-        let (_, make) = self
-            .entries
-            .iter()
-            .find(|(n, _)| n == name)
-            .ok_or_else(|| SamplerError::Unknown {
-                name: name.to_string(),
-                known: self.names().join(", "),
-            })?;
-        make(ctx)
-    }
+    r
 }

@@ -1,8 +1,10 @@
-//! Robot descriptions for the protocol: geometry, limits, rates and acceleration limits,
-//! from a TOML file or a built-in preset of the paper's platforms.
+//! Robot descriptions for the protocol: the vehicle with its geometry, limits, rates and
+//! acceleration limits, from a TOML file or a registered preset (the paper's platforms).
 
-use drive_traits::{Input, InputSpace};
-use serde::{Deserialize, Serialize};
+use drive_models::DifferentialDrive;
+use drive_traits::{CommandModel, Input, InputSpace, Registry, RegistryItem};
+use serde::Deserialize;
+use std::sync::Arc;
 use thiserror::Error;
 
 /// Why a robot description is refused.
@@ -26,99 +28,281 @@ pub enum RobotError {
         /// what is expected
         message: String,
     },
-    /// No preset of that name.
-    #[error("unknown robot '{0}' (presets: husky, hd2, warthog; or a path to a .toml file)")]
-    UnknownPreset(String),
+    /// No preset of that name, and no such file.
+    #[error("unknown robot '{name}' (the robots are: {known}; or a path to a .toml file)")]
+    UnknownPreset {
+        /// The name asked for.
+        name: String,
+        /// The registered robots.
+        known: String,
+    },
 }
 
 /// A robot description for the DRIVE protocol.
 ///
+/// In TOML: `name`, `mass_kg`, `max_speed` (the manufacturer's top speed, m/s),
+/// `max_linear_acceleration`, `max_angular_acceleration`; optional `rate_hz` (20),
+/// `controller_max_linear`, `controller_max_angular`, `tracked`; the vehicle as a
+/// `[vehicle]` table (`type = "differential"`, `wheel_radius`, `baseline`; any registered
+/// vehicle type with its geometry), or `wheel_radius` and `baseline` for a differential
+/// drive; the input space as `input_limits = [[min, max], [min, max]]` per axis, or
+/// `wheel_limits = [min, max]` for both wheels of a differential drive, or, when neither is
+/// given, the vehicle's nominal space at `max_speed`.
+///
 /// ```
-/// let husky = drive_samplers::RobotSpec::preset("husky").unwrap();
-/// assert_eq!(husky.wheel_radius, 0.165);
-/// let toml = "name = 'mine'\nmass_kg = 30\nwheel_radius = 0.1\nbaseline = 0.4\nmax_speed = 1.5\n\
-///             max_linear_acceleration = 1.0\nmax_angular_acceleration = 3.0\n";
-/// let mine = drive_samplers::RobotSpec::from_toml("mine.toml", toml).unwrap();
+/// use drive_samplers::{builtin_robots, RobotSpec};
+/// let husky = builtin_robots().get("husky").unwrap().part().as_ref().clone();
+/// assert_eq!(husky.vehicle.geometry()[0], ("wheel_radius", 0.165));
+/// let toml = "name = 'mine'\nmass_kg = 30\nmax_speed = 1.5\nmax_linear_acceleration = 1.0\n\
+///             max_angular_acceleration = 3.0\n[vehicle]\ntype = 'differential'\n\
+///             wheel_radius = 0.1\nbaseline = 0.4\n";
+/// let mine = RobotSpec::from_toml("mine.toml", toml).unwrap();
 /// assert_eq!(mine.rate_hz, 20.0); // the DRIVE command rate by default
+/// assert_eq!(mine.input_space().max.x, 15.0); // 1.5 m/s on 0.1 m wheels
 /// ```
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone)]
 pub struct RobotSpec {
     /// Robot name.
     pub name: String,
     /// Mass (kg).
     pub mass_kg: f64,
-    /// Wheel or track sprocket radius r (m).
-    pub wheel_radius: f64,
-    /// Vehicle width b (m).
-    pub baseline: f64,
+    /// The vehicle and its geometry.
+    pub vehicle: Arc<dyn CommandModel>,
     /// Manufacturer's top speed (m/s): gives the naive input space.
     pub max_speed: f64,
     /// The low-level controller's linear speed limit (m/s), when it has one.
-    #[serde(default)]
     pub controller_max_linear: Option<f64>,
     /// The low-level controller's angular speed limit (rad/s), when it has one.
-    #[serde(default)]
     pub controller_max_angular: Option<f64>,
     /// Command rate (Hz).
-    #[serde(default = "default_rate")]
     pub rate_hz: f64,
     /// Acceleration limit applied to the sent commands, linear (m/s^2).
     pub max_linear_acceleration: f64,
     /// Acceleration limit applied to the sent commands, angular (rad/s^2).
     pub max_angular_acceleration: f64,
-    /// Wheel velocity limits `[omega_min, omega_max]` (rad/s), user-given or from the
-    /// characterization step; the naive limits `+-max_speed / r` when absent.
-    #[serde(default)]
-    pub wheel_limits: Option<[f64; 2]>,
+    /// Input limits per axis, user-given or from the characterization step; the vehicle's
+    /// nominal space at `max_speed` when absent.
+    pub input_limits: Option<InputSpace>,
+    /// The vehicle's nominal input space at `max_speed` (the manufacturer's J).
+    pub nominal_input_space: InputSpace,
     /// Tracks rather than wheels.
-    #[serde(default)]
     pub tracked: bool,
+}
+
+impl RegistryItem for RobotSpec {}
+
+/// A robot file as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RobotFile {
+    name: String,
+    mass_kg: f64,
+    max_speed: f64,
+    #[serde(default)]
+    vehicle: Option<toml::Value>,
+    #[serde(default)]
+    wheel_radius: Option<f64>,
+    #[serde(default)]
+    baseline: Option<f64>,
+    #[serde(default)]
+    controller_max_linear: Option<f64>,
+    #[serde(default)]
+    controller_max_angular: Option<f64>,
+    #[serde(default = "default_rate")]
+    rate_hz: f64,
+    max_linear_acceleration: f64,
+    max_angular_acceleration: f64,
+    #[serde(default)]
+    wheel_limits: Option<[f64; 2]>,
+    #[serde(default)]
+    input_limits: Option<[[f64; 2]; 2]>,
+    #[serde(default)]
+    tracked: bool,
 }
 
 fn default_rate() -> f64 {
     20.0
 }
 
-impl RobotSpec {
-    /// A built-in preset of the paper's platforms: `husky` (75 kg, 1 m/s), `hd2` (tracked,
-    /// 80 kg, 1.2 m/s) or `warthog` (470 kg, 5 m/s). Acceleration limits are this project's
-    /// defaults (about one top speed per second), not the manufacturers'.
-    pub fn preset(name: &str) -> Result<RobotSpec, RobotError> {
-        let (mass_kg, max_speed, wheel_radius, baseline, tracked) = match name {
-            "husky" => (75.0, 1.0, 0.165, 0.55, false),
-            "hd2" => (80.0, 1.2, 0.116, 0.5927, true),
-            "warthog" => (470.0, 5.0, 0.3, 1.1652, false),
-            other => return Err(RobotError::UnknownPreset(other.to_string())),
-        };
-        Ok(RobotSpec {
+/// The paper's platforms: `husky` (75 kg, 1 m/s), `hd2` (tracked, 80 kg, 1.2 m/s),
+/// `warthog` (470 kg, 5 m/s), differential drives. Acceleration limits are this project's
+/// defaults (about one top speed per second), not the manufacturers'.
+pub fn builtin_robots() -> Registry<RobotSpec> {
+    let mut r: Registry<RobotSpec> = Registry::new("robot");
+    for (name, description, mass_kg, max_speed, wheel_radius, baseline, tracked) in [
+        (
+            "husky",
+            "Clearpath Husky: wheeled skid-steer, 75 kg, 1 m/s",
+            75.0,
+            1.0,
+            0.165,
+            0.55,
+            false,
+        ),
+        (
+            "hd2",
+            "Superdroid HD2: tracked skid-steer, 80 kg, 1.2 m/s",
+            80.0,
+            1.2,
+            0.116,
+            0.5927,
+            true,
+        ),
+        (
+            "warthog",
+            "Clearpath Warthog on wheels: skid-steer, 470 kg, 5 m/s",
+            470.0,
+            5.0,
+            0.3,
+            1.1652,
+            false,
+        ),
+    ] {
+        let vehicle = DifferentialDrive::new(wheel_radius, baseline);
+        let spec = RobotSpec {
             name: name.to_string(),
             mass_kg,
-            wheel_radius,
-            baseline,
             max_speed,
             controller_max_linear: None,
             controller_max_angular: None,
             rate_hz: 20.0,
             max_linear_acceleration: max_speed,
             max_angular_acceleration: 2.0 * max_speed / baseline,
-            wheel_limits: None,
+            input_limits: None,
+            nominal_input_space: InputSpace::new(
+                Input::repeat(-max_speed / wheel_radius),
+                Input::repeat(max_speed / wheel_radius),
+            )
+            .expect("positive presets"),
+            vehicle: Arc::new(vehicle),
             tracked,
-        })
+        };
+        // Three distinct names.
+        r.register_trusted(name, description, Arc::new(spec))
+            .expect("distinct presets");
     }
+    r
+}
 
+impl RobotSpec {
     /// Parses and validates a TOML description (`file` names it in errors).
     pub fn from_toml(file: &str, text: &str) -> Result<RobotSpec, RobotError> {
-        let spec: RobotSpec = toml::from_str(text).map_err(|e| RobotError::Parse {
+        let parse = |message: String| RobotError::Parse {
             file: file.into(),
-            message: e.to_string().trim().replace('\n', " "),
-        })?;
+            message: message.trim().replace('\n', " "),
+        };
+        let invalid = |field, message: String| RobotError::Invalid {
+            file: file.into(),
+            field,
+            message,
+        };
+        let f: RobotFile = toml::from_str(text).map_err(|e| parse(e.to_string()))?;
+        let vehicle: Arc<dyn CommandModel> = match (&f.vehicle, f.wheel_radius, f.baseline) {
+            (Some(v), None, None) => {
+                let json = serde_json::to_value(v).map_err(|e| parse(e.to_string()))?;
+                let v: Box<dyn CommandModel> = serde_json::from_value(json)
+                    .map_err(|e| invalid("vehicle", format!("not a known vehicle: {e}")))?;
+                Arc::from(v)
+            }
+            (None, Some(r), Some(b)) => Arc::new(DifferentialDrive::new(r, b)),
+            (Some(_), _, _) => {
+                return Err(invalid(
+                    "vehicle",
+                    "give the geometry inside [vehicle] only (wheel_radius and baseline at the top are the older form of a differential drive's)".into(),
+                ))
+            }
+            (None, Some(_), None) => {
+                return Err(invalid(
+                    "baseline",
+                    "missing field `baseline` (a differential drive needs wheel_radius and baseline; or give a [vehicle] table)".into(),
+                ))
+            }
+            (None, None, Some(_)) => {
+                return Err(invalid(
+                    "wheel_radius",
+                    "missing field `wheel_radius` (a differential drive needs wheel_radius and baseline; or give a [vehicle] table)".into(),
+                ))
+            }
+            (None, None, None) => {
+                return Err(invalid(
+                    "vehicle",
+                    "missing: a [vehicle] table (type = \"differential\", wheel_radius, baseline, ...), or wheel_radius and baseline".into(),
+                ))
+            }
+        };
+        vehicle.check().map_err(|e| invalid("vehicle", e))?;
+        let axis_limits = match (f.wheel_limits, f.input_limits) {
+            (Some(_), Some(_)) => {
+                return Err(invalid(
+                    "wheel_limits",
+                    "give wheel_limits or input_limits, not both".into(),
+                ))
+            }
+            (Some([lo, hi]), None) => Some(("wheel_limits", [[lo, hi], [lo, hi]])),
+            (None, Some(l)) => Some(("input_limits", l)),
+            (None, None) => None,
+        };
+        let mut input_limits = None;
+        if let Some((field, [[a0, a1], [b0, b1]])) = axis_limits {
+            let ok = [a0, a1, b0, b1].iter().all(|v| v.is_finite()) && a0 < a1 && b0 < b1;
+            if !ok {
+                return Err(invalid(
+                    field,
+                    if field == "wheel_limits" {
+                        format!("expected [omega_min, omega_max] with omega_min < omega_max, found [{a0}, {a1}]")
+                    } else {
+                        format!("expected [min, max] with min < max on each axis, found [[{a0}, {a1}], [{b0}, {b1}]]")
+                    },
+                ));
+            }
+            input_limits = InputSpace::new(Input::new(a0, b0), Input::new(a1, b1));
+        }
+        if !(f.max_speed.is_finite() && f.max_speed > 0.0) {
+            return Err(invalid(
+                "max_speed",
+                format!("expected a positive number, found {}", f.max_speed),
+            ));
+        }
+        let nominal = match (vehicle.nominal_input_space(f.max_speed), input_limits) {
+            (Some(j), _) => j,
+            (None, Some(limits)) => limits,
+            // The vehicle gives a nominal space at ordinary speeds: the top speed is too large.
+            (None, None) if vehicle.nominal_input_space(1.0).is_some() => {
+                return Err(invalid(
+                    "max_speed",
+                    format!(
+                        "the nominal input space at {} m/s is not finite; expected a realistic top speed",
+                        f.max_speed
+                    ),
+                ))
+            }
+            (None, None) => {
+                return Err(invalid(
+                    "input_limits",
+                    "this vehicle has no nominal input space: give input_limits = [[min, max], [min, max]]".into(),
+                ))
+            }
+        };
+        let spec = RobotSpec {
+            name: f.name,
+            mass_kg: f.mass_kg,
+            vehicle,
+            max_speed: f.max_speed,
+            controller_max_linear: f.controller_max_linear,
+            controller_max_angular: f.controller_max_angular,
+            rate_hz: f.rate_hz,
+            max_linear_acceleration: f.max_linear_acceleration,
+            max_angular_acceleration: f.max_angular_acceleration,
+            input_limits,
+            nominal_input_space: nominal,
+            tracked: f.tracked,
+        };
         spec.validate(file)?;
         Ok(spec)
     }
 
-    /// A preset by name, or a TOML file by path.
-    pub fn load(name_or_path: &str) -> Result<RobotSpec, RobotError> {
+    /// A registered robot by name, or a TOML file by path.
+    pub fn load(robots: &Registry<RobotSpec>, name_or_path: &str) -> Result<RobotSpec, RobotError> {
         if name_or_path.ends_with(".toml") || std::path::Path::new(name_or_path).exists() {
             let text = std::fs::read_to_string(name_or_path).map_err(|e| RobotError::Parse {
                 file: name_or_path.into(),
@@ -126,11 +310,17 @@ impl RobotSpec {
             })?;
             return Self::from_toml(name_or_path, &text);
         }
-        Self::preset(name_or_path)
+        robots
+            .find(name_or_path)
+            .map(|e| e.part().as_ref().clone())
+            .ok_or_else(|| RobotError::UnknownPreset {
+                name: name_or_path.to_string(),
+                known: robots.names().join(", "),
+            })
     }
 
-    /// Checks physical ranges: positive geometry, rates and limits (no fixed speed caps:
-    /// robots differ by orders of magnitude).
+    /// Checks physical ranges: positive rates, limits and mass, a finite nominal input
+    /// space (no fixed speed caps: robots differ by orders of magnitude).
     pub fn validate(&self, file: &str) -> Result<(), RobotError> {
         let invalid = |field, message: &str| {
             Err(RobotError::Invalid {
@@ -139,10 +329,8 @@ impl RobotSpec {
                 message: message.into(),
             })
         };
-        let positive: [(&'static str, f64); 7] = [
+        let positive: [(&'static str, f64); 5] = [
             ("mass_kg", self.mass_kg),
-            ("wheel_radius", self.wheel_radius),
-            ("baseline", self.baseline),
             ("max_speed", self.max_speed),
             ("rate_hz", self.rate_hz),
             ("max_linear_acceleration", self.max_linear_acceleration),
@@ -174,22 +362,25 @@ impl RobotSpec {
                 }
             }
         }
-        if let Some([lo, hi]) = self.wheel_limits {
-            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-                return invalid("wheel_limits", &format!("expected [omega_min, omega_max] with omega_min < omega_max, found [{lo}, {hi}]"));
-            }
+        let j = self.nominal_input_space;
+        if !(j.min.iter().chain(j.max.iter()).all(|v| v.is_finite())
+            && j.min.x < j.max.x
+            && j.min.y < j.max.y)
+        {
+            return invalid(
+                "max_speed",
+                &format!(
+                    "the nominal input space at {} m/s is not a finite box: [{}, {}] x [{}, {}]",
+                    self.max_speed, j.min.x, j.max.x, j.min.y, j.max.y
+                ),
+            );
         }
         Ok(())
     }
 
-    /// The input space J used by the protocol: the wheel limits on both sides, or the naive
-    /// (manufacturer's) `+-max_speed / r`.
+    /// The input space J used by the protocol: the given input limits, or the vehicle's
+    /// nominal (manufacturer's) space at `max_speed`.
     pub fn input_space(&self) -> InputSpace {
-        let [lo, hi] = self.wheel_limits.unwrap_or([
-            -self.max_speed / self.wheel_radius,
-            self.max_speed / self.wheel_radius,
-        ]);
-        // Validated: lo < hi, finite.
-        InputSpace::new(Input::new(lo, lo), Input::new(hi, hi)).expect("validated wheel limits")
+        self.input_limits.unwrap_or(self.nominal_input_space)
     }
 }

@@ -1,15 +1,16 @@
 //! The protocol runner: the state machine a robot driver (a ROS 2 node, say) wraps. At each
 //! command tick it takes the measurements and returns the command to send.
 //!
-//! States: idle, characterizing (step 1: high longitudinal commands both ways, then a turn
-//! in place, to find the wheel velocity limits and, with localization, the effective wheel
-//! radius and baseline), driving interval k (step 2), paused (watchdog or dead-man switch),
-//! done (intervals, duration, geofence or convergence).
+//! States: idle, characterizing (step 1: the vehicle's probes, by default high
+//! longitudinal commands both ways, and for a differential drive a turn in place, to find
+//! the true input space and, with localization, the effective geometry), driving interval
+//! k (step 2), paused (watchdog or dead-man switch), done (intervals, duration, geofence,
+//! convergence, or a characterization that found no usable input space).
 
-use crate::{limit_acceleration, window_len, RobotSpec, WINDOWS_PER_INTERVAL};
+use crate::{next_command, window_len, RobotSpec, WINDOWS_PER_INTERVAL};
 use drive_traits::{
-    BodyVelocity, CommandModel, Input, InputSampler, InputSpace, Phase, Pose, RobotDescription,
-    Window,
+    wrap_angle, BodyVelocity, Characterization, Input, InputSampler, InputSpace, Phase, Pose,
+    Probe, ProbeMotion, ProbeResult, RobotDescription, Window,
 };
 
 /// What the robot measured at this tick.
@@ -50,17 +51,8 @@ pub enum StopReason {
     },
     /// The model converged.
     Converged,
-}
-
-/// The characterization step's sub-steps.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Characterize {
-    /// Full forward.
-    Forward,
-    /// Full backward.
-    Backward,
-    /// Turn in place (for the baseline).
-    Turn,
+    /// The characterization found no usable input space (never a made-up one).
+    CharacterizationFailed(String),
 }
 
 /// The runner's state.
@@ -68,10 +60,10 @@ pub enum Characterize {
 pub enum RunnerState {
     /// Not started.
     Idle,
-    /// Step 1.
+    /// Step 1: the vehicle's characterization probes.
     Characterizing {
-        /// sub-step
-        step: Characterize,
+        /// probe number
+        probe: usize,
         /// ticks into it
         tick: usize,
     },
@@ -109,21 +101,10 @@ pub struct SampleTag {
 /// What the runner results in at a tick.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunnerOutput {
-    /// Command to send (wheel velocities, rad/s).
+    /// Command to send (the vehicle's inputs: wheel velocities for a skid-steer).
     pub command: Input,
     /// The sample being recorded, while driving.
     pub sample: Option<SampleTag>,
-}
-
-/// What the characterization found.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Characterization {
-    /// The true input space J.
-    pub space: InputSpace,
-    /// Effective wheel radius (m), when localization was available.
-    pub wheel_radius: Option<f64>,
-    /// Effective baseline (m), when localization was available.
-    pub baseline: Option<f64>,
 }
 
 /// Configuration of the runner.
@@ -140,8 +121,7 @@ pub struct RunnerConfig {
     /// Duration of each characterization sub-step (s); the last second is averaged. The
     /// default, 8 s, lets a powertrain with a 1.5 s time constant settle.
     pub characterization_s: f64,
-    /// Whether localization is expected (watchdog, geofence, radius and baseline
-    /// identification).
+    /// Whether localization is expected (watchdog, geofence, geometry identification).
     pub localization: bool,
 }
 
@@ -164,7 +144,7 @@ type ConvergenceCheck = Box<dyn FnMut(usize) -> bool>;
 #[derive(Debug, Default, Clone, Copy)]
 struct Averager {
     n: usize,
-    wheels: Input,
+    inputs: Input,
     /// First and last localization updates in the averaging span, with their times.
     start_pose: Option<(f64, Pose)>,
     end_pose: Option<(f64, Pose)>,
@@ -176,7 +156,6 @@ struct Averager {
 /// The DRIVE protocol runner.
 pub struct ProtocolRunner {
     robot: RobotSpec,
-    vehicle: Box<dyn CommandModel>,
     config: RunnerConfig,
     factory: SamplerFactory,
     sampler: Option<Box<dyn InputSampler>>,
@@ -184,7 +163,10 @@ pub struct ProtocolRunner {
     state: RunnerState,
     characterization: Option<Characterization>,
     user_space: Option<InputSpace>,
-    averages: [Averager; 3],
+    /// The probe under way and what it has averaged so far.
+    probe: Option<(Probe, Averager)>,
+    /// What the finished probes measured.
+    probed: Vec<ProbeResult>,
     target: Input,
     sent: BodyVelocity,
     last_encoder: f64,
@@ -206,18 +188,16 @@ impl std::fmt::Debug for ProtocolRunner {
 }
 
 impl ProtocolRunner {
-    /// A runner for `robot` (`vehicle` maps inputs to body velocities); `sampler` builds
-    /// the input sampler once the input space is known.
+    /// A runner for `robot` (its vehicle maps inputs to body velocities and plans the
+    /// characterization); `sampler` builds the input sampler once the input space is known.
     pub fn new(
         robot: RobotSpec,
-        vehicle: Box<dyn CommandModel>,
         config: RunnerConfig,
         sampler: impl FnMut(InputSpace) -> Box<dyn InputSampler> + 'static,
     ) -> Self {
-        let user_space = robot.wheel_limits.map(|_| robot.input_space());
+        let user_space = robot.input_limits;
         ProtocolRunner {
             robot,
-            vehicle,
             config,
             factory: Box::new(sampler),
             sampler: None,
@@ -225,7 +205,8 @@ impl ProtocolRunner {
             state: RunnerState::Idle,
             characterization: None,
             user_space,
-            averages: [Averager::default(); 3],
+            probe: None,
+            probed: Vec::new(),
             target: Input::zeros(),
             sent: BodyVelocity::zeros(),
             last_encoder: f64::NEG_INFINITY,
@@ -252,7 +233,7 @@ impl ProtocolRunner {
 
     /// What the characterization found (or the user-given input space).
     pub fn characterization(&self) -> Option<Characterization> {
-        self.characterization
+        self.characterization.clone()
     }
 
     /// Intervals completed.
@@ -278,8 +259,7 @@ impl ProtocolRunner {
             Some(space) => {
                 self.characterization = Some(Characterization {
                     space,
-                    wheel_radius: None,
-                    baseline: None,
+                    geometry: Vec::new(),
                 });
                 self.sampler = Some((self.factory)(space));
                 RunnerState::Driving {
@@ -287,10 +267,7 @@ impl ProtocolRunner {
                     tick: 0,
                 }
             }
-            None => RunnerState::Characterizing {
-                step: Characterize::Forward,
-                tick: 0,
-            },
+            None => self.next_probe(0),
         };
     }
 
@@ -353,7 +330,8 @@ impl ProtocolRunner {
         if let Some(reason) = pause {
             // Characterization restarts from scratch; driving resumes its interval.
             if matches!(self.state, RunnerState::Characterizing { .. }) {
-                self.averages = [Averager::default(); 3];
+                self.probe = None;
+                self.probed.clear();
             }
             self.state = RunnerState::Paused { reason, interval };
             self.sent = BodyVelocity::zeros();
@@ -363,56 +341,57 @@ impl ProtocolRunner {
             self.state = if self.sampler.is_some() {
                 RunnerState::Driving { interval, tick: 0 }
             } else {
-                RunnerState::Characterizing {
-                    step: Characterize::Forward,
-                    tick: 0,
-                }
+                self.next_probe(0)
             };
         }
         match self.state.clone() {
-            RunnerState::Characterizing { step, tick } => self.characterize(step, tick, m),
+            RunnerState::Characterizing { probe, tick } => self.characterize(probe, tick, m),
             RunnerState::Driving { interval, tick } => self.drive(interval, tick),
             _ => zero,
         }
     }
 
-    fn characterize(&mut self, step: Characterize, tick: usize, m: &RunnerInput) -> RunnerOutput {
-        let n = self.ticks(self.config.characterization_s);
-        let averaged = self.ticks(1.0).min(n);
-        let v = 2.0 * self.robot.max_speed;
-        let body = match step {
-            Characterize::Forward => BodyVelocity::new(v, 0.0, 0.0),
-            Characterize::Backward => BodyVelocity::new(-v, 0.0, 0.0),
-            // Turning in place at half of what the forward step reached.
-            Characterize::Turn => {
-                let reached = self.averages[0].wheels / self.averages[0].n.max(1) as f64;
-                let w = 0.5 * reached.x.abs().min(reached.y.abs());
-                return self.characterize_with(step, tick, n, averaged, Input::new(-w, w), m);
+    /// The state of the first usable probe from number `index` on (the vehicle's probes
+    /// that need localization are skipped without it), or the end of the characterization.
+    fn next_probe(&mut self, index: usize) -> RunnerState {
+        let mut i = index;
+        loop {
+            match self
+                .robot
+                .vehicle
+                .probe(i, self.robot.max_speed, &self.probed)
+            {
+                Some(p) if p.needs_localization && !self.config.localization => i += 1,
+                Some(p) => {
+                    self.probe = Some((p, Averager::default()));
+                    return RunnerState::Characterizing { probe: i, tick: 0 };
+                }
+                None => return self.finish_characterization(),
             }
-        };
-        let command = self.vehicle.input_for(&body).unwrap_or(Input::zeros());
-        self.characterize_with(step, tick, n, averaged, command, m)
+        }
     }
 
-    fn characterize_with(
-        &mut self,
-        step: Characterize,
-        tick: usize,
-        n: usize,
-        averaged: usize,
-        command: Input,
-        m: &RunnerInput,
-    ) -> RunnerOutput {
-        let slot = step as usize;
+    /// Holds probe `index` for the characterization time, averaging its last second.
+    fn characterize(&mut self, index: usize, tick: usize, m: &RunnerInput) -> RunnerOutput {
+        let n = self.ticks(self.config.characterization_s);
+        let averaged = self.ticks(1.0).min(n);
+        let Some((probe, a)) = self.probe.as_mut() else {
+            // A probe is always set when the state is Characterizing.
+            self.state = self.finish_characterization();
+            return RunnerOutput {
+                command: Input::zeros(),
+                sample: None,
+            };
+        };
+        let command = probe.command;
         if tick >= n - averaged {
-            let a = &mut self.averages[slot];
             if let Some(e) = m.encoder {
-                a.wheels += e;
+                a.inputs += e;
                 a.n += 1;
             }
             if let Some(p) = m.pose {
                 if let Some((_, last)) = a.end_pose {
-                    a.yaw_turned += drive_traits::wrap_angle(p.z - last.z);
+                    a.yaw_turned += wrap_angle(p.z - last.z);
                 }
                 a.start_pose.get_or_insert((m.t, p));
                 a.end_pose = Some((m.t, p));
@@ -420,25 +399,28 @@ impl ProtocolRunner {
         }
         let next = tick + 1;
         self.state = if next < n {
-            RunnerState::Characterizing { step, tick: next }
-        } else {
-            match step {
-                Characterize::Forward => RunnerState::Characterizing {
-                    step: Characterize::Backward,
-                    tick: 0,
-                },
-                Characterize::Backward if self.config.localization => RunnerState::Characterizing {
-                    step: Characterize::Turn,
-                    tick: 0,
-                },
-                _ => {
-                    self.finish_characterization();
-                    RunnerState::Driving {
-                        interval: 0,
-                        tick: 0,
-                    }
-                }
+            RunnerState::Characterizing {
+                probe: index,
+                tick: next,
             }
+        } else {
+            // The probe just ended: what it measured.
+            if let Some((probe, a)) = self.probe.take() {
+                let motion = match (a.start_pose, a.end_pose) {
+                    (Some((t0, s)), Some((t1, e))) if t1 > t0 => Some(ProbeMotion {
+                        duration_s: t1 - t0,
+                        distance_m: (e.xy() - s.xy()).norm(),
+                        yaw_turned: a.yaw_turned,
+                    }),
+                    _ => None,
+                };
+                self.probed.push(ProbeResult {
+                    probe,
+                    measured: a.inputs / a.n.max(1) as f64,
+                    motion,
+                });
+            }
+            self.next_probe(index + 1)
         };
         RunnerOutput {
             command,
@@ -446,39 +428,20 @@ impl ProtocolRunner {
         }
     }
 
-    fn finish_characterization(&mut self) {
-        let mean = |a: &Averager| a.wheels / a.n.max(1) as f64;
-        let (fwd, back) = (mean(&self.averages[0]), mean(&self.averages[1]));
-        let space = InputSpace::new(back.inf(&fwd), fwd.sup(&back))
-            .or_else(|| InputSpace::new(Input::repeat(-1.0), Input::repeat(1.0)))
-            .unwrap_or(self.robot.input_space());
-        // Effective radius: distance over wheel angle between two localization updates;
-        // effective baseline: r (w_r - w_l) over the yaw rate turning in place.
-        let (mut wheel_radius, mut baseline) = (None, None);
-        if let (Some((t0, s)), Some((t1, e))) =
-            (self.averages[0].start_pose, self.averages[0].end_pose)
-        {
-            let angle = 0.5 * (fwd.x + fwd.y) * (t1 - t0);
-            if angle.abs() > 1e-6 {
-                wheel_radius = Some((e.xy() - s.xy()).norm() / angle.abs());
+    /// The vehicle's characterization from what the probes measured: then driving, or the
+    /// end with the reason when no usable input space was found.
+    fn finish_characterization(&mut self) -> RunnerState {
+        match self.robot.vehicle.characterize(&self.probed) {
+            Ok(c) => {
+                self.sampler = Some((self.factory)(c.space));
+                self.characterization = Some(c);
+                RunnerState::Driving {
+                    interval: 0,
+                    tick: 0,
+                }
             }
+            Err(reason) => RunnerState::Done(StopReason::CharacterizationFailed(reason)),
         }
-        let turn = &self.averages[2];
-        if let (Some(r), Some((t0, _)), Some((t1, _))) =
-            (wheel_radius, turn.start_pose, turn.end_pose)
-        {
-            let w = mean(turn);
-            let yaw_rate = turn.yaw_turned / (t1 - t0);
-            if yaw_rate.abs() > 1e-6 && t1 > t0 {
-                baseline = Some(r * (w.y - w.x) / yaw_rate);
-            }
-        }
-        self.characterization = Some(Characterization {
-            space,
-            wheel_radius,
-            baseline,
-        });
-        self.sampler = Some((self.factory)(space));
     }
 
     fn drive(&mut self, interval: usize, tick: usize) -> RunnerOutput {
@@ -497,9 +460,7 @@ impl ProtocolRunner {
                 self.target_interval = Some(interval);
             }
         }
-        let target_body = self.vehicle.body_velocity(&self.target);
-        self.sent = limit_acceleration(&self.sent, &target_body, &self.robot);
-        let command = self.vehicle.input_for(&self.sent).unwrap_or(self.target);
+        let command = next_command(&self.robot, &mut self.sent, &self.target);
         let window = tick / len;
         let sample = SampleTag {
             interval,

@@ -3,7 +3,7 @@
 //! is sent.
 
 use crate::RobotSpec;
-use drive_traits::{BodyVelocity, CommandModel, Input, InputSampler, Phase};
+use drive_traits::{BodyVelocity, Input, InputSampler, Phase};
 pub use drive_traits::{WINDOWS_PER_INTERVAL, WINDOW_S};
 use std::fmt::Write as _;
 
@@ -40,6 +40,16 @@ pub fn limit_acceleration(
     )
 }
 
+/// The command of the next tick towards the input `target`: the body velocity sent last
+/// (`sent`, updated) steps towards the target's within the acceleration limits and is sent
+/// as the vehicle's input; the target itself when the vehicle cannot be given that body
+/// velocity.
+pub fn next_command(robot: &RobotSpec, sent: &mut BodyVelocity, target: &Input) -> Input {
+    let target_body = robot.vehicle.body_velocity(target);
+    *sent = limit_acceleration(sent, &target_body, robot);
+    robot.vehicle.input_for(sent).unwrap_or(*target)
+}
+
 /// Samples per window at the robot's rate.
 pub fn window_len(robot: &RobotSpec) -> usize {
     (WINDOW_S * robot.rate_hz).round().max(1.0) as usize
@@ -48,7 +58,6 @@ pub fn window_len(robot: &RobotSpec) -> usize {
 /// The schedule of `intervals` DRIVE intervals from a sampler, starting at rest.
 pub fn schedule(
     robot: &RobotSpec,
-    vehicle: &dyn CommandModel,
     sampler: &mut dyn InputSampler,
     intervals: usize,
 ) -> Vec<ScheduledCommand> {
@@ -57,7 +66,6 @@ pub fn schedule(
     let mut sent = BodyVelocity::zeros();
     for interval in 0..intervals {
         let target = sampler.next_input();
-        let target_body = vehicle.body_velocity(&target);
         for w in 0..WINDOWS_PER_INTERVAL {
             let phase = if w == 0 {
                 Phase::Transient
@@ -65,8 +73,7 @@ pub fn schedule(
                 Phase::Steady
             };
             for _ in 0..n {
-                sent = limit_acceleration(&sent, &target_body, robot);
-                let command = vehicle.input_for(&sent).unwrap_or(target);
+                let command = next_command(robot, &mut sent, &target);
                 out.push(ScheduledCommand {
                     t: out.len() as f64 / robot.rate_hz,
                     interval,
@@ -80,9 +87,14 @@ pub fn schedule(
     out
 }
 
-/// The schedule as CSV: `t,interval,phase,cmd_left,cmd_right`.
-pub fn schedule_csv(rows: &[ScheduledCommand]) -> String {
-    let mut s = String::from("t,interval,phase,cmd_left,cmd_right\n");
+/// The schedule as CSV: `t,interval,phase` and the vehicle's command columns
+/// (`cmd_left,cmd_right` for a differential drive).
+pub fn schedule_csv(robot: &RobotSpec, rows: &[ScheduledCommand]) -> String {
+    let [a, b] = robot.vehicle.axes();
+    let mut s = format!(
+        "t,interval,phase,{},{}\n",
+        a.command_column, b.command_column
+    );
     for r in rows {
         // Writing into a String cannot fail.
         let _ = writeln!(

@@ -1,10 +1,11 @@
 //! The targeted sampler: the paper's future work (Sec. V) made a sampler. It draws the
 //! next input from what the protocol has measured so far instead of blindly.
 
-use drive_models::learners::SlipBlr;
+use drive_models::powertrain::Fopdt;
+use drive_models::slip::SlipBlr;
 use drive_traits::{
-    Input, InputSampler, InputSpace, Learner, RobotDescription, Window, WindowSet,
-    WINDOWS_PER_INTERVAL,
+    Input, InputSampler, InputSpace, PowertrainLearner, RobotDescription, SlipData, SlipLearner,
+    Window, WindowSet, WINDOWS_PER_INTERVAL,
 };
 
 /// What a [`TargetedSampler`] aims at.
@@ -12,7 +13,7 @@ use drive_traits::{
 pub enum Target {
     /// The input where the slip-BLR fitted on the intervals so far is least sure of the
     /// slip: the largest weight-uncertainty share of eq. 7's predictive variance
-    /// ([`SlipBlrModel::slip_leverage`](drive_models::learners::SlipBlrModel::slip_leverage)).
+    /// ([`SlipBlrModel::leverage`](drive_models::slip::SlipBlrModel::leverage)).
     SlipVariance,
     /// The least-covered input: the candidate farthest from every input already held,
     /// distances measured in J scaled to a unit square (a maximin space-filling design).
@@ -45,6 +46,7 @@ pub struct TargetedSampler {
     space: InputSpace,
     base: Box<dyn InputSampler>,
     target: Target,
+    powertrain: Fopdt,
     learner: SlipBlr,
     candidates: usize,
     warmup: usize,
@@ -72,6 +74,7 @@ impl TargetedSampler {
             space,
             base,
             target,
+            powertrain: Fopdt::default(),
             learner: SlipBlr::default(),
             candidates: 64,
             warmup: 2,
@@ -110,8 +113,14 @@ impl TargetedSampler {
             robot,
             windows: self.seen.iter().collect(),
         };
-        let model = self.learner.fit(&set).ok()?;
-        let scores: Vec<f64> = candidates.iter().map(|u| model.slip_leverage(u)).collect();
+        // The paper's slip-BLR on the FOPDT: the slip inputs of a candidate held steadily are
+        // those of its commanded body velocity.
+        let powertrain = self.powertrain.fit(&set).ok()?;
+        let model = self.learner.fit(&SlipData::new(&set, &powertrain)).ok()?;
+        let scores: Vec<f64> = candidates
+            .iter()
+            .map(|u| model.leverage(&robot.vehicle.body_velocity(u)))
+            .collect();
         scores.iter().all(|s| s.is_finite()).then_some(scores)
     }
 }

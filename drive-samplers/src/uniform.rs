@@ -1,7 +1,8 @@
-use drive_traits::{CommandModel, Input, InputSampler, InputSpace};
+use drive_traits::{CommandModel, Input, InputSampler, InputSpace, RegistryError};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Uniform};
+use std::sync::Arc;
 use thiserror::Error;
 
 /// Why a sampler cannot be built.
@@ -10,7 +11,7 @@ pub enum SamplerError {
     /// The input space has no extent on some axis.
     #[error("the input space is empty on axis {axis}: [{min}, {max}]")]
     EmptySpace {
-        /// 0 (left) or 1 (right)
+        /// 0 or 1 (left or right for a skid-steer)
         axis: usize,
         /// lower bound
         min: f64,
@@ -36,13 +37,8 @@ pub enum SamplerError {
         expected: &'static str,
     },
     /// No sampler of that name.
-    #[error("unknown sampler '{name}' (the samplers are: {known})")]
-    Unknown {
-        /// The name asked for.
-        name: String,
-        /// The registered names, comma-separated.
-        known: String,
-    },
+    #[error(transparent)]
+    Registry(#[from] RegistryError),
 }
 
 /// The low-level controller's body speed limits: a sample whose commanded body velocity
@@ -50,7 +46,7 @@ pub enum SamplerError {
 #[derive(Debug)]
 pub struct BodyLimits {
     /// The vehicle's command model (input -> body velocity).
-    pub vehicle: Box<dyn CommandModel>,
+    pub vehicle: Arc<dyn CommandModel>,
     /// Linear speed limit (m/s).
     pub max_linear: f64,
     /// Angular speed limit (rad/s).

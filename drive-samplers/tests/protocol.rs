@@ -3,44 +3,50 @@
 
 use drive_models::DifferentialDrive;
 use drive_samplers::{
-    sampler_named, schedule, schedule_csv, window_len, RobotError, RobotSpec, SAMPLER_NAMES,
+    build_sampler, builtin_robots, builtin_samplers, schedule, schedule_csv, window_len,
+    RobotError, RobotSpec, SamplerContext, SamplerError,
 };
-use drive_traits::{CommandModel, Phase};
+use drive_traits::{CommandModel, InputSampler, Phase};
 
-fn vehicle(robot: &RobotSpec) -> impl Fn() -> Box<dyn CommandModel> + '_ {
-    move || {
-        Box::new(DifferentialDrive::new(robot.wheel_radius, robot.baseline))
-            as Box<dyn CommandModel>
-    }
+fn preset(name: &str) -> RobotSpec {
+    RobotSpec::load(&builtin_robots(), name).unwrap()
+}
+
+fn sampler(
+    robot: &RobotSpec,
+    name: &str,
+    seed: u64,
+) -> Result<Box<dyn InputSampler>, SamplerError> {
+    build_sampler(&builtin_samplers(), name, &SamplerContext::new(robot, seed))
 }
 
 fn make(
     robot: &RobotSpec,
-    sampler: &str,
+    name: &str,
     seed: u64,
     intervals: usize,
 ) -> Vec<drive_samplers::ScheduledCommand> {
-    let mut s = sampler_named(sampler, robot, vehicle(robot), seed).unwrap();
-    schedule(
-        robot,
-        &DifferentialDrive::new(robot.wheel_radius, robot.baseline),
-        s.as_mut(),
-        intervals,
-    )
+    let mut s = sampler(robot, name, seed).unwrap();
+    schedule(robot, s.as_mut(), intervals)
+}
+
+/// The preset's vehicle as the differential drive it is.
+fn dd(robot: &RobotSpec) -> DifferentialDrive {
+    drive_traits::vehicle_as(robot.vehicle.as_ref()).unwrap()
 }
 
 #[test]
 fn same_seed_same_bytes_other_seed_other_schedule() {
-    for preset in ["husky", "hd2", "warthog"] {
-        let robot = RobotSpec::preset(preset).unwrap();
-        for name in SAMPLER_NAMES {
-            let a = schedule_csv(&make(&robot, name, 11, 8));
-            let b = schedule_csv(&make(&robot, name, 11, 8));
-            assert_eq!(a, b, "{preset} {name}");
+    for name in ["husky", "hd2", "warthog"] {
+        let robot = preset(name);
+        for s in builtin_samplers().names() {
+            let a = schedule_csv(&robot, &make(&robot, s, 11, 8));
+            let b = schedule_csv(&robot, &make(&robot, s, 11, 8));
+            assert_eq!(a, b, "{name} {s}");
             assert_ne!(
                 a,
-                schedule_csv(&make(&robot, name, 12, 8)),
-                "{preset} {name}"
+                schedule_csv(&robot, &make(&robot, s, 12, 8)),
+                "{name} {s}"
             );
         }
     }
@@ -48,7 +54,7 @@ fn same_seed_same_bytes_other_seed_other_schedule() {
 
 #[test]
 fn every_interval_is_one_transient_and_two_steady_windows() {
-    let robot = RobotSpec::preset("husky").unwrap();
+    let robot = preset("husky");
     let rows = make(&robot, "uniform", 3, 10);
     let n = window_len(&robot);
     assert_eq!(n, 40);
@@ -67,9 +73,10 @@ fn every_interval_is_one_transient_and_two_steady_windows() {
 
 #[test]
 fn acceleration_limits_hold_and_targets_are_reached() {
-    for preset in ["husky", "warthog"] {
-        let robot = RobotSpec::preset(preset).unwrap();
-        let dd = DifferentialDrive::new(robot.wheel_radius, robot.baseline);
+    for name in ["husky", "warthog"] {
+        let robot = preset(name);
+        let dd = dd(&robot);
+        let preset = name;
         let rows = make(&robot, "uniform", 5, 20);
         let dt = 1.0 / robot.rate_hz;
         let mut prev = dd.body_velocity(&drive_traits::Input::zeros());
@@ -101,26 +108,26 @@ fn acceleration_limits_hold_and_targets_are_reached() {
 
 #[test]
 fn uniform_respects_the_controller_limits_when_there_are_some() {
-    let mut robot = RobotSpec::preset("husky").unwrap();
+    let mut robot = preset("husky");
     robot.controller_max_linear = Some(0.5);
     robot.controller_max_angular = Some(1.0);
-    let dd = DifferentialDrive::new(robot.wheel_radius, robot.baseline);
-    let mut s = sampler_named("uniform", &robot, vehicle(&robot), 9).unwrap();
+    let dd = dd(&robot);
+    let mut s = sampler(&robot, "uniform", 9).unwrap();
     for _ in 0..2000 {
         let f = dd.body_velocity(&s.next_input());
         assert!(f.x.abs() <= 0.5 && f.z.abs() <= 1.0);
     }
     robot.controller_max_linear = Some(1e-9);
     robot.controller_max_angular = Some(1e-9);
-    assert!(sampler_named("uniform", &robot, vehicle(&robot), 9).is_err());
+    assert!(sampler(&robot, "uniform", 9).is_err());
 }
 
 #[test]
 fn human_like_samplers_cover_what_they_say() {
-    let robot = RobotSpec::preset("husky").unwrap();
-    let dd = DifferentialDrive::new(robot.wheel_radius, robot.baseline);
-    let turn_in_place = 2.0 * robot.max_speed / robot.baseline;
-    let mut linear = sampler_named("linear", &robot, vehicle(&robot), 1).unwrap();
+    let robot = preset("husky");
+    let dd = dd(&robot);
+    let turn_in_place = 2.0 * robot.max_speed / dd.baseline;
+    let mut linear = sampler(&robot, "linear", 1).unwrap();
     let body: Vec<_> = (0..2000)
         .map(|_| dd.body_velocity(&linear.next_input()))
         .collect();
@@ -129,7 +136,7 @@ fn human_like_samplers_cover_what_they_say() {
     assert!(body
         .iter()
         .all(|f| f.z.abs() <= 0.15 * turn_in_place + 1e-9));
-    let mut angular = sampler_named("angular", &robot, vehicle(&robot), 1).unwrap();
+    let mut angular = sampler(&robot, "angular", 1).unwrap();
     let body: Vec<_> = (0..2000)
         .map(|_| dd.body_velocity(&angular.next_input()))
         .collect();
@@ -158,7 +165,37 @@ fn robot_files_are_validated() {
     let invalid = [
         (
             good.replace("wheel_radius = 0.1", "wheel_radius = -0.1"),
-            "wheel_radius",
+            "vehicle",
+        ),
+        // Both forms of the vehicle, an unknown vehicle type, no vehicle at all.
+        (
+            format!("{good}[vehicle]\ntype = 'differential'\nwheel_radius = 0.1\nbaseline = 0.4\n"),
+            "vehicle",
+        ),
+        (
+            good.replace("wheel_radius = 0.1\nbaseline = 0.4\n", "")
+                + "[vehicle]\ntype = 'hovercraft'\n",
+            "vehicle",
+        ),
+        (good.replace("wheel_radius = 0.1\n", ""), "wheel_radius"),
+        (
+            good.replace("wheel_radius = 0.1\nbaseline = 0.4\n", ""),
+            "vehicle",
+        ),
+        (
+            format!("{good}input_limits = [[-1.0, 1.0], [2.0, 2.0]]\n"),
+            "input_limits",
+        ),
+        (
+            format!(
+                "{good}wheel_limits = [-1.0, 1.0]\ninput_limits = [[-1.0, 1.0], [-2.0, 2.0]]\n"
+            ),
+            "wheel_limits",
+        ),
+        // An overflowing top speed gives no finite input space.
+        (
+            good.replace("max_speed = 1.5", "max_speed = 1e308"),
+            "max_speed",
         ),
         (
             good.replace("max_speed = 1.5", "max_speed = 0"),
@@ -176,14 +213,23 @@ fn robot_files_are_validated() {
             other => panic!("{field}: {other}"),
         }
     }
-    assert!(matches!(
-        RobotSpec::preset("rover"),
-        Err(RobotError::UnknownPreset(_))
-    ));
-    let hd2 = RobotSpec::preset("hd2").unwrap();
+    let unknown = RobotSpec::load(&builtin_robots(), "rover").unwrap_err();
     assert!(
-        hd2.tracked && hd2.wheel_radius == 0.116 && hd2.baseline == 0.5927 && hd2.mass_kg == 80.0
+        matches!(unknown, RobotError::UnknownPreset { .. })
+            && unknown.to_string().contains("husky, hd2, warthog"),
+        "{unknown}"
     );
-    let warthog = RobotSpec::preset("warthog").unwrap();
+    let hd2 = preset("hd2");
+    let g = dd(&hd2);
+    assert!(hd2.tracked && g.wheel_radius == 0.116 && g.baseline == 0.5927 && hd2.mass_kg == 80.0);
+    let warthog = preset("warthog");
     assert!(warthog.max_speed == 5.0 && warthog.mass_kg == 470.0);
+    // The vehicle table and the older form are the same robot; per-axis limits are kept.
+    let table = good.replace("wheel_radius = 0.1\nbaseline = 0.4\n", "")
+        + "input_limits = [[-3.0, 4.0], [-2.0, 5.0]]\n[vehicle]\ntype = 'differential'\nwheel_radius = 0.1\nbaseline = 0.4\n";
+    let r = RobotSpec::from_toml("r.toml", &table).unwrap();
+    assert_eq!(dd(&r), DifferentialDrive::new(0.1, 0.4));
+    let j = r.input_space();
+    assert_eq!((j.min.x, j.max.x, j.min.y, j.max.y), (-3.0, 4.0, -2.0, 5.0));
+    assert_eq!(r.nominal_input_space.max.x, 15.0);
 }

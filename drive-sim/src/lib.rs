@@ -1,4 +1,6 @@
-//! A simulated skid-steer UGV to run the DRIVE protocol without a robot.
+//! Simulated UGVs to run the DRIVE protocol without a robot: a skid-steer rigid body for
+//! the `differential` vehicle, and a kinematic stand-in for any other vehicle ([`Plant`]s
+//! registered by vehicle type).
 //!
 //! The ground truth is deliberately not the slip-BLR model family: a planar rigid body with
 //! mass and yaw inertia; per-side longitudinal traction on the Janosi-Hanamoto shear curve
@@ -13,12 +15,14 @@
 
 #![warn(missing_docs)]
 
+mod plant;
 mod run;
 mod sim;
 mod terrain;
 mod vehicle;
 
+pub use plant::{builtin_plants, plant_for, KinematicPlant, MakePlant, Plant};
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
 pub use sim::{Measured, Sensors, Simulator};
-pub use terrain::Terrain;
+pub use terrain::{builtin_terrains, Terrain};
 pub use vehicle::{step_body, VehicleParams, VehicleState};

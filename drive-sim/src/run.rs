@@ -1,17 +1,18 @@
 //! The protocol runner in the loop with the simulator, recording DRIVE windows.
 
-use crate::{Simulator, Terrain};
+use crate::{plant_for, MakePlant, Terrain};
 use drive_data::{CalibState, RawRow};
 use drive_samplers::{
-    window_len, Characterization, PauseReason, ProtocolRunner, RobotSpec, RunnerConfig,
-    RunnerInput, RunnerState, SampleTag, StopReason, WINDOWS_PER_INTERVAL,
+    window_len, PauseReason, ProtocolRunner, RobotSpec, RunnerConfig, RunnerInput, RunnerState,
+    SampleTag, StopReason, WINDOWS_PER_INTERVAL,
 };
 use drive_traits::{
-    relative_pose, CommandModel, Dataset, Input, InputSampler, InputSpace, Phase, Pose,
-    RobotDescription, Window,
+    relative_pose, Characterization, Dataset, Input, InputSampler, InputSpace, Phase, Pose,
+    Registry, RobotDescription, Window,
 };
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
+use std::sync::Arc;
 use thiserror::Error;
 
 /// Scripted events, to test the runner's safety behaviour.
@@ -55,6 +56,14 @@ pub enum SimError {
     /// Nothing bounds the run.
     #[error("the run needs a duration or a number of intervals")]
     Unbounded,
+    /// The robot's vehicle cannot be simulated by the plant registered for it.
+    #[error("simulating {robot}: {reason}")]
+    Plant {
+        /// The robot.
+        robot: String,
+        /// Why.
+        reason: String,
+    },
 }
 
 /// What a simulation produced.
@@ -84,28 +93,35 @@ const RAW_EPOCH_NS: i64 = 1_720_641_663_000_000_000;
 struct Recorded {
     tag: SampleTag,
     command: Input,
-    encoder: Input,
+    input: Input,
     pose: Pose,
     imu: f64,
 }
 
-/// Runs the protocol with the simulator in the loop. `sampler` builds the input sampler
-/// over the characterized input space; `converged(k)` is asked after every interval.
+/// Runs the protocol with the simulator in the loop: the plant registered in `plants` for
+/// the robot's vehicle type (the [`KinematicPlant`](crate::KinematicPlant) for a vehicle
+/// without one). `sampler` builds the input sampler over the characterized input space;
+/// `converged(k)` is asked after every interval.
 pub fn simulate(
     config: SimulationConfig,
-    vehicle: Box<dyn CommandModel>,
+    plants: &Registry<dyn MakePlant>,
     sampler: impl FnMut(InputSpace) -> Box<dyn InputSampler> + 'static,
     converged: Option<Box<dyn FnMut(usize) -> bool>>,
 ) -> Result<Simulation, SimError> {
     let max_s = match (config.runner.max_duration_s, config.runner.max_intervals) {
         (Some(d), _) => d,
-        // Characterization (three sub-steps) plus the intervals, with room for pauses.
-        (None, Some(n)) => 3.0 * config.runner.characterization_s + 6.0 * n as f64 * 2.0 + 60.0,
+        // Characterization (up to six probes) plus the intervals, with room for pauses.
+        (None, Some(n)) => 6.0 * config.runner.characterization_s + 6.0 * n as f64 * 2.0 + 60.0,
         (None, None) => return Err(SimError::Unbounded),
     };
     let robot = config.robot.clone();
-    let mut sim = Simulator::new(&robot, config.terrain, config.seed);
-    let mut runner = ProtocolRunner::new(robot.clone(), vehicle, config.runner.clone(), sampler);
+    let mut sim = plant_for(plants, &robot, &config.terrain, config.seed).map_err(|reason| {
+        SimError::Plant {
+            robot: robot.name.clone(),
+            reason,
+        }
+    })?;
+    let mut runner = ProtocolRunner::new(robot.clone(), config.runner.clone(), sampler);
     if let Some(c) = converged {
         runner = runner.with_convergence_check(c);
     }
@@ -116,8 +132,7 @@ pub fn simulate(
         robot: format!("simulated {} on {}", robot.name, config.terrain.name),
         rate_hz: robot.rate_hz,
         window_len: len,
-        wheel_radius: robot.wheel_radius,
-        baseline: robot.baseline,
+        vehicle: Arc::clone(&robot.vehicle),
     };
     let active = |t: f64, kind: fn(&Event) -> Option<(f64, f64)>| {
         config
@@ -146,7 +161,7 @@ pub fn simulate(
         });
         let input = RunnerInput {
             t: m.t,
-            encoder: Some(m.encoder),
+            encoder: Some(m.input),
             pose: (m.fresh_pose && !lost).then_some(m.pose),
             deadman,
         };
@@ -165,7 +180,7 @@ pub fn simulate(
                 buffer.push(Recorded {
                     tag,
                     command: out.command,
-                    encoder: m.encoder,
+                    input: m.input,
                     pose: m.pose,
                     imu: m.imu_yaw_rate,
                 });
@@ -202,10 +217,7 @@ pub fn simulate(
             driven = true;
         }
         let p = published.unwrap_or(m.pose);
-        let (v, w) = (
-            0.5 * robot.wheel_radius * (out.command.x + out.command.y),
-            robot.wheel_radius * (out.command.y - out.command.x) / robot.baseline,
-        );
+        let body = robot.vehicle.body_velocity(&out.command);
         raw.push(RawRow {
             line: raw.len() + 2,
             time_ns: RAW_EPOCH_NS
@@ -219,8 +231,8 @@ pub fn simulate(
                 CalibState::Idle
             },
             calib_step: step as u64,
-            wheels: m.encoder,
-            body_command: [v, w],
+            wheels: m.input,
+            body_command: [body.x, body.z],
             position: [p.x, p.y, 0.0],
             quaternion: [0.0, 0.0, (0.5 * p.z).sin(), (0.5 * p.z).cos()],
             imu_rate: [0.0, 0.0, m.imu_yaw_rate],
@@ -263,7 +275,7 @@ fn window_from(samples: &[Recorded], index: usize) -> Window {
             Phase::Steady
         },
         command: samples.iter().map(|r| r.command).collect(),
-        encoder: samples.iter().map(|r| r.encoder).collect(),
+        measured: samples.iter().map(|r| r.input).collect(),
         pose: samples
             .iter()
             .map(|r| relative_pose(&p0, &r.pose))

@@ -2,7 +2,8 @@
 //! robots, advanced one command tick at a time.
 
 use crate::vehicle::{step_body, VehicleParams, VehicleState};
-use crate::Terrain;
+use crate::{Plant, Terrain};
+use drive_models::DifferentialDrive;
 use drive_samplers::RobotSpec;
 use drive_traits::{Input, Pose};
 use rand::rngs::Xoshiro256PlusPlus;
@@ -43,8 +44,8 @@ impl Default for Sensors {
 pub struct Measured {
     /// Time (s).
     pub t: f64,
-    /// Encoder wheel velocities (rad/s).
-    pub encoder: Input,
+    /// Measured inputs: encoder wheel velocities for a skid-steer (rad/s).
+    pub input: Input,
     /// ICP pose (held between updates).
     pub pose: Pose,
     /// True when the ICP pose was updated at this tick.
@@ -53,7 +54,7 @@ pub struct Measured {
     pub imu_yaw_rate: f64,
 }
 
-/// A simulated skid-steer UGV on a terrain.
+/// A simulated skid-steer UGV on a terrain: the plant of the `differential` vehicle.
 #[derive(Debug, Clone)]
 pub struct Simulator {
     /// Physical parameters.
@@ -72,11 +73,17 @@ pub struct Simulator {
 }
 
 impl Simulator {
-    /// A simulator for a robot on a terrain, at rest at the origin, seeded.
-    pub fn new(spec: &RobotSpec, terrain: Terrain, seed: u64) -> Self {
+    /// A simulator for a robot with a differential-drive vehicle of `geometry` on a
+    /// terrain, at rest at the origin, seeded.
+    pub fn new(
+        spec: &RobotSpec,
+        geometry: &DifferentialDrive,
+        terrain: Terrain,
+        seed: u64,
+    ) -> Self {
         let substeps = ((1.0 / spec.rate_hz) / 2.5e-4).ceil().max(1.0) as usize;
         Simulator {
-            params: VehicleParams::from_spec(spec),
+            params: VehicleParams::from_spec(spec, geometry),
             terrain,
             sensors: Sensors::default(),
             state: VehicleState {
@@ -132,7 +139,7 @@ impl Simulator {
             + n(&mut self.rng, self.sensors.imu_noise);
         Measured {
             t: self.time(),
-            encoder,
+            input: encoder,
             pose: self.icp,
             fresh_pose,
             imu_yaw_rate,
@@ -141,6 +148,10 @@ impl Simulator {
 
     /// Applies `command` (wheel velocities, rad/s) for one command tick.
     pub fn advance(&mut self, command: Input) {
+        Plant::advance(self, command)
+    }
+
+    fn step(&mut self, command: Input) {
         self.history.push(command);
         let dt = 1.0 / self.rate_hz;
         let h = dt / self.substeps as f64;
@@ -162,5 +173,14 @@ impl Simulator {
             step_body(&p, &self.terrain, &mut self.state, h);
         }
         self.tick += 1;
+    }
+}
+
+impl Plant for Simulator {
+    fn measure(&mut self) -> Measured {
+        Simulator::measure(self)
+    }
+    fn advance(&mut self, command: Input) {
+        self.step(command)
     }
 }

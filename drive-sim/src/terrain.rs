@@ -5,11 +5,14 @@
 //! Janosi and Hanamoto 1961 for the shear-deformation modulus), chosen once, per terrain,
 //! not tuned to make any protocol or model win.
 
+use drive_traits::{Registry, RegistryItem};
+use std::sync::Arc;
+
 /// The ground's parameters.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Terrain {
-    /// Preset name.
-    pub name: &'static str,
+    /// Name.
+    pub name: String,
     /// Peak longitudinal traction coefficient mu (traction / normal load).
     pub traction: f64,
     /// Slip at which 63% of the peak traction is reached (shear-deformation modulus over
@@ -32,7 +35,7 @@ impl Terrain {
         Some(match name {
             // Dry indoor tile / concrete: firm, high friction, low rolling resistance.
             "tile" => Terrain {
-                name: "tile",
+                name: "tile".into(),
                 traction: 0.8,
                 slip_modulus: 0.04,
                 lateral: 0.6,
@@ -40,7 +43,7 @@ impl Terrain {
             },
             // Loose gravel: medium friction, soft shear response, higher rolling resistance.
             "gravel" => Terrain {
-                name: "gravel",
+                name: "gravel".into(),
                 traction: 0.55,
                 slip_modulus: 0.12,
                 lateral: 0.5,
@@ -48,7 +51,7 @@ impl Terrain {
             },
             // Packed snow: low friction, soft, high rolling resistance (compaction).
             "snow" => Terrain {
-                name: "snow",
+                name: "snow".into(),
                 traction: 0.3,
                 slip_modulus: 0.2,
                 lateral: 0.25,
@@ -56,7 +59,7 @@ impl Terrain {
             },
             // Resurfaced ice rink: extreme slip.
             "ice" => Terrain {
-                name: "ice",
+                name: "ice".into(),
                 traction: 0.08,
                 slip_modulus: 0.06,
                 lateral: 0.05,
@@ -68,4 +71,34 @@ impl Terrain {
 
     /// The preset names.
     pub const NAMES: [&'static str; 4] = ["tile", "gravel", "snow", "ice"];
+}
+
+impl RegistryItem for Terrain {}
+
+/// The terrain presets by name: `tile`, `gravel`, `snow`, `ice` (see [`Terrain::preset`]).
+///
+/// ```
+/// let terrains = drive_sim::builtin_terrains();
+/// assert_eq!(terrains.names(), ["tile", "gravel", "snow", "ice"]);
+/// ```
+pub fn builtin_terrains() -> Registry<Terrain> {
+    let mut r: Registry<Terrain> = Registry::new("terrain");
+    for (name, description) in [
+        ("tile", "dry indoor tile or concrete: firm, high friction"),
+        (
+            "gravel",
+            "loose gravel: medium friction, soft shear response",
+        ),
+        (
+            "snow",
+            "packed snow: low friction, soft, high rolling resistance",
+        ),
+        ("ice", "resurfaced ice rink: extreme slip"),
+    ] {
+        // The four presets exist under distinct names.
+        let t = Terrain::preset(name).expect("a preset");
+        r.register_trusted(name, description, Arc::new(t))
+            .expect("distinct presets");
+    }
+    r
 }

@@ -2,6 +2,7 @@
 //! plus dead time powertrain with a left/right asymmetry.
 
 use crate::Terrain;
+use drive_models::DifferentialDrive;
 use drive_samplers::RobotSpec;
 use drive_traits::{Input, Pose};
 
@@ -29,19 +30,21 @@ pub struct VehicleParams {
 }
 
 impl VehicleParams {
-    /// Parameters for a robot description. The wheels saturate at the top speed; the
-    /// powertrain is 1.0 s / 0.3 s (what the FOPDT fit finds on the bundled Husky data),
-    /// with the right side 15% slower and 20 ms later, and a 3% lower gain.
-    pub fn from_spec(spec: &RobotSpec) -> Self {
-        let wheelbase = if spec.tracked { 1.1 } else { 0.9 } * spec.baseline;
+    /// Parameters for a robot description with a differential-drive vehicle of that
+    /// geometry. The wheels saturate at the top speed; the powertrain is 1.0 s / 0.3 s (what
+    /// the FOPDT fit finds on the bundled Husky data), with the right side 15% slower and
+    /// 20 ms later, and a 3% lower gain.
+    pub fn from_spec(spec: &RobotSpec, geometry: &DifferentialDrive) -> Self {
+        let baseline = geometry.baseline;
+        let wheelbase = if spec.tracked { 1.1 } else { 0.9 } * baseline;
         let mass = spec.mass_kg;
         VehicleParams {
             mass,
-            inertia: mass * (wheelbase.powi(2) + spec.baseline.powi(2)) / 12.0,
-            wheel_radius: spec.wheel_radius,
-            baseline: spec.baseline,
+            inertia: mass * (wheelbase.powi(2) + baseline.powi(2)) / 12.0,
+            wheel_radius: geometry.wheel_radius,
+            baseline,
             wheelbase,
-            wheel_limit: spec.max_speed / spec.wheel_radius,
+            wheel_limit: spec.max_speed / geometry.wheel_radius,
             powertrain: [(1.0, 0.3), (1.15, 0.32)],
             right_gain: 0.97,
         }

@@ -3,16 +3,23 @@
 //! localization).
 
 use drive_data::{import_raw, parse_raw_log, write_raw_log, DropReason, ImportConfig};
-use drive_models::DifferentialDrive;
-use drive_samplers::{sampler_over, RobotSpec, RunnerConfig};
-use drive_sim::{simulate, Event, Simulation, SimulationConfig, Terrain};
-use drive_traits::CommandModel;
+use drive_samplers::{
+    build_sampler, builtin_robots, builtin_samplers, RobotSpec, RunnerConfig, SamplerContext,
+};
+use drive_sim::{builtin_plants, simulate, Event, Simulation, SimulationConfig, Terrain};
 
 fn run(events: Vec<Event>, max_intervals: usize) -> Simulation {
-    let robot = RobotSpec::preset("husky").unwrap();
+    let robot = RobotSpec::load(&builtin_robots(), "husky").unwrap();
     let spec = robot.clone();
-    let vehicle = || Box::new(DifferentialDrive::new(0.165, 0.55)) as Box<dyn CommandModel>;
-    let factory = move |space| sampler_over("uniform", space, &spec, vehicle, 4).unwrap();
+    let samplers = builtin_samplers();
+    let factory = move |space| {
+        build_sampler(
+            &samplers,
+            "uniform",
+            &SamplerContext::new(&spec, 4).over(space),
+        )
+        .unwrap()
+    };
     let config = SimulationConfig {
         robot,
         terrain: Terrain::preset("gravel").unwrap(),
@@ -24,7 +31,7 @@ fn run(events: Vec<Event>, max_intervals: usize) -> Simulation {
         events,
         name: "round-trip".into(),
     };
-    simulate(config, vehicle(), factory, None).unwrap()
+    simulate(config, &builtin_plants(), factory, None).unwrap()
 }
 
 #[test]
@@ -59,7 +66,7 @@ fn simulate_raw_log_import_gives_the_simulators_windows() {
             (a.index, a.interval, a.phase),
             (b.index, b.interval, b.phase)
         );
-        assert_eq!(a.encoder, b.encoder);
+        assert_eq!(a.measured, b.measured);
         assert_eq!(a.imu_yaw_rate, b.imu_yaw_rate);
         for (u, v) in a.command.iter().zip(&b.command) {
             assert!((u - v).norm() < 1e-9, "{u} {v}");

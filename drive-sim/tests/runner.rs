@@ -1,10 +1,12 @@
 //! The protocol runner with the simulator in the loop: characterization, dead-man pause
 //! and resume, watchdog, geofence, convergence stop, determinism.
 
-use drive_models::DifferentialDrive;
-use drive_samplers::{sampler_over, PauseReason, RobotSpec, RunnerConfig, RunnerState, StopReason};
-use drive_sim::{simulate, Event, Simulation, SimulationConfig, Terrain};
-use drive_traits::{CommandModel, Phase};
+use drive_samplers::{
+    build_sampler, builtin_robots, builtin_samplers, PauseReason, RobotSpec, RunnerConfig,
+    RunnerState, SamplerContext, StopReason,
+};
+use drive_sim::{builtin_plants, simulate, Event, Simulation, SimulationConfig, Terrain};
+use drive_traits::Phase;
 
 fn run(
     terrain: &str,
@@ -24,11 +26,17 @@ fn run_on(
     seed: u64,
     converged: Option<Box<dyn FnMut(usize) -> bool>>,
 ) -> Simulation {
-    let robot = RobotSpec::preset(preset).unwrap();
-    let (r, b) = (robot.wheel_radius, robot.baseline);
-    let vehicle = move || Box::new(DifferentialDrive::new(r, b)) as Box<dyn CommandModel>;
+    let robot = RobotSpec::load(&builtin_robots(), preset).unwrap();
     let spec = robot.clone();
-    let factory = move |space| sampler_over("uniform", space, &spec, vehicle, seed).unwrap();
+    let samplers = builtin_samplers();
+    let factory = move |space| {
+        build_sampler(
+            &samplers,
+            "uniform",
+            &SamplerContext::new(&spec, seed).over(space),
+        )
+        .unwrap()
+    };
     let config = SimulationConfig {
         robot,
         terrain: Terrain::preset(terrain).unwrap(),
@@ -37,7 +45,7 @@ fn run_on(
         events,
         name: "test".into(),
     };
-    simulate(config, vehicle(), factory, converged).unwrap()
+    simulate(config, &builtin_plants(), factory, converged).unwrap()
 }
 
 fn first_pause(sim: &Simulation) -> &(f64, RunnerState) {
@@ -68,13 +76,10 @@ fn characterization_finds_the_true_input_space_and_geometry() {
     for v in [c.space.max.x, c.space.max.y, -c.space.min.x, -c.space.min.y] {
         assert!((v - 6.06).abs() < 0.1, "{v}");
     }
-    assert!(
-        (c.wheel_radius.unwrap() - 0.165).abs() < 0.01,
-        "{:?}",
-        c.wheel_radius
-    );
+    let radius = c.geometry("wheel_radius").unwrap();
+    assert!((radius - 0.165).abs() < 0.01, "{radius}");
     // Skid makes the effective baseline larger than the geometric one.
-    let b = c.baseline.unwrap();
+    let b = c.geometry("baseline").unwrap();
     assert!(b > 0.55 && b < 0.7, "{b}");
     assert_eq!(sim.stop, RunnerState::Done(StopReason::Intervals));
     assert_eq!(sim.dataset.windows.len(), 6);
@@ -90,7 +95,7 @@ fn characterization_of_a_fast_turning_robot_unwraps_the_yaw() {
             ..RunnerConfig::default()
         };
         let sim = run_on("warthog", terrain, config, vec![], 1, None);
-        let b = sim.characterization.unwrap().baseline.unwrap();
+        let b = sim.characterization.unwrap().geometry("baseline").unwrap();
         assert!(b > 0.9 && b < 2.5, "{terrain}: {b}");
     }
 }

@@ -3,22 +3,30 @@
 
 use drive_models::DifferentialDrive;
 use drive_samplers::{
-    sampler_over, RobotSpec, RunnerConfig, Target, TargetedSampler, UniformSampler,
+    build_sampler, builtin_robots, builtin_samplers, RobotSpec, RunnerConfig, SamplerContext,
+    Target, TargetedSampler, UniformSampler,
 };
-use drive_sim::{simulate, SimulationConfig, Terrain};
+use drive_sim::{builtin_plants, simulate, SimulationConfig, Terrain};
 use drive_traits::{CommandModel, Input, InputSampler};
 
 fn husky() -> (RobotSpec, DifferentialDrive) {
-    let robot = RobotSpec::preset("husky").unwrap();
-    let vehicle = DifferentialDrive::new(robot.wheel_radius, robot.baseline);
+    let robot = RobotSpec::load(&builtin_robots(), "husky").unwrap();
+    let vehicle = drive_traits::vehicle_as(robot.vehicle.as_ref()).unwrap();
     (robot, vehicle)
 }
 
 fn run(sampler: &'static str, intervals: usize, seed: u64) -> drive_sim::Simulation {
     let (robot, _) = husky();
     let spec = robot.clone();
-    let vehicle = || Box::new(DifferentialDrive::new(0.165, 0.55)) as Box<dyn CommandModel>;
-    let factory = move |space| sampler_over(sampler, space, &spec, vehicle, seed).unwrap();
+    let samplers = builtin_samplers();
+    let factory = move |space| {
+        build_sampler(
+            &samplers,
+            sampler,
+            &SamplerContext::new(&spec, seed).over(space),
+        )
+        .unwrap()
+    };
     let config = SimulationConfig {
         robot,
         terrain: Terrain::preset("gravel").unwrap(),
@@ -30,7 +38,7 @@ fn run(sampler: &'static str, intervals: usize, seed: u64) -> drive_sim::Simulat
         events: vec![],
         name: "targeted".into(),
     };
-    simulate(config, vehicle(), factory, None).unwrap()
+    simulate(config, &builtin_plants(), factory, None).unwrap()
 }
 
 #[test]

@@ -2,6 +2,7 @@
 
 use crate::{BodyVelocity, CommandModel, Input, Pose, StartState};
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// Duration of a DRIVE window (s, Sec. III-A).
 pub const WINDOW_S: f64 = 2.0;
@@ -29,15 +30,24 @@ impl Phase {
     }
 }
 
-/// The robot description that comes with a dataset: geometry and rates.
+/// The robot description that comes with a dataset: its vehicle (with the geometry) and
+/// rates.
 ///
 /// ```
-/// use drive_traits::RobotDescription;
-/// let husky = RobotDescription { name: "husky".into(), robot: "Clearpath Husky".into(),
-///     rate_hz: 20.0, window_len: 40, wheel_radius: 0.165, baseline: 0.55 };
-/// assert_eq!(husky.dt(), 0.05);
+/// use drive_traits::{CommandModel, RobotDescription};
+/// # use drive_traits::{BodyVelocity, Input, InputAxis};
+/// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct Unicycle;
+/// # #[typetag::serde(name = "unicycle-robot-doc")] impl CommandModel for Unicycle {
+/// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
+/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
+/// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "cmd_v", measured_column: "meas_v" },
+/// #       InputAxis { name: "omega", unit: "rad/s", command_column: "cmd_omega", measured_column: "meas_omega" }] }
+/// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(Unicycle) } }
+/// let robot = RobotDescription::new("run-1", "my robot", 20.0, 40, Unicycle);
+/// assert_eq!(robot.dt(), 0.05);
+/// assert_eq!(robot.vehicle.axes()[0].command_column, "cmd_v");
 /// ```
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RobotDescription {
     /// Dataset name (from the sidecar).
     pub name: String,
@@ -47,16 +57,43 @@ pub struct RobotDescription {
     pub rate_hz: f64,
     /// Samples per window.
     pub window_len: usize,
-    /// Wheel (or track sprocket) radius r (m) (paper Fig. 2).
-    pub wheel_radius: f64,
-    /// Vehicle width b between the left and right wheels (m) (paper Fig. 2).
-    pub baseline: f64,
+    /// The vehicle: its command model (eq. 2, eq. 4) with its geometry.
+    pub vehicle: Arc<dyn CommandModel>,
 }
 
 impl RobotDescription {
+    /// A description of `vehicle`.
+    pub fn new(
+        name: &str,
+        robot: &str,
+        rate_hz: f64,
+        window_len: usize,
+        vehicle: impl CommandModel + 'static,
+    ) -> Self {
+        RobotDescription {
+            name: name.to_string(),
+            robot: robot.to_string(),
+            rate_hz,
+            window_len,
+            vehicle: Arc::new(vehicle),
+        }
+    }
+
     /// Sample period (s).
     pub fn dt(&self) -> f64 {
         1.0 / self.rate_hz
+    }
+}
+
+impl PartialEq for RobotDescription {
+    fn eq(&self, other: &Self) -> bool {
+        // Vehicles are compared by their saved form (type and geometry).
+        self.name == other.name
+            && self.robot == other.robot
+            && self.rate_hz == other.rate_hz
+            && self.window_len == other.window_len
+            && serde_json::to_value(self.vehicle.as_ref()).ok()
+                == serde_json::to_value(other.vehicle.as_ref()).ok()
     }
 }
 
@@ -74,8 +111,8 @@ pub struct Window {
     pub phase: Phase,
     /// Commanded input per sample (wheel angular velocities for a skid-steer).
     pub command: Vec<Input>,
-    /// Encoder-measured input per sample.
-    pub encoder: Vec<Input>,
+    /// Measured input per sample (encoder wheel velocities for a skid-steer).
+    pub measured: Vec<Input>,
     /// Localization pose per sample.
     pub pose: Vec<Pose>,
     /// IMU angular velocity about the vertical axis per sample (rad/s).
@@ -94,15 +131,15 @@ impl Window {
     }
 
     /// The state at the window start, from what is measured at that instant only (nothing
-    /// from later in the window leaks into a prediction): the first pose, the encoder
-    /// velocities, and the body velocity given by the encoders through the vehicle's
+    /// from later in the window leaks into a prediction): the first pose, the measured
+    /// input, and the body velocity given by the measured input through the vehicle's
     /// command model with the IMU yaw rate as angular velocity.
     pub fn start_state(&self, vehicle: &dyn CommandModel) -> StartState {
-        let enc = self.encoder[0];
-        let from_encoders = vehicle.body_velocity(&enc);
+        let measured = self.measured[0];
+        let from_encoders = vehicle.body_velocity(&measured);
         StartState {
             pose: self.pose[0],
-            input: enc,
+            input: measured,
             body_velocity: BodyVelocity::new(
                 from_encoders.x,
                 from_encoders.y,

@@ -58,11 +58,12 @@ pub enum FitError {
 /// Why a motion model could not produce the asked prediction.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum MotionError {
-    /// The model gives no uncertainty (the naive and powertrain-aware models are deterministic).
+    /// The model gives no uncertainty (a model without a probabilistic slip model is
+    /// deterministic).
     #[error("the {model} model does not predict an uncertainty")]
     NoUncertainty {
         /// model name
-        model: &'static str,
+        model: String,
     },
     /// The buffers of a batch prediction do not have matching lengths.
     #[error("batch shape: {sequences} start states and a horizon of {horizon} need {expected} commands and {expected} poses, got {commands} commands and {poses} poses")]

@@ -1,16 +1,23 @@
 //! Traits and shared types of the DRIVE framework (Baril et al., "DRIVE: Data-driven Robot
 //! Input Vector Exploration").
 //!
-//! Every plug-in point of the project is a small trait here:
+//! A motion model is composed from parts, each a small trait here, each with one job:
 //!
 //! | trait | job | paper |
 //! |---|---|---|
-//! | [`CommandModel`] | input vector -> commanded body velocity, its inverse, the input space | eq. 4 |
-//! | [`Powertrain`] | commanded -> predicted actuator (wheel) velocities over a horizon | eq. 3 |
-//! | [`PowertrainLearner`] | fits a [`Powertrain`] on training windows | Sec. III-B.1 |
-//! | [`Learner`] | an unfitted configuration that fits a [`MotionModel`] | Sec. III-B |
-//! | [`MotionModel`] | predicts poses (and covariances) over a horizon | eq. 1, 2, 7 |
+//! | [`CommandModel`] | vehicle: input -> commanded body velocity, its inverse, input axes, characterization | eq. 2, 4 |
+//! | [`Powertrain`] / [`PowertrainLearner`] | commanded -> reached inputs over a horizon | eq. 3 |
+//! | [`SlipModel`] / [`SlipLearner`] | slip velocity from the commanded body velocity | eq. 5-7 |
+//! | [`MotionModel`] / [`Learner`] | poses (and covariances) over a horizon | eq. 1, 2, 7 |
+//! | [`Baseline`] | a whole-model learner that is not built from a slip model (acc-BLR) | |
 //! | [`InputSampler`] | draws the next input of the protocol, seeded | Sec. III-A |
+//! | [`Tagged`] | the name a part's type is saved under | |
+//!
+//! Learners are unfitted configurations whose `fit` returns a separate fitted type (the
+//! linfa split). Fitted parts are saved as trait objects with typetag: an implementation
+//! carries `#[typetag::serde(name = "...")]` and [`Tagged`] with the same name; a
+//! [`Registry`] checks both when the part is registered. This crate re-exports [`serde`],
+//! [`typetag`] and [`nalgebra`] so that a plug-in needs no other dependency.
 //!
 //! The dataset types ([`Window`], [`RobotDescription`], [`WindowSet`]) are what every
 //! loader produces and every learner and metric consumes.
@@ -23,19 +30,36 @@ mod learner;
 mod motion;
 mod pose;
 mod powertrain;
+mod registry;
 mod sampler;
+mod slip;
+mod tag;
 mod vehicle;
+mod velocity;
 
 pub use dataset::{
     assign_intervals, Dataset, Phase, RobotDescription, Window, WindowSet, WINDOWS_PER_INTERVAL,
     WINDOW_S,
 };
 pub use error::{FitError, MotionError};
-pub use learner::Learner;
+pub use learner::{Baseline, Learner};
 pub use motion::{MotionModel, StartState};
 pub use pose::{
     euler_step, relative_pose, unwrap_angles, wrap_angle, BodyVelocity, Input, Pose, PoseCovariance,
 };
-pub use powertrain::{Powertrain, PowertrainLearner};
+pub use powertrain::{FitPowertrain, Powertrain, PowertrainLearner};
+pub use registry::{
+    is_part_name, Entry, Registry, RegistryError, RegistryItem, TagCollision, TagProblem,
+};
 pub use sampler::InputSampler;
-pub use vehicle::{CommandModel, InputSpace};
+pub use slip::{FitSlip, SlipData, SlipLearner, SlipModel, SlipSample, SlipWindow};
+pub use tag::{PartTag, TagProbe, Tagged};
+pub use vehicle::{
+    spanned_space, vehicle_as, Characterization, CommandModel, InputAxis, InputSpace, Probe,
+    ProbeMotion, ProbeResult,
+};
+pub use velocity::BodyVelocityEstimator;
+
+pub use nalgebra;
+pub use serde;
+pub use typetag;

@@ -7,7 +7,7 @@ use crate::{BodyVelocity, Input, MotionError, Pose, PoseCovariance};
 pub struct StartState {
     /// Start pose.
     pub pose: Pose,
-    /// Measured input (encoder wheel velocities) at the start.
+    /// Measured input at the start (encoder wheel velocities for a skid-steer).
     pub input: Input,
     /// Measured body velocity at the start (used by models whose state is a velocity, such
     /// as acceleration-based BLR).
@@ -26,14 +26,44 @@ impl StartState {
 }
 
 /// A fitted motion model (the linfa "fitted" side): it predicts, and it is saved and loaded
-/// as a trait object through typetag (`"model": "<name>"` tag).
+/// as a trait object through typetag (`"type": "<tag>"`). Most models are the composed
+/// vehicle x powertrain x slip model of `drive_models`; a whole-model baseline (acc-BLR)
+/// implements this trait directly.
 ///
 /// Convention: `commands[k]` is applied during step k; the prediction has one pose per
 /// command, `poses[0]` the start pose and `poses[k+1] = poses[k] + T(yaw_k) v_k dt` (eq. 1).
-#[typetag::serde(tag = "model")]
+///
+/// ```
+/// use drive_traits::{BodyVelocity, Input, MotionModel, Pose, StartState, Tagged, euler_step};
+/// use serde::{Deserialize, Serialize};
+///
+/// /// Keeps the body velocity measured at the start, whatever the commands.
+/// #[derive(Debug, Clone, Serialize, Deserialize)]
+/// struct ConstantVelocity { dt: f64 }
+///
+/// #[typetag::serde(name = "constant-velocity-doc")]
+/// impl MotionModel for ConstantVelocity {
+///     fn name(&self) -> String { "constant-velocity".into() }
+///     fn dt(&self) -> f64 { self.dt }
+///     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
+///         poses.clear();
+///         let mut q = start.pose;
+///         for _ in commands {
+///             poses.push(q);
+///             q = euler_step(&q, &start.body_velocity, self.dt);
+///         }
+///     }
+/// }
+/// impl Tagged for ConstantVelocity { const TAG: &'static str = "constant-velocity-doc"; }
+///
+/// let start = StartState { body_velocity: BodyVelocity::new(1.0, 0.0, 0.0), ..StartState::at_rest(Pose::zeros()) };
+/// let poses = ConstantVelocity { dt: 0.5 }.predict(&start, &[Input::zeros(); 3]);
+/// assert_eq!(poses[2], Pose::new(1.0, 0.0, 0.0));
+/// ```
+#[typetag::serde(tag = "type")]
 pub trait MotionModel: std::fmt::Debug + Send + Sync {
-    /// The model's name (`naive`, `powertrain`, `slip-blr`, `acc-blr`, ...).
-    fn name(&self) -> &'static str;
+    /// The model's name (`slip-blr+fopdt`, `acc-blr+commanded`, ...).
+    fn name(&self) -> String;
 
     /// Prediction step (s).
     fn dt(&self) -> f64;

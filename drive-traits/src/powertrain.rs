@@ -1,17 +1,42 @@
-//! Powertrain models: commanded -> actually reached actuator velocities (paper eq. 3).
+//! Powertrains: commanded -> actually reached inputs over a horizon (paper eq. 3 and
+//! others), and their learners.
 
-use crate::{FitError, Input, WindowSet};
+use crate::{FitError, Input, PartTag, RegistryItem, Tagged, WindowSet};
 
-/// A fitted powertrain model: predicts the actuator (wheel) velocities over a horizon, per
-/// side, from the measured velocities at the start and the commanded sequence.
+/// A fitted powertrain model: predicts the inputs the vehicle actually reaches (wheel
+/// velocities for a skid-steer) over a horizon, from the measured input at the start and
+/// the commanded sequence.
 ///
-/// Serialized as a trait object (`"powertrain": "<name>"` tag) inside fitted model files.
-#[typetag::serde(tag = "powertrain")]
+/// Saved as a trait object inside model files (`"type": "<tag>"`): an implementation needs
+/// `#[typetag::serde(name = "...")]` and [`Tagged`] with the same name.
+///
+/// ```
+/// use drive_traits::{Input, Powertrain, Tagged};
+/// use serde::{Deserialize, Serialize};
+///
+/// /// A user's powertrain: the vehicle reaches a fixed fraction of every command at once.
+/// #[derive(Debug, Clone, Serialize, Deserialize)]
+/// struct Efficiency { gain: f64 }
+///
+/// #[typetag::serde(name = "efficiency-doc")]
+/// impl Powertrain for Efficiency {
+///     fn predict_into(&self, _initial: &Input, commands: &[Input], predicted: &mut Vec<Input>) {
+///         predicted.clear();
+///         predicted.extend(commands.iter().map(|u| u * self.gain));
+///     }
+///     fn clone_box(&self) -> Box<dyn Powertrain> { Box::new(self.clone()) }
+/// }
+/// impl Tagged for Efficiency { const TAG: &'static str = "efficiency-doc"; }
+///
+/// let w = Efficiency { gain: 0.5 }.predict(&Input::zeros(), &[Input::new(2.0, 4.0)]);
+/// assert_eq!(w, vec![Input::new(1.0, 2.0)]);
+/// ```
+#[typetag::serde(tag = "type")]
 pub trait Powertrain: std::fmt::Debug + Send + Sync {
-    /// Fills `predicted` (cleared first) with one predicted actuator velocity per command:
-    /// `predicted[k]` is the velocity at sample k, used during step k. `initial` is the
-    /// velocity measured at the start; a model with dynamics returns it as `predicted[0]`,
-    /// the ideal powertrain (wheels reach every command at once) ignores it.
+    /// Fills `predicted` (cleared first) with one predicted input per command:
+    /// `predicted[k]` is the input reached at sample k, used during step k. `initial` is the
+    /// input measured at the start; a model with dynamics returns it as `predicted[0]`, the
+    /// commanded powertrain (inputs reached at once) ignores it.
     fn predict_into(&self, initial: &Input, commands: &[Input], predicted: &mut Vec<Input>);
 
     /// Convenience wrapper of [`Powertrain::predict_into`] returning a new vector.
@@ -27,6 +52,11 @@ pub trait Powertrain: std::fmt::Debug + Send + Sync {
         Ok(())
     }
 
+    /// The fitted parameters by name, for reports (`left time constant [s]`, ...).
+    fn parameters(&self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+
     /// Boxed clone (fitted models that embed a powertrain are cloneable).
     fn clone_box(&self) -> Box<dyn Powertrain>;
 }
@@ -38,11 +68,103 @@ impl Clone for Box<dyn Powertrain> {
 }
 
 /// An unfitted powertrain configuration (validated hyperparameters) that fits a
-/// [`Powertrain`] on training windows.
+/// [`Powertrain`] on training windows (the linfa split: configuring and predicting are
+/// different types).
+///
+/// ```
+/// use drive_traits::{FitError, Input, Powertrain, PowertrainLearner, Tagged, WindowSet};
+/// # use serde::{Deserialize, Serialize};
+/// # #[derive(Debug, Clone, Serialize, Deserialize)]
+/// # struct Efficiency { gain: f64 }
+/// # #[typetag::serde(name = "efficiency-learner-doc")]
+/// # impl Powertrain for Efficiency {
+/// #     fn predict_into(&self, _i: &Input, c: &[Input], p: &mut Vec<Input>) { p.clear(); p.extend(c.iter().map(|u| u * self.gain)); }
+/// #     fn clone_box(&self) -> Box<dyn Powertrain> { Box::new(self.clone()) }
+/// # }
+/// # impl Tagged for Efficiency { const TAG: &'static str = "efficiency-learner-doc"; }
+/// /// Fits the gain as the least-squares ratio of measured to commanded inputs.
+/// #[derive(Clone, Copy)]
+/// struct EfficiencyLearner;
+///
+/// impl PowertrainLearner for EfficiencyLearner {
+///     type Fitted = Efficiency;
+///     fn fit(&self, train: &WindowSet<'_>) -> Result<Efficiency, FitError> {
+///         let (mut num, mut den) = (0.0, 0.0);
+///         for w in &train.windows {
+///             for (c, m) in w.command.iter().zip(&w.measured) {
+///                 num += c.dot(m);
+///                 den += c.dot(c);
+///             }
+///         }
+///         if den == 0.0 {
+///             return Err(FitError::EmptyTrainingSet);
+///         }
+///         Ok(Efficiency { gain: num / den })
+///     }
+/// }
+/// # use drive_traits::{BodyVelocity, CommandModel, InputAxis, RobotDescription};
+/// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
+/// # #[typetag::serde(name = "v-pt-doc")] impl CommandModel for V {
+/// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
+/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
+/// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+/// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
+/// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
+/// let robot = RobotDescription::new("none", "", 20.0, 40, V);
+/// let empty = WindowSet { robot: &robot, windows: vec![] };
+/// assert_eq!(EfficiencyLearner.fit(&empty).unwrap_err(), FitError::EmptyTrainingSet);
+/// ```
 pub trait PowertrainLearner {
     /// The fitted powertrain type.
-    type Fitted: Powertrain + 'static;
+    type Fitted: Powertrain + Tagged + 'static;
 
     /// Fits on the training windows.
     fn fit(&self, train: &WindowSet<'_>) -> Result<Self::Fitted, FitError>;
+}
+
+/// A [`PowertrainLearner`] as a trait object (what the powertrain registry holds);
+/// implemented for every powertrain learner.
+///
+/// ```
+/// use drive_traits::{FitError, FitPowertrain, Input, Powertrain, PowertrainLearner, Tagged, WindowSet};
+/// # use serde::{Deserialize, Serialize};
+/// # #[derive(Debug, Clone, Serialize, Deserialize)] struct Instant;
+/// # #[typetag::serde(name = "instant-fit-doc")]
+/// # impl Powertrain for Instant {
+/// #     fn predict_into(&self, _i: &Input, c: &[Input], p: &mut Vec<Input>) { p.clear(); p.extend_from_slice(c); }
+/// #     fn clone_box(&self) -> Box<dyn Powertrain> { Box::new(self.clone()) }
+/// # }
+/// # impl Tagged for Instant { const TAG: &'static str = "instant-fit-doc"; }
+/// struct InstantLearner;
+/// impl PowertrainLearner for InstantLearner {
+///     type Fitted = Instant;
+///     fn fit(&self, _train: &WindowSet<'_>) -> Result<Instant, FitError> { Ok(Instant) }
+/// }
+/// // Any powertrain learner is one: the registry holds it as `Arc<dyn FitPowertrain>`.
+/// let learner: std::sync::Arc<dyn FitPowertrain> = std::sync::Arc::new(InstantLearner);
+/// assert_eq!(learner.fitted_tag().tag, "instant-fit-doc");
+/// ```
+pub trait FitPowertrain: Send + Sync {
+    /// Fits on the training windows, boxed.
+    fn fit_boxed(&self, train: &WindowSet<'_>) -> Result<Box<dyn Powertrain>, FitError>;
+    /// The tag of the fitted type.
+    fn fitted_tag(&self) -> PartTag;
+}
+
+impl<L> FitPowertrain for L
+where
+    L: PowertrainLearner + Send + Sync,
+{
+    fn fit_boxed(&self, train: &WindowSet<'_>) -> Result<Box<dyn Powertrain>, FitError> {
+        Ok(Box::new(self.fit(train)?))
+    }
+    fn fitted_tag(&self) -> PartTag {
+        PartTag::of::<L::Fitted, Box<dyn Powertrain>>("Powertrain")
+    }
+}
+
+impl RegistryItem for dyn FitPowertrain {
+    fn part_tag(&self) -> Option<PartTag> {
+        Some(self.fitted_tag())
+    }
 }

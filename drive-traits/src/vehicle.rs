@@ -1,9 +1,12 @@
-//! Vehicle command models: how an input vector maps to a commanded body velocity.
+//! Vehicles: how an input vector maps to a commanded body velocity (paper eq. 2, eq. 4 for
+//! a skid-steer), what the input axes are, and how the protocol's characterization step
+//! finds the true input space J of the vehicle.
 
-use crate::{BodyVelocity, Input};
+use crate::{BodyVelocity, Input, PartTag, RegistryItem};
 use serde::{Deserialize, Serialize};
 
-/// The input space J of a vehicle: a box of inputs `min <= u <= max` (Sec. III-A).
+/// The input space J of a vehicle: a box of inputs `min <= u <= max`, with limits per axis
+/// (Sec. III-A; the axes may have different units, as speed and steering angle).
 ///
 /// ```
 /// use drive_traits::{Input, InputSpace};
@@ -39,23 +42,279 @@ impl InputSpace {
             u.y.clamp(self.min.y, self.max.y),
         )
     }
+
+    /// The centre of the box.
+    pub fn center(&self) -> Input {
+        (self.min + self.max) * 0.5
+    }
 }
 
-/// A vehicle command model: the map from an input vector to the commanded body velocity
-/// `f(u)` of paper eq. 2 (for a skid-steer robot, the ideal differential drive of eq. 4).
+/// One input axis of a vehicle: its name and unit, and the window CSV columns of its
+/// commanded and measured values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct InputAxis {
+    /// Name (`left`, `speed`, ...).
+    pub name: &'static str,
+    /// Unit (`rad/s`, `m/s`, `rad`).
+    pub unit: &'static str,
+    /// Column of the commanded value in the window CSV (`cmd_left`).
+    pub command_column: &'static str,
+    /// Column of the measured value (`enc_left`).
+    pub measured_column: &'static str,
+}
+
+/// One sub-step of the characterization (DRIVE step 1): a command held while the runner
+/// averages what the vehicle reaches in its last second.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Probe {
+    /// Name, for reports (`forward`, `turn`, ...).
+    pub name: &'static str,
+    /// The input held.
+    pub command: Input,
+    /// Whether the probe is only useful with localization (geometry identification).
+    pub needs_localization: bool,
+}
+
+/// How the vehicle moved during a probe's averaging span, from the localization.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbeMotion {
+    /// Time between the first and last localization updates of the span (s).
+    pub duration_s: f64,
+    /// Straight-line distance between them (m).
+    pub distance_m: f64,
+    /// Yaw turned between them, summed update by update (rad; more than half a turn is
+    /// not wrapped away).
+    pub yaw_turned: f64,
+}
+
+/// What a probe measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProbeResult {
+    /// The probe.
+    pub probe: Probe,
+    /// Mean measured input over the averaging span.
+    pub measured: Input,
+    /// The motion seen by the localization, when there was one.
+    pub motion: Option<ProbeMotion>,
+}
+
+/// What the characterization found: the true input space J and, with localization, the
+/// vehicle's effective geometry (`wheel_radius`, `baseline`, ... by name).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Characterization {
+    /// The true input space J.
+    pub space: InputSpace,
+    /// Effective geometry parameters identified, by name.
+    pub geometry: Vec<(String, f64)>,
+}
+
+impl Characterization {
+    /// The identified value of the geometry parameter `name`, if any.
+    pub fn geometry(&self, name: &str) -> Option<f64> {
+        self.geometry
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| *v)
+    }
+}
+
+/// A vehicle: the map from an input vector to the commanded body velocity `f(u)` of paper
+/// eq. 2 (for a skid-steer robot, the ideal differential drive of eq. 4), its inverse, its
+/// input axes and how its input space is characterized.
 ///
-/// Implemented by `drive_models::DifferentialDrive`; an Ackermann vehicle (speed, steering
-/// angle) implements the same trait with its own geometry. Serialized as a trait object
-/// (`"vehicle": "<name>"` tag) inside fitted model files.
-#[typetag::serde(tag = "vehicle")]
+/// A dataset's sidecar names its vehicle and carries its geometry (`"vehicle": {"type":
+/// "differential", ...}`); every learner, metric and sampler takes the vehicle from there.
+/// Saved as a trait object with typetag (`"type": "<tag>"`): an implementation needs
+/// `#[typetag::serde(name = "...")]`, and is registered in the vehicle registry.
+///
+/// ```
+/// use drive_traits::{BodyVelocity, CommandModel, Input, InputAxis};
+/// use serde::{Deserialize, Serialize};
+///
+/// /// A robot commanded directly in body velocity (v, omega), as a `cmd_vel` interface is.
+/// #[derive(Debug, Clone, Serialize, Deserialize)]
+/// struct Unicycle;
+///
+/// #[typetag::serde(name = "unicycle-doc")]
+/// impl CommandModel for Unicycle {
+///     fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
+///     fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
+///         (v.y == 0.0).then(|| Input::new(v.x, v.z))
+///     }
+///     fn axes(&self) -> [InputAxis; 2] {
+///         [InputAxis { name: "v", unit: "m/s", command_column: "cmd_v", measured_column: "meas_v" },
+///          InputAxis { name: "omega", unit: "rad/s", command_column: "cmd_omega", measured_column: "meas_omega" }]
+///     }
+///     fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(self.clone()) }
+/// }
+///
+/// let v = Unicycle.body_velocity(&Input::new(1.0, 0.5));
+/// assert_eq!(v, BodyVelocity::new(1.0, 0.0, 0.5));
+/// // The default characterization drives forward and backward at twice the top speed.
+/// assert_eq!(Unicycle.probe(0, 1.0, &[]).unwrap().command, Input::new(2.0, 0.0));
+/// ```
+#[typetag::serde(tag = "type")]
 pub trait CommandModel: std::fmt::Debug + Send + Sync {
     /// Commanded body velocity `f(u)` for input `u`.
     fn body_velocity(&self, u: &Input) -> BodyVelocity;
+
+    /// `f(u)` for every input of `inputs`, into `out` (cleared first): one call per rollout.
+    fn body_velocities_into(&self, inputs: &[Input], out: &mut Vec<BodyVelocity>) {
+        out.clear();
+        out.extend(inputs.iter().map(|u| self.body_velocity(u)));
+    }
 
     /// The input that commands body velocity `v`, where one exists (a skid-steer cannot
     /// command a lateral velocity: `v.y` must be zero).
     fn input_for(&self, v: &BodyVelocity) -> Option<Input>;
 
-    /// The vehicle's input space J, when known (from characterization or the manufacturer).
-    fn input_space(&self) -> Option<InputSpace>;
+    /// The two input axes.
+    fn axes(&self) -> [InputAxis; 2];
+
+    /// The manufacturer's (naive) input space for a top speed (m/s), when the geometry
+    /// gives one.
+    fn nominal_input_space(&self, top_speed: f64) -> Option<InputSpace> {
+        let _ = top_speed;
+        None
+    }
+
+    /// The characterization's probe number `index` for a vehicle of nominal top speed
+    /// `top_speed` (m/s), given what the earlier probes measured (`done`); `None` when the
+    /// characterization is complete. By default: the body command of twice the top speed,
+    /// forward then backward (the paper's step 1).
+    fn probe(&self, index: usize, top_speed: f64, done: &[ProbeResult]) -> Option<Probe> {
+        let _ = done;
+        let (name, sign) = match index {
+            0 => ("forward", 1.0),
+            1 => ("backward", -1.0),
+            _ => return None,
+        };
+        let command = self.input_for(&BodyVelocity::new(sign * 2.0 * top_speed, 0.0, 0.0))?;
+        Some(Probe {
+            name,
+            command,
+            needs_localization: false,
+        })
+    }
+
+    /// The input space (and geometry) from what the probes measured. By default the box
+    /// spanned by the probes' mean measured inputs, refused when an axis did not move.
+    fn characterize(&self, results: &[ProbeResult]) -> Result<Characterization, String> {
+        Ok(Characterization {
+            space: spanned_space(self, results)?,
+            geometry: Vec::new(),
+        })
+    }
+
+    /// Checks the geometry read from a file (finite, positive lengths); `Err` says what is
+    /// wrong.
+    fn check(&self) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// The geometry parameters by name, for reports.
+    fn geometry(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
+
+    /// Boxed clone.
+    fn clone_box(&self) -> Box<dyn CommandModel>;
+}
+
+/// The box spanned by the probes' mean measured inputs; an error naming the axis when the
+/// probes never commanded it, or when what it reached spans less than 5% of what was
+/// commanded on it (a stuck axis, or measurement noise on one that was never driven):
+/// never a degenerate or made-up range.
+///
+/// ```
+/// use drive_traits::{spanned_space, Input, Probe, ProbeResult};
+/// # use drive_traits::{BodyVelocity, CommandModel, InputAxis};
+/// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
+/// # #[typetag::serde(name = "spanned-doc")] impl CommandModel for V {
+/// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
+/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
+/// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+/// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
+/// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
+/// let probe = |c: Input, m: Input| ProbeResult { probe: Probe { name: "p", command: c, needs_localization: false }, measured: m, motion: None };
+/// // Commanded +-4 on both axes, reached +-2 and +-1.
+/// let moved = [probe(Input::new(4.0, 4.0), Input::new(2.0, 1.0)), probe(Input::new(-4.0, -4.0), Input::new(-2.0, -1.0))];
+/// let j = spanned_space(&V, &moved).unwrap();
+/// assert_eq!((j.min, j.max), (Input::new(-2.0, -1.0), Input::new(2.0, 1.0)));
+/// // The second axis never commanded: its noise is no range.
+/// let straight = [probe(Input::new(4.0, 0.0), Input::new(2.0, 0.01)), probe(Input::new(-4.0, 0.0), Input::new(-2.0, -0.01))];
+/// assert!(spanned_space(&V, &straight).unwrap_err().contains("'w'"));
+/// ```
+pub fn spanned_space<V: CommandModel + ?Sized>(
+    vehicle: &V,
+    results: &[ProbeResult],
+) -> Result<InputSpace, String> {
+    let mut min = Input::repeat(f64::INFINITY);
+    let mut max = Input::repeat(f64::NEG_INFINITY);
+    let mut cmd_min = Input::repeat(f64::INFINITY);
+    let mut cmd_max = Input::repeat(f64::NEG_INFINITY);
+    for r in results {
+        min = min.inf(&r.measured);
+        max = max.sup(&r.measured);
+        cmd_min = cmd_min.inf(&r.probe.command);
+        cmd_max = cmd_max.sup(&r.probe.command);
+    }
+    for (i, axis) in vehicle.axes().iter().enumerate() {
+        let commanded = cmd_max[i] - cmd_min[i];
+        if !(commanded.is_finite() && commanded > 0.0) {
+            return Err(format!(
+                "the characterization's probes never command the axis '{}': its range cannot be found; give the input limits",
+                axis.name
+            ));
+        }
+        let reached = max[i] - min[i];
+        if !(reached.is_finite() && reached >= 0.05 * commanded) {
+            return Err(format!(
+                "the axis '{}' did not move during the characterization (it reached {:.4} to {:.4} {} for commands of {:.4} to {:.4}); check that its measurement is recorded and the vehicle is free to move",
+                axis.name, min[i], max[i], axis.unit, cmd_min[i], cmd_max[i]
+            ));
+        }
+    }
+    InputSpace::new(min, max).ok_or_else(|| "the measured input space is not finite".to_string())
+}
+
+impl Clone for Box<dyn CommandModel> {
+    fn clone(&self) -> Self {
+        self.clone_box()
+    }
+}
+
+impl RegistryItem for dyn CommandModel {
+    fn part_tag(&self) -> Option<PartTag> {
+        let tag = serde_json::to_value(self)
+            .ok()?
+            .get("type")?
+            .as_str()?
+            .to_string();
+        // The type's name as its derived Debug output starts with it.
+        let debug = format!("{self:?}");
+        let type_name = debug
+            .split(|c: char| !(c.is_alphanumeric() || c == '_'))
+            .next()
+            .unwrap_or_default()
+            .to_string();
+        Some(PartTag::named::<Box<dyn CommandModel>>(
+            "CommandModel",
+            tag,
+            type_name,
+        ))
+    }
+}
+
+/// The vehicle `v` as its concrete type `T`, when it is one (read back from its saved form):
+/// what a simulator of one kind of vehicle uses to get at the geometry.
+pub fn vehicle_as<T: serde::de::DeserializeOwned + crate::Tagged>(
+    v: &dyn CommandModel,
+) -> Option<T> {
+    let mut value = serde_json::to_value(v).ok()?;
+    let fields = value.as_object_mut()?;
+    if fields.remove("type")?.as_str()? != T::TAG {
+        return None;
+    }
+    serde_json::from_value(value).ok()
 }

@@ -13,10 +13,12 @@
 
 use argmin::core::{CostFunction, Executor, State};
 use argmin::solver::neldermead::NelderMead;
-use drive_traits::{FitError, Input, InputSpace, Phase, Powertrain, PowertrainLearner, WindowSet};
+use drive_traits::{
+    FitError, Input, InputSpace, Phase, Powertrain, PowertrainLearner, Tagged, WindowSet,
+};
 use serde::{Deserialize, Serialize};
 
-/// The response of one side: time constant and dead time.
+/// The response of one input axis (one side of a skid-steer): time constant and dead time.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SideResponse {
     /// Time constant tau_c (s).
@@ -96,15 +98,15 @@ fn run_lanes<const L: usize>(
     }
 }
 
-/// A fitted FOPDT powertrain: one response per side, commands saturated at the wheel
-/// velocity limits seen in training.
+/// A fitted FOPDT powertrain: one response per input axis (per side of a skid-steer, paper
+/// Sec. III-B.1), commands saturated at the limits seen in training.
 ///
 /// ```
 /// use drive_models::powertrain::{FopdtPowertrain, SideResponse};
 /// use drive_traits::{Input, InputSpace, Powertrain};
 /// let side = SideResponse { time_constant: 0.5, delay: 0.1 };
 /// let limits = InputSpace::new(Input::new(-5.0, -5.0), Input::new(5.0, 5.0)).unwrap();
-/// let pt = FopdtPowertrain { left: side, right: side, limits, dt: 0.05 };
+/// let pt = FopdtPowertrain { axes: [side, side], limits, dt: 0.05 };
 /// let w = pt.predict(&Input::zeros(), &vec![Input::new(4.0, 8.0); 40]);
 /// assert_eq!(w[2], Input::zeros());                                  // dead time: 0.1 s
 /// let expected = 4.0 * (1.0 - (-(1.0f64 - 0.1) / 0.5).exp());         // eq. 3 at t = 1 s
@@ -113,14 +115,16 @@ fn run_lanes<const L: usize>(
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FopdtPowertrain {
-    /// Left side response.
-    pub left: SideResponse,
-    /// Right side response.
-    pub right: SideResponse,
-    /// Wheel velocity limits (the commands are saturated to them).
+    /// The response of each input axis (left and right side for a skid-steer).
+    pub axes: [SideResponse; 2],
+    /// Input limits (the commands are saturated to them).
     pub limits: InputSpace,
     /// Sample period (s).
     pub dt: f64,
+}
+
+impl Tagged for FopdtPowertrain {
+    const TAG: &'static str = "fopdt";
 }
 
 #[typetag::serde(name = "fopdt")]
@@ -134,7 +138,10 @@ impl Powertrain for FopdtPowertrain {
             return;
         }
         let (lo, hi) = (self.limits.min, self.limits.max);
-        let (l, r) = (self.left.discrete(self.dt), self.right.discrete(self.dt));
+        let (l, r) = (
+            self.axes[0].discrete(self.dt),
+            self.axes[1].discrete(self.dt),
+        );
         let mut w = *initial;
         let mut older = *initial;
         predicted.push(w);
@@ -157,16 +164,16 @@ impl Powertrain for FopdtPowertrain {
     }
 
     fn check(&self) -> Result<(), String> {
-        for (name, r) in [("left", &self.left), ("right", &self.right)] {
+        for (i, r) in self.axes.iter().enumerate() {
             if !(r.time_constant.is_finite() && r.time_constant > 0.0) {
                 return Err(format!(
-                    "powertrain {name} time constant {} is not a positive number of seconds",
+                    "powertrain axis {i} time constant {} is not a positive number of seconds",
                     r.time_constant
                 ));
             }
             if !(r.delay.is_finite() && r.delay >= 0.0) {
                 return Err(format!(
-                    "powertrain {name} delay {} is not a non-negative number of seconds",
+                    "powertrain axis {i} delay {} is not a non-negative number of seconds",
                     r.delay
                 ));
             }
@@ -183,15 +190,27 @@ impl Powertrain for FopdtPowertrain {
         Ok(())
     }
 
+    fn parameters(&self) -> Vec<(String, f64)> {
+        let mut out = Vec::new();
+        for (i, r) in self.axes.iter().enumerate() {
+            out.push((format!("axis {i} time constant [s]"), r.time_constant));
+            out.push((format!("axis {i} dead time [s]"), r.delay));
+            out.push((format!("axis {i} min"), self.limits.min[i]));
+            out.push((format!("axis {i} max"), self.limits.max[i]));
+        }
+        out
+    }
+
     fn clone_box(&self) -> Box<dyn Powertrain> {
         Box::new(self.clone())
     }
 }
 
 /// The FOPDT powertrain learner (Sec. III-B.1): time constant and delay fitted
-/// independently for the left and right sides on the transient windows, by least squares
-/// between predicted and encoder velocities, with argmin's Nelder-Mead seeded by a coarse
-/// grid. The saturation limits are the extreme encoder velocities of the training set.
+/// independently for each input axis (the left and right sides of a skid-steer) on the
+/// transient windows, by least squares between predicted and measured inputs, with argmin's
+/// Nelder-Mead seeded by a coarse grid. The saturation limits are the extreme measured
+/// inputs of the training set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fopdt {
     /// Largest time constant searched (s).
@@ -306,7 +325,7 @@ impl CostFunction for SideFit {
 }
 
 impl Fopdt {
-    fn validate(&self) -> Result<(), FitError> {
+    pub(crate) fn validate(&self) -> Result<(), FitError> {
         if !(self.max_time_constant.is_finite() && self.max_time_constant > 0.0) {
             return Err(FitError::InvalidHyperparameter {
                 name: "max_time_constant",
@@ -325,25 +344,27 @@ impl Fopdt {
         Ok(())
     }
 
-    fn fit_side(
+    /// Fits the response of axis `side` (commands saturated to `[lo, hi]`).
+    pub(crate) fn fit_side(
         &self,
         train: &WindowSet<'_>,
         side: usize,
         lo: f64,
         hi: f64,
     ) -> Result<SideResponse, FitError> {
-        let what = format!("powertrain ({} side)", ["left", "right"][side]);
+        let axis = train.robot.vehicle.axes()[side].name;
+        let what = format!("powertrain (axis '{axis}')");
         let dt = train.robot.dt();
         let windows: Vec<_> = train
             .of_phase(Phase::Transient)
             .map(|w| {
                 (
-                    w.encoder[0][side],
+                    w.measured[0][side],
                     w.command
                         .iter()
                         .map(|c| c[side].clamp(lo, hi))
                         .collect::<Vec<_>>(),
-                    w.encoder.iter().map(|e| e[side]).collect::<Vec<_>>(),
+                    w.measured.iter().map(|e| e[side]).collect::<Vec<_>>(),
                 )
             })
             .collect();
@@ -430,38 +451,46 @@ impl PowertrainLearner for Fopdt {
 
     fn fit(&self, train: &WindowSet<'_>) -> Result<FopdtPowertrain, FitError> {
         self.validate()?;
-        if train.is_empty() {
-            return Err(FitError::EmptyTrainingSet);
-        }
-        let mut min = Input::repeat(f64::INFINITY);
-        let mut max = Input::repeat(f64::NEG_INFINITY);
-        for w in &train.windows {
-            for e in &w.encoder {
-                min = min.inf(e);
-                max = max.sup(e);
-            }
-        }
-        for (side, name) in ["left", "right"].iter().enumerate() {
-            if min[side] >= max[side] {
-                return Err(FitError::DegenerateInputs {
-                    what: "powertrain".into(),
-                    detail: format!(
-                        "the {name} encoder velocity never changes in the training set"
-                    ),
-                });
-            }
-        }
-        // min < max on both axes was checked just above, so the box is valid.
-        let limits = InputSpace::new(min, max).expect("min < max on both sides");
+        let limits = measured_limits(train)?;
+        let (min, max) = (limits.min, limits.max);
         let left = self.fit_side(train, 0, min.x, max.x)?;
         let right = self.fit_side(train, 1, min.y, max.y)?;
         Ok(FopdtPowertrain {
-            left,
-            right,
+            axes: [left, right],
             limits,
             dt: train.robot.dt(),
         })
     }
+}
+
+/// The extreme measured inputs of a training set, per axis: the saturation limits of a
+/// powertrain fitted on it. Refused when an axis never changes.
+pub(crate) fn measured_limits(train: &WindowSet<'_>) -> Result<InputSpace, FitError> {
+    if train.is_empty() {
+        return Err(FitError::EmptyTrainingSet);
+    }
+    let mut min = Input::repeat(f64::INFINITY);
+    let mut max = Input::repeat(f64::NEG_INFINITY);
+    for w in &train.windows {
+        for e in &w.measured {
+            min = min.inf(e);
+            max = max.sup(e);
+        }
+    }
+    for (side, axis) in train.robot.vehicle.axes().iter().enumerate() {
+        if min[side] >= max[side] || min[side].is_nan() || max[side].is_nan() {
+            return Err(FitError::DegenerateInputs {
+                what: "powertrain".into(),
+                detail: format!(
+                    "the measured '{}' input never changes in the training set",
+                    axis.name
+                ),
+            });
+        }
+    }
+    InputSpace::new(min, max).ok_or_else(|| FitError::NonFinite {
+        what: "powertrain limits".into(),
+    })
 }
 
 #[cfg(test)]
@@ -497,14 +526,16 @@ mod tests {
     #[test]
     fn two_side_prediction_equals_the_lane_recursion() {
         let pt = FopdtPowertrain {
-            left: SideResponse {
-                time_constant: 0.3,
-                delay: 0.17,
-            },
-            right: SideResponse {
-                time_constant: 0.9,
-                delay: 0.0,
-            },
+            axes: [
+                SideResponse {
+                    time_constant: 0.3,
+                    delay: 0.17,
+                },
+                SideResponse {
+                    time_constant: 0.9,
+                    delay: 0.0,
+                },
+            ],
             limits: InputSpace::new(Input::new(-3.0, -2.0), Input::new(3.0, 2.5)).unwrap(),
             dt: 0.05,
         };
@@ -514,7 +545,7 @@ mod tests {
         let start = Input::new(0.4, -0.2);
         let got = pt.predict(&start, &cmds);
         let mut want = vec![Input::zeros(); 40];
-        let d = [pt.left.discrete(pt.dt), pt.right.discrete(pt.dt)];
+        let d = [pt.axes[0].discrete(pt.dt), pt.axes[1].discrete(pt.dt)];
         run_lanes(
             &d,
             [start.x, start.y],

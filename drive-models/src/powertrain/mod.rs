@@ -1,7 +1,16 @@
-//! Powertrain models (implementations of [`drive_traits::Powertrain`]) and their learners.
+//! Powertrains (implementations of [`drive_traits::Powertrain`]) and their learners: a new
+//! powertrain is a new file here (or in a plug-in crate) and one registration.
+//!
+//! | registry name | learner | fitted | model |
+//! |---|---|---|---|
+//! | `commanded` | [`Commanded`] | [`CommandedPowertrain`] | the commands, reached at once (naive) |
+//! | `fopdt` | [`Fopdt`] | [`FopdtPowertrain`] | first order plus dead time per axis (eq. 3) |
+//! | `rate-limited` | [`RateLimited`] | [`RateLimitedPowertrain`] | eq. 3 with a rate (acceleration) limit |
 
+mod commanded;
 mod fopdt;
-mod ideal;
+mod rate_limited;
 
+pub use commanded::{Commanded, CommandedPowertrain};
 pub use fopdt::{Fopdt, FopdtPowertrain, SideResponse};
-pub use ideal::{Ideal, IdealPowertrain};
+pub use rate_limited::{RateLimited, RateLimitedPowertrain, RateLimitedResponse};

@@ -1,8 +1,12 @@
-use drive_traits::{BodyVelocity, CommandModel, Input, InputSpace, RobotDescription};
+use drive_traits::{
+    spanned_space, BodyVelocity, Characterization, CommandModel, Input, InputAxis, InputSpace,
+    Probe, ProbeResult, Tagged,
+};
 use serde::{Deserialize, Serialize};
 
 /// The ideal differential drive of a skid-steer robot (paper eq. 4):
-/// `f = r [ (w_l + w_r) / 2, 0, (w_r - w_l) / b ]`.
+/// `f = r [ (w_l + w_r) / 2, 0, (w_r - w_l) / b ]`; inputs are the left and right wheel
+/// (or track sprocket) angular velocities.
 ///
 /// ```
 /// use drive_models::DifferentialDrive;
@@ -14,31 +18,28 @@ use serde::{Deserialize, Serialize};
 /// assert!((f.z - 0.6).abs() < 1e-12);      // 0.165 * 2 / 0.55
 /// let u = husky.input_for(&f).unwrap();
 /// assert!((u - Input::new(2.0, 4.0)).norm() < 1e-12);
+/// assert_eq!(husky.axes()[0].command_column, "cmd_left");
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DifferentialDrive {
     /// Wheel or sprocket radius r (m).
     pub wheel_radius: f64,
     /// Vehicle width b (m).
     pub baseline: f64,
-    /// The input space J (wheel velocity limits), when known.
-    #[serde(default)]
-    pub input_space: Option<InputSpace>,
+}
+
+impl Tagged for DifferentialDrive {
+    const TAG: &'static str = "differential";
 }
 
 impl DifferentialDrive {
-    /// A differential drive with radius `r` and width `b`, input space unknown.
+    /// A differential drive with radius `r` and width `b`.
     pub fn new(wheel_radius: f64, baseline: f64) -> Self {
         DifferentialDrive {
             wheel_radius,
             baseline,
-            input_space: None,
         }
-    }
-
-    /// The differential drive of a robot description.
-    pub fn from_robot(robot: &RobotDescription) -> Self {
-        Self::new(robot.wheel_radius, robot.baseline)
     }
 
     /// Eq. 4 without the trait-object indirection.
@@ -49,8 +50,25 @@ impl DifferentialDrive {
     }
 }
 
-#[typetag::serde(name = "differential-drive")]
+/// The axes of a differential drive, with the window CSV columns of the DRIVE datasets.
+const AXES: [InputAxis; 2] = [
+    InputAxis {
+        name: "left",
+        unit: "rad/s",
+        command_column: "cmd_left",
+        measured_column: "enc_left",
+    },
+    InputAxis {
+        name: "right",
+        unit: "rad/s",
+        command_column: "cmd_right",
+        measured_column: "enc_right",
+    },
+];
+
+#[typetag::serde(name = "differential")]
 impl CommandModel for DifferentialDrive {
+    #[inline]
     fn body_velocity(&self, u: &Input) -> BodyVelocity {
         self.eq4(u)
     }
@@ -64,7 +82,98 @@ impl CommandModel for DifferentialDrive {
         Some(Input::new((v.x - half) / r, (v.x + half) / r))
     }
 
-    fn input_space(&self) -> Option<InputSpace> {
-        self.input_space
+    fn axes(&self) -> [InputAxis; 2] {
+        AXES
+    }
+
+    /// The manufacturer's input space: `+-top_speed / r` on both wheels.
+    fn nominal_input_space(&self, top_speed: f64) -> Option<InputSpace> {
+        let w = top_speed / self.wheel_radius;
+        InputSpace::new(Input::repeat(-w), Input::repeat(w))
+    }
+
+    /// Forward and backward at twice the top speed (the wheel limits), then, with
+    /// localization, a turn in place at half of what the forward probe reached (the
+    /// effective baseline).
+    fn probe(&self, index: usize, top_speed: f64, done: &[ProbeResult]) -> Option<Probe> {
+        let straight = |name, sign: f64| {
+            Some(Probe {
+                name,
+                command: self.input_for(&BodyVelocity::new(sign * 2.0 * top_speed, 0.0, 0.0))?,
+                needs_localization: false,
+            })
+        };
+        match index {
+            0 => straight("forward", 1.0),
+            1 => straight("backward", -1.0),
+            2 => {
+                let reached = done.first()?.measured;
+                let w = 0.5 * reached.x.abs().min(reached.y.abs());
+                Some(Probe {
+                    name: "turn",
+                    command: Input::new(-w, w),
+                    needs_localization: true,
+                })
+            }
+            _ => None,
+        }
+    }
+
+    /// The wheel limits from the forward and backward probes; with localization, the
+    /// effective wheel radius (distance over wheel angle going forward) and baseline
+    /// (`r (w_r - w_l)` over the yaw rate turning in place).
+    fn characterize(&self, results: &[ProbeResult]) -> Result<Characterization, String> {
+        let straight: Vec<ProbeResult> = results
+            .iter()
+            .filter(|r| r.probe.name != "turn")
+            .cloned()
+            .collect();
+        let space = spanned_space(self, &straight)?;
+        let mut geometry = Vec::new();
+        let forward = results.iter().find(|r| r.probe.name == "forward");
+        let radius = forward.and_then(|f| {
+            let m = f.motion?;
+            let angle = 0.5 * (f.measured.x + f.measured.y) * m.duration_s;
+            (angle.abs() > 1e-6).then(|| m.distance_m / angle.abs())
+        });
+        if let Some(r) = radius {
+            geometry.push(("wheel_radius".to_string(), r));
+        }
+        let turn = results.iter().find(|r| r.probe.name == "turn");
+        if let (Some(r), Some(t)) = (radius, turn) {
+            if let Some(m) = t.motion {
+                let yaw_rate = m.yaw_turned / m.duration_s;
+                if m.duration_s > 0.0 && yaw_rate.abs() > 1e-6 {
+                    geometry.push((
+                        "baseline".to_string(),
+                        r * (t.measured.y - t.measured.x) / yaw_rate,
+                    ));
+                }
+            }
+        }
+        Ok(Characterization { space, geometry })
+    }
+
+    fn check(&self) -> Result<(), String> {
+        for (name, v) in [
+            ("wheel_radius", self.wheel_radius),
+            ("baseline", self.baseline),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("vehicle {name} = {v} is not a positive length"));
+            }
+        }
+        Ok(())
+    }
+
+    fn geometry(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("wheel_radius", self.wheel_radius),
+            ("baseline", self.baseline),
+        ]
+    }
+
+    fn clone_box(&self) -> Box<dyn CommandModel> {
+        Box::new(self.clone())
     }
 }

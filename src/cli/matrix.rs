@@ -1,20 +1,36 @@
 //! `drive matrix`: every combination of a sweep file, with a progress bar on a terminal.
 
+use crate::eval::{run_matrix, DatasetSource, MatrixResult, SweepFile};
+use crate::Registries;
 use anyhow::{Context, Result};
-use drive::eval::{run_matrix, DatasetSource, MatrixResult, SweepFile};
-use drive::models::LearnerRegistry;
-use drive::samplers::SamplerRegistry;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The sweep file (TOML).
+    #[arg(long)]
+    config: PathBuf,
+    /// Output folder (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Print the JSON document on stdout instead of the Markdown summary.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    run_with(&args.config, &args.out, args.json, registries).map(|_| ())
+}
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 /// Resolves a sweep's dataset: a bundled name, or a file relative to the sweep file.
-fn load_source(base: &Path, source: &DatasetSource) -> Result<drive::traits::Dataset, String> {
+fn load_source(base: &Path, source: &DatasetSource) -> Result<crate::traits::Dataset, String> {
     if let Some(name) = &source.bundled {
         return match name.as_str() {
-            "husky" => drive::bundled::husky().map_err(|e| e.to_string()),
+            "husky" => crate::bundled::husky().map_err(|e| e.to_string()),
             other => Err(format!(
                 "no bundled dataset '{other}' (the bundled datasets are: husky)"
             )),
@@ -23,7 +39,7 @@ fn load_source(base: &Path, source: &DatasetSource) -> Result<drive::traits::Dat
     // The plan checks that exactly one of file and bundled is given.
     let file = source.file.as_ref().ok_or("no file given")?;
     let sidecar = source.sidecar.as_ref().map(|s| base.join(s));
-    drive::data::read_dataset(&base.join(file), sidecar.as_deref()).map_err(|e| e.to_string())
+    crate::data::read_dataset(&base.join(file), sidecar.as_deref()).map_err(|e| e.to_string())
 }
 
 /// A progress bar drawn on stderr once the run has lasted a second, when stderr is a
@@ -66,23 +82,22 @@ impl Progress {
     }
 }
 
-/// Runs `drive matrix` with the given registries (the built-in ones from the command line;
-/// a researcher's own from an example or program).
+/// Runs `drive matrix` on the sweep file `config` with the parts of `registries`, writing
+/// its files into `out`; prints the summary (or the JSON document with `json`).
 pub fn run_with(
     config: &Path,
     out: &Path,
     json: bool,
-    learners: &LearnerRegistry,
-    samplers: &SamplerRegistry,
+    registries: &Registries,
 ) -> Result<MatrixResult> {
     let name = config.display().to_string();
     let text = std::fs::read_to_string(config).with_context(|| format!("reading {name}"))?;
     let sweep = SweepFile::parse(&name, &text)?;
     let base = config.parent().unwrap_or(Path::new("."));
-    let plan = sweep.plan(learners, samplers, &|s| load_source(base, s))?;
+    let plan = sweep.plan(registries, &|s| load_source(base, s))?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let progress = Progress::new();
-    let result = run_matrix(&plan, learners, samplers, &|d, t| progress.update(d, t))?;
+    let result = run_matrix(&plan, registries, &|d, t| progress.update(d, t))?;
     progress.bar.finish_and_clear();
     let write = |file: &str, text: String| {
         let path = out.join(file);

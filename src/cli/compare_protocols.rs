@@ -1,81 +1,110 @@
 //! `drive compare-protocols`: the paper's Table I, on the simulator or on recorded data.
 
-use anyhow::{bail, Context, Result};
-use drive::eval::{
+use super::common::{emit, load, names, DataArgs};
+use crate::eval::{
     compare_protocols, compare_regions, ProtocolComparison, ProtocolStudy, RegionComparison,
     RegionStudy,
 };
-use drive::samplers::{RobotSpec, SAMPLER_NAMES};
-use drive::sim::Terrain;
-use drive::traits::Dataset;
+use crate::traits::Dataset;
+use crate::Registries;
+use anyhow::{bail, Result};
 
-/// The simulated study's options, as given on the command line.
-pub struct SimulatedArgs<'a> {
-    pub robots: &'a [String],
-    pub terrains: &'a [String],
-    pub samplers: &'a [String],
-    pub durations: &'a [f64],
-    pub seeds: usize,
-    pub first_seed: u64,
-    pub test_duration: Option<f64>,
-    pub model: &'a str,
-    pub json: bool,
+#[derive(clap::Args)]
+pub struct Args {
+    /// Robots (registered names or TOML files), comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "husky,hd2,warthog")]
+    robot: Vec<String>,
+    /// Terrains, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "tile,gravel,snow,ice")]
+    terrain: Vec<String>,
+    /// Driving time of each training run (s, characterization excluded), comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "300",
+        allow_hyphen_values = true
+    )]
+    duration: Vec<f64>,
+    /// Samplers compared, comma-separated; the first is the reference.
+    #[arg(long, value_delimiter = ',', default_value = "uniform,linear,angular")]
+    samplers: Vec<String>,
+    /// Number of repetitions (seeds seed, seed+1, ...).
+    #[arg(long, default_value_t = 1)]
+    seeds: usize,
+    /// First seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Driving time of the held-out test run (s); default: the longest --duration, at
+    /// least 300 s.
+    #[arg(long)]
+    test_duration: Option<f64>,
+    /// Model trained on each run (a model name; see drive list).
+    #[arg(long, default_value = "slip-blr")]
+    model: String,
+    /// Compare on recorded data (--data, or the bundled Husky data) instead.
+    #[arg(long)]
+    real: bool,
+    #[command(flatten)]
+    data: DataArgs,
+    /// With --real: fraction of the intervals the regions are taken from.
+    #[arg(long, default_value_t = 0.5)]
+    split: f64,
+    /// With --real: random uniform draws per region.
+    #[arg(long, default_value_t = 25)]
+    draws: usize,
+    /// Print one JSON object on stdout instead of the table.
+    #[arg(long)]
+    json: bool,
 }
 
-fn names(list: &[String]) -> Vec<&str> {
-    list.iter()
-        .map(|s| s.trim())
-        .filter(|s| !s.is_empty())
-        .collect()
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    if args.real || args.data.data.is_some() {
+        let study = RegionStudy {
+            split: args.split,
+            model: args.model.clone(),
+            draws: args.draws,
+            seed: args.seed,
+            ..Default::default()
+        };
+        let data = load(&args.data)?;
+        recorded(registries, &data, &study, args.json)
+    } else {
+        simulated(args, registries)
+    }
 }
 
 /// Table I on the simulator.
-pub fn simulated(args: &SimulatedArgs<'_>) -> Result<()> {
-    let robots = names(args.robots)
+fn simulated(args: &Args, registries: &Registries) -> Result<()> {
+    registries.model(&args.model)?;
+    let robots = names(&args.robot)
         .into_iter()
-        .map(RobotSpec::load)
+        .map(|r| registries.robot(r))
         .collect::<Result<Vec<_>, _>>()?;
-    let terrains = names(args.terrains)
+    let terrains = names(&args.terrain)
         .into_iter()
-        .map(|t| {
-            Terrain::preset(t).with_context(|| {
-                format!(
-                    "unknown terrain '{t}' (the terrains are: {})",
-                    Terrain::NAMES.join(", ")
-                )
-            })
-        })
-        .collect::<Result<Vec<_>>>()?;
-    let samplers = names(args.samplers);
-    if let Some(s) = samplers.iter().find(|s| !SAMPLER_NAMES.contains(s)) {
-        bail!(
-            "unknown sampler '{s}' (the samplers are: {})",
-            SAMPLER_NAMES.join(", ")
-        );
+        .map(|t| registries.terrain(t))
+        .collect::<Result<Vec<_>, _>>()?;
+    let samplers = names(&args.samplers);
+    for s in &samplers {
+        registries.samplers.get(s)?;
     }
     if args.seeds == 0 {
         bail!("--seeds must be at least 1");
     }
-    if let Some(d) = args
-        .durations
-        .iter()
-        .find(|d| !(d.is_finite() && **d > 0.0))
-    {
+    if let Some(d) = args.duration.iter().find(|d| !(d.is_finite() && **d > 0.0)) {
         bail!("--duration must be positive seconds of driving, got {d}");
     }
-    let longest = args.durations.iter().copied().fold(0.0, f64::max);
+    let longest = args.duration.iter().copied().fold(0.0, f64::max);
     let study = ProtocolStudy {
         robots,
         terrains,
         samplers: samplers.iter().map(|s| s.to_string()).collect(),
-        driving_s: args.durations.to_vec(),
-        seeds: (0..args.seeds as u64)
-            .map(|i| args.first_seed + i)
-            .collect(),
+        driving_s: args.duration.to_vec(),
+        seeds: (0..args.seeds as u64).map(|i| args.seed + i).collect(),
         test_driving_s: args.test_duration.unwrap_or(longest.max(300.0)),
         model: args.model.to_string(),
     };
-    let table = compare_protocols(&study)?;
+    let table = compare_protocols(registries, &study)?;
     if args.json {
         println!("{}", serde_json::to_string(&table)?);
     } else {
@@ -137,7 +166,7 @@ fn simulated_table(t: &ProtocolComparison) -> String {
         );
     }
     // The paper's two headline figures, averaged over every robot, terrain and duration.
-    let mean = |sampler: &str, f: fn(&drive::eval::ProtocolRow) -> f64| {
+    let mean = |sampler: &str, f: fn(&crate::eval::ProtocolRow) -> f64| {
         let v: Vec<f64> = t
             .rows
             .iter()
@@ -164,15 +193,24 @@ fn simulated_table(t: &ProtocolComparison) -> String {
 }
 
 /// Table I on recorded data.
-pub fn recorded(data: &Dataset, study: &RegionStudy, json: bool) -> Result<()> {
-    crate::emit(json, &compare_regions(data, study)?, recorded_table)
+fn recorded(
+    registries: &Registries,
+    data: &Dataset,
+    study: &RegionStudy,
+    json: bool,
+) -> Result<()> {
+    emit(
+        json,
+        &compare_regions(registries, data, study)?,
+        recorded_table,
+    )
 }
 
 fn recorded_table(t: &RegionComparison) -> String {
     use std::fmt::Write as _;
     let mut out = format!(
         "Protocols compared on recorded data (paper Table I): {} from {}, {} training intervals, {} evaluation windows\n\
-         input space of the training commands [{:.2}, {:.2}] x [{:.2}, {:.2}] rad/s (top speed {:.3} m/s, turning in place {:.3} rad/s)\n",
+         input space of the training commands [{:.2}, {:.2}] x [{:.2}, {:.2}] (top speed {:.3} m/s, top yaw rate {:.3} rad/s)\n",
         t.model,
         t.dataset,
         t.train_intervals,

@@ -1,65 +1,45 @@
 use crate::blr::{BlrPosterior, Prior};
-use crate::learners::check_common;
-use crate::powertrain::{Ideal, IdealPowertrain};
+use crate::powertrain::Commanded;
 use crate::rollout::{integrate, integrate_with_covariance};
-use crate::velocity::BodyVelocityEstimator;
-use crate::DifferentialDrive;
 use drive_traits::{
-    BodyVelocity, FitError, Input, Learner, MotionError, MotionModel, Pose, PoseCovariance,
-    Powertrain, PowertrainLearner, StartState, WindowSet,
+    Baseline, BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, FitPowertrain, Input,
+    MotionError, MotionModel, PartTag, Pose, PoseCovariance, Powertrain, StartState, Tagged,
+    WindowSet,
 };
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// The acceleration-based BLR baseline (McKinnon and Schoellig 2019, as compared in the
 /// paper's Fig. 6): for the longitudinal and the angular dimension separately, BLR of the
 /// one-step velocity change `v[k+1] - v[k]` on `[f[k], v[k]]`, with `f` the commanded body
-/// velocity (eq. 4 on the commanded wheel velocities) and `v` the measured body velocity.
-/// The lateral velocity is zero. Rolled out from the body velocity measured at the start.
+/// velocity and `v` the measured body velocity. The lateral velocity is zero. Rolled out
+/// from the body velocity measured at the start.
 ///
-/// As in the paper, `f` comes from the commands themselves ([`Ideal`], the default); with
-/// another powertrain learner (for instance [`Fopdt`](crate::powertrain::Fopdt)) `f` is eq. 4
-/// on the powertrain's predicted wheel velocities instead.
+/// It is not a slip model (its state is a velocity), so it is a [`Baseline`]: fitted on a
+/// powertrain whose predicted inputs give `f` through the vehicle (eq. 4), the commanded
+/// powertrain by default as in McKinnon and Schoellig (`acc-blr` is `acc-blr+commanded`).
 ///
 /// ```
-/// use drive_models::learners::AccBlr;
-/// use drive_models::powertrain::{Fopdt, Ideal};
-/// assert_eq!(AccBlr::<Ideal>::default().powertrain, Ideal);
-/// let on_fopdt = AccBlr::<Ideal>::default().with_powertrain(Fopdt::default());
-/// assert_eq!(on_fopdt.powertrain, Fopdt::default());
+/// use drive_models::baselines::AccBlr;
+/// use drive_traits::Baseline;
+/// assert_eq!(AccBlr::default().default_powertrain(), Some("commanded"));
 /// ```
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct AccBlr<P = Ideal> {
-    /// The powertrain learner whose predicted wheel velocities give `f`.
-    pub powertrain: P,
+pub struct AccBlr {
     /// Priors of the longitudinal and angular regressions.
     pub priors: [Prior; 2],
     /// How the measured body velocities are derived from the poses.
     pub velocity: BodyVelocityEstimator,
 }
 
-impl<P> AccBlr<P> {
-    /// The same learner with another powertrain learner.
-    pub fn with_powertrain<Q>(self, powertrain: Q) -> AccBlr<Q> {
-        AccBlr {
-            powertrain,
-            priors: self.priors,
-            velocity: self.velocity,
-        }
-    }
-}
-
-fn ideal_powertrain() -> Box<dyn Powertrain> {
-    Box::new(IdealPowertrain)
-}
-
 /// Fitted acceleration-BLR model.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct AccBlrModel {
-    /// The vehicle's command model.
-    pub vehicle: DifferentialDrive,
-    /// The fitted powertrain (the commands themselves by default; files written before the
-    /// powertrain option read as such).
-    #[serde(default = "ideal_powertrain")]
+    /// The model's name (`acc-blr+commanded`).
+    pub label: String,
+    /// The vehicle.
+    pub vehicle: Arc<dyn CommandModel>,
+    /// The fitted powertrain.
     pub powertrain: Box<dyn Powertrain>,
     /// Posterior of the longitudinal velocity change on `[f_x, v_x]`.
     pub accel_x: BlrPosterior,
@@ -69,10 +49,19 @@ pub struct AccBlrModel {
     pub dt: f64,
 }
 
-impl<P: PowertrainLearner> Learner for AccBlr<P> {
-    type Fitted = AccBlrModel;
+impl Tagged for AccBlrModel {
+    const TAG: &'static str = "acc-blr";
+}
 
-    fn fit(&self, train: &WindowSet<'_>) -> Result<AccBlrModel, FitError> {
+impl AccBlr {
+    /// Fits the regressions on `train` with a fitted `powertrain` whose predictions give `f`;
+    /// `label` names the fitted model.
+    pub fn fit_on(
+        &self,
+        train: &WindowSet<'_>,
+        powertrain: Box<dyn Powertrain>,
+        label: String,
+    ) -> Result<AccBlrModel, FitError> {
         self.velocity.validate()?;
         for prior in &self.priors {
             prior.validate(2)?;
@@ -80,21 +69,20 @@ impl<P: PowertrainLearner> Learner for AccBlr<P> {
         if train.is_empty() {
             return Err(FitError::EmptyTrainingSet);
         }
-        let powertrain = self.powertrain.fit(train)?;
-        let vehicle = DifferentialDrive::from_robot(train.robot);
+        let vehicle = Arc::clone(&train.robot.vehicle);
         let dt = train.robot.dt();
         let mut xs: [Vec<f64>; 2] = Default::default();
         let mut gs: [Vec<f64>; 2] = Default::default();
         let mut measured = Vec::new();
-        let mut wheels = Vec::new();
+        let mut inputs = Vec::new();
         for w in &train.windows {
             self.velocity.estimate(w, dt, &mut measured);
-            powertrain.predict_into(&w.encoder[0], &w.command, &mut wheels);
+            powertrain.predict_into(&w.measured[0], &w.command, &mut inputs);
             for k in 0..w.len().saturating_sub(1) {
                 let (Some(v0), Some(v1)) = (measured[k], measured[k + 1]) else {
                     continue;
                 };
-                let f = vehicle.eq4(&wheels[k]);
+                let f = vehicle.body_velocity(&inputs[k]);
                 for (j, d) in [0usize, 2].into_iter().enumerate() {
                     xs[j].extend_from_slice(&[f[d], v0[d]]);
                     gs[j].push(v1[d] - v0[d]);
@@ -102,6 +90,7 @@ impl<P: PowertrainLearner> Learner for AccBlr<P> {
             }
         }
         Ok(AccBlrModel {
+            label,
             accel_x: BlrPosterior::fit(
                 &xs[0],
                 2,
@@ -111,9 +100,35 @@ impl<P: PowertrainLearner> Learner for AccBlr<P> {
             )?,
             accel_yaw: BlrPosterior::fit(&xs[1], 2, &gs[1], &self.priors[1], "acc-BLR, angular")?,
             vehicle,
-            powertrain: Box::new(powertrain),
+            powertrain,
             dt,
         })
+    }
+}
+
+impl Baseline for AccBlr {
+    fn fit_with(
+        &self,
+        train: &WindowSet<'_>,
+        powertrain: Option<&dyn FitPowertrain>,
+    ) -> Result<Box<dyn MotionModel>, FitError> {
+        let learner: &dyn FitPowertrain = powertrain.unwrap_or(&Commanded);
+        let label = format!("acc-blr+{}", learner.fitted_tag().tag);
+        if train.is_empty() {
+            return Err(FitError::EmptyTrainingSet);
+        }
+        let fitted = learner.fit_boxed(train)?;
+        Ok(Box::new(self.fit_on(train, fitted, label)?))
+    }
+
+    fn default_powertrain(&self) -> Option<&str> {
+        Some("commanded")
+    }
+
+    fn fitted_tag(&self) -> Option<PartTag> {
+        Some(PartTag::of::<AccBlrModel, Box<dyn MotionModel>>(
+            "MotionModel",
+        ))
     }
 }
 
@@ -130,13 +145,13 @@ impl AccBlrModel {
         if let Some(vs) = variances.as_deref_mut() {
             vs.clear();
         }
-        let wheels = self.powertrain.predict(&start.input, commands);
-        for u in &wheels {
+        let inputs = self.powertrain.predict(&start.input, commands);
+        for u in &inputs {
             out.push(v);
             if let Some(vs) = variances.as_deref_mut() {
                 vs.push(var);
             }
-            let f = self.vehicle.eq4(u);
+            let f = self.vehicle.body_velocity(u);
             let (xx, xw) = ([f.x, v.x], [f.z, v.z]);
             let next = BodyVelocity::new(
                 v.x + self.accel_x.predict_mean(&xx),
@@ -160,14 +175,20 @@ impl AccBlrModel {
 
 #[typetag::serde(name = "acc-blr")]
 impl MotionModel for AccBlrModel {
-    fn name(&self) -> &'static str {
-        "acc-blr"
+    fn name(&self) -> String {
+        self.label.clone()
     }
     fn dt(&self) -> f64 {
         self.dt
     }
     fn check(&self) -> Result<(), String> {
-        check_common(self.dt, &self.vehicle)?;
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(format!(
+                "dt = {} is not a positive number of seconds",
+                self.dt
+            ));
+        }
+        self.vehicle.check()?;
         self.powertrain.check()?;
         self.accel_x.check(2, "accel_x")?;
         self.accel_yaw.check(2, "accel_yaw")

@@ -9,7 +9,7 @@
 //! samples closer than h to either end of the window get no estimate (windows are
 //! independent frames and are never differenced across).
 
-use drive_traits::{unwrap_angles, BodyVelocity, FitError, Window};
+use crate::{unwrap_angles, BodyVelocity, FitError, Window};
 
 /// Central-difference body velocity estimator over the window poses.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,12 +46,11 @@ impl BodyVelocityEstimator {
     /// Fills `out` (cleared first) with one estimate per sample, `None` near the window ends.
     ///
     /// ```
-    /// use drive_models::velocity::BodyVelocityEstimator;
-    /// use drive_traits::{Input, Phase, Pose, Window};
+    /// use drive_traits::{BodyVelocityEstimator, Input, Phase, Pose, Window};
     /// // Straight line at 1 m/s, 20 Hz, poses held in pairs as a 10 Hz ICP gives them.
     /// let pose: Vec<Pose> = (0..40).map(|k| Pose::new(0.05 * (k / 2 * 2) as f64, 0.0, 0.0)).collect();
     /// let w = Window { index: 0, interval: 0, phase: Phase::Steady, command: vec![Input::zeros(); 40],
-    ///     encoder: vec![Input::zeros(); 40], pose, imu_yaw_rate: vec![0.0; 40] };
+    ///     measured: vec![Input::zeros(); 40], pose, imu_yaw_rate: vec![0.0; 40] };
     /// let mut v = Vec::new();
     /// BodyVelocityEstimator::default().estimate(&w, 0.05, &mut v);
     /// assert!(v[0].is_none() && v[1].is_none());

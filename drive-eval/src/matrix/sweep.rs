@@ -1,0 +1,449 @@
+//! The sweep file (TOML): what an evaluation matrix combines, checked against the
+//! registries into a [`Matrix`] plan.
+
+use super::Matrix;
+use crate::{intervals_in, ExperimentError, Registries};
+use drive_models::ModelSpec;
+use drive_samplers::RobotSpec;
+use drive_sim::Terrain;
+use drive_traits::{Dataset, RegistryError};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// Why a sweep cannot run.
+#[derive(Debug, Error)]
+pub enum MatrixError {
+    /// The sweep file is not valid TOML or has unknown or mistyped keys.
+    #[error("{file}: {reason}")]
+    Parse {
+        /// The sweep file.
+        file: String,
+        /// What the TOML reader said.
+        reason: String,
+    },
+    /// The sweep asks for something that does not exist or cannot work.
+    #[error("{0}")]
+    Invalid(String),
+    /// A dataset could not be loaded.
+    #[error("dataset {name}: {reason}")]
+    Dataset {
+        /// The dataset as named in the sweep.
+        name: String,
+        /// Why.
+        reason: String,
+    },
+    /// A simulated run failed.
+    #[error("simulating {what}: {reason}")]
+    Simulation {
+        /// Robot, terrain, sampler, seed.
+        what: String,
+        /// Why.
+        reason: Box<ExperimentError>,
+    },
+    /// A part's name is not registered.
+    #[error(transparent)]
+    Registry(#[from] RegistryError),
+}
+
+/// One recorded dataset of a sweep file: a window CSV (`file`, with an optional `sidecar`,
+/// paths relative to the sweep file), or a bundled dataset (`bundled = "husky"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DatasetSource {
+    /// Window CSV (`.csv` or `.csv.gz`).
+    #[serde(default)]
+    pub file: Option<PathBuf>,
+    /// Its sidecar JSON (default: the CSV's path with `.json`).
+    #[serde(default)]
+    pub sidecar: Option<PathBuf>,
+    /// A bundled dataset's name.
+    #[serde(default)]
+    pub bundled: Option<String>,
+    /// Label in the results (default: the file's stem or the bundled name).
+    #[serde(default)]
+    pub name: Option<String>,
+}
+
+impl DatasetSource {
+    /// The label of this dataset in the results.
+    pub fn label(&self) -> String {
+        if let Some(n) = &self.name {
+            return n.clone();
+        }
+        if let Some(b) = &self.bundled {
+            return b.clone();
+        }
+        self.file
+            .as_ref()
+            .and_then(|f| f.file_name())
+            .map(|f| {
+                let f = f.to_string_lossy();
+                f.trim_end_matches(".gz")
+                    .trim_end_matches(".csv")
+                    .to_string()
+            })
+            .unwrap_or_default()
+    }
+}
+
+/// The simulated part of a sweep: every robot x terrain x sampler x driving time x seed is
+/// one training run; each robot x terrain x seed has one held-out test run (driven with
+/// `test_sampler`, seeded apart from the training runs) that all its models are scored on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulatedSweep {
+    /// Robot presets (husky, hd2, warthog) or robot TOML files.
+    pub robots: Vec<String>,
+    /// Terrains (tile, gravel, snow, ice).
+    pub terrains: Vec<String>,
+    /// Samplers (registered names).
+    pub samplers: Vec<String>,
+    /// Driving time of each training run (s), characterization excluded.
+    pub durations: Vec<f64>,
+    /// Seeds (one repetition each).
+    pub seeds: Vec<u64>,
+    /// Driving time of the test runs (s); default: the longest duration, at least 300 s.
+    #[serde(default)]
+    pub test_duration: Option<f64>,
+    /// Sampler of the test runs.
+    #[serde(default = "uniform")]
+    pub test_sampler: String,
+}
+
+fn uniform() -> String {
+    "uniform".into()
+}
+
+/// The bootstrap of the improvement confidence intervals.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BootstrapConfig {
+    /// Resamples of the evaluation windows.
+    pub resamples: usize,
+    /// Confidence level of the interval.
+    pub level: f64,
+    /// Seed of the resampling.
+    pub seed: u64,
+}
+
+impl Default for BootstrapConfig {
+    fn default() -> Self {
+        BootstrapConfig {
+            resamples: 1000,
+            level: 0.95,
+            seed: 0,
+        }
+    }
+}
+
+/// A sweep description, as read from TOML.
+///
+/// ```
+/// let sweep = drive_eval::SweepFile::parse("sweep.toml", r#"
+///     learners = ["slip-blr", "acc-blr"]
+///     powertrains = ["commanded", "fopdt"]
+///     baseline = "acc-blr+commanded"
+///     [[datasets]]
+///     bundled = "husky"
+///     [simulated]
+///     robots = ["husky"]
+///     terrains = ["tile", "ice"]
+///     samplers = ["uniform", "linear"]
+///     durations = [60]
+///     seeds = [1, 2]
+/// "#).unwrap();
+/// assert_eq!(sweep.splits, [0.5]); // the default
+/// assert_eq!(sweep.simulated.unwrap().test_sampler, "uniform");
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepFile {
+    /// Recorded datasets, each scored with every split.
+    #[serde(default)]
+    pub datasets: Vec<DatasetSource>,
+    /// Simulated datasets.
+    #[serde(default)]
+    pub simulated: Option<SimulatedSweep>,
+    /// Learners: slip learners and baselines (each run on every powertrain it takes), the
+    /// paper's model names, or whole models (`slip-blr+fopdt`); default: every registered
+    /// slip learner and baseline.
+    #[serde(default)]
+    pub learners: Option<Vec<String>>,
+    /// Powertrains of the learners built on one (registered names); default: every
+    /// registered powertrain.
+    #[serde(default)]
+    pub powertrains: Option<Vec<String>>,
+    /// Training fractions of the recorded datasets (first intervals train, the rest evaluate).
+    #[serde(default = "half")]
+    pub splits: Vec<f64>,
+    /// The model improvements are measured against: a model name (`naive`,
+    /// `acc-blr+commanded`; `learner/powertrain` is read as `learner+powertrain`).
+    #[serde(default = "naive")]
+    pub baseline: String,
+    /// Bootstrap of the improvement confidence intervals.
+    #[serde(default)]
+    pub bootstrap: BootstrapConfig,
+}
+
+fn half() -> Vec<f64> {
+    vec![0.5]
+}
+fn naive() -> String {
+    "naive".into()
+}
+
+impl SweepFile {
+    /// Parses a sweep file's text; `file` names it in errors.
+    pub fn parse(file: &str, text: &str) -> Result<SweepFile, MatrixError> {
+        toml::from_str(text).map_err(|e| MatrixError::Parse {
+            file: file.to_string(),
+            reason: e.message().to_string()
+                + &e.span()
+                    .map(|s| {
+                        let line = text[..s.start.min(text.len())].lines().count().max(1);
+                        format!(" (line {line})")
+                    })
+                    .unwrap_or_default(),
+        })
+    }
+
+    /// Checks the sweep against the registries and loads what it names: recorded datasets
+    /// through `load` (which resolves files and bundled names), robots and terrains by name.
+    pub fn plan(
+        &self,
+        registries: &Registries,
+        load: &dyn Fn(&DatasetSource) -> Result<Dataset, String>,
+    ) -> Result<Matrix, MatrixError> {
+        let invalid = |s: String| MatrixError::Invalid(s);
+        let models = registries.models();
+        let learners: Vec<String> = match &self.learners {
+            Some(l) => l.clone(),
+            None => registries
+                .slip_learners
+                .names()
+                .into_iter()
+                .chain(registries.baselines.names())
+                .map(String::from)
+                .collect(),
+        };
+        if learners.is_empty() {
+            return Err(invalid("the sweep lists no learner".into()));
+        }
+        let powertrains: Vec<String> = match &self.powertrains {
+            Some(p) => p.clone(),
+            None => registries
+                .powertrains
+                .names()
+                .into_iter()
+                .map(String::from)
+                .collect(),
+        };
+        if powertrains.is_empty() {
+            return Err(invalid("the sweep lists no powertrain".into()));
+        }
+        for p in &powertrains {
+            registries.powertrains.get(p)?;
+        }
+        let mut specs: Vec<ModelSpec> = Vec::new();
+        for name in &learners {
+            let on_powertrains = !name.contains(['+', '/'])
+                && (registries.slip_learners.contains(name)
+                    || registries
+                        .baselines
+                        .find(name)
+                        .is_some_and(|b| b.part().default_powertrain().is_some()));
+            let found = if on_powertrains {
+                powertrains
+                    .iter()
+                    .map(|p| models.resolve(&format!("{name}+{p}")))
+                    .collect::<Result<Vec<_>, _>>()?
+            } else {
+                vec![models.resolve(name)?]
+            };
+            for spec in found {
+                if !specs.contains(&spec) {
+                    specs.push(spec);
+                }
+            }
+        }
+        let baseline = models.resolve(&self.baseline)?;
+        if !specs.contains(&baseline) {
+            return Err(invalid(format!(
+                "the baseline '{}' ({}) is not one of the sweep's models ({})",
+                self.baseline,
+                baseline.canonical(),
+                specs
+                    .iter()
+                    .map(ModelSpec::canonical)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+        if let Some(bad) = self
+            .splits
+            .iter()
+            .find(|f| !(f.is_finite() && **f > 0.0 && **f < 1.0))
+        {
+            return Err(invalid(format!(
+                "split {bad} is not between 0 and 1 (exclusive)"
+            )));
+        }
+        let b = self.bootstrap;
+        if !(b.level > 0.0 && b.level < 1.0) || b.resamples < 10 {
+            return Err(invalid(format!(
+                "bootstrap needs a level in (0, 1) and at least 10 resamples, got level {} and {} resamples",
+                b.level, b.resamples
+            )));
+        }
+        let mut datasets = Vec::new();
+        for source in &self.datasets {
+            let label = source.label();
+            let one_of = [source.file.is_some(), source.bundled.is_some()];
+            if one_of.iter().filter(|b| **b).count() != 1 {
+                return Err(invalid(format!(
+                    "dataset '{label}': give exactly one of file = \"...\" and bundled = \"...\""
+                )));
+            }
+            if self.splits.is_empty() {
+                return Err(invalid(
+                    "the sweep has recorded datasets but no split".into(),
+                ));
+            }
+            let data = load(source).map_err(|reason| MatrixError::Dataset {
+                name: label.clone(),
+                reason,
+            })?;
+            datasets.push((label, data));
+        }
+        let simulated = match &self.simulated {
+            None => None,
+            Some(s) => Some(SimulatedPlan::new(s, registries)?),
+        };
+        if datasets.is_empty() && simulated.is_none() {
+            return Err(invalid(
+                "the sweep has no dataset: add [[datasets]] or [simulated]".into(),
+            ));
+        }
+        Ok(Matrix {
+            datasets,
+            simulated,
+            models: specs,
+            splits: self.splits.clone(),
+            baseline,
+            bootstrap: self.bootstrap,
+        })
+    }
+}
+
+/// The simulated part of a plan, with robots and terrains resolved.
+#[derive(Debug, Clone)]
+pub struct SimulatedPlan {
+    /// Robots.
+    pub robots: Vec<RobotSpec>,
+    /// Terrains.
+    pub terrains: Vec<Terrain>,
+    /// Samplers of the training runs.
+    pub samplers: Vec<String>,
+    /// Driving times of the training runs (s).
+    pub durations: Vec<f64>,
+    /// Seeds.
+    pub seeds: Vec<u64>,
+    /// Driving time of the test runs (s).
+    pub test_duration: f64,
+    /// Sampler of the test runs.
+    pub test_sampler: String,
+}
+
+impl SimulatedPlan {
+    fn new(s: &SimulatedSweep, registries: &Registries) -> Result<Self, MatrixError> {
+        let invalid = |s: String| MatrixError::Invalid(s);
+        for (what, empty) in [
+            ("robots", s.robots.is_empty()),
+            ("terrains", s.terrains.is_empty()),
+            ("samplers", s.samplers.is_empty()),
+            ("durations", s.durations.is_empty()),
+            ("seeds", s.seeds.is_empty()),
+        ] {
+            if empty {
+                return Err(invalid(format!("[simulated] lists no {what}")));
+            }
+        }
+        let robots = s
+            .robots
+            .iter()
+            .map(|r| {
+                registries
+                    .robot(r)
+                    .map_err(|e| invalid(format!("[simulated] robot: {e}")))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let terrains = s
+            .terrains
+            .iter()
+            .map(|t| {
+                registries
+                    .terrain(t)
+                    .map_err(|e| invalid(format!("[simulated] {e}")))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        for name in s.samplers.iter().chain([&s.test_sampler]) {
+            registries
+                .samplers
+                .get(name)
+                .map_err(|e| invalid(format!("[simulated] {e}")))?;
+        }
+        let test_duration = s
+            .test_duration
+            .unwrap_or_else(|| s.durations.iter().copied().fold(300.0, f64::max));
+        for d in s.durations.iter().chain([&test_duration]) {
+            intervals_in(*d).map_err(|e| invalid(format!("[simulated] {e}")))?;
+        }
+        Ok(SimulatedPlan {
+            robots,
+            terrains,
+            samplers: s.samplers.clone(),
+            durations: s.durations.clone(),
+            seeds: s.seeds.clone(),
+            test_duration,
+            test_sampler: s.test_sampler.clone(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn model_names_of_the_sweep_resolve_like_the_command_line() {
+        let r = Registries::builtin();
+        let m = r.models();
+        assert_eq!(m.resolve("slip-blr").unwrap().canonical(), "slip-blr+fopdt");
+        assert_eq!(
+            m.resolve("acc-blr/commanded").unwrap().canonical(),
+            "acc-blr+commanded"
+        );
+        assert!(m.resolve("naive/fopdt").is_err());
+        assert!(m.resolve("slip-blr/turbo").is_err());
+    }
+
+    #[test]
+    fn a_sweep_expands_learners_over_powertrains_only_where_they_have_one() {
+        let sweep = SweepFile::parse(
+            "t",
+            "learners = [\"naive\", \"slip-blr\"]\npowertrains = [\"commanded\", \"fopdt\"]\n[simulated]\nrobots = [\"husky\"]\nterrains = [\"ice\"]\nsamplers = [\"uniform\"]\ndurations = [12]\nseeds = [1]\n",
+        )
+        .unwrap();
+        let plan = sweep
+            .plan(&Registries::builtin(), &|_| Err("no files here".into()))
+            .unwrap();
+        let labels: Vec<String> = plan.models.iter().map(ModelSpec::canonical).collect();
+        assert_eq!(
+            labels,
+            ["no-slip+commanded", "slip-blr+commanded", "slip-blr+fopdt"]
+        );
+        // The test run defaults to the longest duration, at least 300 s.
+        assert_eq!(plan.simulated.unwrap().test_duration, 300.0);
+    }
+}

@@ -1,0 +1,247 @@
+//! The motion model composed from parts: vehicle x powertrain x slip, rolled out by one
+//! implementation of paper eq. 1-2.
+//!
+//! For a start state and a command sequence: the powertrain predicts the inputs the vehicle
+//! reaches (eq. 3), the vehicle maps them to commanded body velocities `f` (eq. 4), the
+//! slip model takes the slip off (`v = f - g`, eq. 2, 5) and eq. 1 integrates `v` into poses.
+//! Each stage is one call per rollout over the whole horizon, so a composed model is as
+//! fast as a hand-written one.
+
+use crate::rollout::{integrate, integrate_into, integrate_with_covariance};
+use drive_traits::{
+    BodyVelocity, CommandModel, FitError, FitPowertrain, FitSlip, Input, Learner, MotionError,
+    MotionModel, Pose, PoseCovariance, Powertrain, PowertrainLearner, SlipData, SlipLearner,
+    SlipModel, StartState, Tagged, WindowSet,
+};
+use serde::{Deserialize, Serialize};
+use std::cell::RefCell;
+use std::sync::Arc;
+
+/// The learner of a composed model: a powertrain learner and a slip learner; the vehicle
+/// comes from the training data.
+///
+/// ```
+/// use drive_models::{Composed, DifferentialDrive};
+/// use drive_models::powertrain::Commanded;
+/// use drive_models::slip::NoSlip;
+/// use drive_traits::{Input, Learner, MotionModel, Phase, Pose, RobotDescription, StartState, Window, WindowSet};
+/// // The naive model is the composed model with no slip on the commanded powertrain.
+/// let naive = Composed::new(Commanded, NoSlip);
+/// assert_eq!(naive.label(), "no-slip+commanded");
+/// let robot = RobotDescription::new("toy", "", 10.0, 3, DifferentialDrive::new(0.1, 0.5));
+/// let w = Window { index: 0, interval: 0, phase: Phase::Transient, command: vec![Input::new(10.0, 10.0); 3],
+///     measured: vec![Input::zeros(); 3], pose: vec![Pose::zeros(); 3], imu_yaw_rate: vec![0.0; 3] };
+/// let windows = [w];
+/// let model = naive.fit(&WindowSet::new(&robot, &windows)).unwrap();
+/// let poses = model.predict(&StartState::at_rest(Pose::zeros()), &[Input::new(10.0, 10.0); 3]);
+/// assert!((poses[2].x - 0.2).abs() < 1e-12); // 1 m/s for two steps of 0.1 s
+/// ```
+#[derive(Clone)]
+pub struct Composed {
+    label: String,
+    powertrain: Arc<dyn FitPowertrain>,
+    slip: Arc<dyn FitSlip>,
+}
+
+impl std::fmt::Debug for Composed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Composed")
+            .field("label", &self.label)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Composed {
+    /// A powertrain learner and a slip learner, labelled `slip-tag+powertrain-tag` after
+    /// the tags of their fitted types.
+    pub fn new<P, S>(powertrain: P, slip: S) -> Self
+    where
+        P: PowertrainLearner + Send + Sync + 'static,
+        S: SlipLearner + Send + Sync + 'static,
+    {
+        Composed {
+            label: format!(
+                "{}+{}",
+                <S::Fitted as Tagged>::TAG,
+                <P::Fitted as Tagged>::TAG
+            ),
+            powertrain: Arc::new(powertrain),
+            slip: Arc::new(slip),
+        }
+    }
+
+    /// Registered parts under a label (the model name, `slip-blr+fopdt`).
+    pub fn from_parts(
+        label: impl Into<String>,
+        powertrain: Arc<dyn FitPowertrain>,
+        slip: Arc<dyn FitSlip>,
+    ) -> Self {
+        Composed {
+            label: label.into(),
+            powertrain,
+            slip,
+        }
+    }
+
+    /// The label the fitted model carries.
+    pub fn label(&self) -> &str {
+        &self.label
+    }
+}
+
+impl Learner for Composed {
+    type Fitted = ComposedModel;
+
+    /// Fits the powertrain on the training windows (its transient windows, for the FOPDT),
+    /// then the slip model on the commanded body velocities the powertrain and the vehicle
+    /// predict.
+    fn fit(&self, train: &WindowSet<'_>) -> Result<ComposedModel, FitError> {
+        if train.is_empty() {
+            return Err(FitError::EmptyTrainingSet);
+        }
+        let powertrain = self.powertrain.fit_boxed(train)?;
+        let data = SlipData::new(train, powertrain.as_ref());
+        let slip = self.slip.fit_boxed(&data)?;
+        Ok(ComposedModel {
+            label: self.label.clone(),
+            vehicle: Arc::clone(&train.robot.vehicle),
+            powertrain,
+            slip,
+            dt: train.robot.dt(),
+        })
+    }
+}
+
+/// A fitted composed model: vehicle, powertrain and slip model (eq. 1-5).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ComposedModel {
+    /// The model's name (`slip-blr+fopdt`).
+    pub label: String,
+    /// The vehicle (eq. 4).
+    pub vehicle: Arc<dyn CommandModel>,
+    /// The fitted powertrain (eq. 3).
+    pub powertrain: Box<dyn Powertrain>,
+    /// The fitted slip model (eq. 5-7).
+    pub slip: Box<dyn SlipModel>,
+    /// Step (s).
+    pub dt: f64,
+}
+
+impl Tagged for ComposedModel {
+    const TAG: &'static str = "composed";
+}
+
+/// The per-rollout buffers: predicted inputs, commanded and actual body velocities.
+#[derive(Default)]
+struct Scratch {
+    inputs: Vec<Input>,
+    commanded: Vec<BodyVelocity>,
+    velocities: Vec<BodyVelocity>,
+}
+
+thread_local! {
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
+}
+
+/// Runs `f` with this thread's scratch buffers (fresh ones if they are in use, as when a
+/// part's prediction itself calls a composed model).
+fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
+    SCRATCH.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut s) => f(&mut s),
+        Err(_) => f(&mut Scratch::default()),
+    })
+}
+
+impl ComposedModel {
+    /// Eq. 3, 4 and 2 over the horizon: the body velocities into `s.velocities` (and the
+    /// commanded ones into `s.commanded`).
+    #[inline]
+    fn velocities(&self, start: &StartState, commands: &[Input], s: &mut Scratch) {
+        self.powertrain
+            .predict_into(&start.input, commands, &mut s.inputs);
+        self.vehicle
+            .body_velocities_into(&s.inputs, &mut s.commanded);
+        self.slip
+            .body_velocities_into(&s.commanded, &mut s.velocities);
+    }
+}
+
+#[typetag::serde(name = "composed")]
+impl MotionModel for ComposedModel {
+    fn name(&self) -> String {
+        self.label.clone()
+    }
+
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    fn check(&self) -> Result<(), String> {
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(format!(
+                "dt = {} is not a positive number of seconds",
+                self.dt
+            ));
+        }
+        self.vehicle.check()?;
+        self.powertrain.check()?;
+        self.slip.check()
+    }
+
+    fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
+        with_scratch(|s| {
+            self.velocities(start, commands, s);
+            integrate(&start.pose, &s.velocities, self.dt, poses);
+        })
+    }
+
+    fn predict_batch_into(
+        &self,
+        starts: &[StartState],
+        commands: &[Input],
+        horizon: usize,
+        poses: &mut [Pose],
+    ) -> Result<(), MotionError> {
+        MotionError::check_batch(starts.len(), horizon, commands.len(), poses.len())?;
+        with_scratch(|s| {
+            for (i, start) in starts.iter().enumerate() {
+                let range = i * horizon..(i + 1) * horizon;
+                self.velocities(start, &commands[range.clone()], s);
+                integrate_into(&start.pose, &s.velocities, self.dt, &mut poses[range]);
+            }
+        });
+        Ok(())
+    }
+
+    /// The slip model's predictive variances (eq. 7) propagated through eq. 1; an error
+    /// for a slip model without uncertainty.
+    fn predict_with_covariance_into(
+        &self,
+        start: &StartState,
+        commands: &[Input],
+        poses: &mut Vec<Pose>,
+        covariances: &mut Vec<PoseCovariance>,
+    ) -> Result<(), MotionError> {
+        if self.slip.slip_variance(&BodyVelocity::zeros()).is_none() {
+            return Err(MotionError::NoUncertainty { model: self.name() });
+        }
+        with_scratch(|s| {
+            self.velocities(start, commands, s);
+            let variances = s
+                .commanded
+                .iter()
+                .map(|f| self.slip.slip_variance(f))
+                .collect::<Option<Vec<BodyVelocity>>>()
+                .ok_or_else(|| MotionError::NoUncertainty { model: self.name() })?;
+            integrate_with_covariance(
+                &start.pose,
+                &s.velocities,
+                &variances,
+                self.dt,
+                poses,
+                covariances,
+            );
+            Ok(())
+        })
+    }
+}

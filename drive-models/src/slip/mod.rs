@@ -1,0 +1,13 @@
+//! Slip models (implementations of [`drive_traits::SlipModel`]) and their learners: a new
+//! slip model is a new file here (or in a plug-in crate) and one registration.
+//!
+//! | registry name | learner | fitted | model |
+//! |---|---|---|---|
+//! | `no-slip` | [`NoSlip`] | [`NoSlipModel`] | `g = 0`: the vehicle does what it is commanded |
+//! | `slip-blr` | [`SlipBlr`] | [`SlipBlrModel`] | the paper's slip-based BLR (eq. 5-7) |
+
+mod none;
+mod slip_blr;
+
+pub use none::{NoSlip, NoSlipModel};
+pub use slip_blr::{slip_inputs, SlipBlr, SlipBlrModel, SlipInputs};

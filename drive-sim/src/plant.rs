@@ -1,0 +1,231 @@
+//! Plants: what is simulated for a vehicle. The `differential` vehicle has the skid-steer
+//! rigid body of [`Simulator`]; a vehicle without a registered plant is simulated by the
+//! [`KinematicPlant`], so that any vehicle (a plug-in's) can run the protocol.
+
+use crate::{Measured, Sensors, Simulator, Terrain};
+use drive_models::DifferentialDrive;
+use drive_samplers::RobotSpec;
+use drive_traits::{
+    euler_step, vehicle_as, BodyVelocity, Input, InputSpace, Pose, Registry, RegistryItem,
+};
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use std::sync::Arc;
+
+/// A simulated vehicle advanced one command tick at a time.
+///
+/// ```
+/// use drive_sim::{Measured, Plant};
+/// use drive_traits::{Input, Pose};
+///
+/// /// A vehicle that reaches every command at once and never moves (a robot on a stand).
+/// struct OnAStand { t: f64, last: Input }
+/// impl Plant for OnAStand {
+///     fn measure(&mut self) -> Measured {
+///         Measured { t: self.t, input: self.last, pose: Pose::zeros(), fresh_pose: true, imu_yaw_rate: 0.0 }
+///     }
+///     fn advance(&mut self, command: Input) { self.last = command; self.t += 0.05; }
+/// }
+/// let mut p = OnAStand { t: 0.0, last: Input::zeros() };
+/// p.advance(Input::new(1.0, 2.0));
+/// assert_eq!(p.measure().input, Input::new(1.0, 2.0));
+/// ```
+pub trait Plant: Send {
+    /// What the robot's sensors report at the current tick.
+    fn measure(&mut self) -> Measured;
+    /// Applies `command` (the vehicle's inputs) for one command tick.
+    fn advance(&mut self, command: Input);
+}
+
+/// Builds the plant of a robot on a terrain, seeded: what the simulator registry holds, by
+/// vehicle type. Implemented for every function or closure `Fn(&RobotSpec, &Terrain, u64)
+/// -> Result<Box<dyn Plant>, String>`.
+///
+/// ```
+/// use drive_samplers::RobotSpec;
+/// use drive_sim::{builtin_plants, KinematicPlant, Plant, Terrain};
+/// use std::sync::Arc;
+/// let mut plants = builtin_plants();
+/// // The kinematic stand-in, registered for a vehicle type of one's own.
+/// plants
+///     .register("my-vehicle", "kinematic, for now", Arc::new(|robot: &RobotSpec, terrain: &Terrain, seed: u64| {
+///         Ok(Box::new(KinematicPlant::new(robot, terrain, seed)) as Box<dyn Plant>)
+///     }))
+///     .unwrap();
+/// assert_eq!(plants.names(), ["differential", "my-vehicle"]);
+/// ```
+pub trait MakePlant: Send + Sync {
+    /// The plant; an error when the robot's vehicle is not the kind this plant simulates.
+    fn make(
+        &self,
+        robot: &RobotSpec,
+        terrain: &Terrain,
+        seed: u64,
+    ) -> Result<Box<dyn Plant>, String>;
+}
+
+impl<F> MakePlant for F
+where
+    F: Fn(&RobotSpec, &Terrain, u64) -> Result<Box<dyn Plant>, String> + Send + Sync,
+{
+    fn make(
+        &self,
+        robot: &RobotSpec,
+        terrain: &Terrain,
+        seed: u64,
+    ) -> Result<Box<dyn Plant>, String> {
+        self(robot, terrain, seed)
+    }
+}
+
+impl RegistryItem for dyn MakePlant {}
+
+/// The plants of this project by vehicle type: `differential`, the skid-steer rigid body.
+pub fn builtin_plants() -> Registry<dyn MakePlant> {
+    let mut r: Registry<dyn MakePlant> = Registry::new("simulator");
+    let skid_steer = |robot: &RobotSpec, terrain: &Terrain, seed: u64| {
+        let geometry: DifferentialDrive = vehicle_as(robot.vehicle.as_ref())
+            .ok_or("the skid-steer simulator needs a differential-drive vehicle")?;
+        Ok(Box::new(Simulator::new(robot, &geometry, terrain.clone(), seed)) as Box<dyn Plant>)
+    };
+    // One built-in name.
+    r.register_trusted(
+        "differential",
+        "planar rigid body with Janosi-Hanamoto traction per side, turning resistance, rolling resistance, a saturating asymmetric FOPDT powertrain, encoders, 10 Hz ICP, IMU",
+        Arc::new(skid_steer),
+    )
+    .expect("a fresh registry");
+    r
+}
+
+/// The plant of `robot` on `terrain`: the one registered for its vehicle type, or the
+/// [`KinematicPlant`].
+pub fn plant_for(
+    plants: &Registry<dyn MakePlant>,
+    robot: &RobotSpec,
+    terrain: &Terrain,
+    seed: u64,
+) -> Result<Box<dyn Plant>, String> {
+    let tag = serde_json::to_value(robot.vehicle.as_ref())
+        .ok()
+        .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(String::from))
+        .unwrap_or_default();
+    match plants.find(&tag) {
+        Some(p) => p.part().make(robot, terrain, seed),
+        None => Ok(Box::new(KinematicPlant::new(robot, terrain, seed))),
+    }
+}
+
+/// A simulator for any vehicle, from its command model alone: not a physics model, a
+/// stand-in that lets a new vehicle run the protocol and the models before it has one.
+///
+/// Each input axis follows the command through a first-order lag (0.3 s) with a 0.1 s dead
+/// time, saturated at the robot's input space; the vehicle's command model gives the
+/// commanded body velocity, of which a terrain-dependent fraction is lost: forward, the
+/// ratio of rolling resistance to traction (`rolling / traction`, 2% on tile to 27% on
+/// snow); in yaw, the share of turning resistance (`lateral / (lateral + traction)`); the
+/// lateral velocity is `-0.1 v_x w` (a drift outwards in turns). The body velocity follows
+/// that target with a 0.2 s lag. Sensors as [`Sensors::default`]; localization at 10 Hz.
+pub struct KinematicPlant {
+    robot: RobotSpec,
+    terrain: Terrain,
+    sensors: Sensors,
+    limits: InputSpace,
+    inputs: Input,
+    velocity: BodyVelocity,
+    pose: Pose,
+    history: Vec<Input>,
+    tick: usize,
+    icp: Pose,
+    rng: Xoshiro256PlusPlus,
+}
+
+/// Time constant of each input axis (s).
+const INPUT_LAG_S: f64 = 0.3;
+/// Dead time of each input axis (s).
+const INPUT_DELAY_S: f64 = 0.1;
+/// Time constant of the body velocity (s).
+const BODY_LAG_S: f64 = 0.2;
+
+impl KinematicPlant {
+    /// At rest at the origin, seeded.
+    pub fn new(robot: &RobotSpec, terrain: &Terrain, seed: u64) -> Self {
+        KinematicPlant {
+            robot: robot.clone(),
+            terrain: terrain.clone(),
+            sensors: Sensors::default(),
+            limits: robot.input_space(),
+            inputs: Input::zeros(),
+            velocity: BodyVelocity::zeros(),
+            pose: Pose::zeros(),
+            history: Vec::new(),
+            tick: 0,
+            icp: Pose::zeros(),
+            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
+        }
+    }
+
+    fn noise(&mut self, sd: f64) -> f64 {
+        if sd > 0.0 {
+            Normal::new(0.0, sd).map_or(0.0, |d| d.sample(&mut self.rng))
+        } else {
+            0.0
+        }
+    }
+}
+
+impl Plant for KinematicPlant {
+    fn measure(&mut self) -> Measured {
+        let rate = self.robot.rate_hz;
+        let period = (rate / self.sensors.icp_rate_hz).round().max(1.0) as usize;
+        let fresh_pose = self.tick % period == 0;
+        if fresh_pose {
+            let (p, [sp, sy]) = (self.pose, self.sensors.icp_noise);
+            self.icp = Pose::new(
+                p.x + self.noise(sp),
+                p.y + self.noise(sp),
+                p.z + self.noise(sy),
+            );
+        }
+        let e = self.sensors.encoder_noise;
+        let input = Input::new(self.inputs.x + self.noise(e), self.inputs.y + self.noise(e));
+        let imu = self.velocity.z + self.sensors.imu_bias + self.noise(self.sensors.imu_noise);
+        Measured {
+            t: self.tick as f64 / rate,
+            input,
+            pose: self.icp,
+            fresh_pose,
+            imu_yaw_rate: imu,
+        }
+    }
+
+    fn advance(&mut self, command: Input) {
+        self.history.push(command);
+        let dt = 1.0 / self.robot.rate_hz;
+        let substeps = 10;
+        let h = dt / substeps as f64;
+        let t = &self.terrain;
+        let forward_loss = (t.rolling / t.traction).clamp(0.0, 1.0);
+        let yaw_loss = (t.lateral / (t.lateral + t.traction)).clamp(0.0, 1.0);
+        for i in 0..substeps {
+            let now = self.tick as f64 * dt + i as f64 * h;
+            let delayed = ((now - INPUT_DELAY_S) / dt).floor();
+            let target = if delayed < 0.0 {
+                Input::zeros()
+            } else {
+                self.limits.clamp(&self.history[delayed as usize])
+            };
+            self.inputs += (target - self.inputs) * (h / INPUT_LAG_S);
+            let f = self.robot.vehicle.body_velocity(&self.inputs);
+            let goal = BodyVelocity::new(
+                f.x * (1.0 - forward_loss),
+                -0.1 * f.x * f.z,
+                f.z * (1.0 - yaw_loss),
+            );
+            self.velocity += (goal - self.velocity) * (h / BODY_LAG_S);
+            self.pose = euler_step(&self.pose, &self.velocity, h);
+        }
+        self.tick += 1;
+    }
+}

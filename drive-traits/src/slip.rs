@@ -1,0 +1,276 @@
+//! Slip: the difference between the commanded and the actual body velocity (paper eq. 2,
+//! `v = f - g`), its models (eq. 5-7 and others) and their learners.
+//!
+//! A slip learner does not redo the rest of the motion model: the framework fits the
+//! powertrain, applies the vehicle's eq. 4 to the predicted inputs and hands the learner a
+//! [`SlipData`] (commanded body velocities per window, and the windows' measured poses for
+//! labels or rollouts); the fitted [`SlipModel`] is then rolled out with the vehicle and the
+//! powertrain by one composed model (eq. 1).
+
+use crate::{
+    BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, Input, PartTag, Powertrain,
+    RegistryItem, RobotDescription, Tagged, Window, WindowSet,
+};
+
+/// A fitted slip model: the slip velocity `g` (eq. 2, 5) at a commanded body velocity `f`.
+///
+/// Saved as a trait object inside model files (`"type": "<tag>"`): an implementation needs
+/// `#[typetag::serde(name = "...")]` and [`Tagged`] with the same name.
+///
+/// ```
+/// use drive_traits::{BodyVelocity, SlipModel, Tagged};
+/// use serde::{Deserialize, Serialize};
+///
+/// /// Skid only: the vehicle turns at a fraction of the commanded yaw rate.
+/// #[derive(Debug, Clone, Serialize, Deserialize)]
+/// struct Skid { lost: f64 }
+///
+/// #[typetag::serde(name = "skid-doc")]
+/// impl SlipModel for Skid {
+///     fn slip(&self, f: &BodyVelocity) -> BodyVelocity { BodyVelocity::new(0.0, 0.0, self.lost * f.z) }
+///     fn clone_box(&self) -> Box<dyn SlipModel> { Box::new(self.clone()) }
+/// }
+/// impl Tagged for Skid { const TAG: &'static str = "skid-doc"; }
+///
+/// let mut v = Vec::new();
+/// Skid { lost: 0.75 }.body_velocities_into(&[BodyVelocity::new(1.0, 0.0, 2.0)], &mut v);
+/// assert_eq!(v[0], BodyVelocity::new(1.0, 0.0, 0.5)); // eq. 2: v = f - g
+/// ```
+#[typetag::serde(tag = "type")]
+pub trait SlipModel: std::fmt::Debug + Send + Sync {
+    /// The slip velocity `g(f)` (its mean, for a probabilistic model).
+    fn slip(&self, f: &BodyVelocity) -> BodyVelocity;
+
+    /// The body velocities `v = f - g(f)` (eq. 2) of every commanded body velocity in `f`,
+    /// into `out` (cleared first): one call per rollout. Override it to hoist work out of
+    /// the loop.
+    fn body_velocities_into(&self, f: &[BodyVelocity], out: &mut Vec<BodyVelocity>) {
+        out.clear();
+        out.extend(f.iter().map(|f| f - self.slip(f)));
+    }
+
+    /// The predictive variance of the slip at `f`, per body dimension (eq. 7 for a BLR);
+    /// `None` for a model without uncertainty.
+    fn slip_variance(&self, f: &BodyVelocity) -> Option<BodyVelocity> {
+        let _ = f;
+        None
+    }
+
+    /// Checks the parameters read from a file; `Err` says what is wrong.
+    fn check(&self) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Boxed clone.
+    fn clone_box(&self) -> Box<dyn SlipModel>;
+}
+
+impl Clone for Box<dyn SlipModel> {
+    fn clone(&self) -> Self {
+        self.clone_box()
+    }
+}
+
+/// One training window as a slip learner sees it.
+#[derive(Debug, Clone)]
+pub struct SlipWindow<'a> {
+    /// The window (commands, measured inputs, poses, IMU).
+    pub window: &'a Window,
+    /// The input the powertrain predicts at each sample (eq. 3), from the measured input at
+    /// the window start.
+    pub input: Vec<Input>,
+    /// The commanded body velocity `f` at each sample: the vehicle's command model (eq. 4)
+    /// on `input`.
+    pub commanded: Vec<BodyVelocity>,
+}
+
+/// A commanded body velocity with the body velocity measured at the same sample: one
+/// one-step slip label `g = f - v`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SlipSample {
+    /// Commanded body velocity f.
+    pub commanded: BodyVelocity,
+    /// Measured body velocity v.
+    pub measured: BodyVelocity,
+    /// Position of the window in [`SlipData::windows`].
+    pub window: usize,
+    /// Sample index in the window.
+    pub k: usize,
+}
+
+impl SlipSample {
+    /// The slip label `g = f - v`.
+    pub fn slip(&self) -> BodyVelocity {
+        self.commanded - self.measured
+    }
+}
+
+/// What a slip learner fits on: the training windows with the commanded body velocity the
+/// powertrain and the vehicle predict at each sample.
+#[derive(Debug, Clone)]
+pub struct SlipData<'a> {
+    /// The robot (rate, vehicle).
+    pub robot: &'a RobotDescription,
+    /// The windows, in recording order.
+    pub windows: Vec<SlipWindow<'a>>,
+}
+
+impl<'a> SlipData<'a> {
+    /// The slip data of `train` under a fitted `powertrain` and the robot's vehicle.
+    pub fn new(train: &WindowSet<'a>, powertrain: &dyn Powertrain) -> Self {
+        let vehicle = train.robot.vehicle.as_ref();
+        let windows = train
+            .windows
+            .iter()
+            .map(|w| {
+                let mut input = Vec::with_capacity(w.len());
+                powertrain.predict_into(&w.measured[0], &w.command, &mut input);
+                let mut commanded = Vec::with_capacity(w.len());
+                vehicle.body_velocities_into(&input, &mut commanded);
+                SlipWindow {
+                    window: w,
+                    input,
+                    commanded,
+                }
+            })
+            .collect();
+        SlipData {
+            robot: train.robot,
+            windows,
+        }
+    }
+
+    /// Sample period (s).
+    pub fn dt(&self) -> f64 {
+        self.robot.dt()
+    }
+
+    /// The vehicle.
+    pub fn vehicle(&self) -> &dyn CommandModel {
+        self.robot.vehicle.as_ref()
+    }
+
+    /// Every sample with a measured body velocity (from the poses, by `estimator`): the
+    /// one-step slip labels, in window and sample order.
+    pub fn samples(&self, estimator: &BodyVelocityEstimator) -> Vec<SlipSample> {
+        let dt = self.dt();
+        let mut measured = Vec::new();
+        let mut out = Vec::new();
+        for (i, w) in self.windows.iter().enumerate() {
+            estimator.estimate(w.window, dt, &mut measured);
+            for (k, (f, v)) in w.commanded.iter().zip(&measured).enumerate() {
+                if let Some(v) = v {
+                    out.push(SlipSample {
+                        commanded: *f,
+                        measured: *v,
+                        window: i,
+                        k,
+                    });
+                }
+            }
+        }
+        out
+    }
+}
+
+/// An unfitted slip model configuration that fits a [`SlipModel`] on [`SlipData`].
+///
+/// ```
+/// use drive_traits::{BodyVelocity, BodyVelocityEstimator, FitError, SlipData, SlipLearner, SlipModel, Tagged};
+/// # use serde::{Deserialize, Serialize};
+/// # #[derive(Debug, Clone, Serialize, Deserialize)]
+/// # struct Skid { lost: f64 }
+/// # #[typetag::serde(name = "skid-learner-doc")]
+/// # impl SlipModel for Skid {
+/// #     fn slip(&self, f: &BodyVelocity) -> BodyVelocity { BodyVelocity::new(0.0, 0.0, self.lost * f.z) }
+/// #     fn clone_box(&self) -> Box<dyn SlipModel> { Box::new(self.clone()) }
+/// # }
+/// # impl Tagged for Skid { const TAG: &'static str = "skid-learner-doc"; }
+/// /// Least squares of the yaw-rate slip on the commanded yaw rate.
+/// struct SkidLearner;
+///
+/// impl SlipLearner for SkidLearner {
+///     type Fitted = Skid;
+///     fn fit(&self, data: &SlipData<'_>) -> Result<Skid, FitError> {
+///         let (mut num, mut den) = (0.0, 0.0);
+///         for s in data.samples(&BodyVelocityEstimator::default()) {
+///             num += s.slip().z * s.commanded.z;
+///             den += s.commanded.z * s.commanded.z;
+///         }
+///         if den == 0.0 {
+///             return Err(FitError::DegenerateInputs { what: "skid".into(), detail: "no turn".into() });
+///         }
+///         Ok(Skid { lost: num / den })
+///     }
+/// }
+/// # use drive_traits::{CommandModel, Input, InputAxis, RobotDescription, WindowSet, Powertrain};
+/// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
+/// # #[typetag::serde(name = "v-slip-doc")] impl CommandModel for V {
+/// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
+/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
+/// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+/// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
+/// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
+/// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct Same;
+/// # #[typetag::serde(name = "same-slip-doc")] impl Powertrain for Same {
+/// #   fn predict_into(&self, _i: &Input, c: &[Input], p: &mut Vec<Input>) { p.clear(); p.extend_from_slice(c); }
+/// #   fn clone_box(&self) -> Box<dyn Powertrain> { Box::new(Same) } }
+/// // Without a turn there is nothing to learn from: a reason, not a NaN model.
+/// let robot = RobotDescription::new("none", "", 20.0, 40, V);
+/// let set = WindowSet { robot: &robot, windows: vec![] };
+/// assert!(SkidLearner.fit(&SlipData::new(&set, &Same)).is_err());
+/// ```
+pub trait SlipLearner {
+    /// The fitted slip model type.
+    type Fitted: SlipModel + Tagged + 'static;
+
+    /// Fits on the slip data of the training windows.
+    fn fit(&self, data: &SlipData<'_>) -> Result<Self::Fitted, FitError>;
+}
+
+/// A [`SlipLearner`] as a trait object (what the slip-learner registry holds); implemented
+/// for every slip learner.
+///
+/// ```
+/// use drive_traits::{BodyVelocity, FitError, FitSlip, SlipData, SlipLearner, SlipModel, Tagged};
+/// # use serde::{Deserialize, Serialize};
+/// # #[derive(Debug, Clone, Serialize, Deserialize)] struct Still;
+/// # #[typetag::serde(name = "still-fit-doc")]
+/// # impl SlipModel for Still {
+/// #     fn slip(&self, _f: &BodyVelocity) -> BodyVelocity { BodyVelocity::zeros() }
+/// #     fn clone_box(&self) -> Box<dyn SlipModel> { Box::new(self.clone()) }
+/// # }
+/// # impl Tagged for Still { const TAG: &'static str = "still-fit-doc"; }
+/// struct StillLearner;
+/// impl SlipLearner for StillLearner {
+///     type Fitted = Still;
+///     fn fit(&self, _data: &SlipData<'_>) -> Result<Still, FitError> { Ok(Still) }
+/// }
+/// let learner: std::sync::Arc<dyn FitSlip> = std::sync::Arc::new(StillLearner);
+/// assert_eq!(learner.fitted_tag().tag, "still-fit-doc");
+/// assert_eq!(learner.fitted_tag().family, "SlipModel");
+/// ```
+pub trait FitSlip: Send + Sync {
+    /// Fits, boxed.
+    fn fit_boxed(&self, data: &SlipData<'_>) -> Result<Box<dyn SlipModel>, FitError>;
+    /// The tag of the fitted type.
+    fn fitted_tag(&self) -> PartTag;
+}
+
+impl<L> FitSlip for L
+where
+    L: SlipLearner + Send + Sync,
+{
+    fn fit_boxed(&self, data: &SlipData<'_>) -> Result<Box<dyn SlipModel>, FitError> {
+        Ok(Box::new(self.fit(data)?))
+    }
+    fn fitted_tag(&self) -> PartTag {
+        PartTag::of::<L::Fitted, Box<dyn SlipModel>>("SlipModel")
+    }
+}
+
+impl RegistryItem for dyn FitSlip {
+    fn part_tag(&self) -> Option<PartTag> {
+        Some(self.fitted_tag())
+    }
+}

@@ -1,0 +1,68 @@
+//! A researcher's crate with its own parts, and the whole `drive` command line with them:
+//! `cargo run --release -- list`, `-- eval --models all`, `-- simulate --robot
+//! cmd-vel-robot ...`. Each part is one file and one `register` call.
+
+mod halton;
+mod ridge_slip;
+mod second_order;
+mod unicycle;
+
+use drive::Registries;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+fn registries() -> Result<Registries, drive::traits::RegistryError> {
+    let mut r = Registries::builtin();
+    r.slip_learners.register(
+        "ridge-slip",
+        "ridge regression of the slip on a basis with saturating terms",
+        Arc::new(ridge_slip::RidgeSlip::default()),
+    )?;
+    r.powertrains.register(
+        "second-order",
+        "critically damped second order with dead time per axis (grid fit)",
+        Arc::new(second_order::SecondOrder),
+    )?;
+    r.samplers.register(
+        "halton",
+        "the Halton sequence over J (a low-discrepancy design)",
+        Arc::new(halton::make),
+    )?;
+    let vehicle = unicycle::Unicycle { max_yaw_rate: 1.5 };
+    r.vehicles.register(
+        "unicycle",
+        "commanded in body velocity (v, omega), as cmd_vel",
+        Arc::new(vehicle.clone()),
+    )?;
+    // A robot driven through cmd_vel: the Husky's mass, speed and rates with that vehicle.
+    let mut robot = r.robot("husky").expect("the husky preset is registered");
+    robot.name = "cmd-vel-robot".into();
+    robot.nominal_input_space = vehicle.clone().nominal_input_space_at(robot.max_speed);
+    robot.vehicle = Arc::new(vehicle);
+    r.robots.register(
+        "cmd-vel-robot",
+        "a 75 kg robot commanded in body velocity, 1 m/s, 1.5 rad/s",
+        Arc::new(robot),
+    )?;
+    Ok(r)
+}
+
+impl unicycle::Unicycle {
+    /// The nominal input space at a top speed.
+    fn nominal_input_space_at(self, top_speed: f64) -> drive::traits::InputSpace {
+        use drive::traits::CommandModel;
+        // The yaw-rate limit is positive (a literal above), so the box is valid.
+        self.nominal_input_space(top_speed)
+            .expect("positive limits")
+    }
+}
+
+fn main() -> ExitCode {
+    match registries() {
+        Ok(r) => drive::cli::main(r),
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

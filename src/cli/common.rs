@@ -1,0 +1,113 @@
+//! What the commands share: the data arguments, the argument parser, number parsing and
+//! output as JSON or text.
+
+use crate::data::{read_dataset, DataError};
+use crate::traits::Dataset;
+use anyhow::Result;
+use std::ffi::OsString;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// A dataset to work on.
+#[derive(clap::Args)]
+pub struct DataArgs {
+    /// Window CSV (see data/README.md); the bundled Husky dataset when absent.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// Sidecar JSON of the window CSV; by default the CSV's path with a .json extension.
+    #[arg(long, requires = "data")]
+    pub sidecar: Option<PathBuf>,
+}
+
+/// Loads the dataset the arguments name (the bundled Husky data by default).
+pub fn load(args: &DataArgs) -> Result<Dataset, DataError> {
+    match &args.data {
+        Some(csv) => read_dataset(csv, args.sidecar.as_deref()),
+        None => crate::bundled::husky(),
+    }
+}
+
+/// Parses the command line; an argument error is reported on one line (clap's own message
+/// without the usage block), help and version are printed as usual.
+pub fn parse<C, I, T>(args: I) -> Result<C, ExitCode>
+where
+    C: clap::Parser,
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    use clap::error::ErrorKind;
+    C::try_parse_from(args).map_err(|e| {
+        if matches!(
+            e.kind(),
+            ErrorKind::DisplayHelp
+                | ErrorKind::DisplayVersion
+                | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+        ) {
+            let _ = e.print();
+            return if e.exit_code() == 0 {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(2)
+            };
+        }
+        let text = e.render().to_string();
+        let message: Vec<&str> = text
+            .lines()
+            .map(str::trim)
+            .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
+            .filter(|l| !l.is_empty())
+            .collect();
+        eprintln!("{} (see drive --help)", message.join(" "));
+        ExitCode::from(2)
+    })
+}
+
+/// `N` comma-separated finite numbers.
+pub fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != N {
+        return Err(format!("expected {N} comma-separated numbers, got '{s}'"));
+    }
+    let mut out = [0.0; N];
+    for (o, p) in out.iter_mut().zip(parts) {
+        *o = p
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("'{p}' is not a finite number"))?;
+    }
+    Ok(out)
+}
+
+/// Two comma-separated numbers.
+pub fn parse_pair(s: &str) -> Result<[f64; 2], String> {
+    parse_numbers::<2>(s)
+}
+
+/// Three comma-separated numbers.
+pub fn parse_triplet(s: &str) -> Result<[f64; 3], String> {
+    parse_numbers::<3>(s)
+}
+
+/// The names of a comma-separated list, trimmed, empty ones dropped.
+pub fn names(list: &[String]) -> Vec<&str> {
+    list.iter()
+        .map(|s| s.trim())
+        .filter(|s| !s.is_empty())
+        .collect()
+}
+
+/// Prints `value` as one JSON object on stdout when `json`, else its text `table`.
+pub fn emit<T: serde::Serialize>(
+    json: bool,
+    value: &T,
+    table: impl FnOnce(&T) -> String,
+) -> Result<()> {
+    if json {
+        println!("{}", serde_json::to_string(value)?);
+    } else {
+        print!("{}", table(value));
+    }
+    Ok(())
+}

@@ -1,0 +1,183 @@
+//! `drive eval`: every model fitted on the training intervals and scored on the rest.
+
+use super::common::{emit, load, names, DataArgs};
+use crate::eval::{compare_specs, Comparison, ErrorSummary, ModelResult, PhaseSummary};
+use crate::models::ModelSpec;
+use crate::Registries;
+use anyhow::{bail, Context, Result};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    data: DataArgs,
+    /// Fraction of the DRIVE intervals (in recording order) used for training.
+    #[arg(long, default_value_t = 0.5)]
+    split: f64,
+    /// Models to compare, comma-separated: the paper's names (naive, powertrain, slip-blr,
+    /// acc-blr), LEARNER+POWERTRAIN (slip-blr+rate-limited), or all (every registered
+    /// combination); see drive list.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "naive,powertrain,slip-blr,acc-blr"
+    )]
+    models: Vec<String>,
+    /// Powertrain of the models named without one (naive excepted: it is the commands):
+    /// a registered powertrain (commanded, fopdt, rate-limited, ...). Default: each model's
+    /// own (fopdt for powertrain and slip-blr, commanded for acc-blr, as in the paper).
+    #[arg(long)]
+    powertrain: Option<String>,
+    /// Print one JSON object on stdout instead of the table.
+    #[arg(long)]
+    json: bool,
+    /// Write every evaluation window's errors per model to this CSV.
+    #[arg(long)]
+    per_window: Option<PathBuf>,
+}
+
+/// The models named, with `--powertrain` applied to those named without one.
+pub fn specs(
+    registries: &Registries,
+    models: &[String],
+    powertrain: Option<&str>,
+) -> Result<Vec<ModelSpec>> {
+    let names = names(models);
+    if names.is_empty() {
+        bail!(
+            "--models is empty (the models are: {})",
+            registries.catalog().models.join(", ")
+        );
+    }
+    if let Some(p) = powertrain {
+        registries.powertrains.get(p)?;
+    }
+    let mut out = Vec::new();
+    for name in names {
+        let specs = registries.models().resolve_list(&[name])?;
+        for spec in specs {
+            let spec = match (powertrain, &spec.powertrain) {
+                (Some(p), Some(_))
+                    if !name.contains(['+', '/']) && name != "naive" && name != "all" =>
+                {
+                    registries
+                        .models()
+                        .resolve(&format!("{}+{p}", spec.learner))?
+                        .named(name)
+                }
+                _ => spec,
+            };
+            out.push(spec);
+        }
+    }
+    Ok(out)
+}
+
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let specs = specs(registries, &args.models, args.powertrain.as_deref())?;
+    let dataset = load(&args.data)?;
+    let cmp = compare_specs(&dataset, args.split, &specs)?;
+    if let Some(path) = &args.per_window {
+        std::fs::write(path, per_window_csv(&cmp))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    emit(args.json, &cmp, table)
+}
+
+fn per_window_csv(cmp: &Comparison) -> String {
+    let mut out = String::from("model,window,interval,phase,translational_m,rotational_rad\n");
+    for m in &cmp.models {
+        for w in &m.report.windows {
+            let _ = writeln!(
+                out,
+                "{},{},{},{},{},{}",
+                m.name,
+                w.window,
+                w.interval,
+                w.phase.as_str(),
+                w.error.translational,
+                w.error.rotational
+            );
+        }
+    }
+    out
+}
+
+/// The comparison as text: one section per window phase, a row per model.
+pub fn table(cmp: &Comparison) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "DRIVE model comparison on {} ({})",
+        cmp.dataset,
+        if cmp.robot.is_empty() {
+            "robot not named"
+        } else {
+            &cmp.robot
+        }
+    );
+    let _ = writeln!(
+        s,
+        "train: first {} intervals ({} windows); evaluate: last {} intervals ({} windows); split {}",
+        cmp.train_intervals, cmp.train_windows, cmp.eval_intervals, cmp.eval_windows, cmp.split
+    );
+    let full: Vec<String> = cmp
+        .models
+        .iter()
+        .filter(|m| m.name != m.model)
+        .map(|m| format!("{} = {}", m.name, m.model))
+        .collect();
+    if !full.is_empty() {
+        let _ = writeln!(s, "models: {}", full.join(", "));
+    }
+    let _ = writeln!(
+        s,
+        "MRMSE over the 2 s windows (paper eq. 8): median [IQR], improvement over naive\n"
+    );
+    let width = cmp
+        .models
+        .iter()
+        .map(|m| m.name.len() + 1)
+        .max()
+        .unwrap_or(0)
+        .max(11);
+    let section =
+        |s: &mut String, title: &str, pick: &dyn Fn(&ModelResult) -> Option<PhaseSummary>| {
+            let count = cmp
+                .models
+                .iter()
+                .find_map(|m| pick(m).map(|p| p.windows))
+                .unwrap_or(0);
+            let _ = writeln!(s, "{title} ({count} windows)");
+            let (translational, rotational) = ("translational MRMSE [m]", "rotational MRMSE [rad]");
+            let _ = writeln!(s, "  {:<width$}{translational:<37}{rotational}", "");
+            let header = "median  IQR               vs naive";
+            let _ = writeln!(s, "  {:<width$}{header:<37}{header}", "model");
+            for m in &cmp.models {
+                let Some(p) = pick(m) else {
+                    let _ = writeln!(s, "  {:<width$}no window", m.name);
+                    continue;
+                };
+                let cell = |e: ErrorSummary| {
+                    let [q1, q3] = e.iqr;
+                    format!(
+                        "{:<6.4}  [{q1:.4}, {q3:.4}]  {:>+7.1}%",
+                        e.median, e.improvement_over_naive_percent
+                    )
+                };
+                let _ = writeln!(
+                    s,
+                    "  {:<width$}{:<37}{}",
+                    m.name,
+                    cell(p.translational_m),
+                    cell(p.rotational_rad)
+                );
+            }
+            let _ = writeln!(s);
+        };
+    section(&mut s, "all evaluation windows", &|m| Some(m.all));
+    section(&mut s, "transient windows", &|m| m.transient);
+    section(&mut s, "steady windows", &|m| m.steady);
+    s
+}

@@ -1,0 +1,85 @@
+//! `drive import`: a raw DRIVE logger CSV into the window CSV and sidecar. The keep/drop
+//! report goes to stdout (text, or JSON with `--json`); errors to stderr.
+
+use crate::data::{import_raw, read_raw_log, write_dataset, ImportConfig};
+use crate::samplers::window_len;
+use crate::traits::RobotDescription;
+use crate::Registries;
+use anyhow::{bail, Result};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The logger's raw CSV.
+    #[arg(long)]
+    raw: PathBuf,
+    /// The robot's vehicle, geometry and command rate: a registered robot (husky, hd2,
+    /// warthog, ...) or a TOML file.
+    #[arg(long)]
+    robot: String,
+    /// Output window CSV (its sidecar JSON is written beside it).
+    #[arg(long)]
+    out: PathBuf,
+    /// A time between two rows longer than this (s) cuts an interval (never less than two
+    /// command periods).
+    #[arg(long, default_value_t = 0.25)]
+    max_gap: f64,
+    /// The longest time without a localization update inside an interval (s).
+    #[arg(long, default_value_t = 0.5)]
+    localization_timeout: f64,
+    /// Print the keep/drop report as one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Imports the raw log for the robot, writes the windows (and the sidecar beside them) and
+/// prints the keep/drop report on stdout. Writes nothing and fails when no window is usable.
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let config = ImportConfig {
+        max_gap_s: args.max_gap,
+        localization_timeout_s: args.localization_timeout,
+    };
+    let spec = registries.robot(&args.robot)?;
+    let log = read_raw_log(&args.raw)?;
+    let stem = args
+        .raw
+        .file_stem()
+        .map_or("raw".into(), |s| s.to_string_lossy().into_owned());
+    let description = RobotDescription {
+        name: stem,
+        robot: spec.name.clone(),
+        rate_hz: spec.rate_hz,
+        window_len: window_len(&spec),
+        vehicle: Arc::clone(&spec.vehicle),
+    };
+    let (data, report) = import_raw(&log, &description, &config)?;
+    let failure = report.nothing_usable();
+    if failure.is_none() {
+        write_dataset(&data, &args.out)?;
+    }
+    if args.json {
+        let mut v = report.to_json();
+        v["out"] = match failure {
+            None => serde_json::json!(args.out.display().to_string()),
+            Some(_) => serde_json::Value::Null,
+        };
+        println!("{v}");
+    } else {
+        print!("{}", report.to_text());
+    }
+    match failure {
+        Some(why) => bail!("{why}; nothing written"),
+        None => {
+            if !args.json {
+                println!(
+                    "{} windows ({} intervals) saved to {}",
+                    data.windows.len(),
+                    data.windows.len() / crate::traits::WINDOWS_PER_INTERVAL,
+                    args.out.display()
+                );
+            }
+            Ok(())
+        }
+    }
+}

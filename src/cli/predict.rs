@@ -1,0 +1,144 @@
+//! `drive predict`: poses from a saved model and a command sequence.
+
+use super::common::{parse_pair, parse_triplet};
+use crate::models::model_file::model_from_json;
+use crate::traits::{Input, Pose, StartState};
+use anyhow::{bail, Context, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Model file written by `drive train`.
+    #[arg(long)]
+    model: PathBuf,
+    /// CSV with columns t and the vehicle's command columns (cmd_left,cmd_right for a
+    /// differential drive), at the model's command rate.
+    #[arg(long)]
+    commands: PathBuf,
+    /// Start pose x,y,yaw (m, m, rad) (default: origin).
+    #[arg(long, value_parser = parse_triplet, allow_hyphen_values = true)]
+    start: Option<[f64; 3]>,
+    /// Measured inputs at the start, e.g. left,right wheel velocities (rad/s) (default: at
+    /// rest).
+    #[arg(long, alias = "start-input", value_parser = parse_pair, allow_hyphen_values = true)]
+    start_wheels: Option<[f64; 2]>,
+}
+
+/// Reads a command file with the header `t,<columns>` sampled at period `dt`.
+fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {name}"))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let Some((_, header)) = lines.next() else {
+        bail!("{name}: the file is empty")
+    };
+    let expected = ["t", columns[0], columns[1]];
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    if cols != expected {
+        bail!(
+            "{name}, line 1: expected the header '{}', found '{header}'",
+            expected.join(",")
+        );
+    }
+    let mut out = Vec::new();
+    let mut t0 = None;
+    for (i, line) in lines {
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != 3 {
+            bail!(
+                "{name}, line {}: {} fields where the header has 3",
+                i + 1,
+                fields.len()
+            );
+        }
+        let mut v = [0.0; 3];
+        for (j, f) in fields.iter().enumerate() {
+            let x: f64 = f.trim().parse().map_err(|_| {
+                anyhow::anyhow!(
+                    "{name}, line {}, column '{}': '{}' is not a number",
+                    i + 1,
+                    cols[j],
+                    f.trim()
+                )
+            })?;
+            if !x.is_finite() {
+                bail!(
+                    "{name}, line {}, column '{}': '{}' is not a finite number",
+                    i + 1,
+                    cols[j],
+                    f.trim()
+                );
+            }
+            v[j] = x;
+        }
+        let t0 = *t0.get_or_insert(v[0]);
+        let expected = t0 + out.len() as f64 * dt;
+        if (v[0] - expected).abs() > 0.5 * dt {
+            bail!("{name}, line {}, column 't': t = {} but the model's command period is {dt} s (expected t = {expected})", i + 1, v[0]);
+        }
+        out.push(Input::new(v[1], v[2]));
+    }
+    if out.is_empty() {
+        bail!("{name}: no command rows");
+    }
+    Ok(out)
+}
+
+pub fn run(args: &Args) -> Result<()> {
+    let name = args.model.display().to_string();
+    let text = std::fs::read_to_string(&args.model).with_context(|| format!("reading {name}"))?;
+    let (model, robot) = model_from_json(&name, &text)?;
+    let [a, b] = robot.vehicle.axes();
+    let cmds = read_commands(
+        &args.commands,
+        [a.command_column, b.command_column],
+        model.dt(),
+    )?;
+    let pose = args
+        .start
+        .map_or(Pose::zeros(), |[x, y, yaw]| Pose::new(x, y, yaw));
+    let measured = args
+        .start_wheels
+        .map_or(Input::zeros(), |[l, r]| Input::new(l, r));
+    let start = StartState {
+        pose,
+        input: measured,
+        body_velocity: robot.vehicle.body_velocity(&measured),
+    };
+    let (mut poses, mut covs) = (Vec::new(), Vec::new());
+    let with_cov = model
+        .predict_with_covariance_into(&start, &cmds, &mut poses, &mut covs)
+        .is_ok();
+    if !with_cov {
+        model.predict_into(&start, &cmds, &mut poses);
+    }
+    let mut out = String::from("k,t,x,y,yaw");
+    if with_cov {
+        out.push_str(",cov_xx,cov_xy,cov_xyaw,cov_yy,cov_yyaw,cov_yawyaw");
+    }
+    out.push('\n');
+    let rate_hz = 1.0 / model.dt();
+    for (k, p) in poses.iter().enumerate() {
+        let _ = write!(out, "{k},{},{},{},{}", k as f64 / rate_hz, p.x, p.y, p.z);
+        if with_cov {
+            let c = &covs[k];
+            let _ = write!(
+                out,
+                ",{},{},{},{},{},{}",
+                c[(0, 0)],
+                c[(0, 1)],
+                c[(0, 2)],
+                c[(1, 1)],
+                c[(1, 2)],
+                c[(2, 2)]
+            );
+        }
+        out.push('\n');
+    }
+    print!("{out}");
+    Ok(())
+}

@@ -1,0 +1,73 @@
+//! `drive report`: report.md and the paper's figures for one dataset.
+
+use super::common::{load, names, DataArgs};
+use crate::Registries;
+use anyhow::Result;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    data: DataArgs,
+    /// Output folder (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// The robot's manufacturer limits for the input-space figure: a registered robot
+    /// (husky, hd2, warthog, ...) or a TOML file. Default: the husky preset for the bundled
+    /// data, none otherwise.
+    #[arg(long)]
+    robot: Option<String>,
+    /// Fraction of the DRIVE intervals (in recording order) used for training.
+    #[arg(long, default_value_t = 0.5)]
+    split: f64,
+    /// Models compared, comma-separated (see drive list); the paper's four by default.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "naive,powertrain,slip-blr,acc-blr"
+    )]
+    models: Vec<String>,
+    /// Model whose convergence (Fig. 7) and protocol regions (Fig. 5) are analysed.
+    #[arg(long, default_value = "slip-blr")]
+    model: String,
+}
+
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let models: Vec<String> = names(&args.models).into_iter().map(String::from).collect();
+    registries.models().resolve_list(&models)?;
+    registries.model(&args.model)?;
+    let dataset = load(&args.data)?;
+    let robot = args
+        .robot
+        .as_deref()
+        .or(args.data.data.is_none().then_some("husky"));
+    let naive_input_space = match robot {
+        Some(r) => {
+            let spec = registries.robot(r)?;
+            Some((
+                format!("naive input space ({} manufacturer limits)", spec.name),
+                spec.nominal_input_space,
+            ))
+        }
+        None => None,
+    };
+    let options = crate::report::ReportOptions {
+        split: args.split,
+        naive_input_space,
+        models,
+        model: args.model.clone(),
+        ..Default::default()
+    };
+    let report = crate::report::Report::build(registries, &dataset, &options)?;
+    let files = report.write(&args.out)?;
+    if let Err(reason) = &report.protocols {
+        eprintln!("note: no protocol figure: {reason}");
+    }
+    eprintln!(
+        "report on {}: {} files written to {} (open report.md)",
+        dataset.robot.name,
+        files.len(),
+        args.out.display()
+    );
+    Ok(())
+}

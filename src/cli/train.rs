@@ -1,0 +1,47 @@
+//! `drive train`: one model fitted and saved as JSON.
+
+use super::common::{load, DataArgs};
+use crate::models::model_file::model_to_json;
+use crate::traits::WindowSet;
+use crate::Registries;
+use anyhow::{Context, Result};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    data: DataArgs,
+    /// Model to fit: a model name (slip-blr, slip-blr+rate-limited, ...; see drive list).
+    #[arg(long)]
+    model: String,
+    /// Output model file.
+    #[arg(long)]
+    out: PathBuf,
+    /// Train on the first fraction of the intervals only (default: all of the data).
+    #[arg(long)]
+    split: Option<f64>,
+}
+
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let spec = registries.model(&args.model)?;
+    let dataset = load(&args.data)?;
+    let train = match args.split {
+        Some(f) => crate::eval::split_by_interval(&dataset, f)?.0,
+        None => WindowSet::new(&dataset.robot, &dataset.windows),
+    };
+    let model = spec
+        .fit(&train)
+        .with_context(|| format!("fitting {}", args.model))?;
+    let text = model_to_json(model.as_ref(), &dataset.robot)
+        .with_context(|| format!("saving {}", args.model))?;
+    std::fs::write(&args.out, text).with_context(|| format!("writing {}", args.out.display()))?;
+    eprintln!(
+        "fitted {} ({}) on {} windows of {}; saved to {}",
+        args.model,
+        spec.canonical(),
+        train.len(),
+        dataset.robot.name,
+        args.out.display()
+    );
+    Ok(())
+}
