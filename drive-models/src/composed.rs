@@ -131,12 +131,14 @@ impl Tagged for ComposedModel {
     const TAG: &'static str = "composed";
 }
 
-/// The per-rollout buffers: predicted inputs, commanded and actual body velocities.
+/// The per-rollout buffers: predicted inputs, commanded and actual body velocities, slip
+/// variances.
 #[derive(Default)]
 struct Scratch {
     inputs: Vec<Input>,
     commanded: Vec<BodyVelocity>,
     velocities: Vec<BodyVelocity>,
+    variances: Vec<BodyVelocity>,
 }
 
 thread_local! {
@@ -177,12 +179,7 @@ impl MotionModel for ComposedModel {
     }
 
     fn check(&self) -> Result<(), String> {
-        if !(self.dt.is_finite() && self.dt > 0.0) {
-            return Err(format!(
-                "dt = {} is not a positive number of seconds",
-                self.dt
-            ));
-        }
+        drive_traits::check_step(self.dt)?;
         self.vehicle.check()?;
         self.powertrain.check()?;
         self.slip.check()
@@ -222,21 +219,18 @@ impl MotionModel for ComposedModel {
         poses: &mut Vec<Pose>,
         covariances: &mut Vec<PoseCovariance>,
     ) -> Result<(), MotionError> {
-        if self.slip.slip_variance(&BodyVelocity::zeros()).is_none() {
-            return Err(MotionError::NoUncertainty { model: self.name() });
-        }
         with_scratch(|s| {
             self.velocities(start, commands, s);
-            let variances = s
-                .commanded
-                .iter()
-                .map(|f| self.slip.slip_variance(f))
-                .collect::<Option<Vec<BodyVelocity>>>()
-                .ok_or_else(|| MotionError::NoUncertainty { model: self.name() })?;
+            if !self
+                .slip
+                .slip_variances_into(&s.commanded, &mut s.variances)
+            {
+                return Err(MotionError::NoUncertainty { model: self.name() });
+            }
             integrate_with_covariance(
                 &start.pose,
                 &s.velocities,
-                &variances,
+                &s.variances,
                 self.dt,
                 poses,
                 covariances,

@@ -2,7 +2,7 @@
 //! acceleration limits, from a TOML file or a registered preset (the paper's platforms).
 
 use drive_models::DifferentialDrive;
-use drive_traits::{CommandModel, Input, InputSpace, Registry, RegistryItem};
+use drive_traits::{CommandModel, Input, InputSpace, Registry, RegistryError, RegistryItem};
 use serde::Deserialize;
 use std::sync::Arc;
 use thiserror::Error;
@@ -28,14 +28,9 @@ pub enum RobotError {
         /// what is expected
         message: String,
     },
-    /// No preset of that name, and no such file.
-    #[error("unknown robot '{name}' (the robots are: {known}; or a path to a .toml file)")]
-    UnknownPreset {
-        /// The name asked for.
-        name: String,
-        /// The registered robots.
-        known: String,
-    },
+    /// No registered robot of that name, and no such file.
+    #[error(transparent)]
+    Registry(#[from] RegistryError),
 }
 
 /// A robot description for the DRIVE protocol.
@@ -313,9 +308,12 @@ impl RobotSpec {
         robots
             .find(name_or_path)
             .map(|e| e.part().as_ref().clone())
-            .ok_or_else(|| RobotError::UnknownPreset {
-                name: name_or_path.to_string(),
-                known: robots.names().join(", "),
+            .ok_or_else(|| {
+                RobotError::Registry(RegistryError::Unknown {
+                    kind: "robot",
+                    name: name_or_path.to_string(),
+                    known: format!("{}; or a path to a .toml file", robots.names().join(", ")),
+                })
             })
     }
 

@@ -215,7 +215,7 @@ fn robot_files_are_validated() {
     }
     let unknown = RobotSpec::load(&builtin_robots(), "rover").unwrap_err();
     assert!(
-        matches!(unknown, RobotError::UnknownPreset { .. })
+        matches!(unknown, RobotError::Registry(_))
             && unknown.to_string().contains("husky, hd2, warthog"),
         "{unknown}"
     );

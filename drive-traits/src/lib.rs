@@ -43,7 +43,7 @@ pub use dataset::{
 };
 pub use error::{FitError, MotionError};
 pub use learner::{Baseline, Learner};
-pub use motion::{MotionModel, StartState};
+pub use motion::{check_step, MotionModel, StartState};
 pub use pose::{
     euler_step, relative_pose, unwrap_angles, wrap_angle, BodyVelocity, Input, Pose, PoseCovariance,
 };

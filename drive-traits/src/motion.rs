@@ -2,6 +2,20 @@
 
 use crate::{BodyVelocity, Input, MotionError, Pose, PoseCovariance};
 
+/// Checks a prediction step read from a file: a positive number of seconds.
+///
+/// ```
+/// assert!(drive_traits::check_step(0.05).is_ok());
+/// assert!(drive_traits::check_step(0.0).unwrap_err().contains("dt = 0"));
+/// ```
+pub fn check_step(dt: f64) -> Result<(), String> {
+    if dt.is_finite() && dt > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("dt = {dt} is not a positive number of seconds"))
+    }
+}
+
 /// What is known at the start of a prediction: measured at that instant only.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StartState {
@@ -71,14 +85,7 @@ pub trait MotionModel: std::fmt::Debug + Send + Sync {
     /// Checks the model's parameters (finite values, matching dimensions, positive step):
     /// what a model file must pass before it is used. `Err` says what is wrong.
     fn check(&self) -> Result<(), String> {
-        if self.dt().is_finite() && self.dt() > 0.0 {
-            Ok(())
-        } else {
-            Err(format!(
-                "dt = {} is not a positive number of seconds",
-                self.dt()
-            ))
-        }
+        check_step(self.dt())
     }
 
     /// Fills `poses` (cleared first) with the predicted mean poses.

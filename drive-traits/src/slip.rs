@@ -56,6 +56,21 @@ pub trait SlipModel: std::fmt::Debug + Send + Sync {
         None
     }
 
+    /// The predictive variances of the slip at every commanded body velocity of `f`, into
+    /// `out` (cleared first): one call per rollout. `false` (and `out` unspecified) for a
+    /// model without uncertainty.
+    fn slip_variances_into(&self, f: &[BodyVelocity], out: &mut Vec<BodyVelocity>) -> bool {
+        out.clear();
+        for f in f {
+            match self.slip_variance(f) {
+                Some(v) => out.push(v),
+                None => return false,
+            }
+        }
+        // An empty horizon says nothing of the model: ask it at rest.
+        !f.is_empty() || self.slip_variance(&BodyVelocity::zeros()).is_some()
+    }
+
     /// Checks the parameters read from a file; `Err` says what is wrong.
     fn check(&self) -> Result<(), String> {
         Ok(())
@@ -153,14 +168,25 @@ impl<'a> SlipData<'a> {
     /// Every sample with a measured body velocity (from the poses, by `estimator`): the
     /// one-step slip labels, in window and sample order.
     pub fn samples(&self, estimator: &BodyVelocityEstimator) -> Vec<SlipSample> {
+        let mut out = Vec::new();
+        self.for_each_sample(estimator, |s| out.push(s));
+        out
+    }
+
+    /// Calls `visit` with every sample of [`SlipData::samples`], in the same order, without
+    /// collecting them.
+    pub fn for_each_sample(
+        &self,
+        estimator: &BodyVelocityEstimator,
+        mut visit: impl FnMut(SlipSample),
+    ) {
         let dt = self.dt();
         let mut measured = Vec::new();
-        let mut out = Vec::new();
         for (i, w) in self.windows.iter().enumerate() {
             estimator.estimate(w.window, dt, &mut measured);
             for (k, (f, v)) in w.commanded.iter().zip(&measured).enumerate() {
                 if let Some(v) = v {
-                    out.push(SlipSample {
+                    visit(SlipSample {
                         commanded: *f,
                         measured: *v,
                         window: i,
@@ -169,7 +195,6 @@ impl<'a> SlipData<'a> {
                 }
             }
         }
-        out
     }
 }
 

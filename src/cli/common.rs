@@ -19,6 +19,20 @@ pub struct DataArgs {
     pub sidecar: Option<PathBuf>,
 }
 
+/// The models a command compares.
+#[derive(clap::Args)]
+pub struct ModelsArg {
+    /// Models, comma-separated: the paper's names (naive, powertrain, slip-blr, acc-blr),
+    /// LEARNER+POWERTRAIN (slip-blr+rate-limited), or all (every registered combination);
+    /// see drive list.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "naive,powertrain,slip-blr,acc-blr"
+    )]
+    pub models: Vec<String>,
+}
+
 /// Loads the dataset the arguments name (the bundled Husky data by default).
 pub fn load(args: &DataArgs) -> Result<Dataset, DataError> {
     match &args.data {

@@ -1,6 +1,6 @@
 //! `drive eval`: every model fitted on the training intervals and scored on the rest.
 
-use super::common::{emit, load, names, DataArgs};
+use super::common::{emit, load, names, DataArgs, ModelsArg};
 use crate::eval::{compare_specs, Comparison, ErrorSummary, ModelResult, PhaseSummary};
 use crate::models::ModelSpec;
 use crate::Registries;
@@ -15,15 +15,8 @@ pub struct Args {
     /// Fraction of the DRIVE intervals (in recording order) used for training.
     #[arg(long, default_value_t = 0.5)]
     split: f64,
-    /// Models to compare, comma-separated: the paper's names (naive, powertrain, slip-blr,
-    /// acc-blr), LEARNER+POWERTRAIN (slip-blr+rate-limited), or all (every registered
-    /// combination); see drive list.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "naive,powertrain,slip-blr,acc-blr"
-    )]
-    models: Vec<String>,
+    #[command(flatten)]
+    models: ModelsArg,
     /// Powertrain of the models named without one (naive excepted: it is the commands):
     /// a registered powertrain (commanded, fopdt, rate-limited, ...). Default: each model's
     /// own (fopdt for powertrain and slip-blr, commanded for acc-blr, as in the paper).
@@ -75,7 +68,7 @@ pub fn specs(
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
-    let specs = specs(registries, &args.models, args.powertrain.as_deref())?;
+    let specs = specs(registries, &args.models.models, args.powertrain.as_deref())?;
     let dataset = load(&args.data)?;
     let cmp = compare_specs(&dataset, args.split, &specs)?;
     if let Some(path) = &args.per_window {

@@ -1,6 +1,6 @@
 //! `drive report`: report.md and the paper's figures for one dataset.
 
-use super::common::{load, names, DataArgs};
+use super::common::{load, names, DataArgs, ModelsArg};
 use crate::Registries;
 use anyhow::Result;
 use std::path::PathBuf;
@@ -20,20 +20,18 @@ pub struct Args {
     /// Fraction of the DRIVE intervals (in recording order) used for training.
     #[arg(long, default_value_t = 0.5)]
     split: f64,
-    /// Models compared, comma-separated (see drive list); the paper's four by default.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "naive,powertrain,slip-blr,acc-blr"
-    )]
-    models: Vec<String>,
+    #[command(flatten)]
+    models: ModelsArg,
     /// Model whose convergence (Fig. 7) and protocol regions (Fig. 5) are analysed.
     #[arg(long, default_value = "slip-blr")]
     model: String,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
-    let models: Vec<String> = names(&args.models).into_iter().map(String::from).collect();
+    let models: Vec<String> = names(&args.models.models)
+        .into_iter()
+        .map(String::from)
+        .collect();
     registries.models().resolve_list(&models)?;
     registries.model(&args.model)?;
     let dataset = load(&args.data)?;

@@ -182,12 +182,7 @@ impl MotionModel for AccBlrModel {
         self.dt
     }
     fn check(&self) -> Result<(), String> {
-        if !(self.dt.is_finite() && self.dt > 0.0) {
-            return Err(format!(
-                "dt = {} is not a positive number of seconds",
-                self.dt
-            ));
-        }
+        drive_traits::check_step(self.dt)?;
         self.vehicle.check()?;
         self.powertrain.check()?;
         self.accel_x.check(2, "accel_x")?;

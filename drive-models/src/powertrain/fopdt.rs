@@ -178,16 +178,7 @@ impl Powertrain for FopdtPowertrain {
                 ));
             }
         }
-        if !(self.dt.is_finite() && self.dt > 0.0) {
-            return Err(format!(
-                "powertrain dt = {} is not a positive number of seconds",
-                self.dt
-            ));
-        }
-        if drive_traits::InputSpace::new(self.limits.min, self.limits.max).is_none() {
-            return Err("powertrain limits are not a valid box (finite, min <= max)".into());
-        }
-        Ok(())
+        super::check_step_and_limits(self.dt, &self.limits)
     }
 
     fn parameters(&self) -> Vec<(String, f64)> {

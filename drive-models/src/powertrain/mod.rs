@@ -14,3 +14,15 @@ mod rate_limited;
 pub use commanded::{Commanded, CommandedPowertrain};
 pub use fopdt::{Fopdt, FopdtPowertrain, SideResponse};
 pub use rate_limited::{RateLimited, RateLimitedPowertrain, RateLimitedResponse};
+
+/// Checks a fitted powertrain's sample period and saturation limits read from a file.
+pub(crate) fn check_step_and_limits(
+    dt: f64,
+    limits: &drive_traits::InputSpace,
+) -> Result<(), String> {
+    drive_traits::check_step(dt).map_err(|e| format!("powertrain {e}"))?;
+    if drive_traits::InputSpace::new(limits.min, limits.max).is_none() {
+        return Err("powertrain limits are not a valid box (finite, min <= max)".into());
+    }
+    Ok(())
+}

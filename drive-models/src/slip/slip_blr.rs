@@ -95,7 +95,7 @@ impl SlipLearner for SlipBlr {
         }
         let mut xs: [Vec<f64>; 3] = Default::default();
         let mut gs: [Vec<f64>; 3] = Default::default();
-        for sample in data.samples(&self.velocity) {
+        data.for_each_sample(&self.velocity, |sample| {
             let g = sample.slip();
             let s = slip_inputs(&sample.commanded);
             xs[0].extend_from_slice(&s.x);
@@ -104,7 +104,7 @@ impl SlipLearner for SlipBlr {
             for d in 0..3 {
                 gs[d].push(g[d]);
             }
-        }
+        });
         let fit = |d: usize, k: usize, name: &str| {
             BlrPosterior::fit(&xs[d], k, &gs[d], &self.priors[d], name)
         };
