@@ -31,7 +31,7 @@ pub fn raw_log(bytes: &[u8]) -> bool {
     let Ok(text) = std::str::from_utf8(bytes) else {
         return false;
     };
-    let Ok(log) = parse_raw_log("fuzz.csv", text) else {
+    let Ok(log) = parse_raw_log("fuzz.csv", text, &crate::data::RAW_COLUMNS) else {
         return false;
     };
     let robot = RobotDescription::new(

@@ -1,40 +1,9 @@
 //! End-to-end tests of the `drive` command line on the bundled Husky data.
 
+mod common;
+
+use common::{drive, ok, user_error};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn drive(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_drive"))
-        .args(args)
-        .output()
-        .expect("the drive binary runs")
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = drive(args);
-    assert!(
-        out.status.success(),
-        "drive {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
-
-/// A user error: non-zero exit, one clear line on stderr, nothing on stdout.
-fn user_error(args: &[&str]) -> String {
-    let out = drive(args);
-    assert!(!out.status.success(), "drive {args:?} should fail");
-    let err = String::from_utf8(out.stderr).unwrap();
-    assert_eq!(
-        err.trim_end().lines().count(),
-        1,
-        "one line expected: {err}"
-    );
-    assert!(err.starts_with("error: "), "{err}");
-    assert!(!err.contains("panicked"), "{err}");
-    assert!(out.stdout.is_empty());
-    err
-}
 
 fn model<'a>(v: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
     v["models"]
@@ -648,7 +617,7 @@ fn list_names_every_registered_part() {
             })
             .collect()
     };
-    assert_eq!(names("vehicles"), ["differential"]);
+    assert_eq!(names("vehicles"), ["differential", "ackermann"]);
     assert_eq!(names("powertrains"), ["commanded", "fopdt", "rate-limited"]);
     let learners = names("learners");
     for paper in ["naive", "powertrain", "slip-blr", "acc-blr"] {
@@ -656,10 +625,16 @@ fn list_names_every_registered_part() {
     }
     assert!(names("samplers").len() >= 6);
     assert_eq!(names("terrains"), ["tile", "gravel", "snow", "ice"]);
-    assert_eq!(names("robots"), ["husky", "hd2", "warthog"]);
+    assert_eq!(names("robots"), ["husky", "hd2", "warthog", "autorally"]);
     for r in v["robots"].as_array().unwrap() {
-        assert_eq!(r["vehicle"], "differential");
+        let car = r["name"] == "autorally";
+        assert_eq!(
+            r["vehicle"],
+            if car { "ackermann" } else { "differential" },
+            "{r}"
+        );
     }
+    assert_eq!(names("simulators"), ["differential", "ackermann"]);
     // The text form lists the same.
     let text = ok(&["list"]);
     assert!(text.contains("rate-limited") && text.contains("= no-slip+commanded"));

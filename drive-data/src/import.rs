@@ -538,7 +538,7 @@ fn cut_interval(
                     Phase::Steady
                 },
                 command: command.to_vec(),
-                measured: chunk.iter().map(|row| row.wheels).collect(),
+                measured: chunk.iter().map(|row| row.measured).collect(),
                 pose: chunk
                     .iter()
                     .map(|row| relative_pose(&p0, &pose(row)))

@@ -27,7 +27,9 @@ mod window_csv;
 
 pub use error::{DataError, DataErrorKind, Location};
 pub use import::{import_raw, DropReason, ImportConfig, ImportReport, StepOutcome};
-pub use raw_log::{parse_raw_log, write_raw_log, CalibState, RawLog, RawRow, RAW_COLUMNS};
+pub use raw_log::{
+    parse_raw_log, raw_columns, write_raw_log, CalibState, RawLog, RawRow, RAW_COLUMNS,
+};
 pub use sidecar::{parse_sidecar, sidecar_json};
 pub use window_csv::{columns, parse_windows, write_windows_csv, OPTIONAL_COLUMNS};
 
@@ -111,9 +113,9 @@ pub fn write_dataset(dataset: &Dataset, csv: &Path) -> Result<(), DataError> {
     std::fs::write(&side, sidecar).map_err(|e| io(&side, e))
 }
 
-/// Reads a raw log file (see [`parse_raw_log`]).
-pub fn read_raw_log(path: &Path) -> Result<RawLog, DataError> {
-    parse_raw_log(&path.display().to_string(), &read_text(path)?)
+/// Reads a raw log file with the standard `columns` (see [`parse_raw_log`]).
+pub fn read_raw_log(path: &Path, columns: &[&'static str; 19]) -> Result<RawLog, DataError> {
+    parse_raw_log(&path.display().to_string(), &read_text(path)?, columns)
 }
 
 fn read_text(path: &Path) -> Result<String, DataError> {

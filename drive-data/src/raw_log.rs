@@ -3,7 +3,7 @@
 
 use crate::error::parse_number;
 use crate::{DataError, DataErrorKind, Location};
-use drive_traits::Input;
+use drive_traits::{CommandModel, Input};
 use std::fmt::Write as _;
 
 /// The columns every raw log has.
@@ -28,6 +28,23 @@ pub const RAW_COLUMNS: [&str; 19] = [
     "imu_y",
     "imu_z",
 ];
+
+/// The columns of a raw log of `vehicle`: [`RAW_COLUMNS`] with the measured inputs named
+/// by the vehicle ([`CommandModel::logger_measured_columns`]: `meas_left_vel,
+/// meas_right_vel` for a differential drive, `meas_speed, meas_steering` for a car).
+///
+/// ```
+/// use drive_data::{raw_columns, RAW_COLUMNS};
+/// let car = drive_models::vehicles::Ackermann::new(0.57, 0.37);
+/// assert_eq!(&raw_columns(&car)[5..7], ["meas_speed", "meas_steering"]);
+/// let husky = drive_models::DifferentialDrive::new(0.165, 0.55);
+/// assert_eq!(raw_columns(&husky), RAW_COLUMNS);
+/// ```
+pub fn raw_columns(vehicle: &dyn CommandModel) -> [&'static str; 19] {
+    let mut c = RAW_COLUMNS;
+    [c[5], c[6]] = vehicle.logger_measured_columns();
+    c
+}
 
 /// The protocol's state as the logger writes it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -68,8 +85,9 @@ pub struct RawRow {
     pub calib_state: CalibState,
     /// `calib_step`: the DRIVE interval.
     pub calib_step: u64,
-    /// `meas_left_vel`, `meas_right_vel`: encoder wheel velocities (rad/s).
-    pub wheels: Input,
+    /// The measured inputs: `meas_left_vel`, `meas_right_vel`, encoder wheel velocities
+    /// (rad/s) of a differential drive; the vehicle's columns otherwise ([`raw_columns`]).
+    pub measured: Input,
     /// `cmd_vel_x` (m/s), `cmd_vel_omega` (rad/s): the body command.
     pub body_command: [f64; 2],
     /// `icp_pos_x/y/z` (m).
@@ -114,7 +132,7 @@ impl RawRow {
             icp_index: 0,
             calib_state: CalibState::Idle,
             calib_step: 0,
-            wheels: Input::zeros(),
+            measured: Input::zeros(),
             body_command: [0.0; 2],
             position: [0.0; 3],
             quaternion: [0.0, 0.0, 0.0, 1.0],
@@ -175,7 +193,9 @@ fn parse_time(raw: &str, at: impl Fn() -> Location) -> Result<i64, DataError> {
     Ok(v.round() as i64)
 }
 
-/// Parses the text of a raw log.
+/// Parses the text of a raw log with the standard `columns` (for a vehicle: [`raw_columns`];
+/// [`RAW_COLUMNS`] for the DRIVE logger's differential drive); other columns are kept as
+/// extra columns.
 ///
 /// ```
 /// let text = "ros_time,joy_switch,icp_index,calib_state,calib_step,meas_left_vel,meas_right_vel,\
@@ -183,13 +203,17 @@ fn parse_time(raw: &str, at: impl Fn() -> Location) -> Result<i64, DataError> {
 /// icp_quat_w,imu_x,imu_y,imu_z,left_wheel_current\n\
 /// 0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0\n\
 /// 1000000000,False,3.0,calib,0,1.5,1.5,0.5,0.0,2.0,0.0,0.0,0.0,0.0,0.0,1.0,0.0,0.0,0.0,4.5\n";
-/// let log = drive_data::parse_raw_log("bench.csv", text).unwrap();
+/// let log = drive_data::parse_raw_log("bench.csv", text, &drive_data::RAW_COLUMNS).unwrap();
 /// assert_eq!(log.placeholder_rows, 1);
 /// assert_eq!(log.rows[0].icp_index, 3);
 /// assert_eq!(log.extra_columns, ["left_wheel_current"]);
 /// assert_eq!(log.rows[0].extra, [Some(4.5)]);
 /// ```
-pub fn parse_raw_log(file: &str, text: &str) -> Result<RawLog, DataError> {
+pub fn parse_raw_log(
+    file: &str,
+    text: &str,
+    columns: &[&'static str; 19],
+) -> Result<RawLog, DataError> {
     let mut lines = text
         .lines()
         .enumerate()
@@ -209,11 +233,11 @@ pub fn parse_raw_log(file: &str, text: &str) -> Result<RawLog, DataError> {
         }
     }
     let mut position = [0usize; RAW_COLUMNS.len()];
-    for (slot, column) in RAW_COLUMNS.iter().enumerate() {
+    for (slot, column) in columns.iter().enumerate() {
         position[slot] = names.iter().position(|n| n == column).ok_or_else(|| {
             DataError::new(
                 Location::cell(file, header_line, column),
-                DataErrorKind::MissingColumn(RAW_COLUMNS.join(", ")),
+                DataErrorKind::MissingColumn(columns.join(", ")),
             )
         })?;
     }
@@ -248,7 +272,7 @@ pub fn parse_raw_log(file: &str, text: &str) -> Result<RawLog, DataError> {
             continue;
         }
         let field = |slot: usize| fields[position[slot]];
-        let at = |slot: usize| move || Location::cell(file, line, RAW_COLUMNS[slot]);
+        let at = |slot: usize| move || Location::cell(file, line, columns[slot]);
         let num = |slot: usize| parse_number(field(slot), at(slot));
         let time_ns = parse_time(field(0), at(0))?;
         if time_ns <= 0 {
@@ -285,7 +309,7 @@ pub fn parse_raw_log(file: &str, text: &str) -> Result<RawLog, DataError> {
             icp_index: parse_count(field(2), at(2))?,
             calib_state,
             calib_step: parse_count(field(4), at(4))?,
-            wheels: Input::new(num(5)?, num(6)?),
+            measured: Input::new(num(5)?, num(6)?),
             body_command: [num(7)?, num(8)?],
             position: [num(9)?, num(10)?, num(11)?],
             quaternion: [num(12)?, num(13)?, num(14)?, num(15)?],
@@ -302,10 +326,16 @@ pub fn parse_raw_log(file: &str, text: &str) -> Result<RawLog, DataError> {
     Ok(log)
 }
 
-/// Writes rows in the logger's format (booleans as `True`/`False`, the extra columns
-/// after the standard ones, blank where `None`).
-pub fn write_raw_log(rows: &[RawRow], extra_columns: &[String], out: &mut String) {
-    out.push_str(&RAW_COLUMNS.join(","));
+/// Writes rows in the logger's format with the standard `columns` ([`raw_columns`]):
+/// booleans as `True`/`False`, the extra columns after the standard ones, blank where
+/// `None`.
+pub fn write_raw_log(
+    rows: &[RawRow],
+    columns: &[&'static str; 19],
+    extra_columns: &[String],
+    out: &mut String,
+) {
+    out.push_str(&columns.join(","));
     for c in extra_columns {
         out.push(',');
         out.push_str(c);
@@ -320,8 +350,8 @@ pub fn write_raw_log(rows: &[RawRow], extra_columns: &[String], out: &mut String
             r.icp_index,
             r.calib_state.as_str(),
             r.calib_step,
-            r.wheels.x,
-            r.wheels.y,
+            r.measured.x,
+            r.measured.y,
             r.body_command[0],
             r.body_command[1]
         );

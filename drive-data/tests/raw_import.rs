@@ -3,7 +3,7 @@
 
 use drive_data::{
     import_raw, parse_raw_log, read_raw_log, write_raw_log, CalibState, DataErrorKind, DropReason,
-    ImportConfig, RawLog, RawRow,
+    ImportConfig, RawLog, RawRow, RAW_COLUMNS,
 };
 use drive_traits::RobotDescription;
 use std::path::Path;
@@ -29,7 +29,7 @@ fn drive(rows: &mut Vec<RawRow>, step: u64, n: usize) {
         r.calib_state = CalibState::Calib;
         r.calib_step = step;
         r.body_command = [1.0, 0.0];
-        r.wheels = drive_traits::Input::new(3.3, 3.3);
+        r.measured = drive_traits::Input::new(3.3, 3.3);
         // The pose is held between 10 Hz updates.
         let update = rows.len() % 2 == 0;
         r.icp_index = icp + u64::from(update);
@@ -151,7 +151,7 @@ fn every_unusable_interval_is_dropped_with_its_reason() {
 #[test]
 fn the_bench_log_has_no_localization_and_says_so() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/raw_log_warthog_bench.csv");
-    let log = read_raw_log(&path).unwrap();
+    let log = read_raw_log(&path, &RAW_COLUMNS).unwrap();
     assert_eq!(log.placeholder_rows, 1);
     assert_eq!(log.rows.len(), 1037);
     assert_eq!(log.extra_columns.len(), 7);
@@ -182,8 +182,8 @@ fn written_logs_read_back_the_same() {
     }
     let extra = vec!["volts".to_string(), "amps".to_string()];
     let mut text = String::new();
-    write_raw_log(&rows, &extra, &mut text);
-    let log = parse_raw_log("w.csv", &text).unwrap();
+    write_raw_log(&rows, &RAW_COLUMNS, &extra, &mut text);
+    let log = parse_raw_log("w.csv", &text, &RAW_COLUMNS).unwrap();
     assert_eq!(log.rows, rows);
     assert_eq!(log.extra_columns, extra);
 }
@@ -196,7 +196,7 @@ fn messy_values_of_real_logs_are_read() {
          1720641663279670820,False,0.0,,2.0,0.5,0.5,0.0,0.0,0,0,0,0,0,0,1,0,0,0\r\n\
          1.7206416633e18,true,1,calib,2,0.5,0.5,0.1,0.0,0,0,0,0,0,0,1,0,0,0\n"
     );
-    let log = parse_raw_log("m.csv", &text).unwrap();
+    let log = parse_raw_log("m.csv", &text, &RAW_COLUMNS).unwrap();
     assert_eq!(log.rows.len(), 2);
     assert_eq!(log.rows[0].calib_step, 2);
     assert_eq!(log.rows[0].calib_state, CalibState::Unset);
@@ -249,7 +249,7 @@ fn bad_raw_logs_are_refused_with_line_and_column() {
         }),
     ];
     for (text, line, column, kind) in cases {
-        let err = parse_raw_log("bad.csv", &text).unwrap_err();
+        let err = parse_raw_log("bad.csv", &text, &RAW_COLUMNS).unwrap_err();
         assert_eq!(err.location.line, Some(line), "{err}");
         if !column.is_empty() {
             assert_eq!(err.location.field.as_deref(), Some(column), "{err}");

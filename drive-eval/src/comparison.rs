@@ -132,10 +132,7 @@ fn summarize(
 
 /// The vehicle type of a dataset (its sidecar's `vehicle.type`).
 pub fn vehicle_type(data: &Dataset) -> String {
-    serde_json::to_value(data.robot.vehicle.as_ref())
-        .ok()
-        .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(String::from))
-        .unwrap_or_default()
+    drive_traits::vehicle_tag(data.robot.vehicle.as_ref()).unwrap_or_default()
 }
 
 /// Fits each model of `names` (model names resolved by `registries`; `all` for every

@@ -166,7 +166,7 @@ pub fn compare_regions(
         (
             "linear",
             format!(
-                "|yaw rate| <= {:.3} rad/s ({} of turning in place)",
+                "|yaw rate| <= {:.3} rad/s ({} of the largest in the input space)",
                 study.linear_yaw_fraction * turn_rate,
                 study.linear_yaw_fraction
             ),

@@ -174,9 +174,7 @@ impl Registries {
             .map(|e| Listed {
                 name: e.name().to_string(),
                 description: e.description().to_string(),
-                vehicle: serde_json::to_value(e.part().vehicle.as_ref())
-                    .ok()
-                    .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(String::from)),
+                vehicle: drive_traits::vehicle_tag(e.part().vehicle.as_ref()),
                 ..Listed::default()
             })
             .collect();

@@ -2,7 +2,7 @@
 //!
 //! | part | here | paper |
 //! |---|---|---|
-//! | vehicle | [`vehicles`]: [`DifferentialDrive`] | eq. 4 |
+//! | vehicle | [`vehicles`]: [`DifferentialDrive`] (eq. 4), [`vehicles::Ackermann`] (a car) | eq. 4 |
 //! | powertrain | [`powertrain`]: commanded, FOPDT, rate-limited | eq. 3 |
 //! | slip model | [`slip`]: none, slip-BLR | eq. 5-7 |
 //! | the composed model | [`Composed`] -> [`ComposedModel`] | eq. 1-2 |

@@ -14,6 +14,7 @@
 use crate::baselines::AccBlr;
 use crate::powertrain::{Commanded, Fopdt, RateLimited};
 use crate::slip::{NoSlip, SlipBlr};
+use crate::vehicles::Ackermann;
 use crate::{Composed, DifferentialDrive};
 use drive_traits::{
     Baseline, CommandModel, FitError, FitPowertrain, FitSlip, Learner, MotionModel, Registry,
@@ -34,16 +35,26 @@ pub struct ModelAlias {
 
 impl RegistryItem for ModelAlias {}
 
-/// The vehicles of this project: `differential` (eq. 4).
+/// The vehicles of this project: `differential` (eq. 4) and `ackermann` (a car).
 pub fn builtin_vehicles() -> Registry<dyn CommandModel> {
     let mut r: Registry<dyn CommandModel> = Registry::new("vehicle");
-    // One built-in name: it cannot clash.
-    r.register_trusted(
-        "differential",
-        "ideal differential drive of a skid-steer robot (eq. 4); inputs: left and right wheel angular velocities [rad/s]; geometry: wheel_radius, baseline",
-        Arc::new(DifferentialDrive::new(0.165, 0.55)),
-    )
-    .expect("a fresh registry");
+    let parts: [(&str, &str, Arc<dyn CommandModel>); 2] = [
+        (
+            "differential",
+            "ideal differential drive of a skid-steer robot (eq. 4); inputs: left and right wheel angular velocities [rad/s]; geometry: wheel_radius, baseline",
+            Arc::new(DifferentialDrive::new(0.165, 0.55)),
+        ),
+        (
+            "ackermann",
+            "kinematic bicycle of a car-like robot, body frame at the rear axle; inputs: speed [m/s] and steering angle [rad]; geometry: wheelbase, max_steering",
+            Arc::new(Ackermann::new(0.57, 0.3665)),
+        ),
+    ];
+    for (name, description, part) in parts {
+        // Distinct built-in names and tags.
+        r.register_trusted(name, description, part)
+            .expect("distinct built-in vehicles");
+    }
     r
 }
 

@@ -27,6 +27,16 @@ pub const COLOURS: [RGBColor; 6] = [
     RGBColor(127, 127, 127),
 ];
 
+/// Decimals that tell about ten ticks apart over an axis of extent `range` (0 from 10 units
+/// up, 2 for a few tenths of a radian).
+fn tick_digits(range: f64) -> usize {
+    if range.is_finite() && range > 0.0 {
+        (-(range / 10.0).log10()).ceil().clamp(0.0, 6.0) as usize
+    } else {
+        0
+    }
+}
+
 fn span(values: impl IntoIterator<Item = f64>, pad: f64) -> (f64, f64) {
     let (lo, hi) = values
         .into_iter()
@@ -258,6 +268,7 @@ where
             .y_label_area_size(65)
             .build_cartesian_2d(0.0..t1, y0..y1)?;
         let axis = trace.axes[side];
+        let digits = tick_digits(y1 - y0);
         chart
             .configure_mesh()
             .x_desc("time [s]")
@@ -265,7 +276,7 @@ where
             .axis_desc_style((FONT, LABEL))
             .label_style((FONT, LABEL - 2))
             .x_label_formatter(&|v| format!("{v:.0}"))
-            .y_label_formatter(&|v| format!("{v:.0}"))
+            .y_label_formatter(&|v| format!("{v:.digits$}"))
             .draw()?;
         chart.draw_series(trace.windows.iter().map(|&(a, b, phase)| {
             let fill = if phase == Phase::Transient {

@@ -439,24 +439,26 @@ impl Report {
         let _ = writeln!(s, "|---|---|---|");
         let sb = &f.slip_blr;
         let ab = &f.acc_blr;
+        let [x, y, yaw] = sb.basis.inputs().map(|names| names.join(", "));
+        let basis = format!(" ({} basis)", sb.basis.as_str());
         for (name, inputs, mean) in [
-            ("slip-BLR longitudinal slip (eq. 5)", "f_x", &sb.slip_x.mean),
             (
-                "slip-BLR lateral slip",
-                "centripetal f_x f_ω",
-                &sb.slip_y.mean,
+                format!("slip-BLR longitudinal slip (eq. 5){basis}"),
+                x,
+                &sb.slip_x.mean,
             ),
+            ("slip-BLR lateral slip".into(), y, &sb.slip_y.mean),
+            ("slip-BLR angular slip".into(), yaw, &sb.slip_yaw.mean),
             (
-                "slip-BLR angular slip",
-                "centripetal, f_x, f_ω",
-                &sb.slip_yaw.mean,
-            ),
-            (
-                "acc-BLR forward velocity change",
-                "f_x, v_x",
+                "acc-BLR forward velocity change".into(),
+                "f_x, v_x".into(),
                 &ab.accel_x.mean,
             ),
-            ("acc-BLR yaw-rate change", "f_ω, v_ω", &ab.accel_yaw.mean),
+            (
+                "acc-BLR yaw-rate change".into(),
+                "f_w, v_w".into(),
+                &ab.accel_yaw.mean,
+            ),
         ] {
             let _ = writeln!(s, "| {name} | {inputs} | {} |", w(mean));
         }

@@ -14,14 +14,14 @@ mod uniform;
 
 pub use others::{AngularSampler, GridSampler, LinearSampler};
 pub use registry::{build_sampler, builtin_samplers, MakeSampler, SamplerContext};
-pub use robot::{builtin_robots, RobotError, RobotSpec};
+pub use robot::{autorally, builtin_robots, RobotError, RobotSpec};
 pub use runner::{
     PauseReason, ProtocolRunner, RunnerConfig, RunnerInput, RunnerOutput, RunnerState, SampleTag,
     StopReason,
 };
 pub use schedule::{
     limit_acceleration, next_command, schedule, schedule_csv, window_len, ScheduledCommand,
-    WINDOWS_PER_INTERVAL, WINDOW_S,
+    SentCommand, WINDOWS_PER_INTERVAL, WINDOW_S,
 };
 pub use targeted::{Target, TargetedSampler};
 pub use uniform::{BodyLimits, SamplerError, UniformSampler};

@@ -1,7 +1,7 @@
 //! The other samplers: a grid over J, and the two human-like protocols the paper compares
 //! DRIVE against (Sec. IV-B).
 
-use crate::SamplerError;
+use crate::{BodyLimits, SamplerError};
 use drive_traits::{BodyVelocity, CommandModel, Input, InputSampler, InputSpace};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
@@ -72,15 +72,23 @@ impl InputSampler for GridSampler {
     }
 }
 
-/// Body commands converted to inputs and clamped into J.
+/// Body commands, within the controller's limits, converted to inputs and clamped into J.
 #[derive(Debug)]
 struct BodyToInput {
     vehicle: Arc<dyn CommandModel>,
     space: InputSpace,
+    limits: Option<BodyLimits>,
 }
 
 impl BodyToInput {
     fn input(&self, v: BodyVelocity) -> Input {
+        let v = match &self.limits {
+            Some(l) => {
+                let x = v.x.clamp(-l.max_linear, l.max_linear);
+                BodyVelocity::new(x, v.y, l.turn_within(x, v.z))
+            }
+            None => v,
+        };
         // A differential drive inverts any (v_x, 0, w); a vehicle that cannot command `v`
         // gets the centre of J (never reached by the samplers below).
         let u = self
@@ -90,10 +98,16 @@ impl BodyToInput {
         self.space.clamp(&u)
     }
 
-    /// Top forward speed (all inputs at their maximum) and top yaw rate (first input at its
-    /// minimum, second at its maximum: turning in place for a skid-steer) inside J.
+    /// Top forward speed (all inputs at their maximum, within the controller's linear
+    /// limit) and top yaw rate (first input at its minimum, second at its maximum: turning
+    /// in place for a skid-steer) inside J.
     fn reach(&self) -> (f64, f64) {
-        let fwd = self.vehicle.body_velocity(&self.space.max).x.abs();
+        let fwd = self
+            .vehicle
+            .body_velocity(&self.space.max)
+            .x
+            .abs()
+            .min(self.limits.as_ref().map_or(f64::INFINITY, |l| l.max_linear));
         let turn = self
             .vehicle
             .body_velocity(&Input::new(self.space.min.x, self.space.max.y))
@@ -117,9 +131,20 @@ impl LinearSampler {
     /// Over J = `space` for `vehicle`, seeded.
     pub fn new(space: InputSpace, vehicle: Arc<dyn CommandModel>, seed: u64) -> Self {
         LinearSampler {
-            map: BodyToInput { vehicle, space },
+            map: BodyToInput {
+                vehicle,
+                space,
+                limits: None,
+            },
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
         }
+    }
+
+    /// The same sampler within the controller's body limits (speed clamped, yaw rate
+    /// limited at that speed), when there are some.
+    pub fn with_body_limits(mut self, limits: Option<BodyLimits>) -> Self {
+        self.map.limits = limits;
+        self
     }
 }
 
@@ -150,9 +175,20 @@ impl AngularSampler {
     /// Over J = `space` for `vehicle`, seeded.
     pub fn new(space: InputSpace, vehicle: Arc<dyn CommandModel>, seed: u64) -> Self {
         AngularSampler {
-            map: BodyToInput { vehicle, space },
+            map: BodyToInput {
+                vehicle,
+                space,
+                limits: None,
+            },
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
         }
+    }
+
+    /// The same sampler within the controller's body limits (speed clamped, yaw rate
+    /// limited at that speed), when there are some.
+    pub fn with_body_limits(mut self, limits: Option<BodyLimits>) -> Self {
+        self.map.limits = limits;
+        self
     }
 }
 

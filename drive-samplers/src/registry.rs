@@ -2,8 +2,8 @@
 //! one [`Registry::register`] call away from every experiment that takes the registry.
 
 use crate::{
-    AngularSampler, BodyLimits, GridSampler, LinearSampler, RobotSpec, SamplerError, Target,
-    TargetedSampler, UniformSampler,
+    AngularSampler, GridSampler, LinearSampler, RobotSpec, SamplerError, Target, TargetedSampler,
+    UniformSampler,
 };
 use drive_traits::{InputSampler, InputSpace, Registry, RegistryItem};
 use std::sync::Arc;
@@ -88,17 +88,10 @@ pub fn build_sampler(
 /// has them (draws beyond them are redrawn).
 fn uniform(ctx: &SamplerContext<'_>) -> Result<Box<dyn InputSampler>, SamplerError> {
     let s = UniformSampler::new(ctx.space, ctx.seed)?;
-    let robot = ctx.robot;
-    Ok(
-        match (robot.controller_max_linear, robot.controller_max_angular) {
-            (None, None) => Box::new(s),
-            (lin, ang) => Box::new(s.with_body_limits(BodyLimits {
-                vehicle: Arc::clone(&robot.vehicle),
-                max_linear: lin.unwrap_or(f64::INFINITY),
-                max_angular: ang.unwrap_or(f64::INFINITY),
-            })?),
-        },
-    )
+    Ok(match ctx.robot.body_limits() {
+        None => Box::new(s),
+        Some(limits) => Box::new(s.with_body_limits(limits)?),
+    })
 }
 
 /// The project's samplers: `uniform` (DRIVE), `grid`, `linear`, `angular`, `targeted`
@@ -122,22 +115,20 @@ pub fn builtin_samplers() -> Registry<dyn MakeSampler> {
             "linear",
             "human-like, linear-focused: mostly forward at 30-100% of the top speed, small turns",
             Arc::new(|c: &SamplerContext<'_>| {
-                Ok(Box::new(LinearSampler::new(
-                    c.space,
-                    Arc::clone(&c.robot.vehicle),
-                    c.seed,
-                )) as Box<dyn InputSampler>)
+                Ok(Box::new(
+                    LinearSampler::new(c.space, Arc::clone(&c.robot.vehicle), c.seed)
+                        .with_body_limits(c.robot.body_limits()),
+                ) as Box<dyn InputSampler>)
             }),
         ),
         (
             "angular",
             "human-like, angular-focused: half the top speed with a varying curvature",
             Arc::new(|c: &SamplerContext<'_>| {
-                Ok(Box::new(AngularSampler::new(
-                    c.space,
-                    Arc::clone(&c.robot.vehicle),
-                    c.seed,
-                )) as Box<dyn InputSampler>)
+                Ok(Box::new(
+                    AngularSampler::new(c.space, Arc::clone(&c.robot.vehicle), c.seed)
+                        .with_body_limits(c.robot.body_limits()),
+                ) as Box<dyn InputSampler>)
             }),
         ),
         (

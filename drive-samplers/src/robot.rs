@@ -1,8 +1,13 @@
 //! Robot descriptions for the protocol: the vehicle with its geometry, limits, rates and
 //! acceleration limits, from a TOML file or a registered preset (the paper's platforms).
 
+use crate::BodyLimits;
+use drive_models::vehicles::Ackermann;
 use drive_models::DifferentialDrive;
-use drive_traits::{CommandModel, Input, InputSpace, Registry, RegistryError, RegistryItem};
+use drive_traits::{
+    vehicle_tag, CommandModel, Input, InputSpace, Registry, RegistryError, RegistryItem, Steering,
+    Tagged,
+};
 use serde::Deserialize;
 use std::sync::Arc;
 use thiserror::Error;
@@ -38,11 +43,17 @@ pub enum RobotError {
 /// In TOML: `name`, `mass_kg`, `max_speed` (the manufacturer's top speed, m/s),
 /// `max_linear_acceleration`, `max_angular_acceleration`; optional `rate_hz` (20),
 /// `controller_max_linear`, `controller_max_angular`, `tracked`; the vehicle as a
-/// `[vehicle]` table (`type = "differential"`, `wheel_radius`, `baseline`; any registered
-/// vehicle type with its geometry), or `wheel_radius` and `baseline` for a differential
-/// drive; the input space as `input_limits = [[min, max], [min, max]]` per axis, or
-/// `wheel_limits = [min, max]` for both wheels of a differential drive, or, when neither is
-/// given, the vehicle's nominal space at `max_speed`.
+/// `[vehicle]` table (`type = "differential"`, `wheel_radius`, `baseline`; `type =
+/// "ackermann"`, `wheelbase`, `max_steering`; any registered vehicle type with its
+/// geometry), or `wheel_radius` and `baseline` for a differential drive; the input space as
+/// `input_limits = [[min, max], [min, max]]` per axis, or `wheel_limits = [min, max]` for
+/// both wheels of a differential drive, or, when neither is given, the vehicle's nominal
+/// space at `max_speed`.
+///
+/// The commands sent are limited in body acceleration (`max_linear_acceleration`,
+/// `max_angular_acceleration`), or, with `input_rate_limits = [a, b]`, per input axis (a
+/// car's speed in m/s^2 and steering in rad/s; the body accelerations may then be omitted).
+/// A vehicle with steered wheels needs `input_rate_limits`.
 ///
 /// ```
 /// use drive_samplers::{builtin_robots, RobotSpec};
@@ -69,12 +80,21 @@ pub struct RobotSpec {
     pub controller_max_linear: Option<f64>,
     /// The low-level controller's angular speed limit (rad/s), when it has one.
     pub controller_max_angular: Option<f64>,
+    /// The protocol's lateral acceleration limit `|v w|` (m/s^2), when it has one: what
+    /// keeps a fast car from spinning out (samples beyond it are redrawn, the schedule
+    /// steers within it).
+    pub max_lateral_acceleration: Option<f64>,
     /// Command rate (Hz).
     pub rate_hz: f64,
-    /// Acceleration limit applied to the sent commands, linear (m/s^2).
+    /// Acceleration limit applied to the sent commands, linear (m/s^2); infinite when
+    /// `input_rate_limits` apply instead.
     pub max_linear_acceleration: f64,
-    /// Acceleration limit applied to the sent commands, angular (rad/s^2).
+    /// Acceleration limit applied to the sent commands, angular (rad/s^2); infinite when
+    /// `input_rate_limits` apply instead.
     pub max_angular_acceleration: f64,
+    /// Rate limits applied to the sent commands per input axis (input units per second),
+    /// instead of the body acceleration limits: what a car needs (speed and steering).
+    pub input_rate_limits: Option<Input>,
     /// Input limits per axis, user-given or from the characterization step; the vehicle's
     /// nominal space at `max_speed` when absent.
     pub input_limits: Option<InputSpace>,
@@ -103,10 +123,16 @@ struct RobotFile {
     controller_max_linear: Option<f64>,
     #[serde(default)]
     controller_max_angular: Option<f64>,
+    #[serde(default)]
+    max_lateral_acceleration: Option<f64>,
     #[serde(default = "default_rate")]
     rate_hz: f64,
-    max_linear_acceleration: f64,
-    max_angular_acceleration: f64,
+    #[serde(default)]
+    max_linear_acceleration: Option<f64>,
+    #[serde(default)]
+    max_angular_acceleration: Option<f64>,
+    #[serde(default)]
+    input_rate_limits: Option<[f64; 2]>,
     #[serde(default)]
     wheel_limits: Option<[f64; 2]>,
     #[serde(default)]
@@ -120,8 +146,9 @@ fn default_rate() -> f64 {
 }
 
 /// The paper's platforms: `husky` (75 kg, 1 m/s), `hd2` (tracked, 80 kg, 1.2 m/s),
-/// `warthog` (470 kg, 5 m/s), differential drives. Acceleration limits are this project's
-/// defaults (about one top speed per second), not the manufacturers'.
+/// `warthog` (470 kg, 5 m/s), differential drives; and a car, `autorally` (see
+/// [`autorally`]). Acceleration limits are this project's defaults (about one top speed
+/// per second), not the manufacturers'.
 pub fn builtin_robots() -> Registry<RobotSpec> {
     let mut r: Registry<RobotSpec> = Registry::new("robot");
     for (name, description, mass_kg, max_speed, wheel_radius, baseline, tracked) in [
@@ -160,9 +187,11 @@ pub fn builtin_robots() -> Registry<RobotSpec> {
             max_speed,
             controller_max_linear: None,
             controller_max_angular: None,
+            max_lateral_acceleration: None,
             rate_hz: 20.0,
             max_linear_acceleration: max_speed,
             max_angular_acceleration: 2.0 * max_speed / baseline,
+            input_rate_limits: None,
             input_limits: None,
             nominal_input_space: InputSpace::new(
                 Input::repeat(-max_speed / wheel_radius),
@@ -172,11 +201,60 @@ pub fn builtin_robots() -> Registry<RobotSpec> {
             vehicle: Arc::new(vehicle),
             tracked,
         };
-        // Three distinct names.
+        // Distinct names (autorally follows).
         r.register_trusted(name, description, Arc::new(spec))
             .expect("distinct presets");
     }
+    r.register_trusted(
+        "autorally",
+        "AutoRally: 1/5-scale rally car (Ackermann), 23.9 kg, wheelbase 0.57 m, steering +-21 deg; 5 m/s for the protocol",
+        Arc::new(autorally()),
+    )
+    .expect("distinct presets");
     r
+}
+
+/// The AutoRally platform (Goldfain et al., "AutoRally: An Open Platform for Aggressive
+/// Autonomous Driving", IEEE Control Systems Magazine 39(1), 2019), a 1/5-scale rally car
+/// used in off-road learning and model-predictive control papers. From its published
+/// description (AutoRally/autorally on GitHub, `autorally_description/urdf/
+/// autoRallyPlatform.urdf.xacro`): wheelbase 0.570 m; steering limit 21 deg (0.3665 rad);
+/// chassis 20.5 kg, front wheels 0.82 kg and rear wheels 0.89 kg (23.9 kg); steering servo
+/// Savox SV-0235MG at 7.4 V, 0.13 s per 60 deg at no load (8.055 rad/s), the steering
+/// rate limit here; top speed 60 mph (26.8 m/s).
+///
+/// This project's choices, not the platform's: the protocol's speed limit, 5 m/s (the
+/// Warthog's top speed in the paper; a test area is not a race track), and the speed rate
+/// limit of one top speed per second (5 m/s^2), the rule of the other presets.
+///
+/// ```
+/// let car = drive_samplers::autorally();
+/// assert_eq!(car.vehicle.geometry()[0], ("wheelbase", 0.57));
+/// let j = car.input_space();
+/// assert_eq!((j.max.x, j.max.y), (5.0, 0.3665191429));
+/// ```
+pub fn autorally() -> RobotSpec {
+    let max_speed = 5.0;
+    let vehicle = Ackermann::new(0.570, 0.3665191429);
+    RobotSpec {
+        name: "autorally".into(),
+        mass_kg: 20.5 + 2.0 * 0.82 + 2.0 * 0.89,
+        max_speed,
+        controller_max_linear: None,
+        controller_max_angular: None,
+        max_lateral_acceleration: Some(3.0),
+        rate_hz: 20.0,
+        max_linear_acceleration: f64::INFINITY,
+        max_angular_acceleration: f64::INFINITY,
+        input_rate_limits: Some(Input::new(max_speed, 8.05536578)),
+        input_limits: None,
+        // Positive speed and steering limit.
+        nominal_input_space: vehicle
+            .nominal_input_space(max_speed)
+            .expect("a positive preset"),
+        vehicle: Arc::new(vehicle),
+        tracked: false,
+    }
 }
 
 impl RobotSpec {
@@ -233,6 +311,18 @@ impl RobotSpec {
                     "give wheel_limits or input_limits, not both".into(),
                 ))
             }
+            (Some(_), None)
+                if vehicle_tag(vehicle.as_ref()).as_deref() != Some(DifferentialDrive::TAG) =>
+            {
+                let [a, b] = vehicle.axes();
+                return Err(invalid(
+                    "wheel_limits",
+                    format!(
+                        "wheel_limits gives both wheels of a differential drive one range; this vehicle's axes are {} [{}] and {} [{}]: give input_limits = [[min, max], [min, max]]",
+                        a.name, a.unit, b.name, b.unit
+                    ),
+                ));
+            }
             (Some([lo, hi]), None) => Some(("wheel_limits", [[lo, hi], [lo, hi]])),
             (None, Some(l)) => Some(("input_limits", l)),
             (None, None) => None,
@@ -278,6 +368,32 @@ impl RobotSpec {
                 ))
             }
         };
+        let input_rate_limits = match f.input_rate_limits {
+            Some([a, b]) => {
+                if !([a, b].iter().all(|v| v.is_finite() && *v > 0.0)) {
+                    return Err(invalid(
+                        "input_rate_limits",
+                        format!("expected two positive rates [a, b], found [{a}, {b}]"),
+                    ));
+                }
+                Some(Input::new(a, b))
+            }
+            None if vehicle.steering() == Steering::Wheels => {
+                return Err(invalid(
+                    "input_rate_limits",
+                    "missing: a vehicle with steered wheels needs input_rate_limits = [speed rate, steering rate] (m/s^2, rad/s); body acceleration limits would move its steering in jumps".into(),
+                ))
+            }
+            None => None,
+        };
+        let body_limit = |field: &'static str, v: Option<f64>| match (v, input_rate_limits) {
+            (Some(v), _) => Ok(v),
+            (None, Some(_)) => Ok(f64::INFINITY),
+            (None, None) => Err(invalid(
+                field,
+                format!("missing field `{field}` (or give input_rate_limits)"),
+            )),
+        };
         let spec = RobotSpec {
             name: f.name,
             mass_kg: f.mass_kg,
@@ -285,9 +401,17 @@ impl RobotSpec {
             max_speed: f.max_speed,
             controller_max_linear: f.controller_max_linear,
             controller_max_angular: f.controller_max_angular,
+            max_lateral_acceleration: f.max_lateral_acceleration,
             rate_hz: f.rate_hz,
-            max_linear_acceleration: f.max_linear_acceleration,
-            max_angular_acceleration: f.max_angular_acceleration,
+            max_linear_acceleration: body_limit(
+                "max_linear_acceleration",
+                f.max_linear_acceleration,
+            )?,
+            max_angular_acceleration: body_limit(
+                "max_angular_acceleration",
+                f.max_angular_acceleration,
+            )?,
+            input_rate_limits,
             input_limits,
             nominal_input_space: nominal,
             tracked: f.tracked,
@@ -327,16 +451,32 @@ impl RobotSpec {
                 message: message.into(),
             })
         };
-        let positive: [(&'static str, f64); 5] = [
+        let positive: [(&'static str, f64); 3] = [
             ("mass_kg", self.mass_kg),
             ("max_speed", self.max_speed),
             ("rate_hz", self.rate_hz),
-            ("max_linear_acceleration", self.max_linear_acceleration),
-            ("max_angular_acceleration", self.max_angular_acceleration),
         ];
         for (field, v) in positive {
             if !(v.is_finite() && v > 0.0) {
                 return invalid(field, &format!("expected a positive number, found {v}"));
+            }
+        }
+        // The body limits are infinite only where per-axis rate limits replace them.
+        for (field, v) in [
+            ("max_linear_acceleration", self.max_linear_acceleration),
+            ("max_angular_acceleration", self.max_angular_acceleration),
+        ] {
+            let ok = v > 0.0 && (v.is_finite() || self.input_rate_limits.is_some());
+            if !ok {
+                return invalid(field, &format!("expected a positive number, found {v}"));
+            }
+        }
+        if let Some(r) = self.input_rate_limits {
+            if !r.iter().all(|v| v.is_finite() && *v > 0.0) {
+                return invalid(
+                    "input_rate_limits",
+                    &format!("expected two positive rates, found [{}, {}]", r.x, r.y),
+                );
             }
         }
         if self.rate_hz * crate::WINDOW_S < 2.0 {
@@ -353,6 +493,7 @@ impl RobotSpec {
         for (field, v) in [
             ("controller_max_linear", self.controller_max_linear),
             ("controller_max_angular", self.controller_max_angular),
+            ("max_lateral_acceleration", self.max_lateral_acceleration),
         ] {
             if let Some(v) = v {
                 if !(v.is_finite() && v > 0.0) {
@@ -374,6 +515,21 @@ impl RobotSpec {
             );
         }
         Ok(())
+    }
+
+    /// The controller's body limits (speeds, lateral acceleration), when it has some.
+    pub fn body_limits(&self) -> Option<BodyLimits> {
+        let limits = [
+            self.controller_max_linear,
+            self.controller_max_angular,
+            self.max_lateral_acceleration,
+        ];
+        limits.iter().any(Option::is_some).then(|| BodyLimits {
+            vehicle: Arc::clone(&self.vehicle),
+            max_linear: limits[0].unwrap_or(f64::INFINITY),
+            max_angular: limits[1].unwrap_or(f64::INFINITY),
+            max_lateral_acceleration: limits[2].unwrap_or(f64::INFINITY),
+        })
     }
 
     /// The input space J used by the protocol: the given input limits, or the vehicle's

@@ -7,10 +7,10 @@
 //! k (step 2), paused (watchdog or dead-man switch), done (intervals, duration, geofence,
 //! convergence, or a characterization that found no usable input space).
 
-use crate::{next_command, window_len, RobotSpec, WINDOWS_PER_INTERVAL};
+use crate::{next_command, window_len, RobotSpec, SentCommand, WINDOWS_PER_INTERVAL};
 use drive_traits::{
-    wrap_angle, BodyVelocity, Characterization, Input, InputSampler, InputSpace, Phase, Pose,
-    Probe, ProbeMotion, ProbeResult, RobotDescription, Window,
+    wrap_angle, Characterization, Input, InputSampler, InputSpace, Phase, Pose, Probe, ProbeMotion,
+    ProbeResult, RobotDescription, Window,
 };
 
 /// What the robot measured at this tick.
@@ -168,7 +168,7 @@ pub struct ProtocolRunner {
     /// What the finished probes measured.
     probed: Vec<ProbeResult>,
     target: Input,
-    sent: BodyVelocity,
+    sent: SentCommand,
     last_encoder: f64,
     last_pose: f64,
     start_pose: Option<Pose>,
@@ -208,7 +208,7 @@ impl ProtocolRunner {
             probe: None,
             probed: Vec::new(),
             target: Input::zeros(),
-            sent: BodyVelocity::zeros(),
+            sent: SentCommand::default(),
             last_encoder: f64::NEG_INFINITY,
             last_pose: f64::NEG_INFINITY,
             start_pose: None,
@@ -334,7 +334,7 @@ impl ProtocolRunner {
                 self.probed.clear();
             }
             self.state = RunnerState::Paused { reason, interval };
-            self.sent = BodyVelocity::zeros();
+            self.sent = SentCommand::default();
             return zero;
         }
         if let RunnerState::Paused { interval, .. } = self.state {

@@ -1,6 +1,6 @@
 //! The DRIVE command schedule (Sec. III-A step 2): each interval holds one sampled input
-//! for one transient and two steady 2 s windows, with acceleration limits applied to what
-//! is sent.
+//! for one transient and two steady 2 s windows, with acceleration (or input rate) limits
+//! applied to what is sent.
 
 use crate::RobotSpec;
 use drive_traits::{BodyVelocity, Input, InputSampler, Phase};
@@ -22,6 +22,15 @@ pub struct ScheduledCommand {
     pub target: Input,
 }
 
+/// What was sent last: the state of the command limits (at rest by default).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SentCommand {
+    /// The body velocity sent last (the body acceleration limits step it).
+    pub body: BodyVelocity,
+    /// The input sent last (the per-axis rate limits step it).
+    pub input: Input,
+}
+
 /// Steps a body velocity towards a target within the acceleration limits of one step.
 pub fn limit_acceleration(
     previous: &BodyVelocity,
@@ -40,14 +49,64 @@ pub fn limit_acceleration(
     )
 }
 
-/// The command of the next tick towards the input `target`: the body velocity sent last
-/// (`sent`, updated) steps towards the target's within the acceleration limits and is sent
-/// as the vehicle's input; the target itself when the vehicle cannot be given that body
-/// velocity.
-pub fn next_command(robot: &RobotSpec, sent: &mut BodyVelocity, target: &Input) -> Input {
+/// The command of the next tick towards the input `target`, from what was sent last
+/// (`sent`, updated). With per-axis input rate limits (a car's speed and steering rates),
+/// each input steps towards the target's within its rate and as far as the controller's
+/// body limits allow ([`RobotSpec::body_limits`]); otherwise the body velocity steps
+/// towards the target's within the body acceleration limits and is sent as the vehicle's
+/// input (the target itself when the vehicle cannot be given that body velocity).
+///
+/// ```
+/// use drive_samplers::{builtin_robots, next_command, SentCommand};
+/// use drive_traits::Input;
+/// let car = builtin_robots().get("autorally").unwrap().part().as_ref().clone();
+/// let rates = car.input_rate_limits.unwrap();
+/// let mut sent = SentCommand::default();
+/// let u = next_command(&car, &mut sent, &Input::new(5.0, 0.3));
+/// // One tick at 20 Hz: the speed and the steering move by their rates over 0.05 s at most.
+/// assert!((u.x - rates.x * 0.05).abs() < 1e-12);
+/// assert!((u.y - (rates.y * 0.05).min(0.3)).abs() < 1e-12);
+/// ```
+pub fn next_command(robot: &RobotSpec, sent: &mut SentCommand, target: &Input) -> Input {
+    let dt = 1.0 / robot.rate_hz;
+    if let Some(rates) = robot.input_rate_limits {
+        let limits = robot.body_limits();
+        let mut u = sent.input;
+        // Axis by axis (a car's speed first, then its steering), each as far as its rate
+        // and the controller's body limits allow.
+        for i in 0..2 {
+            let step = (target[i] - u[i]).clamp(-rates[i] * dt, rates[i] * dt);
+            let moved = |fraction: f64| {
+                let mut c = u;
+                c[i] += fraction * step;
+                c
+            };
+            let fraction = match &limits {
+                Some(l) if l.allows(&u) && !l.allows(&moved(1.0)) => {
+                    let (mut lo, mut hi) = (0.0, 1.0);
+                    for _ in 0..40 {
+                        let mid = 0.5 * (lo + hi);
+                        if l.allows(&moved(mid)) {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                        }
+                    }
+                    lo
+                }
+                _ => 1.0,
+            };
+            u = moved(fraction);
+        }
+        sent.input = u;
+        sent.body = robot.vehicle.body_velocity(&u);
+        return u;
+    }
     let target_body = robot.vehicle.body_velocity(target);
-    *sent = limit_acceleration(sent, &target_body, robot);
-    robot.vehicle.input_for(sent).unwrap_or(*target)
+    sent.body = limit_acceleration(&sent.body, &target_body, robot);
+    let u = robot.vehicle.input_for(&sent.body).unwrap_or(*target);
+    sent.input = u;
+    u
 }
 
 /// Samples per window at the robot's rate.
@@ -63,7 +122,7 @@ pub fn schedule(
 ) -> Vec<ScheduledCommand> {
     let n = window_len(robot);
     let mut out = Vec::with_capacity(intervals * WINDOWS_PER_INTERVAL * n);
-    let mut sent = BodyVelocity::zeros();
+    let mut sent = SentCommand::default();
     for interval in 0..intervals {
         let target = sampler.next_input();
         for w in 0..WINDOWS_PER_INTERVAL {

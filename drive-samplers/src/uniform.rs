@@ -19,12 +19,14 @@ pub enum SamplerError {
         max: f64,
     },
     /// The controller's speed limits exclude (almost) all of the input space.
-    #[error("the controller limits (linear {linear} m/s, angular {angular} rad/s) leave less than 0.1% of the input space to sample")]
+    #[error("the controller limits (linear {linear} m/s, angular {angular} rad/s, lateral acceleration {lateral} m/s^2) leave less than 0.1% of the input space to sample")]
     LimitsExcludeSpace {
         /// linear limit
         linear: f64,
         /// angular limit
         angular: f64,
+        /// lateral acceleration limit
+        lateral: f64,
     },
     /// A parameter is out of range.
     #[error("invalid sampler parameter {name} = {value}: {expected}")]
@@ -41,9 +43,24 @@ pub enum SamplerError {
     Registry(#[from] RegistryError),
 }
 
-/// The low-level controller's body speed limits: a sample whose commanded body velocity
-/// exceeds them is redrawn (as the paper's own code does).
-#[derive(Debug)]
+/// The low-level controller's body limits: a sample whose commanded body velocity exceeds
+/// them is redrawn (as the paper's own code does), and the schedule steers within them.
+///
+/// ```
+/// use drive_samplers::BodyLimits;
+/// use drive_traits::Input;
+/// let car = drive_models::vehicles::Ackermann::new(0.5, 0.4);
+/// let limits = BodyLimits {
+///     vehicle: std::sync::Arc::new(car),
+///     max_linear: f64::INFINITY,
+///     max_angular: f64::INFINITY,
+///     max_lateral_acceleration: 4.0,
+/// };
+/// // 2 m/s at 0.3 rad: 4 m^2/s^2 x tan(0.3) / 0.5 m = 2.5 m/s^2 of lateral acceleration.
+/// assert!(limits.allows(&Input::new(2.0, 0.3)));
+/// assert!(!limits.allows(&Input::new(4.0, 0.3))); // 10.1 m/s^2
+/// ```
+#[derive(Debug, Clone)]
 pub struct BodyLimits {
     /// The vehicle's command model (input -> body velocity).
     pub vehicle: Arc<dyn CommandModel>,
@@ -51,12 +68,26 @@ pub struct BodyLimits {
     pub max_linear: f64,
     /// Angular speed limit (rad/s).
     pub max_angular: f64,
+    /// Lateral (centripetal) acceleration limit `|v_x w|` (m/s^2).
+    pub max_lateral_acceleration: f64,
 }
 
 impl BodyLimits {
-    fn allows(&self, u: &Input) -> bool {
+    /// Whether the commanded body velocity of `u` is within the limits.
+    pub fn allows(&self, u: &Input) -> bool {
         let f = self.vehicle.body_velocity(u);
-        f.x.abs() <= self.max_linear && f.z.abs() <= self.max_angular
+        f.x.abs() <= self.max_linear
+            && f.z.abs() <= self.max_angular
+            && (f.x * f.z).abs() <= self.max_lateral_acceleration
+    }
+
+    /// The yaw rate `w` limited to what the angular and lateral acceleration limits allow
+    /// at the forward speed `v`.
+    pub fn turn_within(&self, v: f64, w: f64) -> f64 {
+        let bound = self
+            .max_angular
+            .min(self.max_lateral_acceleration / v.abs().max(1e-9));
+        w.clamp(-bound, bound)
     }
 }
 
@@ -117,6 +148,7 @@ impl UniformSampler {
             return Err(SamplerError::LimitsExcludeSpace {
                 linear: limits.max_linear,
                 angular: limits.max_angular,
+                lateral: limits.max_lateral_acceleration,
             });
         }
         self.limits = Some(limits);

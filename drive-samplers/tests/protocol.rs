@@ -3,10 +3,10 @@
 
 use drive_models::DifferentialDrive;
 use drive_samplers::{
-    build_sampler, builtin_robots, builtin_samplers, schedule, schedule_csv, window_len,
-    RobotError, RobotSpec, SamplerContext, SamplerError,
+    build_sampler, builtin_robots, builtin_samplers, next_command, schedule, schedule_csv,
+    window_len, RobotError, RobotSpec, SamplerContext, SamplerError, SentCommand,
 };
-use drive_traits::{CommandModel, InputSampler, Phase};
+use drive_traits::{CommandModel, Input, InputSampler, Phase};
 
 fn preset(name: &str) -> RobotSpec {
     RobotSpec::load(&builtin_robots(), name).unwrap()
@@ -232,4 +232,77 @@ fn robot_files_are_validated() {
     let j = r.input_space();
     assert_eq!((j.min.x, j.max.x, j.min.y, j.max.y), (-3.0, 4.0, -2.0, 5.0));
     assert_eq!(r.nominal_input_space.max.x, 15.0);
+}
+
+#[test]
+fn car_robot_files_take_per_axis_rate_limits_and_a_lateral_acceleration_limit() {
+    let car = "name = 'car'\nmass_kg = 5\nmax_speed = 3\ninput_rate_limits = [3.0, 6.0]\n\
+               max_lateral_acceleration = 2.0\n[vehicle]\ntype = 'ackermann'\nwheelbase = 0.33\n\
+               max_steering = 0.4\n";
+    let r = RobotSpec::from_toml("car.toml", car).unwrap();
+    assert_eq!(r.input_rate_limits, Some(Input::new(3.0, 6.0)));
+    // Speed and steering: the nominal space has each axis's own units.
+    let j = r.input_space();
+    assert_eq!((j.min.x, j.max.x, j.min.y, j.max.y), (-3.0, 3.0, -0.4, 0.4));
+    // The body accelerations may be omitted when the rate limits replace them.
+    assert!(r.max_linear_acceleration.is_infinite() && r.max_angular_acceleration.is_infinite());
+    let limits = r.body_limits().unwrap();
+    assert_eq!(limits.max_lateral_acceleration, 2.0);
+    // The uniform sampler redraws beyond the lateral acceleration limit.
+    let samplers = builtin_samplers();
+    let mut s = build_sampler(&samplers, "uniform", &SamplerContext::new(&r, 3)).unwrap();
+    for _ in 0..2000 {
+        let f = r.vehicle.body_velocity(&s.next_input());
+        assert!((f.x * f.z).abs() <= 2.0 + 1e-12);
+    }
+    // And the schedule steers within it towards any target.
+    let mut sent = SentCommand::default();
+    for _ in 0..200 {
+        let u = next_command(&r, &mut sent, &Input::new(3.0, 0.4));
+        let f = r.vehicle.body_velocity(&u);
+        assert!((f.x * f.z).abs() <= 2.0 + 1e-9, "{u:?}");
+    }
+    // A target beyond the limit is approached up to it: the car turns at 2 m/s^2.
+    let f = r.vehicle.body_velocity(&sent.input);
+    assert!((f.x * f.z - 2.0).abs() < 1e-6, "{:?}", sent.input);
+    let invalid = [
+        (
+            car.replace("input_rate_limits = [3.0, 6.0]\n", ""),
+            "input_rate_limits",
+        ),
+        (
+            car.replace("[3.0, 6.0]", "[3.0, -6.0]"),
+            "input_rate_limits",
+        ),
+        (
+            car.replace(
+                "max_lateral_acceleration = 2.0",
+                "max_lateral_acceleration = 0",
+            ),
+            "max_lateral_acceleration",
+        ),
+        (format!("wheel_limits = [-3.0, 3.0]\n{car}"), "wheel_limits"),
+        (
+            car.replace("max_steering = 0.4", "max_steering = 2.0"),
+            "vehicle",
+        ),
+    ];
+    for (text, field) in invalid {
+        match RobotSpec::from_toml("car.toml", &text).unwrap_err() {
+            RobotError::Invalid {
+                field: f, message, ..
+            } => assert_eq!(f, field, "{message}"),
+            other => panic!("{field}: {other}"),
+        }
+    }
+    // A skid-steer without body accelerations nor rate limits is refused.
+    let husky = "name = 'r'\nmass_kg = 30\nwheel_radius = 0.1\nbaseline = 0.4\nmax_speed = 1.5\n\
+                 max_linear_acceleration = 1.0\n";
+    match RobotSpec::from_toml("r.toml", husky).unwrap_err() {
+        RobotError::Invalid { field, .. } => assert_eq!(field, "max_angular_acceleration"),
+        other => panic!("{other}"),
+    }
+    let preset = drive_samplers::autorally();
+    assert_eq!(preset.mass_kg, 23.92);
+    assert!(preset.validate("autorally").is_ok());
 }

@@ -1,6 +1,6 @@
 //! Simulated UGVs to run the DRIVE protocol without a robot: a skid-steer rigid body for
-//! the `differential` vehicle, and a kinematic stand-in for any other vehicle ([`Plant`]s
-//! registered by vehicle type).
+//! the `differential` vehicle, a dynamic bicycle for the `ackermann` car ([`car`]), and a
+//! kinematic stand-in for any other vehicle ([`Plant`]s registered by vehicle type).
 //!
 //! The ground truth is deliberately not the slip-BLR model family: a planar rigid body with
 //! mass and yaw inertia; per-side longitudinal traction on the Janosi-Hanamoto shear curve
@@ -15,14 +15,18 @@
 
 #![warn(missing_docs)]
 
+pub mod car;
 mod plant;
 mod run;
+mod sensors;
 mod sim;
 mod terrain;
 mod vehicle;
 
+pub use car::{step_car, Actuator, CarParams, CarSimulator, CarState};
 pub use plant::{builtin_plants, plant_for, KinematicPlant, MakePlant, Plant};
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
-pub use sim::{Measured, Sensors, Simulator};
+pub use sensors::{Instruments, Sensors};
+pub use sim::{Measured, Simulator};
 pub use terrain::{builtin_terrains, Terrain};
 pub use vehicle::{step_body, VehicleParams, VehicleState};

@@ -2,15 +2,14 @@
 //! rigid body of [`Simulator`]; a vehicle without a registered plant is simulated by the
 //! [`KinematicPlant`], so that any vehicle (a plug-in's) can run the protocol.
 
-use crate::{Measured, Sensors, Simulator, Terrain};
+use crate::{CarSimulator, Instruments, Measured, Sensors, Simulator, Terrain};
+use drive_models::vehicles::Ackermann;
 use drive_models::DifferentialDrive;
 use drive_samplers::RobotSpec;
 use drive_traits::{
-    euler_step, vehicle_as, BodyVelocity, Input, InputSpace, Pose, Registry, RegistryItem,
+    euler_step, vehicle_as, vehicle_tag, BodyVelocity, Input, InputSpace, Pose, Registry,
+    RegistryItem,
 };
-use rand::rngs::Xoshiro256PlusPlus;
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
 use std::sync::Arc;
 
 /// A simulated vehicle advanced one command tick at a time.
@@ -53,7 +52,7 @@ pub trait Plant: Send {
 ///         Ok(Box::new(KinematicPlant::new(robot, terrain, seed)) as Box<dyn Plant>)
 ///     }))
 ///     .unwrap();
-/// assert_eq!(plants.names(), ["differential", "my-vehicle"]);
+/// assert_eq!(plants.names(), ["differential", "ackermann", "my-vehicle"]);
 /// ```
 pub trait MakePlant: Send + Sync {
     /// The plant; an error when the robot's vehicle is not the kind this plant simulates.
@@ -81,7 +80,8 @@ where
 
 impl RegistryItem for dyn MakePlant {}
 
-/// The plants of this project by vehicle type: `differential`, the skid-steer rigid body.
+/// The plants of this project by vehicle type: `differential`, the skid-steer rigid body;
+/// `ackermann`, the car ([`CarSimulator`]).
 pub fn builtin_plants() -> Registry<dyn MakePlant> {
     let mut r: Registry<dyn MakePlant> = Registry::new("simulator");
     let skid_steer = |robot: &RobotSpec, terrain: &Terrain, seed: u64| {
@@ -89,13 +89,28 @@ pub fn builtin_plants() -> Registry<dyn MakePlant> {
             .ok_or("the skid-steer simulator needs a differential-drive vehicle")?;
         Ok(Box::new(Simulator::new(robot, &geometry, terrain.clone(), seed)) as Box<dyn Plant>)
     };
-    // One built-in name.
-    r.register_trusted(
-        "differential",
-        "planar rigid body with Janosi-Hanamoto traction per side, turning resistance, rolling resistance, a saturating asymmetric FOPDT powertrain, encoders, 10 Hz ICP, IMU",
-        Arc::new(skid_steer),
-    )
-    .expect("a fresh registry");
+    let car = |robot: &RobotSpec, terrain: &Terrain, seed: u64| {
+        let geometry: Ackermann = vehicle_as(robot.vehicle.as_ref())
+            .ok_or("the car simulator needs an ackermann vehicle")?;
+        Ok(Box::new(CarSimulator::new(robot, &geometry, terrain.clone(), seed)) as Box<dyn Plant>)
+    };
+    let parts: [(&str, &str, Arc<dyn MakePlant>); 2] = [
+        (
+            "differential",
+            "planar rigid body with Janosi-Hanamoto traction per side, turning resistance, rolling resistance, a saturating asymmetric FOPDT powertrain, encoders, 10 Hz ICP, IMU",
+            Arc::new(skid_steer),
+        ),
+        (
+            "ackermann",
+            "dynamic bicycle: combined-slip tyres on a friction ellipse, rear-wheel drive behind a rate-limited speed loop, a steering servo with trim, wheel speed and steering sensors, 10 Hz ICP of the rear axle, IMU",
+            Arc::new(car),
+        ),
+    ];
+    for (name, description, part) in parts {
+        // Distinct built-in names.
+        r.register_trusted(name, description, part)
+            .expect("distinct built-in plants");
+    }
     r
 }
 
@@ -107,10 +122,7 @@ pub fn plant_for(
     terrain: &Terrain,
     seed: u64,
 ) -> Result<Box<dyn Plant>, String> {
-    let tag = serde_json::to_value(robot.vehicle.as_ref())
-        .ok()
-        .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(String::from))
-        .unwrap_or_default();
+    let tag = vehicle_tag(robot.vehicle.as_ref()).unwrap_or_default();
     match plants.find(&tag) {
         Some(p) => p.part().make(robot, terrain, seed),
         None => Ok(Box::new(KinematicPlant::new(robot, terrain, seed))),
@@ -130,15 +142,11 @@ pub fn plant_for(
 pub struct KinematicPlant {
     robot: RobotSpec,
     terrain: Terrain,
-    sensors: Sensors,
+    instruments: Instruments,
     limits: InputSpace,
     inputs: Input,
     velocity: BodyVelocity,
     pose: Pose,
-    history: Vec<Input>,
-    tick: usize,
-    icp: Pose,
-    rng: Xoshiro256PlusPlus,
 }
 
 /// Time constant of each input axis (s).
@@ -154,68 +162,36 @@ impl KinematicPlant {
         KinematicPlant {
             robot: robot.clone(),
             terrain: terrain.clone(),
-            sensors: Sensors::default(),
+            instruments: Instruments::new(Sensors::default(), robot.rate_hz, seed),
             limits: robot.input_space(),
             inputs: Input::zeros(),
             velocity: BodyVelocity::zeros(),
             pose: Pose::zeros(),
-            history: Vec::new(),
-            tick: 0,
-            icp: Pose::zeros(),
-            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
-        }
-    }
-
-    fn noise(&mut self, sd: f64) -> f64 {
-        if sd > 0.0 {
-            Normal::new(0.0, sd).map_or(0.0, |d| d.sample(&mut self.rng))
-        } else {
-            0.0
         }
     }
 }
 
 impl Plant for KinematicPlant {
     fn measure(&mut self) -> Measured {
-        let rate = self.robot.rate_hz;
-        let period = (rate / self.sensors.icp_rate_hz).round().max(1.0) as usize;
-        let fresh_pose = self.tick % period == 0;
-        if fresh_pose {
-            let (p, [sp, sy]) = (self.pose, self.sensors.icp_noise);
-            self.icp = Pose::new(
-                p.x + self.noise(sp),
-                p.y + self.noise(sp),
-                p.z + self.noise(sy),
-            );
-        }
-        let e = self.sensors.encoder_noise;
-        let input = Input::new(self.inputs.x + self.noise(e), self.inputs.y + self.noise(e));
-        let imu = self.velocity.z + self.sensors.imu_bias + self.noise(self.sensors.imu_noise);
-        Measured {
-            t: self.tick as f64 / rate,
-            input,
-            pose: self.icp,
-            fresh_pose,
-            imu_yaw_rate: imu,
-        }
+        let e = self.instruments.sensors.encoder_noise;
+        self.instruments
+            .measure(self.inputs, [e, e], self.pose, self.velocity.z)
     }
 
     fn advance(&mut self, command: Input) {
-        self.history.push(command);
-        let dt = 1.0 / self.robot.rate_hz;
+        self.instruments.record(command);
+        let dt = self.instruments.dt();
         let substeps = 10;
         let h = dt / substeps as f64;
+        let t0 = self.instruments.tick_start();
         let t = &self.terrain;
         let forward_loss = (t.rolling / t.traction).clamp(0.0, 1.0);
         let yaw_loss = (t.lateral / (t.lateral + t.traction)).clamp(0.0, 1.0);
         for i in 0..substeps {
-            let now = self.tick as f64 * dt + i as f64 * h;
-            let delayed = ((now - INPUT_DELAY_S) / dt).floor();
-            let target = if delayed < 0.0 {
-                Input::zeros()
-            } else {
-                self.limits.clamp(&self.history[delayed as usize])
-            };
+            let now = t0 + i as f64 * h;
+            let target = self
+                .limits
+                .clamp(&self.instruments.delayed(now, INPUT_DELAY_S));
             self.inputs += (target - self.inputs) * (h / INPUT_LAG_S);
             let f = self.robot.vehicle.body_velocity(&self.inputs);
             let goal = BodyVelocity::new(
@@ -226,6 +202,6 @@ impl Plant for KinematicPlant {
             self.velocity += (goal - self.velocity) * (h / BODY_LAG_S);
             self.pose = euler_step(&self.pose, &self.velocity, h);
         }
-        self.tick += 1;
+        self.instruments.end_tick();
     }
 }

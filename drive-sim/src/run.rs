@@ -231,7 +231,7 @@ pub fn simulate(
                 CalibState::Idle
             },
             calib_step: step as u64,
-            wheels: m.input,
+            measured: m.input,
             body_command: [body.x, body.z],
             position: [p.x, p.y, 0.0],
             quaternion: [0.0, 0.0, (0.5 * p.z).sin(), (0.5 * p.z).cos()],

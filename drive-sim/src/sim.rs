@@ -2,42 +2,10 @@
 //! robots, advanced one command tick at a time.
 
 use crate::vehicle::{step_body, VehicleParams, VehicleState};
-use crate::{Plant, Terrain};
+use crate::{Instruments, Plant, Sensors, Terrain};
 use drive_models::DifferentialDrive;
 use drive_samplers::RobotSpec;
 use drive_traits::{Input, Pose};
-use rand::rngs::Xoshiro256PlusPlus;
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
-
-/// Sensor noise and rates.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sensors {
-    /// Encoder noise, standard deviation (rad/s).
-    pub encoder_noise: f64,
-    /// ICP localization rate (Hz); poses are held between updates.
-    pub icp_rate_hz: f64,
-    /// ICP position noise (m) and yaw noise (rad), standard deviations.
-    pub icp_noise: [f64; 2],
-    /// IMU yaw-rate noise (rad/s) and bias (rad/s).
-    pub imu_noise: f64,
-    /// IMU bias (rad/s).
-    pub imu_bias: f64,
-}
-
-impl Default for Sensors {
-    /// Encoders 0.05 rad/s, ICP at 10 Hz with 1 cm and 0.2 degree, IMU 0.01 rad/s with a
-    /// 0.005 rad/s bias.
-    fn default() -> Self {
-        Sensors {
-            encoder_noise: 0.05,
-            icp_rate_hz: 10.0,
-            icp_noise: [0.01, 0.0035],
-            imu_noise: 0.01,
-            imu_bias: 0.005,
-        }
-    }
-}
 
 /// What the robot measures at a tick.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,15 +29,10 @@ pub struct Simulator {
     pub params: VehicleParams,
     /// The ground.
     pub terrain: Terrain,
-    /// Sensors.
-    pub sensors: Sensors,
+    /// Clock, command history and sensors.
+    pub instruments: Instruments,
     state: VehicleState,
-    rate_hz: f64,
     substeps: usize,
-    history: Vec<Input>,
-    tick: usize,
-    icp: Pose,
-    rng: Xoshiro256PlusPlus,
 }
 
 impl Simulator {
@@ -85,18 +48,13 @@ impl Simulator {
         Simulator {
             params: VehicleParams::from_spec(spec, geometry),
             terrain,
-            sensors: Sensors::default(),
+            instruments: Instruments::new(Sensors::default(), spec.rate_hz, seed),
             state: VehicleState {
                 pose: Pose::zeros(),
                 velocity: [0.0; 3],
                 wheels: Input::zeros(),
             },
-            rate_hz: spec.rate_hz,
             substeps,
-            history: Vec::new(),
-            tick: 0,
-            icp: Pose::zeros(),
-            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
         }
     }
 
@@ -107,43 +65,18 @@ impl Simulator {
 
     /// Current time (s).
     pub fn time(&self) -> f64 {
-        self.tick as f64 / self.rate_hz
+        self.instruments.time()
     }
 
     /// Measures the current state (the sensors' view at this tick).
     pub fn measure(&mut self) -> Measured {
-        let period = (self.rate_hz / self.sensors.icp_rate_hz).round().max(1.0) as usize;
-        let fresh_pose = self.tick % period == 0;
-        let n = |rng: &mut Xoshiro256PlusPlus, s: f64| {
-            if s > 0.0 {
-                Normal::new(0.0, s).map_or(0.0, |d| d.sample(rng))
-            } else {
-                0.0
-            }
-        };
-        if fresh_pose {
-            let p = self.state.pose;
-            self.icp = Pose::new(
-                p.x + n(&mut self.rng, self.sensors.icp_noise[0]),
-                p.y + n(&mut self.rng, self.sensors.icp_noise[0]),
-                p.z + n(&mut self.rng, self.sensors.icp_noise[1]),
-            );
-        }
-        let w = self.state.wheels;
-        let encoder = Input::new(
-            w.x + n(&mut self.rng, self.sensors.encoder_noise),
-            w.y + n(&mut self.rng, self.sensors.encoder_noise),
-        );
-        let imu_yaw_rate = self.state.velocity[2]
-            + self.sensors.imu_bias
-            + n(&mut self.rng, self.sensors.imu_noise);
-        Measured {
-            t: self.time(),
-            input: encoder,
-            pose: self.icp,
-            fresh_pose,
-            imu_yaw_rate,
-        }
+        let e = self.instruments.sensors.encoder_noise;
+        self.instruments.measure(
+            self.state.wheels,
+            [e, e],
+            self.state.pose,
+            self.state.velocity[2],
+        )
     }
 
     /// Applies `command` (wheel velocities, rad/s) for one command tick.
@@ -152,27 +85,23 @@ impl Simulator {
     }
 
     fn step(&mut self, command: Input) {
-        self.history.push(command);
-        let dt = 1.0 / self.rate_hz;
+        self.instruments.record(command);
+        let dt = self.instruments.dt();
         let h = dt / self.substeps as f64;
+        let t0 = self.instruments.tick_start();
         let p = self.params.clone();
         for i in 0..self.substeps {
-            let t = self.tick as f64 * dt + i as f64 * h;
+            let t = t0 + i as f64 * h;
             for side in 0..2 {
                 let (tc, td) = p.powertrain[side];
-                let delayed = ((t - td) / dt).floor();
-                let u = if delayed < 0.0 {
-                    0.0
-                } else {
-                    self.history[delayed as usize][side]
-                };
+                let u = self.instruments.delayed(t, td)[side];
                 let gain = if side == 1 { p.right_gain } else { 1.0 };
                 let u = (gain * u).clamp(-p.wheel_limit, p.wheel_limit);
                 self.state.wheels[side] += (u - self.state.wheels[side]) * h / tc;
             }
             step_body(&p, &self.terrain, &mut self.state, h);
         }
-        self.tick += 1;
+        self.instruments.end_tick();
     }
 }
 

@@ -2,7 +2,7 @@
 //! cuts, resamples and re-bases correctly (the real raw logs available have no
 //! localization).
 
-use drive_data::{import_raw, parse_raw_log, write_raw_log, DropReason, ImportConfig};
+use drive_data::{import_raw, parse_raw_log, write_raw_log, DropReason, ImportConfig, RAW_COLUMNS};
 use drive_samplers::{
     build_sampler, builtin_robots, builtin_samplers, RobotSpec, RunnerConfig, SamplerContext,
 };
@@ -52,8 +52,8 @@ fn simulate_raw_log_import_gives_the_simulators_windows() {
     let sim = run(events, 6);
     assert_eq!(sim.dataset.windows.len(), 18);
     let mut text = String::new();
-    write_raw_log(&sim.raw, &[], &mut text);
-    let log = parse_raw_log("sim.csv", &text).unwrap();
+    write_raw_log(&sim.raw, &RAW_COLUMNS, &[], &mut text);
+    let log = parse_raw_log("sim.csv", &text, &RAW_COLUMNS).unwrap();
     assert!(log.rows.iter().any(|r| r.joy_switch));
     let (data, report) = import_raw(&log, &sim.dataset.robot, &ImportConfig::default()).unwrap();
     assert_eq!(report.windows_kept(), 18, "{}", report.to_text());
@@ -88,8 +88,8 @@ fn a_takeover_without_a_full_interval_after_it_is_reported() {
         4,
     );
     let mut text = String::new();
-    write_raw_log(&sim.raw, &[], &mut text);
-    let log = parse_raw_log("sim.csv", &text).unwrap();
+    write_raw_log(&sim.raw, &RAW_COLUMNS, &[], &mut text);
+    let log = parse_raw_log("sim.csv", &text, &RAW_COLUMNS).unwrap();
     let (data, report) = import_raw(&log, &sim.dataset.robot, &ImportConfig::default()).unwrap();
     assert_eq!(data.windows.len(), 6);
     let last = report.steps.last().unwrap();

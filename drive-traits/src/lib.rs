@@ -55,8 +55,8 @@ pub use sampler::InputSampler;
 pub use slip::{FitSlip, SlipData, SlipLearner, SlipModel, SlipSample, SlipWindow};
 pub use tag::{PartTag, TagProbe, Tagged};
 pub use vehicle::{
-    spanned_space, vehicle_as, Characterization, CommandModel, InputAxis, InputSpace, Probe,
-    ProbeMotion, ProbeResult,
+    spanned_space, vehicle_as, vehicle_tag, Characterization, CommandModel, InputAxis, InputSpace,
+    Probe, ProbeMotion, ProbeResult, Steering,
 };
 pub use velocity::BodyVelocityEstimator;
 

@@ -63,6 +63,35 @@ pub struct InputAxis {
     pub measured_column: &'static str,
 }
 
+/// How a vehicle turns: what a slip model may assume about where its slip comes from.
+///
+/// ```
+/// use drive_traits::Steering;
+/// assert_eq!(Steering::default(), Steering::Skid);
+/// assert_eq!(Steering::Wheels.as_str(), "steered wheels");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Steering {
+    /// By driving its sides at different speeds (skid-steer, differential drive, a body
+    /// velocity command): every turn skids or scrubs (paper Sec. III-B.2).
+    #[default]
+    Skid,
+    /// By steered wheels rolling along the turn (car-like, Ackermann): the tyres slip
+    /// sideways with the lateral acceleration, the driven wheels lengthwise.
+    Wheels,
+}
+
+impl Steering {
+    /// A short description, for reports.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Steering::Skid => "skid",
+            Steering::Wheels => "steered wheels",
+        }
+    }
+}
+
 /// One sub-step of the characterization (DRIVE step 1): a command held while the runner
 /// averages what the vehicle reaches in its last second.
 #[derive(Debug, Clone, PartialEq)]
@@ -217,6 +246,19 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
         Vec::new()
     }
 
+    /// How the vehicle turns ([`Steering::Skid`] unless it steers its wheels): the slip
+    /// learners choose their slip inputs from it.
+    fn steering(&self) -> Steering {
+        Steering::Skid
+    }
+
+    /// The columns of the measured inputs in the DRIVE logger's raw CSV; by default the
+    /// window CSV's (the axes' `measured_column`).
+    fn logger_measured_columns(&self) -> [&'static str; 2] {
+        let [a, b] = self.axes();
+        [a.measured_column, b.measured_column]
+    }
+
     /// Boxed clone.
     fn clone_box(&self) -> Box<dyn CommandModel>;
 }
@@ -286,11 +328,7 @@ impl Clone for Box<dyn CommandModel> {
 
 impl RegistryItem for dyn CommandModel {
     fn part_tag(&self) -> Option<PartTag> {
-        let tag = serde_json::to_value(self)
-            .ok()?
-            .get("type")?
-            .as_str()?
-            .to_string();
+        let tag = vehicle_tag(self)?;
         // The type's name as its derived Debug output starts with it.
         let debug = format!("{self:?}");
         let type_name = debug
@@ -304,6 +342,27 @@ impl RegistryItem for dyn CommandModel {
             type_name,
         ))
     }
+}
+
+/// The type tag of a vehicle (`differential`, `ackermann`, ...), from its saved form.
+///
+/// ```
+/// # use drive_traits::{BodyVelocity, CommandModel, Input, InputAxis};
+/// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
+/// # #[typetag::serde(name = "tag-doc")] impl CommandModel for V {
+/// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
+/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
+/// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+/// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
+/// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
+/// assert_eq!(drive_traits::vehicle_tag(&V).as_deref(), Some("tag-doc"));
+/// ```
+pub fn vehicle_tag(v: &dyn CommandModel) -> Option<String> {
+    serde_json::to_value(v)
+        .ok()?
+        .get("type")?
+        .as_str()
+        .map(String::from)
 }
 
 /// The vehicle `v` as its concrete type `T`, when it is one (read back from its saved form):

@@ -1,7 +1,7 @@
 //! `drive import`: a raw DRIVE logger CSV into the window CSV and sidecar. The keep/drop
 //! report goes to stdout (text, or JSON with `--json`); errors to stderr.
 
-use crate::data::{import_raw, read_raw_log, write_dataset, ImportConfig};
+use crate::data::{import_raw, raw_columns, read_raw_log, write_dataset, ImportConfig};
 use crate::samplers::window_len;
 use crate::traits::RobotDescription;
 use crate::Registries;
@@ -41,7 +41,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         localization_timeout_s: args.localization_timeout,
     };
     let spec = registries.robot(&args.robot)?;
-    let log = read_raw_log(&args.raw)?;
+    let log = read_raw_log(&args.raw, &raw_columns(spec.vehicle.as_ref()))?;
     let stem = args
         .raw
         .file_stem()

@@ -69,7 +69,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     crate::data::write_dataset(&run.dataset, &args.out)?;
     if let Some(path) = &args.raw_out {
         let mut text = String::new();
-        crate::data::write_raw_log(&run.raw, &[], &mut text);
+        let columns = crate::data::raw_columns(spec.vehicle.as_ref());
+        crate::data::write_raw_log(&run.raw, &columns, &[], &mut text);
         std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
     }
     let space = match &run.characterization {

@@ -287,54 +287,80 @@ impl RateLimited {
             rate_bounds,
         };
         // Starts: the FOPDT (no effective limit) and rate limits from an eighth to eight
-        // times the observed one, with the FOPDT's time constant and delay and, as a binding
-        // limit makes the lag look slower, a time constant halved; the best seeds
-        // Nelder-Mead, restarted once with a smaller simplex.
+        // times the observed one in steps of sqrt 2, with the FOPDT's time constant and delay
+        // and, as a binding limit makes the lag look slower, a time constant halved.
+        // Nelder-Mead, restarted once with a smaller simplex, refines both the best start
+        // and the best start with a binding limit (a limit that binds rarely improves the
+        // cost little, and a search from the unlimited start does not find it); the lower
+        // cost wins.
         let start = |ln_tc: f64, ln_a: f64| vec![ln_tc, seed.delay, ln_a];
         let ln_tc = seed.time_constant.ln();
-        let mut candidates = vec![start(ln_tc, rate_bounds[1].ln())];
-        for k in -3..=3 {
-            let ln_a = (observed * 2f64.powi(k)).ln();
-            candidates.push(start(ln_tc, ln_a));
-            candidates.push(start(ln_tc - std::f64::consts::LN_2, ln_a));
+        let unlimited = start(ln_tc, rate_bounds[1].ln());
+        let mut limited = Vec::new();
+        for k in -6..=6 {
+            let ln_a = observed.ln() + 0.5 * k as f64 * std::f64::consts::LN_2;
+            limited.push(start(ln_tc, ln_a));
+            limited.push(start(ln_tc - std::f64::consts::LN_2, ln_a));
         }
         let cost = |p: &Vec<f64>| problem.cost(p).unwrap_or(f64::INFINITY);
-        let mut p = candidates
+        let best_limited = limited
             .iter()
             .min_by(|a, b| cost(a).total_cmp(&cost(b)))
             .cloned()
             .unwrap_or_else(|| start(ln_tc, observed.ln()));
+        let first = if cost(&unlimited) < cost(&best_limited) {
+            unlimited
+        } else {
+            best_limited.clone()
+        };
         let mut problem = Some(problem);
-        for scale in [1.0, 0.2] {
-            let simplex = vec![
-                p.clone(),
-                vec![p[0] + 0.25 * scale, p[1], p[2]],
-                vec![p[0], p[1] + 0.5 * dt * scale, p[2]],
-                vec![p[0], p[1], p[2] + 0.5 * scale],
-            ];
-            let optimizer = |e: argmin::core::Error| FitError::Optimizer {
-                what: what.clone(),
-                reason: e.to_string(),
-            };
-            let solver = NelderMead::new(simplex)
-                .with_sd_tolerance(1e-14)
-                .map_err(optimizer)?;
-            let current = problem.take().ok_or_else(|| FitError::Optimizer {
-                what: what.clone(),
-                reason: "the solver returned no problem".into(),
-            })?;
-            let mut result = Executor::new(current, solver)
-                .configure(|s| s.max_iters(self.fopdt.max_iters))
-                .run()
-                .map_err(optimizer)?;
-            if let Some(best) = result.state().get_best_param() {
-                p = best.clone();
+        let mut best: Option<(Vec<f64>, f64)> = None;
+        for mut p in [first, best_limited] {
+            if best.as_ref().is_some_and(|(b, _)| *b == p) {
+                continue;
             }
-            problem = result.problem.problem.take();
+            for scale in [1.0, 0.2] {
+                let simplex = vec![
+                    p.clone(),
+                    vec![p[0] + 0.25 * scale, p[1], p[2]],
+                    vec![p[0], p[1] + 0.5 * dt * scale, p[2]],
+                    vec![p[0], p[1], p[2] + 0.5 * scale],
+                ];
+                let optimizer = |e: argmin::core::Error| FitError::Optimizer {
+                    what: what.clone(),
+                    reason: e.to_string(),
+                };
+                let solver = NelderMead::new(simplex)
+                    .with_sd_tolerance(1e-14)
+                    .map_err(optimizer)?;
+                let current = problem.take().ok_or_else(|| FitError::Optimizer {
+                    what: what.clone(),
+                    reason: "the solver returned no problem".into(),
+                })?;
+                let mut result = Executor::new(current, solver)
+                    .configure(|s| s.max_iters(self.fopdt.max_iters))
+                    .run()
+                    .map_err(optimizer)?;
+                if let Some(b) = result.state().get_best_param() {
+                    p = b.clone();
+                }
+                problem = result.problem.problem.take();
+            }
+            let c = problem
+                .as_ref()
+                .and_then(|pr| pr.cost(&p).ok())
+                .unwrap_or(f64::INFINITY);
+            if best.as_ref().is_none_or(|(_, b)| c < *b) {
+                best = Some((p, c));
+            }
         }
         let problem = problem.ok_or_else(|| FitError::Optimizer {
             what: what.clone(),
             reason: "the solver returned no problem".into(),
+        })?;
+        let (p, _) = best.ok_or_else(|| FitError::Optimizer {
+            what: what.clone(),
+            reason: "no start was refined".into(),
         })?;
         let (r, _) = problem.response(&p);
         if !(r.time_constant.is_finite() && r.delay.is_finite() && r.max_rate.is_finite()) {

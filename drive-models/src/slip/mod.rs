@@ -10,4 +10,6 @@ mod none;
 mod slip_blr;
 
 pub use none::{NoSlip, NoSlipModel};
-pub use slip_blr::{slip_inputs, SlipBlr, SlipBlrModel, SlipInputs};
+pub use slip_blr::{
+    car_slip_inputs, slip_inputs, CarSlipInputs, SlipBasis, SlipBlr, SlipBlrModel, SlipInputs,
+};

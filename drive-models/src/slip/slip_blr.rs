@@ -1,6 +1,7 @@
 use crate::blr::{BlrPosterior, Prior};
 use drive_traits::{
-    BodyVelocity, BodyVelocityEstimator, FitError, SlipData, SlipLearner, SlipModel, Tagged,
+    BodyVelocity, BodyVelocityEstimator, FitError, SlipData, SlipLearner, SlipModel, Steering,
+    Tagged,
 };
 use serde::{Deserialize, Serialize};
 
@@ -37,6 +38,139 @@ pub fn slip_inputs(f: &BodyVelocity) -> SlipInputs {
     }
 }
 
+/// The slip inputs of a car-like vehicle for a commanded body velocity `f = [v, 0, v
+/// kappa]` (kappa the path curvature), per slip dimension ([`SlipBasis::Car`]):
+/// longitudinal `[f_x, f_x f_w^2]`, lateral `[f_w, |f_x| f_x f_w]`, angular `[f_w, |f_x|
+/// f_x f_w, f_x]`.
+///
+/// ```
+/// use drive_models::slip::car_slip_inputs;
+/// use drive_traits::BodyVelocity;
+/// let s = car_slip_inputs(&BodyVelocity::new(2.0, 0.0, 0.5));
+/// assert_eq!(s.x, [2.0, 0.5]);        // f_x, f_x f_w^2
+/// assert_eq!(s.y, [0.5, 2.0]);        // f_w, |f_x| f_x f_w
+/// assert_eq!(s.yaw, [0.5, 2.0, 2.0]); // f_w, |f_x| f_x f_w, f_x
+/// // Backwards, the tyres still slip against the lateral acceleration.
+/// let back = car_slip_inputs(&BodyVelocity::new(-2.0, 0.0, -0.5));
+/// assert_eq!(back.y, [-0.5, 2.0]);
+/// ```
+#[inline]
+pub fn car_slip_inputs(f: &BodyVelocity) -> CarSlipInputs {
+    // The speed times the lateral acceleration: tyre slip angles grow with the lateral
+    // acceleration, their sliding velocity with the speed.
+    let cornering = f.x.abs() * f.x * f.z;
+    CarSlipInputs {
+        x: [f.x, f.x * f.z * f.z],
+        y: [f.z, cornering],
+        yaw: [f.z, cornering, f.x],
+    }
+}
+
+/// The slip inputs of [`SlipBasis::Car`], per slip dimension.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CarSlipInputs {
+    /// x_x
+    pub x: [f64; 2],
+    /// x_y
+    pub y: [f64; 2],
+    /// x_w
+    pub yaw: [f64; 3],
+}
+
+/// Which functions of the commanded body velocity `f` each slip dimension of slip-BLR is
+/// linear in (eq. 5). The learner takes it from the vehicle ([`Steering`]) unless told.
+///
+/// - [`SlipBasis::SkidSteer`], the paper's (Sec. III-B.2): longitudinal `[f_x]` (rolling
+///   resistance), lateral `[f_x f_w]` (centrifugal force), angular `[f_x f_w, f_x, f_w]`
+///   (centrifugal force, asymmetry, skid: a skid-steer turns by scrubbing its tracks or
+///   wheels sideways, so the yaw-rate slip grows with the commanded yaw rate itself).
+/// - [`SlipBasis::Car`], for steered wheels (kinematic bicycle `f = [v, 0, v kappa]`, body
+///   frame at the rear axle), from the steady-state linear bicycle model: the axle side
+///   forces balance the lateral acceleration `a_y = f_x f_w` (`F_f = m a_y l_r / L`, `F_r =
+///   m a_y l_f / L`), each tyre slides sideways at its slip angle `F / C` times the speed
+///   `|v|`, in either direction of travel. Longitudinal `[f_x, f_x f_w^2]`: the driven
+///   wheels' slip ratio times the speed, under rolling resistance and under the cornering
+///   drag, which grows with the square of the yaw rate. Lateral `[f_w, |f_x| f_x f_w]`: the
+///   offset between the body frame and the axle that does not slide (`d w`), and the rear
+///   tyres' side-slip, `m l_f |v| a_y / (L C_r)`. Angular `[f_w, |f_x| f_x f_w, f_x]`: a
+///   steering gain error (an effective wheelbase), the understeer gradient (`w = v delta /
+///   (L + K v |v|)` with `K = m (l_r / C_f - l_f / C_r) / L`, which loses `K |f_x| f_x f_w
+///   / L` to first order), and a steering trim. A car does not skid to turn: its yaw-rate
+///   slip is not proportional to the yaw rate alone.
+///
+/// ```
+/// use drive_models::slip::SlipBasis;
+/// use drive_traits::Steering;
+/// assert_eq!(SlipBasis::for_steering(Steering::Wheels), SlipBasis::Car);
+/// assert_eq!(SlipBasis::SkidSteer.dimensions(), [1, 1, 3]);
+/// assert_eq!(SlipBasis::Car.inputs()[0], ["f_x", "f_x f_w^2"]);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SlipBasis {
+    /// The paper's basis for a skid-steer (eq. 5, Sec. III-B.2).
+    #[default]
+    SkidSteer,
+    /// A basis for a car-like vehicle with steered wheels.
+    Car,
+}
+
+impl SlipBasis {
+    /// The basis for a vehicle that turns by `steering`.
+    pub fn for_steering(steering: Steering) -> Self {
+        match steering {
+            Steering::Skid => SlipBasis::SkidSteer,
+            Steering::Wheels => SlipBasis::Car,
+        }
+    }
+
+    /// The number of slip inputs of the longitudinal, lateral and angular regressions.
+    pub fn dimensions(self) -> [usize; 3] {
+        match self {
+            SlipBasis::SkidSteer => [1, 1, 3],
+            SlipBasis::Car => [2, 2, 3],
+        }
+    }
+
+    /// The slip inputs of each regression, by name (for reports).
+    pub fn inputs(self) -> [&'static [&'static str]; 3] {
+        match self {
+            SlipBasis::SkidSteer => [&["f_x"], &["f_x f_w"], &["f_x f_w", "f_x", "f_w"]],
+            SlipBasis::Car => [
+                &["f_x", "f_x f_w^2"],
+                &["f_w", "|f_x| f_x f_w"],
+                &["f_w", "|f_x| f_x f_w", "f_x"],
+            ],
+        }
+    }
+
+    /// The basis's name in files and reports.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SlipBasis::SkidSteer => "skid-steer",
+            SlipBasis::Car => "car",
+        }
+    }
+
+    /// Appends the slip inputs of `f` to the three regressions' design rows.
+    fn push(self, f: &BodyVelocity, xs: &mut [Vec<f64>; 3]) {
+        match self {
+            SlipBasis::SkidSteer => {
+                let s = slip_inputs(f);
+                xs[0].extend_from_slice(&s.x);
+                xs[1].extend_from_slice(&s.y);
+                xs[2].extend_from_slice(&s.yaw);
+            }
+            SlipBasis::Car => {
+                let s = car_slip_inputs(f);
+                xs[0].extend_from_slice(&s.x);
+                xs[1].extend_from_slice(&s.y);
+                xs[2].extend_from_slice(&s.yaw);
+            }
+        }
+    }
+}
+
 /// The paper's slip-based BLR learner (Sec. III-B.2): one Bayesian linear regression per
 /// body dimension (eq. 5-7) of the slip `g = f - v` on the slip inputs of the commanded
 /// body velocity `f`, with `v` the body velocity measured by localization (see
@@ -48,6 +182,9 @@ pub struct SlipBlr {
     pub priors: [Prior; 3],
     /// How the measured body velocities are derived from the poses.
     pub velocity: BodyVelocityEstimator,
+    /// The slip inputs; `None` (the default): the basis of the data's vehicle
+    /// ([`SlipBasis::for_steering`]).
+    pub basis: Option<SlipBasis>,
 }
 
 impl SlipBlr {
@@ -67,9 +204,12 @@ impl SlipBlr {
     }
 }
 
-/// Fitted slip-BLR: the posteriors of the three slip regressions.
+/// Fitted slip-BLR: the posteriors of the three slip regressions on their basis.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SlipBlrModel {
+    /// The slip inputs (the paper's skid-steer basis in files that do not say).
+    #[serde(default)]
+    pub basis: SlipBasis,
     /// Posterior of the longitudinal slip.
     pub slip_x: BlrPosterior,
     /// Posterior of the lateral slip.
@@ -86,8 +226,12 @@ impl SlipLearner for SlipBlr {
     type Fitted = SlipBlrModel;
 
     fn fit(&self, data: &SlipData<'_>) -> Result<SlipBlrModel, FitError> {
+        let basis = self
+            .basis
+            .unwrap_or_else(|| SlipBasis::for_steering(data.vehicle().steering()));
+        let k = basis.dimensions();
         self.velocity.validate()?;
-        for (prior, k) in self.priors.iter().zip([1, 1, 3]) {
+        for (prior, k) in self.priors.iter().zip(k) {
             prior.validate(k)?;
         }
         if data.windows.is_empty() {
@@ -97,40 +241,48 @@ impl SlipLearner for SlipBlr {
         let mut gs: [Vec<f64>; 3] = Default::default();
         data.for_each_sample(&self.velocity, |sample| {
             let g = sample.slip();
-            let s = slip_inputs(&sample.commanded);
-            xs[0].extend_from_slice(&s.x);
-            xs[1].extend_from_slice(&s.y);
-            xs[2].extend_from_slice(&s.yaw);
+            basis.push(&sample.commanded, &mut xs);
             for d in 0..3 {
                 gs[d].push(g[d]);
             }
         });
-        let fit = |d: usize, k: usize, name: &str| {
-            BlrPosterior::fit(&xs[d], k, &gs[d], &self.priors[d], name)
-        };
+        let fit =
+            |d: usize, name: &str| BlrPosterior::fit(&xs[d], k[d], &gs[d], &self.priors[d], name);
         Ok(SlipBlrModel {
-            slip_x: fit(0, 1, "slip-BLR, longitudinal slip")?,
-            slip_y: fit(1, 1, "slip-BLR, lateral slip")?,
-            slip_yaw: fit(2, 3, "slip-BLR, angular slip")?,
+            basis,
+            slip_x: fit(0, "slip-BLR, longitudinal slip")?,
+            slip_y: fit(1, "slip-BLR, lateral slip")?,
+            slip_yaw: fit(2, "slip-BLR, angular slip")?,
         })
     }
 }
 
-/// The slip posterior means in fixed-size form, read once per rollout.
+/// The slip posterior means in fixed-size form, read once per rollout (the skid-steer
+/// basis uses the first weight of x and y).
 #[derive(Debug, Clone, Copy)]
 struct SlipWeights {
-    x: f64,
-    y: f64,
+    x: [f64; 2],
+    y: [f64; 2],
     yaw: [f64; 3],
 }
 
 impl SlipWeights {
-    /// The slip `g` of eq. 5 (posterior mean) at the slip inputs `s`.
+    /// The slip `g` of eq. 5 (posterior mean) at the skid-steer slip inputs `s`.
     #[inline]
-    fn slip(&self, s: &SlipInputs) -> BodyVelocity {
+    fn skid_steer(&self, s: &SlipInputs) -> BodyVelocity {
         BodyVelocity::new(
-            self.x * s.x[0],
-            self.y * s.y[0],
+            self.x[0] * s.x[0],
+            self.y[0] * s.y[0],
+            self.yaw[0] * s.yaw[0] + self.yaw[1] * s.yaw[1] + self.yaw[2] * s.yaw[2],
+        )
+    }
+
+    /// The slip at the car slip inputs `s`.
+    #[inline]
+    fn car(&self, s: &CarSlipInputs) -> BodyVelocity {
+        BodyVelocity::new(
+            self.x[0] * s.x[0] + self.x[1] * s.x[1],
+            self.y[0] * s.y[0] + self.y[1] * s.y[1],
             self.yaw[0] * s.yaw[0] + self.yaw[1] * s.yaw[1] + self.yaw[2] * s.yaw[2],
         )
     }
@@ -141,22 +293,44 @@ impl SlipBlrModel {
     /// body velocity `f`, relative to each regression's noise and summed over the three
     /// ([`BlrPosterior::leverage`]): large where the data seen so far says little.
     pub fn leverage(&self, f: &BodyVelocity) -> f64 {
-        let s = slip_inputs(f);
-        self.slip_x.leverage(&s.x) + self.slip_y.leverage(&s.y) + self.slip_yaw.leverage(&s.yaw)
+        let [x, y, yaw] = self.inputs(f);
+        self.slip_x.leverage(&x) + self.slip_y.leverage(&y) + self.slip_yaw.leverage(&yaw)
     }
 
-    /// The posterior means. The dimensions (1, 1, 3) hold by construction in `fit` and are
+    /// The slip inputs of `f` on the model's basis, per regression.
+    fn inputs(&self, f: &BodyVelocity) -> [Vec<f64>; 3] {
+        match self.basis {
+            SlipBasis::SkidSteer => {
+                let s = slip_inputs(f);
+                [s.x.to_vec(), s.y.to_vec(), s.yaw.to_vec()]
+            }
+            SlipBasis::Car => {
+                let s = car_slip_inputs(f);
+                [s.x.to_vec(), s.y.to_vec(), s.yaw.to_vec()]
+            }
+        }
+    }
+
+    /// The posterior means. The basis's dimensions hold by construction in `fit` and are
     /// checked by [`SlipModel::check`] for loaded files; a missing weight reads as NaN so
-    /// that a malformed model can never predict plausible numbers.
+    /// that a malformed model can never predict plausible numbers (weights beyond the
+    /// basis's read as zero and are never used).
     fn weights(&self) -> SlipWeights {
-        let at = |m: &[f64], i: usize| m.get(i).copied().unwrap_or(f64::NAN);
+        let [kx, ky, _] = self.basis.dimensions();
+        let at = |m: &[f64], i: usize, k: usize| {
+            if i < k {
+                m.get(i).copied().unwrap_or(f64::NAN)
+            } else {
+                0.0
+            }
+        };
         SlipWeights {
-            x: at(&self.slip_x.mean, 0),
-            y: at(&self.slip_y.mean, 0),
+            x: [at(&self.slip_x.mean, 0, kx), at(&self.slip_x.mean, 1, kx)],
+            y: [at(&self.slip_y.mean, 0, ky), at(&self.slip_y.mean, 1, ky)],
             yaw: [
-                at(&self.slip_yaw.mean, 0),
-                at(&self.slip_yaw.mean, 1),
-                at(&self.slip_yaw.mean, 2),
+                at(&self.slip_yaw.mean, 0, 3),
+                at(&self.slip_yaw.mean, 1, 3),
+                at(&self.slip_yaw.mean, 2, 3),
             ],
         }
     }
@@ -165,29 +339,51 @@ impl SlipBlrModel {
 #[typetag::serde(name = "slip-blr")]
 impl SlipModel for SlipBlrModel {
     fn slip(&self, f: &BodyVelocity) -> BodyVelocity {
-        self.weights().slip(&slip_inputs(f))
+        let w = self.weights();
+        match self.basis {
+            SlipBasis::SkidSteer => w.skid_steer(&slip_inputs(f)),
+            SlipBasis::Car => w.car(&car_slip_inputs(f)),
+        }
     }
 
     fn body_velocities_into(&self, f: &[BodyVelocity], out: &mut Vec<BodyVelocity>) {
         let w = self.weights();
         out.clear();
-        out.extend(f.iter().map(|f| f - w.slip(&slip_inputs(f))));
+        // The basis is chosen once per rollout, each loop has its own.
+        match self.basis {
+            SlipBasis::SkidSteer => out.extend(f.iter().map(|f| f - w.skid_steer(&slip_inputs(f)))),
+            SlipBasis::Car => out.extend(f.iter().map(|f| f - w.car(&car_slip_inputs(f)))),
+        }
     }
 
     /// The Student-t predictive variance of eq. 7 per slip dimension.
     fn slip_variance(&self, f: &BodyVelocity) -> Option<BodyVelocity> {
-        let s = slip_inputs(f);
-        Some(BodyVelocity::new(
-            self.slip_x.predictive_variance(&s.x),
-            self.slip_y.predictive_variance(&s.y),
-            self.slip_yaw.predictive_variance(&s.yaw),
-        ))
+        let v = |p: &BlrPosterior, x: &[f64]| p.predictive_variance(x);
+        Some(match self.basis {
+            SlipBasis::SkidSteer => {
+                let s = slip_inputs(f);
+                BodyVelocity::new(
+                    v(&self.slip_x, &s.x),
+                    v(&self.slip_y, &s.y),
+                    v(&self.slip_yaw, &s.yaw),
+                )
+            }
+            SlipBasis::Car => {
+                let s = car_slip_inputs(f);
+                BodyVelocity::new(
+                    v(&self.slip_x, &s.x),
+                    v(&self.slip_y, &s.y),
+                    v(&self.slip_yaw, &s.yaw),
+                )
+            }
+        })
     }
 
     fn check(&self) -> Result<(), String> {
-        self.slip_x.check(1, "slip_x")?;
-        self.slip_y.check(1, "slip_y")?;
-        self.slip_yaw.check(3, "slip_yaw")
+        let [kx, ky, kw] = self.basis.dimensions();
+        self.slip_x.check(kx, "slip_x")?;
+        self.slip_y.check(ky, "slip_y")?;
+        self.slip_yaw.check(kw, "slip_yaw")
     }
 
     fn clone_box(&self) -> Box<dyn SlipModel> {

@@ -173,6 +173,11 @@ impl CommandModel for DifferentialDrive {
         ]
     }
 
+    /// The DRIVE logger's encoder columns.
+    fn logger_measured_columns(&self) -> [&'static str; 2] {
+        ["meas_left_vel", "meas_right_vel"]
+    }
+
     fn clone_box(&self) -> Box<dyn CommandModel> {
         Box::new(self.clone())
     }

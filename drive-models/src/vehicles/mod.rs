@@ -1,6 +1,8 @@
 //! Vehicles (implementations of [`drive_traits::CommandModel`]): a new vehicle is a new file
 //! here (or in a plug-in crate) and one registration in the vehicle registry.
 
+mod ackermann;
 mod differential;
 
+pub use ackermann::Ackermann;
 pub use differential::DifferentialDrive;

@@ -1,0 +1,159 @@
+//! What every plant shares around its physics: the command clock and history (for dead
+//! times), the localization held between its updates, and the sensor noise.
+
+use crate::Measured;
+use drive_traits::{Input, Pose};
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+
+/// Sensor noise and rates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sensors {
+    /// Noise of the measured inputs, standard deviation (encoders: rad/s).
+    pub encoder_noise: f64,
+    /// ICP localization rate (Hz); poses are held between updates.
+    pub icp_rate_hz: f64,
+    /// ICP position noise (m) and yaw noise (rad), standard deviations.
+    pub icp_noise: [f64; 2],
+    /// IMU yaw-rate noise (rad/s).
+    pub imu_noise: f64,
+    /// IMU bias (rad/s).
+    pub imu_bias: f64,
+}
+
+impl Default for Sensors {
+    /// Encoders 0.05 rad/s, ICP at 10 Hz with 1 cm and 0.2 degree, IMU 0.01 rad/s with a
+    /// 0.005 rad/s bias.
+    fn default() -> Self {
+        Sensors {
+            encoder_noise: 0.05,
+            icp_rate_hz: 10.0,
+            icp_noise: [0.01, 0.0035],
+            imu_noise: 0.01,
+            imu_bias: 0.005,
+        }
+    }
+}
+
+/// A plant's clock, command history and sensors, seeded.
+///
+/// ```
+/// use drive_sim::{Instruments, Sensors};
+/// use drive_traits::{Input, Pose};
+/// let mut i = Instruments::new(Sensors::default(), 20.0, 1);
+/// i.record(Input::new(1.0, 2.0));
+/// // Commands reach the plant after their dead time; before the first, at rest.
+/// assert_eq!(i.delayed(0.01, 0.0), Input::new(1.0, 2.0));
+/// assert_eq!(i.delayed(0.01, 0.1), Input::zeros());
+/// // The localization updates at 10 Hz: every other tick at 20 Hz.
+/// let m = i.measure(Input::zeros(), [0.0; 2], Pose::new(1.0, 0.0, 0.0), 0.0);
+/// assert!(m.fresh_pose && (m.pose.x - 1.0).abs() < 0.1);
+/// i.end_tick();
+/// let m = i.measure(Input::zeros(), [0.0; 2], Pose::new(5.0, 0.0, 0.0), 0.0);
+/// assert!(!m.fresh_pose && (m.pose.x - 1.0).abs() < 0.1);
+/// ```
+#[derive(Debug, Clone)]
+pub struct Instruments {
+    /// Sensor noise and rates.
+    pub sensors: Sensors,
+    rate_hz: f64,
+    tick: usize,
+    history: Vec<Input>,
+    icp: Pose,
+    rng: Xoshiro256PlusPlus,
+}
+
+impl Instruments {
+    /// At tick 0 with no command sent, at a command rate of `rate_hz`.
+    pub fn new(sensors: Sensors, rate_hz: f64, seed: u64) -> Self {
+        Instruments {
+            sensors,
+            rate_hz,
+            tick: 0,
+            history: Vec::new(),
+            icp: Pose::zeros(),
+            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
+        }
+    }
+
+    /// Command period (s).
+    pub fn dt(&self) -> f64 {
+        1.0 / self.rate_hz
+    }
+
+    /// The start of the current tick (s).
+    pub fn time(&self) -> f64 {
+        self.tick as f64 / self.rate_hz
+    }
+
+    /// The start of the current tick (s) as the physics steps from it: `tick x dt` (the
+    /// same instant as [`Instruments::time`], rounded another way).
+    pub fn tick_start(&self) -> f64 {
+        self.tick as f64 * self.dt()
+    }
+
+    /// Records the command of the current tick.
+    pub fn record(&mut self, command: Input) {
+        self.history.push(command);
+    }
+
+    /// Ends the current tick.
+    pub fn end_tick(&mut self) {
+        self.tick += 1;
+    }
+
+    /// The command in force `delay` seconds before time `t` (zero-order hold; at rest
+    /// before the first).
+    pub fn delayed(&self, t: f64, delay: f64) -> Input {
+        let k = ((t - delay) / self.dt()).floor();
+        match self.history.len() {
+            0 => Input::zeros(),
+            _ if k < 0.0 => Input::zeros(),
+            n => self.history[(k as usize).min(n - 1)],
+        }
+    }
+
+    /// A normal draw of standard deviation `sd` (zero when `sd` is not positive).
+    pub fn noise(&mut self, sd: f64) -> f64 {
+        if sd > 0.0 {
+            Normal::new(0.0, sd).map_or(0.0, |d| d.sample(&mut self.rng))
+        } else {
+            0.0
+        }
+    }
+
+    /// What the sensors report at this tick: the localization (a noisy copy of `pose`
+    /// at the ICP rate, held between updates), the inputs with noise of standard deviation
+    /// `input_noise` per axis, and the IMU yaw rate with noise and bias.
+    pub fn measure(
+        &mut self,
+        input: Input,
+        input_noise: [f64; 2],
+        pose: Pose,
+        yaw_rate: f64,
+    ) -> Measured {
+        let period = (self.rate_hz / self.sensors.icp_rate_hz).round().max(1.0) as usize;
+        let fresh_pose = self.tick % period == 0;
+        if fresh_pose {
+            let [sp, sy] = self.sensors.icp_noise;
+            self.icp = Pose::new(
+                pose.x + self.noise(sp),
+                pose.y + self.noise(sp),
+                pose.z + self.noise(sy),
+            );
+        }
+        let input = Input::new(
+            input.x + self.noise(input_noise[0]),
+            input.y + self.noise(input_noise[1]),
+        );
+        let imu_yaw_rate = yaw_rate + self.sensors.imu_bias + self.noise(self.sensors.imu_noise);
+        Measured {
+            t: self.time(),
+            input,
+            pose: self.icp,
+            fresh_pose,
+            imu_yaw_rate,
+        }
+    }
+}
