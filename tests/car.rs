@@ -279,4 +279,16 @@ fn car_and_skid_steer_parts_that_do_not_fit_are_refused_clearly() {
         &husky_sidecar.display().to_string(),
     ]);
     assert!(e.contains("cmd_left"), "{e}");
+    // A skid-steer's manufacturer limits drawn over a car's data.
+    let e = user_error(&[
+        "report",
+        "--data",
+        &csv.display().to_string(),
+        "--robot",
+        "husky",
+        "--out",
+        &dir.path().join("rep").display().to_string(),
+    ]);
+    assert!(e.contains("differential") && e.contains("ackermann"), "{e}");
+    assert!(!dir.path().join("rep").exists());
 }

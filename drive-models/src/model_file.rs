@@ -130,6 +130,25 @@ pub fn model_from_json(
         file: file.into(),
         field: "model",
     })?;
+    // A model that carries its vehicle must carry the robot's: the command columns come
+    // from the one, the physics from the other.
+    if let Some(vehicle) = model.get("vehicle") {
+        // Both as written by the vehicle's own type (so that 1 and 1.0 are the same).
+        let saved = |v: &dyn drive_traits::CommandModel| serde_json::to_value(v).ok();
+        let theirs = serde_json::from_value::<Box<dyn drive_traits::CommandModel>>(vehicle.clone())
+            .ok()
+            .and_then(|v| saved(v.as_ref()));
+        let robots = saved(robot.vehicle.as_ref());
+        if theirs.is_some() && theirs != robots {
+            return Err(ModelFileError::Model {
+                file: file.into(),
+                message: format!(
+                    "the model's vehicle {vehicle} is not the robot's {}",
+                    robots.unwrap_or_default()
+                ),
+            });
+        }
+    }
     let model: Box<dyn MotionModel> =
         serde_json::from_value(model).map_err(|e| ModelFileError::Model {
             file: file.into(),

@@ -411,6 +411,19 @@ fn slip_blr_files_without_a_basis_are_the_papers() {
     let text = model_to_json(&car, &cr).unwrap();
     let mislabelled = text.replace("\"basis\": \"car\"", "\"basis\": \"skid-steer\"");
     assert!(model_from_json("m.json", &mislabelled).is_err());
+    // A model whose vehicle is not its robot's: the commands would be read as one and
+    // rolled out as the other.
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["model"]["vehicle"] =
+        serde_json::json!({"type": "differential", "wheel_radius": 0.165, "baseline": 0.55});
+    let err = model_from_json("m.json", &v.to_string()).unwrap_err();
+    assert!(err.to_string().contains("is not the robot's"), "{err}");
+    // The same vehicle written with integers is the same vehicle.
+    let car = serde_json::json!({"type": "ackermann", "wheelbase": 1, "max_steering": 0.4});
+    v["model"]["vehicle"] = car.clone();
+    v["robot"]["vehicle"] =
+        serde_json::json!({"type": "ackermann", "wheelbase": 1.0, "max_steering": 0.4});
+    assert!(model_from_json("m.json", &v.to_string()).is_ok());
 }
 
 #[test]

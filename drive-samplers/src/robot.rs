@@ -272,6 +272,12 @@ impl RobotSpec {
         let f: RobotFile = toml::from_str(text).map_err(|e| parse(e.to_string()))?;
         let vehicle: Arc<dyn CommandModel> = match (&f.vehicle, f.wheel_radius, f.baseline) {
             (Some(v), None, None) => {
+                if let Some((key, x)) = non_finite(v, "vehicle") {
+                    return Err(invalid(
+                        "vehicle",
+                        format!("{key} = {x} is not a finite number"),
+                    ));
+                }
                 let json = serde_json::to_value(v).map_err(|e| parse(e.to_string()))?;
                 let v: Box<dyn CommandModel> = serde_json::from_value(json)
                     .map_err(|e| invalid("vehicle", format!("not a known vehicle: {e}")))?;
@@ -329,7 +335,14 @@ impl RobotSpec {
         };
         let mut input_limits = None;
         if let Some((field, [[a0, a1], [b0, b1]])) = axis_limits {
-            let ok = [a0, a1, b0, b1].iter().all(|v| v.is_finite()) && a0 < a1 && b0 < b1;
+            let finite = [a0, a1, b0, b1].iter().all(|v| v.is_finite());
+            if finite && !((a1 - a0).is_finite() && (b1 - b0).is_finite()) {
+                return Err(invalid(
+                    field,
+                    format!("a range wider than the largest number: [[{a0:e}, {a1:e}], [{b0:e}, {b1:e}]]"),
+                ));
+            }
+            let ok = finite && a0 < a1 && b0 < b1;
             if !ok {
                 return Err(invalid(
                     field,
@@ -341,6 +354,11 @@ impl RobotSpec {
                 ));
             }
             input_limits = InputSpace::new(Input::new(a0, b0), Input::new(a1, b1));
+            if let Some(space) = &input_limits {
+                vehicle
+                    .check_input_space(space)
+                    .map_err(|e| invalid(field, e))?;
+            }
         }
         if !(f.max_speed.is_finite() && f.max_speed > 0.0) {
             return Err(invalid(
@@ -536,5 +554,21 @@ impl RobotSpec {
     /// nominal (manufacturer's) space at `max_speed`.
     pub fn input_space(&self) -> InputSpace {
         self.input_limits.unwrap_or(self.nominal_input_space)
+    }
+}
+
+/// The first float of `value` (a TOML table, by dotted key under `path`) that is not
+/// finite: JSON, through which a vehicle is read, has no such numbers.
+fn non_finite(value: &toml::Value, path: &str) -> Option<(String, f64)> {
+    match value {
+        toml::Value::Float(x) if !x.is_finite() => Some((path.to_string(), *x)),
+        toml::Value::Table(t) => t
+            .iter()
+            .find_map(|(k, v)| non_finite(v, &format!("{path}.{k}"))),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| non_finite(v, &format!("{path}[{i}]"))),
+        _ => None,
     }
 }

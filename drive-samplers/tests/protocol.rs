@@ -286,12 +286,31 @@ fn car_robot_files_take_per_axis_rate_limits_and_a_lateral_acceleration_limit() 
             car.replace("max_steering = 0.4", "max_steering = 2.0"),
             "vehicle",
         ),
+        // Not a number where JSON has none: named, not "invalid type: null".
+        (
+            car.replace("wheelbase = 0.33", "wheelbase = nan"),
+            "vehicle",
+        ),
+        (
+            format!("input_limits = [[-3.0, 3.0], [-2.0, 2.0]]\n{car}"),
+            "input_limits",
+        ),
+        (
+            format!("input_limits = [[-1e308, 1e308], [-0.4, 0.4]]\n{car}"),
+            "input_limits",
+        ),
     ];
     for (text, field) in invalid {
         match RobotSpec::from_toml("car.toml", &text).unwrap_err() {
             RobotError::Invalid {
                 field: f, message, ..
-            } => assert_eq!(f, field, "{message}"),
+            } => {
+                assert_eq!(f, field, "{message}");
+                assert!(
+                    !message.contains("null") && message.len() < 200,
+                    "{message}"
+                );
+            }
             other => panic!("{field}: {other}"),
         }
     }

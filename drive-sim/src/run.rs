@@ -56,6 +56,15 @@ pub enum SimError {
     /// Nothing bounds the run.
     #[error("the run needs a duration or a number of intervals")]
     Unbounded,
+    /// The plant's state stopped being finite numbers (a geometry or rate far outside
+    /// what its physics can integrate).
+    #[error("simulating {robot}: the simulation diverged at t = {t:.2} s (its measurements are no longer finite numbers); check the robot's geometry, mass and rates")]
+    Diverged {
+        /// The robot.
+        robot: String,
+        /// When (s).
+        t: f64,
+    },
     /// The robot's vehicle cannot be simulated by the plant registered for it.
     #[error("simulating {robot}: {reason}")]
     Plant {
@@ -151,6 +160,14 @@ pub fn simulate(
     let ticks = (max_s * robot.rate_hz).ceil() as usize + 1;
     for _ in 0..ticks {
         let m = sim.measure();
+        let finite = m.input.iter().chain(m.pose.iter()).all(|v| v.is_finite())
+            && m.imu_yaw_rate.is_finite();
+        if !finite {
+            return Err(SimError::Diverged {
+                robot: robot.name.clone(),
+                t: m.t,
+            });
+        }
         let deadman = !active(m.t, |e| match e {
             Event::DeadmanReleased { from, to } => Some((*from, *to)),
             _ => None,

@@ -192,3 +192,36 @@ fn the_skid_steer_plant_refuses_a_car() {
         .expect("no car plant for a skid-steer");
     assert!(e.contains("needs an ackermann vehicle"), "{e}");
 }
+
+#[test]
+fn a_car_whose_physics_cannot_be_integrated_stops_with_a_reason() {
+    // A wheelbase of 1e308 m: the yaw inertia overflows at once.
+    let mut robot = small_car();
+    robot.vehicle = std::sync::Arc::new(Ackermann::new(1e308, 0.42));
+    let config = SimulationConfig {
+        robot,
+        terrain: Terrain::preset("gravel").unwrap(),
+        seed: 1,
+        runner: RunnerConfig {
+            max_intervals: Some(2),
+            ..RunnerConfig::default()
+        },
+        events: vec![],
+        name: "huge".into(),
+    };
+    let samplers = builtin_samplers();
+    let spec = small_car();
+    let factory = move |space| {
+        build_sampler(
+            &samplers,
+            "uniform",
+            &SamplerContext::new(&spec, 1).over(space),
+        )
+        .unwrap()
+    };
+    let Err(e) = simulate(config, &builtin_plants(), factory, None) else {
+        panic!("no dataset from a diverged simulation");
+    };
+    assert!(matches!(e, drive_sim::SimError::Diverged { .. }), "{e}");
+    assert!(e.to_string().contains("diverged"), "{e}");
+}

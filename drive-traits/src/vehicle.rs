@@ -241,6 +241,13 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
         Ok(())
     }
 
+    /// Checks input limits given for this vehicle (a steering range within +-90 degrees,
+    /// ...); `Err` says what is wrong. Any finite box by default.
+    fn check_input_space(&self, space: &InputSpace) -> Result<(), String> {
+        let _ = space;
+        Ok(())
+    }
+
     /// The geometry parameters by name, for reports.
     fn geometry(&self) -> Vec<(&'static str, f64)> {
         Vec::new()

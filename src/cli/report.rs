@@ -1,8 +1,9 @@
 //! `drive report`: report.md and the paper's figures for one dataset.
 
 use super::common::{load, names, DataArgs, ModelsArg};
+use crate::traits::vehicle_tag;
 use crate::Registries;
-use anyhow::Result;
+use anyhow::{bail, Result};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -42,6 +43,18 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let naive_input_space = match robot {
         Some(r) => {
             let spec = registries.robot(r)?;
+            let (theirs, ours) = (
+                vehicle_tag(spec.vehicle.as_ref()),
+                vehicle_tag(dataset.robot.vehicle.as_ref()),
+            );
+            if theirs != ours {
+                bail!(
+                    "the robot {}'s vehicle is {} and the data's is {}: its limits are in other input axes",
+                    spec.name,
+                    theirs.unwrap_or_default(),
+                    ours.unwrap_or_default()
+                );
+            }
             Some((
                 format!("naive input space ({} manufacturer limits)", spec.name),
                 spec.nominal_input_space,

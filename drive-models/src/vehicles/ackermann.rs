@@ -170,6 +170,18 @@ impl CommandModel for Ackermann {
         Ok(())
     }
 
+    /// A steering range strictly within +-90 degrees (where `tan` is finite).
+    fn check_input_space(&self, space: &InputSpace) -> Result<(), String> {
+        let half_turn = std::f64::consts::FRAC_PI_2;
+        if space.min.y <= -half_turn || space.max.y >= half_turn {
+            return Err(format!(
+                "the steering range [{}, {}] rad reaches +-pi/2, where a car's curvature is infinite",
+                space.min.y, space.max.y
+            ));
+        }
+        Ok(())
+    }
+
     fn geometry(&self) -> Vec<(&'static str, f64)> {
         vec![
             ("wheelbase", self.wheelbase),
