@@ -67,6 +67,9 @@ pub enum DataErrorKind {
     /// The file could not be read.
     #[error("cannot read: {0}")]
     Io(String),
+    /// The file could not be written (nothing was replaced).
+    #[error("cannot write: {0}")]
+    Write(String),
     /// The file holds no data.
     #[error("the file is empty")]
     Empty,

@@ -21,6 +21,7 @@
 
 mod error;
 mod import;
+pub mod output;
 mod raw_log;
 mod sidecar;
 mod window_csv;
@@ -30,7 +31,7 @@ pub use import::{import_raw, DropReason, ImportConfig, ImportReport, StepOutcome
 pub use raw_log::{
     parse_raw_log, raw_columns, write_raw_log, CalibState, RawLog, RawRow, RAW_COLUMNS,
 };
-pub use sidecar::{parse_sidecar, sidecar_json};
+pub use sidecar::{parse_sidecar, sidecar_json, Announced, CsvDigest};
 pub use window_csv::{columns, parse_windows, write_windows_csv, OPTIONAL_COLUMNS};
 
 use drive_traits::Dataset;
@@ -44,15 +45,29 @@ pub fn parse_dataset(
     sidecar_name: &str,
     sidecar_text: &str,
 ) -> Result<Dataset, DataError> {
-    let (robot, expected_windows) = parse_sidecar(sidecar_name, sidecar_text)?;
+    let (robot, announced) = parse_sidecar(sidecar_name, sidecar_text)?;
+    // A problem in the CSV is reported where it is; a well-formed CSV that is not the
+    // sidecar's (another run's, or edited) is refused after.
     let windows = parse_windows(csv_name, csv_text, &robot)?;
-    if let Some(n) = expected_windows {
+    if let Some(n) = announced.windows {
         if n != windows.len() {
             return Err(DataError::new(
                 Location::field(sidecar_name, "windows"),
                 DataErrorKind::Inconsistent(format!(
                     "the sidecar announces {n} windows but {csv_name} holds {}",
                     windows.len()
+                )),
+            ));
+        }
+    }
+    if let Some(expected) = announced.csv {
+        let found = CsvDigest::of(csv_text);
+        if found != expected {
+            return Err(DataError::new(
+                Location::field(sidecar_name, "csv"),
+                DataErrorKind::Inconsistent(format!(
+                    "{csv_name} is not the CSV this sidecar was written with ({} rows, checksum {:016x}; the file has {} rows, checksum {:016x}): the pair comes from two runs, or the CSV was edited (if on purpose, delete the sidecar's 'csv' field)",
+                    expected.rows, expected.fnv1a64, found.rows, found.fnv1a64
                 )),
             ));
         }
@@ -92,25 +107,51 @@ pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataE
     parse_dataset(&csv_name, &csv_text, &sidecar_name, &sidecar_text)
 }
 
-/// Writes a dataset as a window CSV at `csv` and its sidecar beside it.
+/// Writes a dataset as a window CSV at `csv` and its sidecar beside it, both or neither
+/// (see [`output::Outputs`]); the sidecar records the CSV's digest ([`CsvDigest`]).
 pub fn write_dataset(dataset: &Dataset, csv: &Path) -> Result<(), DataError> {
-    let io = |p: &Path, e: std::io::Error| {
-        DataError::new(
-            Location::file(&p.display().to_string()),
-            DataErrorKind::Io(e.to_string()),
-        )
-    };
+    let mut outputs = output::Outputs::new(&[]);
+    stage_dataset(&mut outputs, dataset, csv)?;
+    outputs.publish().map_err(|e| write_error(csv, e))?;
+    Ok(())
+}
+
+/// Stages a dataset's window CSV at `csv` and its sidecar beside it into `outputs` (which
+/// the caller publishes with its other files).
+pub fn stage_dataset(
+    outputs: &mut output::Outputs,
+    dataset: &Dataset,
+    csv: &Path,
+) -> Result<(), DataError> {
+    let side = sidecar_path(csv);
     let mut text = String::new();
     write_windows_csv(&dataset.windows, &dataset.robot, &mut text);
-    std::fs::write(csv, text).map_err(|e| io(csv, e))?;
-    let side = sidecar_path(csv);
-    let sidecar = sidecar_json(&dataset.robot, dataset.windows.len()).map_err(|e| {
+    let sidecar = sidecar_json(
+        &dataset.robot,
+        dataset.windows.len(),
+        Some(CsvDigest::of(&text)),
+    )
+    .map_err(|e| {
         DataError::new(
             Location::file(&side.display().to_string()),
             DataErrorKind::Io(e),
         )
     })?;
-    std::fs::write(&side, sidecar).map_err(|e| io(&side, e))
+    outputs.write(csv, text).map_err(|e| write_error(csv, e))?;
+    outputs
+        .write(&side, sidecar)
+        .map_err(|e| write_error(&side, e))
+}
+
+fn write_error(path: &Path, e: output::OutputError) -> DataError {
+    let reason = match e {
+        output::OutputError::Write { reason, .. } => reason,
+        e => e.to_string(),
+    };
+    DataError::new(
+        Location::file(&path.display().to_string()),
+        DataErrorKind::Write(reason),
+    )
 }
 
 /// Reads a raw log file with the standard `columns` (see [`parse_raw_log`]).
@@ -122,6 +163,11 @@ fn read_text(path: &Path) -> Result<String, DataError> {
     let name = path.display().to_string();
     let bytes = std::fs::read(path)
         .map_err(|e| DataError::new(Location::file(&name), DataErrorKind::Io(e.to_string())))?;
+    // A byte-order mark (spreadsheet exports) is not part of the text.
+    let bytes = match bytes.strip_prefix(b"\xef\xbb\xbf") {
+        Some(rest) => rest.to_vec(),
+        None => bytes,
+    };
     String::from_utf8(bytes).map_err(|e| {
         DataError::new(
             Location::file(&name),

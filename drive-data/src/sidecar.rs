@@ -6,28 +6,71 @@ use drive_traits::{CommandModel, RobotDescription};
 use serde_json::{Map, Value};
 use std::sync::Arc;
 
-/// Parses and validates a sidecar. Returns the robot description and, when the sidecar
-/// announces it, the number of windows.
+/// What a sidecar announces about its window CSV, to check the pair.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Announced {
+    /// The number of windows (`windows`).
+    pub windows: Option<usize>,
+    /// The CSV the sidecar was written with (`csv`: its rows and checksum).
+    pub csv: Option<CsvDigest>,
+}
+
+/// A window CSV's data rows and FNV-1a 64-bit checksum of its bytes: written into the
+/// sidecar by [`sidecar_json`], so that a CSV beside another run's sidecar (or edited after
+/// it) is refused instead of read with the wrong vehicle or rates.
+///
+/// ```
+/// let d = drive_data::CsvDigest::of("window,k\n0,0\n0,1\n");
+/// assert_eq!(d.rows, 2);
+/// assert_ne!(d, drive_data::CsvDigest::of("window,k\n0,0\n0,2\n"));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CsvDigest {
+    /// Data rows (lines after the header).
+    pub rows: usize,
+    /// FNV-1a (64 bit) of the file's bytes.
+    pub fnv1a64: u64,
+}
+
+impl CsvDigest {
+    /// The digest of a CSV text.
+    pub fn of(text: &str) -> CsvDigest {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in text.as_bytes() {
+            h ^= u64::from(*b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+        CsvDigest {
+            rows: text.lines().count().saturating_sub(1),
+            fnv1a64: h,
+        }
+    }
+
+    fn to_json(self) -> Value {
+        serde_json::json!({"rows": self.rows, "fnv1a64": format!("{:016x}", self.fnv1a64)})
+    }
+}
+
+/// Parses and validates a sidecar. Returns the robot description and what it announces
+/// about its CSV (the number of windows, the CSV's rows and checksum).
 ///
 /// Required fields: `name` (string), `rate_hz` (a positive number), `window_len` (an
 /// integer of at least 2) and the vehicle: `vehicle`, an object naming its type and geometry
 /// (`{"type": "differential", "wheel_radius": 0.165, "baseline": 0.55}`), or, as the DRIVE
 /// datasets have it, `wheel_radius` and `baseline` (positive numbers) for a differential
-/// drive. Optional: `robot` (string), `windows` (integer). Other fields are ignored.
+/// drive. Optional: `robot` (string), `windows` (integer), `csv` (`{"rows": integer,
+/// "fnv1a64": "16 hex digits"}`, see [`CsvDigest`]). Other fields are ignored.
 ///
 /// ```
 /// let side = r#"{"name": "run", "rate_hz": 20, "window_len": 40,
 ///                "vehicle": {"type": "differential", "wheel_radius": 0.3, "baseline": 1.2}}"#;
 /// let (robot, windows) = drive_data::parse_sidecar("run.json", side).unwrap();
 /// assert_eq!(robot.vehicle.axes()[1].measured_column, "enc_right");
-/// assert_eq!(windows, None);
+/// assert_eq!(windows, drive_data::Announced::default());
 /// let legacy = r#"{"name": "run", "rate_hz": 20, "window_len": 40, "wheel_radius": 0.3, "baseline": 1.2}"#;
 /// assert_eq!(drive_data::parse_sidecar("run.json", legacy).unwrap().0, robot);
 /// ```
-pub fn parse_sidecar(
-    file: &str,
-    text: &str,
-) -> Result<(RobotDescription, Option<usize>), DataError> {
+pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announced), DataError> {
     let bad = |field: &str, msg: String| {
         DataError::new(Location::field(file, field), DataErrorKind::BadSidecar(msg))
     };
@@ -113,6 +156,29 @@ pub fn parse_sidecar(
         )),
     };
     let windows = integer("windows", 0)?;
+    let csv = match required(obj, "csv") {
+        None => None,
+        Some(v) => {
+            let rows = v.get("rows").and_then(Value::as_u64);
+            let hash = v
+                .get("fnv1a64")
+                .and_then(Value::as_str)
+                .filter(|h| h.len() == 16)
+                .and_then(|h| u64::from_str_radix(h, 16).ok());
+            match (rows, hash) {
+                (Some(rows), Some(fnv1a64)) => Some(CsvDigest {
+                    rows: rows as usize,
+                    fnv1a64,
+                }),
+                _ => return Err(bad(
+                    "csv",
+                    format!(
+                        "expected {{\"rows\": an integer, \"fnv1a64\": 16 hex digits}}, found {v}"
+                    ),
+                )),
+            }
+        }
+    };
     Ok((
         RobotDescription {
             name,
@@ -121,7 +187,7 @@ pub fn parse_sidecar(
             window_len,
             vehicle,
         },
-        windows,
+        Announced { windows, csv },
     ))
 }
 
@@ -129,12 +195,17 @@ fn required<'a>(obj: &'a Map<String, Value>, field: &str) -> Option<&'a Value> {
     obj.get(field).filter(|v| !v.is_null())
 }
 
-/// The sidecar JSON text for a robot description and a window count; an error when the
-/// vehicle does not serialize (a plug-in vehicle with, say, a map keyed by numbers).
-pub fn sidecar_json(robot: &RobotDescription, windows: usize) -> Result<String, String> {
+/// The sidecar JSON text for a robot description, a window count and (when given) the
+/// digest of the CSV it goes with; an error when the vehicle does not serialize (a plug-in
+/// vehicle with, say, a map keyed by numbers).
+pub fn sidecar_json(
+    robot: &RobotDescription,
+    windows: usize,
+    csv: Option<CsvDigest>,
+) -> Result<String, String> {
     let vehicle = serde_json::to_value(robot.vehicle.as_ref())
         .map_err(|e| format!("the vehicle cannot be saved: {e}"))?;
-    let value = serde_json::json!({
+    let mut value = serde_json::json!({
         "name": robot.name,
         "robot": robot.robot,
         "rate_hz": robot.rate_hz,
@@ -142,6 +213,9 @@ pub fn sidecar_json(robot: &RobotDescription, windows: usize) -> Result<String, 
         "vehicle": vehicle,
         "windows": windows,
     });
+    if let Some(d) = csv {
+        value["csv"] = d.to_json();
+    }
     serde_json::to_string_pretty(&value)
         .map(|t| t + "\n")
         .map_err(|e| format!("the sidecar cannot be written: {e}"))

@@ -331,7 +331,7 @@ fn the_vehicle_form_and_the_older_form_give_the_same_dataset() {
     let b = parse_dataset("d.csv", &good().join("\n"), "d.json", VEHICLE_SIDECAR).unwrap();
     assert_eq!(a, b);
     // The writer names the vehicle.
-    let text = drive_data::sidecar_json(&a.robot, a.windows.len()).unwrap();
+    let text = drive_data::sidecar_json(&a.robot, a.windows.len(), None).unwrap();
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
     assert_eq!(v["vehicle"]["type"], "differential");
     assert_eq!(v["vehicle"]["baseline"], 0.5);
@@ -369,4 +369,49 @@ fn windows_round_trip_through_the_writer() {
     drive_data::write_dataset(&d, &csv).unwrap();
     let back = read_dataset(&csv, None).unwrap();
     assert_eq!(back, d);
+}
+
+#[test]
+fn a_csv_beside_another_runs_sidecar_is_refused() {
+    let d = parse(&good()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("rt.csv");
+    drive_data::write_dataset(&d, &csv).unwrap();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    // One sample changed by another run (same rows, same windows).
+    let lines: Vec<&str> = text.lines().collect();
+    let mut fields: Vec<&str> = lines[2].split(',').collect();
+    fields[8] = "9";
+    let edited = text.replacen(lines[2], &fields.join(","), 1);
+    assert_ne!(edited, text);
+    std::fs::write(&csv, &edited).unwrap();
+    let err = read_dataset(&csv, None).unwrap_err();
+    assert_eq!(err.location.field.as_deref(), Some("csv"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("not the CSV this sidecar was written with"),
+        "{err}"
+    );
+    // Without the digest (an edit on purpose), the pair is read.
+    let side = dir.path().join("rt.json");
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&side).unwrap()).unwrap();
+    assert_eq!(v["csv"]["rows"], lines.len() - 1);
+    v.as_object_mut().unwrap().remove("csv");
+    std::fs::write(&side, v.to_string()).unwrap();
+    assert!(read_dataset(&csv, None).is_ok());
+    // A malformed digest is named.
+    v["csv"] = serde_json::json!({"rows": 3, "fnv1a64": "xyz"});
+    std::fs::write(&side, v.to_string()).unwrap();
+    let err = read_dataset(&csv, None).unwrap_err();
+    assert_eq!(err.location.field.as_deref(), Some("csv"), "{err}");
+}
+
+#[test]
+fn a_byte_order_mark_is_accepted() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("bom.csv");
+    std::fs::write(&csv, format!("\u{feff}{}", good().join("\n"))).unwrap();
+    std::fs::write(dir.path().join("bom.json"), SIDECAR).unwrap();
+    assert_eq!(read_dataset(&csv, None).unwrap().windows.len(), 3);
 }

@@ -27,6 +27,7 @@ pub mod analysis;
 pub mod figures;
 
 use analysis::{Calibration, InputSpaceFigure, PowertrainTrace, Trajectory};
+use drive_data::output::{OutputError, Outputs};
 use drive_eval::{
     compare, compare_regions, convergence, split_by_interval, Comparison, Convergence, Mrmse,
     RegionComparison, RegionStudy, Registries,
@@ -67,14 +68,10 @@ pub enum ReportError {
     /// The dataset has no command or encoder sample.
     #[error("the dataset has no samples to draw")]
     Empty,
-    /// A file could not be written.
-    #[error("writing {path}: {reason}")]
-    Write {
-        /// The file.
-        path: String,
-        /// Why.
-        reason: String,
-    },
+    /// A file could not be written (nothing was replaced), or an output would replace an
+    /// input.
+    #[error(transparent)]
+    Write(#[from] OutputError),
 }
 
 /// What the report is made with.
@@ -247,32 +244,36 @@ impl Report {
         })
     }
 
-    /// Writes `report.md` and every figure as PNG and SVG into `dir` (created if missing);
-    /// returns the files written.
+    /// Writes `report.md` and every figure as PNG and SVG into `dir` (created if missing),
+    /// all of them or none; returns the files written.
     pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+        let mut outputs = Outputs::new(&[]);
+        self.stage(&mut outputs, dir)?;
+        Ok(outputs.publish()?)
+    }
+
+    /// Stages `report.md` and every figure as PNG and SVG in `dir` into `outputs` (which
+    /// the caller publishes); returns the files staged.
+    pub fn stage(&self, outputs: &mut Outputs, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
         register_font();
-        let failed = |path: &Path, reason: String| ReportError::Write {
-            path: path.display().to_string(),
-            reason,
-        };
-        std::fs::create_dir_all(dir).map_err(|e| failed(dir, e.to_string()))?;
         let mut files = Vec::new();
         for (name, _) in self.figures() {
             for ext in ["png", "svg"] {
                 let path = dir.join(format!("{name}.{ext}"));
-                let drawn = if ext == "png" {
-                    let root = BitMapBackend::new(&path, self.options.size).into_drawing_area();
-                    self.draw(name, &root)
-                } else {
-                    let root = SVGBackend::new(&path, self.options.size).into_drawing_area();
-                    self.draw(name, &root)
-                };
-                drawn.map_err(|e| failed(&path, e.to_string()))?;
+                outputs.write_with(&path, |temp| {
+                    if ext == "png" {
+                        let root = BitMapBackend::new(temp, self.options.size).into_drawing_area();
+                        self.draw(name, &root)
+                    } else {
+                        let root = SVGBackend::new(temp, self.options.size).into_drawing_area();
+                        self.draw(name, &root)
+                    }
+                })?;
                 files.push(path);
             }
         }
         let md = dir.join("report.md");
-        std::fs::write(&md, self.markdown()).map_err(|e| failed(&md, e.to_string()))?;
+        outputs.write(&md, self.markdown())?;
         files.push(md);
         Ok(files)
     }

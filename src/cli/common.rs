@@ -1,11 +1,12 @@
 //! What the commands share: the data arguments, the argument parser, number parsing and
 //! output as JSON or text.
 
+use crate::data::output::Outputs;
 use crate::data::{read_dataset, DataError};
 use crate::traits::Dataset;
 use anyhow::Result;
 use std::ffi::OsString;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 /// A dataset to work on.
@@ -31,6 +32,51 @@ pub struct ModelsArg {
         default_value = "naive,powertrain,slip-blr,acc-blr"
     )]
     pub models: Vec<String>,
+}
+
+impl DataArgs {
+    /// The files these arguments read (the CSV and its sidecar), for [`outputs_for`].
+    pub fn inputs(&self) -> Vec<(&'static str, PathBuf)> {
+        match &self.data {
+            None => Vec::new(),
+            Some(csv) => vec![
+                ("--data", csv.clone()),
+                (
+                    if self.sidecar.is_some() {
+                        "--sidecar"
+                    } else {
+                        "sidecar of --data"
+                    },
+                    self.sidecar
+                        .clone()
+                        .unwrap_or_else(|| crate::data::sidecar_path(csv)),
+                ),
+            ],
+        }
+    }
+}
+
+/// The robot file a `--robot` argument reads, if it names one (see `RobotSpec::load`).
+pub fn robot_input(name_or_path: &str) -> Vec<(&'static str, PathBuf)> {
+    let path = PathBuf::from(name_or_path);
+    if name_or_path.ends_with(".toml") || path.exists() {
+        vec![("--robot", path)]
+    } else {
+        Vec::new()
+    }
+}
+
+/// Staged outputs of a command that reads `inputs`, checked up front against `planned`
+/// (flag, path): an output never replaces an input or another output, and the files
+/// appear together when the command succeeds (see `drive_data::output`).
+pub fn outputs_for(
+    inputs: &[(&'static str, PathBuf)],
+    planned: &[(&str, &Path)],
+) -> Result<Outputs> {
+    let inputs: Vec<(&str, &Path)> = inputs.iter().map(|(r, p)| (*r, p.as_path())).collect();
+    let outputs = Outputs::new(&inputs);
+    outputs.check(planned)?;
+    Ok(outputs)
 }
 
 /// Loads the dataset the arguments name (the bundled Husky data by default).

@@ -1,10 +1,10 @@
 //! `drive eval`: every model fitted on the training intervals and scored on the rest.
 
-use super::common::{emit, load, names, DataArgs, ModelsArg};
+use super::common::{emit, load, names, outputs_for, DataArgs, ModelsArg};
 use crate::eval::{compare_specs, Comparison, ErrorSummary, ModelResult, PhaseSummary};
 use crate::models::ModelSpec;
 use crate::Registries;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -68,12 +68,18 @@ pub fn specs(
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let planned: Vec<(&str, &std::path::Path)> = args
+        .per_window
+        .iter()
+        .map(|p| ("--per-window", p.as_path()))
+        .collect();
+    let mut outputs = outputs_for(&args.data.inputs(), &planned)?;
     let specs = specs(registries, &args.models.models, args.powertrain.as_deref())?;
     let dataset = load(&args.data)?;
     let cmp = compare_specs(&dataset, args.split, &specs)?;
     if let Some(path) = &args.per_window {
-        std::fs::write(path, per_window_csv(&cmp))
-            .with_context(|| format!("writing {}", path.display()))?;
+        outputs.write(path, per_window_csv(&cmp))?;
+        outputs.publish()?;
     }
     emit(args.json, &cmp, table)
 }

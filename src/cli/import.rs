@@ -1,7 +1,7 @@
 //! `drive import`: a raw DRIVE logger CSV into the window CSV and sidecar. The keep/drop
 //! report goes to stdout (text, or JSON with `--json`); errors to stderr.
 
-use crate::data::{import_raw, raw_columns, read_raw_log, write_dataset, ImportConfig};
+use crate::data::{import_raw, raw_columns, read_raw_log, stage_dataset, ImportConfig};
 use crate::samplers::window_len;
 use crate::traits::RobotDescription;
 use crate::Registries;
@@ -40,6 +40,13 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         max_gap_s: args.max_gap,
         localization_timeout_s: args.localization_timeout,
     };
+    let sidecar = crate::data::sidecar_path(&args.out);
+    let mut inputs = vec![("--raw", args.raw.clone())];
+    inputs.extend(super::common::robot_input(&args.robot));
+    let mut outputs = super::common::outputs_for(
+        &inputs,
+        &[("--out", &args.out), ("sidecar of --out", &sidecar)],
+    )?;
     let spec = registries.robot(&args.robot)?;
     let log = read_raw_log(&args.raw, &raw_columns(spec.vehicle.as_ref()))?;
     let stem = args
@@ -56,7 +63,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let (data, report) = import_raw(&log, &description, &config)?;
     let failure = report.nothing_usable();
     if failure.is_none() {
-        write_dataset(&data, &args.out)?;
+        stage_dataset(&mut outputs, &data, &args.out)?;
+        outputs.publish()?;
     }
     if args.json {
         let mut v = report.to_json();

@@ -94,19 +94,40 @@ pub fn run_with(
     let text = std::fs::read_to_string(config).with_context(|| format!("reading {name}"))?;
     let sweep = SweepFile::parse(&name, &text)?;
     let base = config.parent().unwrap_or(Path::new("."));
-    let plan = sweep.plan(registries, &|s| load_source(base, s))?;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let read = Mutex::new(vec![("--config", config.to_path_buf())]);
+    let plan = sweep.plan(registries, &|s| {
+        if let Some(file) = &s.file {
+            let csv = base.join(file);
+            let sidecar = s
+                .sidecar
+                .as_ref()
+                .map_or_else(|| crate::data::sidecar_path(&csv), |side| base.join(side));
+            let mut read = read.lock().unwrap_or_else(|p| p.into_inner());
+            read.extend([
+                ("a dataset of --config", csv),
+                ("a sidecar of --config", sidecar),
+            ]);
+        }
+        load_source(base, s)
+    })?;
+    let files = ["matrix.csv", "matrix.json", "summary.md"].map(|f| out.join(f));
+    let mut outputs = super::common::outputs_for(
+        &read.into_inner().unwrap_or_else(|p| p.into_inner()),
+        &[
+            ("--out", out),
+            ("matrix.csv in --out", &files[0]),
+            ("matrix.json in --out", &files[1]),
+            ("summary.md in --out", &files[2]),
+        ],
+    )?;
     let progress = Progress::new();
     let result = run_matrix(&plan, registries, &|d, t| progress.update(d, t))?;
     progress.bar.finish_and_clear();
-    let write = |file: &str, text: String| {
-        let path = out.join(file);
-        std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
-    };
     let markdown = result.to_markdown();
-    write("matrix.csv", result.to_csv())?;
-    write("matrix.json", serde_json::to_string_pretty(&result)?)?;
-    write("summary.md", markdown.clone())?;
+    outputs.write(&files[0], result.to_csv())?;
+    outputs.write(&files[1], serde_json::to_string_pretty(&result)?)?;
+    outputs.write(&files[2], &markdown)?;
+    outputs.publish()?;
     if json {
         println!("{}", serde_json::to_string(&result)?);
     } else {

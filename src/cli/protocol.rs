@@ -2,7 +2,7 @@
 
 use crate::samplers::{build_sampler, schedule, schedule_csv, SamplerContext};
 use crate::Registries;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -28,6 +28,10 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if args.intervals == 0 {
         bail!("--intervals must be at least 1");
     }
+    let mut outputs = super::common::outputs_for(
+        &super::common::robot_input(&args.robot),
+        &[("--out", &args.out)],
+    )?;
     let spec = registries.robot(&args.robot)?;
     let mut s = build_sampler(
         &registries.samplers,
@@ -35,8 +39,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &SamplerContext::new(&spec, args.seed),
     )?;
     let rows = schedule(&spec, s.as_mut(), args.intervals);
-    std::fs::write(&args.out, schedule_csv(&spec, &rows))
-        .with_context(|| format!("writing {}", args.out.display()))?;
+    outputs.write(&args.out, schedule_csv(&spec, &rows))?;
+    outputs.publish()?;
     eprintln!(
         "{} commands ({} intervals, {:.0} s at {} Hz) for {} with the {} sampler; saved to {}",
         rows.len(),

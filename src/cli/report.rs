@@ -33,6 +33,15 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .into_iter()
         .map(String::from)
         .collect();
+    let mut inputs = args.data.inputs();
+    if let Some(r) = &args.robot {
+        inputs.extend(super::common::robot_input(r));
+    }
+    let md = args.out.join("report.md");
+    let mut outputs = super::common::outputs_for(
+        &inputs,
+        &[("--out", &args.out), ("report.md in --out", &md)],
+    )?;
     registries.models().resolve_list(&models)?;
     registries.model(&args.model)?;
     let dataset = load(&args.data)?;
@@ -70,7 +79,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         ..Default::default()
     };
     let report = crate::report::Report::build(registries, &dataset, &options)?;
-    let files = report.write(&args.out)?;
+    let files = report.stage(&mut outputs, &args.out)?;
+    outputs.publish()?;
     if let Err(reason) = &report.protocols {
         eprintln!("note: no protocol figure: {reason}");
     }

@@ -3,7 +3,7 @@
 use crate::eval::{simulate_run, SimRun};
 use crate::samplers::RunnerConfig;
 use crate::Registries;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -39,6 +39,16 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             args.duration
         );
     }
+    let sidecar = crate::data::sidecar_path(&args.out);
+    let mut planned = vec![
+        ("--out", args.out.as_path()),
+        ("sidecar of --out", &sidecar),
+    ];
+    if let Some(raw) = &args.raw_out {
+        planned.push(("--raw-out", raw));
+    }
+    let mut outputs =
+        super::common::outputs_for(&super::common::robot_input(&args.robot), &planned)?;
     let spec = registries.robot(&args.robot)?;
     let ground = registries.terrain(&args.terrain)?;
     let run = simulate_run(
@@ -66,13 +76,14 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             args.duration
         );
     }
-    crate::data::write_dataset(&run.dataset, &args.out)?;
+    crate::data::stage_dataset(&mut outputs, &run.dataset, &args.out)?;
     if let Some(path) = &args.raw_out {
         let mut text = String::new();
         let columns = crate::data::raw_columns(spec.vehicle.as_ref());
         crate::data::write_raw_log(&run.raw, &columns, &[], &mut text);
-        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+        outputs.write(path, text)?;
     }
+    outputs.publish()?;
     let space = match &run.characterization {
         None => "user-given".to_string(),
         Some(c) => {

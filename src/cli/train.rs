@@ -1,6 +1,6 @@
 //! `drive train`: one model fitted and saved as JSON.
 
-use super::common::{load, DataArgs};
+use super::common::{load, outputs_for, DataArgs};
 use crate::models::model_file::model_to_json;
 use crate::traits::WindowSet;
 use crate::Registries;
@@ -23,6 +23,7 @@ pub struct Args {
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let mut outputs = outputs_for(&args.data.inputs(), &[("--out", &args.out)])?;
     let spec = registries.model(&args.model)?;
     let dataset = load(&args.data)?;
     let train = match args.split {
@@ -34,7 +35,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .with_context(|| format!("fitting {}", args.model))?;
     let text = model_to_json(model.as_ref(), &dataset.robot)
         .with_context(|| format!("saving {}", args.model))?;
-    std::fs::write(&args.out, text).with_context(|| format!("writing {}", args.out.display()))?;
+    outputs.write(&args.out, text)?;
+    outputs.publish()?;
     eprintln!(
         "fitted {} ({}) on {} windows of {}; saved to {}",
         args.model,

@@ -1,0 +1,370 @@
+//! Outputs that never replace inputs, and that appear all together or not at all.
+//!
+//! A command names its inputs and stages each output into an [`Outputs`]: the bytes go to
+//! a temporary file beside the target (same directory, so the final rename stays on one
+//! file system). [`Outputs::publish`] renames them all into place once every one was
+//! written; dropping an unpublished [`Outputs`] (an error on the way) removes the temporary
+//! files and the directories it created, and leaves every existing file untouched.
+//!
+//! ```
+//! use drive_data::output::Outputs;
+//! let dir = tempfile::tempdir().unwrap();
+//! let data = dir.path().join("run.csv");
+//! std::fs::write(&data, "window,phase\n").unwrap();
+//!
+//! // An output on an input is refused before anything is written.
+//! let outputs = Outputs::new(&[("--data", &data)]);
+//! assert!(outputs.check(&[("--out", &data)]).is_err());
+//!
+//! let mut outputs = Outputs::new(&[("--data", &data)]);
+//! let report = dir.path().join("out/report.md");
+//! outputs.write(&report, "# Report\n").unwrap();
+//! assert!(!report.exists()); // staged only
+//! outputs.publish().unwrap();
+//! assert_eq!(std::fs::read_to_string(&report).unwrap(), "# Report\n");
+//! ```
+
+use std::fmt::Display;
+use std::io::Write as _;
+use std::path::{Component, Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use thiserror::Error;
+
+/// Why outputs were not written.
+#[derive(Debug, Error)]
+pub enum OutputError {
+    /// An output path is an input of the command, or another of its outputs.
+    #[error("{role} {} is also {other_role} {}: writing it would replace that file; choose another path", .path.display(), .other.display())]
+    Clash {
+        /// The output's flag or description (`--out`, `the sidecar of --out`).
+        role: String,
+        /// The output path as given.
+        path: PathBuf,
+        /// What else the path is (`the input --data`, `the output --raw-out`).
+        other_role: String,
+        /// That path as given.
+        other: PathBuf,
+    },
+    /// A file could not be written (nothing was published).
+    #[error("cannot write {}: {reason}", .path.display())]
+    Write {
+        /// The target path.
+        path: PathBuf,
+        /// What went wrong.
+        reason: String,
+    },
+    /// A staged file could not be moved into place.
+    #[error("cannot write {}: {reason}{}", .path.display(), published_note(.published))]
+    Publish {
+        /// The target that failed.
+        path: PathBuf,
+        /// What went wrong.
+        reason: String,
+        /// The targets already in place.
+        published: Vec<PathBuf>,
+    },
+}
+
+fn published_note(published: &[PathBuf]) -> String {
+    if published.is_empty() {
+        String::new()
+    } else {
+        let names: Vec<String> = published.iter().map(|p| p.display().to_string()).collect();
+        format!(" (already replaced: {})", names.join(", "))
+    }
+}
+
+/// A path's identity: its canonical form (symbolic links and `..` resolved as far as the
+/// path exists) and, for an existing file on Unix, its device and inode (hard links).
+#[derive(Debug, Clone)]
+struct Identity {
+    canonical: PathBuf,
+    #[cfg(unix)]
+    inode: Option<(u64, u64)>,
+}
+
+impl Identity {
+    fn of(path: &Path) -> Identity {
+        Identity {
+            canonical: canonical(path),
+            #[cfg(unix)]
+            inode: {
+                use std::os::unix::fs::MetadataExt;
+                std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+            },
+        }
+    }
+
+    fn same(&self, other: &Identity) -> bool {
+        #[cfg(unix)]
+        if let (Some(a), Some(b)) = (self.inode, other.inode) {
+            return a == b;
+        }
+        self.canonical == other.canonical
+    }
+}
+
+/// The canonical form of the longest existing ancestor of `path`, joined with the rest
+/// (normalized lexically).
+fn canonical(path: &Path) -> PathBuf {
+    let absolute = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir()
+            .map(|d| d.join(path))
+            .unwrap_or_else(|_| path.to_path_buf())
+    };
+    let mut normal = PathBuf::new();
+    for c in absolute.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                normal.pop();
+            }
+            c => normal.push(c),
+        }
+    }
+    let mut rest = Vec::new();
+    let mut head = normal.as_path();
+    loop {
+        if let Ok(c) = head.canonicalize() {
+            let mut out = c;
+            for part in rest.iter().rev() {
+                out.push(part);
+            }
+            return out;
+        }
+        match (head.parent(), head.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                head = parent;
+            }
+            _ => return normal,
+        }
+    }
+}
+
+/// Files staged for writing, published together (see the module documentation).
+#[derive(Debug, Default)]
+pub struct Outputs {
+    inputs: Vec<(String, PathBuf, Identity)>,
+    staged: Vec<(PathBuf, PathBuf, Identity)>,
+    created_dirs: Vec<PathBuf>,
+}
+
+static TEMP_COUNTER: AtomicUsize = AtomicUsize::new(0);
+
+impl Outputs {
+    /// Outputs of a command whose inputs are `inputs` (flag or description, path); paths
+    /// that do not exist are kept too (an output must not take their place either).
+    pub fn new(inputs: &[(&str, &Path)]) -> Outputs {
+        Outputs {
+            inputs: inputs
+                .iter()
+                .map(|(role, p)| {
+                    (
+                        format!("the input {role}"),
+                        p.to_path_buf(),
+                        Identity::of(p),
+                    )
+                })
+                .collect(),
+            staged: Vec::new(),
+            created_dirs: Vec::new(),
+        }
+    }
+
+    /// Checks planned outputs (flag or description, path) against the inputs, the files
+    /// staged so far and each other, before any work: an error names the two roles.
+    pub fn check(&self, outputs: &[(&str, &Path)]) -> Result<(), OutputError> {
+        let mut seen: Vec<(String, PathBuf, Identity)> = self.inputs.clone();
+        seen.extend(
+            self.staged
+                .iter()
+                .map(|(target, _, id)| ("the output".to_string(), target.clone(), id.clone())),
+        );
+        for (role, path) in outputs {
+            let id = Identity::of(path);
+            if let Some((other_role, other, _)) = seen.iter().find(|(_, _, o)| o.same(&id)) {
+                return Err(OutputError::Clash {
+                    role: role.to_string(),
+                    path: path.to_path_buf(),
+                    other_role: other_role.clone(),
+                    other: other.clone(),
+                });
+            }
+            seen.push((format!("the output {role}"), path.to_path_buf(), id));
+        }
+        Ok(())
+    }
+
+    /// Stages `bytes` to be published at `target`.
+    pub fn write(&mut self, target: &Path, bytes: impl AsRef<[u8]>) -> Result<(), OutputError> {
+        self.write_with(target, |temp| -> std::io::Result<()> {
+            let mut file = std::fs::File::create(temp)?;
+            file.write_all(bytes.as_ref())?;
+            file.sync_all()
+        })
+    }
+
+    /// Stages a file that `write` writes at the temporary path it is given (which keeps
+    /// the target's extension, for writers that choose a format by it).
+    pub fn write_with<E: Display>(
+        &mut self,
+        target: &Path,
+        write: impl FnOnce(&Path) -> Result<(), E>,
+    ) -> Result<(), OutputError> {
+        self.check(&[("the output", target)])?;
+        let failed = |reason: String| OutputError::Write {
+            path: target.to_path_buf(),
+            reason,
+        };
+        let name = target
+            .file_name()
+            .ok_or_else(|| failed("not a file name".into()))?;
+        let dir = match target.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        self.create_dir(&dir).map_err(|e| failed(e.to_string()))?;
+        if target.is_dir() {
+            return Err(failed("it is a directory".into()));
+        }
+        let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
+        let temp = dir.join(format!(
+            ".drive-tmp-{}-{n}-{}",
+            std::process::id(),
+            name.to_string_lossy()
+        ));
+        let id = Identity::of(target);
+        self.staged.push((target.to_path_buf(), temp.clone(), id));
+        write(&temp).map_err(|e| failed(e.to_string()))
+    }
+
+    /// Creates `dir` and its missing ancestors, remembering them to remove on failure.
+    fn create_dir(&mut self, dir: &Path) -> std::io::Result<()> {
+        let missing: Vec<PathBuf> = dir
+            .ancestors()
+            .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+            .map(Path::to_path_buf)
+            .collect();
+        std::fs::create_dir_all(dir)?;
+        self.created_dirs.extend(missing);
+        Ok(())
+    }
+
+    /// The targets staged so far.
+    pub fn targets(&self) -> impl Iterator<Item = &Path> {
+        self.staged.iter().map(|(t, _, _)| t.as_path())
+    }
+
+    /// Moves every staged file into place, in the order staged; returns the targets.
+    pub fn publish(mut self) -> Result<Vec<PathBuf>, OutputError> {
+        let staged = std::mem::take(&mut self.staged);
+        let mut published = Vec::new();
+        let mut pending = staged.into_iter();
+        while let Some((target, temp, _)) = pending.next() {
+            if let Err(e) = std::fs::rename(&temp, &target) {
+                // Give the rest back to Drop to remove, with this one.
+                self.staged = std::iter::once((target.clone(), temp, Identity::of(&target)))
+                    .chain(pending)
+                    .collect();
+                self.created_dirs.clear();
+                return Err(OutputError::Publish {
+                    path: target,
+                    reason: e.to_string(),
+                    published,
+                });
+            }
+            published.push(target);
+        }
+        self.created_dirs.clear();
+        Ok(published)
+    }
+}
+
+impl Drop for Outputs {
+    fn drop(&mut self) {
+        for (_, temp, _) in &self.staged {
+            let _ = std::fs::remove_file(temp);
+        }
+        // Deepest first; only directories left empty.
+        for dir in &self.created_dirs {
+            let _ = std::fs::remove_dir(dir);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_output_on_an_input_through_another_spelling_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("a.csv");
+        std::fs::write(&data, "x").unwrap();
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        let other = dir.path().join("sub/../a.csv");
+        let outputs = Outputs::new(&[("--data", &data)]);
+        let e = outputs.check(&[("--out", &other)]).unwrap_err();
+        assert!(e.to_string().contains("is also the input --data"), "{e}");
+        #[cfg(unix)]
+        {
+            let link = dir.path().join("link.csv");
+            std::fs::hard_link(&data, &link).unwrap();
+            assert!(outputs.check(&[("--out", &link)]).is_err());
+            let sym = dir.path().join("sym.csv");
+            std::os::unix::fs::symlink(&data, &sym).unwrap();
+            assert!(outputs.check(&[("--out", &sym)]).is_err());
+        }
+        // Two outputs on one new path.
+        let new = dir.path().join("new/b.json");
+        let e = outputs
+            .check(&[("--out", &new), ("the sidecar of --out", &new)])
+            .unwrap_err();
+        assert!(e.to_string().contains("is also the output --out"), "{e}");
+        assert!(outputs
+            .check(&[("--out", &dir.path().join("b.csv"))])
+            .is_ok());
+    }
+
+    #[test]
+    fn a_failed_command_leaves_nothing_and_existing_files_untouched() {
+        let dir = tempfile::tempdir().unwrap();
+        let old = dir.path().join("old.csv");
+        std::fs::write(&old, "previous").unwrap();
+        {
+            let mut outputs = Outputs::new(&[]);
+            outputs.write(&old, "new").unwrap();
+            outputs
+                .write(&dir.path().join("deep/er/x.md"), "x")
+                .unwrap();
+            let e = outputs
+                .write_with(&dir.path().join("y.png"), |_| Err("the plot failed"))
+                .unwrap_err();
+            assert!(e.to_string().starts_with("cannot write"), "{e}");
+        }
+        assert_eq!(std::fs::read_to_string(&old).unwrap(), "previous");
+        let left: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(left, vec![std::ffi::OsString::from("old.csv")]);
+    }
+
+    #[test]
+    fn published_files_replace_the_old_ones_together() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.csv"), dir.path().join("a.json"));
+        std::fs::write(&a, "old a").unwrap();
+        let mut outputs = Outputs::new(&[]);
+        outputs.write(&a, "new a").unwrap();
+        outputs.write(&b, "new b").unwrap();
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "old a");
+        assert_eq!(outputs.publish().unwrap(), vec![a.clone(), b.clone()]);
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "new a");
+        assert_eq!(std::fs::read_to_string(&b).unwrap(), "new b");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+}

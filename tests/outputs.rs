@@ -1,0 +1,329 @@
+//! Outputs never replace inputs, and appear all together or not at all: through the real
+//! command line.
+
+mod common;
+
+use common::{ok, user_error};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Every file under `dir` (recursively) with its bytes.
+fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.insert(p.clone(), std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    out
+}
+
+fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+/// A small simulated dataset (`data.csv` and its sidecar), a model and a raw log in `dir`.
+fn fixtures(dir: &Path) {
+    let at = |n: &str| s(&dir.join(n));
+    ok(&[
+        "simulate",
+        "--robot",
+        "warthog",
+        "--terrain",
+        "gravel",
+        "--duration",
+        "60",
+        "--seed",
+        "1",
+        "--out",
+        &at("data.csv"),
+        "--raw-out",
+        &at("raw.csv"),
+    ]);
+    ok(&[
+        "train",
+        "--data",
+        &at("data.csv"),
+        "--model",
+        "slip-blr",
+        "--out",
+        &at("model.json"),
+    ]);
+    std::fs::write(dir.join("sweep.toml"), "learners = [\"no-slip\"]\npowertrains = [\"commanded\"]\n\n[[datasets]]\nfile = \"data.csv\"\n").unwrap();
+}
+
+#[test]
+fn an_output_that_would_replace_an_input_is_refused_before_anything_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    fixtures(dir.path());
+    let at = |n: &str| s(&dir.path().join(n));
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(dir.path().join("data.json"), dir.path().join("link.json")).unwrap();
+    let before = snapshot(dir.path());
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "import".into(),
+                "--raw".into(),
+                at("raw.csv"),
+                "--robot".into(),
+                "warthog".into(),
+                "--out".into(),
+                at("raw.csv"),
+            ],
+            "--out",
+        ),
+        (
+            vec![
+                "import".into(),
+                "--raw".into(),
+                at("raw.csv"),
+                "--robot".into(),
+                "warthog".into(),
+                "--out".into(),
+                at("raw.json"),
+            ],
+            "sidecar of --out",
+        ),
+        (
+            vec![
+                "train".into(),
+                "--data".into(),
+                at("data.csv"),
+                "--model".into(),
+                "naive".into(),
+                "--out".into(),
+                at("data.csv"),
+            ],
+            "input --data",
+        ),
+        (
+            vec![
+                "train".into(),
+                "--data".into(),
+                at("data.csv"),
+                "--model".into(),
+                "naive".into(),
+                "--out".into(),
+                at("data.json"),
+            ],
+            "sidecar of --data",
+        ),
+        (
+            vec![
+                "train".into(),
+                "--data".into(),
+                at("data.csv"),
+                "--model".into(),
+                "naive".into(),
+                "--out".into(),
+                format!(
+                    "{}/../{}/data.json",
+                    at("."),
+                    dir.path().file_name().unwrap().to_string_lossy()
+                ),
+            ],
+            "sidecar of --data",
+        ),
+        (
+            vec![
+                "eval".into(),
+                "--data".into(),
+                at("data.csv"),
+                "--per-window".into(),
+                at("data.csv"),
+            ],
+            "--per-window",
+        ),
+        (
+            vec![
+                "simulate".into(),
+                "--robot".into(),
+                "husky".into(),
+                "--terrain".into(),
+                "tile".into(),
+                "--duration".into(),
+                "40".into(),
+                "--out".into(),
+                at("new.json"),
+            ],
+            "is also the output --out",
+        ),
+        (
+            vec![
+                "simulate".into(),
+                "--robot".into(),
+                "husky".into(),
+                "--terrain".into(),
+                "tile".into(),
+                "--duration".into(),
+                "40".into(),
+                "--out".into(),
+                at("new.csv"),
+                "--raw-out".into(),
+                at("new.json"),
+            ],
+            "--raw-out",
+        ),
+        (
+            vec![
+                "report".into(),
+                "--data".into(),
+                at("data.csv"),
+                "--out".into(),
+                at("data.csv"),
+            ],
+            "--out",
+        ),
+        (
+            vec![
+                "matrix".into(),
+                "--config".into(),
+                at("sweep.toml"),
+                "--out".into(),
+                at("data.csv"),
+            ],
+            "a dataset of --config",
+        ),
+    ];
+    #[cfg(unix)]
+    let cases = {
+        let mut c = cases;
+        c.push((
+            vec![
+                "train".into(),
+                "--data".into(),
+                at("data.csv"),
+                "--model".into(),
+                "naive".into(),
+                "--out".into(),
+                at("link.json"),
+            ],
+            "sidecar of --data",
+        ));
+        c
+    };
+    for (args, says) in &cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let err = user_error(&args);
+        assert!(
+            err.contains("would replace") && err.contains(says),
+            "{args:?}: {err}"
+        );
+        assert_eq!(
+            snapshot(dir.path()),
+            before,
+            "{args:?} changed the directory"
+        );
+    }
+}
+
+/// Runs `drive` with `args` under a file-size limit of a few kilobytes (SIGXFSZ ignored, so
+/// that a write beyond it fails with an error instead of killing the process).
+fn drive_with_small_file_limit(args: &[&str]) -> std::process::Output {
+    let quoted: Vec<String> = args.iter().map(|a| format!("'{a}'")).collect();
+    Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "trap '' XFSZ; ulimit -f 8 && exec '{}' {}",
+            env!("CARGO_BIN_EXE_drive"),
+            quoted.join(" ")
+        ))
+        .output()
+        .expect("sh runs")
+}
+
+#[cfg(unix)]
+#[test]
+fn a_failed_write_leaves_the_previous_files_byte_identical() {
+    let dir = tempfile::tempdir().unwrap();
+    fixtures(dir.path());
+    let at = |n: &str| s(&dir.path().join(n));
+    ok(&["report", "--data", &at("data.csv"), "--out", &at("rep")]);
+    let before = snapshot(dir.path());
+    let runs: [Vec<String>; 3] = [
+        // A new CSV and sidecar over the old pair.
+        [
+            "simulate",
+            "--robot",
+            "warthog",
+            "--terrain",
+            "snow",
+            "--duration",
+            "60",
+            "--seed",
+            "2",
+            "--out",
+            &at("data.csv"),
+        ]
+        .map(String::from)
+        .to_vec(),
+        // A report over the old report.
+        [
+            "report",
+            "--data",
+            &at("data.csv"),
+            "--out",
+            &at("rep"),
+            "--models",
+            "naive,slip-blr",
+        ]
+        .map(String::from)
+        .to_vec(),
+        // A report into a new folder: nothing left behind.
+        ["report", "--data", &at("data.csv"), "--out", &at("new/rep")]
+            .map(String::from)
+            .to_vec(),
+    ];
+    for args in &runs {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = drive_with_small_file_limit(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains("cannot write"), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        let after = snapshot(dir.path());
+        assert_eq!(
+            after.keys().collect::<Vec<_>>(),
+            before.keys().collect::<Vec<_>>(),
+            "{args:?}: files added or removed"
+        );
+        assert!(after == before, "{args:?}: a file changed");
+        assert!(!dir.path().join("new").exists());
+    }
+}
+
+#[test]
+fn a_csv_beside_another_runs_sidecar_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let at = |n: &str| s(&dir.path().join(n));
+    for (name, seed) in [("a.csv", "1"), ("b.csv", "2")] {
+        ok(&[
+            "simulate",
+            "--robot",
+            "husky",
+            "--terrain",
+            "tile",
+            "--duration",
+            "40",
+            "--seed",
+            seed,
+            "--out",
+            &at(name),
+        ]);
+    }
+    std::fs::copy(dir.path().join("b.csv"), dir.path().join("a.csv")).unwrap();
+    let err = user_error(&["eval", "--data", &at("a.csv")]);
+    assert!(
+        err.contains("a.json, field 'csv'")
+            && err.contains("not the CSV this sidecar was written with"),
+        "{err}"
+    );
+}
