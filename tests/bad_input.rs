@@ -32,6 +32,27 @@ struct Case {
     says: &'static [&'static str],
 }
 
+fn edit_model(text: &str, f: impl Fn(&mut serde_json::Value)) -> String {
+    let mut v: serde_json::Value = serde_json::from_str(text).unwrap();
+    f(&mut v);
+    v.to_string()
+}
+
+fn zero_noise(m: String) -> String {
+    edit_model(&m, |v| {
+        let p = &mut v["model"]["slip"]["slip_x"];
+        p["a"] = 0.0.into();
+        p["b"] = 0.0.into();
+    })
+}
+
+fn indefinite_covariance(m: String) -> String {
+    edit_model(&m, |v| {
+        let c = &mut v["model"]["slip"]["slip_yaw"]["covariance"];
+        c[0] = (-1.0).into();
+    })
+}
+
 fn keep(s: String) -> String {
     s
 }
@@ -143,6 +164,37 @@ fn cases() -> Vec<Case> {
             args: &["simulate", "--robot", "husky", "--terrain", "sand", "--duration", "30", "--out", "{out}"], says: &["unknown terrain 'sand'"] },
         Case { name: "zero intervals", file: File::None,
             args: &["protocol", "--robot", "husky", "--intervals", "0", "--out", "{out}"], says: &["--intervals must be at least 1"] },
+        // Sizes that drive memory or run time: refused up front, naming the limit.
+        Case { name: "sidecar tiny rate", file: ds(keep, |s| s.replace("\"rate_hz\": 20.0", "\"rate_hz\": 0.001")),
+            args: &["eval", "--data", "{data}"], says: &["field 'rate_hz'", "outside the supported 1 to 1000 Hz"] },
+        Case { name: "sidecar huge window", file: ds(keep, |s| s.replace("\"window_len\": 40", "\"window_len\": 1000000000000")),
+            args: &["eval", "--data", "{data}"], says: &["field 'window_len'", "limit of 100000"] },
+        Case { name: "robot huge top speed", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = 0.5\nmax_speed = 1e308\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),
+            args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["field 'max_speed'", "1e308 m/s"] },
+        Case { name: "robot huge rate", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = 0.5\nmax_speed = 1\nrate_hz = 1e9\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),
+            args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["field 'rate_hz'", "limit of 1000 Hz"] },
+        Case { name: "too many intervals", file: File::None,
+            args: &["protocol", "--robot", "husky", "--intervals", "1000000000", "--out", "{out}"], says: &["--intervals = 1e9", "--max-samples"] },
+        Case { name: "too long a simulation", file: File::None,
+            args: &["simulate", "--robot", "husky", "--terrain", "tile", "--duration", "1e12", "--out", "{out}"], says: &["limit of 1e7", "--max-samples"] },
+        Case { name: "too many seeds", file: File::None,
+            args: &["compare-protocols", "--seeds", "1000000000"], says: &["--seeds = 1e9", "limit of 1000"] },
+        Case { name: "too many draws", file: File::None,
+            args: &["compare-protocols", "--real", "--draws", "1000000000"], says: &["--draws = 1e9", "limit of 10000"] },
+        Case { name: "csv corrupted number", file: ds(|t| replace_line(&t, 12, |l| set_field(l, 8, "1e308")), keep),
+            args: &["eval", "--data", "{data}"], says: &["data.csv, line 12, column 'x'", "1e308 is beyond +-1e9"] },
+        Case { name: "negative split", file: File::None, args: &["eval", "--split", "-0.1"], says: &["split fraction -0.1"] },
+        // Model files validated on load.
+        Case { name: "model zero noise", file: File::Model(zero_noise),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "must be positive"] },
+        Case { name: "model indefinite covariance", file: File::Model(indefinite_covariance),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "not positive definite"] },
+        Case { name: "model powertrain step", file: File::Model(|m| edit_model(&m, |v| v["model"]["powertrain"]["dt"] = 0.1.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "powertrain's step 0.1 s is not the model's 0.05 s"] },
+        Case { name: "model robot rate", file: File::Model(|m| edit_model(&m, |v| v["robot"]["rate_hz"] = 10.0.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "not the robot's command period"] },
+        Case { name: "prediction beyond the model", file: File::None,
+            args: &["predict", "--model", "{model}", "--commands", "{commands}", "--start-wheels", "1e308,1e308"], says: &["not a finite number from step"] },
     ]
 }
 
@@ -207,6 +259,7 @@ fn every_bad_input_is_refused_clearly() {
             File::Robot(text) => std::fs::write(at("robot.toml"), text).unwrap(),
             File::Model(f) => std::fs::write(at("model.json"), f(model.clone())).unwrap(),
             File::None => {
+                std::fs::write(at("model.json"), &model).unwrap();
                 if case.args.contains(&"{data}") {
                     std::fs::write(at("data.csv"), &csv).unwrap();
                 }

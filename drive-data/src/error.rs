@@ -1,3 +1,4 @@
+use drive_traits::limits::Short;
 use std::fmt;
 use thiserror::Error;
 
@@ -70,6 +71,9 @@ pub enum DataErrorKind {
     /// The file could not be written (nothing was replaced).
     #[error("cannot write: {0}")]
     Write(String),
+    /// A number far outside anything physical.
+    #[error("{0}")]
+    Implausible(String),
     /// The file holds no data.
     #[error("the file is empty")]
     Empty,
@@ -137,7 +141,7 @@ pub enum DataErrorKind {
     #[error("the phase changes inside window {0}")]
     PhaseChangesInWindow(usize),
     /// The time column disagrees with k / rate_hz.
-    #[error("t = {found} but k / rate_hz = {expected} (is the sidecar's rate_hz right?)")]
+    #[error("t = {} but k / rate_hz = {} (is the sidecar's rate_hz right?)", Short(*.found), Short(*.expected))]
     TimeMismatch {
         /// k / rate_hz
         expected: f64,
@@ -178,6 +182,24 @@ impl DataError {
     pub fn new(location: Location, kind: DataErrorKind) -> Self {
         DataError { location, kind }
     }
+}
+
+/// Parses a measured or commanded value: a finite number within
+/// `drive_traits::limits::MAX_ABS_MEASUREMENT`.
+pub(crate) fn parse_measurement(raw: &str, at: impl Fn() -> Location) -> Result<f64, DataError> {
+    let v = parse_number(raw, &at)?;
+    let limit = drive_traits::limits::MAX_ABS_MEASUREMENT;
+    if v.abs() > limit {
+        return Err(DataError::new(
+            at(),
+            DataErrorKind::Implausible(format!(
+                "{} is beyond +-{} (not a physical value; a corrupted number?)",
+                Short(v),
+                Short(limit)
+            )),
+        ));
+    }
+    Ok(v)
 }
 
 /// Parses a finite number; `at` locates the value for the error.

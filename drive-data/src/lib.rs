@@ -124,6 +124,24 @@ pub fn stage_dataset(
     csv: &Path,
 ) -> Result<(), DataError> {
     let side = sidecar_path(csv);
+    // No NaN or infinity is written: the reader would refuse the file.
+    let bad = dataset.windows.iter().find(|w| {
+        let inputs = w.command.iter().chain(&w.measured).flat_map(|u| u.iter());
+        let poses = w.pose.iter().flat_map(|p| p.iter());
+        !inputs
+            .chain(poses)
+            .chain(&w.imu_yaw_rate)
+            .all(|v| v.is_finite())
+    });
+    if let Some(w) = bad {
+        return Err(DataError::new(
+            Location::file(&csv.display().to_string()),
+            DataErrorKind::Write(format!(
+                "window {} holds a value that is not a finite number",
+                w.index
+            )),
+        ));
+    }
     let mut text = String::new();
     write_windows_csv(&dataset.windows, &dataset.robot, &mut text);
     let sidecar = sidecar_json(

@@ -1,7 +1,7 @@
 //! The DRIVE logger's raw CSV: one row per command tick, as the paper's ROS 2 logger node
 //! exports it (see `data/README.md`).
 
-use crate::error::parse_number;
+use crate::error::{parse_measurement, parse_number};
 use crate::{DataError, DataErrorKind, Location};
 use drive_traits::{CommandModel, Input};
 use std::fmt::Write as _;
@@ -273,7 +273,7 @@ pub fn parse_raw_log(
         }
         let field = |slot: usize| fields[position[slot]];
         let at = |slot: usize| move || Location::cell(file, line, columns[slot]);
-        let num = |slot: usize| parse_number(field(slot), at(slot));
+        let num = |slot: usize| parse_measurement(field(slot), at(slot));
         let time_ns = parse_time(field(0), at(0))?;
         if time_ns <= 0 {
             return Err(DataError::new(

@@ -2,6 +2,7 @@
 
 use crate::{DataError, DataErrorKind, Location};
 use drive_models::DifferentialDrive;
+use drive_traits::limits::{self, Short};
 use drive_traits::{CommandModel, RobotDescription};
 use serde_json::{Map, Value};
 use std::sync::Arc;
@@ -98,7 +99,10 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
         if x.is_finite() && x > 0.0 {
             Ok(x)
         } else {
-            Err(bad(field, format!("expected a positive number, found {x}")))
+            Err(bad(
+                field,
+                format!("expected a positive number, found {}", Short(x)),
+            ))
         }
     };
     let integer = |field: &str, min: u64| -> Result<Option<usize>, DataError> {
@@ -129,12 +133,30 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
         None => String::new(),
     };
     let rate_hz = positive("rate_hz")?;
+    if !(limits::MIN_RATE_HZ..=limits::MAX_RATE_HZ).contains(&rate_hz) {
+        return Err(bad(
+            "rate_hz",
+            format!(
+                "{} Hz is outside the supported {} to {} Hz",
+                Short(rate_hz),
+                limits::MIN_RATE_HZ,
+                limits::MAX_RATE_HZ
+            ),
+        ));
+    }
     let window_len = integer("window_len", 2)?.ok_or_else(|| {
         bad(
             "window_len",
             "missing field (samples per window, an integer >= 2)".into(),
         )
     })?;
+    limits::at_most(
+        "window_len",
+        window_len as f64,
+        limits::MAX_WINDOW_LEN as f64,
+        "",
+    )
+    .map_err(|e| bad("window_len", e.to_string()))?;
     let vehicle: Arc<dyn CommandModel> = match required(obj, "vehicle") {
         Some(v) => {
             for field in ["wheel_radius", "baseline"] {
@@ -170,12 +192,14 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
                     rows: rows as usize,
                     fnv1a64,
                 }),
-                _ => return Err(bad(
-                    "csv",
-                    format!(
+                _ => {
+                    return Err(bad(
+                        "csv",
+                        format!(
                         "expected {{\"rows\": an integer, \"fnv1a64\": 16 hex digits}}, found {v}"
                     ),
-                )),
+                    ))
+                }
             }
         }
     };

@@ -191,7 +191,11 @@ pub fn parse_windows(
                 };
                 continue;
             }
-            let v = crate::error::parse_number(raw, at)?;
+            let v = if slot == WINDOW || slot == K {
+                crate::error::parse_number(raw, at)?
+            } else {
+                crate::error::parse_measurement(raw, at)?
+            };
             if (slot == WINDOW || slot == K) && (v < 0.0 || v.fract() != 0.0 || v > u32::MAX as f64)
             {
                 return Err(DataError::new(

@@ -8,6 +8,7 @@ use crate::{
 };
 use drive_samplers::{RobotSpec, SamplerError};
 use drive_sim::{SimError, Simulation, Terrain};
+use drive_traits::limits;
 use drive_traits::{FitError, RegistryError};
 use serde::Serialize;
 use thiserror::Error;
@@ -48,6 +49,9 @@ pub enum ExperimentError {
     /// A driving time shorter than one interval, or not finite.
     #[error("driving time {0} s is shorter than one {INTERVAL_S} s DRIVE interval")]
     TooShort(f64),
+    /// A size beyond its documented limit (see `drive_traits::limits`).
+    #[error(transparent)]
+    TooLarge(#[from] drive_traits::limits::TooLarge),
     /// The study lists nothing to run.
     #[error("the study has no {0}")]
     Empty(&'static str),
@@ -235,6 +239,12 @@ pub fn compare_protocols(
             return Err(ExperimentError::Empty(what));
         }
     }
+    limits::at_most(
+        "seeds",
+        study.seeds.len() as f64,
+        limits::MAX_SEEDS as f64,
+        "",
+    )?;
     let model = registries.model(&study.model)?;
     for s in &study.samplers {
         registries.samplers.get(s)?;

@@ -129,6 +129,12 @@ pub fn compare_regions(
     study: &RegionStudy,
 ) -> Result<RegionComparison, ExperimentError> {
     let model = registries.model(&study.model)?;
+    drive_traits::limits::at_most(
+        "draws",
+        study.draws as f64,
+        drive_traits::limits::MAX_DRAWS as f64,
+        "",
+    )?;
     if study.draws == 0 {
         return Err(ExperimentError::Empty("uniform draws"));
     }

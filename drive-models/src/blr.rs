@@ -1,6 +1,7 @@
 //! Bayesian linear regression with a normal-inverse-gamma posterior (paper eq. 6) and a
 //! Student-t predictive (paper eq. 7), after Murphy (2012), Sec. 7.6.3.
 
+use drive_traits::limits::Short;
 use drive_traits::FitError;
 use faer::linalg::solvers::SolveLstsq;
 use faer::Mat;
@@ -310,10 +311,25 @@ impl BlrPosterior {
                 self.covariance.len()
             ));
         }
-        if !self.all_finite() || self.a < 0.0 || self.b < 0.0 {
+        if !self.all_finite() {
             return Err(format!(
-                "{what}: non-finite or negative posterior parameters"
+                "{what}: a posterior parameter is not a finite number"
             ));
+        }
+        if !(self.a > 0.0 && self.b > 0.0) {
+            return Err(format!(
+                "{what}: the noise parameters a = {} and b = {} must be positive",
+                Short(self.a),
+                Short(self.b)
+            ));
+        }
+        let c = DMatrix::from_row_slice(k, k, &self.covariance);
+        let scale = c.amax().max(f64::MIN_POSITIVE);
+        if (&c - c.transpose()).amax() > 1e-9 * scale {
+            return Err(format!("{what}: the covariance is not symmetric"));
+        }
+        if k > 0 && c.cholesky().is_none() {
+            return Err(format!("{what}: the covariance is not positive definite"));
         }
         Ok(())
     }

@@ -182,6 +182,7 @@ impl MotionModel for ComposedModel {
         drive_traits::check_step(self.dt)?;
         self.vehicle.check()?;
         self.powertrain.check()?;
+        crate::powertrain::check_same_step(self.powertrain.as_ref(), self.dt)?;
         self.slip.check()
     }
 

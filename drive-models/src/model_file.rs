@@ -158,6 +158,17 @@ pub fn model_from_json(
         file: file.into(),
         message,
     })?;
+    let (dt, period) = (model.dt(), 1.0 / robot.rate_hz);
+    if !(robot.rate_hz.is_finite() && (dt - period).abs() <= 1e-9 * dt.max(period)) {
+        return Err(ModelFileError::Model {
+            file: file.into(),
+            message: format!(
+                "the model's step {} s is not the robot's command period 1 / {} Hz",
+                drive_traits::limits::Short(dt),
+                drive_traits::limits::Short(robot.rate_hz)
+            ),
+        });
+    }
     Ok((model, robot))
 }
 

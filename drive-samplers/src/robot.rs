@@ -4,6 +4,7 @@
 use crate::BodyLimits;
 use drive_models::vehicles::Ackermann;
 use drive_models::DifferentialDrive;
+use drive_traits::limits::{self, Short};
 use drive_traits::{
     vehicle_tag, CommandModel, Input, InputSpace, Registry, RegistryError, RegistryItem, Steering,
     Tagged,
@@ -275,7 +276,7 @@ impl RobotSpec {
                 if let Some((key, x)) = non_finite(v, "vehicle") {
                     return Err(invalid(
                         "vehicle",
-                        format!("{key} = {x} is not a finite number"),
+                        format!("{key} = {} is not a finite number", Short(x)),
                     ));
                 }
                 let json = serde_json::to_value(v).map_err(|e| parse(e.to_string()))?;
@@ -336,10 +337,13 @@ impl RobotSpec {
         let mut input_limits = None;
         if let Some((field, [[a0, a1], [b0, b1]])) = axis_limits {
             let finite = [a0, a1, b0, b1].iter().all(|v| v.is_finite());
+            let [a0s, a1s, b0s, b1s] = [a0, a1, b0, b1].map(Short);
             if finite && !((a1 - a0).is_finite() && (b1 - b0).is_finite()) {
                 return Err(invalid(
                     field,
-                    format!("a range wider than the largest number: [[{a0:e}, {a1:e}], [{b0:e}, {b1:e}]]"),
+                    format!(
+                        "a range wider than the largest number: [[{a0s}, {a1s}], [{b0s}, {b1s}]]"
+                    ),
                 ));
             }
             let ok = finite && a0 < a1 && b0 < b1;
@@ -347,9 +351,9 @@ impl RobotSpec {
                 return Err(invalid(
                     field,
                     if field == "wheel_limits" {
-                        format!("expected [omega_min, omega_max] with omega_min < omega_max, found [{a0}, {a1}]")
+                        format!("expected [omega_min, omega_max] with omega_min < omega_max, found [{a0s}, {a1s}]")
                     } else {
-                        format!("expected [min, max] with min < max on each axis, found [[{a0}, {a1}], [{b0}, {b1}]]")
+                        format!("expected [min, max] with min < max on each axis, found [[{a0s}, {a1s}], [{b0s}, {b1s}]]")
                     },
                 ));
             }
@@ -363,7 +367,7 @@ impl RobotSpec {
         if !(f.max_speed.is_finite() && f.max_speed > 0.0) {
             return Err(invalid(
                 "max_speed",
-                format!("expected a positive number, found {}", f.max_speed),
+                format!("expected a positive number, found {}", Short(f.max_speed)),
             ));
         }
         let nominal = match (vehicle.nominal_input_space(f.max_speed), input_limits) {
@@ -375,7 +379,7 @@ impl RobotSpec {
                     "max_speed",
                     format!(
                         "the nominal input space at {} m/s is not finite; expected a realistic top speed",
-                        f.max_speed
+                        Short(f.max_speed)
                     ),
                 ))
             }
@@ -476,7 +480,10 @@ impl RobotSpec {
         ];
         for (field, v) in positive {
             if !(v.is_finite() && v > 0.0) {
-                return invalid(field, &format!("expected a positive number, found {v}"));
+                return invalid(
+                    field,
+                    &format!("expected a positive number, found {}", Short(v)),
+                );
             }
         }
         // The body limits are infinite only where per-axis rate limits replace them.
@@ -486,23 +493,40 @@ impl RobotSpec {
         ] {
             let ok = v > 0.0 && (v.is_finite() || self.input_rate_limits.is_some());
             if !ok {
-                return invalid(field, &format!("expected a positive number, found {v}"));
+                return invalid(
+                    field,
+                    &format!("expected a positive number, found {}", Short(v)),
+                );
             }
         }
         if let Some(r) = self.input_rate_limits {
             if !r.iter().all(|v| v.is_finite() && *v > 0.0) {
                 return invalid(
                     "input_rate_limits",
-                    &format!("expected two positive rates, found [{}, {}]", r.x, r.y),
+                    &format!(
+                        "expected two positive rates, found [{}, {}]",
+                        Short(r.x),
+                        Short(r.y)
+                    ),
                 );
             }
+        }
+        if self.rate_hz > limits::MAX_RATE_HZ {
+            return invalid(
+                "rate_hz",
+                &format!(
+                    "{} Hz is more than the limit of {} Hz",
+                    Short(self.rate_hz),
+                    limits::MAX_RATE_HZ
+                ),
+            );
         }
         if self.rate_hz * crate::WINDOW_S < 2.0 {
             return invalid(
                 "rate_hz",
                 &format!(
                     "{} Hz gives fewer than 2 samples per {} s window; expected at least {} Hz",
-                    self.rate_hz,
+                    Short(self.rate_hz),
                     crate::WINDOW_S,
                     2.0 / crate::WINDOW_S
                 ),
@@ -515,7 +539,10 @@ impl RobotSpec {
         ] {
             if let Some(v) = v {
                 if !(v.is_finite() && v > 0.0) {
-                    return invalid(field, &format!("expected a positive number, found {v}"));
+                    return invalid(
+                        field,
+                        &format!("expected a positive number, found {}", Short(v)),
+                    );
                 }
             }
         }

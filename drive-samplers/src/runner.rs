@@ -123,6 +123,9 @@ pub struct RunnerConfig {
     pub characterization_s: f64,
     /// Whether localization is expected (watchdog, geofence, geometry identification).
     pub localization: bool,
+    /// Most samples a run may record (see `drive_traits::limits::MAX_RUN_SAMPLES`): a run
+    /// bounded beyond it is refused before it starts.
+    pub max_samples: usize,
 }
 
 impl Default for RunnerConfig {
@@ -134,6 +137,7 @@ impl Default for RunnerConfig {
             max_duration_s: None,
             characterization_s: 8.0,
             localization: true,
+            max_samples: drive_traits::limits::MAX_RUN_SAMPLES,
         }
     }
 }

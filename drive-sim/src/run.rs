@@ -65,6 +65,14 @@ pub enum SimError {
         /// When (s).
         t: f64,
     },
+    /// The run would record more samples than `RunnerConfig::max_samples`.
+    #[error("simulating {robot}: {limit}")]
+    TooLong {
+        /// The robot.
+        robot: String,
+        /// The limit and what to do.
+        limit: drive_traits::limits::TooLarge,
+    },
     /// The robot's vehicle cannot be simulated by the plant registered for it.
     #[error("simulating {robot}: {reason}")]
     Plant {
@@ -124,6 +132,17 @@ pub fn simulate(
         (None, None) => return Err(SimError::Unbounded),
     };
     let robot = config.robot.clone();
+    let samples = max_s * robot.rate_hz;
+    drive_traits::limits::at_most(
+        "the run's samples (duration x rate_hz)",
+        samples,
+        config.runner.max_samples as f64,
+        "shorten the run (drive simulate raises the limit with --max-samples)",
+    )
+    .map_err(|limit| SimError::TooLong {
+        robot: robot.name.clone(),
+        limit,
+    })?;
     let mut sim = plant_for(plants, &robot, &config.terrain, config.seed).map_err(|reason| {
         SimError::Plant {
             robot: robot.name.clone(),

@@ -27,6 +27,7 @@
 mod dataset;
 mod error;
 mod learner;
+pub mod limits;
 mod motion;
 mod pose;
 mod powertrain;

@@ -46,6 +46,12 @@ pub trait Powertrain: std::fmt::Debug + Send + Sync {
         out
     }
 
+    /// The command period (s) the powertrain's dynamics were fitted at, when they depend
+    /// on it; a model checks that it is its own. `None` by default (no dynamics).
+    fn step(&self) -> Option<f64> {
+        None
+    }
+
     /// Checks the parameters read from a file (finite, physically meaningful); `Err` says
     /// what is wrong.
     fn check(&self) -> Result<(), String> {

@@ -158,6 +158,30 @@ pub fn names(list: &[String]) -> Vec<&str> {
         .collect()
 }
 
+/// Standard output was closed by its reader (a pipe into `head`).
+#[derive(Debug)]
+pub struct ClosedPipe;
+
+impl std::fmt::Display for ClosedPipe {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("standard output closed")
+    }
+}
+
+impl std::error::Error for ClosedPipe {}
+
+/// Writes to standard output; a closed pipe is [`ClosedPipe`] (the command then ends
+/// quietly), another failure an error that says so.
+pub fn write_out(args: std::fmt::Arguments<'_>) -> Result<()> {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    match stdout.write_fmt(args).and_then(|()| stdout.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(ClosedPipe.into()),
+        Err(e) => Err(anyhow::anyhow!("cannot write to standard output: {e}")),
+    }
+}
+
 /// Prints `value` as one JSON object on stdout when `json`, else its text `table`.
 pub fn emit<T: serde::Serialize>(
     json: bool,
@@ -165,9 +189,9 @@ pub fn emit<T: serde::Serialize>(
     table: impl FnOnce(&T) -> String,
 ) -> Result<()> {
     if json {
-        println!("{}", serde_json::to_string(value)?);
+        outln!("{}", serde_json::to_string(value)?);
     } else {
-        print!("{}", table(value));
+        out!("{}", table(value));
     }
     Ok(())
 }

@@ -5,6 +5,7 @@ use crate::eval::{
     compare_protocols, compare_regions, ProtocolComparison, ProtocolStudy, RegionComparison,
     RegionStudy,
 };
+use crate::traits::limits;
 use crate::traits::Dataset;
 use crate::Registries;
 use anyhow::{bail, Result};
@@ -29,14 +30,14 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', default_value = "uniform,linear,angular")]
     samplers: Vec<String>,
     /// Number of repetitions (seeds seed, seed+1, ...).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
     seeds: usize,
     /// First seed.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
     seed: u64,
     /// Driving time of the held-out test run (s); default: the longest --duration, at
     /// least 300 s.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     test_duration: Option<f64>,
     /// Model trained on each run (a model name; see drive list).
     #[arg(long, default_value = "slip-blr")]
@@ -47,10 +48,10 @@ pub struct Args {
     #[command(flatten)]
     data: DataArgs,
     /// With --real: fraction of the intervals the regions are taken from.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     split: f64,
     /// With --real: random uniform draws per region.
-    #[arg(long, default_value_t = 25)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 25)]
     draws: usize,
     /// Print one JSON object on stdout instead of the table.
     #[arg(long)]
@@ -59,6 +60,7 @@ pub struct Args {
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if args.real || args.data.data.is_some() {
+        limits::at_most("--draws", args.draws as f64, limits::MAX_DRAWS as f64, "")?;
         let study = RegionStudy {
             split: args.split,
             model: args.model.clone(),
@@ -91,6 +93,7 @@ fn simulated(args: &Args, registries: &Registries) -> Result<()> {
     if args.seeds == 0 {
         bail!("--seeds must be at least 1");
     }
+    limits::at_most("--seeds", args.seeds as f64, limits::MAX_SEEDS as f64, "")?;
     if let Some(d) = args.duration.iter().find(|d| !(d.is_finite() && **d > 0.0)) {
         bail!("--duration must be positive seconds of driving, got {d}");
     }
@@ -100,15 +103,17 @@ fn simulated(args: &Args, registries: &Registries) -> Result<()> {
         terrains,
         samplers: samplers.iter().map(|s| s.to_string()).collect(),
         driving_s: args.duration.to_vec(),
-        seeds: (0..args.seeds as u64).map(|i| args.seed + i).collect(),
+        seeds: (0..args.seeds as u64)
+            .map(|i| args.seed.wrapping_add(i))
+            .collect(),
         test_driving_s: args.test_duration.unwrap_or(longest.max(300.0)),
         model: args.model.to_string(),
     };
     let table = compare_protocols(registries, &study)?;
     if args.json {
-        println!("{}", serde_json::to_string(&table)?);
+        outln!("{}", serde_json::to_string(&table)?);
     } else {
-        print!("{}", simulated_table(&table));
+        out!("{}", simulated_table(&table));
     }
     Ok(())
 }

@@ -9,7 +9,7 @@ pub struct Args {
     #[command(flatten)]
     data: DataArgs,
     /// Fraction of the intervals whose prefixes are trained on; the rest evaluates.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     split: f64,
     /// Model whose convergence is analysed (a model name; see drive list).
     #[arg(long, default_value = "slip-blr")]
@@ -35,29 +35,35 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let dataset = load(&args.data)?;
     let c = crate::eval::convergence(&dataset, args.split, thresholds, &spec)?;
     if args.json {
-        println!("{}", serde_json::to_string(&c)?);
+        outln!("{}", serde_json::to_string(&c)?);
         return Ok(());
     }
-    println!(
+    outln!(
         "Convergence of {} ({}) on {} (paper Fig. 7): training on the first intervals, {} evaluation windows",
         args.model,
         c.model,
         dataset.robot.name,
         c.eval_windows
     );
-    println!(
+    outln!(
         "{:>10} {:>10} {:>18} {:>18}",
-        "time [s]", "intervals", "transl. med. [m]", "rot. med. [rad]"
+        "time [s]",
+        "intervals",
+        "transl. med. [m]",
+        "rot. med. [rad]"
     );
     for p in &c.curve {
-        println!(
+        outln!(
             "{:>10.1} {:>10} {:>18.4} {:>18.4}",
-            p.training_time_s, p.intervals, p.translational_median_m, p.rotational_median_rad
+            p.training_time_s,
+            p.intervals,
+            p.translational_median_m,
+            p.rotational_median_rad
         );
     }
     if !c.skipped.is_empty() {
         let first = &c.skipped[0];
-        println!(
+        outln!(
             "not fitted with {} of the amounts of data (e.g. {} intervals: {})",
             c.skipped.len(),
             first.intervals,
@@ -65,11 +71,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         );
     }
     match c.convergence_time_s {
-        Some(t) => println!(
+        Some(t) => outln!(
             "convergence time: {t:.1} s (every later gradient under {} m/s and {} rad/s)",
-            thresholds[0], thresholds[1]
+            thresholds[0],
+            thresholds[1]
         ),
-        None => println!("convergence time: none (the curve never meets the rule)"),
+        None => outln!("convergence time: none (the curve never meets the rule)"),
     }
     Ok(())
 }

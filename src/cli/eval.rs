@@ -13,7 +13,7 @@ pub struct Args {
     #[command(flatten)]
     data: DataArgs,
     /// Fraction of the DRIVE intervals (in recording order) used for training.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     split: f64,
     #[command(flatten)]
     models: ModelsArg,
@@ -78,6 +78,20 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let dataset = load(&args.data)?;
     let cmp = compare_specs(&dataset, args.split, &specs)?;
     if let Some(path) = &args.per_window {
+        if let Some((m, w)) = cmp.models.iter().find_map(|m| {
+            m.report
+                .windows
+                .iter()
+                .find(|w| !(w.error.translational.is_finite() && w.error.rotational.is_finite()))
+                .map(|w| (m, w))
+        }) {
+            bail!(
+                "{}: the error of {} on window {} is not a finite number; nothing written",
+                path.display(),
+                m.name,
+                w.window
+            );
+        }
         outputs.write(path, per_window_csv(&cmp))?;
         outputs.publish()?;
     }

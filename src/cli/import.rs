@@ -23,10 +23,10 @@ pub struct Args {
     out: PathBuf,
     /// A time between two rows longer than this (s) cuts an interval (never less than two
     /// command periods).
-    #[arg(long, default_value_t = 0.25)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.25)]
     max_gap: f64,
     /// The longest time without a localization update inside an interval (s).
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     localization_timeout: f64,
     /// Print the keep/drop report as one JSON object on stdout.
     #[arg(long)]
@@ -72,15 +72,15 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             None => serde_json::json!(args.out.display().to_string()),
             Some(_) => serde_json::Value::Null,
         };
-        println!("{v}");
+        outln!("{v}");
     } else {
-        print!("{}", report.to_text());
+        out!("{}", report.to_text());
     }
     match failure {
         Some(why) => bail!("{why}; nothing written"),
         None => {
             if !args.json {
-                println!(
+                outln!(
                     "{} windows ({} intervals) saved to {}",
                     data.windows.len(),
                     data.windows.len() / crate::traits::WINDOWS_PER_INTERVAL,

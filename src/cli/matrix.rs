@@ -129,9 +129,9 @@ pub fn run_with(
     outputs.write(&files[2], &markdown)?;
     outputs.publish()?;
     if json {
-        println!("{}", serde_json::to_string(&result)?);
+        outln!("{}", serde_json::to_string(&result)?);
     } else {
-        print!("{markdown}");
+        out!("{markdown}");
     }
     let failed = result.cells.iter().filter(|c| c.failure.is_some()).count();
     eprintln!(

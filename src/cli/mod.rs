@@ -13,6 +13,21 @@
 //! One module per command; `common` holds what they share (the data arguments, number
 //! parsing, JSON or text output).
 
+/// `print!` to standard output that ends the command quietly when the reader has gone
+/// (`drive eval | head -1`); an error otherwise.
+macro_rules! out {
+    ($($t:tt)*) => {
+        $crate::cli::common::write_out(format_args!($($t)*))?
+    };
+}
+
+/// `println!` with the behaviour of [`out!`].
+macro_rules! outln {
+    ($($t:tt)*) => {
+        $crate::cli::common::write_out(format_args!("{}\n", format_args!($($t)*)))?
+    };
+}
+
 mod common;
 mod compare_protocols;
 mod converge;
@@ -118,6 +133,8 @@ where
         });
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of our output has gone: nothing more to say.
+        Err(e) if e.downcast_ref::<common::ClosedPipe>().is_some() => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

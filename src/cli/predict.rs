@@ -27,15 +27,23 @@ pub struct Args {
 
 /// Reads a command file with the header `t,<columns>` sampled at period `dt`.
 fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>> {
+    use std::io::BufRead as _;
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {name}"))?;
-    let mut lines = text
+    let file = std::fs::File::open(path).with_context(|| format!("reading {name}"))?;
+    // Line by line: the file is never held whole.
+    let mut lines = std::io::BufReader::new(file)
         .lines()
         .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty());
-    let Some((_, header)) = lines.next() else {
+        .map(|(i, l)| {
+            l.map(|l| (i, l))
+                .map_err(|e| anyhow::anyhow!("{name}, line {}: cannot read: {e}", i + 1))
+        })
+        .filter(|l| l.as_ref().map_or(true, |(_, l)| !l.trim().is_empty()));
+    let Some(first) = lines.next() else {
         bail!("{name}: the file is empty")
     };
+    let (_, header) = first?;
+    let header = header.trim_start_matches('\u{feff}');
     let expected = ["t", columns[0], columns[1]];
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
     if cols != expected {
@@ -46,7 +54,8 @@ fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>>
     }
     let mut out = Vec::new();
     let mut t0 = None;
-    for (i, line) in lines {
+    for line in lines {
+        let (i, line) = line?;
         let fields: Vec<&str> = line.split(',').collect();
         if fields.len() != 3 {
             bail!(
@@ -116,18 +125,32 @@ pub fn run(args: &Args) -> Result<()> {
     if !with_cov {
         model.predict_into(&start, &cmds, &mut poses);
     }
-    let mut out = String::from("k,t,x,y,yaw");
-    if with_cov {
-        out.push_str(",cov_xx,cov_xy,cov_xyaw,cov_yy,cov_yyaw,cov_yawyaw");
+    // Nothing is printed unless every predicted value is a finite number.
+    let finite = |k: usize| {
+        poses[k].iter().all(|v| v.is_finite())
+            && (!with_cov || covs[k].iter().all(|v| v.is_finite()))
+    };
+    if let Some(k) = (0..poses.len()).find(|&k| !finite(k)) {
+        bail!(
+            "the prediction is not a finite number from step {k} (t = {} s): the start state or the commands are beyond what {} can integrate",
+            crate::traits::limits::Short(k as f64 * model.dt()),
+            model.name()
+        );
     }
-    out.push('\n');
+    let mut header = String::from("k,t,x,y,yaw");
+    if with_cov {
+        header.push_str(",cov_xx,cov_xy,cov_xyaw,cov_yy,cov_yyaw,cov_yawyaw");
+    }
+    outln!("{header}");
     let rate_hz = 1.0 / model.dt();
+    // Written in chunks of about 64 kB.
+    let mut row = String::new();
     for (k, p) in poses.iter().enumerate() {
-        let _ = write!(out, "{k},{},{},{},{}", k as f64 / rate_hz, p.x, p.y, p.z);
+        let _ = write!(row, "{k},{},{},{},{}", k as f64 / rate_hz, p.x, p.y, p.z);
         if with_cov {
             let c = &covs[k];
             let _ = write!(
-                out,
+                row,
                 ",{},{},{},{},{},{}",
                 c[(0, 0)],
                 c[(0, 1)],
@@ -137,8 +160,11 @@ pub fn run(args: &Args) -> Result<()> {
                 c[(2, 2)]
             );
         }
-        out.push('\n');
+        row.push('\n');
+        if row.len() > 1 << 16 || k + 1 == poses.len() {
+            out!("{row}");
+            row.clear();
+        }
     }
-    print!("{out}");
     Ok(())
 }

@@ -1,6 +1,8 @@
 //! `drive protocol`: the DRIVE command schedule of a robot with a sampler.
 
+use crate::eval::INTERVAL_S;
 use crate::samplers::{build_sampler, schedule, schedule_csv, SamplerContext};
+use crate::traits::limits;
 use crate::Registries;
 use anyhow::{bail, Result};
 use std::path::PathBuf;
@@ -14,14 +16,17 @@ pub struct Args {
     #[arg(long, default_value = "uniform")]
     sampler: String,
     /// Number of 6 s intervals.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     intervals: usize,
     /// Seed of the sampler.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     seed: u64,
     /// Output CSV: t,interval,phase and the vehicle's command columns.
     #[arg(long)]
     out: PathBuf,
+    /// Most commands in the schedule (a guard against a mistyped --intervals).
+    #[arg(long, allow_negative_numbers = true, default_value_t = limits::MAX_RUN_SAMPLES)]
+    max_samples: usize,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
@@ -33,6 +38,18 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &[("--out", &args.out)],
     )?;
     let spec = registries.robot(&args.robot)?;
+    let samples = args.intervals as f64 * INTERVAL_S * spec.rate_hz;
+    limits::at_most(
+        "--intervals",
+        args.intervals as f64,
+        (args.max_samples as f64 / (INTERVAL_S * spec.rate_hz)).floor(),
+        &format!(
+            "{} commands at {} Hz are more than --max-samples {}",
+            limits::Short(samples),
+            spec.rate_hz,
+            args.max_samples
+        ),
+    )?;
     let mut s = build_sampler(
         &registries.samplers,
         &args.sampler,

@@ -19,7 +19,7 @@ pub struct Args {
     #[arg(long)]
     robot: Option<String>,
     /// Fraction of the DRIVE intervals (in recording order) used for training.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     split: f64,
     #[command(flatten)]
     models: ModelsArg,

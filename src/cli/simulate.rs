@@ -18,10 +18,10 @@ pub struct Args {
     #[arg(long, default_value = "uniform")]
     sampler: String,
     /// Duration of the run (s), characterization included.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     duration: f64,
     /// Seed of the sampler and of the simulator's noise.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     seed: u64,
     /// Output window CSV (its sidecar JSON is written beside it).
     #[arg(long)]
@@ -30,6 +30,10 @@ pub struct Args {
     /// import` reads).
     #[arg(long)]
     raw_out: Option<PathBuf>,
+    /// Most samples the run may record (a guard against a mistyped --duration; about
+    /// 0.2 kB of memory each).
+    #[arg(long, allow_negative_numbers = true, default_value_t = crate::traits::limits::MAX_RUN_SAMPLES)]
+    max_samples: usize,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
@@ -59,6 +63,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             sampler: args.sampler.clone(),
             runner: RunnerConfig {
                 max_duration_s: Some(args.duration),
+                max_samples: args.max_samples,
                 ..RunnerConfig::default()
             },
             seed: args.seed,

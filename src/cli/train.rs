@@ -18,7 +18,7 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Train on the first fraction of the intervals only (default: all of the data).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     split: Option<f64>,
 }
 

@@ -6,6 +6,7 @@ use crate::{intervals_in, ExperimentError, Registries};
 use drive_models::ModelSpec;
 use drive_samplers::RobotSpec;
 use drive_sim::Terrain;
+use drive_traits::limits;
 use drive_traits::{Dataset, RegistryError};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -296,6 +297,13 @@ impl SweepFile {
                 b.level, b.resamples
             )));
         }
+        limits::at_most(
+            "bootstrap.resamples",
+            b.resamples as f64,
+            limits::MAX_RESAMPLES as f64,
+            "",
+        )
+        .map_err(|e| invalid(e.to_string()))?;
         let mut datasets = Vec::new();
         for source in &self.datasets {
             let label = source.label();
@@ -325,6 +333,17 @@ impl SweepFile {
                 "the sweep has no dataset: add [[datasets]] or [simulated]".into(),
             ));
         }
+        let runs = simulated.as_ref().map_or(0, |s| {
+            s.robots.len() * s.terrains.len() * s.samplers.len() * s.durations.len() * s.seeds.len()
+        });
+        let combinations = (datasets.len() * self.splits.len() + runs) * specs.len();
+        limits::at_most(
+            "the sweep's combinations",
+            combinations as f64,
+            limits::MAX_COMBINATIONS as f64,
+            "split it into several sweeps",
+        )
+        .map_err(|e| invalid(e.to_string()))?;
         Ok(Matrix {
             datasets,
             simulated,

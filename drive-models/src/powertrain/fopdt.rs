@@ -163,6 +163,10 @@ impl Powertrain for FopdtPowertrain {
         }
     }
 
+    fn step(&self) -> Option<f64> {
+        Some(self.dt)
+    }
+
     fn check(&self) -> Result<(), String> {
         for (i, r) in self.axes.iter().enumerate() {
             if !(r.time_constant.is_finite() && r.time_constant > 0.0) {
@@ -368,7 +372,8 @@ impl Fopdt {
         let problem = SideFit {
             groups,
             dt,
-            min_tc: dt / 20.0,
+            // Below the longest time constant even for a command period of minutes.
+            min_tc: (dt / 20.0).min(0.5 * self.max_time_constant),
             max_tc: self.max_time_constant,
             max_delay: self.max_delay_fraction * duration,
             samples: samples as f64,

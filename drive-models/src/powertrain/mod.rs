@@ -16,6 +16,22 @@ pub use fopdt::{Fopdt, FopdtPowertrain, SideResponse};
 pub use rate_limited::{RateLimited, RateLimitedPowertrain, RateLimitedResponse};
 
 /// Checks a fitted powertrain's sample period and saturation limits read from a file.
+/// `Err` when `powertrain` was fitted at another command period than the model's `dt`
+/// (its time constants would be read in the wrong unit of steps).
+pub(crate) fn check_same_step(
+    powertrain: &dyn drive_traits::Powertrain,
+    dt: f64,
+) -> Result<(), String> {
+    match powertrain.step() {
+        Some(step) if (step - dt).abs() > 1e-9 * dt.abs().max(step.abs()) => Err(format!(
+            "the powertrain's step {} s is not the model's {} s",
+            drive_traits::limits::Short(step),
+            drive_traits::limits::Short(dt)
+        )),
+        _ => Ok(()),
+    }
+}
+
 pub(crate) fn check_step_and_limits(
     dt: f64,
     limits: &drive_traits::InputSpace,

@@ -133,6 +133,10 @@ impl Powertrain for RateLimitedPowertrain {
         }
     }
 
+    fn step(&self) -> Option<f64> {
+        Some(self.dt)
+    }
+
     fn check(&self) -> Result<(), String> {
         for (i, r) in self.axes.iter().enumerate() {
             for (name, v, min) in [
@@ -281,7 +285,8 @@ impl RateLimited {
             samples: windows.iter().map(|w| w.1.len()).sum::<usize>().max(1) as f64,
             windows,
             dt,
-            min_tc: dt / 20.0,
+            // Below the longest time constant even for a command period of minutes.
+            min_tc: (dt / 20.0).min(0.5 * self.fopdt.max_time_constant),
             max_tc: self.fopdt.max_time_constant,
             max_delay: self.fopdt.max_delay_fraction * duration,
             rate_bounds,
