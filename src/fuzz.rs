@@ -6,6 +6,8 @@
 //! assert!(!drive::fuzz::window_csv(b"window,phase\n0,steady\n"));
 //! assert!(!drive::fuzz::raw_log(b"\xff\xfe"));
 //! assert!(!drive::fuzz::model_file(b"{\"format_version\": 1}"));
+//! assert!(!drive::fuzz::sidecar(b"{\"rate_hz\": 1e999}"));
+//! assert!(!drive::fuzz::robot_toml(b"max_speed = 1e308"));
 //! ```
 
 use crate::data::{import_raw, parse_dataset, parse_raw_log, ImportConfig};
@@ -23,7 +25,66 @@ pub fn window_csv(bytes: &[u8]) -> bool {
         return false;
     };
     let _ = crate::data::parse_sidecar("fuzz.json", text);
-    parse_dataset("fuzz.csv", text, "fuzz.json", SIDECAR).is_ok()
+    match parse_dataset("fuzz.csv", text, "fuzz.json", SIDECAR) {
+        Ok(data) => {
+            let _ = crate::data::quality::check(&data, None);
+            true
+        }
+        Err(_) => false,
+    }
+}
+
+/// A small window CSV for the sidecar target: two 3-sample windows of a differential
+/// drive (the columns of another vehicle are refused, which is also an outcome).
+const CSV: &str = "window,phase,k,t,cmd_left,cmd_right,enc_left,enc_right,x,y,yaw,imu_yaw_rate
+0,transient,0,0,1,1,0,0,0,0,0,0
+0,transient,1,0.05,1,1,0.5,0.5,0.01,0,0,0
+0,transient,2,0.1,1,1,1,1,0.02,0,0,0
+1,steady,0,0,1,1,1,1,0,0,0,0
+1,steady,1,0.05,1,1,1,1,0.02,0,0,0
+1,steady,2,0.1,1,1,1,1,0.04,0,0,0
+";
+
+/// The sidecar reader, then a dataset read with the sidecar, its data checks, and the
+/// sidecar written back and read again.
+pub fn sidecar(bytes: &[u8]) -> bool {
+    let Ok(text) = std::str::from_utf8(bytes) else {
+        return false;
+    };
+    let Ok((robot, _)) = crate::data::parse_sidecar("fuzz.json", text) else {
+        return false;
+    };
+    if let Ok(data) = parse_dataset("fuzz.csv", CSV, "fuzz.json", text) {
+        let _ = crate::data::quality::check(&data, None);
+    }
+    if let Ok(again) = crate::data::sidecar_json(&robot, 2, None) {
+        // What the writer writes, the reader reads.
+        assert!(crate::data::parse_sidecar("again.json", &again).is_ok());
+    }
+    true
+}
+
+/// The robot TOML reader, then what a command does with a robot: its input space, body
+/// limits, and a one-interval schedule.
+pub fn robot_toml(bytes: &[u8]) -> bool {
+    let Ok(text) = std::str::from_utf8(bytes) else {
+        return false;
+    };
+    let Ok(spec) = crate::samplers::RobotSpec::from_toml("fuzz.toml", text) else {
+        return false;
+    };
+    let _ = spec.input_space();
+    let _ = spec.body_limits();
+    let registries = crate::Registries::builtin();
+    if let Ok(mut sampler) = crate::samplers::build_sampler(
+        &registries.samplers,
+        "uniform",
+        &crate::samplers::SamplerContext::new(&spec, 1),
+    ) {
+        let rows = crate::samplers::schedule(&spec, sampler.as_mut(), 1);
+        let _ = crate::samplers::schedule_csv(&spec, &rows);
+    }
+    true
 }
 
 /// The raw log reader, then the import of what it read.

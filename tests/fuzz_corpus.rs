@@ -38,6 +38,20 @@ fn raw_log_corpus() {
 }
 
 #[test]
+fn sidecar_corpus() {
+    let (n, accepted) = replay("sidecar", drive::fuzz::sidecar);
+    assert!(n >= 20);
+    assert!(accepted >= 3, "the valid seeds are read");
+}
+
+#[test]
+fn robot_toml_corpus() {
+    let (n, accepted) = replay("robot_toml", drive::fuzz::robot_toml);
+    assert!(n >= 20);
+    assert!(accepted >= 3, "the valid seeds are read");
+}
+
+#[test]
 fn model_file_corpus() {
     let (n, accepted) = replay("model_file", drive::fuzz::model_file);
     assert!(n >= 4);

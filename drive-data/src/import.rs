@@ -2,6 +2,7 @@
 //! `calib`) is cut into one transient and two steady 2 s windows on the command-rate grid,
 //! and every interval that cannot be used is dropped with its reason.
 
+use crate::quality::Finding;
 use crate::{CalibState, DataError, DataErrorKind, Location, RawLog, RawRow};
 use drive_traits::{
     relative_pose, BodyVelocity, Dataset, Phase, Pose, RobotDescription, Window,
@@ -17,6 +18,8 @@ pub struct ImportConfig {
     pub max_gap_s: f64,
     /// The longest time without a localization update inside an interval (s).
     pub localization_timeout_s: f64,
+    /// The robot description's input limits, for the `outside-limits` data check.
+    pub input_limits: Option<drive_traits::InputSpace>,
 }
 
 impl Default for ImportConfig {
@@ -24,6 +27,7 @@ impl Default for ImportConfig {
         ImportConfig {
             max_gap_s: 0.25,
             localization_timeout_s: 0.5,
+            input_limits: None,
         }
     }
 }
@@ -142,6 +146,8 @@ pub struct ImportReport {
     pub extra_columns: Vec<String>,
     /// Other things worth knowing (steps longer than an interval, ...).
     pub notes: Vec<String>,
+    /// What the data-quality checks found on the kept windows (see [`crate::quality`]).
+    pub checks: Vec<Finding>,
 }
 
 impl ImportReport {
@@ -227,6 +233,7 @@ impl ImportReport {
                 ));
             }
         }
+        out.push_str(&crate::quality::to_text(&self.checks));
         for note in &self.notes {
             out.push_str(&format!("  note: {note}\n"));
         }
@@ -277,6 +284,7 @@ impl ImportReport {
             "steps": steps,
             "extra_columns": self.extra_columns,
             "notes": self.notes,
+            "checks": self.checks,
         })
     }
 }
@@ -366,6 +374,7 @@ pub fn import_raw(
         steps: Vec::new(),
         extra_columns: log.extra_columns.clone(),
         notes: Vec::new(),
+        checks: Vec::new(),
     };
     let mut windows: Vec<Window> = Vec::new();
     for (step, idx) in &steps {
@@ -443,13 +452,21 @@ pub fn import_raw(
             outcome,
         });
     }
-    Ok((
-        Dataset {
-            robot: robot.clone(),
-            windows,
-        },
-        report,
-    ))
+    let mut data = Dataset {
+        robot: robot.clone(),
+        windows,
+    };
+    report.checks = crate::quality::check(&data, config.input_limits.as_ref());
+    if report.checks.iter().any(|f| f.check == "imu-constant") {
+        let dt = robot.dt();
+        for w in &mut data.windows {
+            w.imu_yaw_rate = crate::quality::yaw_rate_from_localization(w, dt);
+        }
+        report.notes.push(
+            "the imu_yaw_rate column holds the yaw rate from localization (finite differences of its yaw), as the IMU was not recorded".into(),
+        );
+    }
+    Ok((data, report))
 }
 
 /// The three windows of an interval from an uninterrupted stretch of rows, or why the

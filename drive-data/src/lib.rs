@@ -22,6 +22,7 @@
 mod error;
 mod import;
 pub mod output;
+pub mod quality;
 mod raw_log;
 mod sidecar;
 mod window_csv;

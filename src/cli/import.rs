@@ -31,15 +31,16 @@ pub struct Args {
     /// Print the keep/drop report as one JSON object on stdout.
     #[arg(long)]
     json: bool,
+    /// Data checks whose fatal finding does not stop the import, comma-separated
+    /// (not-moving, encoders-zero; see drive check --help).
+    #[arg(long, value_delimiter = ',')]
+    allow: Vec<String>,
 }
 
 /// Imports the raw log for the robot, writes the windows (and the sidecar beside them) and
 /// prints the keep/drop report on stdout. Writes nothing and fails when no window is usable.
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
-    let config = ImportConfig {
-        max_gap_s: args.max_gap,
-        localization_timeout_s: args.localization_timeout,
-    };
+    super::check::known_checks(&args.allow)?;
     let sidecar = crate::data::sidecar_path(&args.out);
     let mut inputs = vec![("--raw", args.raw.clone())];
     inputs.extend(super::common::robot_input(&args.robot));
@@ -48,6 +49,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &[("--out", &args.out), ("sidecar of --out", &sidecar)],
     )?;
     let spec = registries.robot(&args.robot)?;
+    let config = ImportConfig {
+        max_gap_s: args.max_gap,
+        localization_timeout_s: args.localization_timeout,
+        input_limits: Some(spec.input_space()),
+    };
     let log = read_raw_log(&args.raw, &raw_columns(spec.vehicle.as_ref()))?;
     let stem = args
         .raw
@@ -61,7 +67,17 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         vehicle: Arc::clone(&spec.vehicle),
     };
     let (data, report) = import_raw(&log, &description, &config)?;
-    let failure = report.nothing_usable();
+    let failure = report.nothing_usable().or_else(|| {
+        super::check::stopping(&report.checks, &args.allow).map(|f| {
+            format!(
+                "{}: check {}: {} (--allow {} to import anyway)",
+                args.raw.display(),
+                f.check,
+                f.message,
+                f.check
+            )
+        })
+    });
     if failure.is_none() {
         stage_dataset(&mut outputs, &data, &args.out)?;
         outputs.publish()?;

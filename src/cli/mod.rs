@@ -28,6 +28,7 @@ macro_rules! outln {
     };
 }
 
+mod check;
 mod common;
 mod compare_protocols;
 mod converge;
@@ -83,6 +84,11 @@ enum Command {
     /// steady windows, drop the unusable ones with their reason, and write the window CSV
     /// and sidecar that `drive eval` reads.
     Import(import::Args),
+    /// Run the data-quality checks of `drive import` on a window CSV: the robot did not
+    /// move while commanded (not-moving), a constant IMU (imu-constant), encoders at zero
+    /// under commands (encoders-zero), commands beyond the robot's limits (outside-limits,
+    /// with --robot). Exit code 1 when a check finds the data useless.
+    Check(check::Args),
     /// Score every combination of a sweep file (datasets or simulated runs x models x
     /// splits) and write DIR/matrix.csv (one row per combination and metric),
     /// DIR/matrix.json and DIR/summary.md (median, IQR, improvement over the baseline with a
@@ -126,6 +132,7 @@ where
             Command::Simulate(a) => simulate::run(&a, registries),
             Command::CompareProtocols(a) => compare_protocols::run(&a, registries),
             Command::Import(a) => import::run(&a, registries),
+            Command::Check(a) => check::run(&a, registries),
             Command::Matrix(a) => matrix::run(&a, registries),
             Command::Report(a) => report::run(&a, registries),
             Command::Predict(a) => predict::run(&a),

@@ -1,0 +1,254 @@
+//! Data-quality checks on a window dataset: problems real logs carry that no parser sees
+//! (the robot on a stand, an IMU not recorded, encoders not recorded, the wrong robot
+//! file). `drive import` runs them on what it imports, `drive check` on a window CSV.
+//!
+//! ```
+//! use drive_data::quality::{check, Severity};
+//! # let csv = "window,phase,k,t,cmd_left,cmd_right,enc_left,enc_right,x,y,yaw,imu_yaw_rate\n\
+//! #            0,transient,0,0,4,4,4,4,0,0,0,0\n0,transient,1,0.5,4,4,4,4,0,0,0,0\n";
+//! # let side = r#"{"name": "t", "rate_hz": 2, "window_len": 2, "wheel_radius": 0.5, "baseline": 1}"#;
+//! // Wheels turning at 4 rad/s (2 m/s) for a window, localization still: wheels in the air?
+//! let data = drive_data::parse_dataset("d.csv", csv, "d.json", side).unwrap();
+//! let findings = check(&data, None);
+//! let stand = findings.iter().find(|f| f.check == "not-moving").unwrap();
+//! assert_eq!(stand.severity, Severity::Fatal);
+//! ```
+
+use drive_traits::limits::Short;
+use drive_traits::{Dataset, InputSpace, Window};
+use serde::Serialize;
+
+/// How bad a finding is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    /// Worth knowing; the data is used.
+    Warning,
+    /// The dataset is useless as it is: import writes nothing unless allowed.
+    Fatal,
+}
+
+/// One thing a check found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Finding {
+    /// The check's key (`not-moving`, `imu-constant`, `encoders-zero`, `outside-limits`),
+    /// the name `--allow` takes.
+    pub check: &'static str,
+    /// How bad.
+    pub severity: Severity,
+    /// What was found, in one line.
+    pub message: String,
+}
+
+/// The checks, their keys and what they look for.
+pub const CHECKS: [(&str, &str); 4] = [
+    (
+        "not-moving",
+        "localization still while the encoders turn (wheels off the ground, localization frozen)",
+    ),
+    (
+        "imu-constant",
+        "an IMU yaw rate that never changes (not recorded); start states then use localization",
+    ),
+    (
+        "encoders-zero",
+        "encoders at zero under commands (encoders not recorded)",
+    ),
+    (
+        "outside-limits",
+        "commands or encoder speeds far beyond the robot description's limits (wrong robot file?)",
+    ),
+];
+
+/// A window's motion as the encoders imply it (dead reckoning of the measured inputs
+/// through the vehicle) and as localization saw it: (implied distance m, implied yaw rad,
+/// localized distance m, localized yaw rad), net over the window.
+fn motion(data: &Dataset, w: &Window) -> (f64, f64, f64, f64) {
+    let dt = data.robot.dt();
+    let (mut x, mut y, mut yaw) = (0.0f64, 0.0f64, 0.0f64);
+    for u in w.measured.iter().take(w.len().saturating_sub(1)) {
+        let v = data.robot.vehicle.body_velocity(u);
+        x += (v.x * yaw.cos() - v.y * yaw.sin()) * dt;
+        y += (v.x * yaw.sin() + v.y * yaw.cos()) * dt;
+        yaw += v.z * dt;
+    }
+    let (first, last) = (w.pose[0], w.pose[w.len() - 1]);
+    let moved = ((last.x - first.x).powi(2) + (last.y - first.y).powi(2)).sqrt();
+    let turned = (last.z - first.z).abs();
+    ((x * x + y * y).sqrt(), yaw.abs(), moved, turned)
+}
+
+/// Runs every check on `data`; `limits` is the robot description's input space when known
+/// (for `outside-limits`).
+pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
+    let mut out = Vec::new();
+    let windows: Vec<&Window> = data.windows.iter().filter(|w| w.len() >= 2).collect();
+    if windows.is_empty() {
+        return out;
+    }
+    // not-moving: among windows where the encoders imply real motion (0.2 m or 0.2 rad),
+    // those where localization saw less than a tenth of it.
+    let (mut driven, mut still) = (0usize, 0usize);
+    for w in &windows {
+        let (d, r, moved, turned) = motion(data, w);
+        let significant = [(d, moved, 0.2), (r, turned, 0.2)]
+            .into_iter()
+            .filter(|(implied, _, floor)| implied >= floor)
+            .collect::<Vec<_>>();
+        if significant.is_empty() {
+            continue;
+        }
+        driven += 1;
+        if significant
+            .iter()
+            .all(|(implied, seen, _)| *seen < 0.1 * implied)
+        {
+            still += 1;
+        }
+    }
+    if driven > 0 && still * 10 >= driven {
+        let fatal = still * 2 > driven;
+        out.push(Finding {
+            check: "not-moving",
+            severity: if fatal {
+                Severity::Fatal
+            } else {
+                Severity::Warning
+            },
+            message: format!(
+                "in {still} of {driven} windows where the encoders imply at least 0.2 m or 0.2 rad of motion, localization saw less than a tenth of it: {}",
+                if fatal {
+                    "the robot did not move (wheels off the ground, or localization frozen?)"
+                } else {
+                    "stuck or localization lost in those windows?"
+                }
+            ),
+        });
+    }
+    // imu-constant: one value throughout while localization turns.
+    let imu: Vec<f64> = windows
+        .iter()
+        .flat_map(|w| w.imu_yaw_rate.iter().copied())
+        .collect();
+    let first = imu[0];
+    let turned = windows
+        .iter()
+        .map(|w| motion(data, w).3)
+        .fold(0.0, f64::max);
+    if imu.iter().all(|v| *v == first) && turned > 0.2 {
+        out.push(Finding {
+            check: "imu-constant",
+            severity: Severity::Warning,
+            message: format!(
+                "the IMU yaw rate is {} throughout while localization turns up to {} rad in a window: not recorded?",
+                Short(first),
+                Short(turned)
+            ),
+        });
+    }
+    // encoders-zero: windows commanded at a tenth of the largest command or more, with the
+    // encoders exactly zero throughout.
+    let largest = windows
+        .iter()
+        .flat_map(|w| w.command.iter())
+        .map(|u| u.x.abs().max(u.y.abs()))
+        .fold(0.0, f64::max);
+    if largest > 0.0 {
+        let commanded: Vec<&&Window> = windows
+            .iter()
+            .filter(|w| {
+                w.command
+                    .iter()
+                    .any(|u| u.x.abs().max(u.y.abs()) >= 0.1 * largest)
+            })
+            .collect();
+        let zero = commanded
+            .iter()
+            .filter(|w| w.measured.iter().all(|u| u.x == 0.0 && u.y == 0.0))
+            .count();
+        if zero > 0 && zero * 10 >= commanded.len() {
+            out.push(Finding {
+                check: "encoders-zero",
+                severity: if zero == commanded.len() {
+                    Severity::Fatal
+                } else {
+                    Severity::Warning
+                },
+                message: format!(
+                    "the encoders read zero throughout {zero} of {} commanded windows: not recorded?",
+                    commanded.len()
+                ),
+            });
+        }
+    }
+    // outside-limits: beyond twice the description's limit on an axis.
+    if let Some(space) = limits {
+        let axes = data.robot.vehicle.axes();
+        for (i, axis) in axes.iter().enumerate() {
+            let limit = space.min[i].abs().max(space.max[i].abs());
+            for (what, values) in [
+                (
+                    "commands",
+                    windows
+                        .iter()
+                        .flat_map(|w| w.command.iter())
+                        .collect::<Vec<_>>(),
+                ),
+                (
+                    "measured inputs",
+                    windows.iter().flat_map(|w| w.measured.iter()).collect(),
+                ),
+            ] {
+                let peak = values.iter().map(|u| u[i].abs()).fold(0.0, f64::max);
+                if limit > 0.0 && peak > 2.0 * limit {
+                    out.push(Finding {
+                        check: "outside-limits",
+                        severity: Severity::Warning,
+                        message: format!(
+                            "{what} reach {} {} on '{}', {}x the robot description's limit of {}: is it the right robot?",
+                            Short(peak),
+                            axis.unit,
+                            axis.name,
+                            Short((peak / limit * 10.0).round() / 10.0),
+                            Short(limit)
+                        ),
+                    });
+                    break;
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The yaw rate localization implies at each sample (finite differences of the window's
+/// yaw, forward at the first sample, backward at the others): what start states use when
+/// the IMU was not recorded.
+pub fn yaw_rate_from_localization(w: &Window, dt: f64) -> Vec<f64> {
+    let n = w.len();
+    (0..n)
+        .map(|k| match (k, n) {
+            (_, 0 | 1) => 0.0,
+            (0, _) => (w.pose[1].z - w.pose[0].z) / dt,
+            (k, _) => (w.pose[k].z - w.pose[k - 1].z) / dt,
+        })
+        .collect()
+}
+
+/// Findings as text, one line each.
+pub fn to_text(findings: &[Finding]) -> String {
+    findings
+        .iter()
+        .map(|f| {
+            format!(
+                "  check {} ({}): {}\n",
+                f.check,
+                match f.severity {
+                    Severity::Warning => "warning",
+                    Severity::Fatal => "fatal",
+                },
+                f.message
+            )
+        })
+        .collect()
+}

@@ -1,0 +1,8 @@
+#![no_main]
+//! Fuzz target: `drive::fuzz::sidecar` must never panic on any bytes.
+
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let _ = drive::fuzz::sidecar(data);
+});

@@ -1,0 +1,80 @@
+//! `drive check`: the data-quality checks of `drive import` on a window CSV.
+
+use super::common::{load, DataArgs};
+use crate::data::quality::{check, to_text, Finding, Severity, CHECKS};
+use crate::Registries;
+use anyhow::{bail, Result};
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    data: DataArgs,
+    /// The robot description (a registered robot or a TOML file), for the outside-limits
+    /// check.
+    #[arg(long)]
+    robot: Option<String>,
+    /// Checks whose fatal finding does not make the exit code 1, comma-separated.
+    #[arg(long, value_delimiter = ',')]
+    allow: Vec<String>,
+    /// Print the findings as one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `Err` for a name that is not a check's.
+pub fn known_checks(names: &[String]) -> Result<()> {
+    for n in names {
+        if !CHECKS.iter().any(|(k, _)| k == n) {
+            let keys: Vec<&str> = CHECKS.iter().map(|(k, _)| *k).collect();
+            bail!(
+                "--allow: no check '{n}' (the checks are: {})",
+                keys.join(", ")
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The first fatal finding not allowed.
+pub fn stopping<'a>(findings: &'a [Finding], allow: &[String]) -> Option<&'a Finding> {
+    findings
+        .iter()
+        .find(|f| f.severity == Severity::Fatal && !allow.iter().any(|a| a == f.check))
+}
+
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    known_checks(&args.allow)?;
+    let data = load(&args.data)?;
+    let limits = match &args.robot {
+        Some(r) => Some(registries.robot(r)?.input_space()),
+        None => None,
+    };
+    let findings = check(&data, limits.as_ref());
+    if args.json {
+        outln!(
+            "{}",
+            serde_json::json!({"dataset": data.robot.name, "windows": data.windows.len(), "checks": findings})
+        );
+    } else {
+        out!(
+            "{}: {} windows, {}\n{}",
+            data.robot.name,
+            data.windows.len(),
+            if findings.is_empty() {
+                "every check passed".to_string()
+            } else {
+                format!("{} finding(s)", findings.len())
+            },
+            to_text(&findings)
+        );
+    }
+    if let Some(f) = stopping(&findings, &args.allow) {
+        bail!(
+            "check {}: {} (--allow {} to accept it)",
+            f.check,
+            f.message,
+            f.check
+        );
+    }
+    Ok(())
+}

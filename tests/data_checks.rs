@@ -1,0 +1,204 @@
+//! The data-quality checks of `drive import` and `drive check`, through the command line, on
+//! a simulated DRIVE log edited the way real logs go wrong.
+
+mod common;
+
+use common::{drive, ok};
+use std::path::Path;
+
+/// An edit of a raw log row: the fields, and the position of a column by name.
+type RowEdit = fn(&mut [String], &dyn Fn(&str) -> usize);
+
+/// A simulated Husky raw log, with `edit` applied to every data row (by column name).
+fn raw_log(dir: &Path, name: &str, edit: RowEdit) -> String {
+    let base = dir.join("base.csv");
+    let raw = dir.join("base_raw.csv");
+    if !raw.exists() {
+        ok(&[
+            "simulate",
+            "--robot",
+            "husky",
+            "--terrain",
+            "gravel",
+            "--duration",
+            "120",
+            "--seed",
+            "4",
+            "--out",
+            &base.display().to_string(),
+            "--raw-out",
+            &raw.display().to_string(),
+        ]);
+    }
+    let text = std::fs::read_to_string(&raw).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    let col = |c: &str| header.iter().position(|h| h == c).unwrap();
+    let mut out = header.join(",") + "\n";
+    for line in lines {
+        let mut f: Vec<String> = line.split(',').map(String::from).collect();
+        edit(&mut f, &col);
+        out += &(f.join(",") + "\n");
+    }
+    let path = dir.join(name);
+    std::fs::write(&path, out).unwrap();
+    path.display().to_string()
+}
+
+fn import(raw: &str, robot: &str, out: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
+    let out_s = out.display().to_string();
+    let mut args = vec![
+        "import", "--raw", raw, "--robot", robot, "--out", &out_s, "--json",
+    ];
+    args.extend(extra);
+    let o = drive(&args);
+    (
+        o.status.code(),
+        String::from_utf8(o.stdout).unwrap(),
+        String::from_utf8(o.stderr).unwrap(),
+    )
+}
+
+fn checks(json: &str) -> Vec<(String, String)> {
+    let v: serde_json::Value = serde_json::from_str(json.trim()).unwrap();
+    v["checks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            (
+                c["check"].as_str().unwrap().to_string(),
+                c["severity"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_clean_log_and_the_bundled_data_pass_every_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = raw_log(dir.path(), "clean.csv", |_, _| {});
+    let (code, json, err) = import(&raw, "husky", &dir.path().join("w.csv"), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(checks(&json).is_empty(), "{json}");
+    assert!(ok(&["check"]).contains("every check passed"));
+}
+
+#[test]
+fn a_robot_on_a_stand_is_refused_unless_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    // Commands and encoders move, localization stays at one (non-zero) pose.
+    let raw = raw_log(dir.path(), "stand.csv", |f, col| {
+        f[col("icp_pos_x")] = "3.2".into();
+        f[col("icp_pos_y")] = "-1.0".into();
+        f[col("icp_quat_z")] = "0".into();
+        f[col("icp_quat_w")] = "1".into();
+    });
+    let out = dir.path().join("w.csv");
+    let (code, json, err) = import(&raw, "husky", &out, &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("check not-moving") && err.contains("--allow not-moving"),
+        "{err}"
+    );
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert_eq!(checks(&json), vec![("not-moving".into(), "fatal".into())]);
+    assert!(!out.exists());
+    // Allowed: written, and `drive check` finds the same.
+    let (code, _, err) = import(&raw, "husky", &out, &["--allow", "not-moving"]);
+    assert_eq!(code, Some(0), "{err}");
+    let o = drive(&["check", "--data", &out.display().to_string(), "--json"]);
+    assert_eq!(o.status.code(), Some(1));
+    let stdout = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(checks(&stdout), vec![("not-moving".into(), "fatal".into())]);
+    let o = drive(&[
+        "check",
+        "--data",
+        &out.display().to_string(),
+        "--allow",
+        "not-moving",
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    // An unknown check is named.
+    let (code, _, err) = import(&raw, "husky", &out, &["--allow", "wheels"]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("no check 'wheels'"), "{err}");
+}
+
+#[test]
+fn an_imu_not_recorded_falls_back_to_localization_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = raw_log(dir.path(), "noimu.csv", |f, col| {
+        f[col("imu_z")] = "0".into()
+    });
+    let out = dir.path().join("w.csv");
+    let (code, json, err) = import(&raw, "husky", &out, &[]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(
+        checks(&json),
+        vec![("imu-constant".into(), "warning".into())]
+    );
+    assert!(json.contains("yaw rate from localization"), "{json}");
+    // The written start states carry a yaw rate, not the IMU's zeros.
+    let text = std::fs::read_to_string(&out).unwrap();
+    let nonzero = text
+        .lines()
+        .skip(1)
+        .filter(|l| l.rsplit(',').next().unwrap().parse::<f64>().unwrap() != 0.0)
+        .count();
+    assert!(nonzero > 100, "{nonzero}");
+}
+
+#[test]
+fn encoders_not_recorded_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = raw_log(dir.path(), "noenc.csv", |f, col| {
+        f[col("meas_left_vel")] = "0".into();
+        f[col("meas_right_vel")] = "0".into();
+    });
+    let (code, json, err) = import(&raw, "husky", &dir.path().join("w.csv"), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        checks(&json).contains(&("encoders-zero".into(), "fatal".into())),
+        "{json}"
+    );
+}
+
+#[test]
+fn a_log_of_another_robot_is_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("w_raw.csv");
+    ok(&[
+        "simulate",
+        "--robot",
+        "warthog",
+        "--terrain",
+        "gravel",
+        "--duration",
+        "90",
+        "--seed",
+        "2",
+        "--out",
+        &dir.path().join("w.csv").display().to_string(),
+        "--raw-out",
+        &raw.display().to_string(),
+    ]);
+    let (code, json, err) = import(
+        &raw.display().to_string(),
+        "husky",
+        &dir.path().join("i.csv"),
+        &[],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        checks(&json).contains(&("outside-limits".into(), "warning".into())),
+        "{json}"
+    );
+    let (_, json, _) = import(
+        &raw.display().to_string(),
+        "warthog",
+        &dir.path().join("j.csv"),
+        &[],
+    );
+    assert!(checks(&json).is_empty(), "{json}");
+}
