@@ -176,7 +176,7 @@ fn cases() -> Vec<Case> {
         Case { name: "too many intervals", file: File::None,
             args: &["protocol", "--robot", "husky", "--intervals", "1000000000", "--out", "{out}"], says: &["--intervals = 1e9", "--max-samples"] },
         Case { name: "too long a simulation", file: File::None,
-            args: &["simulate", "--robot", "husky", "--terrain", "tile", "--duration", "1e12", "--out", "{out}"], says: &["limit of 1e7", "--max-samples"] },
+            args: &["simulate", "--robot", "husky", "--terrain", "tile", "--duration", "1e12", "--out", "{out}"], says: &["limit of 4e6", "--max-samples"] },
         Case { name: "too many seeds", file: File::None,
             args: &["compare-protocols", "--seeds", "1000000000"], says: &["--seeds = 1e9", "limit of 1000"] },
         Case { name: "too many draws", file: File::None,

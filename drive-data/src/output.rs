@@ -144,11 +144,27 @@ fn canonical(path: &Path) -> PathBuf {
     }
 }
 
+/// A file staged for writing.
+#[derive(Debug)]
+struct Staged {
+    /// The path as given.
+    target: PathBuf,
+    /// Where the bytes wait.
+    temp: PathBuf,
+    /// The target's identity, for clashes.
+    id: Identity,
+    /// The file the bytes go to: the target, or the file its symbolic link points to.
+    destination: PathBuf,
+    /// The destination is a device, a pipe or a socket (`/dev/null`, `/dev/stdout`): its
+    /// bytes are copied into it, not renamed over it (which would replace the device).
+    direct: bool,
+}
+
 /// Files staged for writing, published together (see the module documentation).
 #[derive(Debug, Default)]
 pub struct Outputs {
     inputs: Vec<(String, PathBuf, Identity)>,
-    staged: Vec<(PathBuf, PathBuf, Identity)>,
+    staged: Vec<Staged>,
     created_dirs: Vec<PathBuf>,
 }
 
@@ -181,7 +197,7 @@ impl Outputs {
         seen.extend(
             self.staged
                 .iter()
-                .map(|(target, _, id)| ("the output".to_string(), target.clone(), id.clone())),
+                .map(|f| ("the output".to_string(), f.target.clone(), f.id.clone())),
         );
         for (role, path) in outputs {
             let id = Identity::of(path);
@@ -219,25 +235,43 @@ impl Outputs {
             path: target.to_path_buf(),
             reason,
         };
-        let name = target
-            .file_name()
-            .ok_or_else(|| failed("not a file name".into()))?;
-        let dir = match target.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-            _ => PathBuf::from("."),
+        // Through a symbolic link to the file it points to (the link stays a link).
+        let destination = match std::fs::symlink_metadata(target) {
+            Ok(m) if m.file_type().is_symlink() => {
+                std::fs::canonicalize(target).unwrap_or_else(|_| target.to_path_buf())
+            }
+            _ => target.to_path_buf(),
         };
-        self.create_dir(&dir).map_err(|e| failed(e.to_string()))?;
-        if target.is_dir() {
+        let meta = std::fs::metadata(&destination).ok();
+        if meta.as_ref().is_some_and(|m| m.is_dir()) {
             return Err(failed("it is a directory".into()));
         }
+        let direct = meta.as_ref().is_some_and(|m| !m.is_file());
+        let name = destination
+            .file_name()
+            .ok_or_else(|| failed("not a file name".into()))?;
+        let dir = if direct {
+            std::env::temp_dir()
+        } else {
+            match destination.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+                _ => PathBuf::from("."),
+            }
+        };
+        self.create_dir(&dir).map_err(|e| failed(e.to_string()))?;
         let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
         let temp = dir.join(format!(
             ".drive-tmp-{}-{n}-{}",
             std::process::id(),
             name.to_string_lossy()
         ));
-        let id = Identity::of(target);
-        self.staged.push((target.to_path_buf(), temp.clone(), id));
+        self.staged.push(Staged {
+            target: target.to_path_buf(),
+            temp: temp.clone(),
+            id: Identity::of(target),
+            destination,
+            direct,
+        });
         write(&temp).map_err(|e| failed(e.to_string()))
     }
 
@@ -255,7 +289,7 @@ impl Outputs {
 
     /// The targets staged so far.
     pub fn targets(&self) -> impl Iterator<Item = &Path> {
-        self.staged.iter().map(|(t, _, _)| t.as_path())
+        self.staged.iter().map(|f| f.target.as_path())
     }
 
     /// Moves every staged file into place, in the order staged; returns the targets.
@@ -263,20 +297,29 @@ impl Outputs {
         let staged = std::mem::take(&mut self.staged);
         let mut published = Vec::new();
         let mut pending = staged.into_iter();
-        while let Some((target, temp, _)) = pending.next() {
-            if let Err(e) = std::fs::rename(&temp, &target) {
+        while let Some(f) = pending.next() {
+            let moved = if f.direct {
+                let copied = match std::fs::copy(&f.temp, &f.destination) {
+                    // A pipe whose reader has gone (`--per-window /dev/stdout | head`).
+                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(0),
+                    other => other,
+                };
+                copied.and_then(|_| std::fs::remove_file(&f.temp))
+            } else {
+                std::fs::rename(&f.temp, &f.destination)
+            };
+            if let Err(e) = moved {
+                let path = f.target.clone();
                 // Give the rest back to Drop to remove, with this one.
-                self.staged = std::iter::once((target.clone(), temp, Identity::of(&target)))
-                    .chain(pending)
-                    .collect();
+                self.staged = std::iter::once(f).chain(pending).collect();
                 self.created_dirs.clear();
                 return Err(OutputError::Publish {
-                    path: target,
+                    path,
                     reason: e.to_string(),
                     published,
                 });
             }
-            published.push(target);
+            published.push(f.target);
         }
         self.created_dirs.clear();
         Ok(published)
@@ -285,8 +328,8 @@ impl Outputs {
 
 impl Drop for Outputs {
     fn drop(&mut self) {
-        for (_, temp, _) in &self.staged {
-            let _ = std::fs::remove_file(temp);
+        for f in &self.staged {
+            let _ = std::fs::remove_file(&f.temp);
         }
         // Deepest first; only directories left empty.
         for dir in &self.created_dirs {
@@ -351,6 +394,39 @@ mod tests {
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(left, vec![std::ffi::OsString::from("old.csv")]);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn devices_and_links_are_written_through() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real.csv");
+        std::fs::write(&real, "old").unwrap();
+        let link = dir.path().join("link.csv");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        // A named pipe stands for a device (/dev/null, /dev/stdout): renaming over it would
+        // replace it with a file.
+        let pipe = dir.path().join("pipe");
+        let made = std::process::Command::new("mkfifo").arg(&pipe).status();
+        let reader = made.is_ok_and(|s| s.success()).then(|| {
+            let pipe = pipe.clone();
+            std::thread::spawn(move || std::fs::read_to_string(pipe).unwrap())
+        });
+        let mut outputs = Outputs::new(&[]);
+        outputs.write(&link, "new").unwrap();
+        if reader.is_some() {
+            outputs.write(&pipe, "through the pipe").unwrap();
+        }
+        outputs.publish().unwrap();
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert_eq!(std::fs::read_to_string(&real).unwrap(), "new");
+        if let Some(reader) = reader {
+            assert_eq!(reader.join().unwrap(), "through the pipe");
+            assert!(!std::fs::metadata(&pipe).unwrap().is_file(), "still a pipe");
+        }
     }
 
     #[test]

@@ -62,7 +62,7 @@ pub const CHECKS: [(&str, &str); 4] = [
 
 /// A window's motion as the encoders imply it (dead reckoning of the measured inputs
 /// through the vehicle) and as localization saw it: (implied distance m, implied yaw rad,
-/// localized distance m, localized yaw rad), net over the window.
+/// localized distance m, localized yaw rad (signed)), net over the window.
 fn motion(data: &Dataset, w: &Window) -> (f64, f64, f64, f64) {
     let dt = data.robot.dt();
     let (mut x, mut y, mut yaw) = (0.0f64, 0.0f64, 0.0f64);
@@ -74,7 +74,15 @@ fn motion(data: &Dataset, w: &Window) -> (f64, f64, f64, f64) {
     }
     let (first, last) = (w.pose[0], w.pose[w.len() - 1]);
     let moved = ((last.x - first.x).powi(2) + (last.y - first.y).powi(2)).sqrt();
-    let turned = (last.z - first.z).abs();
+    // Unwrapped: a fast spin passes +-pi within a window.
+    let turned = w
+        .pose
+        .windows(2)
+        .map(|p| {
+            let d = p[1].z - p[0].z;
+            d.sin().atan2(d.cos())
+        })
+        .sum::<f64>();
     ((x * x + y * y).sqrt(), yaw.abs(), moved, turned)
 }
 
@@ -91,6 +99,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     let (mut driven, mut still) = (0usize, 0usize);
     for w in &windows {
         let (d, r, moved, turned) = motion(data, w);
+        let turned = turned.abs();
         let significant = [(d, moved, 0.2), (r, turned, 0.2)]
             .into_iter()
             .filter(|(implied, _, floor)| implied >= floor)
@@ -130,21 +139,23 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         .iter()
         .flat_map(|w| w.imu_yaw_rate.iter().copied())
         .collect();
-    let first = imu[0];
-    let turned = windows
-        .iter()
-        .map(|w| motion(data, w).3)
-        .fold(0.0, f64::max);
-    if imu.iter().all(|v| *v == first) && turned > 0.2 {
-        out.push(Finding {
-            check: "imu-constant",
-            severity: Severity::Warning,
-            message: format!(
-                "the IMU yaw rate is {} throughout while localization turns up to {} rad in a window: not recorded?",
-                Short(first),
-                Short(turned)
-            ),
-        });
+    if let Some(&first) = imu.first() {
+        // How far localization's turning departs from what the constant rate implies.
+        let departs = windows
+            .iter()
+            .map(|w| (motion(data, w).3 - first * (w.len() - 1) as f64 * data.robot.dt()).abs())
+            .fold(0.0, f64::max);
+        if imu.iter().all(|v| *v == first) && departs > 0.2 {
+            out.push(Finding {
+                check: "imu-constant",
+                severity: Severity::Warning,
+                message: format!(
+                    "the IMU yaw rate is {} rad/s throughout, while localization's turning departs from it by up to {} rad in a window: not recorded?",
+                    Short(first),
+                    Short((departs * 100.0).round() / 100.0)
+                ),
+            });
+        }
     }
     // encoders-zero: windows commanded at a tenth of the largest command or more, with the
     // encoders exactly zero throughout.
@@ -221,16 +232,33 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out
 }
 
-/// The yaw rate localization implies at each sample (finite differences of the window's
-/// yaw, forward at the first sample, backward at the others): what start states use when
-/// the IMU was not recorded.
+/// The yaw rate localization implies at each sample: the wrapped change of the window's
+/// yaw over two samples on each side (one-sided at the ends), which spans the held values of
+/// a localization slower than the command rate. What start states use when the IMU was not
+/// recorded.
+///
+/// ```
+/// # use drive_traits::{Input, Phase, Pose, Window};
+/// let w = Window {
+///     index: 0, interval: 0, phase: Phase::Steady,
+///     command: vec![Input::zeros(); 5], measured: vec![Input::zeros(); 5],
+///     // Turning at 1 rad/s through +-pi, localized every other sample.
+///     pose: [3.0, 3.0, 3.1, 3.1, -3.083185307179586].iter().map(|&z| Pose::new(0.0, 0.0, z)).collect(),
+///     imu_yaw_rate: vec![0.0; 5],
+/// };
+/// let r = drive_data::quality::yaw_rate_from_localization(&w, 0.05);
+/// assert!(r.iter().all(|v| v.abs() < 2.5 && *v > 0.0), "{r:?}");
+/// ```
 pub fn yaw_rate_from_localization(w: &Window, dt: f64) -> Vec<f64> {
     let n = w.len();
     (0..n)
-        .map(|k| match (k, n) {
-            (_, 0 | 1) => 0.0,
-            (0, _) => (w.pose[1].z - w.pose[0].z) / dt,
-            (k, _) => (w.pose[k].z - w.pose[k - 1].z) / dt,
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(2), (k + 2).min(n.saturating_sub(1)));
+            if b <= a {
+                return 0.0;
+            }
+            let d = w.pose[b].z - w.pose[a].z;
+            d.sin().atan2(d.cos()) / ((b - a) as f64 * dt)
         })
         .collect()
 }
@@ -251,4 +279,50 @@ pub fn to_text(findings: &[Finding]) -> String {
             )
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive_models::DifferentialDrive;
+    use drive_traits::{Input, Phase, Pose, RobotDescription};
+
+    /// A differential drive (0.5 m wheels, 1 m track) spinning in place at `wheel` rad/s
+    /// per side for one 2 s window at 20 Hz; localization turns `seen` of it.
+    fn spin(wheel: f64, seen: f64) -> Dataset {
+        let robot = RobotDescription::new("t", "", 20.0, 40, DifferentialDrive::new(0.5, 1.0));
+        let rate = 2.0 * 0.5 * wheel / 1.0; // body yaw rate (rad/s)
+        let pose = (0..40)
+            .map(|k| {
+                let yaw = seen * rate * k as f64 * 0.05;
+                Pose::new(0.0, 0.0, yaw.sin().atan2(yaw.cos()))
+            })
+            .collect();
+        let u = Input::new(-wheel, wheel);
+        Dataset {
+            robot,
+            windows: vec![Window {
+                index: 0,
+                interval: 0,
+                phase: Phase::Steady,
+                command: vec![u; 40],
+                measured: vec![u; 40],
+                pose,
+                imu_yaw_rate: vec![rate; 40],
+            }],
+        }
+    }
+
+    #[test]
+    fn a_fast_spin_through_pi_is_motion() {
+        // 4 rad/s for 2 s: the localized yaw wraps twice.
+        assert_eq!(check(&spin(4.0, 1.0), None), vec![]);
+        let still = check(&spin(4.0, 0.02), None);
+        let stand = still.iter().find(|f| f.check == "not-moving").unwrap();
+        assert_eq!(stand.severity, Severity::Fatal);
+        // The localization's yaw rate follows the spin across the wraps.
+        let w = &spin(4.0, 1.0).windows[0];
+        let r = yaw_rate_from_localization(w, 0.05);
+        assert!(r.iter().all(|v| (v - 4.0).abs() < 1e-9), "{r:?}");
+    }
 }

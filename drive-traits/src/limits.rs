@@ -23,9 +23,9 @@ pub const MAX_RATE_HZ: f64 = 1000.0;
 pub const MIN_RATE_HZ: f64 = 1.0;
 /// Most samples in one window (a 2 s window at 50 kHz).
 pub const MAX_WINDOW_LEN: usize = 100_000;
-/// Most samples (commands or measurements) in one run or schedule: 139 h at 20 Hz. Raise
-/// it with `--max-samples` (memory is about 0.2 kB per sample).
-pub const MAX_RUN_SAMPLES: usize = 10_000_000;
+/// Most samples (commands or measurements) in one run or schedule: 55 h at 20 Hz, about
+/// 2 GB of memory for a simulation (0.5 kB per sample). Raise it with `--max-samples`.
+pub const MAX_RUN_SAMPLES: usize = 4_000_000;
 /// Most repetitions (seeds) of a simulated study.
 pub const MAX_SEEDS: usize = 1000;
 /// Most random draws per region of a study on recorded data.

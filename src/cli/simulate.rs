@@ -31,7 +31,7 @@ pub struct Args {
     #[arg(long)]
     raw_out: Option<PathBuf>,
     /// Most samples the run may record (a guard against a mistyped --duration; about
-    /// 0.2 kB of memory each).
+    /// 0.5 kB of memory each).
     #[arg(long, allow_negative_numbers = true, default_value_t = crate::traits::limits::MAX_RUN_SAMPLES)]
     max_samples: usize,
 }
