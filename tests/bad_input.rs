@@ -183,6 +183,9 @@ fn cases() -> Vec<Case> {
             args: &["compare-protocols", "--real", "--draws", "1000000000"], says: &["--draws = 1e9", "limit of 10000"] },
         Case { name: "csv corrupted number", file: ds(|t| replace_line(&t, 12, |l| set_field(l, 8, "1e308")), keep),
             args: &["eval", "--data", "{data}"], says: &["data.csv, line 12, column 'x'", "1e308 is beyond +-1e9"] },
+        Case { name: "raw corrupted position", file: File::Raw(|h| format!("{h}\n1000,False,0,calib,0,0,0,0,0,1e308,0,0,0,0,0,1,0,0,0\n")),
+            args: &["import", "--raw", "{raw}", "--robot", "warthog", "--out", "{out}"],
+            says: &["raw.csv, line 2, column 'icp_pos_x'", "1e308 is beyond +-1e9"] },
         Case { name: "negative split", file: File::None, args: &["eval", "--split", "-0.1"], says: &["split fraction -0.1"] },
         // Model files validated on load.
         Case { name: "model zero noise", file: File::Model(zero_noise),
@@ -310,5 +313,42 @@ fn every_bad_input_is_refused_clearly() {
             !at("out.csv").exists() && !at("out.json").exists(),
             "{name}: output written"
         );
+    }
+}
+
+#[test]
+fn sweeps_beyond_the_limits_are_refused_before_they_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (
+            "learners = [\"no-slip\"]\npowertrains = [\"commanded\"]\n\n[[datasets]]\nbundled = \"husky\"\n\n[bootstrap]\nresamples = 1000000000000\n",
+            "bootstrap.resamples = 1e12 is more than the limit of 1e6",
+        ),
+        (
+            "[simulated]\nrobots = [\"husky\"]\nterrains = [\"tile\"]\nsamplers = [\"uniform\"]\ndurations = [60]\nseeds = [SEEDS]\ntest_duration = 60\n",
+            "combinations",
+        ),
+        (
+            "learners = [\"no-slip\"]\npowertrains = [\"commanded\"]\n\n[simulated]\nrobots = [\"husky\"]\nterrains = [\"tile\"]\nsamplers = [\"uniform\"]\ndurations = [1e12]\nseeds = [1]\ntest_duration = 60\n",
+            "--max-samples",
+        ),
+    ];
+    for (i, (text, says)) in cases.iter().enumerate() {
+        let seeds: Vec<String> = (0..20_000).map(|s| s.to_string()).collect();
+        let text = text.replace("SEEDS", &seeds.join(", "));
+        let sweep = dir.path().join(format!("sweep{i}.toml"));
+        std::fs::write(&sweep, text).unwrap();
+        let out = dir.path().join(format!("out{i}"));
+        let o = drive(&[
+            "matrix".to_string(),
+            "--config".to_string(),
+            sweep.display().to_string(),
+            "--out".to_string(),
+            out.display().to_string(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.contains(says), "'{says}' not in {err}");
+        assert!(!out.exists(), "{}", out.display());
     }
 }
