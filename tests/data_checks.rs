@@ -104,6 +104,17 @@ fn a_robot_on_a_stand_is_refused_unless_allowed() {
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert_eq!(checks(&json), vec![("not-moving".into(), "fatal".into())]);
     assert!(!out.exists());
+    // The position frozen under a live heading is frozen localization too.
+    let frozen = raw_log(dir.path(), "frozen.csv", |f, col| {
+        f[col("icp_pos_x")] = "5.0".into();
+        f[col("icp_pos_y")] = "3.0".into();
+    });
+    let (code, json, err) = import(&frozen, "husky", &out, &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        checks(&json).contains(&("not-moving".into(), "fatal".into())),
+        "{json}"
+    );
     // Allowed: written, and `drive check` finds the same.
     let (code, _, err) = import(&raw, "husky", &out, &["--allow", "not-moving"]);
     assert_eq!(code, Some(0), "{err}");

@@ -335,7 +335,10 @@ pub fn import_raw(
         if !(v.is_finite() && v > 0.0) {
             return Err(DataError::new(
                 Location::field("import configuration", name),
-                DataErrorKind::Inconsistent(format!("{v} is not a positive number of seconds")),
+                DataErrorKind::Inconsistent(format!(
+                    "{} is not a positive number of seconds",
+                    drive_traits::limits::Short(v)
+                )),
             ));
         }
     }

@@ -75,6 +75,8 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
     let bad = |field: &str, msg: String| {
         DataError::new(Location::field(file, field), DataErrorKind::BadSidecar(msg))
     };
+    // A byte-order mark (an editor's) is not part of the JSON.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     if text.trim().is_empty() {
         return Err(DataError::new(Location::file(file), DataErrorKind::Empty));
     }

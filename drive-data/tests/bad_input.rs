@@ -412,6 +412,6 @@ fn a_byte_order_mark_is_accepted() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("bom.csv");
     std::fs::write(&csv, format!("\u{feff}{}", good().join("\n"))).unwrap();
-    std::fs::write(dir.path().join("bom.json"), SIDECAR).unwrap();
+    std::fs::write(dir.path().join("bom.json"), format!("\u{feff}{SIDECAR}")).unwrap();
     assert_eq!(read_dataset(&csv, None).unwrap().windows.len(), 3);
 }

@@ -9,6 +9,7 @@ use crate::{
 use drive_samplers::{RobotSpec, SamplerError};
 use drive_sim::{SimError, Simulation, Terrain};
 use drive_traits::limits;
+use drive_traits::limits::Short;
 use drive_traits::{FitError, RegistryError};
 use serde::Serialize;
 use thiserror::Error;
@@ -47,7 +48,7 @@ pub enum ExperimentError {
     #[error("{0}")]
     Robot(String),
     /// A driving time shorter than one interval, or not finite.
-    #[error("driving time {0} s is shorter than one {INTERVAL_S} s DRIVE interval")]
+    #[error("{}", too_short(*.0))]
     TooShort(f64),
     /// A size beyond its documented limit (see `drive_traits::limits`).
     #[error(transparent)]
@@ -58,6 +59,17 @@ pub enum ExperimentError {
     /// A data set holds too few windows for the experiment.
     #[error("{0}")]
     NotEnoughData(String),
+}
+
+fn too_short(driving_s: f64) -> String {
+    if driving_s.is_finite() {
+        format!(
+            "driving time {} s is shorter than one {INTERVAL_S} s DRIVE interval",
+            Short(driving_s)
+        )
+    } else {
+        format!("driving time {driving_s} s is not a finite number of seconds")
+    }
 }
 
 /// The number of whole DRIVE intervals that fit in `driving_s` seconds of driving.
@@ -243,6 +255,22 @@ pub fn compare_protocols(
         "seeds",
         study.seeds.len() as f64,
         limits::MAX_SEEDS as f64,
+        "",
+    )?;
+    let runs = [
+        study.robots.len(),
+        study.terrains.len(),
+        study.samplers.len(),
+        study.driving_s.len(),
+        study.seeds.len(),
+    ]
+    .iter()
+    .map(|n| *n as f64)
+    .product::<f64>();
+    limits::at_most(
+        "the study's runs (robots x terrains x samplers x durations x seeds)",
+        runs,
+        limits::MAX_COMBINATIONS as f64,
         "",
     )?;
     let model = registries.model(&study.model)?;

@@ -1,3 +1,4 @@
+use drive_traits::limits::Short;
 use drive_traits::{Dataset, WindowSet};
 use thiserror::Error;
 
@@ -5,10 +6,10 @@ use thiserror::Error;
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum SplitError {
     /// The fraction is not in (0, 1).
-    #[error("split fraction {0} is not between 0 and 1 (exclusive)")]
+    #[error("split fraction {} is not between 0 and 1 (exclusive)", Short(*.0))]
     BadFraction(f64),
     /// One side of the split would be empty.
-    #[error("split {fraction} of {intervals} DRIVE intervals leaves {train} for training and {eval} for evaluation; both need at least one")]
+    #[error("split {} of {intervals} DRIVE intervals leaves {train} for training and {eval} for evaluation; both need at least one", Short(*.fraction))]
     EmptySide {
         /// fraction asked
         fraction: f64,

@@ -50,11 +50,16 @@ impl Summary {
     }
 }
 
-/// Improvement of `value` over `baseline` in percent: `100 (baseline - value) / baseline`.
+/// Improvement of `value` over `baseline` in percent: `100 (baseline - value) / baseline`;
+/// 0 when both are zero (a perfect baseline matched), not NaN.
 ///
 /// ```
 /// assert_eq!(drive_eval::improvement_percent(0.5, 2.0), 75.0);
+/// assert_eq!(drive_eval::improvement_percent(0.0, 0.0), 0.0);
 /// ```
 pub fn improvement_percent(value: f64, baseline: f64) -> f64 {
+    if value == baseline {
+        return 0.0;
+    }
     100.0 * (baseline - value) / baseline
 }

@@ -85,6 +85,8 @@ pub fn model_from_json(
     file: &str,
     text: &str,
 ) -> Result<(Box<dyn MotionModel>, RobotDescription), ModelFileError> {
+    // A byte-order mark (an editor's) is not part of the JSON.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut value: Value = serde_json::from_str(text).map_err(|e| ModelFileError::Parse {
         file: file.into(),
         line: e.line(),

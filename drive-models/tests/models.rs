@@ -409,6 +409,8 @@ fn slip_blr_files_without_a_basis_are_the_papers() {
         .fit(&WindowSet::new(&cr, &cw))
         .unwrap();
     let text = model_to_json(&car, &cr).unwrap();
+    // A byte-order mark before the JSON is not part of it.
+    assert!(model_from_json("m.json", &format!("\u{feff}{text}")).is_ok());
     let mislabelled = text.replace("\"basis\": \"car\"", "\"basis\": \"skid-steer\"");
     assert!(model_from_json("m.json", &mislabelled).is_err());
     // A model whose vehicle is not its robot's: the commands would be read as one and

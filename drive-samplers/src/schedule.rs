@@ -121,7 +121,12 @@ pub fn schedule(
     intervals: usize,
 ) -> Vec<ScheduledCommand> {
     let n = window_len(robot);
-    let mut out = Vec::with_capacity(intervals * WINDOWS_PER_INTERVAL * n);
+    // Grown as needed beyond a million rows: a mistaken count fails as it grows, not in
+    // one impossible allocation.
+    let rows = intervals
+        .saturating_mul(WINDOWS_PER_INTERVAL)
+        .saturating_mul(n);
+    let mut out = Vec::with_capacity(rows.min(1 << 20));
     let mut sent = SentCommand::default();
     for interval in 0..intervals {
         let target = sampler.next_input();

@@ -26,6 +26,9 @@ pub const MAX_WINDOW_LEN: usize = 100_000;
 /// Most samples (commands or measurements) in one run or schedule: 55 h at 20 Hz, about
 /// 2 GB of memory for a simulation (0.5 kB per sample). Raise it with `--max-samples`.
 pub const MAX_RUN_SAMPLES: usize = 4_000_000;
+/// The most `--max-samples` may raise [`MAX_RUN_SAMPLES`] to: 2 x 10^7 samples (278 h at
+/// 20 Hz), about 10 GB of memory and several minutes for a simulation.
+pub const MAX_RUN_SAMPLES_CEILING: usize = 20_000_000;
 /// Most repetitions (seeds) of a simulated study.
 pub const MAX_SEEDS: usize = 1000;
 /// Most random draws per region of a study on recorded data.

@@ -12,7 +12,10 @@ pub fn check_step(dt: f64) -> Result<(), String> {
     if dt.is_finite() && dt > 0.0 {
         Ok(())
     } else {
-        Err(format!("dt = {dt} is not a positive number of seconds"))
+        Err(format!(
+            "dt = {} is not a positive number of seconds",
+            crate::limits::Short(dt)
+        ))
     }
 }
 

@@ -95,7 +95,10 @@ fn simulated(args: &Args, registries: &Registries) -> Result<()> {
     }
     limits::at_most("--seeds", args.seeds as f64, limits::MAX_SEEDS as f64, "")?;
     if let Some(d) = args.duration.iter().find(|d| !(d.is_finite() && **d > 0.0)) {
-        bail!("--duration must be positive seconds of driving, got {d}");
+        bail!(
+            "--duration must be positive seconds of driving, got {}",
+            limits::Short(*d)
+        );
     }
     let longest = args.duration.iter().copied().fold(0.0, f64::max);
     let study = ProtocolStudy {

@@ -28,8 +28,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if thresholds.iter().any(|t| *t <= 0.0) {
         bail!(
             "--thresholds must be positive, got {},{}",
-            thresholds[0],
-            thresholds[1]
+            crate::traits::limits::Short(thresholds[0]),
+            crate::traits::limits::Short(thresholds[1])
         );
     }
     let dataset = load(&args.data)?;

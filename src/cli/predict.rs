@@ -2,6 +2,7 @@
 
 use super::common::{parse_pair, parse_triplet};
 use crate::models::model_file::model_from_json;
+use crate::traits::limits::Short;
 use crate::traits::{Input, Pose, StartState};
 use anyhow::{bail, Context, Result};
 use std::fmt::Write as _;
@@ -87,7 +88,13 @@ fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>>
         let t0 = *t0.get_or_insert(v[0]);
         let expected = t0 + out.len() as f64 * dt;
         if (v[0] - expected).abs() > 0.5 * dt {
-            bail!("{name}, line {}, column 't': t = {} but the model's command period is {dt} s (expected t = {expected})", i + 1, v[0]);
+            bail!(
+                "{name}, line {}, column 't': t = {} but the model's command period is {} s (expected t = {})",
+                i + 1,
+                Short(v[0]),
+                Short(dt),
+                Short(expected)
+            );
         }
         out.push(Input::new(v[1], v[2]));
     }

@@ -40,7 +40,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if !(args.duration.is_finite() && args.duration > 0.0) {
         bail!(
             "--duration must be a positive number of seconds, got {}",
-            args.duration
+            crate::traits::limits::Short(args.duration)
         );
     }
     let sidecar = crate::data::sidecar_path(&args.out);
@@ -53,6 +53,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     }
     let mut outputs =
         super::common::outputs_for(&super::common::robot_input(&args.robot), &planned)?;
+    crate::traits::limits::at_most(
+        "--max-samples",
+        args.max_samples as f64,
+        crate::traits::limits::MAX_RUN_SAMPLES_CEILING as f64,
+        "",
+    )?;
     let spec = registries.robot(&args.robot)?;
     let ground = registries.terrain(&args.terrain)?;
     let run = simulate_run(
@@ -78,7 +84,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if run.dataset.windows.is_empty() {
         bail!(
             "the run of {} s recorded no complete interval (characterization takes about 24 s, an interval 6 s)",
-            args.duration
+            crate::traits::limits::Short(args.duration)
         );
     }
     crate::data::stage_dataset(&mut outputs, &run.dataset, &args.out)?;
@@ -93,15 +99,23 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         None => "user-given".to_string(),
         Some(c) => {
             let axes = spec.vehicle.axes();
+            // Two decimals, or a short form for a number too large to read that way.
+            let n = |v: f64| {
+                if v.abs() < 1e6 {
+                    format!("{v:.2}")
+                } else {
+                    crate::traits::limits::Short(v).to_string()
+                }
+            };
             let mut text = format!(
-                "{} [{:.2}, {:.2}] {}, {} [{:.2}, {:.2}] {}",
+                "{} [{}, {}] {}, {} [{}, {}] {}",
                 axes[0].name,
-                c.space.min.x,
-                c.space.max.x,
+                n(c.space.min.x),
+                n(c.space.max.x),
                 axes[0].unit,
                 axes[1].name,
-                c.space.min.y,
-                c.space.max.y,
+                n(c.space.min.y),
+                n(c.space.max.y),
                 axes[1].unit
             );
             for (name, value) in &c.geometry {

@@ -287,14 +287,15 @@ impl SweepFile {
             .find(|f| !(f.is_finite() && **f > 0.0 && **f < 1.0))
         {
             return Err(invalid(format!(
-                "split {bad} is not between 0 and 1 (exclusive)"
+                "split {} is not between 0 and 1 (exclusive)",
+                limits::Short(*bad)
             )));
         }
         let b = self.bootstrap;
         if !(b.level > 0.0 && b.level < 1.0) || b.resamples < 10 {
             return Err(invalid(format!(
                 "bootstrap needs a level in (0, 1) and at least 10 resamples, got level {} and {} resamples",
-                b.level, b.resamples
+                limits::Short(b.level), b.resamples
             )));
         }
         limits::at_most(
@@ -302,6 +303,29 @@ impl SweepFile {
             b.resamples as f64,
             limits::MAX_RESAMPLES as f64,
             "",
+        )
+        .map_err(|e| invalid(e.to_string()))?;
+        // Counted before anything is loaded or simulated, in floating point (a product of
+        // list lengths can overflow an integer).
+        let runs = self.simulated.as_ref().map_or(0.0, |s| {
+            [
+                s.robots.len(),
+                s.terrains.len(),
+                s.samplers.len(),
+                s.durations.len(),
+                s.seeds.len(),
+            ]
+            .iter()
+            .map(|n| *n as f64)
+            .product::<f64>()
+        });
+        let combinations =
+            (self.datasets.len() as f64 * self.splits.len() as f64 + runs) * specs.len() as f64;
+        limits::at_most(
+            "the sweep's combinations",
+            combinations,
+            limits::MAX_COMBINATIONS as f64,
+            "split it into several sweeps",
         )
         .map_err(|e| invalid(e.to_string()))?;
         let mut datasets = Vec::new();
@@ -333,17 +357,6 @@ impl SweepFile {
                 "the sweep has no dataset: add [[datasets]] or [simulated]".into(),
             ));
         }
-        let runs = simulated.as_ref().map_or(0, |s| {
-            s.robots.len() * s.terrains.len() * s.samplers.len() * s.durations.len() * s.seeds.len()
-        });
-        let combinations = (datasets.len() * self.splits.len() + runs) * specs.len();
-        limits::at_most(
-            "the sweep's combinations",
-            combinations as f64,
-            limits::MAX_COMBINATIONS as f64,
-            "split it into several sweeps",
-        )
-        .map_err(|e| invalid(e.to_string()))?;
         Ok(Matrix {
             datasets,
             simulated,

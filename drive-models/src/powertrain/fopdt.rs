@@ -172,13 +172,13 @@ impl Powertrain for FopdtPowertrain {
             if !(r.time_constant.is_finite() && r.time_constant > 0.0) {
                 return Err(format!(
                     "powertrain axis {i} time constant {} is not a positive number of seconds",
-                    r.time_constant
+                    drive_traits::limits::Short(r.time_constant)
                 ));
             }
             if !(r.delay.is_finite() && r.delay >= 0.0) {
                 return Err(format!(
                     "powertrain axis {i} delay {} is not a non-negative number of seconds",
-                    r.delay
+                    drive_traits::limits::Short(r.delay)
                 ));
             }
         }

@@ -146,7 +146,8 @@ impl Powertrain for RateLimitedPowertrain {
             ] {
                 if !(v.is_finite() && v >= min) {
                     return Err(format!(
-                        "powertrain axis {i} {name} {v} is not a {} number",
+                        "powertrain axis {i} {name} {} is not a {} number",
+                        drive_traits::limits::Short(v),
                         if min > 0.0 {
                             "positive"
                         } else {

@@ -1,3 +1,4 @@
+use drive_traits::limits::Short;
 use drive_traits::{
     spanned_space, BodyVelocity, Characterization, CommandModel, Input, InputAxis, InputSpace,
     Probe, ProbeResult, Steering, Tagged,
@@ -158,13 +159,13 @@ impl CommandModel for Ackermann {
         if !(self.wheelbase.is_finite() && self.wheelbase > 0.0) {
             return Err(format!(
                 "vehicle wheelbase = {} is not a positive length",
-                self.wheelbase
+                Short(self.wheelbase)
             ));
         }
         if !(self.max_steering > 0.0 && self.max_steering < std::f64::consts::FRAC_PI_2) {
             return Err(format!(
                 "vehicle max_steering = {} is not an angle in (0, pi/2) rad",
-                self.max_steering
+                Short(self.max_steering)
             ));
         }
         Ok(())
@@ -176,7 +177,8 @@ impl CommandModel for Ackermann {
         if space.min.y <= -half_turn || space.max.y >= half_turn {
             return Err(format!(
                 "the steering range [{}, {}] rad reaches +-pi/2, where a car's curvature is infinite",
-                space.min.y, space.max.y
+                Short(space.min.y),
+                Short(space.max.y)
             ));
         }
         Ok(())

@@ -160,7 +160,10 @@ impl CommandModel for DifferentialDrive {
             ("baseline", self.baseline),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(format!("vehicle {name} = {v} is not a positive length"));
+                return Err(format!(
+                    "vehicle {name} = {} is not a positive length",
+                    drive_traits::limits::Short(v)
+                ));
             }
         }
         Ok(())
