@@ -133,7 +133,11 @@ fn a_robot_on_a_stand_is_refused_unless_allowed() {
     // An unknown check is named.
     let (code, _, err) = import(&raw, "husky", &out, &["--allow", "wheels"]);
     assert_eq!(code, Some(1));
-    assert!(err.contains("no check 'wheels'"), "{err}");
+    assert!(err.contains("no check \"wheels\""), "{err}");
+    // A name is quoted, whatever it holds: still one line.
+    let (code, _, err) = import(&raw, "husky", &out, &["--allow", "x\nerror: injected"]);
+    assert_eq!(code, Some(1));
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
 }
 
 #[test]
@@ -173,6 +177,33 @@ fn encoders_not_recorded_are_refused() {
         checks(&json).contains(&("encoders-zero".into(), "fatal".into())),
         "{json}"
     );
+}
+
+#[test]
+fn a_window_csv_of_another_robot_is_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("w.csv").display().to_string();
+    ok(&[
+        "simulate",
+        "--robot",
+        "warthog",
+        "--terrain",
+        "tile",
+        "--duration",
+        "90",
+        "--out",
+        &csv,
+    ]);
+    let o = drive(&["check", "--data", &csv, "--robot", "husky", "--json"]);
+    assert_eq!(o.status.code(), Some(0));
+    let json = String::from_utf8(o.stdout).unwrap();
+    assert!(
+        checks(&json).contains(&("outside-limits".into(), "warning".into())),
+        "{json}"
+    );
+    assert!(json.contains("is not the robot husky's"), "{json}");
+    let o = drive(&["check", "--data", &csv, "--robot", "warthog", "--json"]);
+    assert!(checks(&String::from_utf8(o.stdout).unwrap()).is_empty());
 }
 
 #[test]

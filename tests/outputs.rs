@@ -428,3 +428,38 @@ fn two_runs_writing_one_output_leave_a_pair_that_is_one_runs_or_is_refused() {
         .count();
     assert_eq!(stray, 0);
 }
+
+#[cfg(unix)]
+#[test]
+fn standard_streams_and_pipes_are_written_into_not_replaced() {
+    // --per-window /dev/stdout: the rows go to this process's output with the table.
+    let out = ok(&["eval", "--models", "naive", "--per-window", "/dev/stdout"]);
+    assert!(
+        out.starts_with("model,window,interval,phase"),
+        "{}",
+        &out[..80]
+    );
+    assert!(out.contains("DRIVE model comparison"));
+    // A dataset cannot go to a pipe: its sidecar would have nowhere to be.
+    let dir = tempfile::tempdir().unwrap();
+    let pipe = dir.path().join("pipe");
+    if Command::new("mkfifo")
+        .arg(&pipe)
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        let err = user_error(&[
+            "simulate",
+            "--robot",
+            "husky",
+            "--terrain",
+            "tile",
+            "--duration",
+            "40",
+            "--out",
+            &s(&pipe),
+        ]);
+        assert!(err.contains("not a regular file"), "{err}");
+        assert!(!dir.path().join("pipe.json").exists());
+    }
+}

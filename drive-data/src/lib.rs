@@ -125,6 +125,14 @@ pub fn stage_dataset(
     csv: &Path,
 ) -> Result<(), DataError> {
     let side = sidecar_path(csv);
+    if output::is_special(csv) {
+        return Err(DataError::new(
+            Location::file(&csv.display().to_string()),
+            DataErrorKind::Write(
+                "not a regular file: a dataset is a CSV with its sidecar JSON beside it".into(),
+            ),
+        ));
+    }
     // No NaN or infinity is written: the reader would refuse the file.
     let bad = dataset.windows.iter().find(|w| {
         let inputs = w.command.iter().chain(&w.measured).flat_map(|u| u.iter());

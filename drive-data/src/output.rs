@@ -155,9 +155,43 @@ struct Staged {
     id: Identity,
     /// The file the bytes go to: the target, or the file its symbolic link points to.
     destination: PathBuf,
-    /// The destination is a device, a pipe or a socket (`/dev/null`, `/dev/stdout`): its
-    /// bytes are copied into it, not renamed over it (which would replace the device).
-    direct: bool,
+    /// How the bytes reach the destination.
+    kind: Destination,
+}
+
+/// How staged bytes reach their destination.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Destination {
+    /// Renamed into place (a regular file, or a new one).
+    File,
+    /// Written into the process's standard output or error (`/dev/stdout`, `/dev/fd/2`,
+    /// ...), where the shell may have sent it to a file being appended to.
+    Stream(i32),
+    /// Written into a device, a pipe or a socket (`/dev/null`): renaming over it would
+    /// replace the device with a file.
+    Device,
+}
+
+/// The standard stream a path names, if it does (`/dev/stdout`, `/dev/fd/1`,
+/// `/proc/self/fd/1`; 2 for standard error).
+fn stream_of(path: &Path) -> Option<i32> {
+    let p = path.to_str()?;
+    for (fd, names) in [
+        (1, ["/dev/stdout", "/dev/fd/1", "/proc/self/fd/1"]),
+        (2, ["/dev/stderr", "/dev/fd/2", "/proc/self/fd/2"]),
+    ] {
+        if names.contains(&p) {
+            return Some(fd);
+        }
+    }
+    None
+}
+
+/// Whether `path` is, or leads to, something other than a regular file or a directory:
+/// a device, a pipe, a socket or a standard stream. Such a path cannot take a file beside
+/// it (a dataset's sidecar).
+pub fn is_special(path: &Path) -> bool {
+    stream_of(path).is_some() || std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
 }
 
 /// Files staged for writing, published together (see the module documentation).
@@ -246,7 +280,12 @@ impl Outputs {
         if meta.as_ref().is_some_and(|m| m.is_dir()) {
             return Err(failed("it is a directory".into()));
         }
-        let direct = meta.as_ref().is_some_and(|m| !m.is_file());
+        let kind = match stream_of(target) {
+            Some(fd) => Destination::Stream(fd),
+            None if meta.as_ref().is_some_and(|m| !m.is_file()) => Destination::Device,
+            None => Destination::File,
+        };
+        let direct = kind != Destination::File;
         let name = destination
             .file_name()
             .ok_or_else(|| failed("not a file name".into()))?;
@@ -270,7 +309,7 @@ impl Outputs {
             temp: temp.clone(),
             id: Identity::of(target),
             destination,
-            direct,
+            kind,
         });
         write(&temp).map_err(|e| failed(e.to_string()))
     }
@@ -298,15 +337,17 @@ impl Outputs {
         let mut published = Vec::new();
         let mut pending = staged.into_iter();
         while let Some(f) = pending.next() {
-            let moved = if f.direct {
-                let copied = match std::fs::copy(&f.temp, &f.destination) {
-                    // A pipe whose reader has gone (`--per-window /dev/stdout | head`).
-                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(0),
-                    other => other,
-                };
-                copied.and_then(|_| std::fs::remove_file(&f.temp))
-            } else {
-                std::fs::rename(&f.temp, &f.destination)
+            let moved = match f.kind {
+                Destination::File => std::fs::rename(&f.temp, &f.destination),
+                Destination::Stream(_) | Destination::Device => {
+                    let copied = write_into(&f);
+                    let copied = match copied {
+                        // A pipe whose reader has gone (`--per-window /dev/stdout | head`).
+                        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+                        other => other,
+                    };
+                    copied.and_then(|()| std::fs::remove_file(&f.temp))
+                }
             };
             if let Err(e) = moved {
                 let path = f.target.clone();
@@ -323,6 +364,30 @@ impl Outputs {
         }
         self.created_dirs.clear();
         Ok(published)
+    }
+}
+
+/// Copies a staged file into a stream or a device, in place (no truncation, no rename).
+fn write_into(f: &Staged) -> std::io::Result<()> {
+    let mut bytes = std::fs::File::open(&f.temp)?;
+    match f.kind {
+        Destination::Stream(1) => {
+            let mut out = std::io::stdout().lock();
+            std::io::copy(&mut bytes, &mut out)?;
+            out.flush()
+        }
+        Destination::Stream(_) => {
+            let mut out = std::io::stderr().lock();
+            std::io::copy(&mut bytes, &mut out)?;
+            out.flush()
+        }
+        _ => {
+            let mut out = std::fs::OpenOptions::new()
+                .write(true)
+                .open(&f.destination)?;
+            std::io::copy(&mut bytes, &mut out)?;
+            out.flush()
+        }
     }
 }
 

@@ -244,6 +244,39 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out
 }
 
+/// An `outside-limits` warning when the dataset's vehicle is not the robot description's:
+/// another type, or a geometry parameter more than 10% away (a Warthog's 0.3 m wheels and
+/// 1.17 m track checked as a Husky's 0.165 m and 0.55 m).
+pub fn vehicle_mismatch(
+    data: &dyn drive_traits::CommandModel,
+    robot: &dyn drive_traits::CommandModel,
+    robot_name: &str,
+) -> Option<Finding> {
+    let (a, b) = (
+        serde_json::to_value(data).ok()?,
+        serde_json::to_value(robot).ok()?,
+    );
+    let differs = match (a.as_object(), b.as_object()) {
+        (Some(x), Some(y)) => {
+            x.get("type") != y.get("type")
+                || x.iter().any(
+                    |(k, v)| match (v.as_f64(), y.get(k).and_then(|w| w.as_f64())) {
+                        (Some(p), Some(q)) => (p - q).abs() > 0.1 * p.abs().max(q.abs()),
+                        _ => false,
+                    },
+                )
+        }
+        _ => a != b,
+    };
+    differs.then(|| Finding {
+        check: "outside-limits",
+        severity: Severity::Warning,
+        message: format!(
+            "the data's vehicle {a} is not the robot {robot_name}'s {b}: is it the right robot?"
+        ),
+    })
+}
+
 /// The yaw rate localization implies at each sample: the wrapped change of the window's
 /// yaw over two samples on each side (one-sided at the ends), which spans the held values of
 /// a localization slower than the command rate. What start states use when the IMU was not

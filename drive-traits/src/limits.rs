@@ -12,6 +12,8 @@
 //! assert!(at_most("--seeds", 5.0, MAX_SEEDS as f64, "").is_ok());
 //! let e = at_most("--seeds", 1e9, MAX_SEEDS as f64, "").unwrap_err();
 //! assert_eq!(e.to_string(), "--seeds = 1e9 is more than the limit of 1000");
+//! let e = at_most("--max-samples", 20_000_001.0, 2e7, "").unwrap_err();
+//! assert_eq!(e.to_string(), "--max-samples = 20000001 is more than the limit of 20000000");
 //! ```
 
 use std::fmt;
@@ -46,7 +48,7 @@ pub const MAX_ABS_MEASUREMENT: f64 = 1e9;
 
 /// A size beyond its documented limit.
 #[derive(Debug, Clone, PartialEq, Error)]
-#[error("{what} = {} is more than the limit of {}{hint}", Short(*.value), Short(*.limit))]
+#[error("{what} = {} is more than the limit of {}{hint}", distinct(*.value, *.limit).0, distinct(*.value, *.limit).1)]
 pub struct TooLarge {
     /// The flag or field, as the user wrote it (`--seeds`, `rate_hz`).
     pub what: String,
@@ -56,6 +58,17 @@ pub struct TooLarge {
     pub limit: f64,
     /// What to do about it (starts with "; " or is empty).
     pub hint: String,
+}
+
+/// The value and the limit as short numbers, or in full when the short forms would look
+/// the same (`20000001` against `20000000`, not `2e7` against `2e7`).
+fn distinct(value: f64, limit: f64) -> (String, String) {
+    let (v, l) = (Short(value).to_string(), Short(limit).to_string());
+    if v != l {
+        (v, l)
+    } else {
+        (format!("{value}"), format!("{limit}"))
+    }
 }
 
 /// `Ok` when `value <= limit`; else an error naming `what` and the limit, with `hint`

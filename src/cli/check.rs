@@ -27,7 +27,7 @@ pub fn known_checks(names: &[String]) -> Result<()> {
         if !CHECKS.iter().any(|(k, _)| k == n) {
             let keys: Vec<&str> = CHECKS.iter().map(|(k, _)| *k).collect();
             bail!(
-                "--allow: no check '{n}' (the checks are: {})",
+                "--allow: no check {n:?} (the checks are: {})",
                 keys.join(", ")
             );
         }
@@ -45,11 +45,18 @@ pub fn stopping<'a>(findings: &'a [Finding], allow: &[String]) -> Option<&'a Fin
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     known_checks(&args.allow)?;
     let data = load(&args.data)?;
-    let limits = match &args.robot {
-        Some(r) => Some(registries.robot(r)?.input_space()),
+    let robot = match &args.robot {
+        Some(r) => Some(registries.robot(r)?),
         None => None,
     };
-    let findings = check(&data, limits.as_ref());
+    let mut findings = check(&data, robot.as_ref().map(|r| r.input_space()).as_ref());
+    if let Some(r) = &robot {
+        findings.extend(crate::data::quality::vehicle_mismatch(
+            data.robot.vehicle.as_ref(),
+            r.vehicle.as_ref(),
+            &r.name,
+        ));
+    }
     if args.json {
         outln!(
             "{}",
