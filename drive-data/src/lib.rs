@@ -50,19 +50,35 @@ pub fn parse_dataset(
     // A problem in the CSV is reported where it is; a well-formed CSV that is not the
     // sidecar's (another run's, or edited) is refused after.
     let windows = parse_windows(csv_name, csv_text, &robot)?;
+    check_pair(
+        csv_name,
+        sidecar_name,
+        &announced,
+        windows.len(),
+        CsvDigest::of(csv_text),
+    )?;
+    Ok(Dataset { robot, windows })
+}
+
+/// Checks a CSV against what its sidecar announces: the number of windows, then the digest.
+fn check_pair(
+    csv_name: &str,
+    sidecar_name: &str,
+    announced: &Announced,
+    windows: usize,
+    found: CsvDigest,
+) -> Result<(), DataError> {
     if let Some(n) = announced.windows {
-        if n != windows.len() {
+        if n != windows {
             return Err(DataError::new(
                 Location::field(sidecar_name, "windows"),
                 DataErrorKind::Inconsistent(format!(
-                    "the sidecar announces {n} windows but {csv_name} holds {}",
-                    windows.len()
+                    "the sidecar announces {n} windows but {csv_name} holds {windows}"
                 )),
             ));
         }
     }
     if let Some(expected) = announced.csv {
-        let found = CsvDigest::of(csv_text);
         if found != expected {
             return Err(DataError::new(
                 Location::field(sidecar_name, "csv"),
@@ -73,7 +89,7 @@ pub fn parse_dataset(
             ));
         }
     }
-    Ok(Dataset { robot, windows })
+    Ok(())
 }
 
 /// The sidecar path that goes with a window CSV: the same path with a `.json` extension.
@@ -94,7 +110,8 @@ pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataE
         .unwrap_or_else(|| sidecar_path(csv));
     let csv_name = csv.display().to_string();
     let sidecar_name = sidecar.display().to_string();
-    let csv_text = read_text(csv)?;
+    let opened = std::fs::File::open(csv)
+        .map_err(|e| DataError::new(Location::file(&csv_name), DataErrorKind::Io(e.to_string())))?;
     let sidecar_text = std::fs::read_to_string(&sidecar).map_err(|e| {
         let kind = if e.kind() == std::io::ErrorKind::NotFound {
             DataErrorKind::MissingSidecar(format!(
@@ -105,7 +122,11 @@ pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataE
         };
         DataError::new(Location::file(&sidecar_name), kind)
     })?;
-    parse_dataset(&csv_name, &csv_text, &sidecar_name, &sidecar_text)
+    let (robot, announced) = parse_sidecar(&sidecar_name, &sidecar_text)?;
+    // Line by line: the CSV's text is never held whole.
+    let (windows, digest) = window_csv::read_windows(&csv_name, opened, &robot)?;
+    check_pair(&csv_name, &sidecar_name, &announced, windows.len(), digest)?;
+    Ok(Dataset { robot, windows })
 }
 
 /// Writes a dataset as a window CSV at `csv` and its sidecar beside it, both or neither

@@ -33,18 +33,49 @@ pub struct CsvDigest {
     pub fnv1a64: u64,
 }
 
+/// A [`CsvDigest`] computed line by line (each line with its ending).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct DigestBuilder {
+    hash: u64,
+    lines: usize,
+}
+
+impl Default for DigestBuilder {
+    fn default() -> Self {
+        DigestBuilder {
+            hash: 0xcbf2_9ce4_8422_2325,
+            lines: 0,
+        }
+    }
+}
+
+impl DigestBuilder {
+    /// Adds one line (its bytes, line ending included).
+    pub(crate) fn update(&mut self, line: &[u8]) {
+        for b in line {
+            self.hash ^= u64::from(*b);
+            self.hash = self.hash.wrapping_mul(0x0100_0000_01b3);
+        }
+        self.lines += 1;
+    }
+
+    /// The digest: rows are the lines after the header.
+    pub(crate) fn finish(self) -> CsvDigest {
+        CsvDigest {
+            rows: self.lines.saturating_sub(1),
+            fnv1a64: self.hash,
+        }
+    }
+}
+
 impl CsvDigest {
     /// The digest of a CSV text.
     pub fn of(text: &str) -> CsvDigest {
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in text.as_bytes() {
-            h ^= u64::from(*b);
-            h = h.wrapping_mul(0x0100_0000_01b3);
+        let mut d = DigestBuilder::default();
+        for line in text.split_inclusive('\n') {
+            d.update(line.as_bytes());
         }
-        CsvDigest {
-            rows: text.lines().count().saturating_sub(1),
-            fnv1a64: h,
-        }
+        d.finish()
     }
 
     fn to_json(self) -> Value {

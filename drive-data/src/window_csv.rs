@@ -70,19 +70,74 @@ pub fn parse_windows(
     text: &str,
     robot: &RobotDescription,
 ) -> Result<Vec<Window>, DataError> {
+    parse_lines(
+        file,
+        text.lines().enumerate().map(|(i, l)| Ok((i + 1, l))),
+        robot,
+    )
+}
+
+/// Reads the window CSV at `path` line by line (the text is never held whole), with the
+/// digest of its bytes (a byte-order mark left out) for the sidecar's check.
+pub(crate) fn read_windows(
+    file: &str,
+    opened: std::fs::File,
+    robot: &RobotDescription,
+) -> Result<(Vec<Window>, crate::CsvDigest), DataError> {
+    use std::io::BufRead as _;
+    let mut reader = std::io::BufReader::new(opened);
+    let mut digest = crate::sidecar::DigestBuilder::default();
+    let mut number = 0;
+    let lines = std::iter::from_fn(|| {
+        let mut line = String::new();
+        match reader.read_line(&mut line) {
+            Ok(0) => None,
+            Ok(_) => {
+                number += 1;
+                if number == 1 {
+                    if let Some(rest) = line.strip_prefix('\u{feff}') {
+                        line = rest.to_string();
+                    }
+                }
+                digest.update(line.as_bytes());
+                if line.ends_with('\n') {
+                    line.pop();
+                }
+                Some(Ok((number, line)))
+            }
+            Err(e) => {
+                let kind = if e.kind() == std::io::ErrorKind::InvalidData {
+                    DataErrorKind::Io(format!("not UTF-8 text (line {})", number + 1))
+                } else {
+                    DataErrorKind::Io(e.to_string())
+                };
+                Some(Err(DataError::new(Location::file(file), kind)))
+            }
+        }
+    });
+    let windows = parse_lines(file, lines, robot)?;
+    Ok((windows, digest.finish()))
+}
+
+/// The window CSV parser over numbered lines (1-based, without their line ending).
+fn parse_lines<S: AsRef<str>>(
+    file: &str,
+    lines: impl Iterator<Item = Result<(usize, S), DataError>>,
+    robot: &RobotDescription,
+) -> Result<Vec<Window>, DataError> {
     let columns = columns(robot);
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
+    let mut lines = lines;
     let header = loop {
         match lines.next() {
             None => return Err(DataError::new(Location::file(file), DataErrorKind::Empty)),
-            Some((_, l)) if l.trim().is_empty() => continue,
-            Some((n, l)) => break (n, l),
+            Some(Err(e)) => return Err(e),
+            Some(Ok((_, l))) if l.as_ref().trim().is_empty() => continue,
+            Some(Ok((n, l))) => break (n, l),
         }
     };
-    let (header_line, header_text) = header;
+    let (header_line, header_owned) = header;
+    let header_text = header_owned.as_ref();
+    let header_text = header_text.strip_suffix('\r').unwrap_or(header_text);
     // Position in the row of each required column; None for ignored optional columns.
     let mut slot_of_field: Vec<Option<usize>> = Vec::new();
     let mut position_of = [usize::MAX; 12];
@@ -128,7 +183,6 @@ pub fn parse_windows(
     let mut pending: Option<Pending> = None;
     let mut last_line = header_line;
     let mut values = [0.0f64; 12];
-    let mut fields: Vec<&str> = Vec::with_capacity(n_fields);
 
     let finish = |p: Pending,
                   line: usize,
@@ -158,12 +212,14 @@ pub fn parse_windows(
         Ok(())
     };
 
-    for (line_no, line) in lines {
+    for line in lines {
+        let (line_no, owned) = line?;
+        let line = owned.as_ref();
+        let line = line.strip_suffix('\r').unwrap_or(line);
         if line.trim().is_empty() {
             continue;
         }
-        fields.clear();
-        fields.extend(line.split(','));
+        let fields: Vec<&str> = line.split(',').collect();
         if fields.len() != n_fields {
             return Err(DataError::new(
                 Location::line(file, line_no),
