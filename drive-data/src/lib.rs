@@ -50,13 +50,9 @@ pub fn parse_dataset(
     // A problem in the CSV is reported where it is; a well-formed CSV that is not the
     // sidecar's (another run's, or edited) is refused after.
     let windows = parse_windows(csv_name, csv_text, &robot)?;
-    check_pair(
-        csv_name,
-        sidecar_name,
-        &announced,
-        windows.len(),
-        CsvDigest::of(csv_text),
-    )?;
+    check_pair(csv_name, sidecar_name, &announced, windows.len(), || {
+        CsvDigest::of(csv_text)
+    })?;
     Ok(Dataset { robot, windows })
 }
 
@@ -66,7 +62,7 @@ fn check_pair(
     sidecar_name: &str,
     announced: &Announced,
     windows: usize,
-    found: CsvDigest,
+    digest: impl FnOnce() -> CsvDigest,
 ) -> Result<(), DataError> {
     if let Some(n) = announced.windows {
         if n != windows {
@@ -79,6 +75,7 @@ fn check_pair(
         }
     }
     if let Some(expected) = announced.csv {
+        let found = digest();
         if found != expected {
             return Err(DataError::new(
                 Location::field(sidecar_name, "csv"),
@@ -125,7 +122,9 @@ pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataE
     let (robot, announced) = parse_sidecar(&sidecar_name, &sidecar_text)?;
     // Line by line: the CSV's text is never held whole.
     let (windows, digest) = window_csv::read_windows(&csv_name, opened, &robot)?;
-    check_pair(&csv_name, &sidecar_name, &announced, windows.len(), digest)?;
+    check_pair(&csv_name, &sidecar_name, &announced, windows.len(), || {
+        digest
+    })?;
     Ok(Dataset { robot, windows })
 }
 

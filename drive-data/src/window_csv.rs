@@ -219,18 +219,18 @@ fn parse_lines<S: AsRef<str>>(
         if line.trim().is_empty() {
             continue;
         }
-        let fields: Vec<&str> = line.split(',').collect();
-        if fields.len() != n_fields {
+        let found = line.bytes().filter(|b| *b == b',').count() + 1;
+        if found != n_fields {
             return Err(DataError::new(
                 Location::line(file, line_no),
                 DataErrorKind::FieldCount {
                     expected: n_fields,
-                    found: fields.len(),
+                    found,
                 },
             ));
         }
         let mut phase = Phase::Steady;
-        for (field, slot) in fields.iter().zip(&slot_of_field) {
+        for (field, slot) in line.split(',').zip(&slot_of_field) {
             let Some(slot) = *slot else { continue };
             let raw = field.trim();
             let at = || Location::cell(file, line_no, columns[slot]);
