@@ -96,9 +96,10 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     }
     // not-moving: among windows where the encoders imply real motion (0.2 m or 0.2 rad),
     // those where localization saw less than a tenth of it.
+    // Each window's implied and localized motion, once.
+    let motions: Vec<(f64, f64, f64, f64)> = windows.iter().map(|w| motion(data, w)).collect();
     let (mut driven, mut still) = (0usize, 0usize);
-    for w in &windows {
-        let (d, r, moved, turned) = motion(data, w);
+    for (w, &(d, r, moved, turned)) in windows.iter().zip(&motions) {
         let turned = turned.abs();
         let significant = [(d, moved, 0.2), (r, turned, 0.2)]
             .into_iter()
@@ -154,7 +155,8 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         // How far localization's turning departs from what the constant rate implies.
         let departs = windows
             .iter()
-            .map(|w| (motion(data, w).3 - first * (w.len() - 1) as f64 * data.robot.dt()).abs())
+            .zip(&motions)
+            .map(|(w, m)| (m.3 - first * (w.len() - 1) as f64 * data.robot.dt()).abs())
             .fold(0.0, f64::max);
         if imu.iter().all(|v| *v == first) && departs > 0.2 {
             out.push(Finding {

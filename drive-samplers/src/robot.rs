@@ -444,7 +444,7 @@ impl RobotSpec {
 
     /// A registered robot by name, or a TOML file by path.
     pub fn load(robots: &Registry<RobotSpec>, name_or_path: &str) -> Result<RobotSpec, RobotError> {
-        if name_or_path.ends_with(".toml") || std::path::Path::new(name_or_path).exists() {
+        if Self::file_of(name_or_path).is_some() {
             let text = std::fs::read_to_string(name_or_path).map_err(|e| RobotError::Parse {
                 file: name_or_path.into(),
                 message: e.to_string(),
@@ -461,6 +461,19 @@ impl RobotSpec {
                     known: format!("{}; or a path to a .toml file", robots.names().join(", ")),
                 })
             })
+    }
+
+    /// The robot file `name_or_path` names, if it names a file rather than a registered
+    /// robot (what [`RobotSpec::load`] reads): a `.toml` path, or any existing path.
+    ///
+    /// ```
+    /// use drive_samplers::RobotSpec;
+    /// assert!(RobotSpec::file_of("husky").is_none());
+    /// assert!(RobotSpec::file_of("robots/mine.toml").is_some());
+    /// ```
+    pub fn file_of(name_or_path: &str) -> Option<&std::path::Path> {
+        let path = std::path::Path::new(name_or_path);
+        (name_or_path.ends_with(".toml") || path.exists()).then_some(path)
     }
 
     /// Checks physical ranges: positive rates, limits and mass, a finite nominal input

@@ -58,12 +58,21 @@ impl DataArgs {
 
 /// The robot file a `--robot` argument reads, if it names one (see `RobotSpec::load`).
 pub fn robot_input(name_or_path: &str) -> Vec<(&'static str, PathBuf)> {
-    let path = PathBuf::from(name_or_path);
-    if name_or_path.ends_with(".toml") || path.exists() {
-        vec![("--robot", path)]
-    } else {
-        Vec::new()
-    }
+    crate::samplers::RobotSpec::file_of(name_or_path)
+        .map(|p| ("--robot", p.to_path_buf()))
+        .into_iter()
+        .collect()
+}
+
+/// `Err` when `--max-samples` is beyond the ceiling it may be raised to.
+pub fn check_max_samples(max_samples: usize) -> Result<()> {
+    crate::traits::limits::at_most(
+        "--max-samples",
+        max_samples as f64,
+        crate::traits::limits::MAX_RUN_SAMPLES_CEILING as f64,
+        "",
+    )?;
+    Ok(())
 }
 
 /// Staged outputs of a command that reads `inputs`, checked up front against `planned`

@@ -37,12 +37,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &super::common::robot_input(&args.robot),
         &[("--out", &args.out)],
     )?;
-    crate::traits::limits::at_most(
-        "--max-samples",
-        args.max_samples as f64,
-        crate::traits::limits::MAX_RUN_SAMPLES_CEILING as f64,
-        "",
-    )?;
+    super::common::check_max_samples(args.max_samples)?;
     let spec = registries.robot(&args.robot)?;
     let samples = args.intervals as f64 * INTERVAL_S * spec.rate_hz;
     limits::at_most(

@@ -53,12 +53,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     }
     let mut outputs =
         super::common::outputs_for(&super::common::robot_input(&args.robot), &planned)?;
-    crate::traits::limits::at_most(
-        "--max-samples",
-        args.max_samples as f64,
-        crate::traits::limits::MAX_RUN_SAMPLES_CEILING as f64,
-        "",
-    )?;
+    super::common::check_max_samples(args.max_samples)?;
     let spec = registries.robot(&args.robot)?;
     let ground = registries.terrain(&args.terrain)?;
     let run = simulate_run(
