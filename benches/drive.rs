@@ -1,4 +1,5 @@
-//! Criterion benchmarks of the issue-5 targets: load, train, eval, predict, batch.
+//! Criterion benchmarks of the issue-5 targets (load, train, eval, predict, batch) and of
+//! slip-ipem (issue 13).
 //!
 //! `cargo bench --bench drive`; one core: `RAYON_NUM_THREADS=1` is not needed, the
 //! single-core cases run on the calling thread. See BENCHMARKS.md.
@@ -7,7 +8,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use drive::eval::{compare, evaluate_model, split_by_interval};
 use drive::models::batch::predict_batch_parallel;
 use drive::models::powertrain::Fopdt;
-use drive::models::slip::SlipBlr;
+use drive::models::slip::{SlipBlr, SlipIpem};
 use drive::models::Composed;
 use drive::traits::{Input, Learner, MotionModel, Pose, StartState};
 use drive::Registries;
@@ -127,5 +128,39 @@ fn batch(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, load, train, eval, predict, batch);
+/// slip-ipem (issue 13): training on the husky training half (the ridge path on the inner
+/// split and the final fit; one thread) and one 40-step rollout.
+fn ipem(c: &mut Criterion) {
+    let data = drive::bundled::husky().unwrap();
+    let (train, eval) = split_by_interval(&data, 0.5).unwrap();
+    let learner = Composed::new(Fopdt::default(), SlipIpem::default());
+    let mut group = c.benchmark_group("slip-ipem");
+    group.sample_size(10);
+    group.bench_function("train, husky training half", |b| {
+        b.iter(|| learner.fit(black_box(&train)).unwrap())
+    });
+    group.finish();
+    let model = learner.fit(&train).unwrap();
+    let w = eval.windows[0];
+    let start = w.start_state(data.robot.vehicle.as_ref());
+    let mut poses = Vec::with_capacity(40);
+    c.bench_function("predict/slip-ipem 40-step mean rollout", |b| {
+        b.iter(|| model.predict_into(black_box(&start), black_box(&w.command), &mut poses))
+    });
+    let mut covs = Vec::with_capacity(40);
+    c.bench_function("predict/slip-ipem 40-step rollout with covariance", |b| {
+        b.iter(|| {
+            model
+                .predict_with_covariance_into(
+                    black_box(&start),
+                    black_box(&w.command),
+                    &mut poses,
+                    &mut covs,
+                )
+                .unwrap()
+        })
+    });
+}
+
+criterion_group!(benches, load, train, eval, predict, batch, ipem);
 criterion_main!(benches);

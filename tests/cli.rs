@@ -101,6 +101,22 @@ fn eval_table_subset_split_and_per_window_file() {
 }
 
 #[test]
+fn slip_ipem_is_a_tenth_better_than_slip_blr_on_both_errors() {
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["eval", "--json", "--models", "slip-blr,slip-ipem"])).unwrap();
+    let (blr, ipem) = (model(&v, "slip-blr"), model(&v, "slip-ipem"));
+    assert_eq!(ipem["model"], "slip-ipem+fopdt");
+    for key in ["translational_median_m", "rotational_median_rad"] {
+        assert!(
+            f(&ipem[key]) <= 0.9 * f(&blr[key]),
+            "{key}: slip-ipem {} vs slip-blr {}",
+            ipem[key],
+            blr[key]
+        );
+    }
+}
+
+#[test]
 fn train_then_predict_matches_the_library() {
     let dir = tempfile::tempdir().unwrap();
     let commands = dir.path().join("cmds.csv");
@@ -109,7 +125,7 @@ fn train_then_predict_matches_the_library() {
         text += &format!("{},{},{}\n", k as f64 / 20.0, 2.0 + 0.1 * k as f64, 5.0);
     }
     std::fs::write(&commands, text).unwrap();
-    for name in ["naive", "powertrain", "slip-blr", "acc-blr"] {
+    for name in ["naive", "powertrain", "slip-blr", "acc-blr", "slip-ipem"] {
         let file = dir.path().join(format!("{name}.json"));
         ok(&[
             "train",
@@ -133,7 +149,7 @@ fn train_then_predict_matches_the_library() {
         ]);
         let lines: Vec<&str> = out.lines().collect();
         assert_eq!(lines.len(), 41);
-        let with_cov = name.ends_with("blr");
+        let with_cov = name.ends_with("blr") || name == "slip-ipem";
         assert_eq!(
             lines[0].split(',').count(),
             if with_cov { 11 } else { 5 },

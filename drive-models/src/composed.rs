@@ -211,8 +211,9 @@ impl MotionModel for ComposedModel {
         Ok(())
     }
 
-    /// The slip model's predictive variances (eq. 7) propagated through eq. 1; an error
-    /// for a slip model without uncertainty.
+    /// The slip model's rollout covariances when it has them
+    /// ([`SlipModel::rollout_covariances_into`]), otherwise its predictive variances (eq. 7)
+    /// propagated through eq. 1; an error for a slip model without uncertainty.
     fn predict_with_covariance_into(
         &self,
         start: &StartState,
@@ -222,6 +223,13 @@ impl MotionModel for ComposedModel {
     ) -> Result<(), MotionError> {
         with_scratch(|s| {
             self.velocities(start, commands, s);
+            if self
+                .slip
+                .rollout_covariances_into(&start.pose, &s.commanded, self.dt, covariances)
+            {
+                integrate(&start.pose, &s.velocities, self.dt, poses);
+                return Ok(());
+            }
             if !self
                 .slip
                 .slip_variances_into(&s.commanded, &mut s.variances)

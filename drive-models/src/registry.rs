@@ -13,7 +13,7 @@
 
 use crate::baselines::AccBlr;
 use crate::powertrain::{Commanded, Fopdt, RateLimited};
-use crate::slip::{NoSlip, SlipBlr};
+use crate::slip::{NoSlip, SlipBlr, SlipIpem};
 use crate::vehicles::Ackermann;
 use crate::{Composed, DifferentialDrive};
 use drive_traits::{
@@ -86,10 +86,10 @@ pub fn builtin_powertrains() -> Registry<dyn FitPowertrain> {
     r
 }
 
-/// The slip learners of this project: `no-slip`, `slip-blr` (eq. 5-7).
+/// The slip learners of this project: `no-slip`, `slip-blr` (eq. 5-7), `slip-ipem`.
 pub fn builtin_slip_learners() -> Registry<dyn FitSlip> {
     let mut r: Registry<dyn FitSlip> = Registry::new("slip learner");
-    let parts: [(&str, &str, Arc<dyn FitSlip>); 2] = [
+    let parts: [(&str, &str, Arc<dyn FitSlip>); 3] = [
         (
             "no-slip",
             "no slip (g = 0): the vehicle moves at the commanded body velocity",
@@ -99,6 +99,11 @@ pub fn builtin_slip_learners() -> Registry<dyn FitSlip> {
             "slip-blr",
             "the paper's slip-based Bayesian linear regression (eq. 5-7)",
             Arc::new(SlipBlr::default()),
+        ),
+        (
+            "slip-ipem",
+            "slip nonlinear in the commanded body velocity, fitted with argmin on the multi-step (integrated) prediction error of its rollouts; ridge strength chosen on an inner split of the training windows",
+            Arc::new(SlipIpem::default()),
         ),
     ];
     for (name, description, part) in parts {
@@ -435,8 +440,9 @@ mod tests {
         let b = Builtin::new();
         let m = b.models();
         let all: Vec<String> = m.all().iter().map(ModelSpec::canonical).collect();
-        assert_eq!(all.len(), 2 * 3 + 3);
+        assert_eq!(all.len(), 3 * 3 + 3);
         assert!(all.contains(&"slip-blr+rate-limited".to_string()));
+        assert!(all.contains(&"slip-ipem+fopdt".to_string()));
         assert!(all.contains(&"acc-blr+fopdt".to_string()));
         for (bad, needle) in [
             ("naive+fopdt", "names a whole model"),

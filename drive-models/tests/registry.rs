@@ -142,5 +142,8 @@ fn the_same_type_under_two_names_is_not_a_collision() {
         Arc::new(drive_models::slip::SlipBlr::default().with_phi(1.0)),
     )
     .unwrap();
-    assert_eq!(r.names(), ["no-slip", "slip-blr", "slip-blr-phi1"]);
+    assert_eq!(
+        r.names(),
+        ["no-slip", "slip-blr", "slip-ipem", "slip-blr-phi1"]
+    );
 }

@@ -8,8 +8,8 @@
 //! powertrain by one composed model (eq. 1).
 
 use crate::{
-    BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, Input, PartTag, Powertrain,
-    RegistryItem, RobotDescription, Tagged, Window, WindowSet,
+    BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, Input, PartTag, Pose,
+    PoseCovariance, Powertrain, RegistryItem, RobotDescription, Tagged, Window, WindowSet,
 };
 
 /// A fitted slip model: the slip velocity `g` (eq. 2, 5) at a commanded body velocity `f`.
@@ -69,6 +69,24 @@ pub trait SlipModel: std::fmt::Debug + Send + Sync {
         }
         // An empty horizon says nothing of the model: ask it at rest.
         !f.is_empty() || self.slip_variance(&BodyVelocity::zeros()).is_some()
+    }
+
+    /// The pose covariance at every step of a rollout from `start` through the commanded
+    /// body velocities `f` (step `dt`), into `out` (cleared first, one per sample, the first
+    /// zero), for a model whose slip errors are correlated along the horizon (uncertain
+    /// parameters shared by every step, a velocity bias held over the rollout): the
+    /// step-by-step propagation of [`SlipModel::slip_variances_into`] assumes them
+    /// independent (eq. 7). `false` (the default, `out` unspecified): the model has no such
+    /// covariance, and a composed model propagates its slip variances instead.
+    fn rollout_covariances_into(
+        &self,
+        start: &Pose,
+        f: &[BodyVelocity],
+        dt: f64,
+        out: &mut Vec<PoseCovariance>,
+    ) -> bool {
+        let _ = (start, f, dt, out);
+        false
     }
 
     /// Checks the parameters read from a file; `Err` says what is wrong.

@@ -5,10 +5,13 @@
 //! |---|---|---|---|
 //! | `no-slip` | [`NoSlip`] | [`NoSlipModel`] | `g = 0`: the vehicle does what it is commanded |
 //! | `slip-blr` | [`SlipBlr`] | [`SlipBlrModel`] | the paper's slip-based BLR (eq. 5-7) |
+//! | `slip-ipem` | [`SlipIpem`] | [`SlipIpemModel`] | slip nonlinear in the commanded body velocity, fitted on multi-step rollout errors ([`ipem`]) |
 
+pub mod ipem;
 mod none;
 mod slip_blr;
 
+pub use ipem::{slip_features, SlipIpem, SlipIpemModel};
 pub use none::{NoSlip, NoSlipModel};
 pub use slip_blr::{
     car_slip_inputs, slip_inputs, CarSlipInputs, SlipBasis, SlipBlr, SlipBlrModel, SlipInputs,
