@@ -1000,6 +1000,10 @@ impl SlipModel for SlipIpemModel {
         out: &mut Vec<PoseCovariance>,
     ) -> bool {
         out.clear();
+        if self.weight_covariance.len() != PARAMETERS * PARAMETERS {
+            // A malformed model (its file check says so): no covariance rather than a panic.
+            return false;
+        }
         if f.is_empty() {
             return true;
         }
