@@ -38,9 +38,14 @@ fn edit_model(text: &str, f: impl Fn(&mut serde_json::Value)) -> String {
     v.to_string()
 }
 
+/// The composed model inside the calibrated wrapper a default `drive train` writes.
+fn composed(v: &mut serde_json::Value) -> &mut serde_json::Value {
+    &mut v["model"]["model"]
+}
+
 fn zero_noise(m: String) -> String {
     edit_model(&m, |v| {
-        let p = &mut v["model"]["slip"]["slip_x"];
+        let p = &mut composed(v)["slip"]["slip_x"];
         p["a"] = 0.0.into();
         p["b"] = 0.0.into();
     })
@@ -48,7 +53,7 @@ fn zero_noise(m: String) -> String {
 
 fn indefinite_covariance(m: String) -> String {
     edit_model(&m, |v| {
-        let c = &mut v["model"]["slip"]["slip_yaw"]["covariance"];
+        let c = &mut composed(v)["slip"]["slip_yaw"]["covariance"];
         c[0] = (-1.0).into();
     })
 }
@@ -196,8 +201,10 @@ fn cases() -> Vec<Case> {
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "must be positive"] },
         Case { name: "model indefinite covariance", file: File::Model(indefinite_covariance),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "not positive definite"] },
-        Case { name: "model powertrain step", file: File::Model(|m| edit_model(&m, |v| v["model"]["powertrain"]["dt"] = 0.1.into())),
+        Case { name: "model powertrain step", file: File::Model(|m| edit_model(&m, |v| composed(v)["powertrain"]["dt"] = 0.1.into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "powertrain's step 0.1 s is not the model's 0.05 s"] },
+        Case { name: "model calibration scale", file: File::Model(|m| edit_model(&m, |v| v["model"]["calibration"]["yaw_scale"][3] = (-2.0).into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "calibration scale -2 is not a finite number > 0"] },
         Case { name: "model robot rate", file: File::Model(|m| edit_model(&m, |v| v["robot"]["rate_hz"] = 10.0.into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "not the robot's command period"] },
         Case { name: "prediction beyond the model", file: File::None,

@@ -87,7 +87,9 @@ fn the_car_preset_runs_through_every_command() {
     ]);
     let saved: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
-    assert_eq!(saved["model"]["slip"]["basis"], "car");
+    // A default train calibrates the covariance: the composed model inside its wrapper.
+    assert_eq!(saved["model"]["type"], "calibrated");
+    assert_eq!(saved["model"]["model"]["slip"]["basis"], "car");
     let commands = dir.path().join("cmds.csv");
     let mut text = String::from("t,cmd_speed,cmd_steering\n");
     for k in 0..40 {

@@ -1,5 +1,5 @@
-use crate::{mrmse, Mrmse, Summary};
-use drive_traits::{MotionModel, Phase, WindowSet};
+use crate::{mrmse, score_uncertainty, Mrmse, Summary, UncertaintyReport};
+use drive_traits::{MotionModel, Phase, StartInfo, WindowSet};
 use serde::Serialize;
 
 /// The errors of one model on one evaluation window.
@@ -22,6 +22,8 @@ pub struct ModelReport {
     pub name: String,
     /// Per-window errors, in evaluation order.
     pub windows: Vec<WindowErrors>,
+    /// The calibration of its pose covariance, for a model that predicts one.
+    pub uncertainty: Option<UncertaintyReport>,
 }
 
 impl ModelReport {
@@ -43,16 +45,25 @@ impl ModelReport {
 }
 
 /// Predicts every evaluation window with `model` from the window's start state (measured
-/// through the data's vehicle) and its commands, and scores it with eq. 8 against the
-/// measured poses.
+/// through the data's vehicle, with the default [`StartInfo`]) and its commands, and scores
+/// it with eq. 8 against the measured poses (and its covariance, when it has one).
 pub fn evaluate_model(model: &dyn MotionModel, eval: &WindowSet<'_>) -> ModelReport {
+    evaluate_model_from(model, eval, StartInfo::default())
+}
+
+/// [`evaluate_model`] with the predictions starting from what `start` allows.
+pub fn evaluate_model_from(
+    model: &dyn MotionModel,
+    eval: &WindowSet<'_>,
+    start: StartInfo,
+) -> ModelReport {
     let vehicle = eval.robot.vehicle.as_ref();
     let mut poses = Vec::new();
     let windows = eval
         .windows
         .iter()
         .map(|w| {
-            model.predict_into(&w.start_state(vehicle), &w.command, &mut poses);
+            model.predict_into(&w.start_state_with(vehicle, start), &w.command, &mut poses);
             WindowErrors {
                 window: w.index,
                 interval: w.interval,
@@ -64,5 +75,6 @@ pub fn evaluate_model(model: &dyn MotionModel, eval: &WindowSet<'_>) -> ModelRep
     ModelReport {
         name: model.name(),
         windows,
+        uncertainty: score_uncertainty(model, eval, start),
     }
 }

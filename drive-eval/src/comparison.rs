@@ -5,11 +5,13 @@ use crate::{
     evaluate_model, improvement_percent, run_cells, split_by_interval, ModelReport, Registries,
     Setting, SplitError, Summary,
 };
+use drive_models::calibration::Uncertainty;
 use drive_models::powertrain::Commanded;
 use drive_models::slip::NoSlip;
 use drive_models::{Composed, ModelSpec};
-use drive_traits::{Dataset, FitError, Learner, MotionModel, Phase, RegistryError};
+use drive_traits::{Dataset, FitError, Learner, MotionModel, Phase, RegistryError, StartInfo};
 use serde::Serialize;
+use std::collections::BTreeMap;
 use thiserror::Error;
 
 /// Why a comparison could not run.
@@ -80,6 +82,21 @@ pub struct ModelResult {
     pub steady: Option<PhaseSummary>,
     /// Time to fit the model (s).
     pub fit_seconds: f64,
+    /// What the predictions started from (`encoders` or `encoders+imu`).
+    pub start: StartInfo,
+    /// How a pose covariance was made (`calibrated` or `paper`), for a model with one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<Uncertainty>,
+    /// Fraction of the measured positions inside the predicted 95% ellipse at 0.5, 1 and
+    /// 2 s, for a model with a pose covariance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coverage95: Option<BTreeMap<String, f64>>,
+    /// The same for the yaw's 95% interval.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub yaw_coverage95: Option<BTreeMap<String, f64>>,
+    /// Mean negative log-likelihood of the measured positions per step (nats).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nll: Option<f64>,
     /// Per-window errors (not serialized; see `--per-window`).
     #[serde(skip)]
     pub report: ModelReport,
@@ -184,6 +201,7 @@ pub fn compare_specs(
             reason,
         })?;
         let report = scored.report;
+        let u = report.uncertainty.as_ref();
         // The evaluation set is non-empty (the split guarantees it), so summaries exist.
         let all = summarize(&report, &naive, None).expect("the evaluation set is not empty");
         models.push(ModelResult {
@@ -199,6 +217,11 @@ pub fn compare_specs(
             transient: summarize(&report, &naive, Some(Phase::Transient)),
             steady: summarize(&report, &naive, Some(Phase::Steady)),
             fit_seconds: cell.fit_seconds,
+            start: spec.start,
+            uncertainty: u.map(|_| spec.uncertainty),
+            coverage95: u.map(|u| u.coverage95.clone()),
+            yaw_coverage95: u.map(|u| u.yaw_coverage95.clone()),
+            nll: u.map(|u| u.nll),
             report,
             fitted: scored.model,
         });

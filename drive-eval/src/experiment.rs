@@ -5,7 +5,7 @@
 //! and simulated runs x models), the protocol study (simulated training runs and a test
 //! run), the region study (subsets of intervals) and the convergence curve (prefixes).
 
-use crate::{evaluate_model, ExperimentError, ModelReport, Registries};
+use crate::{evaluate_model_from, ExperimentError, ModelReport, Registries};
 use drive_models::ModelSpec;
 use drive_samplers::{build_sampler, RobotSpec, RunnerConfig, SamplerContext, SamplerError};
 use drive_sim::{simulate, Simulation, SimulationConfig, Terrain};
@@ -87,7 +87,7 @@ fn run_cell(setting: &Setting<'_>, spec: &ModelSpec, keep_model: bool, s: usize,
         model: m,
         fit_seconds,
         outcome: fitted.map(|model| Scored {
-            report: evaluate_model(model.as_ref(), &setting.eval),
+            report: evaluate_model_from(model.as_ref(), &setting.eval, spec.start),
             model: keep_model.then_some(model),
         }),
     }

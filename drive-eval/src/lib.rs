@@ -8,6 +8,7 @@
 //! | `registries.rs` | every registry of parts ([`Registries`]) and their catalog |
 //! | `experiment.rs` | the engine: settings x models -> cells, simulated runs ([`run_cells`], [`simulate_runs`]) |
 //! | `comparison.rs` | the model comparison (Fig. 6) |
+//! | `uncertainty.rs` | coverage of the predicted pose covariance, NLL, reliability |
 //! | `convergence.rs` | error against training time (Fig. 7) |
 //! | `protocols.rs`, `regions.rs` | data-gathering protocols (Table I) on the simulator and on recorded data |
 //! | `matrix/` | the evaluation matrix: sweep file, run, statistics, outputs |
@@ -35,8 +36,9 @@ mod regions;
 mod registries;
 mod split;
 mod stats;
+mod uncertainty;
 
-pub use compare::{evaluate_model, ModelReport, WindowErrors};
+pub use compare::{evaluate_model, evaluate_model_from, ModelReport, WindowErrors};
 pub use comparison::{
     compare, compare_specs, vehicle_type, CompareError, Comparison, ErrorSummary, ModelResult,
     PhaseSummary,
@@ -56,3 +58,6 @@ pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use registries::{Catalog, Listed, Registries};
 pub use split::{split_by_interval, SplitError};
 pub use stats::{improvement_percent, quantile, Summary};
+pub use uncertainty::{
+    score_uncertainty, ReliabilityPoint, UncertaintyReport, COVERAGE_HORIZONS_S, RELIABILITY_LEVELS,
+};

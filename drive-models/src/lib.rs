@@ -17,6 +17,7 @@
 pub mod baselines;
 pub mod batch;
 pub mod blr;
+pub mod calibration;
 mod composed;
 pub mod model_file;
 pub mod powertrain;

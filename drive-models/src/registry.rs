@@ -12,13 +12,14 @@
 //! | `acc-blr` | `acc-blr+commanded`: the acceleration-BLR baseline |
 
 use crate::baselines::AccBlr;
+use crate::calibration::{Calibrator, Uncertainty};
 use crate::powertrain::{Commanded, Fopdt, RateLimited};
 use crate::slip::{NoSlip, SlipBlr, SlipIpem};
 use crate::vehicles::Ackermann;
 use crate::{Composed, DifferentialDrive};
 use drive_traits::{
     Baseline, CommandModel, FitError, FitPowertrain, FitSlip, Learner, MotionModel, Registry,
-    RegistryError, RegistryItem, WindowSet,
+    RegistryError, RegistryItem, StartInfo, WindowSet,
 };
 use serde::Serialize;
 use std::sync::Arc;
@@ -183,6 +184,12 @@ pub struct ModelSpec {
     pub powertrain: Option<String>,
     /// Slip learner or baseline.
     pub kind: LearnerKind,
+    /// How the fitted model's pose covariance is made (calibrated by default).
+    pub uncertainty: Uncertainty,
+    /// The calibration's settings (with [`Uncertainty::Calibrated`]).
+    pub calibrator: Calibrator,
+    /// What the model's predictions start from, in its calibration and its evaluation.
+    pub start: StartInfo,
     #[serde(skip)]
     parts: Parts,
 }
@@ -213,8 +220,40 @@ impl ModelSpec {
         }
     }
 
-    /// Fits the model on the training windows.
+    /// Fits the model on the training windows; with [`Uncertainty::Calibrated`] (the
+    /// default) a model with a pose covariance is calibrated on held-out training intervals
+    /// (see [`crate::calibration`]), which fits it once more on the intervals before them.
     pub fn fit(&self, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, FitError> {
+        if self.uncertainty == Uncertainty::Paper {
+            return self.fit_uncalibrated(train);
+        }
+        match &self.parts {
+            Parts::Composed(powertrain, slip) => {
+                let learner =
+                    Composed::from_parts(self.canonical(), powertrain.clone(), slip.clone());
+                let model = Learner::fit(&learner, train)?;
+                let like = model.clone();
+                self.calibrator
+                    .calibrate(Box::new(model), train, self.start, |inner| {
+                        Ok(Box::new(learner.refit(&like, inner)?))
+                    })
+            }
+            Parts::Baseline(..) => {
+                let model = self.fit_uncalibrated(train)?;
+                self.calibrator
+                    .calibrate(model, train, self.start, |inner| {
+                        self.fit_uncalibrated(inner)
+                    })
+            }
+        }
+    }
+
+    /// Fits the model on the training windows with its own uncertainty (the paper's
+    /// propagation), as [`Uncertainty::Paper`] does.
+    pub fn fit_uncalibrated(
+        &self,
+        train: &WindowSet<'_>,
+    ) -> Result<Box<dyn MotionModel>, FitError> {
         match &self.parts {
             Parts::Composed(powertrain, slip) => Ok(Box::new(Learner::fit(
                 &Composed::from_parts(self.canonical(), powertrain.clone(), slip.clone()),
@@ -224,6 +263,24 @@ impl ModelSpec {
                 baseline.fit_with(train, powertrain.as_deref())
             }
         }
+    }
+
+    /// The same model with another uncertainty method, its predictions (in its calibration
+    /// and its evaluation) starting from what `start` allows.
+    ///
+    /// ```
+    /// use drive_models::calibration::Uncertainty;
+    /// use drive_traits::StartInfo;
+    /// # let (p, s, b, a) = (drive_models::registry::builtin_powertrains(), drive_models::registry::builtin_slip_learners(),
+    /// #     drive_models::registry::builtin_baselines(), drive_models::registry::builtin_aliases());
+    /// # let models = drive_models::Models { powertrains: &p, slip_learners: &s, baselines: &b, aliases: &a };
+    /// let spec = models.resolve("slip-blr").unwrap().with_uncertainty(Uncertainty::Paper, StartInfo::Encoders);
+    /// assert_eq!((spec.uncertainty, spec.start), (Uncertainty::Paper, StartInfo::Encoders));
+    /// ```
+    pub fn with_uncertainty(mut self, uncertainty: Uncertainty, start: StartInfo) -> Self {
+        self.uncertainty = uncertainty;
+        self.start = start;
+        self
     }
 
     /// The same model under another name.
@@ -279,6 +336,9 @@ impl<'a> Models<'a> {
                     learner: learner.to_string(),
                     powertrain: Some(powertrain.to_string()),
                     kind: LearnerKind::Slip,
+                    uncertainty: Uncertainty::default(),
+                    calibrator: Calibrator::default(),
+                    start: StartInfo::default(),
                     parts: Parts::Composed(pt.part().clone(), slip.part().clone()),
                 });
             }
@@ -293,6 +353,9 @@ impl<'a> Models<'a> {
                     learner: learner.to_string(),
                     powertrain: Some(powertrain.to_string()),
                     kind: LearnerKind::Baseline,
+                    uncertainty: Uncertainty::default(),
+                    calibrator: Calibrator::default(),
+                    start: StartInfo::default(),
                     parts: Parts::Baseline(b.part().clone(), Some(pt.part().clone())),
                 });
             }
@@ -325,6 +388,9 @@ impl<'a> Models<'a> {
                     learner: name.to_string(),
                     powertrain: None,
                     kind: LearnerKind::Baseline,
+                    uncertainty: Uncertainty::default(),
+                    calibrator: Calibrator::default(),
+                    start: StartInfo::default(),
                     parts: Parts::Baseline(b.part().clone(), None),
                 }),
             };

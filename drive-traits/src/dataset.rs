@@ -130,21 +130,90 @@ impl Window {
         self.pose.is_empty()
     }
 
+    /// The state at the window start with the default start information
+    /// ([`StartInfo::EncodersImu`]): see [`Window::start_state_with`].
+    pub fn start_state(&self, vehicle: &dyn CommandModel) -> StartState {
+        self.start_state_with(vehicle, StartInfo::default())
+    }
+
     /// The state at the window start, from what is measured at that instant only (nothing
     /// from later in the window leaks into a prediction): the first pose, the measured
     /// input, and the body velocity given by the measured input through the vehicle's
-    /// command model with the IMU yaw rate as angular velocity.
-    pub fn start_state(&self, vehicle: &dyn CommandModel) -> StartState {
+    /// command model, its angular velocity from the IMU with [`StartInfo::EncodersImu`].
+    ///
+    /// ```
+    /// use drive_traits::{Input, InputAxis, BodyVelocity, CommandModel, Phase, Pose, StartInfo, Window};
+    /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
+    /// # #[typetag::serde(name = "v-start-doc")] impl CommandModel for V {
+    /// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
+    /// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
+    /// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+    /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
+    /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
+    /// let w = Window { index: 0, interval: 0, phase: Phase::Steady, command: vec![Input::zeros(); 2],
+    ///     measured: vec![Input::new(1.0, 0.5); 2], pose: vec![Pose::zeros(); 2], imu_yaw_rate: vec![0.3; 2] };
+    /// assert_eq!(w.start_state_with(&V, StartInfo::Encoders).body_velocity.z, 0.5);
+    /// assert_eq!(w.start_state_with(&V, StartInfo::EncodersImu).body_velocity.z, 0.3);
+    /// ```
+    pub fn start_state_with(&self, vehicle: &dyn CommandModel, info: StartInfo) -> StartState {
         let measured = self.measured[0];
         let from_encoders = vehicle.body_velocity(&measured);
+        let yaw_rate = match info {
+            StartInfo::Encoders => from_encoders.z,
+            StartInfo::EncodersImu => self.imu_yaw_rate[0],
+        };
         StartState {
             pose: self.pose[0],
             input: measured,
-            body_velocity: BodyVelocity::new(
-                from_encoders.x,
-                from_encoders.y,
-                self.imu_yaw_rate[0],
-            ),
+            body_velocity: BodyVelocity::new(from_encoders.x, from_encoders.y, yaw_rate),
+        }
+    }
+}
+
+/// What a prediction may use of the measurements at the window start (the same for every
+/// model of a comparison). The pose and the measured input are always known; the body
+/// velocity (used by models whose state is a velocity, such as acc-BLR) comes from the
+/// encoders through the vehicle's eq. 4, with the IMU's yaw rate or without it.
+///
+/// ```
+/// use drive_traits::StartInfo;
+/// assert_eq!(StartInfo::default(), StartInfo::EncodersImu);
+/// assert_eq!(StartInfo::parse("encoders").unwrap(), StartInfo::Encoders);
+/// assert_eq!(StartInfo::EncodersImu.as_str(), "encoders+imu");
+/// assert!(StartInfo::parse("gps").is_err());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, Serialize, Deserialize)]
+pub enum StartInfo {
+    /// The encoders only: the body velocity is eq. 4 on the measured wheel velocities.
+    #[serde(rename = "encoders")]
+    Encoders,
+    /// The encoders and the IMU: the yaw rate is the IMU's (the default).
+    #[default]
+    #[serde(rename = "encoders+imu")]
+    EncodersImu,
+}
+
+impl StartInfo {
+    /// The names, as the command line takes them.
+    pub const NAMES: [&'static str; 2] = ["encoders", "encoders+imu"];
+
+    /// The start information of a name.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        match name {
+            "encoders" => Ok(StartInfo::Encoders),
+            "encoders+imu" => Ok(StartInfo::EncodersImu),
+            other => Err(format!(
+                "unknown start information {other:?}; known: {}",
+                Self::NAMES.join(", ")
+            )),
+        }
+    }
+
+    /// The name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StartInfo::Encoders => "encoders",
+            StartInfo::EncodersImu => "encoders+imu",
         }
     }
 }
@@ -176,6 +245,62 @@ impl<'a> WindowSet<'a> {
     /// True when no window is selected.
     pub fn is_empty(&self) -> bool {
         self.windows.is_empty()
+    }
+
+    /// The windows cut into `folds` contiguous blocks of DRIVE intervals (as equal in
+    /// intervals as can be): for each block, `(the other windows, the block's windows)`,
+    /// both in recording order; `None` for fewer than two folds or fewer intervals than
+    /// folds.
+    ///
+    /// ```
+    /// use drive_traits::{Dataset, Input, Phase, Pose, RobotDescription, Window};
+    /// # use drive_traits::{BodyVelocity, CommandModel, InputAxis};
+    /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
+    /// # #[typetag::serde(name = "v-folds-doc")] impl CommandModel for V {
+    /// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
+    /// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
+    /// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+    /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
+    /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
+    /// let window = |index, interval| Window { index, interval, phase: Phase::Steady, command: vec![], measured: vec![], pose: vec![], imu_yaw_rate: vec![] };
+    /// let data = Dataset { robot: RobotDescription::new("toy", "", 20.0, 40, V),
+    ///     windows: (0..10).map(|i| window(i, i / 2)).collect() };
+    /// let folds = data.all().interval_folds(2).unwrap(); // 5 intervals: 2 and 3
+    /// assert_eq!((folds[0].0.len(), folds[0].1.len()), (6, 4));
+    /// assert_eq!((folds[1].0.len(), folds[1].1.len()), (4, 6));
+    /// assert!(data.all().interval_folds(6).is_none());
+    /// ```
+    pub fn interval_folds(&self, folds: usize) -> Option<Vec<(WindowSet<'a>, WindowSet<'a>)>> {
+        let mut intervals: Vec<usize> = self.windows.iter().map(|w| w.interval).collect();
+        intervals.dedup();
+        let m = intervals.len();
+        if folds < 2 || m < folds {
+            return None;
+        }
+        // Block j holds the intervals at positions [j m / folds, (j + 1) m / folds).
+        let bounds: Vec<usize> = (0..=folds).map(|j| j * m / folds).collect();
+        let block_of = |interval: usize| {
+            let pos = intervals.partition_point(|&i| i < interval);
+            bounds.partition_point(|&b| b <= pos) - 1
+        };
+        let blocks: Vec<usize> = self.windows.iter().map(|w| block_of(w.interval)).collect();
+        Some(
+            (0..folds)
+                .map(|j| {
+                    let pick = |inside: bool| WindowSet {
+                        robot: self.robot,
+                        windows: self
+                            .windows
+                            .iter()
+                            .zip(&blocks)
+                            .filter(|(_, b)| (**b == j) == inside)
+                            .map(|(w, _)| *w)
+                            .collect(),
+                    };
+                    (pick(false), pick(true))
+                })
+                .collect(),
+        )
     }
 
     /// Iterates over the windows of one phase.

@@ -34,6 +34,42 @@ pub struct ModelsArg {
     pub models: Vec<String>,
 }
 
+/// How the models' predictions start and how their uncertainty is made.
+#[derive(clap::Args)]
+pub struct PredictionArgs {
+    /// What every model's predictions start from: the encoders only (the body velocity is
+    /// eq. 4 on the measured wheels) or the encoders and the IMU's yaw rate (used by models
+    /// whose state is a velocity, such as acc-blr).
+    #[arg(long, default_value = "encoders+imu", value_parser = ["encoders", "encoders+imu"])]
+    pub start: String,
+    /// Pose covariance: calibrated (the model's own, scaled per horizon step by split-conformal
+    /// calibration on the last quarter of the training intervals) or paper (eq. 7 propagated,
+    /// as published).
+    #[arg(long, default_value = "calibrated", value_parser = ["calibrated", "paper"])]
+    pub uncertainty: String,
+}
+
+impl PredictionArgs {
+    /// The start information asked for.
+    pub fn start(&self) -> Result<crate::traits::StartInfo> {
+        crate::traits::StartInfo::parse(&self.start).map_err(anyhow::Error::msg)
+    }
+
+    /// `specs` with the start information and the uncertainty method asked for.
+    pub fn apply(
+        &self,
+        specs: Vec<crate::models::ModelSpec>,
+    ) -> Result<Vec<crate::models::ModelSpec>> {
+        let start = self.start()?;
+        let uncertainty = crate::models::calibration::Uncertainty::parse(&self.uncertainty)
+            .map_err(anyhow::Error::msg)?;
+        Ok(specs
+            .into_iter()
+            .map(|s| s.with_uncertainty(uncertainty, start))
+            .collect())
+    }
+}
+
 impl DataArgs {
     /// The files these arguments read (the CSV and its sidecar), for [`outputs_for`].
     pub fn inputs(&self) -> Vec<(&'static str, PathBuf)> {

@@ -1,6 +1,6 @@
 //! `drive eval`: every model fitted on the training intervals and scored on the rest.
 
-use super::common::{emit, load, names, outputs_for, DataArgs, ModelsArg};
+use super::common::{emit, load, names, outputs_for, DataArgs, ModelsArg, PredictionArgs};
 use crate::eval::{compare_specs, Comparison, ErrorSummary, ModelResult, PhaseSummary};
 use crate::models::ModelSpec;
 use crate::Registries;
@@ -22,6 +22,8 @@ pub struct Args {
     /// own (fopdt for powertrain and slip-blr, commanded for acc-blr, as in the paper).
     #[arg(long)]
     powertrain: Option<String>,
+    #[command(flatten)]
+    prediction: PredictionArgs,
     /// Print one JSON object on stdout instead of the table.
     #[arg(long)]
     json: bool,
@@ -74,7 +76,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .map(|p| ("--per-window", p.as_path()))
         .collect();
     let mut outputs = outputs_for(&args.data.inputs(), &planned)?;
-    let specs = specs(registries, &args.models.models, args.powertrain.as_deref())?;
+    let specs = args.prediction.apply(specs(
+        registries,
+        &args.models.models,
+        args.powertrain.as_deref(),
+    )?)?;
     let dataset = load(&args.data)?;
     let cmp = compare_specs(&dataset, args.split, &specs)?;
     if let Some(path) = &args.per_window {
@@ -192,5 +198,55 @@ pub fn table(cmp: &Comparison) -> String {
     section(&mut s, "all evaluation windows", &|m| Some(m.all));
     section(&mut s, "transient windows", &|m| m.transient);
     section(&mut s, "steady windows", &|m| m.steady);
+    uncertainty_section(&mut s, cmp);
     s
+}
+
+/// The calibration of the models with a pose covariance: coverage of the 95% regions at
+/// 0.5, 1 and 2 s (position, yaw) and the mean negative log-likelihood.
+fn uncertainty_section(s: &mut String, cmp: &Comparison) {
+    let with: Vec<&ModelResult> = cmp
+        .models
+        .iter()
+        .filter(|m| m.coverage95.is_some())
+        .collect();
+    let Some(first) = with.first() else {
+        return;
+    };
+    let _ = writeln!(
+        s,
+        "predicted uncertainty ({}; predictions start from {}): share of the measured poses inside the 95% regions",
+        first.uncertainty.map_or("", |u| u.as_str()),
+        first.start.as_str()
+    );
+    let width = with
+        .iter()
+        .map(|m| m.name.len() + 1)
+        .max()
+        .unwrap_or(0)
+        .max(11);
+    let _ = writeln!(
+        s,
+        "  {:<width$}{:<24}{:<24}NLL [nats/step]",
+        "", "position at 0.5/1/2 s", "yaw at 0.5/1/2 s"
+    );
+    for m in with {
+        let at = |c: &Option<std::collections::BTreeMap<String, f64>>| {
+            c.as_ref().map_or(String::new(), |c| {
+                c.values()
+                    .map(|f| format!("{:.1}%", 100.0 * f))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            })
+        };
+        let _ = writeln!(
+            s,
+            "  {:<width$}{:<24}{:<24}{:.2}",
+            m.name,
+            at(&m.coverage95),
+            at(&m.yaw_coverage95),
+            m.nll.unwrap_or(f64::NAN)
+        );
+    }
+    let _ = writeln!(s);
 }

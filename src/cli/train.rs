@@ -1,6 +1,6 @@
 //! `drive train`: one model fitted and saved as JSON.
 
-use super::common::{load, outputs_for, DataArgs};
+use super::common::{load, outputs_for, DataArgs, PredictionArgs};
 use crate::models::model_file::model_to_json;
 use crate::traits::WindowSet;
 use crate::Registries;
@@ -20,11 +20,16 @@ pub struct Args {
     /// Train on the first fraction of the intervals only (default: all of the data).
     #[arg(long, allow_negative_numbers = true)]
     split: Option<f64>,
+    #[command(flatten)]
+    prediction: PredictionArgs,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let mut outputs = outputs_for(&args.data.inputs(), &[("--out", &args.out)])?;
-    let spec = registries.model(&args.model)?;
+    let spec = args
+        .prediction
+        .apply(vec![registries.model(&args.model)?])?
+        .remove(0);
     let dataset = load(&args.data)?;
     let train = match args.split {
         Some(f) => crate::eval::split_by_interval(&dataset, f)?.0,

@@ -828,14 +828,86 @@ impl SlipLearner for SlipIpem {
             }
         };
 
-        let problem = Ipem::new(all.clone(), weights, unit, ridge, dt);
-        u = solve(problem, u, self, self.tolerance)?;
+        let bias_on = inner
+            .as_ref()
+            .map(|ui| (check_on, theta_of(ui.as_slice(), &unit)));
+        self.finish(
+            &all,
+            bias_on,
+            weights,
+            unit,
+            scale,
+            ridge,
+            u,
+            self.tolerance,
+            dt,
+        )
+    }
+}
+
+impl SlipIpem {
+    /// Fits `like`'s structure at its chosen ridge strength on other slip data, warm-started
+    /// from its weights, to the ridge path's tolerance; the held bias is matched on the
+    /// same windows (no inner split). What the framework's calibration refits on the
+    /// intervals before its held-out ones ([`SlipModel::refit`]).
+    pub fn refit_like(
+        &self,
+        like: &SlipIpemModel,
+        data: &SlipData<'_>,
+    ) -> Result<SlipIpemModel, FitError> {
+        self.validate()?;
+        if data.windows.is_empty() {
+            return Err(FitError::EmptyTrainingSet);
+        }
+        let dt = data.dt();
+        let (tracks, scale) = self.tracks(data)?;
+        let all: Vec<&Track> = tracks.iter().collect();
+        let weights = error_scales(&all, dt).map(|s| 1.0 / s);
+        let unit = [scale[0], scale[0], scale[1]];
+        let u = DVector::from_fn(PARAMETERS, |j, _| {
+            if j < WEIGHTS {
+                like.weights[j / FEATURES][j % FEATURES] / unit[j / FEATURES]
+            } else {
+                like.lag_logit[j - WEIGHTS]
+            }
+        });
+        self.finish(
+            &all,
+            None,
+            weights,
+            unit,
+            scale,
+            like.ridge.max(f64::MIN_POSITIVE),
+            u,
+            self.path_tolerance,
+            dt,
+        )
+    }
+
+    /// The final fit at `ridge` from `u` on `all`, the Laplace covariance of its weights
+    /// and the held bias's variance (matched on `bias_on`'s windows under its parameters,
+    /// or on `all` under the final ones).
+    #[allow(clippy::too_many_arguments)]
+    fn finish(
+        &self,
+        all: &[&Track],
+        bias_on: Option<(Vec<&Track>, [f64; PARAMETERS])>,
+        weights: [f64; 2],
+        unit: [f64; 3],
+        scale: [f64; 2],
+        ridge: f64,
+        u: DVector<f64>,
+        tolerance: f64,
+        dt: f64,
+    ) -> Result<SlipIpemModel, FitError> {
+        let problem = Ipem::new(all.to_vec(), weights, unit, ridge, dt);
+        let u = solve(problem, u, self, tolerance)?;
         let theta = theta_of(u.as_slice(), &unit);
 
         // Laplace covariance of the weights: a sandwich H^-1 B H^-1 / n^2 with B the sum
         // over windows of their score outer products (the steps of a window are not
         // independent), in the units of theta.
-        let problem = Ipem::new(all.clone(), weights, unit, ridge, dt);
+        let problem = Ipem::new(all.to_vec(), weights, unit, ridge, dt);
         let l = problem.linearize(&u);
         let mut meat = DMatrix::<f64>::zeros(PARAMETERS, PARAMETERS);
         problem.jacobians(u.as_slice(), |_, jt, r| {
@@ -869,9 +941,9 @@ impl SlipLearner for SlipIpem {
         // The bias held over a rollout: its variance matched to the inner validation
         // windows' squared pose errors under the inner model (or the training windows'
         // when there was no inner split).
-        let (bias_tracks, bias_theta) = match &inner {
-            Some(ui) => (check_on.clone(), theta_of(ui.as_slice(), &unit)),
-            None => (all.clone(), theta),
+        let (bias_tracks, bias_theta) = match bias_on {
+            Some((tracks, theta_inner)) => (tracks, theta_inner),
+            None => (all.to_vec(), theta),
         };
         let bias_variance = bias_variance(&bias_tracks, &bias_theta, dt);
 
@@ -950,6 +1022,14 @@ impl SlipIpemModel {
 
 #[typetag::serde(name = "slip-ipem")]
 impl SlipModel for SlipIpemModel {
+    fn refit(&self, data: &SlipData<'_>) -> Option<Result<Box<dyn SlipModel>, FitError>> {
+        Some(
+            SlipIpem::default()
+                .refit_like(self, data)
+                .map(|m| Box::new(m) as Box<dyn SlipModel>),
+        )
+    }
+
     fn slip(&self, f: &BodyVelocity) -> BodyVelocity {
         let phi = slip_features(f, &self.scale);
         let dot = |w: &[f64]| w.iter().zip(&phi).map(|(w, p)| w * p).sum::<f64>();
