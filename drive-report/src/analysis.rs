@@ -228,67 +228,20 @@ pub struct Calibration {
     pub degenerate: usize,
 }
 
-/// The calibration of a model with pose covariances (eq. 7 propagated); `None` for a model
-/// without them.
+/// The calibration of a model with pose covariances; `None` for a model without them. The
+/// scores are [`drive_eval::score_uncertainty`]'s (the same as `drive eval`'s).
 pub fn calibration(
     name: &str,
     model: &dyn MotionModel,
     eval: &WindowSet<'_>,
 ) -> Option<Calibration> {
-    let vehicle = eval.robot.vehicle.as_ref();
-    let n = eval.windows.iter().map(|w| w.len()).max()?;
-    let mut inside = vec![0usize; n];
-    let mut counted = vec![0usize; n];
-    let (mut nll, mut nll_count, mut degenerate) = (0.0, 0usize, 0usize);
-    let (mut poses, mut covs) = (Vec::new(), Vec::new());
-    for w in &eval.windows {
-        model
-            .predict_with_covariance_into(
-                &w.start_state(vehicle),
-                &w.command,
-                &mut poses,
-                &mut covs,
-            )
-            .ok()?;
-        for k in 1..w.len().min(poses.len()) {
-            let e = [w.pose[k].x - poses[k].x, w.pose[k].y - poses[k].y];
-            let c = &covs[k];
-            let (a, b, d) = (c[(0, 0)], c[(0, 1)], c[(1, 1)]);
-            let det = a * d - b * b;
-            counted[k] += 1;
-            if !(a > 0.0 && det > 0.0 && det.is_finite()) {
-                degenerate += 1;
-                continue;
-            }
-            // e^T S^-1 e with the 2x2 inverse written out.
-            let m2 = (d * e[0] * e[0] - 2.0 * b * e[0] * e[1] + a * e[1] * e[1]) / det;
-            if m2 <= CHI2_2_95 {
-                inside[k] += 1;
-            }
-            nll += 0.5 * (m2 + det.ln()) + (2.0 * std::f64::consts::PI).ln();
-            nll_count += 1;
-        }
-    }
-    let inside_fraction: Vec<f64> = (1..n)
-        .map(|k| {
-            if counted[k] == 0 {
-                f64::NAN
-            } else {
-                inside[k] as f64 / counted[k] as f64
-            }
-        })
-        .collect();
-    let total: usize = counted.iter().sum();
+    let u = drive_eval::score_uncertainty(model, eval, drive_traits::StartInfo::default())?;
     Some(Calibration {
         model: name.to_string(),
-        inside_fraction,
-        inside_overall: inside.iter().sum::<usize>() as f64 / total.max(1) as f64,
-        mean_nll: if nll_count > 0 {
-            nll / nll_count as f64
-        } else {
-            f64::NAN
-        },
-        degenerate,
+        inside_fraction: u.coverage95_per_step,
+        inside_overall: u.coverage95_overall,
+        mean_nll: u.nll,
+        degenerate: u.degenerate,
     })
 }
 

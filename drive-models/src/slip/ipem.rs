@@ -761,16 +761,14 @@ impl SlipLearner for SlipIpem {
     type Fitted = SlipIpemModel;
 
     fn fit(&self, data: &SlipData<'_>) -> Result<SlipIpemModel, FitError> {
-        self.validate()?;
-        if data.windows.is_empty() {
-            return Err(FitError::EmptyTrainingSet);
-        }
-        let dt = data.dt();
-        let (tracks, scale) = self.tracks(data)?;
+        let Prepared {
+            tracks,
+            scale,
+            weights,
+            unit,
+            dt,
+        } = self.prepare(data)?;
         let all: Vec<&Track> = tracks.iter().collect();
-        let error_scale = error_scales(&all, dt);
-        let weights = error_scale.map(|s| 1.0 / s);
-        let unit = [scale[0], scale[0], scale[1]];
 
         // The inner split: the last `validation` of the training intervals score.
         let mut intervals: Vec<usize> = tracks.iter().map(|t| t.interval).collect();
@@ -845,7 +843,36 @@ impl SlipLearner for SlipIpem {
     }
 }
 
+/// What both fits start from: the rollout tracks, the input scales, the residual weights
+/// (inverse slip-free error scales), the weights' units and the step.
+struct Prepared {
+    tracks: Vec<Track>,
+    scale: [f64; 2],
+    weights: [f64; 2],
+    unit: [f64; 3],
+    dt: f64,
+}
+
 impl SlipIpem {
+    /// Validates the settings and prepares the training windows of `data`.
+    fn prepare(&self, data: &SlipData<'_>) -> Result<Prepared, FitError> {
+        self.validate()?;
+        if data.windows.is_empty() {
+            return Err(FitError::EmptyTrainingSet);
+        }
+        let dt = data.dt();
+        let (tracks, scale) = self.tracks(data)?;
+        let all: Vec<&Track> = tracks.iter().collect();
+        let weights = error_scales(&all, dt).map(|s| 1.0 / s);
+        Ok(Prepared {
+            scale,
+            weights,
+            unit: [scale[0], scale[0], scale[1]],
+            dt,
+            tracks,
+        })
+    }
+
     /// Fits `like`'s structure at its chosen ridge strength on other slip data, warm-started
     /// from its weights, to the ridge path's tolerance; the held bias is matched on the
     /// same windows (no inner split). What the framework's calibration refits on the
@@ -855,15 +882,14 @@ impl SlipIpem {
         like: &SlipIpemModel,
         data: &SlipData<'_>,
     ) -> Result<SlipIpemModel, FitError> {
-        self.validate()?;
-        if data.windows.is_empty() {
-            return Err(FitError::EmptyTrainingSet);
-        }
-        let dt = data.dt();
-        let (tracks, scale) = self.tracks(data)?;
+        let Prepared {
+            tracks,
+            scale,
+            weights,
+            unit,
+            dt,
+        } = self.prepare(data)?;
         let all: Vec<&Track> = tracks.iter().collect();
-        let weights = error_scales(&all, dt).map(|s| 1.0 / s);
-        let unit = [scale[0], scale[0], scale[1]];
         let u = DVector::from_fn(PARAMETERS, |j, _| {
             if j < WEIGHTS {
                 like.weights[j / FEATURES][j % FEATURES] / unit[j / FEATURES]
