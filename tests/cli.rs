@@ -188,6 +188,118 @@ fn start_information_is_the_same_for_every_model_and_moves_only_velocity_state_m
 }
 
 #[test]
+fn eval_gives_paired_bootstrap_intervals_over_naive_and_over_slip_blr() {
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "eval",
+        "--json",
+        "--models",
+        "naive,slip-blr,slip-ipem",
+    ]))
+    .unwrap();
+    assert_eq!(v["bootstrap"]["resamples"], 1000);
+    let imp = |m: &str, over: &str, kind: &str| -> (f64, f64, f64) {
+        let i = &model(&v, m)[over][kind];
+        (f(&i["percent"]), f(&i["ci"][0]), f(&i["ci"][1]))
+    };
+    for m in ["naive", "slip-blr", "slip-ipem"] {
+        for over in ["improvement_over_naive", "improvement_over_slip_blr"] {
+            for kind in ["translational", "rotational"] {
+                let (p, lo, hi) = imp(m, over, kind);
+                assert!(lo <= p && p <= hi, "{m} {over} {kind}: {p} [{lo}, {hi}]");
+            }
+        }
+    }
+    // The reference against itself: exactly zero on every draw.
+    assert_eq!(
+        imp("slip-blr", "improvement_over_slip_blr", "translational"),
+        (0.0, 0.0, 0.0)
+    );
+    assert_eq!(
+        imp("naive", "improvement_over_naive", "rotational"),
+        (0.0, 0.0, 0.0)
+    );
+    // The point figure is the one of the medians.
+    let (p, _, _) = imp("slip-blr", "improvement_over_naive", "translational");
+    let t = |m: &str| f(&model(&v, m)["translational_median_m"]);
+    assert!((p - 100.0 * (t("naive") - t("slip-blr")) / t("naive")).abs() < 1e-9);
+    // slip-BLR is far better than naive in rotation, beyond doubt.
+    assert!(imp("slip-blr", "improvement_over_naive", "rotational").1 > 80.0);
+    // The text shows the same intervals.
+    let text = ok(&["eval", "--models", "naive,slip-blr"]);
+    assert!(text.contains("paired bootstrap, 1000 resamples of the evaluation intervals"));
+}
+
+#[test]
+fn frame_corrected_rotates_the_bundled_positions_and_leaves_yaw_and_first_sample_data_alone() {
+    let eval = |data: &[&str], frame: &str| -> (serde_json::Value, String) {
+        let mut args = vec![
+            "eval",
+            "--json",
+            "--models",
+            "naive,slip-blr",
+            "--frame",
+            frame,
+        ];
+        args.extend_from_slice(data);
+        let out = drive(&args);
+        assert!(out.status.success());
+        (
+            serde_json::from_slice(&out.stdout).unwrap(),
+            String::from_utf8(out.stderr).unwrap(),
+        )
+    };
+    let (published, note) = eval(&[], "as-published");
+    let (corrected, note_c) = eval(&[], "corrected");
+    // The bundled sidecar declares the paper parser's frame: noted in one line.
+    assert_eq!(note.lines().count(), 1, "{note}");
+    assert!(note.contains("paper parser's frame") && note.contains("--frame corrected"));
+    assert!(note_c.contains("rotated"), "{note_c}");
+    // Positions move (the paper's numbers stay the default), yaw does not.
+    let t = |v: &serde_json::Value, m: &str| f(&model(v, m)["translational_median_m"]);
+    assert!((t(&published, "naive") - 0.3306).abs() < 5e-5);
+    assert!((t(&published, "naive") - t(&corrected, "naive")).abs() > 1e-4);
+    for m in ["naive", "slip-blr"] {
+        assert_eq!(
+            model(&published, m)["rotational_median_rad"],
+            model(&corrected, m)["rotational_median_rad"]
+        );
+    }
+    // Data already in the first sample's frame (the simulator's) is unchanged, and not noted.
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("sim.csv");
+    ok(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        "snow",
+        "--duration",
+        "120",
+        "--seed",
+        "3",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    let side: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(csv.with_extension("json")).unwrap())
+            .unwrap();
+    assert_eq!(side["position_frame"], "first-sample");
+    let data = ["--data", csv.to_str().unwrap()];
+    let ((a, na), (b, nb)) = (eval(&data, "as-published"), eval(&data, "corrected"));
+    for m in ["naive", "slip-blr"] {
+        for key in [
+            "translational_median_m",
+            "rotational_median_rad",
+            "coverage95",
+        ] {
+            assert_eq!(model(&a, m)[key], model(&b, m)[key]);
+        }
+    }
+    assert!(na.is_empty() && nb.is_empty(), "{na}{nb}");
+    assert!(user_error(&["eval", "--frame", "map"]).contains("map"));
+}
+
+#[test]
 fn train_then_predict_matches_the_library() {
     let dir = tempfile::tempdir().unwrap();
     let commands = dir.path().join("cmds.csv");

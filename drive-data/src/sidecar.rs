@@ -3,7 +3,7 @@
 use crate::{DataError, DataErrorKind, Location};
 use drive_models::DifferentialDrive;
 use drive_traits::limits::{self, Short};
-use drive_traits::{CommandModel, RobotDescription};
+use drive_traits::{CommandModel, PositionFrame, RobotDescription};
 use serde_json::{Map, Value};
 use std::sync::Arc;
 
@@ -91,7 +91,8 @@ impl CsvDigest {
 /// (`{"type": "differential", "wheel_radius": 0.165, "baseline": 0.55}`), or, as the DRIVE
 /// datasets have it, `wheel_radius` and `baseline` (positive numbers) for a differential
 /// drive. Optional: `robot` (string), `windows` (integer), `csv` (`{"rows": integer,
-/// "fnv1a64": "16 hex digits"}`, see [`CsvDigest`]). Other fields are ignored.
+/// "fnv1a64": "16 hex digits"}`, see [`CsvDigest`]), `position_frame` (`"first-sample"`,
+/// the default, or `"paper-mean5"`: see [`PositionFrame`]). Other fields are ignored.
 ///
 /// ```
 /// let side = r#"{"name": "run", "rate_hz": 20, "window_len": 40,
@@ -210,6 +211,21 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
             positive("baseline")?,
         )),
     };
+    let position_frame = match required(obj, "position_frame") {
+        None => PositionFrame::default(),
+        Some(Value::String(name)) => {
+            PositionFrame::parse(name).map_err(|e| bad("position_frame", e))?
+        }
+        Some(v) => {
+            return Err(bad(
+                "position_frame",
+                format!(
+                    "expected one of {}, found {v}",
+                    PositionFrame::NAMES.join(", ")
+                ),
+            ))
+        }
+    };
     let windows = integer("windows", 0)?;
     let csv = match required(obj, "csv") {
         None => None,
@@ -243,6 +259,7 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
             rate_hz,
             window_len,
             vehicle,
+            position_frame,
         },
         Announced { windows, csv },
     ))
@@ -268,6 +285,7 @@ pub fn sidecar_json(
         "rate_hz": robot.rate_hz,
         "window_len": robot.window_len,
         "vehicle": vehicle,
+        "position_frame": robot.position_frame.as_str(),
         "windows": windows,
     });
     if let Some(d) = csv {

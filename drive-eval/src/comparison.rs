@@ -2,12 +2,13 @@
 //! training intervals, score it on the evaluation intervals with eq. 8.
 
 use crate::{
-    evaluate_model, improvement_percent, run_cells, split_by_interval, ModelReport, Registries,
-    Setting, SplitError, Summary,
+    evaluate_model, improvement_percent, paired_bootstrap, run_cells, split_by_interval,
+    BootstrapConfig, Improvement, ModelReport, PairedErrors, Registries, Setting, SplitError,
+    Summary,
 };
 use drive_models::calibration::Uncertainty;
-use drive_models::powertrain::Commanded;
-use drive_models::slip::NoSlip;
+use drive_models::powertrain::{Commanded, Fopdt};
+use drive_models::slip::{NoSlip, SlipBlr};
 use drive_models::{Composed, ModelSpec};
 use drive_traits::{Dataset, FitError, Learner, MotionModel, Phase, RegistryError, StartInfo};
 use serde::Serialize;
@@ -55,6 +56,38 @@ pub struct PhaseSummary {
     pub rotational_rad: ErrorSummary,
 }
 
+/// A model's improvement over a reference model, translational and rotational, each with
+/// its paired bootstrap interval.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PairedImprovement {
+    /// Of the median translational MRMSE (percent).
+    pub translational: Improvement,
+    /// Of the median rotational MRMSE (percent).
+    pub rotational: Improvement,
+}
+
+impl PairedImprovement {
+    /// The improvement of `model` over `reference` (errors on the same evaluation windows),
+    /// with whole DRIVE intervals resampled (the windows of one command together).
+    pub fn of(model: &ModelReport, reference: &ModelReport, config: &BootstrapConfig) -> Self {
+        let blocks: Vec<usize> = model.windows.iter().map(|w| w.interval).collect();
+        let one = |pick: fn(&crate::Mrmse) -> f64, salt: u64| {
+            let m: Vec<f64> = model.windows.iter().map(|w| pick(&w.error)).collect();
+            let r: Vec<f64> = reference.windows.iter().map(|w| pick(&w.error)).collect();
+            let run = PairedErrors {
+                model: &m,
+                reference: &r,
+                blocks: Some(&blocks),
+            };
+            paired_bootstrap(&[run], config, config.seed ^ salt)
+        };
+        PairedImprovement {
+            translational: one(|e| e.translational, 0),
+            rotational: one(|e| e.rotational, 1 << 63),
+        }
+    }
+}
+
 /// One model's result.
 #[derive(Debug, Serialize)]
 pub struct ModelResult {
@@ -97,6 +130,13 @@ pub struct ModelResult {
     /// Mean negative log-likelihood of the measured positions per step (nats).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nll: Option<f64>,
+    /// Improvement of the medians over the naive model, with 95% paired bootstrap intervals.
+    pub improvement_over_naive: PairedImprovement,
+    /// Improvement of the medians over slip-BLR (the paper's model, `slip-blr+fopdt`, fitted
+    /// on the same training intervals as the reference), with 95% paired bootstrap
+    /// intervals; absent when slip-BLR cannot be fitted on the data.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub improvement_over_slip_blr: Option<PairedImprovement>,
     /// Per-window errors (not serialized; see `--per-window`).
     #[serde(skip)]
     pub report: ModelReport,
@@ -124,6 +164,9 @@ pub struct Comparison {
     pub train_windows: usize,
     /// Evaluation windows.
     pub eval_windows: usize,
+    /// The bootstrap behind every improvement interval: resamples of the evaluation
+    /// intervals, confidence level, seed.
+    pub bootstrap: BootstrapConfig,
     /// One result per model asked, in the order asked.
     pub models: Vec<ModelResult>,
 }
@@ -189,6 +232,12 @@ pub fn compare_specs(
             }
         })?;
     let naive = evaluate_model(&naive_model, &eval);
+    // slip-BLR, the paper's model, is the second reference (its point predictions do not
+    // depend on the start information or on the uncertainty method).
+    let slip_blr = Learner::fit(&Composed::new(Fopdt::default(), SlipBlr::default()), &train)
+        .ok()
+        .map(|m| evaluate_model(&m, &eval));
+    let bootstrap = BootstrapConfig::default();
     let setting = [Setting {
         train: train.clone(),
         eval: eval.clone(),
@@ -222,6 +271,10 @@ pub fn compare_specs(
             coverage95: u.map(|u| u.coverage95.clone()),
             yaw_coverage95: u.map(|u| u.yaw_coverage95.clone()),
             nll: u.map(|u| u.nll),
+            improvement_over_naive: PairedImprovement::of(&report, &naive, &bootstrap),
+            improvement_over_slip_blr: slip_blr
+                .as_ref()
+                .map(|r| PairedImprovement::of(&report, r, &bootstrap)),
             report,
             fitted: scored.model,
         });
@@ -237,6 +290,7 @@ pub fn compare_specs(
         eval_intervals: intervals - train_intervals,
         train_windows: train.len(),
         eval_windows: eval.len(),
+        bootstrap,
         models,
     })
 }

@@ -41,7 +41,7 @@ mod uncertainty;
 pub use compare::{evaluate_model, evaluate_model_from, ModelReport, WindowErrors};
 pub use comparison::{
     compare, compare_specs, vehicle_type, CompareError, Comparison, ErrorSummary, ModelResult,
-    PhaseSummary,
+    PairedImprovement, PhaseSummary,
 };
 pub use convergence::{convergence, convergence_time, Convergence, ConvergencePoint, SkippedPoint};
 pub use experiment::{run_cells, simulate_run, simulate_runs, Cell, Scored, Setting, SimRun};
@@ -57,7 +57,7 @@ pub use protocols::{
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use registries::{Catalog, Listed, Registries};
 pub use split::{split_by_interval, SplitError};
-pub use stats::{improvement_percent, quantile, Summary};
+pub use stats::{improvement_percent, paired_bootstrap, quantile, PairedErrors, Summary};
 pub use uncertainty::{
     score_uncertainty, ReliabilityPoint, UncertaintyReport, COVERAGE_HORIZONS_S, RELIABILITY_LEVELS,
 };

@@ -161,6 +161,8 @@ pub fn simulate(
         rate_hz: robot.rate_hz,
         window_len: len,
         vehicle: Arc::clone(&robot.vehicle),
+        // Poses are re-based on the first sample of each window (position and yaw).
+        position_frame: drive_traits::PositionFrame::FirstSample,
     };
     let active = |t: f64, kind: fn(&Event) -> Option<(f64, f64)>| {
         config

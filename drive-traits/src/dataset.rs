@@ -59,6 +59,10 @@ pub struct RobotDescription {
     pub window_len: usize,
     /// The vehicle: its command model (eq. 2, eq. 4) with its geometry.
     pub vehicle: Arc<dyn CommandModel>,
+    /// The frame each window's positions are expressed in (the sidecar's
+    /// `position_frame`; [`PositionFrame::FirstSample`] when it says nothing).
+    #[serde(default)]
+    pub position_frame: PositionFrame,
 }
 
 impl RobotDescription {
@@ -76,6 +80,7 @@ impl RobotDescription {
             rate_hz,
             window_len,
             vehicle: Arc::new(vehicle),
+            position_frame: PositionFrame::default(),
         }
     }
 
@@ -92,6 +97,7 @@ impl PartialEq for RobotDescription {
             && self.robot == other.robot
             && self.rate_hz == other.rate_hz
             && self.window_len == other.window_len
+            && self.position_frame == other.position_frame
             && serde_json::to_value(self.vehicle.as_ref()).ok()
                 == serde_json::to_value(other.vehicle.as_ref()).ok()
     }
@@ -128,6 +134,55 @@ impl Window {
     /// True if the window holds no sample.
     pub fn is_empty(&self) -> bool {
         self.pose.is_empty()
+    }
+
+    /// The angle (rad) between the paper parser's position frame and the first sample's:
+    /// the mean of the first [`PAPER_FRAME_SAMPLES`] yaw values relative to the first (each
+    /// wrapped to [-pi, pi]); 0 for an empty window.
+    pub fn paper_frame_angle(&self) -> f64 {
+        let n = self.pose.len().min(PAPER_FRAME_SAMPLES);
+        if n == 0 {
+            return 0.0;
+        }
+        let yaw0 = self.pose[0].z;
+        self.pose[..n]
+            .iter()
+            .map(|q| crate::wrap_angle(q.z - yaw0))
+            .sum::<f64>()
+            / n as f64
+    }
+
+    /// Rotates positions written in the paper parser's frame
+    /// ([`PositionFrame::PaperMean5`]) into the first sample's frame: `p' = R(a) p`, with
+    /// `a` the [`Window::paper_frame_angle`]. Yaw is unchanged (it is already relative to the
+    /// first sample); the origin stays at the first sample's position.
+    ///
+    /// ```
+    /// use drive_traits::{Input, Phase, Pose, Window};
+    /// // Driving straight along the robot's x axis while the yaw reads 0.1 rad for the first
+    /// // five samples: the paper's frame holds the positions rotated by -0.1 rad.
+    /// let a: f64 = 0.1;
+    /// let pose: Vec<Pose> = (0..6)
+    ///     .map(|k| {
+    ///         let d = 0.1 * k as f64;
+    ///         Pose::new(d * a.cos(), -d * a.sin(), if k == 0 { 0.0 } else { 0.125 })
+    ///     })
+    ///     .collect();
+    /// let mut w = Window { index: 0, interval: 0, phase: Phase::Transient,
+    ///     command: vec![Input::zeros(); 6], measured: vec![Input::zeros(); 6],
+    ///     pose, imu_yaw_rate: vec![0.0; 6] };
+    /// assert!((w.paper_frame_angle() - a).abs() < 1e-12);
+    /// w.to_first_sample_frame();
+    /// assert!((w.pose[5].x - 0.5).abs() < 1e-12 && w.pose[5].y.abs() < 1e-12);
+    /// assert_eq!(w.pose[5].z, 0.125);
+    /// ```
+    pub fn to_first_sample_frame(&mut self) {
+        let (s, c) = self.paper_frame_angle().sin_cos();
+        for q in &mut self.pose {
+            let (x, y) = (q.x, q.y);
+            q.x = c * x - s * y;
+            q.y = s * x + c * y;
+        }
     }
 
     /// The state at the window start with the default start information
@@ -217,6 +272,62 @@ impl StartInfo {
         }
     }
 }
+
+/// The frame a window's positions (`x`, `y`) are expressed in. Yaw is always relative to
+/// the window's first sample.
+///
+/// The paper's own parser (norlab-ulaval/DRIVE, `model_training/data_utils/dataset_parser.py`)
+/// re-bases each window's positions with a transform built from the **mean orientation of
+/// its first five samples**, while its yaw column is relative to the **first** sample: the
+/// published datasets (and the bundled one) are [`PositionFrame::PaperMean5`]. The
+/// project's own raw import and simulator use the first sample for both
+/// ([`PositionFrame::FirstSample`]). [`Window::to_first_sample_frame`] converts.
+///
+/// ```
+/// use drive_traits::PositionFrame;
+/// assert_eq!(PositionFrame::parse("paper-mean5").unwrap(), PositionFrame::PaperMean5);
+/// assert_eq!(PositionFrame::default().as_str(), "first-sample");
+/// assert!(PositionFrame::parse("map").is_err());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, Serialize, Deserialize)]
+pub enum PositionFrame {
+    /// Positions in the frame of the window's first sample, like its yaw (the default).
+    #[default]
+    #[serde(rename = "first-sample")]
+    FirstSample,
+    /// Positions in the frame of the mean orientation of the window's first five samples
+    /// (origin at the first sample), as the paper's parser writes them.
+    #[serde(rename = "paper-mean5")]
+    PaperMean5,
+}
+
+impl PositionFrame {
+    /// The names, as sidecars declare them.
+    pub const NAMES: [&'static str; 2] = ["first-sample", "paper-mean5"];
+
+    /// The frame of a name.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        match name {
+            "first-sample" => Ok(PositionFrame::FirstSample),
+            "paper-mean5" => Ok(PositionFrame::PaperMean5),
+            other => Err(format!(
+                "unknown position frame {other:?}; known: {}",
+                Self::NAMES.join(", ")
+            )),
+        }
+    }
+
+    /// The name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PositionFrame::FirstSample => "first-sample",
+            PositionFrame::PaperMean5 => "paper-mean5",
+        }
+    }
+}
+
+/// Samples whose orientation the paper's parser averages to re-base a window's positions.
+pub const PAPER_FRAME_SAMPLES: usize = 5;
 
 /// A borrowed selection of windows with the robot that recorded them: what learners fit on
 /// and what metrics evaluate.
@@ -325,6 +436,21 @@ impl Dataset {
     /// All windows as a [`WindowSet`].
     pub fn all(&self) -> WindowSet<'_> {
         WindowSet::new(&self.robot, &self.windows)
+    }
+
+    /// Expresses every window's positions in its first sample's frame (see
+    /// [`PositionFrame`]): windows declared [`PositionFrame::PaperMean5`] are rotated by
+    /// [`Window::to_first_sample_frame`]; data already in that frame is unchanged. Returns
+    /// the frame the data was in.
+    pub fn to_first_sample_frame(&mut self) -> PositionFrame {
+        let was = self.robot.position_frame;
+        if was == PositionFrame::PaperMean5 {
+            for w in &mut self.windows {
+                w.to_first_sample_frame();
+            }
+            self.robot.position_frame = PositionFrame::FirstSample;
+        }
+        was
     }
 
     /// Number of DRIVE intervals (a transient window and the steady windows that follow it).

@@ -39,8 +39,8 @@ mod vehicle;
 mod velocity;
 
 pub use dataset::{
-    assign_intervals, Dataset, Phase, RobotDescription, StartInfo, Window, WindowSet,
-    WINDOWS_PER_INTERVAL, WINDOW_S,
+    assign_intervals, Dataset, Phase, PositionFrame, RobotDescription, StartInfo, Window,
+    WindowSet, PAPER_FRAME_SAMPLES, WINDOWS_PER_INTERVAL, WINDOW_S,
 };
 pub use error::{FitError, MotionError};
 pub use learner::{Baseline, Learner};

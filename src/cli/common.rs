@@ -18,6 +18,11 @@ pub struct DataArgs {
     /// Sidecar JSON of the window CSV; by default the CSV's path with a .json extension.
     #[arg(long, requires = "data")]
     pub sidecar: Option<PathBuf>,
+    /// Positions as the data has them (as-published), or, when the sidecar declares the
+    /// paper parser's frame (position_frame "paper-mean5"), rotated into each window's
+    /// first-sample frame like its yaw (corrected).
+    #[arg(long, default_value = "as-published", value_parser = ["as-published", "corrected"])]
+    pub frame: String,
 }
 
 /// The models a command compares.
@@ -124,12 +129,48 @@ pub fn outputs_for(
     Ok(outputs)
 }
 
-/// Loads the dataset the arguments name (the bundled Husky data by default).
+/// Loads the dataset the arguments name (the bundled Husky data by default), with its
+/// positions in the frame `--frame` asks for; a dataset in the paper parser's frame is
+/// noted (one line on stderr, see [`note`]).
 pub fn load(args: &DataArgs) -> Result<Dataset, DataError> {
-    match &args.data {
-        Some(csv) => read_dataset(csv, args.sidecar.as_deref()),
-        None => crate::bundled::husky(),
+    let mut data = match &args.data {
+        Some(csv) => read_dataset(csv, args.sidecar.as_deref())?,
+        None => crate::bundled::husky()?,
+    };
+    if data.robot.position_frame == crate::traits::PositionFrame::PaperMean5 {
+        let name = match &args.data {
+            Some(csv) => csv.display().to_string(),
+            None => crate::bundled::HUSKY_CSV_NAME.to_string(),
+        };
+        if args.frame == "corrected" {
+            data.to_first_sample_frame();
+            note(format!("note: {name}: positions rotated from the paper parser's frame (mean orientation of each window's first 5 samples) into the first sample's, like yaw (--frame corrected)"));
+        } else {
+            note(format!("note: {name}: positions are in the paper parser's frame (mean orientation of each window's first 5 samples; yaw is relative to the first sample), as published; --frame corrected rotates them"));
+        }
     }
+    Ok(data)
+}
+
+/// Notes of the running command, printed on stderr when it succeeds (a failed command's
+/// stderr is its one-line error).
+static NOTES: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+
+/// Adds a note (one line) for the end of the running command.
+pub fn note(line: String) {
+    NOTES
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .push(line);
+}
+
+/// Takes the notes of the running command.
+pub fn take_notes() -> Vec<String> {
+    std::mem::take(
+        &mut *NOTES
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner),
+    )
 }
 
 /// Parses the command line; an argument error is reported on one line (clap's own message

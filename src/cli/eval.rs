@@ -198,8 +198,55 @@ pub fn table(cmp: &Comparison) -> String {
     section(&mut s, "all evaluation windows", &|m| Some(m.all));
     section(&mut s, "transient windows", &|m| m.transient);
     section(&mut s, "steady windows", &|m| m.steady);
+    improvement_section(&mut s, cmp);
     uncertainty_section(&mut s, cmp);
     s
+}
+
+/// Every model's improvement over naive and over slip-BLR with its paired bootstrap
+/// interval.
+fn improvement_section(s: &mut String, cmp: &Comparison) {
+    let _ = writeln!(
+        s,
+        "improvement of the medians with {:.0}% intervals (paired bootstrap, {} resamples of the evaluation intervals)",
+        100.0 * cmp.bootstrap.level,
+        cmp.bootstrap.resamples
+    );
+    let width = cmp
+        .models
+        .iter()
+        .map(|m| m.name.len() + 1)
+        .max()
+        .unwrap_or(0)
+        .max(11);
+    let _ = writeln!(
+        s,
+        "  {:<width$}{:<28}{:<28}{:<28}rotational",
+        "", "vs naive: translational", "rotational", "vs slip-BLR: translational"
+    );
+    let cell = |i: &crate::eval::Improvement| {
+        format!(
+            "{:<28}",
+            format!("{:+.1}% [{:+.1}, {:+.1}]", i.percent, i.ci[0], i.ci[1])
+        )
+    };
+    for m in &cmp.models {
+        let naive = &m.improvement_over_naive;
+        let over_naive = format!("{}{}", cell(&naive.translational), cell(&naive.rotational));
+        let over_blr = m
+            .improvement_over_slip_blr
+            .as_ref()
+            .map_or("slip-BLR could not be fitted".to_string(), |b| {
+                format!("{}{}", cell(&b.translational), cell(&b.rotational))
+            });
+        let _ = writeln!(
+            s,
+            "  {:<width$}{over_naive:<56}{}",
+            m.name,
+            over_blr.trim_end()
+        );
+    }
+    let _ = writeln!(s);
 }
 
 /// The calibration of the models with a pose covariance: coverage of the 95% regions at

@@ -65,6 +65,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         rate_hz: spec.rate_hz,
         window_len: window_len(&spec),
         vehicle: Arc::clone(&spec.vehicle),
+        // Poses are re-based on the first sample of each window (position and yaw).
+        position_frame: crate::traits::PositionFrame::FirstSample,
     };
     let (data, report) = import_raw(&log, &description, &config)?;
     let failure = report.nothing_usable().or_else(|| {

@@ -121,6 +121,7 @@ where
         Ok(cli) => cli,
         Err(code) => return code,
     };
+    common::take_notes();
     let result = registries
         .check_tags()
         .map_err(anyhow::Error::from)
@@ -138,8 +139,14 @@ where
             Command::Predict(a) => predict::run(&a),
             Command::List(a) => list::run(&a, registries),
         });
+    let notes = common::take_notes();
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => {
+            for line in notes {
+                eprintln!("{line}");
+            }
+            ExitCode::SUCCESS
+        }
         // The reader of our output has gone: nothing more to say.
         Err(e) if e.downcast_ref::<common::ClosedPipe>().is_some() => ExitCode::SUCCESS,
         Err(e) => {

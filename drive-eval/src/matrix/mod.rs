@@ -98,14 +98,7 @@ pub struct MatrixCell {
     pub errors: Vec<Mrmse>,
 }
 
-/// An improvement over the baseline with its bootstrap confidence interval.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Improvement {
-    /// `100 (baseline median - median) / baseline median`.
-    pub percent: f64,
-    /// Bootstrap percentile interval of the same figure.
-    pub ci: [f64; 2],
-}
+pub use crate::stats::Improvement;
 
 /// One model in one scenario, every seed pooled.
 #[derive(Debug, Clone, Serialize)]

@@ -3,10 +3,8 @@
 
 use super::BootstrapConfig;
 use super::{Improvement, Matrix, MatrixCell, Scenario, SummaryRow};
-use crate::{improvement_percent, quantile, Mrmse, Summary};
+use crate::{paired_bootstrap, Mrmse, PairedErrors, Summary};
 use drive_models::ModelSpec;
-use rand::rngs::Xoshiro256PlusPlus;
-use rand::{RngExt, SeedableRng};
 use rayon::prelude::*;
 
 /// `learner/powertrain` (or the learner alone).
@@ -15,23 +13,6 @@ fn stream_label(m: &ModelSpec) -> String {
         Some(p) => format!("{}/{p}", m.learner),
         None => m.learner.clone(),
     }
-}
-
-/// The median of `values` (reordered in place; NaN-free), as [`quantile`] at 0.5 gives it;
-/// NaN when empty. Linear time (selection, no sort): the bootstrap calls it for every draw.
-pub(super) fn median_of(values: &mut [f64]) -> f64 {
-    let n = values.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    let (left, mid, _) = values.select_nth_unstable_by(n / 2, f64::total_cmp);
-    let upper = *mid;
-    if n % 2 == 1 {
-        return upper;
-    }
-    // The lower middle value is the largest of the left part.
-    let lower = left.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    lower + (upper - lower) * 0.5
 }
 
 /// Pooled summaries per scenario and model, with improvements over the baseline.
@@ -117,7 +98,7 @@ fn fnv1a(text: &str) -> u64 {
 
 /// The improvement of the pooled median over the baseline's, and its bootstrap percentile
 /// interval: each run's evaluation windows resampled with replacement, the same draw for the
-/// model and the baseline (a paired bootstrap).
+/// model and the baseline (a paired bootstrap, see [`paired_bootstrap`]).
 pub(super) fn bootstrap_improvement(
     pairs: &[(&MatrixCell, &MatrixCell)],
     pick: fn(&Mrmse) -> f64,
@@ -125,48 +106,36 @@ pub(super) fn bootstrap_improvement(
     index: u64,
     salt: u64,
 ) -> Improvement {
-    let mut mine: Vec<f64> = Vec::new();
-    let mut base: Vec<f64> = Vec::new();
-    for (m, b) in pairs {
-        mine.extend(m.errors.iter().map(pick));
-        base.extend(b.errors.iter().map(pick));
-    }
-    let percent = improvement_percent(median_of(&mut mine), median_of(&mut base));
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(
+    let picked: Vec<(Vec<f64>, Vec<f64>)> = pairs
+        .iter()
+        .map(|(m, b)| {
+            (
+                m.errors.iter().map(pick).collect(),
+                b.errors.iter().map(pick).collect(),
+            )
+        })
+        .collect();
+    let runs: Vec<PairedErrors<'_>> = picked
+        .iter()
+        .map(|(m, b)| PairedErrors {
+            model: m,
+            reference: b,
+            blocks: None,
+        })
+        .collect();
+    paired_bootstrap(
+        &runs,
+        config,
         config.seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (salt << 63),
-    );
-    let mut draws = Vec::with_capacity(config.resamples);
-    for _ in 0..config.resamples {
-        mine.clear();
-        base.clear();
-        for (m, b) in pairs {
-            let n = m.errors.len().min(b.errors.len());
-            for _ in 0..n {
-                let i = rng.random_range(0..n);
-                mine.push(pick(&m.errors[i]));
-                base.push(pick(&b.errors[i]));
-            }
-        }
-        let p = improvement_percent(median_of(&mut mine), median_of(&mut base));
-        if p.is_finite() {
-            draws.push(p);
-        }
-    }
-    draws.sort_unstable_by(f64::total_cmp);
-    let tail = (1.0 - config.level) / 2.0;
-    Improvement {
-        percent,
-        ci: [
-            quantile(&draws, tail).unwrap_or(f64::NAN),
-            quantile(&draws, 1.0 - tail).unwrap_or(f64::NAN),
-        ],
-    }
+    )
 }
 
 #[cfg(test)]
 mod tests {
     use super::super::Scenario;
     use super::*;
+    use crate::quantile;
+    use crate::stats::median_of;
 
     fn cell(seed: u64, errors: &[f64]) -> MatrixCell {
         MatrixCell {
