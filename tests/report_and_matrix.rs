@@ -82,7 +82,9 @@ fn report_on_the_bundled_data_writes_every_figure_as_png_and_svg() {
         md.contains("| left |") && md.contains("slip-BLR angular slip"),
         "{md}"
     );
-    assert!(md.contains("inside the predicted 95% ellipse"), "{md}");
+    assert!(md.contains("inside the predicted 95% regions"), "{md}");
+    assert!(md.contains("| slip-blr | 9"), "{md}"); // coverage at 0.5 s in the 90s
+    assert!(md.contains("random orders"), "{md}");
     for name in FIGURES {
         assert!(md.contains(&format!("]({name}.png)")), "{name} not linked");
     }

@@ -57,6 +57,18 @@ pub fn evaluate_model_from(
     eval: &WindowSet<'_>,
     start: StartInfo,
 ) -> ModelReport {
+    ModelReport {
+        uncertainty: score_uncertainty(model, eval, start),
+        ..evaluate_errors(model, eval, start)
+    }
+}
+
+/// [`evaluate_model_from`] without the uncertainty's scoring: eq. 8 errors only.
+pub fn evaluate_errors(
+    model: &dyn MotionModel,
+    eval: &WindowSet<'_>,
+    start: StartInfo,
+) -> ModelReport {
     let vehicle = eval.robot.vehicle.as_ref();
     let mut poses = Vec::new();
     let windows = eval
@@ -75,6 +87,6 @@ pub fn evaluate_model_from(
     ModelReport {
         name: model.name(),
         windows,
-        uncertainty: score_uncertainty(model, eval, start),
+        uncertainty: None,
     }
 }

@@ -1,8 +1,12 @@
 //! The paper's Fig. 7 analysis: prediction error against training driving time.
 
-use crate::{run_cells, split_by_interval, Setting, SplitError, Summary};
+use crate::{evaluate_errors, quantile, split_by_interval, SplitError, Summary};
 use drive_models::ModelSpec;
-use drive_traits::{Dataset, WindowSet};
+use drive_traits::{Dataset, MotionModel, Window, WindowSet};
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// One point of the convergence curve.
@@ -27,6 +31,67 @@ pub struct SkippedPoint {
     pub reason: String,
 }
 
+/// How the curve is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ConvergenceConfig {
+    /// Fraction of the intervals whose prefixes are trained on; the rest evaluates.
+    pub split: f64,
+    /// Thresholds on |d error / d training time|: (m/s, rad/s).
+    pub thresholds: [f64; 2],
+    /// At most this many training amounts on a curve: every amount when there are no more
+    /// intervals; otherwise every amount up to half of it (the early curve, where the
+    /// paper's rule is decided) and the other half evenly spaced up to all the intervals.
+    pub max_points: usize,
+    /// Random orders of the training intervals drawn besides the recording order (0: none).
+    pub orders: usize,
+    /// Seed of the random orders.
+    pub seed: u64,
+}
+
+impl Default for ConvergenceConfig {
+    fn default() -> Self {
+        ConvergenceConfig {
+            split: 0.5,
+            thresholds: [0.01, 0.01],
+            max_points: 100,
+            orders: 30,
+            seed: 0,
+        }
+    }
+}
+
+/// One training amount over the random orders: the minimum, median and maximum of the
+/// median errors.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SpreadPoint {
+    /// Driving time of the training data (s).
+    pub training_time_s: f64,
+    /// Training intervals used.
+    pub intervals: usize,
+    /// Orders whose model could be fitted at this amount.
+    pub orders: usize,
+    /// Median translational MRMSE: minimum, median, maximum over the orders (m).
+    pub translational_m: [f64; 3],
+    /// Median rotational MRMSE: minimum, median, maximum over the orders (rad).
+    pub rotational_rad: [f64; 3],
+}
+
+/// The convergence over random orders of the training intervals.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OrderSpread {
+    /// Orders drawn.
+    pub orders: usize,
+    /// Their seed.
+    pub seed: u64,
+    /// Convergence time (s) by the paper's rule: minimum, median, maximum over the orders
+    /// whose curve meets it.
+    pub convergence_time_s: Option<[f64; 3]>,
+    /// Orders whose curve never meets the rule.
+    pub never_converged: usize,
+    /// The curve's spread, in increasing training time.
+    pub curve: Vec<SpreadPoint>,
+}
+
 /// The convergence analysis.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Convergence {
@@ -42,75 +107,249 @@ pub struct Convergence {
     pub interval_s: f64,
     /// Evaluation windows (always the same).
     pub eval_windows: usize,
-    /// The curve, in increasing training time.
+    /// How the models were fitted along the curve: `online` (slip posterior updated
+    /// interval by interval, powertrain refitted as the data grows by half) or `batch`
+    /// (every amount fitted from scratch).
+    pub fitting: &'static str,
+    /// The curve in recording order, in increasing training time.
     pub curve: Vec<ConvergencePoint>,
     /// Amounts of training data that could not be fitted (too little excitation).
     pub skipped: Vec<SkippedPoint>,
+    /// The same over random orders of the training intervals, when asked.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub random_orders: Option<OrderSpread>,
 }
 
-/// Trains `model` on the first 1, 2, 3, ... intervals of the training part of the `split`
-/// (in recording order) and evaluates every fit on the same evaluation part; the fits run in
-/// parallel (the experiment engine).
+/// [`convergence_with`] with the default configuration (100 points at most, 30 random
+/// orders) at `split` and `thresholds`.
 pub fn convergence(
     data: &Dataset,
     split: f64,
     thresholds: [f64; 2],
     model: &ModelSpec,
 ) -> Result<Convergence, SplitError> {
-    let (train, eval) = split_by_interval(data, split)?;
-    let train_intervals = train.windows.last().map_or(0, |w| w.interval + 1);
+    let config = ConvergenceConfig {
+        split,
+        thresholds,
+        ..ConvergenceConfig::default()
+    };
+    convergence_with(data, &config, model)
+}
+
+/// The model fitted at one amount, or why it could not be.
+type FittedAt = Result<Box<dyn MotionModel>, String>;
+
+/// One amount's outcome on one curve: the medians, or why the model could not be fitted.
+type PointOutcome = (usize, Result<(f64, f64), String>);
+
+/// Trains `model` on the first 1, 2, 3, ... intervals of the training part of the split (in
+/// recording order, then in `config.orders` random orders) and evaluates every fit on the
+/// same evaluation part (eq. 8 errors; the uncertainty is not scored). A composed model
+/// whose slip learner fits online (slip-BLR, no slip) follows the data with
+/// [`drive_models::GrowingFit`]: its cost grows linearly with the training data; other
+/// models are fitted from scratch at every amount. The evaluations run in parallel.
+pub fn convergence_with(
+    data: &Dataset,
+    config: &ConvergenceConfig,
+    model: &ModelSpec,
+) -> Result<Convergence, SplitError> {
+    let (train, eval) = split_by_interval(data, config.split)?;
     let window_s = data.robot.window_len as f64 / data.robot.rate_hz;
     // The mean number of windows per interval of the whole dataset (3 in DRIVE).
     let interval_s = window_s * data.windows.len() as f64 / data.interval_count().max(1) as f64;
-    let settings: Vec<Setting<'_>> = (1..=train_intervals)
-        .map(|n| {
-            let cut = train.windows.partition_point(|w| w.interval < n);
-            Setting {
-                train: WindowSet {
-                    robot: train.robot,
-                    windows: train.windows[..cut].to_vec(),
-                },
-                eval: eval.clone(),
-            }
-        })
-        .collect();
-    let cells = run_cells(&settings, std::slice::from_ref(model), false, &|| {});
-    let mut curve = Vec::new();
+    // The training windows grouped by interval.
+    let mut groups: Vec<Vec<&Window>> = Vec::new();
+    for w in &train.windows {
+        match groups.last_mut() {
+            Some(g) if g[0].interval == w.interval => g.push(w),
+            _ => groups.push(vec![w]),
+        }
+    }
+    let n = groups.len();
+    let amounts = training_amounts(n, config.max_points);
+    let online = model.growing(&data.robot).is_some();
+    let recording: Vec<usize> = (0..n).collect();
+    let curve_of = |order: &[usize]| curve(&groups, order, &amounts, model, &train, &eval);
+    let recorded = curve_of(&recording);
+    let point = |n: usize, t: f64, r: f64| ConvergencePoint {
+        training_time_s: n as f64 * interval_s,
+        intervals: n,
+        translational_median_m: t,
+        rotational_median_rad: r,
+    };
+    let mut points = Vec::new();
     let mut skipped = Vec::new();
-    for cell in cells {
-        let n = cell.setting + 1;
-        match cell.outcome {
-            Ok(scored) => {
-                // The evaluation set is non-empty (guaranteed by the split).
-                let (t, r) = (
-                    scored.report.translational(None),
-                    scored.report.rotational(None),
-                );
-                if let (Some(Summary { median: tm, .. }), Some(Summary { median: rm, .. })) = (t, r)
-                {
-                    curve.push(ConvergencePoint {
-                        training_time_s: n as f64 * interval_s,
-                        intervals: n,
-                        translational_median_m: tm,
-                        rotational_median_rad: rm,
-                    });
-                }
-            }
-            Err(e) => skipped.push(SkippedPoint {
+    for (n, outcome) in recorded {
+        match outcome {
+            Ok((t, r)) => points.push(point(n, t, r)),
+            Err(reason) => skipped.push(SkippedPoint {
                 intervals: n,
-                reason: e.to_string(),
+                reason,
             }),
         }
     }
+    let random_orders = (config.orders > 0).then(|| {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(config.seed);
+        let orders: Vec<Vec<usize>> = (0..config.orders)
+            .map(|_| {
+                let mut o = recording.clone();
+                o.shuffle(&mut rng);
+                o
+            })
+            .collect();
+        let curves: Vec<Vec<PointOutcome>> = orders.par_iter().map(|o| curve_of(o)).collect();
+        let mut times = Vec::new();
+        for c in &curves {
+            let pts: Vec<ConvergencePoint> = c
+                .iter()
+                .filter_map(|(n, o)| o.as_ref().ok().map(|(t, r)| point(*n, *t, *r)))
+                .collect();
+            if let Some(t) = convergence_time(&pts, config.thresholds) {
+                times.push(t);
+            }
+        }
+        let spread = |v: &mut Vec<f64>| -> [f64; 3] {
+            v.sort_by(f64::total_cmp);
+            [v[0], quantile(v, 0.5).unwrap_or(f64::NAN), v[v.len() - 1]]
+        };
+        let curve = amounts
+            .iter()
+            .enumerate()
+            .filter_map(|(i, &a)| {
+                let (mut t, mut r): (Vec<f64>, Vec<f64>) = curves
+                    .iter()
+                    .filter_map(|c| c[i].1.as_ref().ok().copied())
+                    .unzip();
+                (!t.is_empty()).then(|| SpreadPoint {
+                    training_time_s: a as f64 * interval_s,
+                    intervals: a,
+                    orders: t.len(),
+                    translational_m: spread(&mut t),
+                    rotational_rad: spread(&mut r),
+                })
+            })
+            .collect();
+        OrderSpread {
+            orders: config.orders,
+            seed: config.seed,
+            never_converged: config.orders - times.len(),
+            convergence_time_s: (!times.is_empty()).then(|| spread(&mut times)),
+            curve,
+        }
+    });
     Ok(Convergence {
         model: model.canonical(),
-        convergence_time_s: convergence_time(&curve, thresholds),
-        thresholds,
+        convergence_time_s: convergence_time(&points, config.thresholds),
+        thresholds: config.thresholds,
         interval_s,
         eval_windows: eval.len(),
-        curve,
+        fitting: if online { "online" } else { "batch" },
+        curve: points,
         skipped,
+        random_orders,
     })
+}
+
+/// The training amounts (intervals) of a curve over `n` intervals with at most `max_points`
+/// points (see [`ConvergenceConfig::max_points`]).
+///
+/// ```text
+/// training_amounts(5, 100) = [1, 2, 3, 4, 5]
+/// training_amounts(100, 10) = [1, 2, 3, 4, 5, 24, 43, 62, 81, 100]
+/// ```
+fn training_amounts(n: usize, max_points: usize) -> Vec<usize> {
+    let max_points = max_points.max(2);
+    if n <= max_points {
+        return (1..=n).collect();
+    }
+    let early = max_points / 2;
+    let late = max_points - early;
+    let mut out: Vec<usize> = (1..=early).collect();
+    for i in 1..=late {
+        let a = early + ((n - early) as f64 * i as f64 / late as f64).round() as usize;
+        if out.last().is_none_or(|l| a > *l) {
+            out.push(a);
+        }
+    }
+    out
+}
+
+/// The medians of `model` trained on the first `amounts` intervals of `groups` taken in
+/// `order`.
+fn curve(
+    groups: &[Vec<&Window>],
+    order: &[usize],
+    amounts: &[usize],
+    model: &ModelSpec,
+    train: &WindowSet<'_>,
+    eval: &WindowSet<'_>,
+) -> Vec<PointOutcome> {
+    let robot = train.robot;
+    let seen_after = |n: usize| WindowSet {
+        robot,
+        windows: order[..n]
+            .iter()
+            .flat_map(|&g| groups[g].iter().copied())
+            .collect(),
+    };
+    // The models at each amount (fitted online in sequence, or in batch in parallel).
+    let models: Vec<(usize, FittedAt)> = match model.growing(robot) {
+        Some(mut fit) => {
+            let mut seen = WindowSet {
+                robot,
+                windows: Vec::new(),
+            };
+            let mut out = Vec::with_capacity(amounts.len());
+            let mut next = amounts.iter().peekable();
+            for (i, &g) in order.iter().enumerate() {
+                let from = seen.windows.len();
+                seen.windows.extend(groups[g].iter().copied());
+                // The last amount is fitted as in batch (its powertrain on all of it).
+                let state = if i + 1 == order.len() {
+                    fit.settle(&seen)
+                } else {
+                    fit.grow(&seen, from)
+                }
+                .map_err(|e| e.to_string());
+                if next.peek() == Some(&&(i + 1)) {
+                    next.next();
+                    let m = state.and_then(|()| {
+                        fit.model(robot)
+                            .map(|m| Box::new(m) as Box<dyn MotionModel>)
+                            .map_err(|e| e.to_string())
+                    });
+                    out.push((i + 1, m));
+                }
+            }
+            out
+        }
+        None => amounts
+            .par_iter()
+            .map(|&n| {
+                (
+                    n,
+                    model
+                        .fit_uncalibrated(&seen_after(n))
+                        .map_err(|e| e.to_string()),
+                )
+            })
+            .collect(),
+    };
+    models
+        .into_par_iter()
+        .map(|(n, m)| {
+            let medians = m.and_then(|m| {
+                let report = evaluate_errors(m.as_ref(), eval, model.start);
+                match (report.translational(None), report.rotational(None)) {
+                    (Some(Summary { median: t, .. }), Some(Summary { median: r, .. })) => {
+                        Ok((t, r))
+                    }
+                    _ => Err("no evaluation window".to_string()),
+                }
+            });
+            (n, medians)
+        })
+        .collect()
 }
 
 /// The paper's rule on a curve: the smallest training time from which the gradient of both
@@ -136,5 +375,23 @@ pub fn convergence_time(curve: &[ConvergencePoint], thresholds: [f64; 2]) -> Opt
         None => curve.first().map(|p| p.training_time_s),
         Some(i) if i + 1 < curve.len() - 1 => Some(curve[i + 1].training_time_s),
         Some(_) => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn training_amounts_resolve_the_early_curve_and_end_at_all_the_data() {
+        assert_eq!(training_amounts(5, 100), vec![1, 2, 3, 4, 5]);
+        assert_eq!(
+            training_amounts(100, 10),
+            vec![1, 2, 3, 4, 5, 24, 43, 62, 81, 100]
+        );
+        let a = training_amounts(1005, 100);
+        assert_eq!(a.len(), 100);
+        assert_eq!((a[0], a[49], a[99]), (1, 50, 1005));
+        assert!(a.windows(2).all(|w| w[0] < w[1]));
     }
 }

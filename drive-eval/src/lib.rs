@@ -38,12 +38,17 @@ mod split;
 mod stats;
 mod uncertainty;
 
-pub use compare::{evaluate_model, evaluate_model_from, ModelReport, WindowErrors};
+pub use compare::{
+    evaluate_errors, evaluate_model, evaluate_model_from, ModelReport, WindowErrors,
+};
 pub use comparison::{
     compare, compare_specs, vehicle_type, CompareError, Comparison, ErrorSummary, ModelResult,
     PairedImprovement, PhaseSummary,
 };
-pub use convergence::{convergence, convergence_time, Convergence, ConvergencePoint, SkippedPoint};
+pub use convergence::{
+    convergence, convergence_time, convergence_with, Convergence, ConvergenceConfig,
+    ConvergencePoint, OrderSpread, SkippedPoint, SpreadPoint,
+};
 pub use experiment::{run_cells, simulate_run, simulate_runs, Cell, Scored, Setting, SimRun};
 pub use matrix::{
     run_matrix, BootstrapConfig, DatasetSource, Improvement, Matrix, MatrixCell, MatrixError,

@@ -89,6 +89,98 @@ impl Composed {
     }
 }
 
+impl Composed {
+    /// A fit of this model that grows with the training data, when its slip learner fits
+    /// online ([`drive_traits::SlipLearner::online`]); `None` otherwise. See [`GrowingFit`].
+    pub fn growing(&self, robot: &drive_traits::RobotDescription) -> Option<GrowingFit> {
+        let online = self.slip.online_boxed(robot)?;
+        Some(GrowingFit {
+            learner: self.clone(),
+            empty: online.clone_box(),
+            slip: online,
+            powertrain: None,
+            fitted_on: 0,
+        })
+    }
+}
+
+/// A composed model fitted as training windows arrive (e.g. interval by interval): the
+/// slip posterior is updated recursively (online), and the powertrain is refitted, on every
+/// window seen so far, each time the data has grown by [`GrowingFit::GROWTH`] since its last
+/// fit, the slip statistics then rebuilt under it. The cost of following `n` windows is
+/// `O(n)`, not `O(n^2)`; the model at any time depends on the windows seen so far only. Its
+/// slip posterior equals the batch fit under the same powertrain; its powertrain is the one
+/// fitted on at least `1 / GROWTH` of the windows seen.
+pub struct GrowingFit {
+    learner: Composed,
+    empty: Box<dyn drive_traits::OnlineSlip>,
+    slip: Box<dyn drive_traits::OnlineSlip>,
+    powertrain: Option<Box<dyn Powertrain>>,
+    fitted_on: usize,
+}
+
+impl Clone for GrowingFit {
+    fn clone(&self) -> Self {
+        GrowingFit {
+            learner: self.learner.clone(),
+            empty: self.empty.clone_box(),
+            slip: self.slip.clone_box(),
+            powertrain: self.powertrain.as_ref().map(|p| p.clone_box()),
+            fitted_on: self.fitted_on,
+        }
+    }
+}
+
+impl GrowingFit {
+    /// Growth of the data, since the powertrain was fitted, that refits it.
+    pub const GROWTH: f64 = 1.5;
+
+    /// Follows the data: `seen` holds every window so far, in arrival order, the ones from
+    /// `new_from` on arrived since the last call.
+    pub fn grow(&mut self, seen: &WindowSet<'_>, new_from: usize) -> Result<(), FitError> {
+        let n = seen.windows.len();
+        let refit = self.powertrain.is_none() || n as f64 >= Self::GROWTH * self.fitted_on as f64;
+        if refit {
+            self.powertrain = None;
+            let powertrain = self.learner.powertrain.fit_boxed(seen)?;
+            self.slip = self.empty.clone_box();
+            self.slip.add(&SlipData::new(seen, powertrain.as_ref()));
+            self.powertrain = Some(powertrain);
+            self.fitted_on = n;
+        } else if let Some(powertrain) = &self.powertrain {
+            let new = WindowSet {
+                robot: seen.robot,
+                windows: seen.windows[new_from.min(n)..].to_vec(),
+            };
+            self.slip.add(&SlipData::new(&new, powertrain.as_ref()));
+        }
+        Ok(())
+    }
+
+    /// Refits the powertrain on every window of `seen` and rebuilds the slip statistics
+    /// under it: the model is then the batch fit on `seen` (its slip posterior to rounding).
+    pub fn settle(&mut self, seen: &WindowSet<'_>) -> Result<(), FitError> {
+        self.powertrain = None;
+        self.grow(seen, 0)
+    }
+
+    /// The model on the windows seen so far.
+    pub fn model(&self, robot: &drive_traits::RobotDescription) -> Result<ComposedModel, FitError> {
+        let powertrain = self
+            .powertrain
+            .as_ref()
+            .ok_or(FitError::EmptyTrainingSet)?
+            .clone_box();
+        Ok(ComposedModel {
+            label: self.learner.label.clone(),
+            vehicle: Arc::clone(&robot.vehicle),
+            powertrain,
+            slip: self.slip.fitted()?,
+            dt: robot.dt(),
+        })
+    }
+}
+
 impl Learner for Composed {
     type Fitted = ComposedModel;
 

@@ -26,6 +26,6 @@ pub mod rollout;
 pub mod slip;
 pub mod vehicles;
 
-pub use composed::{Composed, ComposedModel};
+pub use composed::{Composed, ComposedModel, GrowingFit};
 pub use registry::{LearnerKind, ModelAlias, ModelSpec, Models};
 pub use vehicles::DifferentialDrive;

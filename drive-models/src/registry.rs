@@ -283,6 +283,18 @@ impl ModelSpec {
         self
     }
 
+    /// A fit of this model that grows with the training data ([`crate::GrowingFit`]), for a
+    /// composed model whose slip learner fits online; `None` otherwise.
+    pub fn growing(&self, robot: &drive_traits::RobotDescription) -> Option<crate::GrowingFit> {
+        match &self.parts {
+            Parts::Composed(powertrain, slip) => {
+                Composed::from_parts(self.canonical(), powertrain.clone(), slip.clone())
+                    .growing(robot)
+            }
+            Parts::Baseline(..) => None,
+        }
+    }
+
     /// The same model under another name.
     pub fn named(mut self, name: &str) -> Self {
         self.name = name.to_string();

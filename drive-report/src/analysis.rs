@@ -226,6 +226,13 @@ pub struct Calibration {
     /// Steps whose predicted position covariance was not positive definite (counted as
     /// outside, left out of the NLL).
     pub degenerate: usize,
+    /// Fraction of the measured positions inside the 95% ellipse at 0.5, 1 and 2 s.
+    pub coverage95: std::collections::BTreeMap<String, f64>,
+    /// Fraction of the measured yaws inside the 95% interval at 0.5, 1 and 2 s.
+    pub yaw_coverage95: std::collections::BTreeMap<String, f64>,
+    /// Nominal against observed coverage (position and yaw), 50% to 99%: the reliability
+    /// diagram.
+    pub reliability: Vec<drive_eval::ReliabilityPoint>,
 }
 
 /// The calibration of a model with pose covariances; `None` for a model without them. The
@@ -234,9 +241,13 @@ pub fn calibration(
     name: &str,
     model: &dyn MotionModel,
     eval: &WindowSet<'_>,
+    start: drive_traits::StartInfo,
 ) -> Option<Calibration> {
-    let u = drive_eval::score_uncertainty(model, eval, drive_traits::StartInfo::default())?;
+    let u = drive_eval::score_uncertainty(model, eval, start)?;
     Some(Calibration {
+        coverage95: u.coverage95,
+        yaw_coverage95: u.yaw_coverage95,
+        reliability: u.reliability,
         model: name.to_string(),
         inside_fraction: u.coverage95_per_step,
         inside_overall: u.coverage95_overall,

@@ -619,70 +619,83 @@ where
     Ok(())
 }
 
-/// Fraction of measured positions inside the predicted 95% ellipse per horizon step.
+/// The reliability diagram: observed against nominal coverage (50% to 99%) of the predicted
+/// position ellipses (solid, with dots) and yaw intervals (crosses), every horizon step of
+/// every evaluation window; a calibrated model lies on the diagonal.
 pub fn calibration<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     cals: &[Calibration],
-    dt: f64,
+    _dt: f64,
 ) -> DrawResult
 where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
     let mut keys = vec![(
-        "95%: a calibrated model".to_string(),
+        "observed = nominal: a calibrated model".to_string(),
         Key::Line(COLOURS[5], 2),
     )];
     for (i, c) in cals.iter().enumerate() {
+        let colour = COLOURS[(i + 2) % COLOURS.len()];
+        let at = |h: &str| c.coverage95.get(h).map_or(f64::NAN, |f| 100.0 * f);
         keys.push((
             format!(
-                "{}: {:.1}% inside overall, mean NLL {}",
+                "{} position (95%: {:.1} / {:.1} / {:.1}% at 0.5 / 1 / 2 s; NLL {})",
                 c.model,
-                100.0 * c.inside_overall,
+                at("0.5"),
+                at("1.0"),
+                at("2.0"),
                 crate::nll_text(c.mean_nll)
             ),
-            Key::Line(COLOURS[(i + 2) % COLOURS.len()], 2),
+            Key::Dot(colour),
         ));
+        keys.push((format!("{} yaw", c.model), Key::Cross(colour)));
     }
     let body = header(
         root,
-        "Uncertainty calibration: measured positions inside the predicted 95% ellipse",
+        "Reliability of the predicted uncertainty: observed against nominal coverage",
         &keys,
     )?;
-    let horizon = cals
-        .iter()
-        .map(|c| c.inside_fraction.len())
-        .max()
-        .unwrap_or(1) as f64
-        * dt;
     let mut chart = ChartBuilder::on(&body)
         .margin(15)
         .x_label_area_size(50)
         .y_label_area_size(70)
-        .build_cartesian_2d(0.0..horizon + dt, 0.0..100.0)?;
+        .build_cartesian_2d(45.0..100.0, 0.0..100.0)?;
     chart
         .configure_mesh()
-        .x_desc("prediction horizon [s]")
-        .y_desc("measured position inside the 95% ellipse [% of windows]")
+        .x_desc("nominal coverage of the predicted region [%]")
+        .y_desc("measured poses inside it [% of steps]")
         .axis_desc_style((FONT, LABEL))
         .label_style((FONT, LABEL - 2))
-        .x_label_formatter(&|v| format!("{v:.1}"))
+        .x_label_formatter(&|v| format!("{v:.0}"))
         .y_label_formatter(&|v| format!("{v:.0}"))
         .draw()?;
     chart.draw_series(std::iter::once(PathElement::new(
-        vec![(0.0, 95.0), (horizon + dt, 95.0)],
+        vec![(45.0, 45.0), (100.0, 100.0)],
         COLOURS[5].stroke_width(2),
     )))?;
     for (i, c) in cals.iter().enumerate() {
         let colour = COLOURS[(i + 2) % COLOURS.len()];
-        chart.draw_series(LineSeries::new(
-            c.inside_fraction
+        let points = |pick: fn(&drive_eval::ReliabilityPoint) -> f64| -> Vec<(f64, f64)> {
+            c.reliability
                 .iter()
-                .enumerate()
-                .filter(|(_, f)| f.is_finite())
-                .map(|(k, f)| ((k + 1) as f64 * dt, 100.0 * f)),
-            colour.stroke_width(2),
-        ))?;
+                .filter(|p| pick(p).is_finite())
+                .map(|p| (100.0 * p.nominal, 100.0 * pick(p)))
+                .collect()
+        };
+        let position = points(|p| p.position);
+        let yaw = points(|p| p.yaw);
+        chart.draw_series(LineSeries::new(position.clone(), colour.stroke_width(2)))?;
+        chart.draw_series(
+            position
+                .iter()
+                .map(|&(x, y)| Circle::new((x, y), 4, colour.filled())),
+        )?;
+        chart.draw_series(LineSeries::new(yaw.clone(), colour.stroke_width(1)))?;
+        chart.draw_series(
+            yaw.iter()
+                .map(|&(x, y)| Cross::new((x, y), 5, colour.stroke_width(2))),
+        )?;
     }
     root.present()?;
     Ok(())

@@ -10,7 +10,7 @@
 //! | `errors_per_protocol` | MRMSE box plots per data-gathering protocol (regions vs uniform) | Fig. 5 |
 //! | `convergence` | error against training time (log-log), convergence time marked | Fig. 7 |
 //! | `trajectories` | predicted and measured paths with 95% ellipses | |
-//! | `calibration` | fraction of measured positions inside the 95% ellipse per horizon step | |
+//! | `calibration` | reliability diagram: observed against nominal coverage (50-99%) of the predicted position and yaw regions | |
 //!
 //! ```no_run
 //! # fn demo(data: &drive_traits::Dataset) -> Result<(), drive_report::ReportError> {
@@ -29,7 +29,7 @@ pub mod figures;
 use analysis::{Calibration, InputSpaceFigure, PowertrainTrace, Trajectory};
 use drive_data::output::{OutputError, Outputs};
 use drive_eval::{
-    compare, compare_regions, convergence, split_by_interval, Comparison, Convergence, Mrmse,
+    compare_regions, compare_specs, convergence, split_by_interval, Comparison, Convergence, Mrmse,
     RegionComparison, RegionStudy, Registries,
 };
 use drive_models::baselines::{AccBlr, AccBlrModel};
@@ -97,6 +97,10 @@ pub struct ReportOptions {
     pub draws: usize,
     /// Figure size in pixels (PNG) and points (SVG).
     pub size: (u32, u32),
+    /// What every model's predictions start from.
+    pub start: drive_traits::StartInfo,
+    /// How the models' pose covariances are made.
+    pub uncertainty: drive_models::calibration::Uncertainty,
 }
 
 impl Default for ReportOptions {
@@ -113,6 +117,8 @@ impl Default for ReportOptions {
             thresholds: [0.01, 0.01],
             draws: 25,
             size: (1200, 800),
+            start: drive_traits::StartInfo::default(),
+            uncertainty: drive_models::calibration::Uncertainty::default(),
         }
     }
 }
@@ -184,9 +190,17 @@ impl Report {
         data: &Dataset,
         options: &ReportOptions,
     ) -> Result<Report, ReportError> {
-        let comparison = compare(registries, data, options.split, &options.models)?;
+        let specs: Vec<_> = registries
+            .models()
+            .resolve_list(&options.models)?
+            .into_iter()
+            .map(|s| s.with_uncertainty(options.uncertainty, options.start))
+            .collect();
+        let comparison = compare_specs(data, options.split, &specs)?;
         let (train, eval) = split_by_interval(data, options.split)?;
-        let model = registries.model(&options.model)?;
+        let model = registries
+            .model(&options.model)?
+            .with_uncertainty(options.uncertainty, options.start);
         let convergence = convergence(data, options.split, options.thresholds, &model)?;
         let protocols = compare_regions(
             registries,
@@ -226,7 +240,7 @@ impl Report {
         let trajectories = analysis::trajectories(&eval, &models, options.trajectories);
         let calibration = models
             .iter()
-            .filter_map(|(name, m)| analysis::calibration(name, *m, &eval))
+            .filter_map(|(name, m)| analysis::calibration(name, *m, &eval, options.start))
             .collect();
         Ok(Report {
             dataset: format!("{} ({})", data.robot.name, data.robot.robot),
@@ -299,7 +313,7 @@ impl Report {
             ("trajectories", "Predicted and measured paths"),
         ]);
         if !self.calibration.is_empty() {
-            f.push(("calibration", "Uncertainty calibration"));
+            f.push(("calibration", "Reliability of the predicted uncertainty"));
         }
         f
     }
@@ -414,6 +428,35 @@ impl Report {
                 );
             }
         }
+        if let Some(o) = &conv.random_orders {
+            let _ = match o.convergence_time_s {
+                Some([lo, med, hi]) => writeln!(
+                    s,
+                    "\nOver {} random orders of the training intervals (seed {}), the same rule gives a median of **{med:.1} s** (range {lo:.1} to {hi:.1} s){}: how much the recording order's figure owes to the order the commands came in.",
+                    o.orders,
+                    o.seed,
+                    if o.never_converged > 0 {
+                        format!("; {} orders never converge", o.never_converged)
+                    } else {
+                        String::new()
+                    }
+                ),
+                None => writeln!(
+                    s,
+                    "\nNone of {} random orders of the training intervals meets the rule.",
+                    o.orders
+                ),
+            };
+        }
+        let _ = writeln!(
+            s,
+            "\nFitting along the curve: {}.",
+            if conv.fitting == "online" {
+                "online (the slip posterior updated interval by interval from its sufficient statistics, the powertrain refitted each time the data grew by half, the last amount fitted as in batch)"
+            } else {
+                "every amount fitted from scratch"
+            }
+        );
         let _ = writeln!(s, "\n## Fitted parameters (training part)\n");
         let f = &self.fitted;
         let _ = writeln!(
@@ -467,17 +510,41 @@ impl Report {
         if self.calibration.is_empty() {
             let _ = writeln!(s, "No model gives covariances.");
         }
-        for cal in &self.calibration {
-            let last = cal.inside_fraction.last().copied().unwrap_or(f64::NAN);
+        if !self.calibration.is_empty() {
             let _ = writeln!(
                 s,
-                "- {}: {:.1}% of measured positions inside the predicted 95% ellipse over every step ({:.1}% at the 2 s horizon), mean negative log-likelihood {} nats{}.",
+                "Uncertainty: {}; predictions start from {}. Share of the measured poses inside the predicted 95% regions (a calibrated model holds 95%), and the reliability diagram (`calibration.png`: observed against nominal coverage, 50% to 99%).\n",
+                self.options.uncertainty.as_str(),
+                self.options.start.as_str()
+            );
+            let _ = writeln!(
+                s,
+                "| model | position 0.5 / 1 / 2 s | yaw 0.5 / 1 / 2 s | all steps (position) | NLL [nats/step] |"
+            );
+            let _ = writeln!(s, "|---|---|---|---|---|");
+        }
+        for cal in &self.calibration {
+            let at = |c: &std::collections::BTreeMap<String, f64>| {
+                ["0.5", "1.0", "2.0"]
+                    .map(|h| {
+                        c.get(h)
+                            .map_or("-".to_string(), |f| format!("{:.1}%", 100.0 * f))
+                    })
+                    .join(" / ")
+            };
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.1}% | {}{} |",
                 cal.model,
+                at(&cal.coverage95),
+                at(&cal.yaw_coverage95),
                 100.0 * cal.inside_overall,
-                100.0 * last,
                 nll_text(cal.mean_nll),
                 if cal.degenerate > 0 {
-                    format!(" ({} steps with a degenerate covariance counted as outside)", cal.degenerate)
+                    format!(
+                        " ({} steps with a degenerate covariance counted as outside)",
+                        cal.degenerate
+                    )
                 } else {
                     String::new()
                 }

@@ -53,7 +53,7 @@ pub use registry::{
     is_part_name, Entry, Registry, RegistryError, RegistryItem, TagCollision, TagProblem,
 };
 pub use sampler::InputSampler;
-pub use slip::{FitSlip, SlipData, SlipLearner, SlipModel, SlipSample, SlipWindow};
+pub use slip::{FitSlip, OnlineSlip, SlipData, SlipLearner, SlipModel, SlipSample, SlipWindow};
 pub use tag::{PartTag, TagProbe, Tagged};
 pub use vehicle::{
     spanned_space, vehicle_as, vehicle_tag, Characterization, CommandModel, InputAxis, InputSpace,

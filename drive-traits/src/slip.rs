@@ -278,6 +278,27 @@ pub trait SlipLearner {
 
     /// Fits on the slip data of the training windows.
     fn fit(&self, data: &SlipData<'_>) -> Result<Self::Fitted, FitError>;
+
+    /// A recursive (online) fit of this learner for `robot`'s data, when the learner has
+    /// one: windows are added as they arrive and the fitted model is available at any time
+    /// at a cost that does not grow with the data seen (see [`OnlineSlip`]). `None`, the
+    /// default: the learner fits in batch only.
+    fn online(&self, robot: &RobotDescription) -> Option<Box<dyn OnlineSlip>> {
+        let _ = robot;
+        None
+    }
+}
+
+/// A slip learner's recursive fit: [`OnlineSlip::add`] the slip data of windows as they
+/// arrive, [`OnlineSlip::fitted`] the model on everything added so far, which equals the
+/// learner's batch fit on the same windows.
+pub trait OnlineSlip: Send {
+    /// Adds the samples of more training windows.
+    fn add(&mut self, data: &SlipData<'_>);
+    /// The slip model fitted on every window added, or why it cannot be fitted yet.
+    fn fitted(&self) -> Result<Box<dyn SlipModel>, FitError>;
+    /// A copy of the fit so far (to branch it, e.g. per training order).
+    fn clone_box(&self) -> Box<dyn OnlineSlip>;
 }
 
 /// A [`SlipLearner`] as a trait object (what the slip-learner registry holds); implemented
@@ -307,6 +328,8 @@ pub trait FitSlip: Send + Sync {
     fn fit_boxed(&self, data: &SlipData<'_>) -> Result<Box<dyn SlipModel>, FitError>;
     /// The tag of the fitted type.
     fn fitted_tag(&self) -> PartTag;
+    /// The learner's recursive fit, when it has one ([`SlipLearner::online`]).
+    fn online_boxed(&self, robot: &RobotDescription) -> Option<Box<dyn OnlineSlip>>;
 }
 
 impl<L> FitSlip for L
@@ -318,6 +341,9 @@ where
     }
     fn fitted_tag(&self) -> PartTag {
         PartTag::of::<L::Fitted, Box<dyn SlipModel>>("SlipModel")
+    }
+    fn online_boxed(&self, robot: &RobotDescription) -> Option<Box<dyn OnlineSlip>> {
+        self.online(robot)
     }
 }
 

@@ -47,9 +47,9 @@ pub struct PredictionArgs {
     /// whose state is a velocity, such as acc-blr).
     #[arg(long, default_value = "encoders+imu", value_parser = ["encoders", "encoders+imu"])]
     pub start: String,
-    /// Pose covariance: calibrated (the model's own, scaled per horizon step by split-conformal
-    /// calibration on the last quarter of the training intervals) or paper (eq. 7 propagated,
-    /// as published).
+    /// Pose covariance: calibrated (the model's own, scaled per horizon step by
+    /// cross-conformal calibration on two halves of the training intervals) or paper (eq. 7
+    /// propagated, as published).
     #[arg(long, default_value = "calibrated", value_parser = ["calibrated", "paper"])]
     pub uncertainty: String,
 }
@@ -60,14 +60,18 @@ impl PredictionArgs {
         crate::traits::StartInfo::parse(&self.start).map_err(anyhow::Error::msg)
     }
 
+    /// The uncertainty method asked for.
+    pub fn uncertainty(&self) -> Result<crate::models::calibration::Uncertainty> {
+        crate::models::calibration::Uncertainty::parse(&self.uncertainty)
+            .map_err(anyhow::Error::msg)
+    }
+
     /// `specs` with the start information and the uncertainty method asked for.
     pub fn apply(
         &self,
         specs: Vec<crate::models::ModelSpec>,
     ) -> Result<Vec<crate::models::ModelSpec>> {
-        let start = self.start()?;
-        let uncertainty = crate::models::calibration::Uncertainty::parse(&self.uncertainty)
-            .map_err(anyhow::Error::msg)?;
+        let (start, uncertainty) = (self.start()?, self.uncertainty()?);
         Ok(specs
             .into_iter()
             .map(|s| s.with_uncertainty(uncertainty, start))

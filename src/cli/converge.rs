@@ -17,13 +17,33 @@ pub struct Args {
     /// Gradient thresholds m/s,rad/s of the convergence rule.
     #[arg(long, value_parser = parse_pair, default_value = "0.01,0.01", allow_hyphen_values = true)]
     thresholds: [f64; 2],
+    /// Random orders of the training intervals whose curves are summarized (median and
+    /// range) beside the recording order; 0 for none.
+    #[arg(long, default_value_t = 30)]
+    orders: usize,
+    /// Seed of the random orders.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// At most this many training amounts per curve (every amount when there are fewer
+    /// intervals; otherwise every amount up to half of it, the rest evenly spaced).
+    #[arg(long, default_value_t = 100)]
+    max_points: usize,
+    /// What the predictions start from (see drive eval --help).
+    #[arg(long, default_value = "encoders+imu", value_parser = ["encoders", "encoders+imu"])]
+    start: String,
     /// Print one JSON object on stdout instead of the table.
     #[arg(long)]
     json: bool,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let start = crate::traits::StartInfo::parse(&args.start).map_err(anyhow::Error::msg)?;
     let spec = registries.model(&args.model)?;
+    let spec = spec.clone().with_uncertainty(spec.uncertainty, start);
+    crate::traits::limits::at_most("--orders", args.orders as f64, 1000.0, "")?;
+    if args.max_points < 2 {
+        bail!("--max-points must be at least 2, got {}", args.max_points);
+    }
     let thresholds = args.thresholds;
     if thresholds.iter().any(|t| *t <= 0.0) {
         bail!(
@@ -33,7 +53,14 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         );
     }
     let dataset = load(&args.data)?;
-    let c = crate::eval::convergence(&dataset, args.split, thresholds, &spec)?;
+    let config = crate::eval::ConvergenceConfig {
+        split: args.split,
+        thresholds,
+        max_points: args.max_points,
+        orders: args.orders,
+        seed: args.seed,
+    };
+    let c = crate::eval::convergence_with(&dataset, &config, &spec)?;
     if args.json {
         outln!("{}", serde_json::to_string(&c)?);
         return Ok(());
@@ -45,16 +72,41 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         dataset.robot.name,
         c.eval_windows
     );
+    let orders = c.random_orders.as_ref();
     outln!(
-        "{:>10} {:>10} {:>18} {:>18}",
+        "fitting: {} ({}){}",
+        c.fitting,
+        if c.fitting == "online" {
+            "slip posterior updated interval by interval, powertrain refitted each time the data grew by half"
+        } else {
+            "every amount fitted from scratch"
+        },
+        orders.map_or(String::new(), |o| format!(
+            "; random orders: {} (seed {}), median [min, max] of their medians",
+            o.orders, o.seed
+        ))
+    );
+    outln!(
+        "{:>10} {:>10} {:>18} {:>18}{}",
         "time [s]",
         "intervals",
         "transl. med. [m]",
-        "rot. med. [rad]"
+        "rot. med. [rad]",
+        if orders.is_some() {
+            "   random orders: transl. [m]      rot. [rad]"
+        } else {
+            ""
+        }
     );
     for p in &c.curve {
+        let spread = orders
+            .and_then(|o| o.curve.iter().find(|s| s.intervals == p.intervals))
+            .map_or(String::new(), |s| {
+                let f = |v: [f64; 3]| format!("{:.4} [{:.4}, {:.4}]", v[1], v[0], v[2]);
+                format!("   {}  {}", f(s.translational_m), f(s.rotational_rad))
+            });
         outln!(
-            "{:>10.1} {:>10} {:>18.4} {:>18.4}",
+            "{:>10.1} {:>10} {:>18.4} {:>18.4}{spread}",
             p.training_time_s,
             p.intervals,
             p.translational_median_m,
@@ -77,6 +129,20 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             thresholds[1]
         ),
         None => outln!("convergence time: none (the curve never meets the rule)"),
+    }
+    if let Some(o) = orders {
+        match o.convergence_time_s {
+            Some([lo, med, hi]) => outln!(
+                "over {} random orders: median {med:.1} s, range {lo:.1} to {hi:.1} s{}",
+                o.orders,
+                if o.never_converged > 0 {
+                    format!(" ({} never converge)", o.never_converged)
+                } else {
+                    String::new()
+                }
+            ),
+            None => outln!("over {} random orders: none converges", o.orders),
+        }
     }
     Ok(())
 }

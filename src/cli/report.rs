@@ -26,6 +26,8 @@ pub struct Args {
     /// Model whose convergence (Fig. 7) and protocol regions (Fig. 5) are analysed.
     #[arg(long, default_value = "slip-blr")]
     model: String,
+    #[command(flatten)]
+    prediction: super::common::PredictionArgs,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
@@ -76,6 +78,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         naive_input_space,
         models,
         model: args.model.clone(),
+        start: args.prediction.start()?,
+        uncertainty: args.prediction.uncertainty()?,
         ..Default::default()
     };
     let report = crate::report::Report::build(registries, &dataset, &options)?;

@@ -1,4 +1,6 @@
-use drive_traits::{BodyVelocity, FitError, SlipData, SlipLearner, SlipModel, Tagged};
+use drive_traits::{
+    BodyVelocity, FitError, OnlineSlip, RobotDescription, SlipData, SlipLearner, SlipModel, Tagged,
+};
 use serde::{Deserialize, Serialize};
 
 /// No slip: the vehicle moves at the commanded body velocity (`g = 0` in eq. 2). On the
@@ -42,5 +44,22 @@ impl SlipLearner for NoSlip {
     type Fitted = NoSlipModel;
     fn fit(&self, _data: &SlipData<'_>) -> Result<NoSlipModel, FitError> {
         Ok(NoSlipModel)
+    }
+
+    fn online(&self, _robot: &RobotDescription) -> Option<Box<dyn OnlineSlip>> {
+        Some(Box::new(NoSlip))
+    }
+}
+
+/// Nothing to learn online either.
+impl OnlineSlip for NoSlip {
+    fn add(&mut self, _data: &SlipData<'_>) {}
+
+    fn fitted(&self) -> Result<Box<dyn SlipModel>, FitError> {
+        Ok(Box::new(NoSlipModel))
+    }
+
+    fn clone_box(&self) -> Box<dyn OnlineSlip> {
+        Box::new(NoSlip)
     }
 }

@@ -1,7 +1,7 @@
-use crate::blr::{BlrPosterior, Prior};
+use crate::blr::{BlrPosterior, BlrStatistics, Prior};
 use drive_traits::{
-    BodyVelocity, BodyVelocityEstimator, FitError, SlipData, SlipLearner, SlipModel, Steering,
-    Tagged,
+    BodyVelocity, BodyVelocityEstimator, FitError, OnlineSlip, RobotDescription, SlipData,
+    SlipLearner, SlipModel, Steering, Tagged,
 };
 use serde::{Deserialize, Serialize};
 
@@ -222,18 +222,29 @@ impl Tagged for SlipBlrModel {
     const TAG: &'static str = "slip-blr";
 }
 
+impl SlipBlr {
+    /// The slip inputs of `vehicle`'s data: the learner's, or the vehicle's own.
+    fn basis_for(&self, robot: &RobotDescription) -> SlipBasis {
+        self.basis
+            .unwrap_or_else(|| SlipBasis::for_steering(robot.vehicle.steering()))
+    }
+
+    fn validate(&self, basis: SlipBasis) -> Result<(), FitError> {
+        self.velocity.validate()?;
+        for (prior, k) in self.priors.iter().zip(basis.dimensions()) {
+            prior.validate(k)?;
+        }
+        Ok(())
+    }
+}
+
 impl SlipLearner for SlipBlr {
     type Fitted = SlipBlrModel;
 
     fn fit(&self, data: &SlipData<'_>) -> Result<SlipBlrModel, FitError> {
-        let basis = self
-            .basis
-            .unwrap_or_else(|| SlipBasis::for_steering(data.vehicle().steering()));
+        let basis = self.basis_for(data.robot);
         let k = basis.dimensions();
-        self.velocity.validate()?;
-        for (prior, k) in self.priors.iter().zip(k) {
-            prior.validate(k)?;
-        }
+        self.validate(basis)?;
         if data.windows.is_empty() {
             return Err(FitError::EmptyTrainingSet);
         }
@@ -254,6 +265,73 @@ impl SlipLearner for SlipBlr {
             slip_y: fit(1, "slip-BLR, lateral slip")?,
             slip_yaw: fit(2, "slip-BLR, angular slip")?,
         })
+    }
+
+    /// Online slip-BLR: the three regressions' [`BlrStatistics`], updated window by window.
+    fn online(&self, robot: &RobotDescription) -> Option<Box<dyn OnlineSlip>> {
+        let basis = self.basis_for(robot);
+        Some(Box::new(SlipBlrOnline {
+            learner: self.clone(),
+            basis,
+            statistics: basis.dimensions().map(BlrStatistics::new),
+        }))
+    }
+}
+
+/// Slip-BLR fitted recursively (online BLR): the sufficient statistics of its three
+/// regressions, updated as windows arrive; [`OnlineSlip::fitted`] equals
+/// [`SlipLearner::fit`] on the same windows (to rounding), whatever the order they came in.
+///
+/// ```
+/// use drive_models::slip::SlipBlr;
+/// use drive_traits::{SlipLearner, SlipData};
+/// # fn demo(first: &SlipData<'_>, second: &SlipData<'_>) {
+/// let mut online = SlipBlr::default().online(first.robot).expect("slip-BLR fits online");
+/// online.add(first);
+/// online.add(second);
+/// let model = online.fitted().unwrap(); // the posterior of eq. 6 on both
+/// # }
+/// ```
+#[derive(Debug, Clone)]
+pub struct SlipBlrOnline {
+    learner: SlipBlr,
+    basis: SlipBasis,
+    statistics: [BlrStatistics; 3],
+}
+
+impl OnlineSlip for SlipBlrOnline {
+    fn add(&mut self, data: &SlipData<'_>) {
+        let mut xs: [Vec<f64>; 3] = Default::default();
+        let mut gs: [Vec<f64>; 3] = Default::default();
+        data.for_each_sample(&self.learner.velocity, |sample| {
+            let g = sample.slip();
+            self.basis.push(&sample.commanded, &mut xs);
+            for d in 0..3 {
+                gs[d].push(g[d]);
+            }
+        });
+        for d in 0..3 {
+            self.statistics[d].add_rows(&xs[d], &gs[d]);
+        }
+    }
+
+    fn fitted(&self) -> Result<Box<dyn SlipModel>, FitError> {
+        self.learner.validate(self.basis)?;
+        if self.statistics[0].observations() == 0 {
+            return Err(FitError::EmptyTrainingSet);
+        }
+        let fit =
+            |d: usize, name: &str| self.statistics[d].posterior(&self.learner.priors[d], name);
+        Ok(Box::new(SlipBlrModel {
+            basis: self.basis,
+            slip_x: fit(0, "slip-BLR, longitudinal slip")?,
+            slip_y: fit(1, "slip-BLR, lateral slip")?,
+            slip_yaw: fit(2, "slip-BLR, angular slip")?,
+        }))
+    }
+
+    fn clone_box(&self) -> Box<dyn OnlineSlip> {
+        Box::new(self.clone())
     }
 }
 
