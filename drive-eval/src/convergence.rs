@@ -120,8 +120,9 @@ pub struct Convergence {
     pub random_orders: Option<OrderSpread>,
 }
 
-/// [`convergence_with`] with the default configuration (100 points at most, 30 random
-/// orders) at `split` and `thresholds`.
+/// [`convergence_with`] with the default configuration (100 points at most) at `split` and
+/// `thresholds`, and 30 random orders for a model that fits online (none for a model
+/// fitted from scratch at every amount: 31 curves of it would take long).
 pub fn convergence(
     data: &Dataset,
     split: f64,
@@ -131,6 +132,11 @@ pub fn convergence(
     let config = ConvergenceConfig {
         split,
         thresholds,
+        orders: if model.growing(&data.robot).is_some() {
+            ConvergenceConfig::default().orders
+        } else {
+            0
+        },
         ..ConvergenceConfig::default()
     };
     convergence_with(data, &config, model)

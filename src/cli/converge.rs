@@ -18,9 +18,10 @@ pub struct Args {
     #[arg(long, value_parser = parse_pair, default_value = "0.01,0.01", allow_hyphen_values = true)]
     thresholds: [f64; 2],
     /// Random orders of the training intervals whose curves are summarized (median and
-    /// range) beside the recording order; 0 for none.
-    #[arg(long, default_value_t = 30)]
-    orders: usize,
+    /// range) beside the recording order; 0 for none. Default: 30 for a model that fits
+    /// online (slip-blr, powertrain), 0 for one fitted from scratch at every amount.
+    #[arg(long)]
+    orders: Option<usize>,
     /// Seed of the random orders.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -40,7 +41,9 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let start = crate::traits::StartInfo::parse(&args.start).map_err(anyhow::Error::msg)?;
     let spec = registries.model(&args.model)?;
     let spec = spec.clone().with_uncertainty(spec.uncertainty, start);
-    crate::traits::limits::at_most("--orders", args.orders as f64, 1000.0, "")?;
+    if let Some(orders) = args.orders {
+        crate::traits::limits::at_most("--orders", orders as f64, 1000.0, "")?;
+    }
     if args.max_points < 2 {
         bail!("--max-points must be at least 2, got {}", args.max_points);
     }
@@ -57,7 +60,13 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         split: args.split,
         thresholds,
         max_points: args.max_points,
-        orders: args.orders,
+        orders: args
+            .orders
+            .unwrap_or(if spec.growing(&dataset.robot).is_some() {
+                crate::eval::ConvergenceConfig::default().orders
+            } else {
+                0
+            }),
         seed: args.seed,
     };
     let c = crate::eval::convergence_with(&dataset, &config, &spec)?;
