@@ -92,6 +92,26 @@ impl Composed {
 impl Composed {
     /// A fit of this model that grows with the training data, when its slip learner fits
     /// online ([`drive_traits::SlipLearner::online`]); `None` otherwise. See [`GrowingFit`].
+    ///
+    /// ```
+    /// use drive_models::{Composed, DifferentialDrive};
+    /// use drive_models::powertrain::Commanded;
+    /// use drive_models::slip::NoSlip;
+    /// use drive_traits::{Input, Learner, MotionModel, Phase, Pose, RobotDescription, StartState, Window, WindowSet};
+    /// let robot = RobotDescription::new("toy", "", 10.0, 3, DifferentialDrive::new(0.1, 0.5));
+    /// let w = |i| Window { index: i, interval: i, phase: Phase::Transient, command: vec![Input::new(10.0, 10.0); 3],
+    ///     measured: vec![Input::zeros(); 3], pose: vec![Pose::zeros(); 3], imu_yaw_rate: vec![0.0; 3] };
+    /// let windows = [w(0), w(1)];
+    /// let learner = Composed::new(Commanded, NoSlip);
+    /// let mut fit = learner.growing(&robot).expect("no-slip fits online");
+    /// // The windows arrive one by one.
+    /// fit.grow(&WindowSet::new(&robot, &windows[..1]), 0).unwrap();
+    /// fit.grow(&WindowSet::new(&robot, &windows), 1).unwrap();
+    /// let online = fit.model(&robot).unwrap();
+    /// let batch = learner.fit(&WindowSet::new(&robot, &windows)).unwrap();
+    /// let (start, commands) = (StartState::at_rest(Pose::zeros()), [Input::new(10.0, 10.0); 3]);
+    /// assert_eq!(online.predict(&start, &commands), batch.predict(&start, &commands));
+    /// ```
     pub fn growing(&self, robot: &drive_traits::RobotDescription) -> Option<GrowingFit> {
         let online = self.slip.online_boxed(robot)?;
         Some(GrowingFit {

@@ -154,13 +154,7 @@ pub fn table(cmp: &Comparison) -> String {
         s,
         "MRMSE over the 2 s windows (paper eq. 8): median [IQR], improvement over naive\n"
     );
-    let width = cmp
-        .models
-        .iter()
-        .map(|m| m.name.len() + 1)
-        .max()
-        .unwrap_or(0)
-        .max(11);
+    let width = name_width(cmp.models.iter());
     let section =
         |s: &mut String, title: &str, pick: &dyn Fn(&ModelResult) -> Option<PhaseSummary>| {
             let count = cmp
@@ -203,6 +197,11 @@ pub fn table(cmp: &Comparison) -> String {
     s
 }
 
+/// The width of the model-name column: the longest name and a space, at least 11.
+fn name_width<'a>(models: impl Iterator<Item = &'a ModelResult>) -> usize {
+    models.map(|m| m.name.len() + 1).max().unwrap_or(0).max(11)
+}
+
 /// Every model's improvement over naive and over slip-BLR with its paired bootstrap
 /// interval.
 fn improvement_section(s: &mut String, cmp: &Comparison) {
@@ -212,13 +211,7 @@ fn improvement_section(s: &mut String, cmp: &Comparison) {
         100.0 * cmp.bootstrap.level,
         cmp.bootstrap.resamples
     );
-    let width = cmp
-        .models
-        .iter()
-        .map(|m| m.name.len() + 1)
-        .max()
-        .unwrap_or(0)
-        .max(11);
+    let width = name_width(cmp.models.iter());
     let _ = writeln!(
         s,
         "  {:<width$}{:<28}{:<28}{:<28}rotational",
@@ -266,12 +259,7 @@ fn uncertainty_section(s: &mut String, cmp: &Comparison) {
         first.uncertainty.map_or("", |u| u.as_str()),
         first.start.as_str()
     );
-    let width = with
-        .iter()
-        .map(|m| m.name.len() + 1)
-        .max()
-        .unwrap_or(0)
-        .max(11);
+    let width = name_width(with.iter().copied());
     let _ = writeln!(
         s,
         "  {:<width$}{:<24}{:<24}NLL [nats/step]",

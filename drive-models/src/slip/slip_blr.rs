@@ -152,6 +152,25 @@ impl SlipBasis {
         }
     }
 
+    /// The three regressions' design rows (slip inputs, row-major) and slip labels over
+    /// every sample of `data`, the measured velocities from `velocity`.
+    fn design_rows(
+        self,
+        data: &SlipData<'_>,
+        velocity: &BodyVelocityEstimator,
+    ) -> ([Vec<f64>; 3], [Vec<f64>; 3]) {
+        let mut xs: [Vec<f64>; 3] = Default::default();
+        let mut gs: [Vec<f64>; 3] = Default::default();
+        data.for_each_sample(velocity, |sample| {
+            let g = sample.slip();
+            self.push(&sample.commanded, &mut xs);
+            for d in 0..3 {
+                gs[d].push(g[d]);
+            }
+        });
+        (xs, gs)
+    }
+
     /// Appends the slip inputs of `f` to the three regressions' design rows.
     fn push(self, f: &BodyVelocity, xs: &mut [Vec<f64>; 3]) {
         match self {
@@ -248,15 +267,7 @@ impl SlipLearner for SlipBlr {
         if data.windows.is_empty() {
             return Err(FitError::EmptyTrainingSet);
         }
-        let mut xs: [Vec<f64>; 3] = Default::default();
-        let mut gs: [Vec<f64>; 3] = Default::default();
-        data.for_each_sample(&self.velocity, |sample| {
-            let g = sample.slip();
-            basis.push(&sample.commanded, &mut xs);
-            for d in 0..3 {
-                gs[d].push(g[d]);
-            }
-        });
+        let (xs, gs) = basis.design_rows(data, &self.velocity);
         let fit =
             |d: usize, name: &str| BlrPosterior::fit(&xs[d], k[d], &gs[d], &self.priors[d], name);
         Ok(SlipBlrModel {
@@ -301,15 +312,7 @@ pub struct SlipBlrOnline {
 
 impl OnlineSlip for SlipBlrOnline {
     fn add(&mut self, data: &SlipData<'_>) {
-        let mut xs: [Vec<f64>; 3] = Default::default();
-        let mut gs: [Vec<f64>; 3] = Default::default();
-        data.for_each_sample(&self.learner.velocity, |sample| {
-            let g = sample.slip();
-            self.basis.push(&sample.commanded, &mut xs);
-            for d in 0..3 {
-                gs[d].push(g[d]);
-            }
-        });
+        let (xs, gs) = self.basis.design_rows(data, &self.learner.velocity);
         for d in 0..3 {
             self.statistics[d].add_rows(&xs[d], &gs[d]);
         }
