@@ -1,11 +1,13 @@
 //! Criterion benchmarks of the issue-5 targets (load, train, eval, predict, batch) and of
-//! slip-ipem (issue 13).
+//! slip-ipem (issue 13) and of `drive converge`'s scaling (issue 14).
 //!
 //! `cargo bench --bench drive`; one core: `RAYON_NUM_THREADS=1` is not needed, the
 //! single-core cases run on the calling thread. See BENCHMARKS.md.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use drive::eval::{compare, evaluate_model, split_by_interval};
+use drive::eval::{
+    compare, convergence_with, evaluate_model, split_by_interval, ConvergenceConfig,
+};
 use drive::models::batch::predict_batch_parallel;
 use drive::models::powertrain::Fopdt;
 use drive::models::slip::{SlipBlr, SlipIpem};
@@ -162,5 +164,43 @@ fn ipem(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, load, train, eval, predict, batch, ipem);
+/// The bundled data repeated `times` times, each copy's intervals and windows renumbered
+/// after the previous copy's (the issue-14 scaling case of `drive converge`).
+fn repeated(times: usize) -> drive::traits::Dataset {
+    let data = drive::bundled::husky().unwrap();
+    let intervals = data.interval_count();
+    let n = data.windows.len();
+    let mut windows = Vec::with_capacity(n * times);
+    for copy in 0..times {
+        windows.extend(data.windows.iter().map(|w| {
+            let mut w = w.clone();
+            w.index += copy * n;
+            w.interval += copy * intervals;
+            w
+        }));
+    }
+    drive::traits::Dataset {
+        robot: data.robot.clone(),
+        windows,
+    }
+}
+
+/// `drive converge`'s analysis (issue 14) on the bundled data and on ten times it: online
+/// slip-BLR, at most 100 points, the recording order and 30 random orders.
+fn converge(c: &mut Criterion) {
+    let registries = Registries::builtin();
+    let spec = registries.model("slip-blr").unwrap().clone();
+    let config = ConvergenceConfig::default();
+    let mut group = c.benchmark_group("converge");
+    group.sample_size(10);
+    for times in [1, 10] {
+        let data = repeated(times);
+        group.bench_function(format!("slip-blr, bundled data x{times}"), |b| {
+            b.iter(|| convergence_with(black_box(&data), &config, &spec).unwrap())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, load, train, eval, predict, batch, ipem, converge);
 criterion_main!(benches);

@@ -246,6 +246,73 @@ fn matrix_numbers_equal_drive_eval_and_every_combination_is_reported() {
     }
 }
 
+/// The sweep's `start` and a dataset's `frame` are the command line's `--start` and
+/// `--frame`: the matrix cells equal `drive eval` with them.
+#[test]
+fn matrix_start_and_frame_equal_drive_eval_with_the_same_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = dir.path().join("sweep.toml");
+    std::fs::write(
+        &sweep,
+        r#"
+        learners = ["acc-blr", "slip-blr"]
+        powertrains = ["fopdt"]
+        baseline = "slip-blr"
+        start = "encoders"
+        [[datasets]]
+        bundled = "husky"
+        frame = "corrected"
+        [bootstrap]
+        resamples = 50
+        "#,
+    )
+    .unwrap();
+    let out = dir.path().join("m");
+    let args = ["matrix", "--config", sweep.to_str().unwrap(), "--out"];
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(
+            &[args.as_slice(), &[out.to_str().unwrap(), "--json"]].concat()
+        ))
+        .unwrap();
+    let eval: serde_json::Value = serde_json::from_str(&ok(&[
+        "eval",
+        "--json",
+        "--models",
+        "acc-blr+fopdt,slip-blr",
+        "--start",
+        "encoders",
+        "--frame",
+        "corrected",
+    ]))
+    .unwrap();
+    for (learner, model) in [("acc-blr", 0), ("slip-blr", 1)] {
+        let cell = v["cells"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["model"]["learner"] == learner)
+            .unwrap();
+        assert_eq!(cell["scenario"]["dataset"], "husky, corrected frame");
+        assert_eq!(cell["model"]["start"], "encoders");
+        let m = &eval["models"][model];
+        assert_eq!(
+            cell["translational"]["median"], m["translational_median_m"],
+            "{learner}"
+        );
+        assert_eq!(cell["rotational"]["median"], m["rotational_median_rad"]);
+    }
+    // Not the defaults: acc-blr's start from the IMU and the published frame differ.
+    let default = eval_median(Some("fopdt"), "acc-blr");
+    assert_ne!(
+        eval["models"][0]["translational_median_m"]
+            .as_f64()
+            .unwrap(),
+        default.0
+    );
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(md.contains("starts from the encoders measurements"), "{md}");
+}
+
 #[test]
 fn matrix_refuses_a_bad_sweep_with_one_clear_line() {
     let dir = tempfile::tempdir().unwrap();

@@ -51,8 +51,8 @@ pub use convergence::{
 };
 pub use experiment::{run_cells, simulate_run, simulate_runs, Cell, Scored, Setting, SimRun};
 pub use matrix::{
-    run_matrix, BootstrapConfig, DatasetSource, Improvement, Matrix, MatrixCell, MatrixError,
-    MatrixResult, Scenario, SimulatedPlan, SimulatedSweep, SummaryRow, SweepFile,
+    run_matrix, BootstrapConfig, DatasetSource, FrameChoice, Improvement, Matrix, MatrixCell,
+    MatrixError, MatrixResult, Scenario, SimulatedPlan, SimulatedSweep, SummaryRow, SweepFile,
 };
 pub use metric::{mrmse, Mrmse};
 pub use protocols::{

@@ -17,7 +17,8 @@ mod sweep;
 
 pub use run::run_matrix;
 pub use sweep::{
-    BootstrapConfig, DatasetSource, MatrixError, SimulatedPlan, SimulatedSweep, SweepFile,
+    BootstrapConfig, DatasetSource, FrameChoice, MatrixError, SimulatedPlan, SimulatedSweep,
+    SweepFile,
 };
 
 use crate::{Mrmse, Summary};

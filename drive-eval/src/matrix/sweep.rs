@@ -7,7 +7,7 @@ use drive_models::ModelSpec;
 use drive_samplers::RobotSpec;
 use drive_sim::Terrain;
 use drive_traits::limits;
-use drive_traits::{Dataset, RegistryError};
+use drive_traits::{Dataset, RegistryError, StartInfo};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use thiserror::Error;
@@ -64,14 +64,41 @@ pub struct DatasetSource {
     /// Label in the results (default: the file's stem or the bundled name).
     #[serde(default)]
     pub name: Option<String>,
+    /// Positions as published or rotated into each window's first-sample frame, for a
+    /// dataset whose sidecar declares the paper parser's frame (`--frame` of the command
+    /// line); other datasets are already in the first sample's frame.
+    #[serde(default)]
+    pub frame: FrameChoice,
+}
+
+/// The positions of a dataset in the paper parser's frame (`position_frame = "paper-mean5"`):
+/// as published, or rotated into each window's first-sample frame like its yaw.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FrameChoice {
+    /// As the dataset has them (the paper's numbers reproduce).
+    #[default]
+    AsPublished,
+    /// Rotated into each window's first-sample frame ([`Dataset::to_first_sample_frame`]).
+    Corrected,
 }
 
 impl DatasetSource {
     /// The label of this dataset in the results.
+    ///
+    /// An unnamed dataset in the corrected frame is labelled `<stem>, corrected frame`.
     pub fn label(&self) -> String {
         if let Some(n) = &self.name {
             return n.clone();
         }
+        let stem = self.stem();
+        match self.frame {
+            FrameChoice::AsPublished => stem,
+            FrameChoice::Corrected => format!("{stem}, corrected frame"),
+        }
+    }
+
+    fn stem(&self) -> String {
         if let Some(b) = &self.bundled {
             return b.clone();
         }
@@ -156,6 +183,8 @@ impl Default for BootstrapConfig {
 /// "#).unwrap();
 /// assert_eq!(sweep.splits, [0.5]); // the default
 /// assert_eq!(sweep.simulated.unwrap().test_sampler, "uniform");
+/// assert_eq!(sweep.start, drive_traits::StartInfo::EncodersImu); // the default
+/// assert_eq!(sweep.datasets[0].frame, drive_eval::FrameChoice::AsPublished);
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -185,6 +214,10 @@ pub struct SweepFile {
     /// Bootstrap of the improvement confidence intervals.
     #[serde(default)]
     pub bootstrap: BootstrapConfig,
+    /// What every model's predictions start from, in its calibration and its scoring
+    /// (`"encoders+imu"` by default, as `--start` of the command line).
+    #[serde(default)]
+    pub start: StartInfo,
 }
 
 fn half() -> Vec<f64> {
@@ -263,12 +296,16 @@ impl SweepFile {
                 vec![models.resolve(name)?]
             };
             for spec in found {
+                let spec = spec.clone().with_uncertainty(spec.uncertainty, self.start);
                 if !specs.contains(&spec) {
                     specs.push(spec);
                 }
             }
         }
         let baseline = models.resolve(&self.baseline)?;
+        let baseline = baseline
+            .clone()
+            .with_uncertainty(baseline.uncertainty, self.start);
         if !specs.contains(&baseline) {
             return Err(invalid(format!(
                 "the baseline '{}' ({}) is not one of the sweep's models ({})",
@@ -342,10 +379,13 @@ impl SweepFile {
                     "the sweep has recorded datasets but no split".into(),
                 ));
             }
-            let data = load(source).map_err(|reason| MatrixError::Dataset {
+            let mut data = load(source).map_err(|reason| MatrixError::Dataset {
                 name: label.clone(),
                 reason,
             })?;
+            if source.frame == FrameChoice::Corrected {
+                data.to_first_sample_frame();
+            }
             datasets.push((label, data));
         }
         let simulated = match &self.simulated {
