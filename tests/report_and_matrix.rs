@@ -333,6 +333,10 @@ fn matrix_refuses_a_bad_sweep_with_one_clear_line() {
             "unknown terrain 'mud'",
         ),
         ("[[datasets]]\nfile = \"missing.csv\"\n", "dataset missing"),
+        (
+            "[[datasets]]\nbundled = \"husky\"\n[[datasets]]\nbundled = \"husky\"\nframe = \"corrected\"\nname = \"husky\"\n",
+            "two datasets are labelled 'husky'",
+        ),
     ];
     for (i, (text, expected)) in cases.iter().enumerate() {
         let sweep = dir.path().join(format!("bad{i}.toml"));

@@ -1,5 +1,5 @@
 //! The DRIVE logger's raw CSV: one row per command tick, as the paper's ROS 2 logger node
-//! exports it (see `data/README.md`).
+//! exports it (format: "Data format" in the README).
 
 use crate::error::{parse_measurement, parse_number};
 use crate::{DataError, DataErrorKind, Location};
@@ -60,6 +60,22 @@ pub enum CalibState {
 }
 
 impl CalibState {
+    /// The state the logger's text names (`""`, `idle`, `calib`, anything else).
+    ///
+    /// ```
+    /// use drive_data::CalibState;
+    /// assert_eq!(CalibState::from_logger("calib"), CalibState::Calib);
+    /// assert_eq!(CalibState::from_logger("paused"), CalibState::Other);
+    /// ```
+    pub fn from_logger(text: &str) -> Self {
+        match text {
+            "" => CalibState::Unset,
+            "idle" => CalibState::Idle,
+            "calib" => CalibState::Calib,
+            _ => CalibState::Other,
+        }
+    }
+
     fn as_str(self) -> &'static str {
         match self {
             CalibState::Unset => "",
@@ -296,12 +312,7 @@ pub fn parse_raw_log(
                 ));
             }
         }
-        let calib_state = match field(3) {
-            "" => CalibState::Unset,
-            "idle" => CalibState::Idle,
-            "calib" => CalibState::Calib,
-            _ => CalibState::Other,
-        };
+        let calib_state = CalibState::from_logger(field(3));
         log.rows.push(RawRow {
             line,
             time_ns,

@@ -154,6 +154,9 @@ pub struct Comparison {
     pub robot: String,
     /// The vehicle type (from the sidecar).
     pub vehicle: String,
+    /// The frame of the positions scored: `paper-mean5` (the paper parser's, as published)
+    /// or `first-sample` (the frame of yaw; imported, simulated or corrected data).
+    pub position_frame: &'static str,
     /// Split fraction.
     pub split: f64,
     /// Training intervals.
@@ -285,6 +288,7 @@ pub fn compare_specs(
         dataset: data.robot.name.clone(),
         robot: data.robot.robot.clone(),
         vehicle: vehicle_type(data),
+        position_frame: data.robot.position_frame.as_str(),
         split,
         train_intervals,
         eval_intervals: intervals - train_intervals,

@@ -112,9 +112,11 @@ pub fn score_uncertainty(
                 slot.0 += usize::from(m2 <= *lp);
                 slot.1 += usize::from(y2 <= *ly);
             }
-            if m2.is_finite() {
-                let det = c[(0, 0)] * c[(1, 1)] - c[(0, 1)] * c[(1, 0)];
-                nll += 0.5 * (m2 + det.ln()) + (2.0 * std::f64::consts::PI).ln();
+            let det = c[(0, 0)] * c[(1, 1)] - c[(0, 1)] * c[(1, 0)];
+            // A singular covariance has no density: counted apart, not as -inf or NaN.
+            let step_nll = 0.5 * (m2 + det.ln()) + (2.0 * std::f64::consts::PI).ln();
+            if m2.is_finite() && det > 0.0 && step_nll.is_finite() {
+                nll += step_nll;
                 nll_count += 1;
             } else {
                 degenerate += 1;

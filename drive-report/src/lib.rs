@@ -163,7 +163,9 @@ pub struct Report {
 /// A negative log-likelihood for reading: plain below 10^4, scientific above (an
 /// overconfident model's NLL runs to astronomical values).
 pub fn nll_text(nll: f64) -> String {
-    if nll.abs() < 1e4 {
+    if !nll.is_finite() {
+        "not finite".into()
+    } else if nll.abs() < 1e4 {
         format!("{nll:.2}")
     } else {
         format!("{nll:.2e}")
@@ -385,8 +387,18 @@ impl Report {
         let _ = writeln!(s, "# DRIVE report: {}\n", self.dataset);
         let _ = writeln!(
             s,
-            "Training: first {} intervals ({} windows); evaluation: last {} intervals ({} windows); split {}.\n",
-            c.train_intervals, c.train_windows, c.eval_intervals, c.eval_windows, c.split
+            "Training: first {} intervals ({} windows); evaluation: last {} intervals ({} windows); split {}. Positions in the {} frame ({}).\n",
+            c.train_intervals,
+            c.train_windows,
+            c.eval_intervals,
+            c.eval_windows,
+            c.split,
+            c.position_frame,
+            if c.position_frame == "paper-mean5" {
+                "the paper parser's, as published; --frame corrected rotates them"
+            } else {
+                "each window's first sample, like yaw"
+            }
         );
         let _ = writeln!(s, "## Model comparison (MRMSE over 2 s windows, eq. 8)\n");
         let _ = writeln!(

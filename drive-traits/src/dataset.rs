@@ -137,19 +137,32 @@ impl Window {
     }
 
     /// The angle (rad) between the paper parser's position frame and the first sample's:
-    /// the mean of the first [`PAPER_FRAME_SAMPLES`] yaw values relative to the first (each
-    /// wrapped to [-pi, pi]); 0 for an empty window.
+    /// the mean of the first [`PAPER_FRAME_SAMPLES`] yaw values relative to the first, not
+    /// wrapped; 0 for an empty window.
+    ///
+    /// Not wrapped because the parser is not: it averages the absolute Euler yaws, and its
+    /// yaw column holds their plain differences, so a heading crossing +-pi in the first
+    /// five samples puts jumps of 2 pi in both, and the frame the positions were rotated into
+    /// is the plain mean (off the true heading by a multiple of 2 pi / 5).
+    ///
+    /// ```
+    /// use drive_traits::{Phase, Pose, Window};
+    /// let yaws = [0.0, 0.01, -6.27, -6.26, -6.25]; // the heading crosses pi after sample 1
+    /// let w = Window {
+    ///     index: 0, interval: 0, phase: Phase::Transient,
+    ///     command: vec![Default::default(); 5], measured: vec![Default::default(); 5],
+    ///     pose: yaws.iter().map(|y| Pose::new(0.0, 0.0, *y)).collect(),
+    ///     imu_yaw_rate: vec![0.0; 5],
+    /// };
+    /// assert!((w.paper_frame_angle() - (-18.77 / 5.0)).abs() < 1e-12);
+    /// ```
     pub fn paper_frame_angle(&self) -> f64 {
         let n = self.pose.len().min(PAPER_FRAME_SAMPLES);
         if n == 0 {
             return 0.0;
         }
         let yaw0 = self.pose[0].z;
-        self.pose[..n]
-            .iter()
-            .map(|q| crate::wrap_angle(q.z - yaw0))
-            .sum::<f64>()
-            / n as f64
+        self.pose[..n].iter().map(|q| q.z - yaw0).sum::<f64>() / n as f64
     }
 
     /// Rotates positions written in the paper parser's frame

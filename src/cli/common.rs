@@ -12,7 +12,7 @@ use std::process::ExitCode;
 /// A dataset to work on.
 #[derive(clap::Args)]
 pub struct DataArgs {
-    /// Window CSV (see data/README.md); the bundled Husky dataset when absent.
+    /// Window CSV (format: "Data format" in the README); the bundled Husky dataset when absent.
     #[arg(long)]
     pub data: Option<PathBuf>,
     /// Sidecar JSON of the window CSV; by default the CSV's path with a .json extension.

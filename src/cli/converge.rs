@@ -70,6 +70,18 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         seed: args.seed,
     };
     let c = crate::eval::convergence_with(&dataset, &config, &spec)?;
+    if c.curve.is_empty() {
+        let why = c
+            .skipped
+            .first()
+            .map_or("no training interval".into(), |s| {
+                format!("with {} intervals: {}", s.intervals, s.reason)
+            });
+        bail!(
+            "{} could not be fitted on any amount of the training data ({why})",
+            spec.name
+        );
+    }
     if args.json {
         outln!("{}", serde_json::to_string(&c)?);
         return Ok(());

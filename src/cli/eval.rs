@@ -276,11 +276,20 @@ fn uncertainty_section(s: &mut String, cmp: &Comparison) {
         };
         let _ = writeln!(
             s,
-            "  {:<width$}{:<24}{:<24}{:.2}",
+            "  {:<width$}{:<24}{:<24}{}",
             m.name,
             at(&m.coverage95),
             at(&m.yaw_coverage95),
-            m.nll.unwrap_or(f64::NAN)
+            m.nll.filter(|v| v.is_finite()).map_or(
+                "not finite (degenerate covariances)".into(),
+                |v| {
+                    if v.abs() < 1e4 {
+                        format!("{v:.2}")
+                    } else {
+                        format!("{v:.2e}")
+                    }
+                }
+            )
         );
     }
     let _ = writeln!(s);

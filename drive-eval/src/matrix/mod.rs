@@ -97,6 +97,10 @@ pub struct MatrixCell {
     /// Per-window errors, in evaluation order (the bootstrap's material).
     #[serde(skip)]
     pub errors: Vec<Mrmse>,
+    /// The DRIVE interval of each of `errors`' windows: the bootstrap resamples whole
+    /// intervals, as `drive eval` does.
+    #[serde(skip)]
+    pub intervals: Vec<usize>,
 }
 
 pub use crate::stats::Improvement;

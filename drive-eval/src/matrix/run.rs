@@ -144,12 +144,14 @@ pub fn run_matrix(
                 rotational: None,
                 failure: None,
                 errors: Vec::new(),
+                intervals: Vec::new(),
             };
             match cell.outcome {
                 Ok(scored) => {
                     out.translational = scored.report.translational(None);
                     out.rotational = scored.report.rotational(None);
                     out.errors = scored.report.windows.iter().map(|w| w.error).collect();
+                    out.intervals = scored.report.windows.iter().map(|w| w.interval).collect();
                 }
                 Err(e) => out.failure = Some(e.to_string()),
             }

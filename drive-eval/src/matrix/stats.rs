@@ -97,8 +97,9 @@ fn fnv1a(text: &str) -> u64 {
 }
 
 /// The improvement of the pooled median over the baseline's, and its bootstrap percentile
-/// interval: each run's evaluation windows resampled with replacement, the same draw for the
-/// model and the baseline (a paired bootstrap, see [`paired_bootstrap`]).
+/// interval: each run's evaluation intervals (their windows together) resampled with
+/// replacement, the same draw for the model and the baseline (a paired bootstrap, see
+/// [`paired_bootstrap`]).
 pub(super) fn bootstrap_improvement(
     pairs: &[(&MatrixCell, &MatrixCell)],
     pick: fn(&Mrmse) -> f64,
@@ -117,10 +118,11 @@ pub(super) fn bootstrap_improvement(
         .collect();
     let runs: Vec<PairedErrors<'_>> = picked
         .iter()
-        .map(|(m, b)| PairedErrors {
+        .zip(pairs)
+        .map(|((m, b), (cell, _))| PairedErrors {
             model: m,
             reference: b,
-            blocks: None,
+            blocks: Some(&cell.intervals),
         })
         .collect();
     paired_bootstrap(
@@ -162,6 +164,8 @@ mod tests {
                     rotational: 2.0 * e,
                 })
                 .collect(),
+            // One interval per window.
+            intervals: (0..errors.len()).collect(),
         }
     }
 

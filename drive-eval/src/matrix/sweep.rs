@@ -365,9 +365,17 @@ impl SweepFile {
             "split it into several sweeps",
         )
         .map_err(|e| invalid(e.to_string()))?;
-        let mut datasets = Vec::new();
+        let mut datasets: Vec<(String, Dataset)> = Vec::new();
         for source in &self.datasets {
             let label = source.label();
+            // Cells are grouped by label: two datasets under one label would be pooled.
+            if datasets.iter().any(|(l, _)| *l == label)
+                || (label == "sim" && self.simulated.is_some())
+            {
+                return Err(invalid(format!(
+                    "two datasets are labelled '{label}': give each its own name = \"...\""
+                )));
+            }
             let one_of = [source.file.is_some(), source.bundled.is_some()];
             if one_of.iter().filter(|b| **b).count() != 1 {
                 return Err(invalid(format!(

@@ -320,9 +320,7 @@ impl OnlineSlip for SlipBlrOnline {
 
     fn fitted(&self) -> Result<Box<dyn SlipModel>, FitError> {
         self.learner.validate(self.basis)?;
-        if self.statistics[0].observations() == 0 {
-            return Err(FitError::EmptyTrainingSet);
-        }
+        // No rows: the posterior refuses with the batch fit's reason (0 usable samples).
         let fit =
             |d: usize, name: &str| self.statistics[d].posterior(&self.learner.priors[d], name);
         Ok(Box::new(SlipBlrModel {
