@@ -19,6 +19,7 @@
 
 #![warn(missing_docs)]
 
+mod bag;
 mod error;
 mod import;
 pub mod output;
@@ -27,6 +28,7 @@ mod raw_log;
 mod sidecar;
 mod window_csv;
 
+pub use bag::{bag_files, read_bag, BagTopics, MAX_BAG_BYTES};
 pub use error::{DataError, DataErrorKind, Location};
 pub use import::{import_raw, DropReason, ImportConfig, ImportReport, StepOutcome};
 pub use raw_log::{

@@ -1,7 +1,10 @@
-//! `drive import`: a raw DRIVE logger CSV into the window CSV and sidecar. The keep/drop
-//! report goes to stdout (text, or JSON with `--json`); errors to stderr.
+//! `drive import`: a raw DRIVE logger CSV, or a rosbag2 recording (MCAP), into the window
+//! CSV and sidecar. The keep/drop report goes to stdout (text, or JSON with `--json`);
+//! errors to stderr.
 
-use crate::data::{import_raw, raw_columns, read_raw_log, stage_dataset, ImportConfig};
+use crate::data::{
+    import_raw, raw_columns, read_bag, read_raw_log, stage_dataset, BagTopics, ImportConfig,
+};
 use crate::samplers::window_len;
 use crate::traits::RobotDescription;
 use crate::Registries;
@@ -10,10 +13,24 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 #[derive(clap::Args)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["raw", "bag"])))]
 pub struct Args {
     /// The logger's raw CSV.
     #[arg(long)]
-    raw: PathBuf,
+    raw: Option<PathBuf>,
+    /// A rosbag2 recording in MCAP storage: the bag directory (with its metadata.yaml) or a
+    /// .mcap file. One row per command message, the other topics' latest messages held, as
+    /// the DRIVE logger records.
+    #[arg(long)]
+    bag: Option<PathBuf>,
+    /// A topic of the bag other than the DRIVE logger's, KEY=/topic (repeatable). Keys and
+    /// defaults: calib_step=/calib_step, joy_switch=/drive/joy_switch (optional),
+    /// calib_state=/calib_state, odometry=/odometry_in, meas_left_vel=/wheel_vel_left_measured,
+    /// meas_right_vel=/wheel_vel_right_measured (a car: meas_speed, meas_steering),
+    /// imu=/imu_in, cmd=/doughnut_cmd_vel. A sensor_msgs/JointState topic names its joint:
+    /// meas_left_vel=/joint_states:left_wheel_joint.
+    #[arg(long, requires = "bag")]
+    topic: Vec<String>,
     /// The robot's vehicle, geometry and command rate: a registered robot (husky, hd2,
     /// warthog, ...) or a TOML file.
     #[arg(long)]
@@ -42,7 +59,25 @@ pub struct Args {
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     super::check::known_checks(&args.allow)?;
     let sidecar = crate::data::sidecar_path(&args.out);
-    let mut inputs = vec![("--raw", args.raw.clone())];
+    let (flag, source) = match (&args.raw, &args.bag) {
+        (Some(raw), _) => ("--raw", raw.clone()),
+        (None, Some(bag)) => ("--bag", bag.clone()),
+        // clap requires one of them.
+        (None, None) => bail!("give --raw or --bag"),
+    };
+    if args.raw.is_some() && !args.topic.is_empty() {
+        bail!("--topic names topics of a bag (--bag), not columns of --raw");
+    }
+    let mut inputs = vec![(flag, source.clone())];
+    if args.bag.is_some() {
+        // The bag directory's files are inputs too (an output inside it must not replace them).
+        if let Ok(files) = crate::data::bag_files(&source) {
+            inputs.extend(files.into_iter().map(|f| ("a file of --bag", f)));
+        }
+        if source.is_dir() {
+            inputs.push(("a file of --bag", source.join("metadata.yaml")));
+        }
+    }
     inputs.extend(super::common::robot_input(&args.robot));
     let mut outputs = super::common::outputs_for(
         &inputs,
@@ -54,9 +89,16 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         localization_timeout_s: args.localization_timeout,
         input_limits: Some(spec.input_space()),
     };
-    let log = read_raw_log(&args.raw, &raw_columns(spec.vehicle.as_ref()))?;
-    let stem = args
-        .raw
+    let log = if args.bag.is_some() {
+        let mut topics = BagTopics::drive_logger(spec.vehicle.as_ref());
+        for t in &args.topic {
+            topics.set(t).map_err(anyhow::Error::msg)?;
+        }
+        read_bag(&source, &topics)?
+    } else {
+        read_raw_log(&source, &raw_columns(spec.vehicle.as_ref()))?
+    };
+    let stem = source
         .file_stem()
         .map_or("raw".into(), |s| s.to_string_lossy().into_owned());
     let description = RobotDescription {
@@ -73,7 +115,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         super::check::stopping(&report.checks, &args.allow).map(|f| {
             format!(
                 "{}: check {}: {} (--allow {} to import anyway)",
-                args.raw.display(),
+                source.display(),
                 f.check,
                 f.message,
                 f.check

@@ -1,0 +1,532 @@
+//! rosbag2 recordings (MCAP storage) read into the DRIVE logger's rows, so that
+//! [`crate::import_raw`] cuts them into windows exactly as it cuts a logger CSV.
+//!
+//! Every message of the selected topics is decoded from CDR (with `cdr-encoding`); one row
+//! is made per command message, at its receive time (`log_time`), holding the latest
+//! message of every other topic as the DRIVE logger does (norlab-ulaval/DRIVE,
+//! `drive/pose_cmds_logger_node.py`: it logs the last value of each subscription at each
+//! tick, and the logger's defaults before a topic's first message). `icp_index` counts the
+//! localization messages received so far.
+
+use crate::raw_log::{CalibState, RawLog, RawRow};
+use crate::{DataError, DataErrorKind, Location};
+use drive_traits::CommandModel;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// What a topic carries, in the logger's terms.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Signal {
+    CalibStep,
+    JoySwitch,
+    CalibState,
+    Odometry,
+    Measured(usize),
+    Imu,
+    Command,
+}
+
+impl Signal {
+    /// The message types accepted on a topic of this signal.
+    fn types(self) -> &'static [&'static str] {
+        match self {
+            Signal::CalibStep => &["std_msgs/msg/Int32"],
+            Signal::JoySwitch => &["std_msgs/msg/Bool"],
+            Signal::CalibState => &["std_msgs/msg/String"],
+            Signal::Odometry => &[
+                "nav_msgs/msg/Odometry",
+                "geometry_msgs/msg/PoseStamped",
+                "geometry_msgs/msg/PoseWithCovarianceStamped",
+            ],
+            Signal::Measured(_) => &["std_msgs/msg/Float64", "sensor_msgs/msg/JointState"],
+            Signal::Imu => &["sensor_msgs/msg/Imu"],
+            Signal::Command => &["geometry_msgs/msg/Twist", "geometry_msgs/msg/TwistStamped"],
+        }
+    }
+}
+
+/// The topics a bag is read from, by key: the DRIVE logger's subscriptions by default
+/// ([`BagTopics::drive_logger`]), each overridable with `KEY=/topic`.
+///
+/// The keys are `calib_step` (std_msgs/Int32), `joy_switch` (std_msgs/Bool, optional:
+/// never pressed when absent), `calib_state` (std_msgs/String), `odometry`
+/// (nav_msgs/Odometry, geometry_msgs/PoseStamped or PoseWithCovarianceStamped), the
+/// vehicle's two measured inputs under their raw-log column names (`meas_left_vel`,
+/// `meas_right_vel` for a differential drive; `meas_speed`, `meas_steering` for a car:
+/// std_msgs/Float64, or sensor_msgs/JointState as `/topic:joint`, the joint's velocity),
+/// `imu` (sensor_msgs/Imu) and `cmd` (geometry_msgs/Twist or TwistStamped).
+///
+/// ```
+/// use drive_data::BagTopics;
+/// let husky = drive_models::DifferentialDrive::new(0.165, 0.555);
+/// let mut topics = BagTopics::drive_logger(&husky);
+/// assert_eq!(topics.topic("cmd"), Some("/doughnut_cmd_vel"));
+/// topics.set("cmd=/cmd_vel").unwrap();
+/// topics.set("meas_left_vel=/joint_states:front_left_wheel").unwrap();
+/// assert_eq!(topics.topic("cmd"), Some("/cmd_vel"));
+/// assert!(topics.set("speed=/x").is_err()); // not a key
+/// assert!(topics.set("cmd=cmd_vel").is_err()); // not an absolute topic name
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct BagTopics {
+    /// (key, signal, topic, joint of a JointState topic)
+    entries: Vec<(String, Signal, String, Option<String>)>,
+}
+
+impl BagTopics {
+    /// The DRIVE logger's topics, with the vehicle's measured-input keys.
+    pub fn drive_logger(vehicle: &dyn CommandModel) -> Self {
+        let [m0, m1] = vehicle.logger_measured_columns();
+        let entries = [
+            ("calib_step", Signal::CalibStep, "/calib_step"),
+            ("joy_switch", Signal::JoySwitch, "/drive/joy_switch"),
+            ("calib_state", Signal::CalibState, "/calib_state"),
+            ("odometry", Signal::Odometry, "/odometry_in"),
+            (m0, Signal::Measured(0), "/wheel_vel_left_measured"),
+            (m1, Signal::Measured(1), "/wheel_vel_right_measured"),
+            ("imu", Signal::Imu, "/imu_in"),
+            ("cmd", Signal::Command, "/doughnut_cmd_vel"),
+        ];
+        BagTopics {
+            entries: entries
+                .into_iter()
+                .map(|(k, s, t)| (k.to_string(), s, t.to_string(), None))
+                .collect(),
+        }
+    }
+
+    /// The keys, in order.
+    pub fn keys(&self) -> Vec<&str> {
+        self.entries.iter().map(|e| e.0.as_str()).collect()
+    }
+
+    /// The topic of a key.
+    pub fn topic(&self, key: &str) -> Option<&str> {
+        self.entries
+            .iter()
+            .find(|e| e.0 == key)
+            .map(|e| e.2.as_str())
+    }
+
+    /// Sets a key's topic from `KEY=/topic` (`KEY=/topic:joint` for a JointState topic).
+    pub fn set(&mut self, assignment: &str) -> Result<(), String> {
+        let keys = self.keys().join(", ");
+        let Some((key, value)) = assignment.split_once('=') else {
+            return Err(format!(
+                "--topic {assignment:?} is not KEY=/topic (keys: {keys})"
+            ));
+        };
+        let (topic, joint) = match value.split_once(':') {
+            Some((t, j)) if !j.is_empty() => (t, Some(j.to_string())),
+            Some(_) => return Err(format!("--topic {assignment:?}: the joint name is empty")),
+            None => (value, None),
+        };
+        let valid = topic.len() > 1
+            && topic.starts_with('/')
+            && topic
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '/' || c == '~');
+        if !valid {
+            return Err(format!(
+                "--topic {assignment:?}: {topic:?} is not an absolute ROS topic name (like /cmd_vel)"
+            ));
+        }
+        let Some(entry) = self.entries.iter_mut().find(|e| e.0 == key) else {
+            return Err(format!(
+                "--topic {assignment:?}: no key {key:?} (keys: {keys})"
+            ));
+        };
+        if joint.is_some() && !matches!(entry.1, Signal::Measured(_)) {
+            return Err(format!(
+                "--topic {assignment:?}: only a measured input can name a joint"
+            ));
+        }
+        entry.2 = topic.to_string();
+        entry.3 = joint;
+        Ok(())
+    }
+}
+
+/// The files of a bag: the `.mcap` file itself, or the `.mcap` files of a rosbag2
+/// directory (with its `metadata.yaml`), in name order.
+///
+/// ```
+/// let dir = tempfile::tempdir().unwrap();
+/// std::fs::write(dir.path().join("run_0.mcap"), b"").unwrap();
+/// std::fs::write(dir.path().join("metadata.yaml"), "storage_identifier: mcap\n").unwrap();
+/// assert_eq!(drive_data::bag_files(dir.path()).unwrap(), [dir.path().join("run_0.mcap")]);
+/// ```
+pub fn bag_files(path: &Path) -> Result<Vec<PathBuf>, DataError> {
+    let name = path.display().to_string();
+    let err = |kind| Err(DataError::new(Location::file(&name), kind));
+    if !path.is_dir() {
+        return Ok(vec![path.to_path_buf()]);
+    }
+    let metadata = path.join("metadata.yaml");
+    if let Ok(text) = std::fs::read_to_string(&metadata) {
+        if let Some(storage) = text
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("storage_identifier:"))
+            .map(str::trim)
+        {
+            if storage != "mcap" {
+                return err(DataErrorKind::Inconsistent(format!(
+                    "the bag's storage is {storage}, only mcap is read (ros2 bag convert can rewrite it as mcap)"
+                )));
+            }
+        }
+    }
+    let mut files: Vec<PathBuf> = match std::fs::read_dir(path) {
+        Ok(entries) => entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+            .collect(),
+        Err(e) => return err(DataErrorKind::Io(e.to_string())),
+    };
+    files.sort();
+    if files.is_empty() {
+        return err(DataErrorKind::Inconsistent(
+            "no .mcap file in the bag directory".into(),
+        ));
+    }
+    Ok(files)
+}
+
+// The ROS 2 messages read, as CDR lays them out (fields after the last one used are not
+// read).
+#[derive(Deserialize)]
+struct Stamp {
+    _sec: i32,
+    _nanosec: u32,
+}
+#[derive(Deserialize)]
+struct Header {
+    _stamp: Stamp,
+    _frame_id: String,
+}
+#[derive(Deserialize)]
+struct Vector3 {
+    x: f64,
+    y: f64,
+    z: f64,
+}
+#[derive(Deserialize)]
+struct Quaternion {
+    x: f64,
+    y: f64,
+    z: f64,
+    w: f64,
+}
+#[derive(Deserialize)]
+struct PoseMsg {
+    position: Vector3,
+    orientation: Quaternion,
+}
+#[derive(Deserialize)]
+struct Odometry {
+    _header: Header,
+    _child_frame_id: String,
+    pose: PoseMsg,
+}
+#[derive(Deserialize)]
+struct PoseStamped {
+    _header: Header,
+    pose: PoseMsg,
+}
+#[derive(Deserialize)]
+struct Imu {
+    _header: Header,
+    _orientation: Quaternion,
+    _orientation_covariance: [f64; 9],
+    angular_velocity: Vector3,
+    _angular_velocity_covariance: [f64; 9],
+    linear_acceleration: Vector3,
+}
+#[derive(Deserialize)]
+struct Twist {
+    linear: Vector3,
+    angular: Vector3,
+}
+#[derive(Deserialize)]
+struct TwistStamped {
+    _header: Header,
+    twist: Twist,
+}
+#[derive(Deserialize)]
+struct JointState {
+    _header: Header,
+    name: Vec<String>,
+    _position: Vec<f64>,
+    velocity: Vec<f64>,
+}
+#[derive(Deserialize)]
+struct Data<T> {
+    data: T,
+}
+
+/// A decoded message's values.
+#[derive(Debug, Clone, PartialEq)]
+enum Value {
+    Step(i32),
+    Bool(bool),
+    Text(String),
+    Pose([f64; 3], [f64; 4]),
+    Number(f64),
+    Imu([f64; 3], [f64; 3]),
+    Twist([f64; 2]),
+}
+
+/// Decodes one CDR message (with its 4-byte encapsulation header) of type `ty`.
+fn decode(ty: &str, bytes: &[u8], joint: Option<&str>) -> Result<Value, String> {
+    use byteorder::{BigEndian, LittleEndian};
+    if bytes.len() < 4 {
+        return Err("shorter than the CDR header".into());
+    }
+    let little = match bytes[..2] {
+        [0, 1] | [0, 3] => true,
+        [0, 0] | [0, 2] => false,
+        _ => return Err(format!("unknown CDR encapsulation {:?}", &bytes[..2])),
+    };
+    fn read<'de, T: Deserialize<'de>>(body: &'de [u8], little: bool) -> Result<T, String> {
+        let r = if little {
+            cdr_encoding::from_bytes::<T, LittleEndian>(body)
+        } else {
+            cdr_encoding::from_bytes::<T, BigEndian>(body)
+        };
+        r.map(|(v, _)| v).map_err(|e| e.to_string())
+    }
+    let body = &bytes[4..];
+    let pose = |p: PoseMsg| {
+        let (x, q) = (p.position, p.orientation);
+        Value::Pose([x.x, x.y, x.z], [q.x, q.y, q.z, q.w])
+    };
+    Ok(match ty {
+        "std_msgs/msg/Int32" => Value::Step(read::<Data<i32>>(body, little)?.data),
+        "std_msgs/msg/Bool" => Value::Bool(read::<Data<bool>>(body, little)?.data),
+        "std_msgs/msg/String" => Value::Text(read::<Data<String>>(body, little)?.data),
+        "std_msgs/msg/Float64" => Value::Number(read::<Data<f64>>(body, little)?.data),
+        "nav_msgs/msg/Odometry" => pose(read::<Odometry>(body, little)?.pose),
+        // A PoseWithCovarianceStamped starts like a PoseStamped (the covariance follows).
+        "geometry_msgs/msg/PoseStamped" | "geometry_msgs/msg/PoseWithCovarianceStamped" => {
+            pose(read::<PoseStamped>(body, little)?.pose)
+        }
+        "sensor_msgs/msg/Imu" => {
+            let m = read::<Imu>(body, little)?;
+            let (w, a) = (m.angular_velocity, m.linear_acceleration);
+            Value::Imu([w.x, w.y, w.z], [a.x, a.y, a.z])
+        }
+        "geometry_msgs/msg/Twist" => {
+            let t = read::<Twist>(body, little)?;
+            Value::Twist([t.linear.x, t.angular.z])
+        }
+        "geometry_msgs/msg/TwistStamped" => {
+            let t = read::<TwistStamped>(body, little)?.twist;
+            Value::Twist([t.linear.x, t.angular.z])
+        }
+        "sensor_msgs/msg/JointState" => {
+            let m = read::<JointState>(body, little)?;
+            let i = joint_index(&m.name, joint)?;
+            match m.velocity.get(i) {
+                Some(v) => Value::Number(*v),
+                None => {
+                    return Err(format!(
+                        "joint {:?} has no velocity ({} velocities for {} names)",
+                        m.name[i],
+                        m.velocity.len(),
+                        m.name.len()
+                    ))
+                }
+            }
+        }
+        other => return Err(format!("{other} is not read")),
+    })
+}
+
+/// The index of the named joint in a JointState message.
+fn joint_index(names: &[String], joint: Option<&str>) -> Result<usize, String> {
+    let Some(joint) = joint else {
+        return Err("a JointState topic needs its joint: KEY=/topic:joint".into());
+    };
+    names.iter().position(|n| n == joint).ok_or_else(|| {
+        format!(
+            "no joint {joint:?} in the message (joints: {})",
+            names.join(", ")
+        )
+    })
+}
+
+/// The largest bag read (bytes): far beyond a DRIVE run (20 minutes at 20 Hz are a few MB).
+pub const MAX_BAG_BYTES: u64 = 4 << 30;
+
+/// Reads a rosbag2 recording (a `.mcap` file or a bag directory) into the DRIVE logger's
+/// rows: one row per message on the `cmd` topic, every other topic's latest message held
+/// (see the module documentation). The rows' `line` is their line in the logger CSV they
+/// would make (header on line 1), so that [`crate::import_raw`]'s drop reasons point into
+/// [`crate::write_raw_log`]'s output of them. `imu_acceleration_x/y/z` are kept as extra
+/// columns, as the logger exports them.
+///
+/// Fails with the file and the reason on a file that is not MCAP or is truncated, a missing
+/// topic, a topic of another message type or encoding, or a message that does not decode.
+pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RawLog, DataError> {
+    let name = path.display().to_string();
+    let at = || Location::file(&name);
+    let fail = |kind| DataError::new(at(), kind);
+    let files = bag_files(path)?;
+    // (log_time, entry, value) of every selected message.
+    let mut messages: Vec<(u64, usize, Value)> = Vec::new();
+    // topic -> (type, encoding) of every channel, for messages about what the bag holds.
+    let mut seen: BTreeMap<String, (String, String)> = BTreeMap::new();
+    for file in &files {
+        // Messages name the file inside a bag directory (the bag itself is the location).
+        let fname = if file == path {
+            String::new()
+        } else {
+            format!("{}: ", file.display())
+        };
+        let size = std::fs::metadata(file)
+            .map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?
+            .len();
+        if size > MAX_BAG_BYTES {
+            return Err(fail(DataErrorKind::Implausible(format!(
+                "{fname}{size} bytes, more than the {MAX_BAG_BYTES} read"
+            ))));
+        }
+        let bytes =
+            std::fs::read(file).map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?;
+        let stream = mcap::MessageStream::new(&bytes).map_err(|e| {
+            fail(DataErrorKind::Inconsistent(format!(
+                "{fname}: not an MCAP file ({e})"
+            )))
+        })?;
+        for (n, message) in stream.enumerate() {
+            let message = message.map_err(|e| {
+                fail(DataErrorKind::Inconsistent(format!(
+                    "{fname}cannot read record {} ({e}; a truncated or damaged file?)",
+                    n + 1
+                )))
+            })?;
+            let channel = &message.channel;
+            let ty = channel
+                .schema
+                .as_ref()
+                .map_or(String::new(), |s| s.name.clone());
+            seen.entry(channel.topic.clone())
+                .or_insert_with(|| (ty.clone(), channel.message_encoding.clone()));
+            for (i, (key, signal, topic, joint)) in topics.entries.iter().enumerate() {
+                if *topic != channel.topic {
+                    continue;
+                }
+                if channel.message_encoding != "cdr" {
+                    return Err(fail(DataErrorKind::Inconsistent(format!(
+                        "topic {topic} ({key}) is encoded as {:?}, only ROS 2 cdr is read",
+                        channel.message_encoding
+                    ))));
+                }
+                if !signal.types().contains(&ty.as_str()) {
+                    return Err(fail(DataErrorKind::Inconsistent(format!(
+                        "topic {topic} ({key}) is {}, expected {}",
+                        if ty.is_empty() {
+                            "without a schema"
+                        } else {
+                            &ty
+                        },
+                        signal.types().join(" or ")
+                    ))));
+                }
+                if ty == "sensor_msgs/msg/JointState" && joint.is_none() {
+                    return Err(fail(DataErrorKind::Inconsistent(format!(
+                        "topic {topic} ({key}) is a JointState: name its joint with --topic {key}={topic}:JOINT"
+                    ))));
+                }
+                let value = decode(&ty, &message.data, joint.as_deref()).map_err(|e| {
+                    fail(DataErrorKind::Inconsistent(format!(
+                        "{fname}message {} on {topic} ({key}, {ty}): {e}",
+                        n + 1
+                    )))
+                })?;
+                messages.push((message.log_time, i, value));
+            }
+        }
+    }
+    for (key, signal, topic, _) in &topics.entries {
+        if *signal != Signal::JoySwitch && !seen.contains_key(topic) {
+            let list: Vec<String> = seen
+                .iter()
+                .map(|(t, (ty, _))| format!("{t} ({ty})"))
+                .collect();
+            return Err(fail(DataErrorKind::Inconsistent(format!(
+                "no topic {topic} ({key}; --topic {key}=/other to read another); the bag's topics: {}",
+                if list.is_empty() { "none".to_string() } else { list.join(", ") }
+            ))));
+        }
+    }
+    let command = topics
+        .entries
+        .iter()
+        .position(|e| e.1 == Signal::Command)
+        .expect("BagTopics always has a cmd entry"); // built by drive_logger only
+                                                     // Receive order; a command's row holds what arrived at its time too; messages of one
+                                                     // time otherwise keep their order in the file.
+    messages.sort_by_key(|m| (m.0, m.1 == command));
+    let mut log = RawLog {
+        file: name.clone(),
+        rows: Vec::new(),
+        extra_columns: [
+            "imu_acceleration_x",
+            "imu_acceleration_y",
+            "imu_acceleration_z",
+        ]
+        .map(String::from)
+        .to_vec(),
+        placeholder_rows: 0,
+    };
+    // The logger's state: its defaults until a topic's first message.
+    let mut row = RawRow::at_rest(0, 0);
+    row.calib_state = CalibState::Unset;
+    row.quaternion = [0.0; 4];
+    let mut acceleration = [0.0; 3];
+    let mut localizations = 0u64;
+    for (time, entry, value) in messages {
+        let signal = topics.entries[entry].1;
+        match (signal, value) {
+            (Signal::CalibStep, Value::Step(s)) => row.calib_step = s.max(0) as u64,
+            (Signal::JoySwitch, Value::Bool(b)) => row.joy_switch = b,
+            (Signal::CalibState, Value::Text(t)) => row.calib_state = CalibState::from_logger(&t),
+            (Signal::Odometry, Value::Pose(p, q)) => {
+                localizations += 1;
+                row.icp_index = localizations;
+                row.position = p;
+                row.quaternion = q;
+            }
+            (Signal::Measured(0), Value::Number(v)) => row.measured.x = v,
+            (Signal::Measured(_), Value::Number(v)) => row.measured.y = v,
+            (Signal::Imu, Value::Imu(w, a)) => {
+                row.imu_rate = w;
+                acceleration = a;
+            }
+            (Signal::Command, Value::Twist(c)) => row.body_command = c,
+            // decode gives each signal's types their value only.
+            _ => unreachable!("a value of another signal's type"),
+        }
+        if entry == command {
+            let Ok(time_ns) = i64::try_from(time) else {
+                return Err(fail(DataErrorKind::Implausible(format!(
+                    "a message time of {time} ns"
+                ))));
+            };
+            let mut r = row.clone();
+            r.line = log.rows.len() + 2;
+            r.time_ns = time_ns;
+            r.extra = acceleration.map(Some).to_vec();
+            log.rows.push(r);
+        }
+    }
+    if log.rows.is_empty() {
+        return Err(fail(DataErrorKind::Inconsistent(format!(
+            "no message on the command topic {}",
+            topics.entries[command].2
+        ))));
+    }
+    Ok(log)
+}

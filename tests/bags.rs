@@ -1,0 +1,325 @@
+//! `drive import --bag`: a rosbag2 recording (MCAP storage) written by an independent
+//! library (Python `rosbags`, tests/bags/make_bag.py) from a DRIVE logger CSV gives the same
+//! windows as `drive import --raw` on that CSV, and bad bags fail in one line.
+
+mod common;
+use common::{ok, user_error};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+/// Writes the committed fixtures out: the logger CSV and the bag directory.
+fn fixtures(dir: &Path) -> (PathBuf, PathBuf) {
+    let here = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/bags");
+    let gunzip = |name: &str| {
+        let mut out = Vec::new();
+        flate2::read::GzDecoder::new(std::fs::File::open(here.join(name)).unwrap())
+            .read_to_end(&mut out)
+            .unwrap();
+        out
+    };
+    let raw = dir.join("raw.csv");
+    std::fs::write(&raw, gunzip("husky_snow_raw.csv.gz")).unwrap();
+    let bag = dir.join("husky_snow");
+    std::fs::create_dir(&bag).unwrap();
+    std::fs::write(bag.join("bag.mcap"), gunzip("husky_snow.mcap.gz")).unwrap();
+    std::fs::copy(
+        here.join("husky_snow_metadata.yaml"),
+        bag.join("metadata.yaml"),
+    )
+    .unwrap();
+    (raw, bag)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn medians(csv: &Path) -> Vec<(f64, f64)> {
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "eval",
+        "--json",
+        "--data",
+        s(csv),
+        "--models",
+        "naive,powertrain,slip-blr,acc-blr",
+    ]))
+    .unwrap();
+    v["models"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| {
+            (
+                m["translational_median_m"].as_f64().unwrap(),
+                m["rotational_median_rad"].as_f64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_bag_gives_the_windows_of_the_logger_csv_of_the_same_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let (raw, bag) = fixtures(dir.path());
+    let from_raw = dir.path().join("from_raw.csv");
+    let from_dir = dir.path().join("from_dir.csv");
+    let from_file = dir.path().join("from_file.csv");
+    ok(&[
+        "import",
+        "--raw",
+        s(&raw),
+        "--robot",
+        "husky",
+        "--out",
+        s(&from_raw),
+    ]);
+    let report = ok(&[
+        "import",
+        "--bag",
+        s(&bag),
+        "--robot",
+        "husky",
+        "--out",
+        s(&from_dir),
+    ]);
+    assert!(report.contains("33 windows kept, 0 dropped"), "{report}");
+    ok(&[
+        "import",
+        "--bag",
+        s(&bag.join("bag.mcap")),
+        "--robot",
+        "husky",
+        "--out",
+        s(&from_file),
+    ]);
+    let windows = std::fs::read_to_string(&from_raw).unwrap();
+    assert_eq!(std::fs::read_to_string(&from_dir).unwrap(), windows);
+    assert_eq!(std::fs::read_to_string(&from_file).unwrap(), windows);
+    let (a, b) = (medians(&from_raw), medians(&from_dir));
+    assert_eq!(a.len(), 4);
+    for (x, y) in a.iter().zip(&b) {
+        assert!(
+            (x.0 - y.0).abs() <= 1e-6 && (x.1 - y.1).abs() <= 1e-6,
+            "{a:?} {b:?}"
+        );
+    }
+    // The JSON report of a bag: the extra IMU columns as the logger exports them.
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "import",
+        "--bag",
+        s(&bag),
+        "--robot",
+        "husky",
+        "--out",
+        s(&dir.path().join("again.csv")),
+        "--json",
+    ]))
+    .unwrap();
+    assert_eq!(v["rows"], 1801);
+    assert_eq!(v["extra_columns"][0], "imu_acceleration_x");
+}
+
+#[test]
+fn a_topic_can_be_read_under_another_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, bag) = fixtures(dir.path());
+    // Reading the IMU topic as the command: a type mismatch, named.
+    let err = user_error(&[
+        "import",
+        "--bag",
+        s(&bag),
+        "--robot",
+        "husky",
+        "--out",
+        s(&dir.path().join("x.csv")),
+        "--topic",
+        "cmd=/imu_in",
+    ]);
+    assert!(
+        err.contains(
+            "topic /imu_in (cmd) is sensor_msgs/msg/Imu, expected geometry_msgs/msg/Twist"
+        ),
+        "{err}"
+    );
+    // The left encoder read from the right one's topic: the import runs on other values.
+    let swapped = dir.path().join("swapped.csv");
+    ok(&[
+        "import",
+        "--bag",
+        s(&bag),
+        "--robot",
+        "husky",
+        "--out",
+        s(&swapped),
+        "--topic",
+        "meas_left_vel=/wheel_vel_right_measured",
+    ]);
+    let text = std::fs::read_to_string(&swapped).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let (l, r) = (
+        header.iter().position(|c| *c == "enc_left").unwrap(),
+        header.iter().position(|c| *c == "enc_right").unwrap(),
+    );
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f[l], f[r]);
+    }
+}
+
+#[test]
+fn bad_bags_fail_in_one_line_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let (raw, bag) = fixtures(dir.path());
+    let bytes = std::fs::read(bag.join("bag.mcap")).unwrap();
+    let truncated = dir.path().join("truncated.mcap");
+    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+    let empty_dir = dir.path().join("empty");
+    std::fs::create_dir(&empty_dir).unwrap();
+    let sqlite = dir.path().join("sqlite");
+    std::fs::create_dir(&sqlite).unwrap();
+    std::fs::write(
+        sqlite.join("metadata.yaml"),
+        "rosbag2_bagfile_information:\n  storage_identifier: sqlite3\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out.csv");
+    let import = |source: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "import",
+            "--bag",
+            s(source),
+            "--robot",
+            "husky",
+            "--out",
+            s(&out),
+        ];
+        args.extend(extra);
+        user_error(&args)
+    };
+    assert!(import(&truncated, &[]).contains("a truncated or damaged file?"));
+    assert!(import(&raw, &[]).contains("cannot read record 1"));
+    assert!(import(&empty_dir, &[]).contains("no .mcap file in the bag directory"));
+    assert!(import(&sqlite, &[]).contains("the bag's storage is sqlite3, only mcap is read"));
+    let missing = import(&bag, &["--topic", "odometry=/icp_odom"]);
+    assert!(
+        missing.contains("no topic /icp_odom (odometry;"),
+        "{missing}"
+    );
+    assert!(
+        missing.contains("/odometry_in (nav_msgs/msg/Odometry)"),
+        "{missing}"
+    );
+    assert!(import(&bag, &["--topic", "speed=/x"]).contains("no key \"speed\""));
+    assert!(import(&bag, &["--topic", "cmd=cmd_vel"]).contains("not an absolute ROS topic name"));
+    assert!(import(&bag, &["--topic", "cmd=/cmd_vel:joint"]).contains("only a measured input"));
+    // An output that would replace the bag's file, refused.
+    assert!(user_error(&[
+        "import",
+        "--bag",
+        s(&bag),
+        "--robot",
+        "husky",
+        "--out",
+        s(&bag.join("bag.mcap")),
+    ])
+    .contains("would replace that file"));
+    assert!(user_error(&[
+        "import",
+        "--raw",
+        s(&raw),
+        "--robot",
+        "husky",
+        "--out",
+        s(&out),
+        "--topic",
+        "cmd=/x"
+    ])
+    .contains("--topic names topics of a bag"));
+    assert!(!out.exists());
+    assert_eq!(std::fs::read(bag.join("bag.mcap")).unwrap(), bytes);
+}
+
+/// The fixture bag rewritten (with the `mcap` crate) keeping only the first message of
+/// `topic`.
+fn without_later(bag: &Path, topic: &str, out: &Path) {
+    let bytes = std::fs::read(bag.join("bag.mcap")).unwrap();
+    let mut writer =
+        mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(out).unwrap())).unwrap();
+    let mut kept = false;
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        if m.channel.topic == topic {
+            if kept {
+                continue;
+            }
+            kept = true;
+        }
+        writer.write(&m).unwrap();
+    }
+    writer.finish().unwrap();
+}
+
+/// A bag whose localization stops before the protocol starts gives the raw log's drop
+/// reason for each interval, and nothing is written.
+#[test]
+fn a_bag_without_localization_is_refused_with_the_raw_logs_reasons() {
+    let dir = tempfile::tempdir().unwrap();
+    let (raw, bag) = fixtures(dir.path());
+    let frozen_bag = dir.path().join("frozen.mcap");
+    without_later(&bag, "/odometry_in", &frozen_bag);
+    // The same run as a logger CSV: the first localization held on every row.
+    let text = std::fs::read_to_string(&raw).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let cols: Vec<&str> = header.split(',').collect();
+    let frozen: Vec<usize> = (0..cols.len())
+        .filter(|&i| cols[i] == "icp_index" || cols[i].starts_with("icp_"))
+        .collect();
+    let first: Vec<String> = lines
+        .clone()
+        .next()
+        .unwrap()
+        .split(',')
+        .map(String::from)
+        .collect();
+    let mut out = format!("{header}\n");
+    for line in lines {
+        let mut f: Vec<String> = line.split(',').map(String::from).collect();
+        for &i in &frozen {
+            f[i] = first[i].clone();
+        }
+        out += &(f.join(",") + "\n");
+    }
+    let frozen_raw = dir.path().join("frozen.csv");
+    std::fs::write(&frozen_raw, out).unwrap();
+    let target = dir.path().join("w.csv");
+    let run = |flag: &str, source: &Path| {
+        common::drive(&[
+            "import",
+            flag,
+            s(source),
+            "--robot",
+            "husky",
+            "--out",
+            s(&target),
+            "--json",
+        ])
+    };
+    let (a, b) = (run("--raw", &frozen_raw), run("--bag", &frozen_bag));
+    for o in [&a, &b] {
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(err.lines().count(), 1, "{err}");
+    }
+    let reasons = |o: &std::process::Output| {
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["dropped_by_reason"].clone()
+    };
+    assert_eq!(reasons(&a), reasons(&b));
+    assert!(
+        reasons(&a).to_string().contains("localization"),
+        "{}",
+        reasons(&a)
+    );
+    assert!(!target.exists());
+}
