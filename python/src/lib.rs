@@ -1,0 +1,337 @@
+//! Python bindings of the DRIVE framework (`pip install ./python`): datasets, evaluation,
+//! fitted models with numpy predictions. The Python package `drive` (py/drive) wraps this
+//! module; every user error raises `drive.DriveError` with the command line's message.
+
+use drive::eval::{compare, split_by_interval};
+use drive::models::batch::predict_batch_parallel;
+use drive::models::model_file::{model_from_json, model_to_json};
+use drive::traits::{
+    Dataset as RustDataset, Input, MotionModel, Pose, RobotDescription, StartState,
+};
+use drive::Registries;
+use numpy::{
+    IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,
+};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+create_exception!(
+    _native,
+    DriveError,
+    PyValueError,
+    "A user error (bad data, unknown name, a fit that cannot be made): the command line's message."
+);
+
+fn err(e: impl std::fmt::Display) -> PyErr {
+    DriveError::new_err(e.to_string())
+}
+
+/// A DRIVE window dataset: the window CSV with its sidecar (robot, rates, vehicle).
+#[pyclass(module = "drive._native", frozen)]
+struct Dataset {
+    inner: RustDataset,
+}
+
+#[pymethods]
+impl Dataset {
+    /// A dataset from the window CSV's text and the sidecar's JSON text.
+    #[staticmethod]
+    fn from_text(csv: &str, sidecar: &str) -> PyResult<Self> {
+        drive::data::parse_dataset("dataframe", csv, "meta", sidecar)
+            .map(|inner| Dataset { inner })
+            .map_err(err)
+    }
+
+    /// A dataset from a pandas DataFrame with the window CSV's columns and the sidecar as a
+    /// dict.
+    #[staticmethod]
+    fn from_pandas(
+        py: Python<'_>,
+        df: &Bound<'_, PyAny>,
+        meta: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        let kwargs = PyDict::new(py);
+        kwargs.set_item("index", false)?;
+        let csv: String = df.call_method("to_csv", (), Some(&kwargs))?.extract()?;
+        let json = py.import("json")?;
+        let sidecar: String = json.call_method1("dumps", (meta,))?.extract()?;
+        Self::from_text(&csv, &sidecar)
+    }
+
+    /// Number of windows.
+    fn __len__(&self) -> usize {
+        self.inner.windows.len()
+    }
+
+    /// Number of DRIVE intervals.
+    #[getter]
+    fn intervals(&self) -> usize {
+        self.inner.interval_count()
+    }
+
+    /// The dataset's name (from the sidecar).
+    #[getter]
+    fn name(&self) -> String {
+        self.inner.robot.name.clone()
+    }
+
+    /// Command rate (Hz).
+    #[getter]
+    fn rate_hz(&self) -> f64 {
+        self.inner.robot.rate_hz
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Dataset({:?}: {} windows, {} intervals, {} Hz)",
+            self.inner.robot.name,
+            self.inner.windows.len(),
+            self.inner.interval_count(),
+            self.inner.robot.rate_hz
+        )
+    }
+}
+
+/// The bundled Husky dataset (`path` None) or a window CSV with its sidecar beside it (or
+/// at `sidecar`).
+#[pyfunction]
+#[pyo3(signature = (path=None, sidecar=None))]
+fn load_dataset(
+    path: Option<std::path::PathBuf>,
+    sidecar: Option<std::path::PathBuf>,
+) -> PyResult<Dataset> {
+    let inner = match path {
+        None => drive::bundled::husky(),
+        Some(p) => drive::data::read_dataset(&p, sidecar.as_deref()),
+    }
+    .map_err(err)?;
+    Ok(Dataset { inner })
+}
+
+/// `drive eval --json` as a JSON text: the models (default: the paper's four) fitted on the
+/// first `split` of the intervals and scored on the rest.
+#[pyfunction]
+#[pyo3(signature = (dataset, models=None, split=0.5))]
+fn evaluate_json(
+    py: Python<'_>,
+    dataset: &Dataset,
+    models: Option<Vec<String>>,
+    split: f64,
+) -> PyResult<String> {
+    let names = models.unwrap_or_else(|| {
+        ["naive", "powertrain", "slip-blr", "acc-blr"]
+            .map(String::from)
+            .to_vec()
+    });
+    if names.is_empty() {
+        return Err(err("models is empty"));
+    }
+    let data = &dataset.inner;
+    let result = py.detach(|| {
+        let registries = Registries::builtin();
+        compare(&registries, data, split, &names).map_err(|e| e.to_string())
+    });
+    let cmp = result.map_err(err)?;
+    serde_json::to_string(&cmp).map_err(err)
+}
+
+/// A fitted motion model: predictions from commands, saved as the command line's model file.
+#[pyclass(module = "drive._native", frozen)]
+struct Model {
+    model: Box<dyn MotionModel>,
+    robot: RobotDescription,
+}
+
+impl Model {
+    fn start(&self, pose: [f64; 3], wheels: [f64; 2]) -> StartState {
+        let input = Input::new(wheels[0], wheels[1]);
+        StartState {
+            pose: Pose::new(pose[0], pose[1], pose[2]),
+            input,
+            body_velocity: self.robot.vehicle.body_velocity(&input),
+        }
+    }
+}
+
+fn finite(what: &str, v: &[f64]) -> PyResult<()> {
+    match v.iter().position(|x| !x.is_finite()) {
+        Some(i) => Err(err(format!("{what}: value {i} is not a finite number"))),
+        None => Ok(()),
+    }
+}
+
+#[pymethods]
+impl Model {
+    /// The model's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.model.name()
+    }
+
+    /// The prediction step (s).
+    #[getter]
+    fn dt(&self) -> f64 {
+        self.model.dt()
+    }
+
+    /// Poses (H, 3): x, y, yaw after each of the (H, 2) commands (the vehicle's inputs), from
+    /// `start` (x, y, yaw; the origin by default) with the measured inputs `start_wheels`
+    /// (zero by default), as `drive predict`.
+    #[pyo3(signature = (commands, start=None, start_wheels=None))]
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        commands: PyReadonlyArray2<'py, f64>,
+        start: Option<[f64; 3]>,
+        start_wheels: Option<[f64; 2]>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let shape = commands.shape();
+        if shape.len() != 2 || shape[1] != 2 {
+            return Err(err(format!(
+                "commands must be an (H, 2) array, got shape {shape:?}"
+            )));
+        }
+        let flat: Vec<f64> = commands.as_array().iter().copied().collect();
+        finite("commands", &flat)?;
+        let start = self.start(start.unwrap_or([0.0; 3]), start_wheels.unwrap_or([0.0; 2]));
+        finite(
+            "start",
+            &[
+                start.pose.x,
+                start.pose.y,
+                start.pose.z,
+                start.input.x,
+                start.input.y,
+            ],
+        )?;
+        let cmds: Vec<Input> = flat
+            .chunks_exact(2)
+            .map(|c| Input::new(c[0], c[1]))
+            .collect();
+        let poses = self.model.predict(&start, &cmds);
+        let out: Vec<f64> = poses.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+        numpy::ndarray::Array2::from_shape_vec((poses.len(), 3), out)
+            .map(|a| a.into_pyarray(py))
+            .map_err(err)
+    }
+
+    /// Poses (B, H, 3) of B command sequences (B, H, 2), each from its row of `starts`
+    /// (B, 3; the origin by default) and `start_wheels` (B, 2; zero by default); computed
+    /// in parallel without the GIL. Row b equals `predict(commands[b], starts[b], ...)`.
+    #[pyo3(signature = (commands, starts=None, start_wheels=None))]
+    fn predict_batch<'py>(
+        &self,
+        py: Python<'py>,
+        commands: PyReadonlyArray3<'py, f64>,
+        starts: Option<PyReadonlyArray2<'py, f64>>,
+        start_wheels: Option<PyReadonlyArray2<'py, f64>>,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let shape = commands.shape().to_vec();
+        if shape[2] != 2 {
+            return Err(err(format!(
+                "commands must be a (B, H, 2) array, got shape {shape:?}"
+            )));
+        }
+        let (b, h) = (shape[0], shape[1]);
+        let flat: Vec<f64> = commands.as_array().iter().copied().collect();
+        finite("commands", &flat)?;
+        let rows = |a: Option<PyReadonlyArray2<'py, f64>>,
+                    width: usize,
+                    what: &str|
+         -> PyResult<Vec<f64>> {
+            match a {
+                None => Ok(vec![0.0; b * width]),
+                Some(a) => {
+                    if a.shape() != [b, width] {
+                        return Err(err(format!(
+                            "{what} must be a ({b}, {width}) array, got shape {:?}",
+                            a.shape()
+                        )));
+                    }
+                    let v: Vec<f64> = a.as_array().iter().copied().collect();
+                    finite(what, &v)?;
+                    Ok(v)
+                }
+            }
+        };
+        let poses0 = rows(starts, 3, "starts")?;
+        let wheels = rows(start_wheels, 2, "start_wheels")?;
+        let starts: Vec<StartState> = (0..b)
+            .map(|i| {
+                self.start(
+                    [poses0[3 * i], poses0[3 * i + 1], poses0[3 * i + 2]],
+                    [wheels[2 * i], wheels[2 * i + 1]],
+                )
+            })
+            .collect();
+        let cmds: Vec<Input> = flat
+            .chunks_exact(2)
+            .map(|c| Input::new(c[0], c[1]))
+            .collect();
+        let mut poses = vec![Pose::zeros(); b * h];
+        let model = self.model.as_ref();
+        py.detach(|| predict_batch_parallel(model, &starts, &cmds, h, &mut poses, 64))
+            .map_err(err)?;
+        let out: Vec<f64> = poses.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+        numpy::ndarray::Array3::from_shape_vec((b, h, 3), out)
+            .map(|a| a.into_pyarray(py))
+            .map_err(err)
+    }
+
+    /// Saves the model as the command line's model file (`drive predict --model`).
+    fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
+        let text = model_to_json(self.model.as_ref(), &self.robot).map_err(err)?;
+        std::fs::write(&path, text)
+            .map_err(|e| err(format!("{}: cannot write: {e}", path.display())))
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Model({:?}, dt={} s)", self.model.name(), self.model.dt())
+    }
+}
+
+/// Fits `model` (a model name, as `drive train --model`) on the dataset's first `split` of
+/// the intervals (all of them when None).
+#[pyfunction]
+#[pyo3(signature = (dataset, model, split=None))]
+fn fit(py: Python<'_>, dataset: &Dataset, model: &str, split: Option<f64>) -> PyResult<Model> {
+    let registries = Registries::builtin();
+    let spec = registries.model(model).map_err(err)?.clone();
+    let data = &dataset.inner;
+    let fitted = py.detach(|| -> Result<Box<dyn MotionModel>, String> {
+        let train = match split {
+            Some(f) => split_by_interval(data, f).map_err(|e| e.to_string())?.0,
+            None => data.all(),
+        };
+        spec.fit(&train)
+            .map_err(|e| format!("fitting {model}: {e}"))
+    });
+    Ok(Model {
+        model: fitted.map_err(err)?,
+        robot: data.robot.clone(),
+    })
+}
+
+/// Loads a model file written by `drive train` or `Model.save`.
+#[pyfunction]
+fn load_model(path: std::path::PathBuf) -> PyResult<Model> {
+    let name = path.display().to_string();
+    let text =
+        std::fs::read_to_string(&path).map_err(|e| err(format!("{name}: cannot read: {e}")))?;
+    let (model, robot) = model_from_json(&name, &text).map_err(err)?;
+    Ok(Model { model, robot })
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("DriveError", m.py().get_type::<DriveError>())?;
+    m.add_class::<Dataset>()?;
+    m.add_class::<Model>()?;
+    m.add_function(wrap_pyfunction!(load_dataset, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate_json, m)?)?;
+    m.add_function(wrap_pyfunction!(fit, m)?)?;
+    m.add_function(wrap_pyfunction!(load_model, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,160 @@
+"""The Python API against the command line: the same numbers (1e-9), the same messages."""
+
+import gzip
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import drive
+
+ROOT = Path(__file__).resolve().parents[2]
+BIN = Path(os.environ.get("DRIVE_BIN", ROOT / "target" / "release" / "drive"))
+
+
+def cli(*args, ok=True):
+    out = subprocess.run([str(BIN), *map(str, args)], capture_output=True, text=True)
+    if ok:
+        assert out.returncode == 0, out.stderr
+    return out
+
+
+def close(a, b, path="", tol=1e-9):
+    """Recursive equality of two JSON values, floats to `tol` (relative); the fit times
+    (wall-clock measurements) are not compared."""
+    if isinstance(a, dict):
+        assert set(a) == set(b), f"{path}: keys {set(a) ^ set(b)}"
+        for k in a:
+            if k == "fit_seconds":
+                continue
+            close(a[k], b[k], f"{path}.{k}", tol)
+    elif isinstance(a, list):
+        assert len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b)):
+            close(x, y, f"{path}[{i}]", tol)
+    elif isinstance(a, float) or isinstance(b, float):
+        assert abs(a - b) <= tol * max(1.0, abs(a), abs(b)), f"{path}: {a} != {b}"
+    else:
+        assert a == b, f"{path}: {a!r} != {b!r}"
+
+
+@pytest.fixture(scope="module")
+def husky():
+    return drive.load_dataset()
+
+
+def test_evaluate_equals_drive_eval_json(husky):
+    expected = json.loads(cli("eval", "--json").stdout)
+    close(drive.evaluate(husky), expected)
+    models = "slip-blr,acc-blr+fopdt"
+    expected = json.loads(cli("eval", "--json", "--models", models, "--split", "0.3").stdout)
+    close(drive.evaluate(husky, models=models.split(","), split=0.3), expected)
+
+
+def test_from_pandas_equals_the_files(husky, tmp_path):
+    pd = pytest.importorskip("pandas")
+    df = pd.read_csv(ROOT / "data" / "husky_drive.csv.gz")
+    meta = json.loads((ROOT / "data" / "husky_drive.json").read_text())
+    data = drive.Dataset.from_pandas(df, meta)
+    assert len(data) == len(husky) == 603 and data.intervals == 201
+    close(drive.evaluate(data, models=["slip-blr"]), drive.evaluate(husky, models=["slip-blr"]))
+    with pytest.raises(drive.DriveError, match="missing column"):
+        drive.Dataset.from_pandas(df.drop(columns=["yaw"]), meta)
+
+
+def commands_csv(path, commands, dt):
+    rows = ["t,cmd_left,cmd_right"] + [f"{k * dt!r},{float(l)!r},{float(r)!r}" for k, (l, r) in enumerate(commands)]
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_predict_equals_drive_train_and_predict(husky, tmp_path):
+    rng = np.random.default_rng(7)
+    commands = rng.uniform(-5, 5, size=(40, 2))
+    for name in ["slip-blr", "acc-blr", "powertrain"]:
+        model = drive.fit(husky, name, split=0.5)
+        saved = tmp_path / f"{name}.json"
+        model.save(saved)
+        # The command line's own fit, saved, loads in Python and predicts the same.
+        cli_model = tmp_path / f"{name}-cli.json"
+        cli("train", "--model", name, "--split", "0.5", "--out", cli_model)
+        loaded = drive.load_model(cli_model)
+        cmds = tmp_path / "cmds.csv"
+        commands_csv(cmds, commands, model.dt)
+        out = cli("predict", "--model", saved, "--commands", cmds, "--start", "1,2,0.3", "--start-wheels", "2,3").stdout
+        lines = out.strip().splitlines()
+        header = lines[0].split(",")
+        table = np.array([[float(v) for v in l.split(",")] for l in lines[1:]])
+        expected = table[:, [header.index(c) for c in ("x", "y", "yaw")]]
+        for m in (model, loaded):
+            got = m.predict(commands, start=(1.0, 2.0, 0.3), start_wheels=(2.0, 3.0))
+            assert got.shape == (40, 3)
+            np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9)
+
+
+def test_predict_batch_matches_predict_row_by_row(husky):
+    model = drive.fit(husky, "slip-blr", split=0.5)
+    rng = np.random.default_rng(3)
+    commands = rng.uniform(-6, 6, size=(257, 40, 2))
+    starts = rng.uniform(-1, 1, size=(257, 3))
+    wheels = rng.uniform(-2, 2, size=(257, 2))
+    batch = model.predict_batch(commands, starts=starts, start_wheels=wheels)
+    assert batch.shape == (257, 40, 3)
+    for b in range(257):
+        one = model.predict(commands[b], start=starts[b], start_wheels=wheels[b])
+        assert np.array_equal(batch[b], one), b
+    # Default starts: the origin at rest.
+    np.testing.assert_array_equal(model.predict_batch(commands[:2])[1], model.predict(commands[1]))
+
+
+def test_user_errors_raise_with_the_command_lines_message(husky, tmp_path):
+    missing = tmp_path / "missing.csv"
+    cli_err = cli("eval", "--data", missing, ok=False).stderr.strip()
+    assert cli_err.startswith("error: ")
+    with pytest.raises(drive.DriveError) as e:
+        drive.load_dataset(missing)
+    assert str(e.value) == cli_err[len("error: "):]
+    with pytest.raises(drive.DriveError, match="unknown model 'gp'"):
+        drive.fit(husky, "gp")
+    with pytest.raises(drive.DriveError, match="unknown model 'gp'"):
+        drive.evaluate(husky, models=["gp"])
+    with pytest.raises(drive.DriveError, match="split"):
+        drive.evaluate(husky, split=1.5)
+    model = drive.fit(husky, "naive")
+    with pytest.raises(drive.DriveError, match=r"\(H, 2\)"):
+        model.predict(np.zeros((5, 3)))
+    with pytest.raises(drive.DriveError, match="not a finite number"):
+        model.predict(np.array([[np.nan, 1.0]]))
+    with pytest.raises(drive.DriveError, match="starts must be"):
+        model.predict_batch(np.zeros((2, 4, 2)), starts=np.zeros((3, 3)))
+    with pytest.raises(drive.DriveError, match="cannot read"):
+        drive.load_model(tmp_path / "none.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{")
+    with pytest.raises(drive.DriveError):
+        drive.load_model(bad)
+    # DriveError is a ValueError: code catching ValueError keeps working.
+    assert issubclass(drive.DriveError, ValueError)
+
+
+def test_a_bag_with_stamped_commands_and_joint_states_gives_the_csvs_windows(tmp_path):
+    pytest.importorskip("rosbags")
+    raw = tmp_path / "raw.csv"
+    raw.write_bytes(gzip.decompress((ROOT / "tests" / "bags" / "husky_snow_raw.csv.gz").read_bytes()))
+    bag = tmp_path / "bag"
+    subprocess.run(
+        [sys.executable, ROOT / "tests" / "bags" / "make_bag.py", raw, bag, "--variant", "stamped-joints"],
+        check=True,
+        capture_output=True,
+    )
+    cli("import", "--raw", raw, "--robot", "husky", "--out", tmp_path / "a.csv")
+    cli(
+        "import", "--bag", bag, "--robot", "husky", "--out", tmp_path / "b.csv",
+        "--topic", "cmd=/cmd_vel",
+        "--topic", "meas_left_vel=/joint_states:left_wheel_joint",
+        "--topic", "meas_right_vel=/joint_states:right_wheel_joint",
+    )
+    assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
