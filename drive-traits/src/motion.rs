@@ -40,6 +40,24 @@ impl StartState {
             body_velocity: BodyVelocity::zeros(),
         }
     }
+
+    /// At `pose` with the measured input `input`: the body velocity from the encoders
+    /// through the vehicle (eq. 4 for a differential drive), as `drive predict` starts.
+    ///
+    /// ```
+    /// use drive_traits::{CommandModel, Input, Pose, StartState};
+    /// # fn demo(vehicle: &dyn CommandModel) {
+    /// let s = StartState::measured(Pose::zeros(), Input::new(2.0, 3.0), vehicle);
+    /// assert_eq!(s.body_velocity, vehicle.body_velocity(&Input::new(2.0, 3.0)));
+    /// # }
+    /// ```
+    pub fn measured(pose: Pose, input: Input, vehicle: &dyn crate::CommandModel) -> Self {
+        StartState {
+            pose,
+            input,
+            body_velocity: vehicle.body_velocity(&input),
+        }
+    }
 }
 
 /// A fitted motion model (the linfa "fitted" side): it predicts, and it is saved and loaded

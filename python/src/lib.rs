@@ -146,12 +146,11 @@ struct Model {
 
 impl Model {
     fn start(&self, pose: [f64; 3], wheels: [f64; 2]) -> StartState {
-        let input = Input::new(wheels[0], wheels[1]);
-        StartState {
-            pose: Pose::new(pose[0], pose[1], pose[2]),
-            input,
-            body_velocity: self.robot.vehicle.body_velocity(&input),
-        }
+        StartState::measured(
+            Pose::new(pose[0], pose[1], pose[2]),
+            Input::new(wheels[0], wheels[1]),
+            self.robot.vehicle.as_ref(),
+        )
     }
 }
 

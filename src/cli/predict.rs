@@ -120,11 +120,7 @@ pub fn run(args: &Args) -> Result<()> {
     let measured = args
         .start_wheels
         .map_or(Input::zeros(), |[l, r]| Input::new(l, r));
-    let start = StartState {
-        pose,
-        input: measured,
-        body_velocity: robot.vehicle.body_velocity(&measured),
-    };
+    let start = StartState::measured(pose, measured, robot.vehicle.as_ref());
     let (mut poses, mut covs) = (Vec::new(), Vec::new());
     let with_cov = model
         .predict_with_covariance_into(&start, &cmds, &mut poses, &mut covs)
