@@ -1,5 +1,5 @@
 //! Python bindings of the DRIVE framework (`pip install ./python`): datasets, evaluation,
-//! fitted models with numpy predictions. The Python package `drive` (py/drive) wraps this
+//! fitted models with numpy predictions, the protocol runner a ROS 2 node drives a robot with. The Python package `drive` (py/drive) wraps this
 //! module; every user error raises `drive.DriveError` with the command line's message.
 
 use drive::eval::{compare, split_by_interval};
@@ -16,6 +16,8 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+
+mod runner;
 
 create_exception!(
     _native,
@@ -332,5 +334,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(evaluate_json, m)?)?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(load_model, m)?)?;
+    runner::register(m)?;
     Ok(())
 }

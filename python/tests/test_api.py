@@ -158,3 +158,98 @@ def test_a_bag_with_stamped_commands_and_joint_states_gives_the_csvs_windows(tmp
         "--topic", "meas_right_vel=/joint_states:right_wheel_joint",
     )
     assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
+
+
+def runner_commands(runner, seconds):
+    rate = runner.rate_hz
+    return [
+        runner.tick(t=k / rate, encoder=(0.0, 0.0), pose=(0.0, 0.0, 0.0), deadman=True)
+        for k in range(int(round(seconds * rate)))
+    ]
+
+
+@pytest.mark.parametrize("robot,sampler,seed", [("husky", "uniform", 4), ("warthog", "grid", 1)])
+def test_protocol_runner_over_the_nominal_space_equals_drive_protocol(tmp_path, robot, sampler, seed):
+    out = tmp_path / "schedule.csv"
+    cli("protocol", "--robot", robot, "--sampler", sampler, "--seed", seed, "--intervals", 3, "--out", out)
+    rows = [line.split(",") for line in out.read_text().splitlines()[1:]]
+    runner = drive.ProtocolRunner(robot, sampler, seed, characterize=False, max_intervals=3)
+    cmds = runner_commands(runner, 18.0 + 1.0)
+    driving = [c for c in cmds if c.recording]
+    assert len(driving) == len(rows) == 360
+    for c, row in zip(driving, rows):
+        assert c.interval == int(row[1]) and c.phase == row[2]
+        assert c.inputs == pytest.approx((float(row[3]), float(row[4])), rel=1e-9, abs=1e-12)
+        assert tuple(c) == c.inputs and len(c) == 2
+    assert runner.done and runner.stop_reason == "intervals" and runner.completed_intervals == 3
+    assert all(tuple(c) == (0.0, 0.0) for c in cmds[360:])
+
+
+def test_protocol_runner_takes_measurements_as_a_dict_an_object_or_keywords():
+    def run(make):
+        runner = drive.ProtocolRunner("husky", "uniform", 2)
+        return [
+            tuple(runner.tick(make(k / 20, (0.1 * k, 0.1 * k), (0.0, 0.0, 0.0) if k % 2 else None)))
+            for k in range(100)
+        ]
+
+    as_dict = run(lambda t, e, p: {"t": t, "encoder": e, "pose": p, "deadman": True})
+    as_object = run(lambda t, e, p: drive.Measurements(t, e, p, deadman=True))
+    assert as_dict == as_object
+    runner = drive.ProtocolRunner("husky", "uniform", 2)
+    as_keywords = [
+        tuple(runner.tick(t=k / 20, encoder=(0.1 * k, 0.1 * k), pose=(0.0, 0.0, 0.0) if k % 2 else None, deadman=True))
+        for k in range(100)
+    ]
+    assert as_dict == as_keywords
+    # No localization yet at the first tick: held still; then the first characterization
+    # probe drives straight ahead.
+    assert as_dict[0] == (0.0, 0.0)
+    assert as_dict[1][0] == as_dict[1][1] > 0
+
+
+def test_protocol_runner_errors_are_the_command_lines():
+    for args, flag in [(("husk",), ["--robot", "husk"]), (("husky", "unif"), ["--robot", "husky", "--sampler", "unif"])]:
+        message = cli("protocol", *flag, "--intervals", 1, "--out", "/nonexistent/x.csv", ok=False).stderr
+        with pytest.raises(drive.DriveError) as e:
+            drive.ProtocolRunner(*args)
+        assert message.strip() == f"error: {e.value}"
+    runner = drive.ProtocolRunner("husky")
+    for bad, match in [
+        ({"t": 0.0, "encoder": (0, 0)}, "need 'deadman'"),
+        ({"encoder": (0, 0), "deadman": True}, "need 't'"),
+        ({"t": 0.0, "deadman": True, "wheels": (0, 0)}, "unknown measurement 'wheels'"),
+        ({"t": 0.0, "deadman": "yes"}, "deadman must be True or False"),
+        ({"t": 0.0, "deadman": True, "encoder": (0, 0, 0)}, "encoder must be 2 numbers"),
+        ({"t": 0.0, "deadman": True, "pose": (0, float("nan"), 0)}, "pose: value 1 is not a finite"),
+        ({"t": float("inf"), "deadman": True}, "t must be a finite time"),
+    ]:
+        with pytest.raises(drive.DriveError, match=match):
+            runner.tick(bad)
+    runner.tick(t=5.0, deadman=True)
+    with pytest.raises(drive.DriveError, match="time went backwards"):
+        runner.tick(t=4.0, deadman=True)
+    for kwargs, match in [
+        ({"geofence": 0.0}, "geofence must be a positive"),
+        ({"max_intervals": 0}, "max_intervals must be at least 1"),
+        ({"geofence": 5.0, "localization": False}, "geofence needs localization"),
+        ({"max_duration": float("nan")}, "max_duration must be a positive"),
+        ({"seed": -1}, "seed must be an integer"),
+    ]:
+        with pytest.raises(drive.DriveError, match=match):
+            drive.ProtocolRunner("husky", **kwargs)
+
+
+def test_protocol_runner_stops_the_robot_without_the_deadman_or_sensors():
+    runner = drive.ProtocolRunner("husky", "uniform", 0, characterize=False)
+    moving = runner.tick(t=0.0, encoder=(0, 0), pose=(0, 0, 0), deadman=True)
+    assert runner.state == "driving" and tuple(moving) != (0.0, 0.0)
+    released = runner.tick(t=0.05, encoder=(0, 0), pose=(0, 0, 0), deadman=False)
+    assert tuple(released) == (0.0, 0.0) and runner.pause_reason == "deadman released"
+    runner.tick(t=0.1, encoder=(0, 0), pose=(0, 0, 0), deadman=True)
+    stale = runner.tick(t=1.0, deadman=True)  # nothing measured for 0.9 s
+    assert tuple(stale) == (0.0, 0.0) and runner.pause_reason in ("encoders stale", "localization stale")
+    fenced = drive.ProtocolRunner("husky", "uniform", 0, characterize=False, geofence=1.0)
+    fenced.tick(t=0.0, encoder=(0, 0), pose=(0, 0, 0), deadman=True)
+    out = fenced.tick(t=0.05, encoder=(0, 0), pose=(1.5, 0, 0), deadman=True)
+    assert tuple(out) == (0.0, 0.0) and fenced.done and fenced.stop_reason.startswith("geofence: 1.50 m")

@@ -1,20 +1,39 @@
-"""DRIVE from Python: datasets, the paper's evaluation, fitted models with numpy predictions.
+"""DRIVE from Python: datasets, the paper's evaluation, fitted models with numpy predictions,
+and the protocol runner a ROS 2 node drives a robot with.
 
     >>> import drive
     >>> data = drive.load_dataset()                 # the bundled Husky data
     >>> result = drive.evaluate(data)               # the dict of `drive eval --json`
     >>> model = drive.fit(data, "slip-blr", split=0.5)
     >>> poses = model.predict(commands)             # (H, 2) -> (H, 3): x, y, yaw
+    >>> runner = drive.ProtocolRunner("husky", "uniform", seed=0, geofence=20.0)
+    >>> command = runner.tick({"t": 0.0, "encoder": (0.0, 0.0), "pose": (0.0, 0.0, 0.0),
+    ...                        "deadman": True})    # command.inputs, .linear, .angular
 
 Every user error raises `drive.DriveError` (a ValueError) with the command line's message.
 """
 
 import json as _json
+import numbers as _numbers
+import os as _os
+from collections.abc import Mapping as _Mapping
 
-from ._native import Dataset, DriveError, Model, fit, load_dataset, load_model
+from . import _native
+from ._native import Command, Dataset, DriveError, Model, fit, load_dataset, load_model
 from ._native import evaluate_json as _evaluate_json
 
-__all__ = ["Dataset", "DriveError", "Model", "evaluate", "fit", "load_dataset", "load_model"]
+__all__ = [
+    "Command",
+    "Dataset",
+    "DriveError",
+    "Measurements",
+    "Model",
+    "ProtocolRunner",
+    "evaluate",
+    "fit",
+    "load_dataset",
+    "load_model",
+]
 
 
 def evaluate(dataset, models=None, split=0.5):
@@ -24,3 +43,123 @@ def evaluate(dataset, models=None, split=0.5):
     if isinstance(models, str):
         models = [m.strip() for m in models.split(",") if m.strip()]
     return _json.loads(_evaluate_json(dataset, None if models is None else list(models), float(split)))
+
+
+class Measurements:
+    """What the robot measured since the last tick.
+
+    `t` the time (s); `encoder` the (left, right) wheel velocities (rad/s; the vehicle's
+    two measured inputs) when new ones arrived, else None; `pose` the localization
+    (x, y, yaw) when a new one arrived, else None; `deadman` True while the operator holds
+    the dead-man switch (required: the robot never moves without it).
+    """
+
+    __slots__ = ("t", "encoder", "pose", "deadman")
+
+    def __init__(self, t, encoder=None, pose=None, *, deadman):
+        self.t = t
+        self.encoder = encoder
+        self.pose = pose
+        self.deadman = deadman
+
+    def __repr__(self):
+        return (
+            f"Measurements(t={self.t!r}, encoder={self.encoder!r}, pose={self.pose!r}, "
+            f"deadman={self.deadman!r})"
+        )
+
+
+_KEYS = ("t", "encoder", "pose", "deadman")
+
+
+def _values(name, value, n):
+    if value is None:
+        return None
+    try:
+        values = [float(v) for v in value]
+    except (TypeError, ValueError):
+        raise DriveError(f"{name} must be {n} numbers or None, got {value!r}") from None
+    if len(values) != n:
+        raise DriveError(f"{name} must be {n} numbers or None, got {len(values)}")
+    return values
+
+
+class ProtocolRunner:
+    """The DRIVE protocol as a state machine a robot driver ticks at the command rate.
+
+    Built from a robot (a registered name such as "husky", "warthog", or a robot TOML
+    file), a sampler name ("uniform", the paper's; "grid", "linear", "angular",
+    "targeted", "targeted-coverage"; see `drive list`) and a seed. It characterizes the
+    input space first (step 1: the vehicle's probes, about 24 s for a differential drive;
+    `characterize=False` samples the robot's nominal input space instead, as
+    `drive protocol` does), then drives intervals of 6 s (one transient and two steady
+    2 s windows) with inputs drawn by the sampler, through the robot's acceleration
+    limits.
+
+    Each `tick(measurements)` returns the `Command` to send now; it is zero while the
+    dead-man switch is released, while encoders or localization are older than
+    `stale_timeout` (s), and once done: after `max_intervals`, `max_duration` (s), or
+    beyond `geofence` (m from the start). A paused interval restarts from its transient
+    window. Same robot, sampler, seed and measurements: the same commands.
+    """
+
+    def __init__(self, robot, sampler="uniform", seed=0, **options):
+        if isinstance(robot, _os.PathLike):
+            robot = _os.fspath(robot)
+        if isinstance(seed, bool) or not isinstance(seed, _numbers.Integral) or not 0 <= seed < 2**64:
+            raise DriveError(f"seed must be an integer from 0 to 2^64 - 1, got {seed!r}")
+        self._native = _native.ProtocolRunner(robot, sampler, int(seed), **options)
+
+    def tick(self, measurements=None, **fields):
+        """The command for this tick, from `measurements`: a `Measurements`, a dict with
+        the keys t, encoder, pose, deadman, or the same as keywords."""
+        if measurements is None:
+            measurements = fields
+        elif fields:
+            raise DriveError("tick takes measurements or keywords, not both")
+        if isinstance(measurements, _Mapping):
+            unknown = [k for k in measurements if k not in _KEYS]
+            if unknown:
+                raise DriveError(
+                    f"unknown measurement {unknown[0]!r}: expected t, encoder, pose, deadman"
+                )
+            has, get = measurements.__contains__, measurements.get
+        else:
+            has = lambda k: hasattr(measurements, k)  # noqa: E731
+            get = lambda k: getattr(measurements, k, None)  # noqa: E731
+        if not has("t"):
+            raise DriveError("measurements need 't': the time in seconds")
+        if not has("deadman"):
+            raise DriveError(
+                "measurements need 'deadman': True while the operator holds the dead-man "
+                "switch (the robot never moves without it)"
+            )
+        deadman = get("deadman")
+        if deadman not in (True, False):
+            raise DriveError(f"deadman must be True or False, got {deadman!r}")
+        try:
+            t = float(get("t"))
+        except (TypeError, ValueError):
+            raise DriveError(f"t must be a time in seconds, got {get('t')!r}") from None
+        return self._native.tick(
+            t,
+            _values("encoder", get("encoder"), 2),
+            _values("pose", get("pose"), 3),
+            bool(deadman),
+        )
+
+    def observe(self, interval):
+        """Hands the windows of the interval that just ended (a `Dataset`) to the sampler:
+        what "targeted" (largest slip-BLR uncertainty) learns from; other samplers ignore
+        them."""
+        self._native.observe(interval)
+
+    def __getattr__(self, name):
+        # state, done, pause_reason, stop_reason, completed_intervals, input_space,
+        # geometry, robot, rate_hz, inputs
+        if name == "_native":
+            raise AttributeError(name)
+        return getattr(self._native, name)
+
+    def __repr__(self):
+        return repr(self._native)

@@ -1,0 +1,125 @@
+#!/usr/bin/env python3
+"""A ROS 2 node that runs the DRIVE protocol on a robot with the `drive` Python package.
+
+    pip install ./python          # from the repository root, in the ROS 2 Python env
+    ros2 launch examples/ros2/drive_protocol.launch.py robot:=husky geofence:=20.0
+
+Subscribes (relative names; remap them to your robot's):
+  joy_in (sensor_msgs/Joy)                      dead-man button
+  wheel_vel_left_measured (std_msgs/Float64)    left wheel velocity (rad/s)
+  wheel_vel_right_measured (std_msgs/Float64)   right wheel velocity (rad/s)
+  odometry_in (nav_msgs/Odometry)               localization (ICP)
+Publishes what the DRIVE logger records (drive/pose_cmds_logger_node.py):
+  doughnut_cmd_vel (geometry_msgs/Twist)        the command, at the robot's rate
+  calib_step (std_msgs/Int32), calib_state (std_msgs/String), drive/joy_switch (std_msgs/Bool)
+
+All the logic is in drive_protocol_logic.ProtocolLogic (tested without ROS); this file
+only wires it to topics, parameters and a timer.
+"""
+
+import os
+import sys
+
+import rclpy
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from sensor_msgs.msg import Joy
+from std_msgs.msg import Bool, Float64, Int32, String
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from drive_protocol_logic import ProtocolLogic  # noqa: E402
+
+# Parameters: name -> default (0 / 0.0 for an optional limit means none).
+PARAMETERS = {
+    "robot": "husky",
+    "sampler": "uniform",
+    "seed": 0,
+    "geofence": 0.0,
+    "max_intervals": 0,
+    "max_duration": 0.0,
+    "characterize": True,
+    "stale_timeout": 0.5,
+    "deadman_button": 0,
+    "deadman_threshold": 0.5,
+    "joy_timeout": 0.5,
+}
+
+
+class DriveProtocolNode(Node):
+    def __init__(self):
+        super().__init__("drive_protocol")
+        p = {k: self.declare_parameter(k, v).value for k, v in PARAMETERS.items()}
+        options = {"characterize": p["characterize"], "stale_timeout": p["stale_timeout"]}
+        if p["geofence"] > 0:
+            options["geofence"] = p["geofence"]
+        if p["max_intervals"] > 0:
+            options["max_intervals"] = p["max_intervals"]
+        if p["max_duration"] > 0:
+            options["max_duration"] = p["max_duration"]
+        self.logic = ProtocolLogic(
+            p["robot"],
+            p["sampler"],
+            p["seed"],
+            deadman_button=p["deadman_button"],
+            deadman_threshold=p["deadman_threshold"],
+            joy_timeout=p["joy_timeout"],
+            **options,
+        )
+        self.create_subscription(Joy, "joy_in", self.on_joy, 10)
+        self.create_subscription(Float64, "wheel_vel_left_measured", self.logic.on_left_wheel, 100)
+        self.create_subscription(Float64, "wheel_vel_right_measured", self.logic.on_right_wheel, 100)
+        self.create_subscription(Odometry, "odometry_in", self.logic.on_odometry, 100)
+        self.cmd_pub = self.create_publisher(Twist, "doughnut_cmd_vel", 10)
+        self.step_pub = self.create_publisher(Int32, "calib_step", 10)
+        self.state_pub = self.create_publisher(String, "calib_state", 10)
+        self.joy_pub = self.create_publisher(Bool, "drive/joy_switch", 10)
+        self.timer = self.create_timer(1.0 / self.logic.rate_hz, self.on_timer)
+        self.last_state = None
+        self.get_logger().info(
+            f"DRIVE protocol on {self.logic.runner.robot} with the {p['sampler']} sampler "
+            f"(seed {p['seed']}): hold the dead-man button to run"
+        )
+
+    def now(self):
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def on_joy(self, msg):
+        self.logic.on_joy(msg, self.now())
+
+    def on_timer(self):
+        out = self.logic.on_timer(self.now())
+        cmd = Twist()
+        cmd.linear.x = out.linear
+        cmd.angular.z = out.angular
+        self.cmd_pub.publish(cmd)
+        self.step_pub.publish(Int32(data=out.calib_step))
+        self.state_pub.publish(String(data=out.calib_state))
+        self.joy_pub.publish(Bool(data=out.joy_switch))
+        if out.state != self.last_state:
+            self.last_state = out.state
+            runner = self.logic.runner
+            detail = runner.pause_reason or runner.stop_reason or self.logic.error or ""
+            self.get_logger().info(f"{out.state} {detail}".strip())
+        if self.logic.finished:
+            # The zero command of the last tick has been sent.
+            self.timer.cancel()
+            self.get_logger().info(
+                f"protocol ended after {self.logic.runner.completed_intervals} intervals"
+            )
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    node = DriveProtocolNode()
+    try:
+        while rclpy.ok() and not node.logic.finished:
+            rclpy.spin_once(node, timeout_sec=0.1)
+    finally:
+        node.cmd_pub.publish(Twist())  # a last zero command, whatever stopped the node
+        node.destroy_node()
+        rclpy.shutdown()
+
+
+if __name__ == "__main__":
+    main()
