@@ -189,7 +189,7 @@ fn cases() -> Vec<Case> {
         Case { name: "sample limit raised too far", file: File::None,
             args: &["protocol", "--robot", "husky", "--intervals", "2", "--max-samples", "18446744073709551615", "--out", "{out}"], says: &["--max-samples = 1.84467e19", "limit of 2e7"] },
         Case { name: "too many study runs", file: File::None,
-            args: &["compare-protocols", "--seeds", "1000", "--duration", "12,12,12"], says: &["the study's runs", "= 108000 is more than the limit of 100000"] },
+            args: &["compare-protocols", "--seeds", "1000", "--duration", "12,12,12"], says: &["the study's runs", "= 144000 is more than the limit of 100000"] },
         Case { name: "too many seeds", file: File::None,
             args: &["compare-protocols", "--seeds", "1000000000"], says: &["--seeds = 1e9", "limit of 1000"] },
         Case { name: "too many draws", file: File::None,

@@ -208,7 +208,8 @@ fn the_car_in_the_matrix_and_table_one() {
         "--json",
     ]))
     .unwrap();
-    assert_eq!(v["rows"].as_array().map(Vec::len), Some(3), "{v}");
+    // 3 training samplers x (3 test runs + mixed).
+    assert_eq!(v["rows"].as_array().map(Vec::len), Some(12), "{v}");
 }
 
 #[test]

@@ -687,21 +687,48 @@ fn compare_protocols_on_the_simulator_json_and_table_agree() {
         serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
     assert_eq!(v["model"], "slip-blr");
     assert_eq!(v["reference"], "uniform");
+    assert_eq!(
+        v["test_sets"],
+        serde_json::json!(["uniform", "linear", "angular", "mixed"])
+    );
     let rows = v["rows"].as_array().unwrap();
-    assert_eq!(rows.len(), 2 * 3);
+    // 2 terrains x 4 test sets x 3 training samplers: the cross table.
+    assert_eq!(rows.len(), 2 * 4 * 3);
+    let pairs: std::collections::BTreeSet<(String, String)> = rows
+        .iter()
+        .map(|r| {
+            (
+                r["train_sampler"].as_str().unwrap().to_string(),
+                r["test_sampler"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    assert_eq!(pairs.len(), 12);
     let table = ok(&args);
     for r in rows {
         assert_eq!(r["seeds"], 1);
         // Each row is in the table with its medians to four decimals.
-        let line = format!(
-            "{:.4} {:>12.4}",
+        let cell = format!(
+            "{:.4} / {:.4}",
             f(&r["translational_median_m"]),
             f(&r["rotational_median_rad"])
         );
-        assert!(table.contains(&line), "{line} not in\n{table}");
+        assert!(table.contains(&cell), "{cell} not in\n{table}");
+        if r["train_sampler"] != "uniform" {
+            let imp = &r["reference_improvement_translational"];
+            let line = format!(
+                "tested on {:<10} {:+.1}% [{:+.1}, {:+.1}]",
+                r["test_sampler"].as_str().unwrap(),
+                f(&imp["percent"]),
+                f(&imp["ci"][0]),
+                f(&imp["ci"][1])
+            );
+            assert!(table.contains(&line), "{line} not in\n{table}");
+        }
     }
-    assert!(table.contains("mean improvement of uniform over angular in translation"));
-    assert!(table.contains("mean improvement of uniform over linear in rotation"));
+    assert!(table
+        .contains("tested on uniform: mean improvement of uniform over angular in translation"));
+    assert!(table.contains(&format!("  tested on {:<10} translation best", "mixed")));
 }
 
 #[test]

@@ -57,7 +57,7 @@ pub use matrix::{
 pub use metric::{mrmse, Mrmse};
 pub use protocols::{
     compare_protocols, intervals_in, simulate_protocol, ExperimentError, ProtocolCell,
-    ProtocolComparison, ProtocolRow, ProtocolStudy, INTERVAL_S,
+    ProtocolComparison, ProtocolRow, ProtocolStudy, INTERVAL_S, MIXED,
 };
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use registries::{Catalog, Listed, Registries};

@@ -1,16 +1,18 @@
-//! Data-gathering protocols compared on the simulator (the paper's Table I): equal driving
-//! time with each sampler, one model trained on each, all evaluated on one common held-out
-//! test set gathered with the reference sampler (DRIVE's `uniform`).
+//! Data-gathering protocols compared on the simulator (the paper's Table I) as a
+//! cross-evaluation: equal driving time with each sampler, one model trained on each, every
+//! model tested on held-out runs driven by each protocol (and on their union), so that no
+//! protocol is judged only on its own test distribution.
 
 use crate::{
-    improvement_percent, run_cells, simulate_run, simulate_runs, Registries, Setting, SimRun,
-    Summary,
+    evaluate_model_from, paired_bootstrap, simulate_run, simulate_runs, BootstrapConfig,
+    Improvement, ModelReport, PairedErrors, Registries, SimRun, Summary,
 };
 use drive_samplers::{RobotSpec, SamplerError};
 use drive_sim::{SimError, Simulation, Terrain};
 use drive_traits::limits;
 use drive_traits::limits::Short;
 use drive_traits::{FitError, RegistryError};
+use rayon::prelude::*;
 use serde::Serialize;
 use thiserror::Error;
 
@@ -115,50 +117,71 @@ pub fn simulate_protocol(
     )
 }
 
-/// The paper's Table I experiment, over any robots, terrains, samplers, driving times and
-/// seeds.
+/// The paper's Table I experiment as a cross-evaluation, over any robots, terrains,
+/// samplers, driving times and seeds: a model trained on each training sampler's run is
+/// tested on held-out runs driven by each test sampler, and on their union (`mixed`).
 #[derive(Debug, Clone)]
 pub struct ProtocolStudy {
     /// Robots.
     pub robots: Vec<RobotSpec>,
     /// Terrains.
     pub terrains: Vec<Terrain>,
-    /// Samplers compared; the first is the reference the improvements are measured for.
+    /// Samplers the training runs are gathered with; the first is the reference the
+    /// improvements are measured for.
     pub samplers: Vec<String>,
     /// Driving time of each training run (s), characterization excluded.
     pub driving_s: Vec<f64>,
-    /// Seeds: each seed is one repetition (training runs and test set).
+    /// Seeds: each seed is one repetition (training runs and test runs).
     pub seeds: Vec<u64>,
-    /// Driving time of the held-out test set (s), gathered with the reference sampler.
+    /// Samplers the held-out test runs are driven by (one test run each per seed).
+    pub test_samplers: Vec<String>,
+    /// Also test on the union of the test runs ([`MIXED`]), when there are several.
+    pub mixed_test: bool,
+    /// Driving time of each held-out test run (s).
     pub test_driving_s: f64,
     /// Model trained on each run (a model name: `slip-blr`, `slip-blr+rate-limited`, ...).
     pub model: String,
 }
 
+/// The name of the test set made of every test run of a seed together.
+pub const MIXED: &str = "mixed";
+
 impl ProtocolStudy {
     /// The paper's comparison for one robot on one terrain: `uniform` (the reference),
-    /// `linear` and `angular`, `driving_s` each, slip-BLR, a test set as long as the
-    /// training runs, one seed.
+    /// `linear` and `angular`, `driving_s` each, slip-BLR, each tested on runs driven by
+    /// the three and on their union, test runs as long as the training runs, one seed.
     pub fn table_one(robot: RobotSpec, terrain: Terrain, driving_s: f64, seed: u64) -> Self {
+        let three = ["uniform", "linear", "angular"].map(String::from).to_vec();
         ProtocolStudy {
             robots: vec![robot],
             terrains: vec![terrain],
-            samplers: ["uniform", "linear", "angular"].map(String::from).to_vec(),
+            samplers: three.clone(),
             driving_s: vec![driving_s],
             seeds: vec![seed],
+            test_samplers: three,
+            mixed_test: true,
             test_driving_s: driving_s,
             model: "slip-blr".into(),
         }
     }
 
-    /// The seed of the test set of repetition `seed`: a different stream from the training
-    /// runs' (different noise and inputs), the same for every sampler.
+    /// The seed of the test runs of repetition `seed`: a different stream from the
+    /// training runs' (different noise and inputs), the same for every test sampler.
     pub fn test_seed(seed: u64) -> u64 {
         seed ^ 0x7E57_5E7D_0000_0000
     }
+
+    /// The test sets: the test samplers, then [`MIXED`] when asked and there are several.
+    pub fn test_sets(&self) -> Vec<String> {
+        let mut sets = self.test_samplers.clone();
+        if self.mixed_test && self.test_samplers.len() > 1 {
+            sets.push(MIXED.to_string());
+        }
+        sets
+    }
 }
 
-/// One trained model's errors on the test set.
+/// One trained model's errors on one test set.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ProtocolCell {
     /// Robot name.
@@ -168,7 +191,9 @@ pub struct ProtocolCell {
     /// Training driving time (s).
     pub driving_s: f64,
     /// Sampler that gathered the training data.
-    pub sampler: String,
+    pub train_sampler: String,
+    /// Sampler that drove the test run ([`MIXED`]: every test run of the seed).
+    pub test_sampler: String,
     /// Repetition seed.
     pub seed: u64,
     /// Training windows.
@@ -179,9 +204,14 @@ pub struct ProtocolCell {
     pub translational: Summary,
     /// Rotational errors (rad) on the test set (eq. 8).
     pub rotational: Summary,
+    /// Per test window: the test run (index in the study's test samplers), the interval,
+    /// the translational and the rotational error; what the paired intervals resample.
+    #[serde(skip)]
+    pub errors: Vec<(usize, usize, f64, f64)>,
 }
 
-/// One sampler's result for one robot, terrain and driving time, over the seeds.
+/// One training sampler's result on one test set, for one robot, terrain and driving
+/// time, over the seeds.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ProtocolRow {
     /// Robot name.
@@ -190,17 +220,20 @@ pub struct ProtocolRow {
     pub terrain: String,
     /// Training driving time (s).
     pub driving_s: f64,
-    /// Sampler.
-    pub sampler: String,
-    /// Median over the seeds of the median translational error (m).
+    /// Sampler that gathered the training data.
+    pub train_sampler: String,
+    /// Test set: a test sampler, or [`MIXED`].
+    pub test_sampler: String,
+    /// Median translational error (m) over every test window of every seed.
     pub translational_median_m: f64,
-    /// Median over the seeds of the median rotational error (rad).
+    /// Median rotational error (rad) over every test window of every seed.
     pub rotational_median_rad: f64,
-    /// Improvement of the reference sampler over this one in translation (%), from the
-    /// medians above; 0 for the reference itself.
-    pub reference_improvement_translational_percent: f64,
-    /// Improvement of the reference sampler over this one in rotation (%).
-    pub reference_improvement_rotational_percent: f64,
+    /// Improvement of the reference sampler over this one in translation (%): of the
+    /// medians above, with a paired bootstrap interval (the same test intervals resampled
+    /// for both, every seed's test runs); 0 for the reference itself.
+    pub reference_improvement_translational: Improvement,
+    /// The same in rotation.
+    pub reference_improvement_rotational: Improvement,
     /// Seeds in which the reference had the lower median translational error.
     pub reference_wins_translational: usize,
     /// Seeds in which the reference had the lower median rotational error.
@@ -216,16 +249,19 @@ pub struct ProtocolComparison {
     pub model: String,
     /// Reference sampler.
     pub reference: String,
-    /// Test set driving time (s).
+    /// Test sets, in order (the test samplers, then [`MIXED`]).
+    pub test_sets: Vec<String>,
+    /// Driving time of each test run (s).
     pub test_driving_s: f64,
-    /// Per sampler, over the seeds, in study order (robot, terrain, driving time, sampler).
+    /// Per training sampler and test set, over the seeds, in study order (robot,
+    /// terrain, driving time, test set, training sampler).
     pub rows: Vec<ProtocolRow>,
-    /// Every trained model, per seed.
+    /// Every trained model on every test set, per seed.
     pub cells: Vec<ProtocolCell>,
 }
 
 /// Runs a [`ProtocolStudy`] with the registered samplers and model: every simulation in
-/// parallel, then every fit (the experiment engine).
+/// parallel, then every fit, then every test.
 ///
 /// ```no_run
 /// use drive_eval::{compare_protocols, ProtocolStudy, Registries};
@@ -233,7 +269,7 @@ pub struct ProtocolComparison {
 /// let study = ProtocolStudy::table_one(r.robot("husky").unwrap(), r.terrain("snow").unwrap(), 300.0, 1);
 /// let table = compare_protocols(&r, &study).unwrap();
 /// for row in &table.rows {
-///     println!("{}: {:.3} m", row.sampler, row.translational_median_m);
+///     println!("{} on {}: {:.3} m", row.train_sampler, row.test_sampler, row.translational_median_m);
 /// }
 /// ```
 pub fn compare_protocols(
@@ -246,6 +282,7 @@ pub fn compare_protocols(
         ("samplers", study.samplers.is_empty()),
         ("driving times", study.driving_s.is_empty()),
         ("seeds", study.seeds.is_empty()),
+        ("test samplers", study.test_samplers.is_empty()),
     ] {
         if empty {
             return Err(ExperimentError::Empty(what));
@@ -257,24 +294,19 @@ pub fn compare_protocols(
         limits::MAX_SEEDS as f64,
         "",
     )?;
-    let runs = [
-        study.robots.len(),
-        study.terrains.len(),
-        study.samplers.len(),
-        study.driving_s.len(),
-        study.seeds.len(),
-    ]
-    .iter()
-    .map(|n| *n as f64)
-    .product::<f64>();
+    let n = |v: usize| v as f64;
+    let runs = n(study.robots.len())
+        * n(study.terrains.len())
+        * n(study.seeds.len())
+        * (n(study.samplers.len()) * n(study.driving_s.len()) + n(study.test_samplers.len()));
     limits::at_most(
-        "the study's runs (robots x terrains x samplers x durations x seeds)",
+        "the study's runs (robots x terrains x seeds x (samplers x durations + test samplers))",
         runs,
         limits::MAX_COMBINATIONS as f64,
         "",
     )?;
-    let model = registries.model(&study.model)?;
-    for s in &study.samplers {
+    let spec = registries.model(&study.model)?;
+    for s in study.samplers.iter().chain(&study.test_samplers) {
         registries.samplers.get(s)?;
     }
     let test_intervals = intervals_in(study.test_driving_s)?;
@@ -282,25 +314,25 @@ pub fn compare_protocols(
         intervals_in(*d)?;
     }
     let reference = &study.samplers[0];
-    // Per robot, terrain and seed: the test run, then every driving time and sampler.
+    // Per robot, terrain and seed: the test runs, then every driving time and sampler.
     let mut runs = Vec::new();
-    let mut tests = Vec::new();
     let mut trains = Vec::new();
     for robot in &study.robots {
         for terrain in &study.terrains {
             for &seed in &study.seeds {
-                let test = runs.len();
-                tests.push(test);
-                runs.push(SimRun::intervals(
-                    robot,
-                    terrain,
-                    reference,
-                    test_intervals,
-                    ProtocolStudy::test_seed(seed),
-                ));
+                let tests = runs.len();
+                for sampler in &study.test_samplers {
+                    runs.push(SimRun::intervals(
+                        robot,
+                        terrain,
+                        sampler,
+                        test_intervals,
+                        ProtocolStudy::test_seed(seed),
+                    ));
+                }
                 for &driving_s in &study.driving_s {
                     for sampler in &study.samplers {
-                        trains.push((runs.len(), test, robot, terrain, seed, driving_s, sampler));
+                        trains.push((runs.len(), tests, robot, terrain, seed, driving_s, sampler));
                         runs.push(SimRun::intervals(
                             robot,
                             terrain,
@@ -314,64 +346,120 @@ pub fn compare_protocols(
         }
     }
     let sims = simulate_runs(registries, &runs, &|| {})?;
-    let settings: Vec<Setting<'_>> = trains
-        .iter()
-        .map(|&(train, test, ..)| Setting {
-            train: sims[train].dataset.all(),
-            eval: sims[test].dataset.all(),
+    let fitted: Vec<_> = trains
+        .par_iter()
+        .map(|&(train, ..)| spec.fit(&sims[train].dataset.all()))
+        .collect();
+    let n_tests = study.test_samplers.len();
+    // Every fitted model on every test run.
+    let plan: Vec<(usize, usize)> = (0..trains.len())
+        .flat_map(|t| (0..n_tests).map(move |k| (t, k)))
+        .collect();
+    let tested: Vec<Option<ModelReport>> = plan
+        .par_iter()
+        .map(|&(t, k)| {
+            let model = fitted[t].as_ref().ok()?;
+            let test = &sims[trains[t].1 + k].dataset;
+            Some(evaluate_model_from(model.as_ref(), &test.all(), spec.start))
         })
         .collect();
-    let scored = run_cells(&settings, std::slice::from_ref(&model), false, &|| {});
     let mut cells = Vec::new();
-    for (cell, &(train, test, robot, terrain, seed, driving_s, sampler)) in
-        scored.into_iter().zip(&trains)
+    for (t, &(train, tests, robot, terrain, seed, driving_s, sampler)) in trains.iter().enumerate()
     {
         let data = &sims[train].dataset;
-        let report = cell.outcome.map_err(|reason| ExperimentError::Fit {
-            model: model.name.clone(),
-            data: data.robot.name.clone(),
-            reason,
-        })?;
-        let empty =
-            || ExperimentError::NotEnoughData(format!("no test window for {}", data.robot.name));
-        cells.push(ProtocolCell {
-            robot: robot.name.clone(),
-            terrain: terrain.name.clone(),
-            driving_s,
-            sampler: sampler.clone(),
-            seed,
-            train_windows: data.windows.len(),
-            test_windows: sims[test].dataset.windows.len(),
-            translational: report.report.translational(None).ok_or_else(empty)?,
-            rotational: report.report.rotational(None).ok_or_else(empty)?,
-        });
+        if let Err(reason) = &fitted[t] {
+            return Err(ExperimentError::Fit {
+                model: spec.name.clone(),
+                data: data.robot.name.clone(),
+                reason: reason.clone(),
+            });
+        }
+        let reports = &tested[t * n_tests..(t + 1) * n_tests];
+        let mut sets: Vec<(String, Vec<usize>)> = study
+            .test_samplers
+            .iter()
+            .enumerate()
+            .map(|(k, s)| (s.clone(), vec![k]))
+            .collect();
+        if study.mixed_test && n_tests > 1 {
+            sets.push((MIXED.to_string(), (0..n_tests).collect()));
+        }
+        for (name, members) in sets {
+            let errors: Vec<(usize, usize, f64, f64)> = members
+                .iter()
+                .flat_map(|&k| {
+                    reports[k].iter().flat_map(move |r| {
+                        r.windows.iter().map(move |w| {
+                            (k, w.interval, w.error.translational, w.error.rotational)
+                        })
+                    })
+                })
+                .collect();
+            let empty = || {
+                ExperimentError::NotEnoughData(format!(
+                    "no test window in the {name} test run of {}",
+                    data.robot.name
+                ))
+            };
+            let translational = Summary::of(errors.iter().map(|e| e.2)).ok_or_else(empty)?;
+            let rotational = Summary::of(errors.iter().map(|e| e.3)).ok_or_else(empty)?;
+            cells.push(ProtocolCell {
+                robot: robot.name.clone(),
+                terrain: terrain.name.clone(),
+                driving_s,
+                train_sampler: sampler.clone(),
+                test_sampler: name,
+                seed,
+                train_windows: data.windows.len(),
+                test_windows: members
+                    .iter()
+                    .map(|&k| sims[tests + k].dataset.windows.len())
+                    .sum(),
+                translational,
+                rotational,
+                errors,
+            });
+        }
     }
-    let mut rows = Vec::new();
+    let test_sets = study.test_sets();
+    let mut groups = Vec::new();
     for robot in &study.robots {
         for terrain in &study.terrains {
             for &driving_s in &study.driving_s {
-                let of = |sampler: &str| -> Vec<&ProtocolCell> {
-                    cells
-                        .iter()
-                        .filter(|c| {
-                            c.robot == robot.name
-                                && c.terrain == terrain.name
-                                && c.driving_s == driving_s
-                                && c.sampler == sampler
-                        })
-                        .collect()
-                };
-                let base = of(reference);
-                for sampler in &study.samplers {
-                    let these = of(sampler);
-                    rows.push(row(&base, &these, robot, terrain, driving_s, sampler));
+                for test in &test_sets {
+                    for sampler in &study.samplers {
+                        groups.push((robot, terrain, driving_s, test, sampler));
+                    }
                 }
             }
         }
     }
+    let rows: Vec<ProtocolRow> = groups
+        .par_iter()
+        .map(|&(robot, terrain, driving_s, test, sampler)| {
+            let of = |train: &str| -> Vec<&ProtocolCell> {
+                cells
+                    .iter()
+                    .filter(|c| {
+                        c.robot == robot.name
+                            && c.terrain == terrain.name
+                            && c.driving_s == driving_s
+                            && c.test_sampler == *test
+                            && c.train_sampler == train
+                    })
+                    .collect()
+            };
+            row(
+                &of(reference),
+                &of(sampler),
+                (robot, terrain, driving_s, test, sampler),
+            )
+        })
+        .collect();
     Ok(ProtocolComparison {
-        model: model.name.clone(),
+        model: spec.name.clone(),
         reference: reference.clone(),
+        test_sets,
         test_driving_s: study.test_driving_s,
         rows,
         cells,
@@ -386,16 +474,43 @@ pub(crate) fn median(values: impl IntoIterator<Item = f64>) -> f64 {
 fn row(
     base: &[&ProtocolCell],
     these: &[&ProtocolCell],
-    robot: &RobotSpec,
-    terrain: &Terrain,
-    driving_s: f64,
-    sampler: &str,
+    (robot, terrain, driving_s, test, sampler): (&RobotSpec, &Terrain, f64, &String, &String),
 ) -> ProtocolRow {
-    let t = median(these.iter().map(|c| c.translational.median));
-    let r = median(these.iter().map(|c| c.rotational.median));
-    let t_ref = median(base.iter().map(|c| c.translational.median));
-    let r_ref = median(base.iter().map(|c| c.rotational.median));
-    // Seeds pair the reference and this sampler (same test set).
+    let pooled = |cells: &[&ProtocolCell], pick: fn(&(usize, usize, f64, f64)) -> f64| {
+        median(cells.iter().flat_map(|c| c.errors.iter().map(pick)))
+    };
+    // Paired by seed and test run: the reference and this sampler's models on the same
+    // test windows, whole intervals resampled.
+    let improvement = |pick: fn(&(usize, usize, f64, f64)) -> f64, salt: u64| {
+        let mut series: Vec<(Vec<f64>, Vec<f64>, Vec<usize>)> = Vec::new();
+        for c in these {
+            let Some(b) = base.iter().find(|b| b.seed == c.seed) else {
+                continue;
+            };
+            let runs: std::collections::BTreeSet<usize> = c.errors.iter().map(|e| e.0).collect();
+            for k in runs {
+                let mine: Vec<&(usize, usize, f64, f64)> =
+                    c.errors.iter().filter(|e| e.0 == k).collect();
+                let theirs: Vec<&(usize, usize, f64, f64)> =
+                    b.errors.iter().filter(|e| e.0 == k).collect();
+                series.push((
+                    theirs.iter().map(|e| pick(e)).collect(),
+                    mine.iter().map(|e| pick(e)).collect(),
+                    mine.iter().map(|e| e.1).collect(),
+                ));
+            }
+        }
+        let paired: Vec<PairedErrors<'_>> = series
+            .iter()
+            .map(|(model, reference, blocks)| PairedErrors {
+                model,
+                reference,
+                blocks: Some(blocks),
+            })
+            .collect();
+        let config = BootstrapConfig::default();
+        paired_bootstrap(&paired, &config, config.seed ^ salt)
+    };
     let wins = |metric: fn(&ProtocolCell) -> f64| {
         these
             .iter()
@@ -410,11 +525,12 @@ fn row(
         robot: robot.name.clone(),
         terrain: terrain.name.clone(),
         driving_s,
-        sampler: sampler.to_string(),
-        translational_median_m: t,
-        rotational_median_rad: r,
-        reference_improvement_translational_percent: improvement_percent(t_ref, t),
-        reference_improvement_rotational_percent: improvement_percent(r_ref, r),
+        train_sampler: sampler.clone(),
+        test_sampler: test.clone(),
+        translational_median_m: pooled(these, |e| e.2),
+        rotational_median_rad: pooled(these, |e| e.3),
+        reference_improvement_translational: improvement(|e| e.2, 0),
+        reference_improvement_rotational: improvement(|e| e.3, 1 << 63),
         reference_wins_translational: wins(|c| c.translational.median),
         reference_wins_rotational: wins(|c| c.rotational.median),
         seeds: these.len(),

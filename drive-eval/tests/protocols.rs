@@ -1,10 +1,10 @@
-//! Table I on the simulator and on recorded data: the study's numbers are those of
-//! training and testing each run directly, the improvements follow from them, and the
+//! Table I on the simulator and on recorded data: the cross-evaluation's numbers are those
+//! of training and testing each run directly, the improvements follow from them, and the
 //! region split follows its definition.
 
 use drive_eval::{
     compare_protocols, compare_regions, evaluate_model, improvement_percent, simulate_protocol,
-    ExperimentError, ProtocolStudy, RegionStudy, Registries,
+    ExperimentError, ProtocolStudy, RegionStudy, Registries, Summary, MIXED,
 };
 use drive_traits::{Input, RegistryError};
 
@@ -16,6 +16,8 @@ fn small_study() -> ProtocolStudy {
         samplers: vec!["uniform".into(), "angular".into()],
         driving_s: vec![36.0],
         seeds: vec![4, 5],
+        test_samplers: vec!["uniform".into(), "linear".into()],
+        mixed_test: true,
         test_driving_s: 60.0,
         model: "slip-blr".into(),
     }
@@ -26,52 +28,73 @@ fn study_cells_are_the_errors_of_training_and_testing_each_run() {
     let study = small_study();
     let r = Registries::builtin();
     let table = compare_protocols(&r, &study).unwrap();
-    assert_eq!(table.cells.len(), 4);
-    assert_eq!(table.rows.len(), 2);
-    for cell in &table.cells {
-        let train = simulate_protocol(&r, "husky", "gravel", &cell.sampler, 6, cell.seed)
-            .unwrap()
-            .dataset;
-        let test = simulate_protocol(
+    assert_eq!(table.test_sets, ["uniform", "linear", MIXED]);
+    // 2 training samplers x 2 seeds x 3 test sets.
+    assert_eq!(table.cells.len(), 12);
+    assert_eq!(table.rows.len(), 6);
+    let test_run = |sampler: &str, seed: u64| {
+        simulate_protocol(
             &r,
             "husky",
             "gravel",
-            "uniform",
+            sampler,
             10,
-            ProtocolStudy::test_seed(cell.seed),
+            ProtocolStudy::test_seed(seed),
         )
         .unwrap()
-        .dataset;
-        assert_eq!((cell.train_windows, cell.test_windows), (18, 30));
+        .dataset
+    };
+    for cell in &table.cells {
+        let train = simulate_protocol(&r, "husky", "gravel", &cell.train_sampler, 6, cell.seed)
+            .unwrap()
+            .dataset;
         let model = r.model("slip-blr").unwrap().fit(&train.all()).unwrap();
-        let report = evaluate_model(model.as_ref(), &test.all());
-        assert_eq!(cell.translational, report.translational(None).unwrap());
-        assert_eq!(cell.rotational, report.rotational(None).unwrap());
+        let tests: Vec<&str> = if cell.test_sampler == MIXED {
+            vec!["uniform", "linear"]
+        } else {
+            vec![cell.test_sampler.as_str()]
+        };
+        let (mut t, mut w) = (Vec::new(), Vec::new());
+        for sampler in &tests {
+            let report = evaluate_model(model.as_ref(), &test_run(sampler, cell.seed).all());
+            t.extend(report.windows.iter().map(|w| w.error.translational));
+            w.extend(report.windows.iter().map(|w| w.error.rotational));
+        }
+        assert_eq!(cell.train_windows, 18);
+        assert_eq!(cell.test_windows, 30 * tests.len());
+        assert_eq!(cell.translational, Summary::of(t).unwrap(), "{cell:?}");
+        assert_eq!(cell.rotational, Summary::of(w).unwrap());
     }
-    // Rows: medians over the two seeds (the mean of two values) and the improvement of
-    // the reference from them.
-    let mid = |sampler: &str, f: fn(&drive_eval::ProtocolCell) -> f64| {
+    // Rows: medians of the errors of both seeds' test windows together, and the
+    // improvement of the reference from them (its interval around it).
+    let pooled = |train: &str, test: &str, pick: fn(&(usize, usize, f64, f64)) -> f64| {
         let v: Vec<f64> = table
             .cells
             .iter()
-            .filter(|c| c.sampler == sampler)
-            .map(f)
+            .filter(|c| c.train_sampler == train && c.test_sampler == test)
+            .flat_map(|c| c.errors.iter().map(pick))
             .collect();
-        (v[0] + v[1]) / 2.0
+        assert_eq!(v.len(), if test == MIXED { 120 } else { 60 });
+        Summary::of(v).unwrap().median
     };
-    let angular = &table.rows[1];
-    assert_eq!(angular.sampler, "angular");
-    let (ta, tu) = (
-        mid("angular", |c| c.translational.median),
-        mid("uniform", |c| c.translational.median),
-    );
-    assert!((angular.translational_median_m - ta).abs() < 1e-15);
-    assert!(
-        (angular.reference_improvement_translational_percent - improvement_percent(tu, ta)).abs()
-            < 1e-9
-    );
-    assert_eq!(table.rows[0].reference_improvement_rotational_percent, 0.0);
-    assert!(angular.reference_wins_translational <= 2);
+    for row in &table.rows {
+        let (train, test) = (row.train_sampler.as_str(), row.test_sampler.as_str());
+        let t = pooled(train, test, |e| e.2);
+        assert!((row.translational_median_m - t).abs() < 1e-15);
+        let imp = &row.reference_improvement_translational;
+        let expected = improvement_percent(pooled("uniform", test, |e| e.2), t);
+        assert!((imp.percent - expected).abs() < 1e-9, "{row:?}");
+        if train == "uniform" {
+            assert_eq!(imp.percent, 0.0);
+            assert_eq!(imp.ci, [0.0, 0.0]);
+        } else {
+            assert!(
+                imp.ci[0] <= imp.percent && imp.percent <= imp.ci[1],
+                "{row:?}"
+            );
+        }
+        assert!(row.reference_wins_translational <= 2 && row.seeds == 2);
+    }
 }
 
 #[test]
@@ -103,6 +126,18 @@ fn a_study_refuses_what_cannot_run() {
         compare_protocols(&r, &s),
         Err(ExperimentError::Empty("seeds"))
     );
+    let mut s = small_study();
+    s.test_samplers.clear();
+    assert_eq!(
+        compare_protocols(&r, &s),
+        Err(ExperimentError::Empty("test samplers"))
+    );
+    let mut s = small_study();
+    s.test_samplers.push("zigzag".into());
+    assert!(matches!(
+        compare_protocols(&r, &s),
+        Err(ExperimentError::Registry(RegistryError::Unknown { name, .. })) if name == "zigzag"
+    ));
     let mut s = small_study();
     s.samplers.push("zigzag".into());
     assert!(matches!(

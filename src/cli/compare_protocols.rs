@@ -3,7 +3,7 @@
 use super::common::{emit, load, names, DataArgs};
 use crate::eval::{
     compare_protocols, compare_regions, ProtocolComparison, ProtocolStudy, RegionComparison,
-    RegionStudy,
+    RegionStudy, MIXED,
 };
 use crate::traits::limits;
 use crate::traits::Dataset;
@@ -26,16 +26,21 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     duration: Vec<f64>,
-    /// Samplers compared, comma-separated; the first is the reference.
+    /// Samplers compared (each gathers a training run), comma-separated; the first is the
+    /// reference.
     #[arg(long, value_delimiter = ',', default_value = "uniform,linear,angular")]
     samplers: Vec<String>,
+    /// Samplers the held-out test runs are driven by, comma-separated: every trained model
+    /// is tested on each, and on their union ("mixed").
+    #[arg(long, value_delimiter = ',', default_value = "uniform,linear,angular")]
+    test_samplers: Vec<String>,
     /// Number of repetitions (seeds seed, seed+1, ...).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
     seeds: usize,
     /// First seed.
     #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
     seed: u64,
-    /// Driving time of the held-out test run (s); default: the longest --duration, at
+    /// Driving time of each held-out test run (s); default: the longest --duration, at
     /// least 300 s.
     #[arg(long, allow_negative_numbers = true)]
     test_duration: Option<f64>,
@@ -87,8 +92,12 @@ fn simulated(args: &Args, registries: &Registries) -> Result<()> {
         .map(|t| registries.terrain(t))
         .collect::<Result<Vec<_>, _>>()?;
     let samplers = names(&args.samplers);
-    for s in &samplers {
+    let test_samplers = names(&args.test_samplers);
+    for s in samplers.iter().chain(&test_samplers) {
         registries.samplers.get(s)?;
+    }
+    if samplers.is_empty() || test_samplers.is_empty() {
+        bail!("--samplers and --test-samplers each need at least one sampler");
     }
     if args.seeds == 0 {
         bail!("--seeds must be at least 1");
@@ -109,6 +118,8 @@ fn simulated(args: &Args, registries: &Registries) -> Result<()> {
         seeds: (0..args.seeds as u64)
             .map(|i| args.seed.wrapping_add(i))
             .collect(),
+        test_samplers: test_samplers.iter().map(|s| s.to_string()).collect(),
+        mixed_test: true,
         test_driving_s: args.test_duration.unwrap_or(longest.max(300.0)),
         model: args.model.to_string(),
     };
@@ -124,78 +135,164 @@ fn simulated(args: &Args, registries: &Registries) -> Result<()> {
 fn simulated_table(t: &ProtocolComparison) -> String {
     use std::fmt::Write as _;
     let seeds = t.rows.first().map_or(0, |r| r.seeds);
+    let tests = t
+        .test_sets
+        .iter()
+        .filter(|s| *s != MIXED)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(", ");
     let mut out = format!(
-        "Protocols compared on the simulator (paper Table I): {} trained on each run, all tested on one {:.0} s {} run per seed ({seeds} seed{}); errors are medians of eq. 8 over the test windows{}\n",
+        "Protocols compared on the simulator (paper Table I, as a cross-evaluation): {} trained on each training run and tested on held-out {:.0} s runs driven by {tests}{} ({seeds} seed{}); errors are medians of eq. 8 over the test windows{}, translation [m] / rotation [rad]\n",
         t.model,
         t.test_driving_s,
-        t.reference,
+        if t.test_sets.iter().any(|s| s == MIXED) { ", and on all of them together (mixed)" } else { "" },
         if seeds == 1 { "" } else { "s" },
-        if seeds == 1 { "" } else { ", then over the seeds" },
+        if seeds == 1 { "" } else { " of every seed" },
     );
-    let _ = writeln!(
-        out,
-        "{:<8} {:<7} {:>7} {:<18} {:>12} {:>12} {:>30}",
-        "robot",
-        "terrain",
-        "driving",
-        "sampler",
-        "transl. [m]",
-        "rot. [rad]",
-        format!("{} better by", t.reference)
-    );
+    // One block per robot, terrain and driving time: training samplers down, test sets
+    // across.
+    let mut blocks: Vec<(&str, &str, f64)> = Vec::new();
     for r in &t.rows {
-        let better = if r.sampler == t.reference {
-            "-".to_string()
-        } else {
-            let wins = if r.seeds > 1 {
-                format!(
-                    " ({}/{}, {}/{})",
-                    r.reference_wins_translational, r.seeds, r.reference_wins_rotational, r.seeds
-                )
-            } else {
-                String::new()
-            };
-            format!(
-                "{:+.1}% / {:+.1}%{wins}",
-                r.reference_improvement_translational_percent,
-                r.reference_improvement_rotational_percent
-            )
-        };
+        let key = (r.robot.as_str(), r.terrain.as_str(), r.driving_s);
+        if !blocks.contains(&key) {
+            blocks.push(key);
+        }
+    }
+    let trains: Vec<&str> = {
+        let mut v: Vec<&str> = Vec::new();
+        for r in &t.rows {
+            if !v.contains(&r.train_sampler.as_str()) {
+                v.push(&r.train_sampler);
+            }
+        }
+        v
+    };
+    let find = |b: (&str, &str, f64), train: &str, test: &str| {
+        t.rows.iter().find(|r| {
+            (r.robot.as_str(), r.terrain.as_str(), r.driving_s) == b
+                && r.train_sampler == train
+                && r.test_sampler == test
+        })
+    };
+    for &b in &blocks {
         let _ = writeln!(
             out,
-            "{:<8} {:<7} {:>6.0}s {:<18} {:>12.4} {:>12.4} {:>30}",
-            r.robot,
-            r.terrain,
-            r.driving_s,
-            r.sampler,
-            r.translational_median_m,
-            r.rotational_median_rad,
-            better
+            "\n{} on {}, {:.0} s of driving per training run",
+            b.0, b.1, b.2
         );
+        let _ = write!(out, "{:<18}", "trained on \\ test");
+        for test in &t.test_sets {
+            let _ = write!(out, " {:>19}", test);
+        }
+        out.push('\n');
+        for train in &trains {
+            let _ = write!(out, "{train:<18}");
+            for test in &t.test_sets {
+                let cell = find(b, train, test).map_or("-".to_string(), |r| {
+                    format!(
+                        "{:.4} / {:.4}",
+                        r.translational_median_m, r.rotational_median_rad
+                    )
+                });
+                let _ = write!(out, " {cell:>19}");
+            }
+            out.push('\n');
+        }
+        for train in trains.iter().filter(|s| **s != t.reference) {
+            let _ = write!(
+                out,
+                "{:<18}",
+                format!("{} better than {train}", t.reference)
+            );
+            out.push('\n');
+            for test in &t.test_sets {
+                if let Some(r) = find(b, train, test) {
+                    let (x, y) = (
+                        &r.reference_improvement_translational,
+                        &r.reference_improvement_rotational,
+                    );
+                    let wins = if r.seeds > 1 {
+                        format!(
+                            ", wins {}/{} and {}/{} seeds",
+                            r.reference_wins_translational,
+                            r.seeds,
+                            r.reference_wins_rotational,
+                            r.seeds
+                        )
+                    } else {
+                        String::new()
+                    };
+                    let _ = writeln!(
+                        out,
+                        "  tested on {test:<10} {:+.1}% [{:+.1}, {:+.1}] / {:+.1}% [{:+.1}, {:+.1}]{wins}",
+                        x.percent, x.ci[0], x.ci[1], y.percent, y.ci[0], y.ci[1]
+                    );
+                }
+            }
+        }
     }
-    // The paper's two headline figures, averaged over every robot, terrain and duration.
-    let mean = |sampler: &str, f: fn(&crate::eval::ProtocolRow) -> f64| {
+    // How the reference ranks among the training samplers, per test set.
+    if trains.len() > 1 {
+        let _ = writeln!(
+            out,
+            "\n{} ranked among the {} training samplers, over the {} robot/terrain/duration blocks (best, worst):",
+            t.reference,
+            trains.len(),
+            blocks.len()
+        );
+        for test in &t.test_sets {
+            let rank = |metric: fn(&crate::eval::ProtocolRow) -> f64| {
+                let (mut best, mut worst) = (0, 0);
+                for &b in &blocks {
+                    let values: Vec<f64> = trains
+                        .iter()
+                        .filter_map(|s| find(b, s, test).map(metric))
+                        .collect();
+                    let Some(mine) = find(b, &t.reference, test).map(metric) else {
+                        continue;
+                    };
+                    if values.iter().all(|v| mine <= *v) {
+                        best += 1;
+                    }
+                    if values.iter().all(|v| mine >= *v) {
+                        worst += 1;
+                    }
+                }
+                (best, worst)
+            };
+            let (tb, tw) = rank(|r| r.translational_median_m);
+            let (rb, rw) = rank(|r| r.rotational_median_rad);
+            let _ = writeln!(
+                out,
+                "  tested on {test:<10} translation best {tb}, worst {tw}; rotation best {rb}, worst {rw}"
+            );
+        }
+    }
+    // The paper's two headline figures, averaged over every block, on each test set.
+    let mean = |train: &str, test: &str, f: fn(&crate::eval::ProtocolRow) -> f64| {
         let v: Vec<f64> = t
             .rows
             .iter()
-            .filter(|r| r.sampler == sampler)
+            .filter(|r| r.train_sampler == train && r.test_sampler == test)
             .map(f)
             .collect();
         (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
     };
-    if let Some(a) = mean("angular", |r| r.reference_improvement_translational_percent) {
-        let _ = writeln!(
-            out,
-            "mean improvement of {} over angular in translation: {a:+.1}% (paper: 31.8%)",
-            t.reference
-        );
-    }
-    if let Some(l) = mean("linear", |r| r.reference_improvement_rotational_percent) {
-        let _ = writeln!(
-            out,
-            "mean improvement of {} over linear in rotation: {l:+.1}% (paper: 43.6%)",
-            t.reference
-        );
+    for test in &t.test_sets {
+        let a = mean("angular", test, |r| {
+            r.reference_improvement_translational.percent
+        });
+        let l = mean("linear", test, |r| {
+            r.reference_improvement_rotational.percent
+        });
+        if let (Some(a), Some(l)) = (a, l) {
+            let _ = writeln!(
+                out,
+                "tested on {test}: mean improvement of {} over angular in translation {a:+.1}% (paper: 31.8%), over linear in rotation {l:+.1}% (paper: 43.6%)",
+                t.reference
+            );
+        }
     }
     out
 }
