@@ -162,7 +162,7 @@ fn bad_bags_fail_in_one_line_and_write_nothing() {
     let out = dir.path().join("out.csv");
     let bad = |source: &Path, extra: &[&str]| user_error(&import("--bag", source, &out, extra));
     assert!(bad(&truncated, &[]).contains("a truncated or damaged file?"));
-    assert!(bad(&raw, &[]).contains("cannot read record 1"));
+    assert!(bad(&raw, &[]).contains("not an MCAP file"));
     assert!(bad(&empty_dir, &[]).contains("no .mcap file in the bag directory"));
     assert!(bad(&sqlite, &[]).contains("the bag's storage is sqlite3, only mcap is read"));
     let missing = bad(&bag, &["--topic", "odometry=/icp_odom"]);
@@ -177,6 +177,11 @@ fn bad_bags_fail_in_one_line_and_write_nothing() {
     assert!(bad(&bag, &["--topic", "speed=/x"]).contains("no key \"speed\""));
     assert!(bad(&bag, &["--topic", "cmd=cmd_vel"]).contains("not an absolute ROS topic name"));
     assert!(bad(&bag, &["--topic", "cmd=/cmd_vel:joint"]).contains("only a measured input"));
+    assert!(bad(
+        &bag,
+        &["--topic", "meas_left_vel=/wheel_vel_left_measured:left"]
+    )
+    .contains("a joint name (:JOINT) is only for a sensor_msgs/JointState topic"));
     // An output that would replace the bag's file, refused.
     assert!(
         user_error(&import("--bag", &bag, &bag.join("bag.mcap"), &[]))
@@ -188,6 +193,58 @@ fn bad_bags_fail_in_one_line_and_write_nothing() {
     );
     assert!(!out.exists());
     assert_eq!(std::fs::read(bag.join("bag.mcap")).unwrap(), bytes);
+}
+
+/// A bag without an IMU imports as the raw log of the same run with a constant IMU: the
+/// yaw rate from localization, the same windows.
+#[test]
+fn a_bag_without_an_imu_gives_the_windows_of_a_log_with_a_constant_imu() {
+    let dir = tempfile::tempdir().unwrap();
+    let (raw, bag) = fixtures(dir.path());
+    let no_imu = dir.path().join("no_imu.mcap");
+    let bytes = std::fs::read(bag.join("bag.mcap")).unwrap();
+    let mut writer = mcap::Writer::new(std::io::BufWriter::new(
+        std::fs::File::create(&no_imu).unwrap(),
+    ))
+    .unwrap();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        if m.channel.topic != "/imu_in" {
+            writer.write(&m).unwrap();
+        }
+    }
+    writer.finish().unwrap();
+    let text = std::fs::read_to_string(&raw).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let cols: Vec<&str> = header.split(',').collect();
+    let mut zeroed = format!("{header}\n");
+    for line in lines {
+        let fields: Vec<&str> = line
+            .split(',')
+            .enumerate()
+            .map(|(i, f)| if cols[i].starts_with("imu_") { "0" } else { f })
+            .collect();
+        zeroed += &fields.join(",");
+        zeroed.push('\n');
+    }
+    let zeroed_raw = dir.path().join("zeroed.csv");
+    std::fs::write(&zeroed_raw, zeroed).unwrap();
+    let (a, b) = (dir.path().join("a.csv"), dir.path().join("b.csv"));
+    let both = |args: &[&str]| {
+        let out = common::drive(args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr)
+    };
+    let from_raw = both(&import("--raw", &zeroed_raw, &a, &[]));
+    let from_bag = both(&import("--bag", &no_imu, &b, &[]));
+    assert!(from_bag.contains("imu-constant"), "{from_bag}");
+    assert!(from_raw.contains("imu-constant"), "{from_raw}");
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
 }
 
 /// The fixture bag rewritten (with the `mcap` crate) keeping only the first message of

@@ -55,7 +55,9 @@ impl Signal {
 /// vehicle's two measured inputs under their raw-log column names (`meas_left_vel`,
 /// `meas_right_vel` for a differential drive; `meas_speed`, `meas_steering` for a car:
 /// std_msgs/Float64, or sensor_msgs/JointState as `/topic:joint`, the joint's velocity),
-/// `imu` (sensor_msgs/Imu) and `cmd` (geometry_msgs/Twist or TwistStamped).
+/// `imu` (sensor_msgs/Imu, optional: when absent the import takes the yaw rate from
+/// localization, as for a raw log whose IMU is constant) and `cmd` (geometry_msgs/Twist or
+/// TwistStamped).
 ///
 /// ```
 /// use drive_data::BagTopics;
@@ -394,6 +396,11 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RawLog, DataError> {
         }
         let bytes =
             std::fs::read(file).map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?;
+        if !bytes.starts_with(b"\x89MCAP") {
+            return Err(fail(DataErrorKind::Inconsistent(format!(
+                "{fname}not an MCAP file (rosbag2's sqlite3 .db3 files: ros2 bag convert them to MCAP first)"
+            ))));
+        }
         let stream = mcap::MessageStream::new(&bytes).map_err(|e| {
             fail(DataErrorKind::Inconsistent(format!(
                 "{fname}: not an MCAP file ({e})"
@@ -434,6 +441,11 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RawLog, DataError> {
                         signal.types().join(" or ")
                     ))));
                 }
+                if ty != "sensor_msgs/msg/JointState" && joint.is_some() {
+                    return Err(fail(DataErrorKind::Inconsistent(format!(
+                        "topic {topic} ({key}) is {ty}: a joint name (:JOINT) is only for a sensor_msgs/JointState topic"
+                    ))));
+                }
                 if ty == "sensor_msgs/msg/JointState" && joint.is_none() {
                     return Err(fail(DataErrorKind::Inconsistent(format!(
                         "topic {topic} ({key}) is a JointState: name its joint with --topic {key}={topic}:JOINT"
@@ -450,7 +462,10 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RawLog, DataError> {
         }
     }
     for (key, signal, topic, _) in &topics.entries {
-        if *signal != Signal::JoySwitch && !seen.contains_key(topic) {
+        // The operator's switch and the IMU may be absent: never pressed, and the yaw rate
+        // from localization (the raw import's imu-constant fallback).
+        let optional = matches!(signal, Signal::JoySwitch | Signal::Imu);
+        if !optional && !seen.contains_key(topic) {
             let list: Vec<String> = seen
                 .iter()
                 .map(|(t, (ty, _))| format!("{t} ({ty})"))

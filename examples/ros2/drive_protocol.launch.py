@@ -3,7 +3,8 @@
     ros2 launch examples/ros2/drive_protocol.launch.py robot:=husky sampler:=uniform \
         seed:=0 geofence:=20.0 joy_topic:=/joy cmd_topic:=/doughnut_cmd_vel
 
-Record what the DRIVE logger records (then `drive import --bag`):
+Record what the DRIVE logger records (then `drive import --bag`; with remapped topics,
+record those and pass them with `--topic`):
     ros2 bag record -s mcap /calib_step /calib_state /drive/joy_switch /doughnut_cmd_vel \
         /odometry_in /wheel_vel_left_measured /wheel_vel_right_measured /imu_in
 """
@@ -23,7 +24,10 @@ ARGUMENTS = {
     "geofence": ("20.0", "stop beyond this distance from the start (m); 0 for none"),
     "max_intervals": ("0", "stop after this many 6 s intervals; 0 for none"),
     "max_duration": ("0.0", "stop after this many seconds; 0 for none"),
+    "characterize": ("true", "find the input space first (false: the robot file's, or its nominal one)"),
+    "stale_timeout": ("0.5", "pause when encoders or odometry are older than this (s)"),
     "deadman_button": ("0", "index of the dead-man button in the Joy message"),
+    "deadman_threshold": ("0.5", "the button counts as held at or above this value"),
     "joy_timeout": ("0.5", "a joystick silent this long (s) counts as released"),
     "joy_topic": ("/joy", "the joystick's Joy topic"),
     "cmd_topic": ("/doughnut_cmd_vel", "where the robot (or its command mux) takes Twists"),
@@ -33,7 +37,8 @@ ARGUMENTS = {
 }
 
 PARAMETERS = ["robot", "sampler", "seed", "geofence", "max_intervals", "max_duration",
-              "deadman_button", "joy_timeout"]
+              "characterize", "stale_timeout", "deadman_button", "deadman_threshold",
+              "joy_timeout"]
 
 
 def generate_launch_description():

@@ -14,7 +14,14 @@ Publishes what the DRIVE logger records (drive/pose_cmds_logger_node.py):
   calib_step (std_msgs/Int32), calib_state (std_msgs/String), drive/joy_switch (std_msgs/Bool)
 
 All the logic is in drive_protocol_logic.ProtocolLogic (tested without ROS); this file
-only wires it to topics, parameters and a timer.
+only wires it to topics, parameters and a timer. Spin it with the single-threaded executor
+(as main() does): the protocol runner belongs to the thread that made it.
+
+The characterization (step 1) drives straight forward then backward for 8 s each with
+twice the robot's top speed commanded, then turns in place: the robot travels about
+top speed x 8 s from its start, so a geofence must be larger than that (a Husky: about
+8 m; a Warthog: about 40 m), or give the input space in the robot file and set
+characterize:=false.
 """
 
 import os
@@ -50,6 +57,9 @@ class DriveProtocolNode(Node):
     def __init__(self):
         super().__init__("drive_protocol")
         p = {k: self.declare_parameter(k, v).value for k, v in PARAMETERS.items()}
+        for key in ("geofence", "max_intervals", "max_duration"):
+            if p[key] < 0:
+                raise ValueError(f"parameter {key} must be 0 (none) or positive, got {p[key]}")
         options = {"characterize": p["characterize"], "stale_timeout": p["stale_timeout"]}
         if p["geofence"] > 0:
             options["geofence"] = p["geofence"]
@@ -109,16 +119,33 @@ class DriveProtocolNode(Node):
             )
 
 
+def init(args):
+    """rclpy.init without rclpy's own SIGINT handler where the distribution allows it, so
+    that Ctrl-C reaches main() with the context still valid and the last zero command can
+    be published before shutdown."""
+    try:
+        from rclpy.signals import SignalHandlerOptions
+
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except (ImportError, TypeError):
+        rclpy.init(args=args)
+
+
 def main(args=None):
-    rclpy.init(args=args)
+    init(args)
     node = DriveProtocolNode()
     try:
         while rclpy.ok() and not node.logic.finished:
             rclpy.spin_once(node, timeout_sec=0.1)
+    except KeyboardInterrupt:
+        node.get_logger().info("interrupted: stopping the robot")
     finally:
-        node.cmd_pub.publish(Twist())  # a last zero command, whatever stopped the node
+        # A last zero command, whatever stopped the node (when the context still allows it).
+        if rclpy.ok():
+            node.cmd_pub.publish(Twist())
         node.destroy_node()
-        rclpy.shutdown()
+        if rclpy.ok():
+            rclpy.shutdown()
 
 
 if __name__ == "__main__":

@@ -156,6 +156,39 @@ impl Model {
     }
 }
 
+/// `obj` as a C-contiguous float64 numpy array of `ndim` dimensions (lists, integer and
+/// float32 arrays converted); a `DriveError` naming `what` and `shape` otherwise.
+fn float_array<'py>(
+    py: Python<'py>,
+    what: &str,
+    shape: &str,
+    obj: &Bound<'py, PyAny>,
+    ndim: usize,
+) -> PyResult<Bound<'py, PyAny>> {
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("dtype", "float64")?;
+    let a = py
+        .import("numpy")?
+        .call_method("ascontiguousarray", (obj,), Some(&kwargs))
+        .map_err(|e| err(format!("{what} must be a {shape} array of numbers: {e}")))?;
+    let dims: Vec<usize> = a.getattr("shape")?.extract()?;
+    if dims.len() != ndim {
+        return Err(err(format!(
+            "{what} must be a {shape} array, got shape {dims:?}"
+        )));
+    }
+    Ok(a)
+}
+
+/// Three or two numbers (a start pose, start wheels), or a `DriveError`.
+fn numbers<const N: usize>(what: &str, v: Option<Vec<f64>>) -> PyResult<[f64; N]> {
+    match v {
+        None => Ok([0.0; N]),
+        Some(v) => <[f64; N]>::try_from(v.as_slice())
+            .map_err(|_| err(format!("{what} must be {N} numbers, got {}", v.len()))),
+    }
+}
+
 fn finite(what: &str, v: &[f64]) -> PyResult<()> {
     match v.iter().position(|x| !x.is_finite()) {
         Some(i) => Err(err(format!("{what}: value {i} is not a finite number"))),
@@ -184,10 +217,14 @@ impl Model {
     fn predict<'py>(
         &self,
         py: Python<'py>,
-        commands: PyReadonlyArray2<'py, f64>,
-        start: Option<[f64; 3]>,
-        start_wheels: Option<[f64; 2]>,
+        commands: &Bound<'py, PyAny>,
+        start: Option<Vec<f64>>,
+        start_wheels: Option<Vec<f64>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let start: [f64; 3] = numbers("start", start)?;
+        let start_wheels: [f64; 2] = numbers("start_wheels", start_wheels)?;
+        let commands = float_array(py, "commands", "(H, 2)", commands, 2)?;
+        let commands: PyReadonlyArray2<'py, f64> = commands.extract()?;
         let shape = commands.shape();
         if shape.len() != 2 || shape[1] != 2 {
             return Err(err(format!(
@@ -196,7 +233,7 @@ impl Model {
         }
         let flat: Vec<f64> = commands.as_array().iter().copied().collect();
         finite("commands", &flat)?;
-        let start = self.start(start.unwrap_or([0.0; 3]), start_wheels.unwrap_or([0.0; 2]));
+        let start = self.start(start, start_wheels);
         finite(
             "start",
             &[
@@ -225,10 +262,20 @@ impl Model {
     fn predict_batch<'py>(
         &self,
         py: Python<'py>,
-        commands: PyReadonlyArray3<'py, f64>,
-        starts: Option<PyReadonlyArray2<'py, f64>>,
-        start_wheels: Option<PyReadonlyArray2<'py, f64>>,
+        commands: &Bound<'py, PyAny>,
+        starts: Option<&Bound<'py, PyAny>>,
+        start_wheels: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let commands = float_array(py, "commands", "(B, H, 2)", commands, 3)?;
+        let commands: PyReadonlyArray3<'py, f64> = commands.extract()?;
+        let starts = match starts {
+            Some(a) => Some(float_array(py, "starts", "(B, 3)", a, 2)?.extract()?),
+            None => None,
+        };
+        let start_wheels = match start_wheels {
+            Some(a) => Some(float_array(py, "start_wheels", "(B, 2)", a, 2)?.extract()?),
+            None => None,
+        };
         let shape = commands.shape().to_vec();
         if shape[2] != 2 {
             return Err(err(format!(

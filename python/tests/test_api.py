@@ -17,6 +17,8 @@ BIN = Path(os.environ.get("DRIVE_BIN", ROOT / "target" / "release" / "drive"))
 
 
 def cli(*args, ok=True):
+    if not BIN.exists():
+        pytest.fail(f"no command line at {BIN}: build it (cargo build --release) or set DRIVE_BIN")
     out = subprocess.run([str(BIN), *map(str, args)], capture_output=True, text=True)
     if ok:
         assert out.returncode == 0, out.stderr
@@ -130,6 +132,19 @@ def test_user_errors_raise_with_the_command_lines_message(husky, tmp_path):
         model.predict(np.array([[np.nan, 1.0]]))
     with pytest.raises(drive.DriveError, match="starts must be"):
         model.predict_batch(np.zeros((2, 4, 2)), starts=np.zeros((3, 3)))
+    with pytest.raises(drive.DriveError, match="start must be 3 numbers"):
+        model.predict(np.zeros((5, 2)), start=(0, 0))
+    with pytest.raises(drive.DriveError, match="array of numbers"):
+        model.predict([["a", "b"]])
+    with pytest.raises(drive.DriveError, match="split must be a number"):
+        drive.evaluate(husky, split="a")
+    # Integer arrays, float32 arrays and lists are numbers too: the same poses.
+    slip = drive.fit(husky, "slip-blr", split=0.5)
+    ints = np.tile([3, 4], (40, 1))
+    expected = slip.predict(ints.astype(float))
+    for same in (ints, ints.astype(np.float32), ints.tolist()):
+        assert np.array_equal(slip.predict(same), expected)
+    assert np.array_equal(slip.predict_batch(ints[None]), expected[None])
     with pytest.raises(drive.DriveError, match="cannot read"):
         drive.load_model(tmp_path / "none.json")
     bad = tmp_path / "bad.json"
@@ -220,6 +235,10 @@ def test_protocol_runner_errors_are_the_command_lines():
         ({"encoder": (0, 0), "deadman": True}, "need 't'"),
         ({"t": 0.0, "deadman": True, "wheels": (0, 0)}, "unknown measurement 'wheels'"),
         ({"t": 0.0, "deadman": "yes"}, "deadman must be True or False"),
+        ({"t": 0.0, "deadman": 1}, "deadman must be True or False"),
+        ({"t": "5", "deadman": True}, "t must be a time"),
+        ({"t": 0.0, "deadman": True, "encoder": "12"}, "encoder must be 2 numbers"),
+        ({"t": 0.0, "deadman": True, "pose": "345"}, "pose must be 3 numbers"),
         ({"t": 0.0, "deadman": True, "encoder": (0, 0, 0)}, "encoder must be 2 numbers"),
         ({"t": 0.0, "deadman": True, "pose": (0, float("nan"), 0)}, "pose: value 1 is not a finite"),
         ({"t": float("inf"), "deadman": True}, "t must be a finite time"),
@@ -231,10 +250,13 @@ def test_protocol_runner_errors_are_the_command_lines():
         runner.tick(t=4.0, deadman=True)
     for kwargs, match in [
         ({"geofence": 0.0}, "geofence must be a positive"),
-        ({"max_intervals": 0}, "max_intervals must be at least 1"),
+        ({"max_intervals": 0}, "max_intervals must be a whole number of intervals, at least 1"),
         ({"geofence": 5.0, "localization": False}, "geofence needs localization"),
         ({"max_duration": float("nan")}, "max_duration must be a positive"),
         ({"seed": -1}, "seed must be an integer"),
+        ({"max_intervals": -1}, "max_intervals must be a whole number"),
+        ({"geofence": "20"}, "geofence must be a number"),
+        ({"wheels": 2}, "unknown option 'wheels'"),
     ]:
         with pytest.raises(drive.DriveError, match=match):
             drive.ProtocolRunner("husky", **kwargs)

@@ -197,8 +197,10 @@ def test_bad_configuration_is_refused():
 class FakeNode:
     clock = [0.0]
     overrides = {}
+    made = []
 
     def __init__(self, name):
+        FakeNode.made.append(self)
         self.name = name
         self.subscriptions = {}
         self.publishers = {}
@@ -265,6 +267,7 @@ def fake_ros(monkeypatch):
         monkeypatch.setitem(sys.modules, name, types.ModuleType(name))
     FakeNode.clock = [0.0]
     FakeNode.overrides = {}
+    FakeNode.made = []
     return load("drive_protocol_node")
 
 
@@ -295,6 +298,38 @@ def test_the_node_subscribes_publishes_and_ticks_at_the_robot_rate(fake_ros):
     assert any(abs(c.linear.x) + abs(c.angular.z) > 0 for c in cmds[:120])
     assert (cmds[-1].linear.x, cmds[-1].angular.z) == (0.0, 0.0)
     assert {m.data for m in node.publishers["drive/joy_switch"].sent} == {False}
+
+
+def test_ctrl_c_stops_the_node_with_a_zero_command(fake_ros, monkeypatch):
+    FakeNode.overrides = {"robot": "husky", "characterize": False}
+    ticks = [0]
+
+    def spin_once(node, timeout_sec=None):
+        # Two timer ticks with the dead-man held, then the operator's Ctrl-C.
+        if ticks[0] == 2:
+            raise KeyboardInterrupt
+        FakeNode.clock[0] = ticks[0] / 20
+        node.on_joy(sys.modules["sensor_msgs.msg"].Joy(buttons=[1]))
+        Float64 = sys.modules["std_msgs.msg"].Float64
+        node.logic.on_left_wheel(Float64(data=0.0))
+        node.logic.on_right_wheel(Float64(data=0.0))
+        node.logic.on_odometry(odometry(0.0, 0.0, 0.0))
+        node.on_timer()
+        ticks[0] += 1
+
+    monkeypatch.setattr(sys.modules["rclpy"], "spin_once", spin_once, raising=False)
+    fake_ros.main()
+    (node,) = FakeNode.made
+    cmds = node.publishers["doughnut_cmd_vel"].sent
+    assert len(cmds) == 3
+    assert abs(cmds[1].linear.x) + abs(cmds[1].angular.z) > 0
+    assert (cmds[-1].linear.x, cmds[-1].angular.z) == (0.0, 0.0)
+
+
+def test_a_negative_limit_is_refused(fake_ros):
+    FakeNode.overrides = {"geofence": -5.0}
+    with pytest.raises(ValueError, match="geofence must be 0"):
+        fake_ros.DriveProtocolNode()
 
 
 def test_the_launch_file_is_valid_python():

@@ -27,7 +27,7 @@ pub struct Args {
     /// defaults: calib_step=/calib_step, joy_switch=/drive/joy_switch (optional),
     /// calib_state=/calib_state, odometry=/odometry_in, meas_left_vel=/wheel_vel_left_measured,
     /// meas_right_vel=/wheel_vel_right_measured (a car: meas_speed, meas_steering),
-    /// imu=/imu_in, cmd=/doughnut_cmd_vel. A sensor_msgs/JointState topic names its joint:
+    /// imu=/imu_in (optional), cmd=/doughnut_cmd_vel. A sensor_msgs/JointState topic names its joint:
     /// meas_left_vel=/joint_states:left_wheel_joint.
     #[arg(long, requires = "bag")]
     topic: Vec<String>,
@@ -72,10 +72,10 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if args.bag.is_some() {
         // The bag directory's files are inputs too (an output inside it must not replace them).
         if let Ok(files) = crate::data::bag_files(&source) {
-            inputs.extend(files.into_iter().map(|f| ("a file of --bag", f)));
+            inputs.extend(files.into_iter().map(|f| ("--bag", f)));
         }
         if source.is_dir() {
-            inputs.push(("a file of --bag", source.join("metadata.yaml")));
+            inputs.push(("--bag", source.join("metadata.yaml")));
         }
     }
     inputs.extend(super::common::robot_input(&args.robot));

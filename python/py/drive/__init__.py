@@ -16,6 +16,8 @@ Every user error raises `drive.DriveError` (a ValueError) with the command line'
 import json as _json
 import numbers as _numbers
 import os as _os
+
+import numpy as _np
 from collections.abc import Mapping as _Mapping
 
 from . import _native
@@ -42,6 +44,8 @@ def evaluate(dataset, models=None, split=0.5):
     `drive eval --json`."""
     if isinstance(models, str):
         models = [m.strip() for m in models.split(",") if m.strip()]
+    if not _is_number(split):
+        raise DriveError(f"split must be a number between 0 and 1, got {split!r}")
     return _json.loads(_evaluate_json(dataset, None if models is None else list(models), float(split)))
 
 
@@ -72,16 +76,50 @@ class Measurements:
 _KEYS = ("t", "encoder", "pose", "deadman")
 
 
+def _is_number(v):
+    return isinstance(v, _numbers.Real) and not isinstance(v, (bool, _np.bool_))
+
+
 def _values(name, value, n):
     if value is None:
         return None
-    try:
-        values = [float(v) for v in value]
-    except (TypeError, ValueError):
-        raise DriveError(f"{name} must be {n} numbers or None, got {value!r}") from None
-    if len(values) != n:
-        raise DriveError(f"{name} must be {n} numbers or None, got {len(values)}")
-    return values
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise DriveError(f"{name} must be {n} numbers or None, got {value!r}")
+    values = list(value)
+    if len(values) != n or not all(_is_number(v) for v in values):
+        raise DriveError(f"{name} must be {n} numbers or None, got {value!r}")
+    return [float(v) for v in values]
+
+
+_OPTIONS = {
+    "characterize": "bool",
+    "localization": "bool",
+    "geofence": "number",
+    "max_duration": "number",
+    "stale_timeout": "number",
+    "characterization_time": "number",
+    "max_intervals": "count",
+}
+
+
+def _check_options(options):
+    for key, value in options.items():
+        kind = _OPTIONS.get(key)
+        if kind is None:
+            raise DriveError(
+                f"unknown option {key!r}: expected one of {', '.join(sorted(_OPTIONS))}"
+            )
+        if value is None and key in ("geofence", "max_duration", "max_intervals"):
+            continue  # no such limit
+        if kind == "bool" and not isinstance(value, (bool, _np.bool_)):
+            raise DriveError(f"{key} must be True or False, got {value!r}")
+        if kind == "number" and not _is_number(value):
+            raise DriveError(f"{key} must be a number, got {value!r}")
+        if kind == "count" and not (
+            isinstance(value, _numbers.Integral) and not isinstance(value, (bool, _np.bool_)) and value >= 1
+        ):
+            raise DriveError(f"{key} must be a whole number of intervals, at least 1, got {value!r}")
+    return {k: (bool(v) if _OPTIONS[k] == "bool" else v) for k, v in options.items()}
 
 
 class ProtocolRunner:
@@ -108,7 +146,7 @@ class ProtocolRunner:
             robot = _os.fspath(robot)
         if isinstance(seed, bool) or not isinstance(seed, _numbers.Integral) or not 0 <= seed < 2**64:
             raise DriveError(f"seed must be an integer from 0 to 2^64 - 1, got {seed!r}")
-        self._native = _native.ProtocolRunner(robot, sampler, int(seed), **options)
+        self._native = _native.ProtocolRunner(robot, sampler, int(seed), **_check_options(options))
 
     def tick(self, measurements=None, **fields):
         """The command for this tick, from `measurements`: a `Measurements`, a dict with
@@ -135,14 +173,13 @@ class ProtocolRunner:
                 "switch (the robot never moves without it)"
             )
         deadman = get("deadman")
-        if deadman not in (True, False):
+        if not isinstance(deadman, (bool, _np.bool_)):
             raise DriveError(f"deadman must be True or False, got {deadman!r}")
-        try:
-            t = float(get("t"))
-        except (TypeError, ValueError):
-            raise DriveError(f"t must be a time in seconds, got {get('t')!r}") from None
+        t = get("t")
+        if not _is_number(t):
+            raise DriveError(f"t must be a time in seconds, got {t!r}")
         return self._native.tick(
-            t,
+            float(t),
             _values("encoder", get("encoder"), 2),
             _values("pose", get("pose"), 3),
             bool(deadman),
