@@ -49,6 +49,9 @@ pub enum ExperimentError {
     /// A robot description is invalid.
     #[error("{0}")]
     Robot(String),
+    /// A terrain file is invalid, or no terrain has that name.
+    #[error(transparent)]
+    Terrain(#[from] drive_sim::TerrainError),
     /// A driving time shorter than one interval, or not finite.
     #[error("{}", too_short(*.0))]
     TooShort(f64),

@@ -7,7 +7,7 @@ use drive_models::registry::{
 };
 use drive_models::{ModelAlias, ModelSpec, Models};
 use drive_samplers::{builtin_robots, builtin_samplers, MakeSampler, RobotError, RobotSpec};
-use drive_sim::{builtin_plants, builtin_terrains, MakePlant, Terrain};
+use drive_sim::{builtin_plants, builtin_terrains, MakePlant, Terrain, TerrainError};
 use drive_traits::{Baseline, CommandModel, FitPowertrain, FitSlip, Registry, RegistryError};
 use serde::Serialize;
 
@@ -106,9 +106,9 @@ impl Registries {
         RobotSpec::load(&self.robots, name_or_path)
     }
 
-    /// A registered terrain.
-    pub fn terrain(&self, name: &str) -> Result<Terrain, RegistryError> {
-        Ok(self.terrains.get(name)?.part().as_ref().clone())
+    /// A registered terrain, or a terrain TOML file (a twin written by `drive sim-fit`).
+    pub fn terrain(&self, name_or_path: &str) -> Result<Terrain, TerrainError> {
+        Terrain::load(&self.terrains, name_or_path)
     }
 
     /// Asks typetag about the saved tag of every registered part: an error for a tag that

@@ -24,12 +24,12 @@
 //!   of 0.01 rad (the car drifts a little to the left when steering straight).
 //! - **Sensors**: rear wheel speed (0.02 m/s noise), steering angle (0.005 rad), localization
 //!   at 10 Hz of the rear axle centre (the body frame of [`Ackermann`]), an IMU yaw rate
-//!   with noise and bias ([`Sensors::default`]).
+//!   with noise and bias ([`Sensors::default`](crate::Sensors::default)).
 //!
 //! The dead times, lags and the trim are this project's assumptions for a hobby-grade
 //! speed controller and servo, not measured on a platform.
 
-use crate::{Instruments, Measured, Sensors, Terrain};
+use crate::{Instruments, Measured, Terrain};
 use drive_models::vehicles::Ackermann;
 use drive_samplers::RobotSpec;
 use drive_traits::{Input, Pose};
@@ -229,10 +229,11 @@ impl CarSimulator {
             wheel_speed: 0.0,
             steering: 0.0,
         };
+        let sensors = terrain.sensors.unwrap_or_default();
         CarSimulator {
             params,
             terrain,
-            instruments: Instruments::new(Sensors::default(), spec.rate_hz, seed),
+            instruments: Instruments::new(sensors, spec.rate_hz, seed),
             state: rest,
             substeps: ((1.0 / spec.rate_hz) / 2.5e-4).ceil().max(1.0) as usize,
         }

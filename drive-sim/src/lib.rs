@@ -28,5 +28,7 @@ pub use plant::{builtin_plants, plant_for, KinematicPlant, MakePlant, Plant};
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
 pub use sensors::{Instruments, Sensors};
 pub use sim::{Measured, Simulator};
-pub use terrain::{builtin_terrains, Terrain};
-pub use vehicle::{step_body, VehicleParams, VehicleState};
+pub use terrain::{builtin_terrains, Terrain, TerrainError};
+pub use vehicle::{
+    contact_force, step_body, ControllerParams, PowertrainParams, VehicleParams, VehicleState,
+};

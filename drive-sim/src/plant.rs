@@ -2,7 +2,7 @@
 //! rigid body of [`Simulator`]; a vehicle without a registered plant is simulated by the
 //! [`KinematicPlant`], so that any vehicle (a plug-in's) can run the protocol.
 
-use crate::{CarSimulator, Instruments, Measured, Sensors, Simulator, Terrain};
+use crate::{CarSimulator, Instruments, Measured, Simulator, Terrain};
 use drive_models::vehicles::Ackermann;
 use drive_models::DifferentialDrive;
 use drive_samplers::RobotSpec;
@@ -138,7 +138,7 @@ pub fn plant_for(
 /// ratio of rolling resistance to traction (`rolling / traction`, 2% on tile to 27% on
 /// snow); in yaw, the share of turning resistance (`lateral / (lateral + traction)`); the
 /// lateral velocity is `-0.1 v_x w` (a drift outwards in turns). The body velocity follows
-/// that target with a 0.2 s lag. Sensors as [`Sensors::default`]; localization at 10 Hz.
+/// that target with a 0.2 s lag. Sensors as [`Sensors::default`](crate::Sensors::default); localization at 10 Hz.
 pub struct KinematicPlant {
     robot: RobotSpec,
     terrain: Terrain,
@@ -162,7 +162,7 @@ impl KinematicPlant {
         KinematicPlant {
             robot: robot.clone(),
             terrain: terrain.clone(),
-            instruments: Instruments::new(Sensors::default(), robot.rate_hz, seed),
+            instruments: Instruments::new(terrain.sensors.unwrap_or_default(), robot.rate_hz, seed),
             limits: robot.input_space(),
             inputs: Input::zeros(),
             velocity: BodyVelocity::zeros(),

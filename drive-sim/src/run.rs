@@ -131,7 +131,11 @@ pub fn simulate(
         (None, Some(n)) => 6.0 * config.runner.characterization_s + 6.0 * n as f64 * 2.0 + 60.0,
         (None, None) => return Err(SimError::Unbounded),
     };
-    let robot = config.robot.clone();
+    let mut robot = config.robot.clone();
+    // A twin samples the input space its real run sampled, without characterizing.
+    if let Some([a, b]) = config.terrain.input_limits {
+        robot.input_limits = InputSpace::new(Input::new(a[0], b[0]), Input::new(a[1], b[1]));
+    }
     let samples = max_s * robot.rate_hz;
     drive_traits::limits::at_most(
         "the run's samples (duration x rate_hz)",

@@ -5,10 +5,13 @@ use crate::Measured;
 use drive_traits::{Input, Pose};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
+use rand_distr::{Distribution, Normal, Uniform};
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
 
 /// Sensor noise and rates.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct Sensors {
     /// Noise of the measured inputs, standard deviation (encoders: rad/s).
     pub encoder_noise: f64,
@@ -16,6 +19,11 @@ pub struct Sensors {
     pub icp_rate_hz: f64,
     /// ICP position noise (m) and yaw noise (rad), standard deviations.
     pub icp_noise: [f64; 2],
+    /// ICP latency (s): an update reports the pose of this long before.
+    pub icp_latency: f64,
+    /// ICP timestamp jitter (s): each update's latency is longer by a uniform draw in
+    /// `[0, icp_jitter]`.
+    pub icp_jitter: f64,
     /// IMU yaw-rate noise (rad/s).
     pub imu_noise: f64,
     /// IMU bias (rad/s).
@@ -23,13 +31,15 @@ pub struct Sensors {
 }
 
 impl Default for Sensors {
-    /// Encoders 0.05 rad/s, ICP at 10 Hz with 1 cm and 0.2 degree, IMU 0.01 rad/s with a
-    /// 0.005 rad/s bias.
+    /// Encoders 0.05 rad/s, ICP at 10 Hz with 1 cm and 0.2 degree, no latency, IMU 0.01
+    /// rad/s with a 0.005 rad/s bias.
     fn default() -> Self {
         Sensors {
             encoder_noise: 0.05,
             icp_rate_hz: 10.0,
             icp_noise: [0.01, 0.0035],
+            icp_latency: 0.0,
+            icp_jitter: 0.0,
             imu_noise: 0.01,
             imu_bias: 0.005,
         }
@@ -61,6 +71,8 @@ pub struct Instruments {
     tick: usize,
     history: Vec<Input>,
     icp: Pose,
+    /// The true poses of the last ticks, for a localization with latency.
+    past: VecDeque<(f64, Pose)>,
     rng: Xoshiro256PlusPlus,
 }
 
@@ -73,6 +85,7 @@ impl Instruments {
             tick: 0,
             history: Vec::new(),
             icp: Pose::zeros(),
+            past: VecDeque::new(),
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
         }
     }
@@ -135,6 +148,24 @@ impl Instruments {
     ) -> Measured {
         let period = (self.rate_hz / self.sensors.icp_rate_hz).round().max(1.0) as usize;
         let fresh_pose = self.tick % period == 0;
+        let now = self.time();
+        let delayed = self.sensors.icp_latency > 0.0 || self.sensors.icp_jitter > 0.0;
+        let pose = if delayed {
+            self.past.push_back((now, pose));
+            let delay = self.sensors.icp_latency
+                + match Uniform::new(0.0, self.sensors.icp_jitter) {
+                    Ok(u) if fresh_pose => u.sample(&mut self.rng),
+                    _ => 0.0,
+                };
+            // Keep what the longest delay can still ask for.
+            let oldest = now - self.sensors.icp_latency - self.sensors.icp_jitter;
+            while self.past.len() > 2 && self.past[1].0 <= oldest {
+                self.past.pop_front();
+            }
+            pose_at(&self.past, now - delay)
+        } else {
+            pose
+        };
         if fresh_pose {
             let [sp, sy] = self.sensors.icp_noise;
             self.icp = Pose::new(
@@ -149,11 +180,35 @@ impl Instruments {
         );
         let imu_yaw_rate = yaw_rate + self.sensors.imu_bias + self.noise(self.sensors.imu_noise);
         Measured {
-            t: self.time(),
+            t: now,
             input,
             pose: self.icp,
             fresh_pose,
             imu_yaw_rate,
         }
     }
+}
+
+/// The pose at time `t`, interpolated between the recorded ticks (the oldest before them).
+fn pose_at(past: &VecDeque<(f64, Pose)>, t: f64) -> Pose {
+    let Some(&(t0, p0)) = past.front() else {
+        return Pose::zeros();
+    };
+    if t <= t0 {
+        return p0;
+    }
+    for k in 1..past.len() {
+        let ((ta, pa), (tb, pb)) = (past[k - 1], past[k]);
+        if t <= tb {
+            let a = ((t - ta) / (tb - ta)).clamp(0.0, 1.0);
+            // Yaw interpolated along the short way round.
+            let dz = drive_traits::wrap_angle(pb.z - pa.z);
+            return Pose::new(
+                pa.x + a * (pb.x - pa.x),
+                pa.y + a * (pb.y - pa.y),
+                pa.z + a * dz,
+            );
+        }
+    }
+    past.back().map_or(p0, |b| b.1)
 }

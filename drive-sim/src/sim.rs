@@ -2,10 +2,15 @@
 //! robots, advanced one command tick at a time.
 
 use crate::vehicle::{step_body, VehicleParams, VehicleState};
-use crate::{Instruments, Plant, Sensors, Terrain};
+use crate::{Instruments, Plant, Terrain};
 use drive_models::DifferentialDrive;
 use drive_samplers::RobotSpec;
 use drive_traits::{Input, Pose};
+
+/// The physics step (s): stable with a margin of about two for the stiffest preset (dry
+/// tile: the contacts' slip stiffness over the mass, the yaw inertia and the wheels'
+/// rotating inertia stay below 1 / step).
+const PHYSICS_STEP_S: f64 = 5e-4;
 
 /// What the robot measures at a tick.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,18 +42,27 @@ pub struct Simulator {
 
 impl Simulator {
     /// A simulator for a robot with a differential-drive vehicle of `geometry` on a
-    /// terrain, at rest at the origin, seeded.
+    /// terrain, at rest at the origin, seeded. The terrain's `powertrain`, `controller` and
+    /// `sensors`, when it has them (a fitted twin), replace the defaults.
     pub fn new(
         spec: &RobotSpec,
         geometry: &DifferentialDrive,
         terrain: Terrain,
         seed: u64,
     ) -> Self {
-        let substeps = ((1.0 / spec.rate_hz) / 2.5e-4).ceil().max(1.0) as usize;
+        let substeps = ((1.0 / spec.rate_hz) / PHYSICS_STEP_S).ceil().max(1.0) as usize;
+        let mut params = VehicleParams::from_spec(spec, geometry);
+        if let Some(pt) = terrain.powertrain {
+            params.powertrain = pt;
+        }
+        if let Some(c) = terrain.controller {
+            params.controller = c;
+        }
+        let sensors = terrain.sensors.unwrap_or_default();
         Simulator {
-            params: VehicleParams::from_spec(spec, geometry),
+            params,
             terrain,
-            instruments: Instruments::new(Sensors::default(), spec.rate_hz, seed),
+            instruments: Instruments::new(sensors, spec.rate_hz, seed),
             state: VehicleState {
                 pose: Pose::zeros(),
                 velocity: [0.0; 3],
@@ -89,17 +103,22 @@ impl Simulator {
         let dt = self.instruments.dt();
         let h = dt / self.substeps as f64;
         let t0 = self.instruments.tick_start();
-        let p = self.params.clone();
+        let p = &self.params;
+        let (radius, baseline) = (p.wheel_radius, p.baseline);
         for i in 0..self.substeps {
             let t = t0 + i as f64 * h;
+            let mut targets = Input::zeros();
             for side in 0..2 {
-                let (tc, td) = p.powertrain[side];
-                let u = self.instruments.delayed(t, td)[side];
-                let gain = if side == 1 { p.right_gain } else { 1.0 };
-                let u = (gain * u).clamp(-p.wheel_limit, p.wheel_limit);
-                self.state.wheels[side] += (u - self.state.wheels[side]) * h / tc;
+                let (_, delay) = p.powertrain.lags(side);
+                let u = self.instruments.delayed(t, delay);
+                let gain = if side == 1 {
+                    p.powertrain.right_gain
+                } else {
+                    1.0
+                };
+                targets[side] = gain * p.controller.targets(u, radius, baseline)[side];
             }
-            step_body(&p, &self.terrain, &mut self.state, h);
+            step_body(p, &self.terrain, &mut self.state, targets, h);
         }
         self.instruments.end_tick();
     }

@@ -5,23 +5,69 @@
 //! Janosi and Hanamoto 1961 for the shear-deformation modulus), chosen once, per terrain,
 //! not tuned to make any protocol or model win.
 
-use drive_traits::{Registry, RegistryItem};
+use crate::{ControllerParams, PowertrainParams, Sensors};
+use drive_traits::{Registry, RegistryError, RegistryItem};
+use serde::{Deserialize, Serialize};
 use std::sync::Arc;
+use thiserror::Error;
 
-/// The ground's parameters.
-#[derive(Debug, Clone, PartialEq)]
+/// The ground's parameters, and, for a fitted twin of a real robot (`drive sim-fit`), the
+/// robot's powertrain, controller, sensors and the input space its run sampled.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Terrain {
     /// Name.
     pub name: String,
-    /// Peak longitudinal traction coefficient mu (traction / normal load).
+    /// Peak longitudinal traction coefficient mu_x (traction / normal load): the friction
+    /// ellipse's semi-axis along the wheel.
     pub traction: f64,
-    /// Slip at which 63% of the peak traction is reached (shear-deformation modulus over
+    /// Slip at which 63% of the peak friction is reached (shear-deformation modulus over
     /// contact length, as a slip ratio): small on firm ground, large on loose or soft ground.
     pub slip_modulus: f64,
-    /// Lateral skid-resistance coefficient mu_t.
+    /// Lateral friction coefficient mu_y: the friction ellipse's semi-axis across the
+    /// wheel (what turning a skid-steer scrubs against).
     pub lateral: f64,
     /// Rolling-resistance coefficient.
     pub rolling: f64,
+    /// The motors of a fitted twin (the robot's defaults when absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub powertrain: Option<PowertrainParams>,
+    /// The low-level controller of a fitted twin (the identity when absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controller: Option<ControllerParams>,
+    /// The sensors of a fitted twin ([`Sensors::default`] when absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensors: Option<Sensors>,
+    /// The input space a fitted twin's run samples (the real run's commands): `[[min,
+    /// max], [min, max]]` per input axis; the protocol's characterization is skipped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input_limits: Option<[[f64; 2]; 2]>,
+}
+
+/// Why a terrain file is refused.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum TerrainError {
+    /// Not valid TOML, or a field has the wrong type, is missing or is unknown.
+    #[error("{file}: {message}")]
+    Parse {
+        /// file name
+        file: String,
+        /// parser message (names the field and line)
+        message: String,
+    },
+    /// A value is out of its physical range.
+    #[error("{file}, field '{field}': {message}")]
+    Invalid {
+        /// file name
+        file: String,
+        /// field
+        field: &'static str,
+        /// what is expected
+        message: String,
+    },
+    /// No registered terrain of that name, and no such file.
+    #[error(transparent)]
+    Registry(#[from] RegistryError),
 }
 
 impl Terrain {
@@ -40,6 +86,7 @@ impl Terrain {
                 slip_modulus: 0.04,
                 lateral: 0.6,
                 rolling: 0.015,
+                ..Terrain::plain()
             },
             // Loose gravel: medium friction, soft shear response, higher rolling resistance.
             "gravel" => Terrain {
@@ -48,6 +95,7 @@ impl Terrain {
                 slip_modulus: 0.12,
                 lateral: 0.5,
                 rolling: 0.05,
+                ..Terrain::plain()
             },
             // Packed snow: low friction, soft, high rolling resistance (compaction).
             "snow" => Terrain {
@@ -56,6 +104,7 @@ impl Terrain {
                 slip_modulus: 0.2,
                 lateral: 0.25,
                 rolling: 0.08,
+                ..Terrain::plain()
             },
             // Resurfaced ice rink: extreme slip.
             "ice" => Terrain {
@@ -64,6 +113,7 @@ impl Terrain {
                 slip_modulus: 0.06,
                 lateral: 0.05,
                 rolling: 0.01,
+                ..Terrain::plain()
             },
             _ => return None,
         })
@@ -71,6 +121,182 @@ impl Terrain {
 
     /// The preset names.
     pub const NAMES: [&'static str; 4] = ["tile", "gravel", "snow", "ice"];
+
+    /// A ground with no twin parts (the fields the presets leave out).
+    fn plain() -> Terrain {
+        Terrain {
+            name: String::new(),
+            traction: 0.5,
+            slip_modulus: 0.1,
+            lateral: 0.5,
+            rolling: 0.02,
+            powertrain: None,
+            controller: None,
+            sensors: None,
+            input_limits: None,
+        }
+    }
+
+    /// A terrain from a TOML file's text (what `drive sim-fit` writes): the ground's
+    /// `name`, `traction`, `slip_modulus`, `lateral`, `rolling`, and optionally
+    /// `input_limits` and the tables `[powertrain]`, `[controller]`, `[sensors]`.
+    ///
+    /// ```
+    /// let t = drive_sim::Terrain::from_toml("wet.toml",
+    ///     "name = 'wet grass'\ntraction = 0.4\nslip_modulus = 0.15\nlateral = 0.35\nrolling = 0.06\n").unwrap();
+    /// assert_eq!(t.name, "wet grass");
+    /// assert!(drive_sim::Terrain::from_toml("bad.toml", "name = 'x'\ntraction = -1\nslip_modulus = 0.1\nlateral = 0.3\nrolling = 0.0\n").is_err());
+    /// ```
+    pub fn from_toml(file: &str, text: &str) -> Result<Terrain, TerrainError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let t: Terrain = toml::from_str(text).map_err(|e| TerrainError::Parse {
+            file: file.to_string(),
+            message: e.to_string().trim().replace('\n', " "),
+        })?;
+        t.validate(file)?;
+        Ok(t)
+    }
+
+    /// The terrain as the TOML text [`Terrain::from_toml`] reads.
+    pub fn to_toml(&self) -> String {
+        // A terrain is plain numbers and strings: it always serializes.
+        toml::to_string(self).unwrap_or_default()
+    }
+
+    /// A registered terrain, or a terrain TOML file (a path, or a name ending in `.toml`).
+    pub fn load(terrains: &Registry<Terrain>, name_or_path: &str) -> Result<Terrain, TerrainError> {
+        if let Some(t) = terrains.find(name_or_path) {
+            return Ok(t.part().as_ref().clone());
+        }
+        let path = std::path::Path::new(name_or_path);
+        if name_or_path.ends_with(".toml") || path.exists() {
+            let text = std::fs::read_to_string(path).map_err(|e| TerrainError::Parse {
+                file: name_or_path.to_string(),
+                message: format!("cannot read: {e}"),
+            })?;
+            return Terrain::from_toml(name_or_path, &text);
+        }
+        Err(terrains.get(name_or_path).err().map_or_else(
+            || TerrainError::Parse {
+                file: name_or_path.to_string(),
+                message: "no such terrain".into(),
+            },
+            TerrainError::from,
+        ))
+    }
+
+    fn validate(&self, file: &str) -> Result<(), TerrainError> {
+        let bad = |field: &'static str, message: String| TerrainError::Invalid {
+            file: file.to_string(),
+            field,
+            message,
+        };
+        let range = |field: &'static str, v: f64, lo: f64, hi: f64| {
+            if v.is_finite() && v > lo && v <= hi {
+                Ok(())
+            } else {
+                Err(bad(
+                    field,
+                    format!(
+                        "must be in ({lo}, {hi}], got {}",
+                        drive_traits::limits::Short(v)
+                    ),
+                ))
+            }
+        };
+        range("traction", self.traction, 0.0, 5.0)?;
+        range("lateral", self.lateral, 0.0, 5.0)?;
+        range("slip_modulus", self.slip_modulus, 0.0, 10.0)?;
+        if !(self.rolling.is_finite() && (0.0..1.0).contains(&self.rolling)) {
+            return Err(bad(
+                "rolling",
+                format!(
+                    "must be in [0, 1), got {}",
+                    drive_traits::limits::Short(self.rolling)
+                ),
+            ));
+        }
+        if let Some(p) = &self.powertrain {
+            for (field, v, hi) in [
+                ("powertrain.time_constant", p.time_constant[0], 100.0),
+                ("powertrain.time_constant", p.time_constant[1], 100.0),
+                ("powertrain.right_lag", p.right_lag, 10.0),
+                ("powertrain.right_gain", p.right_gain, 10.0),
+                ("powertrain.wheel_limit", p.wheel_limit, 1e4),
+                ("powertrain.acceleration_limit", p.acceleration_limit, 1e6),
+                ("powertrain.torque_limit", p.torque_limit, 1e6),
+                ("powertrain.inertia", p.inertia, 1e4),
+            ] {
+                range(field, v, 0.0, hi)?;
+            }
+            if !(p.dead_time.is_finite() && (0.0..=10.0).contains(&p.dead_time)) {
+                return Err(bad(
+                    "powertrain.dead_time",
+                    format!(
+                        "must be in [0, 10] s, got {}",
+                        drive_traits::limits::Short(p.dead_time)
+                    ),
+                ));
+            }
+        }
+        if let Some(c) = &self.controller {
+            range("controller.linear_gain", c.linear_gain, 0.0, 100.0)?;
+            range("controller.angular_gain", c.angular_gain, 0.0, 100.0)?;
+            if let Some(m) = c.max_linear {
+                range("controller.max_linear", m, 0.0, 1e4)?;
+            }
+            if let Some(m) = c.max_angular {
+                range("controller.max_angular", m, 0.0, 1e4)?;
+            }
+        }
+        if let Some(s) = &self.sensors {
+            range("sensors.icp_rate_hz", s.icp_rate_hz, 0.0, 1000.0)?;
+            for (field, v) in [
+                ("sensors.encoder_noise", s.encoder_noise),
+                ("sensors.icp_noise", s.icp_noise[0]),
+                ("sensors.icp_noise", s.icp_noise[1]),
+                ("sensors.icp_latency", s.icp_latency),
+                ("sensors.icp_jitter", s.icp_jitter),
+                ("sensors.imu_noise", s.imu_noise),
+            ] {
+                if !(v.is_finite() && (0.0..=100.0).contains(&v)) {
+                    return Err(bad(
+                        field,
+                        format!(
+                            "must be in [0, 100], got {}",
+                            drive_traits::limits::Short(v)
+                        ),
+                    ));
+                }
+            }
+            if !(s.imu_bias.is_finite() && s.imu_bias.abs() <= 100.0) {
+                return Err(bad(
+                    "sensors.imu_bias",
+                    format!(
+                        "must be within +-100 rad/s, got {}",
+                        drive_traits::limits::Short(s.imu_bias)
+                    ),
+                ));
+            }
+        }
+        if let Some(l) = &self.input_limits {
+            for axis in l {
+                if !(axis[0].is_finite()
+                    && axis[1].is_finite()
+                    && axis[0] < axis[1]
+                    && axis[0].abs().max(axis[1].abs()) <= 1e6)
+                {
+                    return Err(bad(
+                        "input_limits",
+                        format!(
+                            "each axis must be [min, max] with min < max, finite, got {axis:?}"
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 impl RegistryItem for Terrain {}

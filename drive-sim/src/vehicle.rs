@@ -1,12 +1,121 @@
-//! A planar skid-steer rigid body on a terrain, driven through a saturating first-order
-//! plus dead time powertrain with a left/right asymmetry.
+//! A planar skid-steer rigid body on a terrain: wheels or tracks touching the ground at
+//! discrete contact points, each with a combined-slip friction force on a friction ellipse;
+//! driven by torque-limited velocity-controlled motors behind a low-level controller.
 
 use crate::Terrain;
 use drive_models::DifferentialDrive;
 use drive_samplers::RobotSpec;
 use drive_traits::{Input, Pose};
+use serde::{Deserialize, Serialize};
 
 const G: f64 = 9.81;
+
+/// Slip ratios are taken relative to the larger of the wheel and contact speeds, and at
+/// least this speed (m/s): what keeps the ratio finite at rest.
+const SLIP_SPEED_FLOOR: f64 = 0.3;
+
+/// The motors and their velocity loop, per side.
+///
+/// The wheel follows its target with a first-order response (`rise` when it speeds up,
+/// `fall` when it slows down) after a dead time, within an acceleration limit; the torque
+/// this asks, plus the ground's reaction on the wheel, is limited to `torque_limit`: a side
+/// whose traction load exceeds it slows down (what a current limit does), so the wheel
+/// speed is not in the first-order plus dead time class.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PowertrainParams {
+    /// Time constants of the velocity loop (s): speeding up, slowing down.
+    pub time_constant: [f64; 2],
+    /// Dead time (s) of the left side.
+    pub dead_time: f64,
+    /// The right side's time constants and dead time, relative to the left's.
+    pub right_lag: f64,
+    /// Gain of the right side's velocity loop (1 for a symmetric robot).
+    pub right_gain: f64,
+    /// Largest wheel speed (rad/s), both directions.
+    pub wheel_limit: f64,
+    /// Largest wheel acceleration the loop asks (rad/s^2).
+    pub acceleration_limit: f64,
+    /// Largest motor torque per side, at the wheel (N m).
+    pub torque_limit: f64,
+    /// Rotating inertia per side, at the wheel (kg m^2).
+    pub inertia: f64,
+}
+
+impl PowertrainParams {
+    /// The project's default for a robot: the loop of the bundled Husky data's FOPDT fit
+    /// (1.0 s rising, 0.8 s falling, 0.3 s dead time), the right side 15% slower, 7% later
+    /// and 3% weaker; the wheels saturate at the top speed; accelerations up to four times
+    /// the robot's linear acceleration limit; each side's motors push with at most 0.7 of
+    /// the side's weight (so that they stall before the wheels spin on dry ground); the
+    /// rotating parts weigh, at the wheel, a quarter of the robot's mass per side.
+    pub fn for_robot(spec: &RobotSpec, wheel_radius: f64) -> Self {
+        let side_weight = spec.mass_kg * G / 2.0;
+        PowertrainParams {
+            time_constant: [1.0, 0.8],
+            dead_time: 0.3,
+            right_lag: 1.07,
+            right_gain: 0.97,
+            wheel_limit: spec.max_speed / wheel_radius,
+            acceleration_limit: 4.0 * spec.max_linear_acceleration.min(1e3) / wheel_radius,
+            torque_limit: 0.7 * side_weight * wheel_radius,
+            inertia: 0.25 * spec.mass_kg * wheel_radius.powi(2),
+        }
+    }
+
+    /// The side's time constants and dead time (0 left, 1 right).
+    pub fn lags(&self, side: usize) -> ([f64; 2], f64) {
+        let k = if side == 1 { self.right_lag } else { 1.0 };
+        (self.time_constant.map(|t| t * k), self.dead_time * k)
+    }
+}
+
+/// The robot's low-level controller between the commanded wheel velocities and the
+/// motors' targets: it reads the command as a body velocity (with the robot's nominal
+/// geometry), scales and limits it, and converts it back to wheel targets (a Husky's
+/// controller, for instance, turns with a wheel separation almost twice its baseline and
+/// caps its speed and yaw rate). The identity by default.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerParams {
+    /// Gain on the commanded linear velocity.
+    pub linear_gain: f64,
+    /// Gain on the commanded yaw rate.
+    pub angular_gain: f64,
+    /// Largest linear velocity (m/s) the controller passes on.
+    pub max_linear: Option<f64>,
+    /// Largest yaw rate (rad/s) the controller passes on.
+    pub max_angular: Option<f64>,
+}
+
+impl Default for ControllerParams {
+    fn default() -> Self {
+        ControllerParams {
+            linear_gain: 1.0,
+            angular_gain: 1.0,
+            max_linear: None,
+            max_angular: None,
+        }
+    }
+}
+
+impl ControllerParams {
+    /// The wheel targets for commanded wheel velocities `u` on wheels of `radius` a
+    /// `baseline` apart.
+    pub fn targets(&self, u: Input, radius: f64, baseline: f64) -> Input {
+        if *self == ControllerParams::default() {
+            return u;
+        }
+        let v = radius * (u.x + u.y) / 2.0 * self.linear_gain;
+        let w = radius * (u.y - u.x) / baseline * self.angular_gain;
+        let v = self.max_linear.map_or(v, |m| v.clamp(-m, m));
+        let w = self.max_angular.map_or(w, |m| w.clamp(-m, m));
+        Input::new(
+            (v - w * baseline / 2.0) / radius,
+            (v + w * baseline / 2.0) / radius,
+        )
+    }
+}
 
 /// The vehicle's physical parameters (derived from a robot description).
 #[derive(Debug, Clone, PartialEq)]
@@ -19,24 +128,30 @@ pub struct VehicleParams {
     pub wheel_radius: f64,
     /// Distance between the left and right contact lines (m).
     pub baseline: f64,
-    /// Length of the contact along each side (m): 0.9 x baseline for wheels, 1.1 x for tracks.
+    /// Length of the contact along each side (m): 0.9 x baseline for wheels (the distance
+    /// between the front and rear axles), 1.1 x for tracks.
     pub wheelbase: f64,
-    /// Wheel velocity saturation (rad/s), both directions.
-    pub wheel_limit: f64,
-    /// Powertrain time constant (s) and dead time (s), left and right.
-    pub powertrain: [(f64, f64); 2],
-    /// Gain of the right side's motor controller (asymmetry), 1 for a symmetric robot.
-    pub right_gain: f64,
+    /// Longitudinal positions of the contact points of each side (m, from the centre): the
+    /// two axles for wheels, five points along the track for tracks.
+    pub contacts: Vec<f64>,
+    /// The motors.
+    pub powertrain: PowertrainParams,
+    /// The low-level controller.
+    pub controller: ControllerParams,
 }
 
 impl VehicleParams {
     /// Parameters for a robot description with a differential-drive vehicle of that
-    /// geometry. The wheels saturate at the top speed; the powertrain is 1.0 s / 0.3 s (what
-    /// the FOPDT fit finds on the bundled Husky data), with the right side 15% slower and
-    /// 20 ms later, and a 3% lower gain.
+    /// geometry, with the default powertrain ([`PowertrainParams::for_robot`]) and an
+    /// identity controller.
     pub fn from_spec(spec: &RobotSpec, geometry: &DifferentialDrive) -> Self {
         let baseline = geometry.baseline;
         let wheelbase = if spec.tracked { 1.1 } else { 0.9 } * baseline;
+        let contacts = if spec.tracked {
+            (0..5).map(|i| (i as f64 / 4.0 - 0.5) * wheelbase).collect()
+        } else {
+            vec![wheelbase / 2.0, -wheelbase / 2.0]
+        };
         let mass = spec.mass_kg;
         VehicleParams {
             mass,
@@ -44,9 +159,9 @@ impl VehicleParams {
             wheel_radius: geometry.wheel_radius,
             baseline,
             wheelbase,
-            wheel_limit: spec.max_speed / geometry.wheel_radius,
-            powertrain: [(1.0, 0.3), (1.15, 0.32)],
-            right_gain: 0.97,
+            contacts,
+            powertrain: PowertrainParams::for_robot(spec, geometry.wheel_radius),
+            controller: ControllerParams::default(),
         }
     }
 }
@@ -67,44 +182,81 @@ fn smooth_sign(x: f64, scale: f64) -> f64 {
     (x / scale).tanh()
 }
 
-/// Longitudinal traction of one side (N) for a slip velocity `slip = r w - v_contact`,
-/// Janosi-Hanamoto shear model: `mu N (1 - exp(-|s| / k)) sign(s)` on the slip ratio `s`.
-fn traction(terrain: &Terrain, normal: f64, slip: f64, speed: f64) -> f64 {
-    let ratio = slip / speed.max(0.3);
-    terrain.traction * normal * (1.0 - (-ratio.abs() / terrain.slip_modulus).exp()) * ratio.signum()
+/// The ground's force on one contact point (N, body frame) with normal load `normal`, for a
+/// wheel surface moving at `surface` (m/s, forward) over a contact point moving at
+/// `(vx, vy)`: the slip vector `(surface - vx, -vy)` relative to the larger speed, its
+/// magnitude on the Janosi-Hanamoto curve `1 - exp(-|s| / k)`, the force along it on the
+/// friction ellipse of semi-axes `mu_x N` (traction) and `mu_y N` (lateral).
+pub fn contact_force(terrain: &Terrain, normal: f64, surface: f64, vx: f64, vy: f64) -> [f64; 2] {
+    let speed = surface.abs().max(vx.hypot(vy)).max(SLIP_SPEED_FLOOR);
+    let (sx, sy) = ((surface - vx) / speed, -vy / speed);
+    let s = sx.hypot(sy);
+    if s < 1e-12 {
+        return [0.0, 0.0];
+    }
+    let shear = normal * (1.0 - (-s / terrain.slip_modulus).exp()) / s;
+    [terrain.traction * shear * sx, terrain.lateral * shear * sy]
 }
 
-/// One physics step of `h` seconds with wheel velocities `wheels` (already through the
-/// powertrain): forces, then semi-implicit Euler on the body velocity and the pose.
-pub fn step_body(p: &VehicleParams, terrain: &Terrain, state: &mut VehicleState, h: f64) {
+/// The ground's forces on the body: longitudinal and lateral force (N) and yaw moment
+/// (N m), and the traction of each side (N, what loads its motors).
+fn ground_forces(p: &VehicleParams, terrain: &Terrain, state: &VehicleState) -> ([f64; 3], Input) {
     let [vx, vy, w] = state.velocity;
-    let normal = p.mass * G / 2.0;
+    let n = p.contacts.len().max(1) as f64;
+    let normal = p.mass * G / (2.0 * n);
     let half = p.baseline / 2.0;
-    // Contact-line speeds: left side at y = +b/2, right at -b/2.
-    let v_left = vx - w * half;
-    let v_right = vx + w * half;
-    let f_left = traction(
-        terrain,
-        normal,
-        p.wheel_radius * state.wheels.x - v_left,
-        (p.wheel_radius * state.wheels.x).abs().max(v_left.abs()),
-    );
-    let f_right = traction(
-        terrain,
-        normal,
-        p.wheel_radius * state.wheels.y - v_right,
-        (p.wheel_radius * state.wheels.y).abs().max(v_right.abs()),
-    );
-    let weight = p.mass * G;
-    let rolling = -terrain.rolling * weight * smooth_sign(vx, 0.05);
-    // Lateral skid resistance and the moment of turning resistance (Wong: mu_t W l / 4 for
-    // a uniform pressure along contact lines of length l).
-    let lateral = -terrain.lateral * weight * smooth_sign(vy, 0.05);
-    let turning =
-        -terrain.lateral * weight * p.wheelbase / 4.0 * smooth_sign(w * p.wheelbase / 2.0, 0.05);
-    let ax = (f_left + f_right + rolling) / p.mass + w * vy;
-    let ay = lateral / p.mass - w * vx;
-    let aw = ((f_right - f_left) * half + turning) / p.inertia;
+    let (mut fx, mut fy, mut mz) = (0.0, 0.0, 0.0);
+    let mut sides = Input::zeros();
+    // Left side at y = +b/2, right at -b/2 (x forward, y left).
+    for (side, y) in [(0usize, half), (1, -half)] {
+        let surface = p.wheel_radius * state.wheels[side];
+        for &x in &p.contacts {
+            let [cx, cy] = contact_force(terrain, normal, surface, vx - w * y, vy + w * x);
+            fx += cx;
+            fy += cy;
+            mz += x * cy - y * cx;
+            sides[side] += cx;
+        }
+    }
+    let rolling = -terrain.rolling * p.mass * G * smooth_sign(vx, 0.05);
+    ([fx + rolling, fy, mz], sides)
+}
+
+/// One physics step of `h` seconds with the motors' targets `targets` (rad/s, after the
+/// controller and the dead time): the wheels' velocity loops against the ground's reaction,
+/// then semi-implicit Euler on the body velocity and the pose.
+pub fn step_body(
+    p: &VehicleParams,
+    terrain: &Terrain,
+    state: &mut VehicleState,
+    targets: Input,
+    h: f64,
+) {
+    let ([fx, fy, mz], sides) = ground_forces(p, terrain, state);
+    let pt = &p.powertrain;
+    for side in 0..2 {
+        let w = state.wheels[side];
+        let u = targets[side].clamp(-pt.wheel_limit, pt.wheel_limit);
+        let ([rise, fall], _) = pt.lags(side);
+        let speeding_up = (u - w) * w >= 0.0;
+        let tau = if speeding_up { rise } else { fall };
+        let wanted = ((u - w) / tau).clamp(-pt.acceleration_limit, pt.acceleration_limit);
+        // The torque that acceleration needs against the ground's reaction on the wheel.
+        let load = p.wheel_radius * sides[side];
+        let torque = (pt.inertia * wanted + load).clamp(-pt.torque_limit, pt.torque_limit);
+        let accel = (torque - load) / pt.inertia;
+        // Never past the target within a step (the loop does not overshoot).
+        let next = w + accel * h;
+        state.wheels[side] = if (next - u) * (w - u) < 0.0 && torque.abs() < pt.torque_limit {
+            u
+        } else {
+            next
+        };
+    }
+    let [vx, vy, w] = state.velocity;
+    let ax = fx / p.mass + w * vy;
+    let ay = fy / p.mass - w * vx;
+    let aw = mz / p.inertia;
     let (vx, vy, w) = (vx + ax * h, vy + ay * h, w + aw * h);
     state.velocity = [vx, vy, w];
     let (s, c) = state.pose.z.sin_cos();

@@ -5,7 +5,9 @@ use drive_samplers::{
     build_sampler, builtin_robots, builtin_samplers, PauseReason, RobotSpec, RunnerConfig,
     RunnerState, SamplerContext, StopReason,
 };
-use drive_sim::{builtin_plants, simulate, Event, Simulation, SimulationConfig, Terrain};
+use drive_sim::{
+    builtin_plants, simulate, Event, Simulation, SimulationConfig, Simulator, Terrain,
+};
 use drive_traits::Phase;
 
 fn run(
@@ -48,6 +50,25 @@ fn run_on(
     simulate(config, &builtin_plants(), factory, converged).unwrap()
 }
 
+/// `r (w_r - w_l) / yaw rate` of the plant's true state after 8 s turning in place at
+/// `wheel` rad/s (the last second averaged).
+fn effective_baseline(preset: &str, terrain: &str, wheel: f64) -> f64 {
+    let robot = RobotSpec::load(&builtin_robots(), preset).unwrap();
+    let geometry: drive_models::DifferentialDrive =
+        drive_traits::vehicle_as(robot.vehicle.as_ref()).unwrap();
+    let mut sim = Simulator::new(&robot, &geometry, Terrain::preset(terrain).unwrap(), 1);
+    let (mut diff, mut yaw) = (0.0, 0.0);
+    for k in 0..160 {
+        sim.advance(drive_traits::Input::new(-wheel, wheel));
+        if k >= 140 {
+            let s = sim.state();
+            diff += geometry.wheel_radius * (s.wheels.y - s.wheels.x);
+            yaw += s.velocity[2];
+        }
+    }
+    diff / yaw
+}
+
 fn first_pause(sim: &Simulation) -> &(f64, RunnerState) {
     sim.states
         .iter()
@@ -78,9 +99,13 @@ fn characterization_finds_the_true_input_space_and_geometry() {
     }
     let radius = c.geometry("wheel_radius").unwrap();
     assert!((radius - 0.165).abs() < 0.01, "{radius}");
-    // Skid makes the effective baseline larger than the geometric one.
+    // Skid makes the effective baseline larger than the geometric one: it is the plant's,
+    // measured here on the true state turning in place at half the top wheel speed (the
+    // characterization's turn probe).
     let b = c.geometry("baseline").unwrap();
-    assert!(b > 0.55 && b < 0.7, "{b}");
+    let truth = effective_baseline("husky", "tile", 3.03);
+    assert!(truth > 0.6, "{truth}");
+    assert!((b - truth).abs() < 0.1 * truth, "{b} vs {truth}");
     assert_eq!(sim.stop, RunnerState::Done(StopReason::Intervals));
     assert_eq!(sim.dataset.windows.len(), 6);
 }
