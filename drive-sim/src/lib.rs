@@ -16,19 +16,23 @@
 #![warn(missing_docs)]
 
 pub mod car;
+mod fit;
 mod plant;
 mod run;
 mod sensors;
 mod sim;
 mod terrain;
+mod twin;
 mod vehicle;
 
 pub use car::{step_car, Actuator, CarParams, CarSimulator, CarState};
+pub use fit::{scatter, sim_fit, Scatter, ScatterFit, SimFit, SimFitError, SimFitReport};
 pub use plant::{builtin_plants, plant_for, KinematicPlant, MakePlant, Plant};
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
 pub use sensors::{Instruments, Sensors};
 pub use sim::{Measured, Simulator};
-pub use terrain::{builtin_terrains, Terrain, TerrainError};
+pub use terrain::{builtin_terrains, Terrain, TerrainError, Variability};
+pub use twin::{scale_difference, ProtocolSampler, TwinProtocol};
 pub use vehicle::{
     contact_force, step_body, ControllerParams, PowertrainParams, VehicleParams, VehicleState,
 };

@@ -1,14 +1,15 @@
 //! The protocol runner in the loop with the simulator, recording DRIVE windows.
 
-use crate::{plant_for, MakePlant, Terrain};
+use crate::{plant_for, MakePlant, ProtocolSampler, Terrain};
 use drive_data::{CalibState, RawRow};
+use drive_models::DifferentialDrive;
 use drive_samplers::{
     window_len, PauseReason, ProtocolRunner, RobotSpec, RunnerConfig, RunnerInput, RunnerState,
     SampleTag, StopReason, WINDOWS_PER_INTERVAL,
 };
 use drive_traits::{
-    relative_pose, Characterization, Dataset, Input, InputSampler, InputSpace, Phase, Pose,
-    Registry, RobotDescription, Window,
+    relative_pose, vehicle_as, Characterization, CommandModel, Dataset, Input, InputSampler,
+    InputSpace, Phase, Pose, Registry, RobotDescription, Window,
 };
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
@@ -132,9 +133,35 @@ pub fn simulate(
         (None, None) => return Err(SimError::Unbounded),
     };
     let mut robot = config.robot.clone();
-    // A twin samples the input space its real run sampled, without characterizing.
-    if let Some([a, b]) = config.terrain.input_limits {
-        robot.input_limits = InputSpace::new(Input::new(a[0], b[0]), Input::new(a[1], b[1]));
+    // A twin samples what its real run sampled, in the protocol's geometry, without
+    // characterizing; its commands step or ramp as the real run's did.
+    let mut sampler: Box<dyn FnMut(InputSpace) -> Box<dyn InputSampler>> = Box::new(sampler);
+    if let Some(p) = config.terrain.protocol {
+        let nominal: DifferentialDrive = vehicle_as(robot.vehicle.as_ref()).ok_or_else(|| {
+            SimError::Plant {
+                robot: robot.name.clone(),
+                reason: format!(
+                    "terrain '{}' carries a twin's protocol, which is a differential drive's; this robot's vehicle is '{}'",
+                    config.terrain.name,
+                    robot.vehicle.typetag_name()
+                ),
+            }
+        })?;
+        robot.input_limits = p.space();
+        robot.input_rate_limits = None;
+        robot.max_linear_acceleration = p.max_linear_acceleration.unwrap_or(f64::INFINITY);
+        robot.max_angular_acceleration = p.max_angular_acceleration.unwrap_or(f64::INFINITY);
+        let gain = p.difference_gain(nominal.baseline);
+        let geometry: Arc<dyn CommandModel> =
+            Arc::new(DifferentialDrive::new(nominal.wheel_radius, p.baseline));
+        let mut inner = sampler;
+        sampler = Box::new(move |space| {
+            Box::new(ProtocolSampler::new(
+                inner(space),
+                gain,
+                Arc::clone(&geometry),
+            ))
+        });
     }
     let samples = max_s * robot.rate_hz;
     drive_traits::limits::at_most(

@@ -2,10 +2,17 @@
 //! robots, advanced one command tick at a time.
 
 use crate::vehicle::{step_body, VehicleParams, VehicleState};
-use crate::{Instruments, Plant, Terrain};
+use crate::{ControllerParams, Instruments, Plant, Terrain};
 use drive_models::DifferentialDrive;
 use drive_samplers::RobotSpec;
 use drive_traits::{Input, Pose};
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+
+fn standard_normal(rng: &mut Xoshiro256PlusPlus) -> f64 {
+    StandardNormal.sample(rng)
+}
 
 /// The physics step (s): stable with a margin of about two for the stiffest preset (dry
 /// tile: the contacts' slip stiffness over the mass, the yaw inertia and the wheels'
@@ -38,12 +45,22 @@ pub struct Simulator {
     pub instruments: Instruments,
     state: VehicleState,
     substeps: usize,
+    /// The ground as it is at this tick (the terrain with its grip varied).
+    ground: Terrain,
+    /// The log multipliers of traction, lateral friction and rolling resistance (see
+    /// [`Variability`](crate::Variability)).
+    grip: [f64; 3],
+    grip_rng: Xoshiro256PlusPlus,
+    /// The controller's output (forward speed, yaw rate) as each side sees it (each side's
+    /// command arrives after its own dead time).
+    controller_output: [[f64; 2]; 2],
 }
 
 impl Simulator {
     /// A simulator for a robot with a differential-drive vehicle of `geometry` on a
     /// terrain, at rest at the origin, seeded. The terrain's `powertrain`, `controller` and
-    /// `sensors`, when it has them (a fitted twin), replace the defaults.
+    /// `sensors`, when it has them (a fitted twin), replace the defaults; its grip varies
+    /// as its [`Variability`](crate::Variability) says.
     pub fn new(
         spec: &RobotSpec,
         geometry: &DifferentialDrive,
@@ -59,9 +76,18 @@ impl Simulator {
             params.controller = c;
         }
         let sensors = terrain.sensors.unwrap_or_default();
+        let mut grip_rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x6121_7000_5EED);
+        // Drawn from the processes' stationary distributions.
+        let grip = terrain.variability.map_or([0.0; 3], |v| {
+            v.deviations().map(|sd| sd * standard_normal(&mut grip_rng))
+        });
         Simulator {
             params,
+            ground: terrain.clone(),
             terrain,
+            grip,
+            grip_rng,
+            controller_output: [[0.0; 2]; 2],
             instruments: Instruments::new(sensors, spec.rate_hz, seed),
             state: VehicleState {
                 pose: Pose::zeros(),
@@ -98,13 +124,32 @@ impl Simulator {
         Plant::advance(self, command)
     }
 
+    /// The ground of this tick: the terrain, its grip varied.
+    fn vary_ground(&mut self, dt: f64) {
+        self.ground.clone_from(&self.terrain);
+        let Some(v) = self.terrain.variability else {
+            return;
+        };
+        let a = (-dt / v.correlation_time).exp();
+        let keep = (1.0 - a * a).max(0.0).sqrt();
+        for (x, sd) in self.grip.iter_mut().zip(v.deviations()) {
+            *x = a * *x + sd * keep * standard_normal(&mut self.grip_rng);
+        }
+        self.ground.traction *= self.grip[0].exp();
+        self.ground.lateral *= self.grip[1].exp();
+        // Within the range a terrain file may give.
+        self.ground.rolling = (self.ground.rolling * self.grip[2].exp()).min(0.99);
+    }
+
     fn step(&mut self, command: Input) {
         self.instruments.record(command);
         let dt = self.instruments.dt();
+        self.vary_ground(dt);
         let h = dt / self.substeps as f64;
         let t0 = self.instruments.tick_start();
         let p = &self.params;
         let (radius, baseline) = (p.wheel_radius, p.baseline);
+        let ramps = p.controller.ramps();
         for i in 0..self.substeps {
             let t = t0 + i as f64 * h;
             let mut targets = Input::zeros();
@@ -116,9 +161,17 @@ impl Simulator {
                 } else {
                     1.0
                 };
-                targets[side] = gain * p.controller.targets(u, radius, baseline)[side];
+                let wheels = if ramps {
+                    let out = &mut self.controller_output[side];
+                    p.controller
+                        .ramp(out, p.controller.body_target(u, radius, baseline), h);
+                    ControllerParams::wheels(*out, radius, baseline)
+                } else {
+                    p.controller.targets(u, radius, baseline)
+                };
+                targets[side] = gain * wheels[side];
             }
-            step_body(p, &self.terrain, &mut self.state, targets, h);
+            step_body(p, &self.ground, &mut self.state, targets, h);
         }
         self.instruments.end_tick();
     }

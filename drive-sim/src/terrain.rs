@@ -5,14 +5,14 @@
 //! Janosi and Hanamoto 1961 for the shear-deformation modulus), chosen once, per terrain,
 //! not tuned to make any protocol or model win.
 
-use crate::{ControllerParams, PowertrainParams, Sensors};
+use crate::{ControllerParams, PowertrainParams, Sensors, TwinProtocol};
 use drive_traits::{Registry, RegistryError, RegistryItem};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use thiserror::Error;
 
 /// The ground's parameters, and, for a fitted twin of a real robot (`drive sim-fit`), the
-/// robot's powertrain, controller, sensors and the input space its run sampled.
+/// robot's powertrain, controller, sensors and the protocol its real run followed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Terrain {
@@ -38,10 +38,55 @@ pub struct Terrain {
     /// The sensors of a fitted twin ([`Sensors::default`] when absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensors: Option<Sensors>,
-    /// The input space a fitted twin's run samples (the real run's commands): `[[min,
-    /// max], [min, max]]` per input axis; the protocol's characterization is skipped.
+    /// How the grip varies in time around the coefficients above (none when absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub input_limits: Option<[[f64; 2]; 2]>,
+    pub variability: Option<Variability>,
+    /// How a fitted twin's real run commanded the robot: the input space it sampled and how
+    /// its commands changed (the characterization is skipped).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub protocol: Option<TwinProtocol>,
+}
+
+/// How the ground varies in time: the traction and lateral friction coefficients and the
+/// rolling resistance are multiplied by `exp(x)`, each `x` a first-order Gauss-Markov
+/// (Ornstein-Uhlenbeck) process of standard deviation `traction`, `lateral` or `rolling`
+/// (0 when absent) and correlation time `correlation_time`, independent of each other,
+/// advanced once per command tick. The terrain's coefficients are the medians.
+///
+/// Real runs need it: on the bundled Husky data the steady yaw rate scatters by 0.14 rad/s
+/// around any smooth function of the measured wheel speeds (the IMU agrees, so it is motion,
+/// not localization noise), growing with the turn rate, uncorrelated with position,
+/// heading or time, and correlated within an interval (0.65 between its two steady
+/// windows): the turning resistance changes from one moment to the next. `drive sim-fit`
+/// fits the three numbers so that a twin's scatter is the real run's.
+///
+/// ```
+/// let t = drive_sim::Terrain::from_toml("patchy.toml",
+///     "name = 'patchy'\ntraction = 0.4\nslip_modulus = 0.1\nlateral = 0.3\nrolling = 0.03\n\
+///      [variability]\ntraction = 0.1\nlateral = 0.3\ncorrelation_time = 4.0\n").unwrap();
+/// assert_eq!(t.variability.unwrap().correlation_time, 4.0);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Variability {
+    /// Standard deviation of the log of the traction coefficient.
+    #[serde(default)]
+    pub traction: f64,
+    /// Standard deviation of the log of the lateral friction coefficient.
+    #[serde(default)]
+    pub lateral: f64,
+    /// Standard deviation of the log of the rolling resistance.
+    #[serde(default)]
+    pub rolling: f64,
+    /// Correlation time of the three (s).
+    pub correlation_time: f64,
+}
+
+impl Variability {
+    /// The three standard deviations: traction, lateral, rolling.
+    pub fn deviations(&self) -> [f64; 3] {
+        [self.traction, self.lateral, self.rolling]
+    }
 }
 
 /// Why a terrain file is refused.
@@ -133,13 +178,14 @@ impl Terrain {
             powertrain: None,
             controller: None,
             sensors: None,
-            input_limits: None,
+            variability: None,
+            protocol: None,
         }
     }
 
     /// A terrain from a TOML file's text (what `drive sim-fit` writes): the ground's
-    /// `name`, `traction`, `slip_modulus`, `lateral`, `rolling`, and optionally
-    /// `input_limits` and the tables `[powertrain]`, `[controller]`, `[sensors]`.
+    /// `name`, `traction`, `slip_modulus`, `lateral`, `rolling`, and optionally the tables
+    /// `[powertrain]`, `[controller]`, `[sensors]` and `[protocol]`.
     ///
     /// ```
     /// let t = drive_sim::Terrain::from_toml("wet.toml",
@@ -248,6 +294,12 @@ impl Terrain {
             if let Some(m) = c.max_angular {
                 range("controller.max_angular", m, 0.0, 1e4)?;
             }
+            if let Some(a) = c.max_linear_acceleration {
+                range("controller.max_linear_acceleration", a, 0.0, 1e6)?;
+            }
+            if let Some(a) = c.max_angular_acceleration {
+                range("controller.max_angular_acceleration", a, 0.0, 1e6)?;
+            }
         }
         if let Some(s) = &self.sensors {
             range("sensors.icp_rate_hz", s.icp_rate_hz, 0.0, 1000.0)?;
@@ -279,19 +331,52 @@ impl Terrain {
                 ));
             }
         }
-        if let Some(l) = &self.input_limits {
-            for axis in l {
+        if let Some(v) = &self.variability {
+            for (field, value) in [
+                ("variability.traction", v.traction),
+                ("variability.lateral", v.lateral),
+                ("variability.rolling", v.rolling),
+            ] {
+                if !(value.is_finite() && (0.0..=3.0).contains(&value)) {
+                    return Err(bad(
+                        field,
+                        format!(
+                            "must be in [0, 3], got {}",
+                            drive_traits::limits::Short(value)
+                        ),
+                    ));
+                }
+            }
+            range("variability.correlation_time", v.correlation_time, 0.0, 1e4)?;
+        }
+        if let Some(p) = &self.protocol {
+            range("protocol.baseline", p.baseline, 0.0, 1e3)?;
+            for axis in p.input_limits {
                 if !(axis[0].is_finite()
                     && axis[1].is_finite()
                     && axis[0] < axis[1]
                     && axis[0].abs().max(axis[1].abs()) <= 1e6)
                 {
                     return Err(bad(
-                        "input_limits",
+                        "protocol.input_limits",
                         format!(
                             "each axis must be [min, max] with min < max, finite, got {axis:?}"
                         ),
                     ));
+                }
+            }
+            for (field, v) in [
+                (
+                    "protocol.max_linear_acceleration",
+                    p.max_linear_acceleration,
+                ),
+                (
+                    "protocol.max_angular_acceleration",
+                    p.max_angular_acceleration,
+                ),
+            ] {
+                if let Some(v) = v {
+                    range(field, v, 0.0, 1e6)?;
                 }
             }
         }

@@ -72,9 +72,11 @@ impl PowertrainParams {
 
 /// The robot's low-level controller between the commanded wheel velocities and the
 /// motors' targets: it reads the command as a body velocity (with the robot's nominal
-/// geometry), scales and limits it, and converts it back to wheel targets (a Husky's
-/// controller, for instance, turns with a wheel separation almost twice its baseline and
-/// caps its speed and yaw rate). The identity by default.
+/// geometry), scales and limits it, ramps towards it within body acceleration limits, and
+/// converts it back to wheel targets (a Husky's controller, ROS `diff_drive_controller`,
+/// for instance, turns with a wheel separation of its own, caps its speed and yaw rate and
+/// limits the linear and angular accelerations separately, so that a wheel can first move
+/// away from its new target). The identity by default.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControllerParams {
@@ -86,6 +88,12 @@ pub struct ControllerParams {
     pub max_linear: Option<f64>,
     /// Largest yaw rate (rad/s) the controller passes on.
     pub max_angular: Option<f64>,
+    /// Largest linear acceleration (m/s^2) of the controller's output.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_linear_acceleration: Option<f64>,
+    /// Largest angular acceleration (rad/s^2) of the controller's output.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_angular_acceleration: Option<f64>,
 }
 
 impl Default for ControllerParams {
@@ -95,25 +103,64 @@ impl Default for ControllerParams {
             angular_gain: 1.0,
             max_linear: None,
             max_angular: None,
+            max_linear_acceleration: None,
+            max_angular_acceleration: None,
         }
     }
 }
 
 impl ControllerParams {
-    /// The wheel targets for commanded wheel velocities `u` on wheels of `radius` a
-    /// `baseline` apart.
-    pub fn targets(&self, u: Input, radius: f64, baseline: f64) -> Input {
-        if *self == ControllerParams::default() {
-            return u;
-        }
+    /// The body velocity (forward speed, yaw rate) the controller aims at for commanded
+    /// wheel velocities `u` on wheels of `radius` a `baseline` apart: scaled and capped.
+    pub fn body_target(&self, u: Input, radius: f64, baseline: f64) -> [f64; 2] {
         let v = radius * (u.x + u.y) / 2.0 * self.linear_gain;
         let w = radius * (u.y - u.x) / baseline * self.angular_gain;
-        let v = self.max_linear.map_or(v, |m| v.clamp(-m, m));
-        let w = self.max_angular.map_or(w, |m| w.clamp(-m, m));
+        [
+            self.max_linear.map_or(v, |m| v.clamp(-m, m)),
+            self.max_angular.map_or(w, |m| w.clamp(-m, m)),
+        ]
+    }
+
+    /// Steps the controller's output `body` towards `target` for `h` seconds within its
+    /// acceleration limits.
+    ///
+    /// ```
+    /// let c = drive_sim::ControllerParams { max_linear_acceleration: Some(1.0), ..Default::default() };
+    /// let mut body = [0.0, 0.0];
+    /// c.ramp(&mut body, [2.0, -3.0], 0.5);
+    /// assert_eq!(body, [0.5, -3.0]); // the yaw rate has no limit
+    /// ```
+    pub fn ramp(&self, body: &mut [f64; 2], target: [f64; 2], h: f64) {
+        for (i, limit) in [self.max_linear_acceleration, self.max_angular_acceleration]
+            .into_iter()
+            .enumerate()
+        {
+            let step = limit.map_or(f64::INFINITY, |a| a * h);
+            body[i] += (target[i] - body[i]).clamp(-step, step);
+        }
+    }
+
+    /// The wheel targets of a body velocity (forward speed, yaw rate).
+    pub fn wheels(body: [f64; 2], radius: f64, baseline: f64) -> Input {
+        let [v, w] = body;
         Input::new(
             (v - w * baseline / 2.0) / radius,
             (v + w * baseline / 2.0) / radius,
         )
+    }
+
+    /// The wheel targets for commanded wheel velocities `u`, the output settled (no
+    /// acceleration limit in the way).
+    pub fn targets(&self, u: Input, radius: f64, baseline: f64) -> Input {
+        if *self == ControllerParams::default() {
+            return u;
+        }
+        Self::wheels(self.body_target(u, radius, baseline), radius, baseline)
+    }
+
+    /// True when the output ramps (an acceleration limit is set).
+    pub fn ramps(&self) -> bool {
+        self.max_linear_acceleration.is_some() || self.max_angular_acceleration.is_some()
     }
 }
 

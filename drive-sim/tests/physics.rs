@@ -144,7 +144,12 @@ fn localization_latency_delays_the_pose() {
 fn terrain_files_round_trip_and_refuse_bad_values() {
     let mut t = Terrain::preset("snow").unwrap();
     t.name = "twin".into();
-    t.input_limits = Some([[-10.0, 10.0], [-9.0, 11.0]]);
+    t.protocol = Some(drive_sim::TwinProtocol {
+        baseline: 0.3,
+        input_limits: [[-10.0, 10.0], [-9.0, 11.0]],
+        max_linear_acceleration: None,
+        max_angular_acceleration: Some(4.0),
+    });
     t.sensors = Some(drive_sim::Sensors::default());
     let back = Terrain::from_toml("t.toml", &t.to_toml()).unwrap();
     assert_eq!(back, t);
@@ -162,7 +167,14 @@ fn terrain_files_round_trip_and_refuse_bad_values() {
             text.replace("icp_rate_hz = 10.0", "icp_rate_hz = 0.0"),
             "sensors.icp_rate_hz",
         ),
-        (text.replace("[-9.0, 11.0]", "[11.0, -9.0]"), "input_limits"),
+        (
+            text.replace("[-9.0, 11.0]", "[11.0, -9.0]"),
+            "protocol.input_limits",
+        ),
+        (
+            text.replace("baseline = 0.3", "baseline = 0.0"),
+            "protocol.baseline",
+        ),
     ] {
         match Terrain::from_toml("t.toml", &bad) {
             Err(TerrainError::Invalid { field: f, .. }) => assert_eq!(f, field),

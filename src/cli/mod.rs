@@ -39,6 +39,7 @@ mod matrix;
 mod predict;
 mod protocol;
 mod report;
+mod sim_fit;
 mod simulate;
 mod train;
 
@@ -75,6 +76,10 @@ enum Command {
     /// Run the protocol (characterization, then DRIVE intervals) on a simulated UGV and
     /// write the recorded windows as a window CSV and its sidecar.
     Simulate(simulate::Args),
+    /// Fit a twin of a real robot for the simulator on a DRIVE dataset: its controller,
+    /// powertrain, terrain and sensor noise, written as a terrain TOML file that `drive
+    /// simulate --terrain FILE` runs.
+    SimFit(sim_fit::Args),
     /// Compare data-gathering protocols (paper Table I). On the simulator: equal driving
     /// time with each sampler, a model trained on each, all tested on one held-out run per
     /// seed. With --real: on recorded data, models trained on the intervals in a
@@ -131,6 +136,7 @@ where
             Command::Converge(a) => converge::run(&a, registries),
             Command::Protocol(a) => protocol::run(&a, registries),
             Command::Simulate(a) => simulate::run(&a, registries),
+            Command::SimFit(a) => sim_fit::run(&a, registries),
             Command::CompareProtocols(a) => compare_protocols::run(&a, registries),
             Command::Import(a) => import::run(&a, registries),
             Command::Check(a) => check::run(&a, registries),

@@ -1,0 +1,121 @@
+//! How a real run's protocol commanded its robot, so that a fitted twin
+//! (`drive sim-fit`) samples what the real run sampled.
+//!
+//! The DRIVE paper's own node draws wheel speeds uniformly in a box, but converts them to the
+//! body velocity it sends with the geometry its characterization *estimated*, and the logger
+//! converts that body velocity back to wheel speeds with the robot's nominal geometry. The
+//! recorded commands then fill the box's image: a diamond in body velocity (the paper's
+//! Fig. 2) whose aspect ratio is the estimated baseline's, not the nominal one's. On the
+//! bundled Husky data the commands span 14.5 rad/s per wheel but only 0.95 m/s of forward
+//! speed: a box in the nominal wheel speeds would command twice the forward speeds the real
+//! run did. Its commands also step at the start of an interval instead of ramping.
+
+use drive_traits::{Input, InputSampler, InputSpace, RobotDescription, Window};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// The protocol of a fitted twin's real run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TwinProtocol {
+    /// The baseline (m) the protocol converted its sampled wheel speeds to body velocities
+    /// with (the robot's own baseline when it used the nominal geometry).
+    pub baseline: f64,
+    /// The box the protocol drew wheel speeds from, in that geometry: `[[min, max], [min,
+    /// max]]`, left then right (rad/s). The characterization is skipped.
+    pub input_limits: [[f64; 2]; 2],
+    /// Linear acceleration limit of the sent commands (m/s^2); absent: commands step to
+    /// the sampled input at the start of an interval.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_linear_acceleration: Option<f64>,
+    /// Angular acceleration limit of the sent commands (rad/s^2); absent: commands step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_angular_acceleration: Option<f64>,
+}
+
+impl TwinProtocol {
+    /// The sampled box.
+    pub fn space(&self) -> Option<InputSpace> {
+        let [l, r] = self.input_limits;
+        InputSpace::new(Input::new(l[0], r[0]), Input::new(l[1], r[1]))
+    }
+
+    /// The factor the protocol's geometry puts on the wheel-speed difference, as recorded
+    /// in the nominal geometry (`nominal_baseline / baseline`): the commanded yaw rate
+    /// `r (u_r - u_l) / baseline` is recorded as a difference `yaw rate x nominal_baseline /
+    /// r`, while the forward speed keeps the wheel-speed sum.
+    pub fn difference_gain(&self, nominal_baseline: f64) -> f64 {
+        nominal_baseline / self.baseline
+    }
+}
+
+/// Scales the difference of the two wheel speeds by `gain`, keeping their sum.
+///
+/// ```
+/// use drive_traits::Input;
+/// let u = drive_sim::scale_difference(Input::new(1.0, 3.0), 2.0);
+/// assert_eq!(u, Input::new(0.0, 4.0));
+/// ```
+pub fn scale_difference(u: Input, gain: f64) -> Input {
+    let (sum, diff) = ((u.x + u.y) / 2.0, (u.y - u.x) / 2.0 * gain);
+    Input::new(sum - diff, sum + diff)
+}
+
+/// A sampler in the protocol's geometry, seen in the nominal one: its inputs are recorded
+/// with their wheel-speed difference scaled by `gain`; what it observes is mapped back, with
+/// a robot description of the protocol's geometry, so that a sampler that learns from the
+/// windows (`targeted`) reasons in its own coordinates.
+pub struct ProtocolSampler {
+    inner: Box<dyn InputSampler>,
+    gain: f64,
+    robot: Option<RobotDescription>,
+    protocol_vehicle: Arc<dyn drive_traits::CommandModel>,
+}
+
+impl ProtocolSampler {
+    /// `inner` draws in the protocol's geometry, `protocol_vehicle`; `gain` maps its inputs
+    /// to the nominal geometry's ([`TwinProtocol::difference_gain`]).
+    pub fn new(
+        inner: Box<dyn InputSampler>,
+        gain: f64,
+        protocol_vehicle: Arc<dyn drive_traits::CommandModel>,
+    ) -> Self {
+        ProtocolSampler {
+            inner,
+            gain,
+            robot: None,
+            protocol_vehicle,
+        }
+    }
+}
+
+impl InputSampler for ProtocolSampler {
+    fn next_input(&mut self) -> Input {
+        scale_difference(self.inner.next_input(), self.gain)
+    }
+
+    fn observe(&mut self, robot: &RobotDescription, interval: &[Window]) {
+        let back = 1.0 / self.gain;
+        let mapped: Vec<Window> = interval
+            .iter()
+            .map(|w| Window {
+                command: w
+                    .command
+                    .iter()
+                    .map(|&u| scale_difference(u, back))
+                    .collect(),
+                measured: w
+                    .measured
+                    .iter()
+                    .map(|&u| scale_difference(u, back))
+                    .collect(),
+                ..w.clone()
+            })
+            .collect();
+        let described = self.robot.get_or_insert_with(|| RobotDescription {
+            vehicle: Arc::clone(&self.protocol_vehicle),
+            ..robot.clone()
+        });
+        self.inner.observe(described, &mapped);
+    }
+}

@@ -1,0 +1,115 @@
+//! `drive sim-fit`: a twin of a real robot for the simulator, fitted on a DRIVE dataset.
+
+use super::common::{emit, load, outputs_for, robot_input, DataArgs};
+use crate::Registries;
+use anyhow::Result;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    data: DataArgs,
+    /// The robot the data was recorded with (a registered name or a robot TOML file): its
+    /// mass and build; the geometry is the data's.
+    #[arg(long)]
+    robot: String,
+    /// Output terrain TOML (`drive simulate --terrain FILE`).
+    #[arg(long)]
+    out: PathBuf,
+    /// The twin's name (default: the dataset's name and "twin").
+    #[arg(long)]
+    name: Option<String>,
+    /// Print the fit as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let mut inputs = args.data.inputs();
+    inputs.extend(robot_input(&args.robot));
+    let mut outputs = outputs_for(&inputs, &[("--out", &args.out)])?;
+    let spec = registries.robot(&args.robot)?;
+    let data = load(&args.data)?;
+    let name = args
+        .name
+        .clone()
+        .unwrap_or_else(|| format!("{} twin", data.robot.name));
+    let fit = crate::sim::sim_fit(&data, &spec, &name)?;
+    outputs.write(&args.out, fit.terrain.to_toml())?;
+    outputs.publish()?;
+    emit(args.json, &fit, |f| {
+        let t = &f.terrain;
+        let r = &f.report;
+        let c = t.controller.unwrap_or_default();
+        // sim_fit always fits the powertrain.
+        let p = t.powertrain.expect("a fitted twin has a powertrain");
+        let s = t.sensors.unwrap_or_default();
+        let limit =
+            |a: Option<f64>, unit: &str| a.map_or("none".to_string(), |a| format!("{a:.2} {unit}"));
+        let mut text = format!(
+            "twin '{}' of {} fitted on {} steady and {} transient windows; saved to {}\n",
+            t.name,
+            data.robot.name,
+            r.steady_windows,
+            r.transient_windows,
+            args.out.display()
+        );
+        text += &format!(
+            "controller: linear gain {:.3}, angular gain {:.3}, max {:.3} m/s and {:.3} rad/s, acceleration limits {} and {}; wheel limit {:.2} rad/s, right side x{:.3} (steady encoders RMS {:.3} rad/s)\n",
+            c.linear_gain,
+            c.angular_gain,
+            c.max_linear.unwrap_or(f64::INFINITY),
+            c.max_angular.unwrap_or(f64::INFINITY),
+            limit(c.max_linear_acceleration, "m/s^2"),
+            limit(c.max_angular_acceleration, "rad/s^2"),
+            p.wheel_limit,
+            p.right_gain,
+            r.controller_rms,
+        );
+        text += &format!(
+            "powertrain: time constant {:.3} s rising, {:.3} s falling, dead time {:.3} s (transient encoders RMS {:.3} rad/s)\n",
+            p.time_constant[0], p.time_constant[1], p.dead_time, r.powertrain_rms,
+        );
+        let [[sv, sw], [tv, tw]] = r.terrain_rms;
+        let [[sv0, sw0], [tv0, tw0]] = r.terrain_rms_start;
+        text += &format!(
+            "ground: traction {:.3}, lateral {:.3}, slip modulus {:.3}, rolling {:.3} (body velocity RMS {sv:.3} m/s and {sw:.3} rad/s steady, {tv:.3} and {tw:.3} transient; from the gravel preset {sv0:.3}, {sw0:.3}, {tv0:.3}, {tw0:.3})\n",
+            t.traction, t.lateral, t.slip_modulus, t.rolling,
+        );
+        text += &match (&t.variability, &r.scatter) {
+            (Some(v), Some(sc)) => format!(
+                "variability: traction {:.3}, lateral {:.3}, rolling {:.3} (log standard deviations), correlation time {:.2} s (steady scatter {:.3} m/s and {:.3} rad/s; the twin's {:.3} and {:.3}, {:.3} and {:.3} without)\n",
+                v.traction, v.lateral, v.rolling, v.correlation_time,
+                sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1], sc.without.rms[0], sc.without.rms[1],
+            ),
+            (None, Some(sc)) => format!(
+                "variability: none (steady scatter {:.3} m/s and {:.3} rad/s; the twin's already {:.3} and {:.3})\n",
+                sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1],
+            ),
+            _ => "variability: none (fewer than 30 steady windows to measure it)\n".to_string(),
+        };
+        text += &format!(
+            "sensors: localization {:.1} Hz with {:.4} m and {:.4} rad noise, encoders {:.3} rad/s, IMU {:.4} rad/s with a {:+.4} rad/s bias\n",
+            s.icp_rate_hz, s.icp_noise[0], s.icp_noise[1], s.encoder_noise, s.imu_noise, s.imu_bias,
+        );
+        if let Some(q) = &t.protocol {
+            let [[l0, l1], [r0, r1]] = q.input_limits;
+            text += &format!(
+                "protocol: wheel speeds drawn in left [{l0:.2}, {l1:.2}] and right [{r0:.2}, {r1:.2}] rad/s with a {:.3} m baseline (the data's {:.3} m), commands {}\n",
+                q.baseline,
+                data_baseline(&data),
+                match (q.max_linear_acceleration, q.max_angular_acceleration) {
+                    (Some(a), Some(b)) => format!("ramped at {a:.2} m/s^2 and {b:.2} rad/s^2"),
+                    _ => "stepped".to_string(),
+                }
+            );
+        }
+        text
+    })
+}
+
+/// The data's baseline (a differential drive: sim-fit refuses the others).
+fn data_baseline(data: &crate::traits::Dataset) -> f64 {
+    crate::traits::vehicle_as::<crate::models::DifferentialDrive>(data.robot.vehicle.as_ref())
+        .map_or(f64::NAN, |g| g.baseline)
+}

@@ -1,0 +1,316 @@
+//! `sim_fit` and `drive sim-fit`: a twin fitted on a run of a known simulated robot recovers
+//! the parameters the data can tell (controller, powertrain, protocol, sensors,
+//! variability) and the ground's behaviour (the ground's parameters trade off against each
+//! other: what is checked is that the twin drives like the generator); degenerate data is
+//! refused with a reason; the command line writes a terrain file `drive simulate` runs, the
+//! same on every run.
+
+mod common;
+
+use common::{ok, user_error};
+use drive::eval::{evaluate_model, split_by_interval};
+use drive::models::powertrain::Fopdt;
+use drive::models::slip::{NoSlip, SlipBlr};
+use drive::models::Composed;
+use drive::samplers::{builtin_robots, RobotSpec, RunnerConfig, UniformSampler};
+use drive::sim::{
+    builtin_plants, scatter, sim_fit, simulate, ControllerParams, PowertrainParams, Sensors,
+    SimFitError, SimulationConfig, Terrain, TwinProtocol, Variability,
+};
+use drive::traits::{vehicle_as, Dataset, InputSampler, Learner, Phase};
+
+fn husky() -> RobotSpec {
+    RobotSpec::load(&builtin_robots(), "husky").unwrap()
+}
+
+/// A robot unlike the presets: a controller with gains, caps and acceleration limits, an
+/// asymmetric motor loop, a protocol in another geometry that steps its commands, a ground
+/// whose turning resistance varies.
+fn generator() -> Terrain {
+    let mut powertrain = PowertrainParams::for_robot(&husky(), 0.165);
+    powertrain.time_constant = [0.25, 0.35];
+    powertrain.dead_time = 0.15;
+    powertrain.right_lag = 1.0;
+    powertrain.right_gain = 1.0;
+    powertrain.wheel_limit = 6.0;
+    Terrain {
+        name: "generator".into(),
+        traction: 0.5,
+        slip_modulus: 0.12,
+        lateral: 0.45,
+        rolling: 0.05,
+        powertrain: Some(powertrain),
+        controller: Some(ControllerParams {
+            linear_gain: 1.5,
+            angular_gain: 0.7,
+            max_linear: Some(0.9),
+            max_angular: Some(1.6),
+            max_linear_acceleration: Some(1.5),
+            max_angular_acceleration: Some(2.5),
+        }),
+        sensors: Some(Sensors {
+            encoder_noise: 0.1,
+            icp_rate_hz: 10.0,
+            icp_noise: [0.01, 0.01],
+            icp_latency: 0.0,
+            icp_jitter: 0.0,
+            imu_noise: 0.03,
+            imu_bias: 0.002,
+        }),
+        variability: Some(Variability {
+            traction: 0.0,
+            lateral: 0.3,
+            rolling: 0.0,
+            correlation_time: 3.0,
+        }),
+        protocol: Some(TwinProtocol {
+            baseline: 0.3,
+            input_limits: [[-6.0, 6.0], [-6.0, 6.0]],
+            max_linear_acceleration: None,
+            max_angular_acceleration: None,
+        }),
+    }
+}
+
+fn run(terrain: &Terrain, intervals: usize, seed: u64) -> Dataset {
+    let config = SimulationConfig {
+        robot: husky(),
+        terrain: terrain.clone(),
+        seed,
+        runner: RunnerConfig {
+            max_intervals: Some(intervals),
+            ..RunnerConfig::default()
+        },
+        events: Vec::new(),
+        name: format!("{}-s{seed}", terrain.name),
+    };
+    let sampler =
+        move |space| Box::new(UniformSampler::new(space, seed).unwrap()) as Box<dyn InputSampler>;
+    simulate(config, &builtin_plants(), sampler, None)
+        .unwrap()
+        .dataset
+}
+
+/// Median translational and rotational errors of the powertrain model and of slip-BLR.
+fn medians(data: &Dataset) -> [f64; 4] {
+    let (train, eval) = split_by_interval(data, 0.5).unwrap();
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let mut out = [0.0; 4];
+    let powertrain = Learner::fit(&Composed::new(Fopdt::default(), NoSlip), &train).unwrap();
+    let slip = Learner::fit(&Composed::new(Fopdt::default(), SlipBlr::default()), &train).unwrap();
+    for (i, report) in [
+        evaluate_model(&powertrain, &eval),
+        evaluate_model(&slip, &eval),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        out[2 * i] = median(
+            report
+                .windows
+                .iter()
+                .map(|w| w.error.translational)
+                .collect(),
+        );
+        out[2 * i + 1] = median(report.windows.iter().map(|w| w.error.rotational).collect());
+    }
+    out
+}
+
+fn close(what: &str, got: f64, want: f64, relative: f64) {
+    assert!(
+        (got - want).abs() <= relative * want.abs(),
+        "{what}: fitted {got}, generated with {want} (tolerance {relative})"
+    );
+}
+
+#[test]
+fn a_twin_of_a_simulated_robot_recovers_what_the_data_can_tell() {
+    let truth = generator();
+    let data = run(&truth, 200, 7);
+    let fit = sim_fit(&data, &husky(), "twin").unwrap();
+    let t = &fit.terrain;
+    // Controller: gains and caps from the steady encoders, acceleration limits from the
+    // transients.
+    let (c, want) = (t.controller.unwrap(), truth.controller.unwrap());
+    close("linear gain", c.linear_gain, want.linear_gain, 0.03);
+    close("angular gain", c.angular_gain, want.angular_gain, 0.03);
+    close("max linear", c.max_linear.unwrap(), 0.9, 0.03);
+    close("max angular", c.max_angular.unwrap(), 1.6, 0.03);
+    close(
+        "linear acceleration",
+        c.max_linear_acceleration.unwrap(),
+        1.5,
+        0.1,
+    );
+    close(
+        "angular acceleration",
+        c.max_angular_acceleration.unwrap(),
+        2.5,
+        0.1,
+    );
+    // Powertrain: the motors' loop.
+    let p = t.powertrain.unwrap();
+    close("rising time constant", p.time_constant[0], 0.25, 0.15);
+    close("falling time constant", p.time_constant[1], 0.35, 0.15);
+    assert!(
+        (p.dead_time - 0.15).abs() < 0.04,
+        "dead time {}",
+        p.dead_time
+    );
+    close("wheel limit", p.wheel_limit, 6.0, 0.03);
+    close("right gain", p.right_gain, 1.0, 0.03);
+    // Protocol: the geometry and box it sampled, stepped commands.
+    let q = t.protocol.unwrap();
+    close("protocol baseline", q.baseline, 0.3, 0.1);
+    for axis in q.input_limits {
+        close("protocol lower limit", axis[0], -6.0, 0.05);
+        close("protocol upper limit", axis[1], 6.0, 0.05);
+    }
+    assert_eq!(q.max_linear_acceleration, None);
+    // Sensors: the localization's rate and noise, the encoders' noise.
+    let s = t.sensors.unwrap();
+    assert!((9.0..=10.5).contains(&s.icp_rate_hz), "{}", s.icp_rate_hz);
+    close("position noise", s.icp_noise[0], 0.01, 0.3);
+    close("encoder noise", s.encoder_noise, 0.1, 0.2);
+    // Variability: the turning resistance's, with its correlation time.
+    let v = t.variability.unwrap();
+    close("lateral variability", v.lateral, 0.3, 0.35);
+    close("correlation time", v.correlation_time, 3.0, 0.35);
+    let report = fit.report.scatter.unwrap();
+    close(
+        "the twin's yaw-rate scatter",
+        report.twin.rms[1],
+        report.real.rms[1],
+        0.2,
+    );
+    // The ground, by behaviour: on new runs (another seed, the same for both), the twin's
+    // model errors are the generator's.
+    let (real, twin) = (medians(&run(&truth, 200, 11)), medians(&run(t, 200, 11)));
+    for (i, what) in [
+        "powertrain translational",
+        "powertrain rotational",
+        "slip-BLR translational",
+        "slip-BLR rotational",
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        close(what, twin[i], real[i], 0.15);
+    }
+}
+
+#[test]
+fn the_scatter_statistic_is_the_spread_around_a_smooth_function_of_the_wheel_speeds() {
+    // Without variability or noise the steady windows lie on a smooth function of the wheel
+    // speeds; the variability spreads them.
+    let mut calm = generator();
+    calm.variability = None;
+    calm.sensors = Some(Sensors {
+        encoder_noise: 0.0,
+        icp_noise: [0.0, 0.0],
+        imu_noise: 0.0,
+        ..Sensors::default()
+    });
+    let g = vehicle_as(husky().vehicle.as_ref()).unwrap();
+    let quiet = scatter(&run(&calm, 100, 3), &g).unwrap();
+    let mut varied = calm.clone();
+    varied.variability = generator().variability;
+    let spread = scatter(&run(&varied, 100, 3), &g).unwrap();
+    assert!(spread.rms[1] > 3.0 * quiet.rms[1], "{quiet:?} {spread:?}");
+    assert!(spread.within_interval > 0.3, "{spread:?}");
+    // Fewer than 30 steady windows: no statistic.
+    assert!(scatter(&run(&calm, 10, 3), &g).is_none());
+}
+
+#[test]
+fn degenerate_data_is_refused_with_its_reason() {
+    let data = run(&generator(), 4, 1);
+    match sim_fit(&data, &husky(), "twin") {
+        Err(SimFitError::TooFew { needed, found, .. }) => assert!(found < needed),
+        other => panic!("{other:?}"),
+    }
+    // Only transient windows (the steady ones dropped).
+    let mut transient_only = run(&generator(), 30, 1);
+    transient_only
+        .windows
+        .retain(|w| w.phase == Phase::Transient);
+    let err = sim_fit(&transient_only, &husky(), "twin").unwrap_err();
+    assert!(err.to_string().contains("steady windows"), "{err}");
+}
+
+#[test]
+fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (a, b) = (path("a.toml"), path("b.toml"));
+    let out = ok(&["sim-fit", "--robot", "husky", "--out", &a]);
+    assert!(
+        out.contains("controller:") && out.contains("variability:"),
+        "{out}"
+    );
+    ok(&["sim-fit", "--robot", "husky", "--out", &b, "--json"]);
+    let text = std::fs::read_to_string(&a).unwrap();
+    assert_eq!(text, std::fs::read_to_string(&b).unwrap());
+    let twin = Terrain::from_toml("a.toml", &text).unwrap();
+    assert!(twin.protocol.is_some() && twin.controller.is_some());
+    // The twin runs the protocol in its real run's input space.
+    let csv = path("twin.csv");
+    ok(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        &a,
+        "--duration",
+        "120",
+        "--seed",
+        "1",
+        "--out",
+        &csv,
+    ]);
+    ok(&["eval", "--data", &csv, "--models", "naive"]);
+    // A car's data has no skid-steer twin; the output never replaces the data.
+    let car = path("car.csv");
+    ok(&[
+        "simulate",
+        "--robot",
+        "autorally",
+        "--terrain",
+        "gravel",
+        "--duration",
+        "200",
+        "--seed",
+        "1",
+        "--out",
+        &car,
+    ]);
+    let err = user_error(&[
+        "sim-fit",
+        "--data",
+        &car,
+        "--robot",
+        "autorally",
+        "--out",
+        &a,
+    ]);
+    assert!(err.contains("differential"), "{err}");
+    let err = user_error(&["sim-fit", "--data", &csv, "--robot", "husky", "--out", &csv]);
+    assert!(err.contains("--out"), "{err}");
+    // The twin's protocol is a skid-steer's: refused for another vehicle.
+    let err = user_error(&[
+        "simulate",
+        "--robot",
+        "autorally",
+        "--terrain",
+        &a,
+        "--duration",
+        "60",
+        "--out",
+        &path("x.csv"),
+    ]);
+    assert!(err.contains("protocol"), "{err}");
+}
