@@ -37,6 +37,7 @@ fn generator() -> Terrain {
         name: "generator".into(),
         traction: 0.5,
         slip_modulus: 0.12,
+        lateral_slip_modulus: None,
         lateral: 0.45,
         rolling: 0.05,
         powertrain: Some(powertrain),
@@ -54,6 +55,7 @@ fn generator() -> Terrain {
             icp_noise: [0.01, 0.01],
             icp_latency: 0.0,
             icp_jitter: 0.0,
+            icp_mount: [0.08, 0.0, -0.03],
             imu_noise: 0.03,
             imu_bias: 0.002,
         }),
@@ -176,6 +178,9 @@ fn a_twin_of_a_simulated_robot_recovers_what_the_data_can_tell() {
     assert!((9.0..=10.5).contains(&s.icp_rate_hz), "{}", s.icp_rate_hz);
     close("position noise", s.icp_noise[0], 0.01, 0.3);
     close("encoder noise", s.encoder_noise, 0.1, 0.2);
+    // The localization's mount: ahead of the centre, yawed.
+    assert!((s.icp_mount[0] - 0.08).abs() < 0.02, "{:?}", s.icp_mount);
+    assert!((s.icp_mount[2] + 0.03).abs() < 0.01, "{:?}", s.icp_mount);
     // Variability: the turning resistance's, with its correlation time.
     let v = t.variability.unwrap();
     close("lateral variability", v.lateral, 0.3, 0.35);

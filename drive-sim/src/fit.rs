@@ -126,6 +126,22 @@ struct Transient {
     body: [f64; 2],
 }
 
+/// A window's mean lateral speed (its displacement across the heading at mid-window), from
+/// poses `dt` apart.
+fn window_lateral(pose: &[Pose], dt: f64) -> f64 {
+    let n = pose.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let mut yaw = 0.0;
+    for k in 1..n {
+        yaw += drive_traits::wrap_angle(pose[k].z - pose[k - 1].z);
+    }
+    let heading = pose[0].z + yaw / 2.0;
+    let (dx, dy) = (pose[n - 1].x - pose[0].x, pose[n - 1].y - pose[0].y);
+    (-heading.sin() * dx + heading.cos() * dy) / ((n - 1) as f64 * dt)
+}
+
 /// A window's mean forward speed (its displacement along the heading at mid-window) and
 /// yaw rate (its yaw change, unwrapped), from poses `dt` apart.
 fn window_motion(pose: &[Pose], dt: f64) -> [f64; 2] {
@@ -360,6 +376,45 @@ struct TerrainProblem<'a> {
     dt: f64,
     /// The spread of the measured forward speeds and yaw rates: the errors' units.
     scale: [f64; 2],
+    /// The measured slip per region of the input space ([`region_slips`]).
+    slips: RegionSlips,
+}
+
+/// Regions of the input space by turn share (`|w| b / 2 / (|v| + |w| b / 2)` of the body
+/// velocity the wheels give: 0 driving straight, 1 turning in place): quarters.
+const REGIONS: usize = 4;
+
+/// Per region, the share of the windows in it and the slopes of the forward speed and yaw
+/// rate on the wheels' (through the origin): the steady-state slip of that region.
+type RegionSlips = [(f64, [f64; 2]); REGIONS];
+
+/// How much the region slips count in the ground's cost, against the per-window errors in
+/// units of their spread: a slope off by 0.1 in every region weighs as a per-window error
+/// of 0.2 spreads.
+const REGION_WEIGHT: f64 = 4.0;
+
+/// The steady-state slip per region, for windows whose wheels give the body velocity
+/// `wheels[i]` and which moved at `moved[i]` (forward speed, yaw rate).
+fn region_slips(wheels: &[[f64; 2]], moved: &[[f64; 2]], baseline: f64) -> RegionSlips {
+    let mut sums = [([0.0; 2], [0.0; 2], 0usize); REGIONS];
+    for (&[v, w], m) in wheels.iter().zip(moved) {
+        let turn = w.abs() * baseline / 2.0;
+        let share = turn / (v.abs() + turn).max(1e-9);
+        let r = ((share * REGIONS as f64) as usize).min(REGIONS - 1);
+        let (xy, xx, n) = &mut sums[r];
+        for (axis, x) in [v, w].into_iter().enumerate() {
+            xy[axis] += x * m[axis];
+            xx[axis] += x * x;
+        }
+        *n += 1;
+    }
+    let total = wheels.len().max(1) as f64;
+    sums.map(|(xy, xx, n)| {
+        (
+            n as f64 / total,
+            [0, 1].map(|a| if xx[a] > 1e-12 { xy[a] / xx[a] } else { 0.0 }),
+        )
+    })
 }
 
 /// The physics step of the terrain stage (s).
@@ -372,6 +427,7 @@ impl TerrainProblem<'_> {
             traction: p[0].exp().clamp(1e-3, 5.0),
             lateral: p[1].exp().clamp(1e-3, 5.0),
             slip_modulus: p[2].exp().clamp(1e-3, 10.0),
+            lateral_slip_modulus: Some(p[4].exp().clamp(1e-3, 10.0)),
             rolling: p[3].exp().clamp(0.0, 0.9),
             powertrain: None,
             controller: None,
@@ -434,6 +490,54 @@ impl TerrainProblem<'_> {
         window_motion(&poses, self.dt)
     }
 
+    /// The body velocity (forward speed, yaw rate) the wheel speeds `u` give.
+    fn wheel_body(&self, u: Input) -> [f64; 2] {
+        let p = &self.params;
+        [
+            p.wheel_radius * (u.x + u.y) / 2.0,
+            p.wheel_radius * (u.y - u.x) / p.baseline,
+        ]
+    }
+
+    /// The cost of a ground: the per-window errors of the steady and transient windows in
+    /// units of the measured spread, and the region slips' errors (weighted by
+    /// [`REGION_WEIGHT`]).
+    fn cost_of(&self, terrain: &Terrain) -> f64 {
+        let sims: Vec<[f64; 2]> = self
+            .steady
+            .iter()
+            .map(|s| self.steady_body(terrain, s.encoders))
+            .collect();
+        // Squared error in units of the spread.
+        let error = |sim: [f64; 2], real: [f64; 2]| {
+            (0..2)
+                .map(|a| ((sim[a] - real[a]) / self.scale[a]).powi(2))
+                .sum::<f64>()
+        };
+        let mut c = sims
+            .iter()
+            .zip(self.steady)
+            .map(|(&sim, s)| error(sim, s.body))
+            .sum::<f64>()
+            / self.steady.len().max(1) as f64;
+        c += self
+            .transients
+            .iter()
+            .map(|tr| error(self.transient_body(terrain, tr), tr.body))
+            .sum::<f64>()
+            / self.transients.len().max(1) as f64;
+        let wheels: Vec<[f64; 2]> = self
+            .steady
+            .iter()
+            .map(|s| self.wheel_body(s.encoders))
+            .collect();
+        let simulated = region_slips(&wheels, &sims, self.params.baseline);
+        for ((share, real), (_, sim)) in self.slips.iter().zip(simulated) {
+            c += REGION_WEIGHT * share * ((sim[0] - real[0]).powi(2) + (sim[1] - real[1]).powi(2));
+        }
+        c
+    }
+
     /// RMS errors of the forward speed and yaw rate over the steady windows, then over the
     /// transient windows.
     fn errors(&self, terrain: &Terrain) -> [[f64; 2]; 2] {
@@ -464,11 +568,7 @@ impl CostFunction for TerrainProblem<'_> {
     type Param = Vec<f64>;
     type Output = f64;
     fn cost(&self, p: &Vec<f64>) -> Result<f64, argmin::core::Error> {
-        let [steady, transient] = self.errors(&Self::terrain(p));
-        let c = (steady[0] / self.scale[0]).powi(2)
-            + (steady[1] / self.scale[1]).powi(2)
-            + (transient[0] / self.scale[0]).powi(2)
-            + (transient[1] / self.scale[1]).powi(2);
+        let c = self.cost_of(&Self::terrain(p));
         // A terrain too stiff for the step diverges: the worst cost, not a NaN.
         Ok(if c.is_finite() { c } else { 1e12 })
     }
@@ -518,6 +618,36 @@ fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
         }
     }
     (steady, transients)
+}
+
+/// Where the localization sits on the body: the steady windows' lateral speed regressed on
+/// the yaw rate, the forward speed and their product (the last is the body's own sideslip,
+/// what the ground gives); a frame `x` ahead of the centre the body turns about sees a
+/// lateral speed `x w`, a frame yawed by `d` sees `-d v`. The left offset is not told
+/// apart from slip (it moves the forward speed with the yaw rate): 0.
+fn localization_mount(data: &Dataset) -> [f64; 3] {
+    use drive_traits::nalgebra::{DMatrix, DVector};
+    let dt = 1.0 / data.robot.rate_hz;
+    let rows: Vec<[f64; 4]> = data
+        .windows
+        .iter()
+        .filter(|w| w.phase == Phase::Steady && w.len() >= 3)
+        .map(|w| {
+            let [v, yaw_rate] = window_motion(&w.pose, dt);
+            [yaw_rate, v, v * yaw_rate, window_lateral(&w.pose, dt)]
+        })
+        .collect();
+    if rows.len() < 12 {
+        return [0.0; 3];
+    }
+    let x = DMatrix::from_fn(rows.len(), 3, |i, j| rows[i][j]);
+    let y = DVector::from_iterator(rows.len(), rows.iter().map(|r| r[3]));
+    match x.svd(true, true).solve(&y, 1e-10) {
+        Ok(c) if c.iter().all(|v| v.is_finite()) => {
+            [c[0].clamp(-10.0, 10.0), 0.0, (-c[1]).clamp(-1.0, 1.0)]
+        }
+        _ => [0.0; 3],
+    }
 }
 
 /// The protocol the real run followed: the box its sampler drew from, in the geometry that
@@ -809,22 +939,35 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     spec.max_speed = limit * g.wheel_radius;
     let mut params = VehicleParams::from_spec(&spec, &g);
     params.powertrain = powertrain;
+    let wheels: Vec<[f64; 2]> = sample
+        .iter()
+        .map(|s| {
+            let u = s.encoders;
+            [
+                g.wheel_radius * (u.x + u.y) / 2.0,
+                g.wheel_radius * (u.y - u.x) / g.baseline,
+            ]
+        })
+        .collect();
+    let moved: Vec<[f64; 2]> = sample.iter().map(|s| s.body).collect();
     let tp = TerrainProblem {
         steady: &sample,
         transients: &replayed,
         params,
         dt,
         scale: [spread(0), spread(1)],
+        slips: region_slips(&wheels, &moved, g.baseline),
     };
-    let start = Terrain::preset("gravel").unwrap_or_else(|| TerrainProblem::terrain(&[0.0; 4]));
+    let start = Terrain::preset("gravel").unwrap_or_else(|| TerrainProblem::terrain(&[0.0; 5]));
     let t0 = vec![
         start.traction.ln(),
         start.lateral.ln(),
         start.slip_modulus.ln(),
         start.rolling.ln(),
+        start.slip_modulus.ln(),
     ];
     let terrain_rms_start = tp.errors(&TerrainProblem::terrain(&t0));
-    let t = minimize(tp.clone(), t0, &[0.4, 0.4, 0.4, 0.4], 300, "terrain")?;
+    let t = minimize(tp.clone(), t0, &[0.4, 0.4, 0.4, 0.4, 0.4], 400, "terrain")?;
     let fitted = TerrainProblem::terrain(&t);
     let terrain_rms = tp.errors(&fitted);
     // 4. Sensors.
@@ -858,6 +1001,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         imu_bias.push(mean(w.imu_yaw_rate.iter().copied()) - rate);
     }
     let sensors = Sensors {
+        icp_mount: localization_mount(data),
         encoder_noise: median(enc),
         icp_rate_hz: (data.robot.rate_hz * (1.0 - median(held))).clamp(0.5, data.robot.rate_hz),
         icp_noise: [median(pos), median(yaw)],

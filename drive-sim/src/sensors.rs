@@ -24,6 +24,11 @@ pub struct Sensors {
     /// ICP timestamp jitter (s): each update's latency is longer by a uniform draw in
     /// `[0, icp_jitter]`.
     pub icp_jitter: f64,
+    /// Where the localization's frame sits on the body: forward and left offsets (m) and
+    /// yaw (rad) from the centre the body turns about. A lidar ahead of that centre sees
+    /// the robot slide sideways as it turns; a yawed one sees straight driving as a
+    /// crab.
+    pub icp_mount: [f64; 3],
     /// IMU yaw-rate noise (rad/s).
     pub imu_noise: f64,
     /// IMU bias (rad/s).
@@ -31,8 +36,8 @@ pub struct Sensors {
 }
 
 impl Default for Sensors {
-    /// Encoders 0.05 rad/s, ICP at 10 Hz with 1 cm and 0.2 degree, no latency, IMU 0.01
-    /// rad/s with a 0.005 rad/s bias.
+    /// Encoders 0.05 rad/s, ICP at 10 Hz with 1 cm and 0.2 degree, no latency, at the
+    /// centre of the body, IMU 0.01 rad/s with a 0.005 rad/s bias.
     fn default() -> Self {
         Sensors {
             encoder_noise: 0.05,
@@ -40,6 +45,7 @@ impl Default for Sensors {
             icp_noise: [0.01, 0.0035],
             icp_latency: 0.0,
             icp_jitter: 0.0,
+            icp_mount: [0.0; 3],
             imu_noise: 0.01,
             imu_bias: 0.005,
         }
@@ -149,6 +155,13 @@ impl Instruments {
         let period = (self.rate_hz / self.sensors.icp_rate_hz).round().max(1.0) as usize;
         let fresh_pose = self.tick % period == 0;
         let now = self.time();
+        let [mx, my, myaw] = self.sensors.icp_mount;
+        let (sin, cos) = pose.z.sin_cos();
+        let pose = Pose::new(
+            pose.x + cos * mx - sin * my,
+            pose.y + sin * mx + cos * my,
+            pose.z + myaw,
+        );
         let delayed = self.sensors.icp_latency > 0.0 || self.sensors.icp_jitter > 0.0;
         let pose = if delayed {
             self.past.push_back((now, pose));

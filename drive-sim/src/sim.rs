@@ -132,13 +132,16 @@ impl Simulator {
         };
         let a = (-dt / v.correlation_time).exp();
         let keep = (1.0 - a * a).max(0.0).sqrt();
-        for (x, sd) in self.grip.iter_mut().zip(v.deviations()) {
+        let sd = v.deviations();
+        for (x, sd) in self.grip.iter_mut().zip(sd) {
             *x = a * *x + sd * keep * standard_normal(&mut self.grip_rng);
         }
-        self.ground.traction *= self.grip[0].exp();
-        self.ground.lateral *= self.grip[1].exp();
+        // Log-normal factors of mean one: the terrain's coefficients are the means.
+        let factor = |i: usize| (self.grip[i] - sd[i] * sd[i] / 2.0).exp();
+        self.ground.traction *= factor(0);
+        self.ground.lateral *= factor(1);
         // Within the range a terrain file may give.
-        self.ground.rolling = (self.ground.rolling * self.grip[2].exp()).min(0.99);
+        self.ground.rolling = (self.ground.rolling * factor(2)).min(0.99);
     }
 
     fn step(&mut self, command: Input) {

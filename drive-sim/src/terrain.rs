@@ -24,6 +24,10 @@ pub struct Terrain {
     /// Slip at which 63% of the peak friction is reached (shear-deformation modulus over
     /// contact length, as a slip ratio): small on firm ground, large on loose or soft ground.
     pub slip_modulus: f64,
+    /// The same across the wheel, when it differs (a tyre's cornering stiffness is not its
+    /// longitudinal stiffness); `slip_modulus` when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lateral_slip_modulus: Option<f64>,
     /// Lateral friction coefficient mu_y: the friction ellipse's semi-axis across the
     /// wheel (what turning a skid-steer scrubs against).
     pub lateral: f64,
@@ -48,10 +52,11 @@ pub struct Terrain {
 }
 
 /// How the ground varies in time: the traction and lateral friction coefficients and the
-/// rolling resistance are multiplied by `exp(x)`, each `x` a first-order Gauss-Markov
-/// (Ornstein-Uhlenbeck) process of standard deviation `traction`, `lateral` or `rolling`
-/// (0 when absent) and correlation time `correlation_time`, independent of each other,
-/// advanced once per command tick. The terrain's coefficients are the medians.
+/// rolling resistance are multiplied by `exp(x - s^2 / 2)`, each `x` a first-order
+/// Gauss-Markov (Ornstein-Uhlenbeck) process of standard deviation `s` (`traction`,
+/// `lateral` or `rolling`, 0 when absent) and correlation time `correlation_time`,
+/// independent of each other, advanced once per command tick. The factors' mean is one: the
+/// terrain's coefficients are the means.
 ///
 /// Real runs need it: on the bundled Husky data the steady yaw rate scatters by 0.14 rad/s
 /// around any smooth function of the measured wheel speeds (the IMU agrees, so it is motion,
@@ -173,6 +178,7 @@ impl Terrain {
             name: String::new(),
             traction: 0.5,
             slip_modulus: 0.1,
+            lateral_slip_modulus: None,
             lateral: 0.5,
             rolling: 0.02,
             powertrain: None,
@@ -253,6 +259,9 @@ impl Terrain {
         range("traction", self.traction, 0.0, 5.0)?;
         range("lateral", self.lateral, 0.0, 5.0)?;
         range("slip_modulus", self.slip_modulus, 0.0, 10.0)?;
+        if let Some(k) = self.lateral_slip_modulus {
+            range("lateral_slip_modulus", k, 0.0, 10.0)?;
+        }
         if !(self.rolling.is_finite() && (0.0..1.0).contains(&self.rolling)) {
             return Err(bad(
                 "rolling",
@@ -320,6 +329,21 @@ impl Terrain {
                         ),
                     ));
                 }
+            }
+            if !s
+                .icp_mount
+                .iter()
+                .all(|v| v.is_finite() && v.abs() <= 100.0)
+            {
+                return Err(bad(
+                    "sensors.icp_mount",
+                    format!(
+                        "each of forward (m), left (m) and yaw (rad) must be within +-100, got [{}, {}, {}]",
+                        drive_traits::limits::Short(s.icp_mount[0]),
+                        drive_traits::limits::Short(s.icp_mount[1]),
+                        drive_traits::limits::Short(s.icp_mount[2])
+                    ),
+                ));
             }
             if !(s.imu_bias.is_finite() && s.imu_bias.abs() <= 100.0) {
                 return Err(bad(

@@ -231,17 +231,23 @@ fn smooth_sign(x: f64, scale: f64) -> f64 {
 
 /// The ground's force on one contact point (N, body frame) with normal load `normal`, for a
 /// wheel surface moving at `surface` (m/s, forward) over a contact point moving at
-/// `(vx, vy)`: the slip vector `(surface - vx, -vy)` relative to the larger speed, its
-/// magnitude on the Janosi-Hanamoto curve `1 - exp(-|s| / k)`, the force along it on the
-/// friction ellipse of semi-axes `mu_x N` (traction) and `mu_y N` (lateral).
+/// `(vx, vy)`: the slip vector `(surface - vx, -vy)` relative to the larger speed, each
+/// component over its slip modulus (`k` along the wheel, the lateral one across it, `k` when
+/// the terrain gives none), the magnitude of that on the Janosi-Hanamoto curve
+/// `1 - exp(-|s|)`, the force along it on the friction ellipse of semi-axes `mu_x N`
+/// (traction) and `mu_y N` (lateral).
 pub fn contact_force(terrain: &Terrain, normal: f64, surface: f64, vx: f64, vy: f64) -> [f64; 2] {
     let speed = surface.abs().max(vx.hypot(vy)).max(SLIP_SPEED_FLOOR);
-    let (sx, sy) = ((surface - vx) / speed, -vy / speed);
+    let across = terrain.lateral_slip_modulus.unwrap_or(terrain.slip_modulus);
+    let (sx, sy) = (
+        (surface - vx) / speed / terrain.slip_modulus,
+        -vy / speed / across,
+    );
     let s = sx.hypot(sy);
     if s < 1e-12 {
         return [0.0, 0.0];
     }
-    let shear = normal * (1.0 - (-s / terrain.slip_modulus).exp()) / s;
+    let shear = normal * (1.0 - (-s).exp()) / s;
     [terrain.traction * shear * sx, terrain.lateral * shear * sy]
 }
 
