@@ -260,6 +260,13 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
     ok(&["sim-fit", "--robot", "husky", "--out", &b, "--json"]);
     let text = std::fs::read_to_string(&a).unwrap();
     assert_eq!(text, std::fs::read_to_string(&b).unwrap());
+    // The README's twin is this command's output.
+    let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/husky_twin.toml");
+    assert_eq!(
+        text,
+        std::fs::read_to_string(shipped).unwrap(),
+        "examples/husky_twin.toml is stale: cargo run --release -- sim-fit --robot husky --out examples/husky_twin.toml"
+    );
     let twin = Terrain::from_toml("a.toml", &text).unwrap();
     assert!(twin.protocol.is_some() && twin.controller.is_some());
     // The twin runs the protocol in its real run's input space.

@@ -3,12 +3,17 @@
 //! kinematic stand-in for any other vehicle ([`Plant`]s registered by vehicle type).
 //!
 //! The ground truth is deliberately not the slip-BLR model family: a planar rigid body with
-//! mass and yaw inertia; per-side longitudinal traction on the Janosi-Hanamoto shear curve
-//! (`mu N (1 - exp(-|s| / k))` of the slip ratio s); Coulomb-type lateral skid resistance and
-//! Wong's moment of turning resistance (`mu_t W l / 4`); rolling resistance; a first-order
-//! plus dead time powertrain with saturation and a left/right asymmetry; sensors as on the
-//! real robots (encoder noise, ICP poses at 10 Hz with centimetre noise, an IMU with noise
-//! and bias). Terrain presets `tile`, `gravel`, `snow`, `ice` (see [`Terrain`]).
+//! mass and yaw inertia touching the ground at discrete contact points, each with a
+//! combined-slip friction force on a friction ellipse ([`contact_force`]: the Janosi-Hanamoto
+//! shear curve of the slip, traction along the wheel, lateral friction across it), so that
+//! turning scrubs the wheels sideways; rolling resistance; torque-limited motors in a
+//! velocity loop with rising and falling time constants and a dead time, behind an optional
+//! low-level controller with body-velocity gains, caps and acceleration limits
+//! ([`ControllerParams`]); a ground whose grip can vary in time ([`Variability`]); sensors
+//! as on the real robots (encoder noise, ICP poses at 10 Hz with noise, latency, jitter and
+//! a mount on the body, an IMU with noise and bias). Terrain presets `tile`, `gravel`,
+//! `snow`, `ice` (see [`Terrain`]), or a twin of a real robot fitted on its data
+//! ([`sim_fit`], with the protocol its run followed: [`TwinProtocol`]).
 //!
 //! [`simulate`] runs the protocol runner in the loop with the simulator and records the
 //! same windows as the real data, so every loader, model and metric works on it unchanged.

@@ -124,12 +124,12 @@ impl Simulator {
         Plant::advance(self, command)
     }
 
-    /// The ground of this tick: the terrain, its grip varied.
+    /// The ground of this tick: the terrain, its grip varied (when it varies).
     fn vary_ground(&mut self, dt: f64) {
-        self.ground.clone_from(&self.terrain);
         let Some(v) = self.terrain.variability else {
             return;
         };
+        self.ground.clone_from(&self.terrain);
         let a = (-dt / v.correlation_time).exp();
         let keep = (1.0 - a * a).max(0.0).sqrt();
         let sd = v.deviations();
@@ -174,7 +174,12 @@ impl Simulator {
                 };
                 targets[side] = gain * wheels[side];
             }
-            step_body(p, &self.ground, &mut self.state, targets, h);
+            let ground = if self.terrain.variability.is_some() {
+                &self.ground
+            } else {
+                &self.terrain
+            };
+            step_body(p, ground, &mut self.state, targets, h);
         }
         self.instruments.end_tick();
     }

@@ -35,6 +35,18 @@ pub struct TwinProtocol {
 
 impl TwinProtocol {
     /// The sampled box.
+    ///
+    /// ```
+    /// let p = drive_sim::TwinProtocol {
+    ///     baseline: 0.22,
+    ///     input_limits: [[-6.0, 6.0], [-5.0, 6.5]],
+    ///     max_linear_acceleration: None,
+    ///     max_angular_acceleration: None,
+    /// };
+    /// assert_eq!(p.space().unwrap().min.y, -5.0);
+    /// // Recorded with a 0.55 m baseline, a wheel-speed difference looks 2.5 times larger.
+    /// assert!((p.difference_gain(0.55) - 2.5).abs() < 1e-12);
+    /// ```
     pub fn space(&self) -> Option<InputSpace> {
         let [l, r] = self.input_limits;
         InputSpace::new(Input::new(l[0], r[0]), Input::new(l[1], r[1]))
@@ -65,6 +77,18 @@ pub fn scale_difference(u: Input, gain: f64) -> Input {
 /// with their wheel-speed difference scaled by `gain`; what it observes is mapped back, with
 /// a robot description of the protocol's geometry, so that a sampler that learns from the
 /// windows (`targeted`) reasons in its own coordinates.
+///
+/// ```
+/// use drive_sim::ProtocolSampler;
+/// use drive_traits::{Input, InputSampler, InputSpace};
+/// let space = InputSpace::new(Input::repeat(-1.0), Input::repeat(1.0)).unwrap();
+/// let inner = drive_samplers::UniformSampler::new(space, 7).unwrap();
+/// let geometry = std::sync::Arc::new(drive_models::DifferentialDrive::new(0.165, 0.22));
+/// let mut s = ProtocolSampler::new(Box::new(inner), 2.5, geometry);
+/// let u = s.next_input();
+/// // The sum of the wheel speeds stays within the box's, the difference is stretched.
+/// assert!((u.x + u.y).abs() <= 2.0 && (u.y - u.x).abs() <= 5.0);
+/// ```
 pub struct ProtocolSampler {
     inner: Box<dyn InputSampler>,
     gain: f64,

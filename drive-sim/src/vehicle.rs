@@ -238,11 +238,18 @@ fn smooth_sign(x: f64, scale: f64) -> f64 {
 /// (traction) and `mu_y N` (lateral).
 pub fn contact_force(terrain: &Terrain, normal: f64, surface: f64, vx: f64, vy: f64) -> [f64; 2] {
     let speed = surface.abs().max(vx.hypot(vy)).max(SLIP_SPEED_FLOOR);
-    let across = terrain.lateral_slip_modulus.unwrap_or(terrain.slip_modulus);
-    let (sx, sy) = (
-        (surface - vx) / speed / terrain.slip_modulus,
-        -vy / speed / across,
-    );
+    let (sx, sy) = ((surface - vx) / speed, -vy / speed);
+    let k = terrain.slip_modulus;
+    let Some(across) = terrain.lateral_slip_modulus else {
+        // One modulus: the slip's magnitude over it.
+        let s = sx.hypot(sy);
+        if s < 1e-12 {
+            return [0.0, 0.0];
+        }
+        let shear = normal * (1.0 - (-s / k).exp()) / s;
+        return [terrain.traction * shear * sx, terrain.lateral * shear * sy];
+    };
+    let (sx, sy) = (sx / k, sy / across);
     let s = sx.hypot(sy);
     if s < 1e-12 {
         return [0.0, 0.0];

@@ -116,6 +116,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             for (name, value) in &c.geometry {
                 text += &format!(", effective {name} {value:.3}");
             }
+            if let Some(p) = &ground.protocol {
+                text += &format!(
+                    " (the twin's protocol: drawn with a {:.3} m baseline)",
+                    p.baseline
+                );
+            }
             text
         }
     };
