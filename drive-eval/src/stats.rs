@@ -69,20 +69,7 @@ pub fn improvement_percent(value: f64, baseline: f64) -> f64 {
 
 /// The median of `values` (reordered in place; NaN-free), as [`quantile`] at 0.5 gives it;
 /// NaN when empty. Linear time (selection, no sort): the bootstrap calls it for every draw.
-pub(crate) fn median_of(values: &mut [f64]) -> f64 {
-    let n = values.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    let (left, mid, _) = values.select_nth_unstable_by(n / 2, f64::total_cmp);
-    let upper = *mid;
-    if n % 2 == 1 {
-        return upper;
-    }
-    // The lower middle value is the largest of the left part.
-    let lower = left.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    lower + (upper - lower) * 0.5
-}
+pub(crate) use drive_traits::median as median_of;
 
 /// An improvement over a reference model with its bootstrap confidence interval.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

@@ -172,16 +172,13 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
+/// The median of `v`, 0 when it has none.
 fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
+    let m = drive_traits::median(&mut v);
+    if m.is_finite() {
+        m
     } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
+        0.0
     }
 }
 

@@ -34,6 +34,7 @@ mod powertrain;
 mod registry;
 mod sampler;
 mod slip;
+mod stats;
 mod tag;
 mod vehicle;
 mod velocity;
@@ -54,6 +55,7 @@ pub use registry::{
 };
 pub use sampler::InputSampler;
 pub use slip::{FitSlip, OnlineSlip, SlipData, SlipLearner, SlipModel, SlipSample, SlipWindow};
+pub use stats::median;
 pub use tag::{PartTag, TagProbe, Tagged};
 pub use vehicle::{
     spanned_space, vehicle_as, vehicle_tag, Characterization, CommandModel, InputAxis, InputSpace,

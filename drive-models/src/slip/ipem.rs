@@ -656,19 +656,6 @@ fn solve(
     }
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 impl SlipIpem {
     /// The windows of `data` as tracks, and the normalization of the slip functions.
     fn tracks(&self, data: &SlipData<'_>) -> Result<(Vec<Track>, [f64; 2]), FitError> {
@@ -745,7 +732,7 @@ fn error_scales(tracks: &[&Track], dt: f64) -> [f64; 2] {
         });
     }
     let scale = |e: &mut Vec<f64>, gauss: f64| {
-        let v = median(e) / gauss;
+        let v = drive_traits::median(e) / gauss;
         if v > 0.0 && v.is_finite() {
             v
         } else {
