@@ -70,6 +70,8 @@ fn generator() -> Terrain {
             input_limits: [[-6.0, 6.0], [-6.0, 6.0]],
             max_linear_acceleration: None,
             max_angular_acceleration: None,
+            robot_wheel_radius: 0.165,
+            robot_baseline: 0.55,
         }),
     }
 }
@@ -232,6 +234,41 @@ fn the_scatter_statistic_is_the_spread_around_a_smooth_function_of_the_wheel_spe
 }
 
 #[test]
+fn data_that_cannot_tell_a_twin_is_refused_with_what_to_look_at() {
+    let good = run(&generator(), 60, 2);
+    // Encoder columns swapped: the encoders no longer follow the commands.
+    let mut swapped = good.clone();
+    for w in &mut swapped.windows {
+        for u in &mut w.measured {
+            *u = drive::traits::Input::new(u.y, u.x);
+        }
+    }
+    let err = sim_fit(&swapped, &husky(), "twin").unwrap_err().to_string();
+    assert!(err.contains("encoder"), "{err}");
+    // Localization mirrored: the yaw turns against the wheels.
+    let mut mirrored = good.clone();
+    for w in &mut mirrored.windows {
+        for p in &mut w.pose {
+            p.y = -p.y;
+            p.z = -p.z;
+        }
+    }
+    let err = sim_fit(&mirrored, &husky(), "twin")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("localization"), "{err}");
+    // A robot that did not move under its commands.
+    let mut still = good;
+    for w in &mut still.windows {
+        for p in &mut w.pose {
+            *p = drive::traits::Pose::zeros();
+        }
+    }
+    let err = sim_fit(&still, &husky(), "twin").unwrap_err().to_string();
+    assert!(err.contains("not-moving"), "{err}");
+}
+
+#[test]
 fn degenerate_data_is_refused_with_its_reason() {
     let data = run(&generator(), 4, 1);
     match sim_fit(&data, &husky(), "twin") {
@@ -312,7 +349,8 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
     assert!(err.contains("differential"), "{err}");
     let err = user_error(&["sim-fit", "--data", &csv, "--robot", "husky", "--out", &csv]);
     assert!(err.contains("--out"), "{err}");
-    // The twin's protocol is a skid-steer's: refused for another vehicle.
+    // The twin's protocol is a skid-steer's: refused for another vehicle, and for a
+    // skid-steer of another geometry.
     let err = user_error(&[
         "simulate",
         "--robot",
@@ -325,4 +363,53 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
         &path("x.csv"),
     ]);
     assert!(err.contains("protocol"), "{err}");
+    let err = user_error(&[
+        "simulate",
+        "--robot",
+        "hd2",
+        "--terrain",
+        &a,
+        "--duration",
+        "60",
+        "--out",
+        &path("x.csv"),
+    ]);
+    assert!(
+        err.contains("twin of a robot with wheel radius 0.165"),
+        "{err}"
+    );
+    // Two terrains under one name would be pooled.
+    let err = user_error(&[
+        "compare-protocols",
+        "--robot",
+        "husky",
+        "--terrain",
+        &format!("{a},{b}"),
+        "--duration",
+        "60",
+    ]);
+    assert!(err.contains("twice"), "{err}");
+    // A run that never turns in place cannot tell a twin's turning.
+    let straight = path("straight.csv");
+    ok(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        "gravel",
+        "--sampler",
+        "linear",
+        "--duration",
+        "300",
+        "--seed",
+        "1",
+        "--out",
+        &straight,
+    ]);
+    let err = user_error(&[
+        "sim-fit", "--data", &straight, "--robot", "husky", "--out", &a,
+    ]);
+    assert!(err.contains("turn more than they drive"), "{err}");
+    let err = user_error(&["sim-fit", "--robot", "husky", "--out", &a, "--name", ""]);
+    assert!(err.contains("--name"), "{err}");
 }

@@ -132,11 +132,14 @@ struct RobotFile {
     max_linear_acceleration: Option<f64>,
     #[serde(default)]
     max_angular_acceleration: Option<f64>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "drive_traits::exact::option_array")]
     input_rate_limits: Option<[f64; 2]>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "drive_traits::exact::option_array")]
     wheel_limits: Option<[f64; 2]>,
-    #[serde(default)]
+    #[serde(
+        default,
+        deserialize_with = "drive_traits::exact::option_min_max_pairs"
+    )]
     input_limits: Option<[[f64; 2]; 2]>,
     #[serde(default)]
     tracked: bool,
@@ -270,7 +273,13 @@ impl RobotSpec {
             field,
             message,
         };
-        let f: RobotFile = toml::from_str(text).map_err(|e| parse(e.to_string()))?;
+        let f: RobotFile = toml::from_str(text).map_err(|e| {
+            parse(drive_traits::exact::parse_message(
+                text,
+                e.message(),
+                e.span().map(|s| s.start),
+            ))
+        })?;
         let vehicle: Arc<dyn CommandModel> = match (&f.vehicle, f.wheel_radius, f.baseline) {
             (Some(v), None, None) => {
                 if let Some((key, x)) = non_finite(v, "vehicle") {

@@ -66,6 +66,9 @@ pub enum SimFitError {
         /// needed
         needed: usize,
     },
+    /// The data cannot tell a twin: what a stage found, and what to look at.
+    #[error("the data cannot tell a twin: {0}")]
+    Unfit(String),
     /// The optimizer failed or gave a non-finite result.
     #[error("fitting the {stage}: {reason}")]
     Optimizer {
@@ -95,6 +98,12 @@ pub struct SimFitReport {
     /// The steady windows' scatter: real, twin without and with the fitted variability
     /// (none with fewer than 30 steady windows).
     pub scatter: Option<ScatterFit>,
+    /// The mean absolute forward speed (m/s) and yaw rate (rad/s) of the steady windows:
+    /// the data's, then the fitted twin's on its own runs.
+    pub motion: [[f64; 2]; 2],
+    /// Fitted values that ended at a bound of their range: what the data does not pin
+    /// down (`name = value`).
+    pub at_bounds: Vec<String>,
 }
 
 /// The twin and how it fits.
@@ -754,12 +763,15 @@ fn fit_protocol(data: &Dataset, g: &DifferentialDrive) -> TwinProtocol {
         }
     }
     let ramped = changed > 0 && 2 * stepped < changed;
-    let largest = |v: Vec<f64>| v.into_iter().fold(0.0, f64::max);
+    // The largest ramp seen; none when that axis never changed (nothing to tell).
+    let largest = |v: Vec<f64>| Some(v.into_iter().fold(0.0, f64::max)).filter(|a| *a > 0.0);
     TwinProtocol {
         baseline,
         input_limits: [[lo.x, hi.x], [lo.y, hi.y]],
-        max_linear_acceleration: ramped.then(|| largest(dv)),
-        max_angular_acceleration: ramped.then(|| largest(dw)),
+        max_linear_acceleration: if ramped { largest(dv) } else { None },
+        max_angular_acceleration: if ramped { largest(dw) } else { None },
+        robot_wheel_radius: g.wheel_radius,
+        robot_baseline: g.baseline,
     }
 }
 
@@ -855,6 +867,14 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
             });
         }
     }
+    // Data a twin cannot come from: the quality checks' fatal findings.
+    if let Some(f) = drive_data::quality::check(data, None)
+        .into_iter()
+        .find(|f| f.severity == drive_data::quality::Severity::Fatal)
+    {
+        return Err(SimFitError::Unfit(format!("{} ({})", f.message, f.check)));
+    }
+    check_coverage(&steady, &g)?;
     // 1. Controller, from regression slopes and the largest speeds measured.
     let body = |u: Input| {
         [
@@ -901,6 +921,14 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         "controller",
     )?;
     let controller_rms = cp.cost(&p).map_or(f64::NAN, f64::sqrt);
+    let encoder_spread = spread_of(steady.iter().flat_map(|s| [s.encoders.x, s.encoders.y]));
+    // NaN counts as a miss.
+    if controller_rms.is_nan() || controller_rms > 0.5 * encoder_spread {
+        return Err(SimFitError::Unfit(format!(
+            "the steady encoder speeds do not follow the commands (the controller's fit misses by {:.3} rad/s RMS, of a spread of {:.3} rad/s): are the encoder columns swapped, or in other units?",
+            controller_rms, encoder_spread
+        )));
+    }
     let (controller, limit, right) = controller_of(&p);
     // 2. Powertrain: a coarse grid, then Nelder-Mead.
     let pp = PowertrainProblem {
@@ -987,6 +1015,15 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     let t = minimize(tp.clone(), t0, &[0.4, 0.4, 0.4, 0.4, 0.4], 400, "terrain")?;
     let fitted = TerrainProblem::terrain(&t);
     let terrain_rms = tp.errors(&fitted);
+    for (axis, what, unit) in [(0, "forward speed", "m/s"), (1, "yaw rate", "rad/s")] {
+        let miss = terrain_rms[0][axis];
+        if miss.is_nan() || miss > 0.7 * tp.scale[axis] {
+            return Err(SimFitError::Unfit(format!(
+                "the measured {what} does not follow the wheel speeds (the ground's fit misses by {miss:.3} {unit} RMS, of a spread of {:.3} {unit}): is the localization mirrored, in other units, or another robot's?",
+                tp.scale[axis]
+            )));
+        }
+    }
     // 4. Sensors.
     let mut held = Vec::new();
     let (mut pos, mut yaw, mut enc, mut imu_sd, mut imu_bias) =
@@ -1037,8 +1074,24 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         ..fitted
     };
     // 6. Variability, by simulating the twin.
-    let (variability, scatter) = fit_variability(data, &g, robot, &terrain)?;
+    let (variability, scatter, twin_motion) = fit_variability(data, &g, robot, &terrain)?;
     terrain.variability = variability;
+    // The twin as a file: within the simulator's ranges, and driving like the data.
+    Terrain::from_toml(name, &terrain.to_toml()).map_err(|e| {
+        SimFitError::Unfit(format!(
+            "the fitted twin is outside the simulator's ranges ({e})"
+        ))
+    })?;
+    let motion = [steady_motion(data), twin_motion];
+    for (axis, what, unit) in [(0, "forward speed", "m/s"), (1, "yaw rate", "rad/s")] {
+        let (real, twin) = (motion[0][axis], motion[1][axis]);
+        if !(twin >= 0.5 * real && twin <= 2.0 * real) {
+            return Err(SimFitError::Unfit(format!(
+                "the fitted twin does not drive like the data: its steady windows' mean absolute {what} is {twin:.3} {unit}, the data's {real:.3} {unit}"
+            )));
+        }
+    }
+    let at_bounds = at_bounds(&terrain);
     Ok(SimFit {
         terrain,
         report: SimFitReport {
@@ -1049,8 +1102,87 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
             terrain_rms,
             terrain_rms_start,
             scatter,
+            motion,
+            at_bounds,
         },
     })
+}
+
+/// The spread (standard deviation) of `values`.
+fn spread_of(values: impl Iterator<Item = f64>) -> f64 {
+    let v: Vec<f64> = values.collect();
+    let m = mean(v.iter().copied());
+    mean(v.iter().map(|x| (x - m).powi(2))).sqrt()
+}
+
+/// A twin needs the run to have both driven and turned: at least a tenth of the steady
+/// windows on each side of the turn share one half (see [`REGIONS`]).
+fn check_coverage(steady: &[Steady], g: &DifferentialDrive) -> Result<(), SimFitError> {
+    let turning = steady
+        .iter()
+        .filter(|s| {
+            let (v, w) = (
+                g.wheel_radius * (s.encoders.x + s.encoders.y) / 2.0,
+                g.wheel_radius * (s.encoders.y - s.encoders.x) / g.baseline,
+            );
+            let turn = w.abs() * g.baseline / 2.0;
+            turn > v.abs()
+        })
+        .count();
+    let share = turning as f64 / steady.len().max(1) as f64;
+    if !(0.1..=0.9).contains(&share) {
+        return Err(SimFitError::Unfit(format!(
+            "{:.0}% of the steady windows turn more than they drive (their wheel speeds): a twin needs both, at least 10% of each (a DRIVE run over the whole input space)",
+            100.0 * share
+        )));
+    }
+    Ok(())
+}
+
+/// The mean absolute forward speed and yaw rate of the steady windows (localization).
+fn steady_motion(data: &Dataset) -> [f64; 2] {
+    let dt = 1.0 / data.robot.rate_hz;
+    let motions: Vec<[f64; 2]> = data
+        .windows
+        .iter()
+        .filter(|w| w.phase == Phase::Steady && w.len() >= 3)
+        .map(|w| window_motion(&w.pose, dt))
+        .collect();
+    [0, 1].map(|a| mean(motions.iter().map(|m| m[a].abs())))
+}
+
+/// The fitted values at a bound of their range (the ground's clamps, the variability's cap).
+fn at_bounds(t: &Terrain) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut near = |name: &str, v: f64, lo: f64, hi: f64| {
+        if v <= lo * 1.001 || v >= hi * 0.999 {
+            out.push(format!("{name} = {}", drive_traits::limits::Short(v)));
+        }
+    };
+    near("traction", t.traction, 1e-3, 5.0);
+    near("lateral", t.lateral, 1e-3, 5.0);
+    near("slip_modulus", t.slip_modulus, 1e-3, 10.0);
+    if let Some(k) = t.lateral_slip_modulus {
+        near("lateral_slip_modulus", k, 1e-3, 10.0);
+    }
+    if t.rolling >= 0.9 * 0.999 {
+        out.push(format!(
+            "rolling = {}",
+            drive_traits::limits::Short(t.rolling)
+        ));
+    }
+    if let Some(v) = t.variability {
+        for (name, sd) in [
+            ("variability.traction", v.traction),
+            ("variability.lateral", v.lateral),
+            ("variability.rolling", v.rolling),
+        ] {
+            if sd >= 3.0 * 0.999 {
+                out.push(format!("{name} = {}", drive_traits::limits::Short(sd)));
+            }
+        }
+    }
+    out
 }
 
 /// How the steady windows' body velocity scatters around a smooth function of the measured
@@ -1167,14 +1299,36 @@ impl InputSampler for Still {
 /// Seeds of the twin's runs in the variability stage.
 const VARIABILITY_SEEDS: [u64; 2] = [101, 202];
 
-/// The scatter of the twin's own runs (as many intervals as the data, at least 100, at
-/// most 300, per seed; the runs pooled).
-fn twin_scatter(
+/// The variability stage's outcome: the variability (if any), the scatters it was fitted
+/// on, and the fitted twin's mean motion.
+type FittedVariability = (Option<Variability>, Option<ScatterFit>, [f64; 2]);
+
+/// What the twin's own runs show (as many intervals as the data, at least 100, at most
+/// 300, per seed; the runs pooled): their scatter (`None` with too few steady windows) and
+/// the steady windows' mean absolute forward speed and yaw rate.
+struct TwinRuns {
+    scatter: Option<Scatter>,
+    motion: [f64; 2],
+}
+
+impl TwinRuns {
+    /// The scatter, or why there is none.
+    fn scatter(&self) -> Result<Scatter, SimFitError> {
+        self.scatter.ok_or(SimFitError::TooFew {
+            what: "steady windows in the twin's runs",
+            stage: "variability",
+            found: 0,
+            needed: 30,
+        })
+    }
+}
+
+fn twin_runs(
     data: &Dataset,
     g: &DifferentialDrive,
     robot: &RobotSpec,
     terrain: &Terrain,
-) -> Result<Scatter, SimFitError> {
+) -> Result<TwinRuns, SimFitError> {
     let intervals = data.interval_count().clamp(100, 300);
     let mut pooled = Dataset {
         robot: data.robot.clone(),
@@ -1233,12 +1387,20 @@ fn twin_scatter(
                 w
             }));
     }
-    scatter(&pooled, g).ok_or(SimFitError::TooFew {
-        what: "steady windows in the twin's runs",
-        stage: "variability",
-        found: 0,
-        needed: 30,
+    Ok(TwinRuns {
+        scatter: scatter(&pooled, g),
+        motion: steady_motion(&pooled),
     })
+}
+
+/// The scatter of the twin's own runs ([`twin_runs`]).
+fn twin_scatter(
+    data: &Dataset,
+    g: &DifferentialDrive,
+    robot: &RobotSpec,
+    terrain: &Terrain,
+) -> Result<Scatter, SimFitError> {
+    twin_runs(data, g, robot, terrain)?.scatter()
 }
 
 /// The ground's variability: the twin without it is simulated, and what its scatter lacks
@@ -1248,17 +1410,18 @@ fn twin_scatter(
 /// about linear in their squares), fitted non-negative on both axes relative to what is
 /// missing, then one common correction on the whole twin. `None` when the twin already
 /// scatters as much as the data (within 10% in variance), or the data has too few steady
-/// windows to tell.
+/// windows to tell. With the fitted twin's mean motion ([`TwinRuns`]).
 fn fit_variability(
     data: &Dataset,
     g: &DifferentialDrive,
     robot: &RobotSpec,
     terrain: &Terrain,
-) -> Result<(Option<Variability>, Option<ScatterFit>), SimFitError> {
+) -> Result<FittedVariability, SimFitError> {
+    let without = twin_runs(data, g, robot, terrain)?;
     let Some(real) = scatter(data, g) else {
-        return Ok((None, None));
+        return Ok((None, None, without.motion));
     };
-    let base = twin_scatter(data, g, robot, terrain)?;
+    let base = without.scatter()?;
     let var = |s: &Scatter| s.rms.map(|r| r * r);
     let (vr, vb) = (var(&real), var(&base));
     let excess = [(vr[0] - vb[0]).max(0.0), (vr[1] - vb[1]).max(0.0)];
@@ -1270,7 +1433,7 @@ fn fit_variability(
         })
     };
     if excess[0] <= 0.1 * vr[0] && excess[1] <= 0.1 * vr[1] {
-        return Ok((None, report(base)));
+        return Ok((None, report(base), without.motion));
     }
     // The correlation time: the excess yaw-rate scatter's own correlation, inverted.
     let window = data.robot.window_len as f64 / data.robot.rate_hz;
@@ -1333,8 +1496,8 @@ fn fit_variability(
         rolling: sd[2],
         correlation_time,
     };
-    let twin = twin_scatter(data, g, robot, &with(sd))?;
-    Ok((Some(variability), report(twin)))
+    let twin = twin_runs(data, g, robot, &with(sd))?;
+    Ok((Some(variability), report(twin.scatter()?), twin.motion))
 }
 
 /// Non-negative `x` (3) minimizing `|sum_j x_j columns[j] - target|` in two dimensions: the

@@ -147,6 +147,12 @@ pub fn simulate(
                 ),
             }
         })?;
+        if let Some(why) = p.refuses(nominal.wheel_radius, nominal.baseline) {
+            return Err(SimError::Plant {
+                robot: robot.name.clone(),
+                reason: format!("terrain '{}' cannot drive it: {why}", config.terrain.name),
+            });
+        }
         robot.input_limits = p.space();
         robot.input_rate_limits = None;
         robot.max_linear_acceleration = p.max_linear_acceleration.unwrap_or(f64::INFINITY);

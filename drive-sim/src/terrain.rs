@@ -203,7 +203,11 @@ impl Terrain {
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let t: Terrain = toml::from_str(text).map_err(|e| TerrainError::Parse {
             file: file.to_string(),
-            message: e.to_string().trim().replace('\n', " "),
+            message: drive_traits::exact::parse_message(
+                text,
+                e.message(),
+                e.span().map(|s| s.start),
+            ),
         })?;
         t.validate(file)?;
         Ok(t)
@@ -374,7 +378,21 @@ impl Terrain {
             range("variability.correlation_time", v.correlation_time, 0.0, 1e4)?;
         }
         if let Some(p) = &self.protocol {
-            range("protocol.baseline", p.baseline, 0.0, 1e3)?;
+            range(
+                "protocol.robot_wheel_radius",
+                p.robot_wheel_radius,
+                0.0,
+                1e3,
+            )?;
+            range("protocol.robot_baseline", p.robot_baseline, 0.0, 1e3)?;
+            // Within a factor of 100 of the robot's: beyond, the recorded commands would be
+            // far outside anything the robot could be sent.
+            range(
+                "protocol.baseline",
+                p.baseline,
+                p.robot_baseline / 100.0,
+                100.0 * p.robot_baseline,
+            )?;
             for axis in p.input_limits {
                 if !(axis[0].is_finite()
                     && axis[1].is_finite()

@@ -31,6 +31,10 @@ pub struct TwinProtocol {
     /// Angular acceleration limit of the sent commands (rad/s^2); absent: commands step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_angular_acceleration: Option<f64>,
+    /// The wheel radius (m) of the robot the twin was fitted for (the data's).
+    pub robot_wheel_radius: f64,
+    /// The baseline (m) of the robot the twin was fitted for (the data's).
+    pub robot_baseline: f64,
 }
 
 impl TwinProtocol {
@@ -42,14 +46,32 @@ impl TwinProtocol {
     ///     input_limits: [[-6.0, 6.0], [-5.0, 6.5]],
     ///     max_linear_acceleration: None,
     ///     max_angular_acceleration: None,
+    ///     robot_wheel_radius: 0.165,
+    ///     robot_baseline: 0.55,
     /// };
     /// assert_eq!(p.space().unwrap().min.y, -5.0);
+    /// assert!(p.refuses(0.165, 0.55).is_none() && p.refuses(0.3, 1.17).is_some());
     /// // Recorded with a 0.55 m baseline, a wheel-speed difference looks 2.5 times larger.
     /// assert!((p.difference_gain(0.55) - 2.5).abs() < 1e-12);
     /// ```
     pub fn space(&self) -> Option<InputSpace> {
         let [l, r] = self.input_limits;
         InputSpace::new(Input::new(l[0], r[0]), Input::new(l[1], r[1]))
+    }
+
+    /// Why this twin cannot drive `robot` (a differential drive of `wheel_radius` and
+    /// `baseline`): another geometry than the one it was fitted for (within 1%).
+    pub fn refuses(&self, wheel_radius: f64, baseline: f64) -> Option<String> {
+        let off = |a: f64, b: f64| (a - b).abs() > 0.01 * b.abs();
+        (off(wheel_radius, self.robot_wheel_radius) || off(baseline, self.robot_baseline)).then(|| {
+            format!(
+                "it is a twin of a robot with wheel radius {} m and baseline {} m; this robot has {} m and {} m",
+                drive_traits::limits::Short(self.robot_wheel_radius),
+                drive_traits::limits::Short(self.robot_baseline),
+                drive_traits::limits::Short(wheel_radius),
+                drive_traits::limits::Short(baseline)
+            )
+        })
     }
 
     /// The factor the protocol's geometry puts on the wheel-speed difference, as recorded

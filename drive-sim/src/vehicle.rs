@@ -25,6 +25,7 @@ const SLIP_SPEED_FLOOR: f64 = 0.3;
 #[serde(deny_unknown_fields)]
 pub struct PowertrainParams {
     /// Time constants of the velocity loop (s): speeding up, slowing down.
+    #[serde(deserialize_with = "drive_traits::exact::array")]
     pub time_constant: [f64; 2],
     /// Dead time (s) of the left side.
     pub dead_time: f64,

@@ -149,6 +149,8 @@ fn terrain_files_round_trip_and_refuse_bad_values() {
         input_limits: [[-10.0, 10.0], [-9.0, 11.0]],
         max_linear_acceleration: None,
         max_angular_acceleration: Some(4.0),
+        robot_wheel_radius: 0.165,
+        robot_baseline: 0.55,
     });
     t.sensors = Some(drive_sim::Sensors::default());
     let back = Terrain::from_toml("t.toml", &t.to_toml()).unwrap();

@@ -79,9 +79,51 @@ pub enum MotionError {
         /// pose slots given
         poses: usize,
     },
+    /// A prediction that is not a finite number: a start state or commands beyond what the
+    /// model can integrate (never returned as poses).
+    #[error("the prediction is not a finite number from step {step} (t = {} s): the start state or the commands are beyond what {model} can integrate", crate::limits::Short(*t))]
+    NotFinite {
+        /// model name
+        model: String,
+        /// the first step whose prediction is not finite
+        step: usize,
+        /// its time from the start (s)
+        t: f64,
+    },
 }
 
 impl MotionError {
+    /// The error for `poses` predicted by `model` (with their covariances, when given) if
+    /// some value is not a finite number; `None` when all are.
+    ///
+    /// ```
+    /// use drive_traits::{MotionError, Pose};
+    /// let poses = [Pose::zeros(), Pose::new(f64::NAN, 0.0, 0.0)];
+    /// let e = MotionError::not_finite("naive", 0.05, &poses, &[]).unwrap();
+    /// assert!(e.to_string().starts_with("the prediction is not a finite number from step 1 (t = 0.05 s)"));
+    /// assert!(MotionError::not_finite("naive", 0.05, &poses[..1], &[]).is_none());
+    /// ```
+    pub fn not_finite(
+        model: &str,
+        dt: f64,
+        poses: &[crate::Pose],
+        covariances: &[crate::PoseCovariance],
+    ) -> Option<MotionError> {
+        let finite = |k: usize| {
+            poses[k].iter().all(|v| v.is_finite())
+                && covariances
+                    .get(k)
+                    .is_none_or(|c| c.iter().all(|v| v.is_finite()))
+        };
+        (0..poses.len())
+            .find(|&k| !finite(k))
+            .map(|step| MotionError::NotFinite {
+                model: model.to_string(),
+                step,
+                t: step as f64 * dt,
+            })
+    }
+
     /// Checks the buffers of a batch prediction.
     pub fn check_batch(
         sequences: usize,

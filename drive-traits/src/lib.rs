@@ -26,6 +26,7 @@
 
 mod dataset;
 mod error;
+pub mod exact;
 mod learner;
 pub mod limits;
 mod motion;

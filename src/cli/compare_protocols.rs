@@ -91,6 +91,25 @@ fn simulated(args: &Args, registries: &Registries) -> Result<()> {
         .into_iter()
         .map(|t| registries.terrain(t))
         .collect::<Result<Vec<_>, _>>()?;
+    // Results are grouped by name: two robots or terrains under one name would be pooled.
+    for (flag, mut given) in [
+        (
+            "--robot",
+            robots.iter().map(|r| r.name.clone()).collect::<Vec<_>>(),
+        ),
+        (
+            "--terrain",
+            terrains.iter().map(|t| t.name.clone()).collect(),
+        ),
+    ] {
+        given.sort();
+        if let Some(w) = given.windows(2).find(|w| w[0] == w[1]) {
+            bail!(
+                "{flag} names '{}' twice (a file's name is the one inside it): results are grouped by name, give each its own (drive sim-fit --name)",
+                w[0]
+            );
+        }
+    }
     let samplers = names(&args.samplers);
     let test_samplers = names(&args.test_samplers);
     for s in samplers.iter().chain(&test_samplers) {

@@ -3,7 +3,7 @@
 use super::common::{parse_pair, parse_triplet};
 use crate::models::model_file::model_from_json;
 use crate::traits::limits::Short;
-use crate::traits::{Input, Pose, StartState};
+use crate::traits::{Input, MotionError, Pose, StartState};
 use anyhow::{bail, Context, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -129,16 +129,9 @@ pub fn run(args: &Args) -> Result<()> {
         model.predict_into(&start, &cmds, &mut poses);
     }
     // Nothing is printed unless every predicted value is a finite number.
-    let finite = |k: usize| {
-        poses[k].iter().all(|v| v.is_finite())
-            && (!with_cov || covs[k].iter().all(|v| v.is_finite()))
-    };
-    if let Some(k) = (0..poses.len()).find(|&k| !finite(k)) {
-        bail!(
-            "the prediction is not a finite number from step {k} (t = {} s): the start state or the commands are beyond what {} can integrate",
-            crate::traits::limits::Short(k as f64 * model.dt()),
-            model.name()
-        );
+    let covariances: &[_] = if with_cov { &covs } else { &[] };
+    if let Some(e) = MotionError::not_finite(&model.name(), model.dt(), &poses, covariances) {
+        return Err(e.into());
     }
     let mut header = String::from("k,t,x,y,yaw");
     if with_cov {

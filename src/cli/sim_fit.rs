@@ -25,6 +25,19 @@ pub struct Args {
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    if let Some(name) = &args.name {
+        if name.trim().is_empty()
+            || name.chars().count() > 200
+            || name.chars().any(char::is_control)
+        {
+            anyhow::bail!(
+                "--name must be 1 to 200 characters without control characters (it names the terrain in every output line)"
+            );
+        }
+    }
+    if args.out.is_dir() {
+        anyhow::bail!("cannot write {}: it is a directory", args.out.display());
+    }
     let mut inputs = args.data.inputs();
     inputs.extend(robot_input(&args.robot));
     let mut outputs = outputs_for(&inputs, &[("--out", &args.out)])?;
@@ -92,6 +105,16 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             "sensors: localization {:.1} Hz with {:.4} m and {:.4} rad noise, encoders {:.3} rad/s, IMU {:.4} rad/s with a {:+.4} rad/s bias\n",
             s.icp_rate_hz, s.icp_noise[0], s.icp_noise[1], s.encoder_noise, s.imu_noise, s.imu_bias,
         );
+        let [[dv, dw], [tv, tw]] = r.motion;
+        text += &format!(
+            "check: the twin's steady windows move at {tv:.3} m/s and {tw:.3} rad/s on average (mean absolute forward speed and yaw rate; the data's {dv:.3} and {dw:.3})\n"
+        );
+        if !r.at_bounds.is_empty() {
+            text += &format!(
+                "note: at a bound of its range, not pinned down by the data: {}\n",
+                r.at_bounds.join(", ")
+            );
+        }
         if let Some(q) = &t.protocol {
             let [[l0, l1], [r0, r1]] = q.input_limits;
             text += &format!(

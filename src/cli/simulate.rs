@@ -77,8 +77,21 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         bail!("the characterization of {} failed: {why}", spec.name);
     }
     if run.dataset.windows.is_empty() {
+        use crate::samplers::{PauseReason, RunnerState};
+        // What held it up, when the runner was pausing.
+        let paused = run.states.iter().rev().find_map(|(_, s)| match s {
+            RunnerState::Paused { reason, .. } => Some(reason.clone()),
+            _ => None,
+        });
+        let why = match paused {
+            Some(PauseReason::LocalizationStale) => "; the runner kept pausing: the localization updates too rarely for its watchdog (sensors.icp_rate_hz against the 0.5 s stale timeout)",
+            Some(PauseReason::EncodersStale) => "; the runner kept pausing: no encoder data within its watchdog's 0.5 s",
+            Some(PauseReason::DeadmanReleased) => "; the dead-man switch was released",
+            None if ground.protocol.is_some() => " (a twin skips the characterization; an interval takes 6 s)",
+            None => " (characterization takes about 24 s, an interval 6 s)",
+        };
         bail!(
-            "the run of {} s recorded no complete interval (characterization takes about 24 s, an interval 6 s)",
+            "the run of {} s recorded no complete interval{why}",
             crate::traits::limits::Short(args.duration)
         );
     }

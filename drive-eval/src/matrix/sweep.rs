@@ -232,13 +232,11 @@ impl SweepFile {
     pub fn parse(file: &str, text: &str) -> Result<SweepFile, MatrixError> {
         toml::from_str(text).map_err(|e| MatrixError::Parse {
             file: file.to_string(),
-            reason: e.message().to_string()
-                + &e.span()
-                    .map(|s| {
-                        let line = text[..s.start.min(text.len())].lines().count().max(1);
-                        format!(" (line {line})")
-                    })
-                    .unwrap_or_default(),
+            reason: drive_traits::exact::parse_message(
+                text,
+                e.message(),
+                e.span().map(|s| s.start),
+            ),
         })
     }
 
