@@ -6,7 +6,7 @@ use drive::eval::{compare, split_by_interval};
 use drive::models::batch::predict_batch_parallel;
 use drive::models::model_file::{model_from_json, model_to_json};
 use drive::traits::{
-    Dataset as RustDataset, Input, MotionModel, Pose, RobotDescription, StartState,
+    Dataset as RustDataset, Input, MotionError, MotionModel, Pose, RobotDescription, StartState,
 };
 use drive::Registries;
 use numpy::{
@@ -54,11 +54,29 @@ impl Dataset {
         df: &Bound<'_, PyAny>,
         meta: &Bound<'_, PyAny>,
     ) -> PyResult<Self> {
+        if !df.hasattr("to_csv")? || !df.hasattr("columns")? {
+            return Err(err(format!(
+                "df must be a pandas DataFrame with the window CSV's columns, got {}",
+                type_name(df)
+            )));
+        }
+        if !meta.is_instance_of::<PyDict>() {
+            return Err(err(format!(
+                "meta must be a dict (the sidecar JSON's fields), got {}",
+                type_name(meta)
+            )));
+        }
         let kwargs = PyDict::new(py);
         kwargs.set_item("index", false)?;
-        let csv: String = df.call_method("to_csv", (), Some(&kwargs))?.extract()?;
+        let csv: String = df
+            .call_method("to_csv", (), Some(&kwargs))
+            .and_then(|c| c.extract())
+            .map_err(|e| err(format!("df cannot be written as CSV: {e}")))?;
         let json = py.import("json")?;
-        let sidecar: String = json.call_method1("dumps", (meta,))?.extract()?;
+        let sidecar: String = json
+            .call_method1("dumps", (meta,))
+            .and_then(|j| j.extract())
+            .map_err(|e| err(format!("meta cannot be written as JSON: {e}")))?;
         Self::from_text(&csv, &sidecar)
     }
 
@@ -101,9 +119,17 @@ impl Dataset {
 #[pyfunction]
 #[pyo3(signature = (path=None, sidecar=None))]
 fn load_dataset(
-    path: Option<std::path::PathBuf>,
-    sidecar: Option<std::path::PathBuf>,
+    path: Option<&Bound<'_, PyAny>>,
+    sidecar: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Dataset> {
+    let path = path
+        .filter(|p| !p.is_none())
+        .map(|p| path_of("path", p))
+        .transpose()?;
+    let sidecar = sidecar
+        .filter(|p| !p.is_none())
+        .map(|p| path_of("sidecar", p))
+        .transpose()?;
     let inner = match path {
         None => drive::bundled::husky(),
         Some(p) => drive::data::read_dataset(&p, sidecar.as_deref()),
@@ -118,10 +144,22 @@ fn load_dataset(
 #[pyo3(signature = (dataset, models=None, split=0.5))]
 fn evaluate_json(
     py: Python<'_>,
-    dataset: &Dataset,
-    models: Option<Vec<String>>,
+    dataset: &Bound<'_, PyAny>,
+    models: Option<&Bound<'_, PyAny>>,
     split: f64,
 ) -> PyResult<String> {
+    let dataset = dataset_of(dataset)?;
+    let models: Option<Vec<String>> = models
+        .filter(|m| !m.is_none())
+        .map(|m| {
+            m.extract().map_err(|_| {
+                err(format!(
+                    "models must be model names (a list of str, or one str with commas), got {}",
+                    type_name(m)
+                ))
+            })
+        })
+        .transpose()?;
     let names = models.unwrap_or_else(|| {
         ["naive", "powertrain", "slip-blr", "acc-blr"]
             .map(String::from)
@@ -156,6 +194,83 @@ impl Model {
     }
 }
 
+/// The Python type name of `obj`, for messages.
+fn type_name(obj: &Bound<'_, PyAny>) -> String {
+    obj.get_type()
+        .name()
+        .map_or_else(|_| "?".into(), |n| n.to_string())
+}
+
+/// A path from a `str` or an `os.PathLike`, or a `DriveError` naming `what`.
+fn path_of(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<std::path::PathBuf> {
+    obj.extract::<std::path::PathBuf>().map_err(|_| {
+        err(format!(
+            "{what} must be a path (str or os.PathLike), got {}",
+            type_name(obj)
+        ))
+    })
+}
+
+/// The dataset `obj`, or a `DriveError`.
+fn dataset_of<'a, 'py>(obj: &'a Bound<'py, PyAny>) -> PyResult<PyRef<'py, Dataset>> {
+    obj.extract::<PyRef<'py, Dataset>>().map_err(|_| {
+        err(format!(
+            "dataset must be a drive.Dataset (drive.load_dataset or drive.Dataset.from_pandas), got {}",
+            type_name(obj)
+        ))
+    })
+}
+
+/// A real number (not a bool), or a `DriveError` saying what `what` must be.
+fn number_of(what: &str, expected: &str, obj: &Bound<'_, PyAny>) -> PyResult<f64> {
+    if obj.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(err(format!(
+            "{what} must be {expected}, got {}",
+            obj.repr()?
+        )));
+    }
+    obj.extract::<f64>().map_err(|_| {
+        err(format!(
+            "{what} must be {expected}, got {}",
+            obj.repr()
+                .map_or_else(|_| type_name(obj), |r| r.to_string())
+        ))
+    })
+}
+
+/// `N` real numbers (a start pose, start wheels; zeros when None), or a `DriveError`.
+fn numbers_of<const N: usize>(what: &str, obj: Option<&Bound<'_, PyAny>>) -> PyResult<[f64; N]> {
+    let Some(obj) = obj else {
+        return Ok([0.0; N]);
+    };
+    let bad = || {
+        err(format!(
+            "{what} must be {N} numbers, got {}",
+            obj.repr()
+                .map_or_else(|_| type_name(obj), |r| r.to_string())
+        ))
+    };
+    if obj.is_instance_of::<pyo3::types::PyString>() {
+        return Err(bad());
+    }
+    let items: Vec<Bound<'_, PyAny>> = obj
+        .try_iter()
+        .map_err(|_| bad())?
+        .collect::<PyResult<_>>()
+        .map_err(|_| bad())?;
+    if items.len() != N {
+        return Err(bad());
+    }
+    let mut out = [0.0; N];
+    for (o, item) in out.iter_mut().zip(&items) {
+        if item.is_instance_of::<pyo3::types::PyBool>() {
+            return Err(bad());
+        }
+        *o = item.extract::<f64>().map_err(|_| bad())?;
+    }
+    Ok(out)
+}
+
 /// `obj` as a C-contiguous float64 numpy array of `ndim` dimensions (lists, integer and
 /// float32 arrays converted); a `DriveError` naming `what` and `shape` otherwise.
 fn float_array<'py>(
@@ -165,10 +280,19 @@ fn float_array<'py>(
     obj: &Bound<'py, PyAny>,
     ndim: usize,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let numpy = py.import("numpy")?;
+    if numpy
+        .call_method1("iscomplexobj", (obj,))
+        .and_then(|c| c.extract::<bool>())
+        .unwrap_or(false)
+    {
+        return Err(err(format!(
+            "{what} must be a {shape} array of real numbers, got complex numbers"
+        )));
+    }
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", "float64")?;
-    let a = py
-        .import("numpy")?
+    let a = numpy
         .call_method("ascontiguousarray", (obj,), Some(&kwargs))
         .map_err(|e| err(format!("{what} must be a {shape} array of numbers: {e}")))?;
     let dims: Vec<usize> = a.getattr("shape")?.extract()?;
@@ -178,15 +302,6 @@ fn float_array<'py>(
         )));
     }
     Ok(a)
-}
-
-/// Three or two numbers (a start pose, start wheels), or a `DriveError`.
-fn numbers<const N: usize>(what: &str, v: Option<Vec<f64>>) -> PyResult<[f64; N]> {
-    match v {
-        None => Ok([0.0; N]),
-        Some(v) => <[f64; N]>::try_from(v.as_slice())
-            .map_err(|_| err(format!("{what} must be {N} numbers, got {}", v.len()))),
-    }
 }
 
 fn finite(what: &str, v: &[f64]) -> PyResult<()> {
@@ -218,11 +333,11 @@ impl Model {
         &self,
         py: Python<'py>,
         commands: &Bound<'py, PyAny>,
-        start: Option<Vec<f64>>,
-        start_wheels: Option<Vec<f64>>,
+        start: Option<&Bound<'py, PyAny>>,
+        start_wheels: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let start: [f64; 3] = numbers("start", start)?;
-        let start_wheels: [f64; 2] = numbers("start_wheels", start_wheels)?;
+        let start: [f64; 3] = numbers_of("start", start)?;
+        let start_wheels: [f64; 2] = numbers_of("start_wheels", start_wheels)?;
         let commands = float_array(py, "commands", "(H, 2)", commands, 2)?;
         let commands: PyReadonlyArray2<'py, f64> = commands.extract()?;
         let shape = commands.shape();
@@ -249,6 +364,10 @@ impl Model {
             .map(|c| Input::new(c[0], c[1]))
             .collect();
         let poses = self.model.predict(&start, &cmds);
+        // Never a non-finite pose: the command line's refusal.
+        if let Some(e) = MotionError::not_finite(&self.model.name(), self.model.dt(), &poses, &[]) {
+            return Err(err(e));
+        }
         let out: Vec<f64> = poses.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
         numpy::ndarray::Array2::from_shape_vec((poses.len(), 3), out)
             .map(|a| a.into_pyarray(py))
@@ -322,6 +441,14 @@ impl Model {
         let model = self.model.as_ref();
         py.detach(|| predict_batch_parallel(model, &starts, &cmds, h, &mut poses, 64))
             .map_err(err)?;
+        // Never a non-finite pose: the command line's refusal, naming the sequence.
+        if h > 0 {
+            for (i, row) in poses.chunks(h).enumerate() {
+                if let Some(e) = MotionError::not_finite(&model.name(), model.dt(), row, &[]) {
+                    return Err(err(format!("sequence {i}: {e}")));
+                }
+            }
+        }
         let out: Vec<f64> = poses.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
         numpy::ndarray::Array3::from_shape_vec((b, h, 3), out)
             .map(|a| a.into_pyarray(py))
@@ -329,7 +456,8 @@ impl Model {
     }
 
     /// Saves the model as the command line's model file (`drive predict --model`).
-    fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
+    fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        let path = path_of("path", path)?;
         let text = model_to_json(self.model.as_ref(), &self.robot).map_err(err)?;
         std::fs::write(&path, text)
             .map_err(|e| err(format!("{}: cannot write: {e}", path.display())))
@@ -344,7 +472,24 @@ impl Model {
 /// the intervals (all of them when None).
 #[pyfunction]
 #[pyo3(signature = (dataset, model, split=None))]
-fn fit(py: Python<'_>, dataset: &Dataset, model: &str, split: Option<f64>) -> PyResult<Model> {
+fn fit(
+    py: Python<'_>,
+    dataset: &Bound<'_, PyAny>,
+    model: &Bound<'_, PyAny>,
+    split: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Model> {
+    let dataset = dataset_of(dataset)?;
+    let model: String = model.extract().map_err(|_| {
+        err(format!(
+            "model must be a model name such as 'slip-blr' (see drive list), got {}",
+            type_name(model)
+        ))
+    })?;
+    let model = model.as_str();
+    let split = split
+        .filter(|s| !s.is_none())
+        .map(|s| number_of("split", "a number between 0 and 1", s))
+        .transpose()?;
     let registries = Registries::builtin();
     let spec = registries.model(model).map_err(err)?.clone();
     let data = &dataset.inner;
@@ -364,10 +509,11 @@ fn fit(py: Python<'_>, dataset: &Dataset, model: &str, split: Option<f64>) -> Py
 
 /// Loads a model file written by `drive train` or `Model.save`.
 #[pyfunction]
-fn load_model(path: std::path::PathBuf) -> PyResult<Model> {
+fn load_model(path: &Bound<'_, PyAny>) -> PyResult<Model> {
+    let path = path_of("path", path)?;
     let name = path.display().to_string();
-    let text =
-        std::fs::read_to_string(&path).map_err(|e| err(format!("{name}: cannot read: {e}")))?;
+    // The command line's words (drive predict --model).
+    let text = std::fs::read_to_string(&path).map_err(|e| err(format!("reading {name}: {e}")))?;
     let (model, robot) = model_from_json(&name, &text).map_err(err)?;
     Ok(Model { model, robot })
 }

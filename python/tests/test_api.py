@@ -145,8 +145,14 @@ def test_user_errors_raise_with_the_command_lines_message(husky, tmp_path):
     for same in (ints, ints.astype(np.float32), ints.tolist()):
         assert np.array_equal(slip.predict(same), expected)
     assert np.array_equal(slip.predict_batch(ints[None]), expected[None])
-    with pytest.raises(drive.DriveError, match="cannot read"):
-        drive.load_model(tmp_path / "none.json")
+    # The command line's message for a missing model file.
+    none = tmp_path / "none.json"
+    commands = tmp_path / "c.csv"
+    commands.write_text("t,cmd_left,cmd_right\n0,1,1\n")
+    cli_err = cli("predict", "--model", none, "--commands", commands, ok=False).stderr.strip()
+    with pytest.raises(drive.DriveError) as e:
+        drive.load_model(none)
+    assert str(e.value) == cli_err[len("error: "):]
     bad = tmp_path / "bad.json"
     bad.write_text("{")
     with pytest.raises(drive.DriveError):
@@ -275,3 +281,67 @@ def test_protocol_runner_stops_the_robot_without_the_deadman_or_sensors():
     fenced.tick(t=0.0, encoder=(0, 0), pose=(0, 0, 0), deadman=True)
     out = fenced.tick(t=0.05, encoder=(0, 0), pose=(1.5, 0, 0), deadman=True)
     assert tuple(out) == (0.0, 0.0) and fenced.done and fenced.stop_reason.startswith("geofence: 1.50 m")
+
+
+def test_wrong_types_and_unintegrable_inputs_raise_drive_errors(husky, tmp_path):
+    """Every user error is a DriveError, the wrong Python type of an argument too; a
+    prediction is never a non-finite number (the command line's refusal)."""
+    model = drive.fit(husky, "slip-blr", split=0.5)
+    commands = np.zeros((40, 2))
+    for call, says in [
+        (lambda: model.predict(commands, start="abc"), "start must be 3 numbers"),
+        (lambda: model.predict(commands, start=5), "start must be 3 numbers"),
+        (lambda: model.predict(commands, start=[0, "x", 0]), "start must be 3 numbers"),
+        (lambda: model.predict(commands, start_wheels=(True, 1.0)), "start_wheels must be 2"),
+        (lambda: model.predict(np.zeros((40, 2)) + 1j), "real numbers"),
+        (lambda: drive.fit(husky, "slip-blr", split="a"), "split must be a number"),
+        (lambda: drive.fit(husky, 123), "model must be a model name"),
+        (lambda: drive.fit(None, "slip-blr"), "dataset must be a drive.Dataset"),
+        (lambda: drive.evaluate("x"), "dataset must be a drive.Dataset"),
+        (lambda: drive.evaluate(husky, models=5), "models must be model names"),
+        (lambda: drive.load_dataset(5), "path must be a path"),
+        (lambda: drive.load_model(None), "path must be a path"),
+        (lambda: model.save(3.5), "path must be a path"),
+        (lambda: drive.Dataset.from_pandas({"a": [1]}, {}), "df must be a pandas DataFrame"),
+        (lambda: drive.ProtocolRunner(None), "robot must be"),
+        (lambda: drive.ProtocolRunner("husky", None), "sampler must be"),
+    ]:
+        with pytest.raises(drive.DriveError, match=says):
+            call()
+    # Beyond what the model can integrate: refused as the command line refuses it.
+    huge = np.full((40, 2), 1e300)
+    model_file = tmp_path / "m.json"
+    model.save(model_file)
+    cmds = tmp_path / "huge.csv"
+    cmds.write_text("t,cmd_left,cmd_right\n" + "".join(f"{k * 0.05},1e300,1e300\n" for k in range(40)))
+    cli_err = cli(
+        "predict", "--model", model_file, "--commands", cmds, "--start-wheels", "1e300,1e300",
+        ok=False,
+    ).stderr.strip()
+    assert "not a finite number" in cli_err
+    with pytest.raises(drive.DriveError, match="the prediction is not a finite number"):
+        model.predict(huge, start_wheels=(1e300, 1e300))
+    with pytest.raises(drive.DriveError, match="sequence 1: the prediction is not a finite"):
+        model.predict_batch(np.stack([commands, huge]), start_wheels=[[0, 0], [1e300, 1e300]])
+
+
+def test_a_protocol_runner_used_from_another_thread_raises_a_drive_error():
+    import threading
+
+    runner = drive.ProtocolRunner("husky", "uniform", seed=0, characterize=False)
+    runner.tick(t=0.0, encoder=(0.0, 0.0), pose=(0.0, 0.0, 0.0), deadman=True)
+    caught = []
+
+    def other():
+        try:
+            runner.tick(t=0.05, encoder=(0.0, 0.0), pose=(0.0, 0.0, 0.0), deadman=True)
+        except Exception as e:  # what a node's handler catches
+            caught.append(e)
+
+    t = threading.Thread(target=other)
+    t.start()
+    t.join()
+    assert len(caught) == 1 and isinstance(caught[0], drive.DriveError), caught
+    assert "thread" in str(caught[0])
+    # Still usable from its own thread.
+    runner.tick(t=0.05, encoder=(0.0, 0.0), pose=(0.0, 0.0, 0.0), deadman=True)

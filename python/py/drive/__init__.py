@@ -16,6 +16,7 @@ Every user error raises `drive.DriveError` (a ValueError) with the command line'
 import json as _json
 import numbers as _numbers
 import os as _os
+import threading as _threading
 
 import numpy as _np
 from collections.abc import Mapping as _Mapping
@@ -46,6 +47,10 @@ def evaluate(dataset, models=None, split=0.5):
         models = [m.strip() for m in models.split(",") if m.strip()]
     if not _is_number(split):
         raise DriveError(f"split must be a number between 0 and 1, got {split!r}")
+    if models is not None and not isinstance(models, (list, tuple)):
+        raise DriveError(
+            f"models must be model names (a list of str, or one str with commas), got {models!r}"
+        )
     return _json.loads(_evaluate_json(dataset, None if models is None else list(models), float(split)))
 
 
@@ -144,13 +149,29 @@ class ProtocolRunner:
     def __init__(self, robot, sampler="uniform", seed=0, **options):
         if isinstance(robot, _os.PathLike):
             robot = _os.fspath(robot)
+        if not isinstance(robot, str):
+            raise DriveError(
+                f"robot must be a registered robot name or a robot TOML file, got {robot!r}"
+            )
+        if not isinstance(sampler, str):
+            raise DriveError(f"sampler must be a sampler name (see drive list), got {sampler!r}")
         if isinstance(seed, bool) or not isinstance(seed, _numbers.Integral) or not 0 <= seed < 2**64:
             raise DriveError(f"seed must be an integer from 0 to 2^64 - 1, got {seed!r}")
         self._native = _native.ProtocolRunner(robot, sampler, int(seed), **_check_options(options))
+        self._thread = _threading.get_ident()
+
+    def _own_thread(self):
+        # The native runner belongs to the thread that made it.
+        if _threading.get_ident() != self._thread:
+            raise DriveError(
+                "a ProtocolRunner is used from the thread that created it (a ROS 2 node: its "
+                "single-threaded executor); this is another thread"
+            )
 
     def tick(self, measurements=None, **fields):
         """The command for this tick, from `measurements`: a `Measurements`, a dict with
         the keys t, encoder, pose, deadman, or the same as keywords."""
+        self._own_thread()
         if measurements is None:
             measurements = fields
         elif fields:
@@ -189,14 +210,17 @@ class ProtocolRunner:
         """Hands the windows of the interval that just ended (a `Dataset`) to the sampler:
         what "targeted" (largest slip-BLR uncertainty) learns from; other samplers ignore
         them."""
+        self._own_thread()
         self._native.observe(interval)
 
     def __getattr__(self, name):
         # state, done, pause_reason, stop_reason, completed_intervals, input_space,
         # geometry, robot, rate_hz, inputs
-        if name == "_native":
+        if name in ("_native", "_thread"):
             raise AttributeError(name)
+        self._own_thread()
         return getattr(self._native, name)
 
     def __repr__(self):
+        self._own_thread()
         return repr(self._native)
