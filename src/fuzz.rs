@@ -114,10 +114,10 @@ pub fn model_file(bytes: &[u8]) -> bool {
         return false;
     };
     let start = StartState {
-        pose: Pose::zeros(),
         input: Input::new(1.0, -1.0),
-        body_velocity: Default::default(),
-    };
+        ..StartState::at_rest(Pose::zeros())
+    }
+    .with_yaw_rate(0.5);
     let commands = [Input::new(2.0, 1.0); 8];
     let _ = model.predict(&start, &commands);
     let mut poses = Vec::new();

@@ -350,11 +350,11 @@ fn train_then_predict_matches_the_library() {
         )
         .unwrap();
         let wheels = drive::traits::Input::new(2.0, 5.0);
-        let start = drive::traits::StartState {
-            pose: drive::traits::Pose::new(1.0, -1.0, 0.5),
-            input: wheels,
-            body_velocity: robot.vehicle.body_velocity(&wheels),
-        };
+        let start = drive::traits::StartState::measured(
+            drive::traits::Pose::new(1.0, -1.0, 0.5),
+            wheels,
+            &*robot.vehicle,
+        );
         let cmds: Vec<_> = (0..40)
             .map(|k| drive::traits::Input::new(2.0 + 0.1 * k as f64, 5.0))
             .collect();

@@ -113,7 +113,7 @@ proptest! {
     fn a_robot_at_rest_given_zero_input_stays_put(start in pose(), steps in 1usize..80) {
         let commands = vec![Input::zeros(); steps];
         for model in models() {
-            let s = StartState { pose: start, input: Input::zeros(), body_velocity: Default::default() };
+            let s = StartState::at_rest(start);
             let poses = model.predict(&s, &commands);
             prop_assert_eq!(poses.len(), steps);
             for p in &poses {
@@ -126,15 +126,16 @@ proptest! {
     fn a_rollout_from_any_yaw_is_the_rotated_rollout_from_yaw_zero(
         start in pose(),
         wheels in (-6.0..6.0f64, -6.0..6.0f64),
+        imu in proptest::option::of(-2.0..2.0f64),
         commands in proptest::collection::vec((-8.0..8.0f64, -8.0..8.0f64), 1..60),
     ) {
         let commands: Vec<Input> = commands.into_iter().map(|(l, r)| Input::new(l, r)).collect();
         let (s, c) = start.z.sin_cos();
         for model in models() {
-            let at = |pose| StartState {
-                pose,
-                input: Input::new(wheels.0, wheels.1),
-                body_velocity: Default::default(),
+            // With the IMU's yaw rate or without: what slip-ipem's disturbance reads.
+            let at = |pose| {
+                let s = StartState { input: Input::new(wheels.0, wheels.1), ..StartState::at_rest(pose) };
+                imu.map_or(s, |w| s.with_yaw_rate(w))
             };
             let local = model.predict(&at(Pose::zeros()), &commands);
             let moved = model.predict(&at(start), &commands);

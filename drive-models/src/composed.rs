@@ -304,7 +304,7 @@ impl ComposedModel {
         self.vehicle
             .body_velocities_into(&s.inputs, &mut s.commanded);
         self.slip
-            .body_velocities_into(&s.commanded, &mut s.velocities);
+            .rollout_velocities_into(start, &s.commanded, &mut s.velocities);
     }
 }
 
@@ -365,7 +365,7 @@ impl MotionModel for ComposedModel {
             self.velocities(start, commands, s);
             if self
                 .slip
-                .rollout_covariances_into(&start.pose, &s.commanded, self.dt, covariances)
+                .rollout_covariances_into(start, &s.commanded, self.dt, covariances)
             {
                 integrate(&start.pose, &s.velocities, self.dt, poses);
                 return Ok(());

@@ -492,6 +492,7 @@ fn acc_blr_prediction_hand_computed() {
         pose: Pose::zeros(),
         input: Input::zeros(),
         body_velocity: BodyVelocity::new(0.2, 0.3, 0.0),
+        yaw_rate: None,
     };
     // f = (1, 0, 0) from wheels 10, 10: v0 = 0.2 (lateral dropped), v1 = 0.6, v2 = 0.8.
     let p = m.predict(&start, &[Input::new(10.0, 10.0); 4]);
@@ -614,6 +615,7 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
         pose: Pose::new(1.0, -2.0, 0.3),
         input: Input::new(1.0, 2.0),
         body_velocity: BodyVelocity::new(0.1, 0.0, 0.1),
+        yaw_rate: None,
     };
     let cmds: Vec<Input> = (0..40)
         .map(|k| Input::new(k as f64 * 0.1, 3.0 - k as f64 * 0.05))
@@ -671,11 +673,11 @@ fn version_1_model_files_read_as_their_parts_and_predict_the_same() {
         let cmds: Vec<Input> = (0..40)
             .map(|k| Input::new(2.0 + 0.1 * k as f64, 5.0))
             .collect();
-        let start = StartState {
-            pose: Pose::new(0.5, -1.0, 0.3),
-            input: Input::new(1.0, 2.0),
-            body_velocity: robot.vehicle.body_velocity(&Input::new(1.0, 2.0)),
-        };
+        let start = StartState::measured(
+            Pose::new(0.5, -1.0, 0.3),
+            Input::new(1.0, 2.0),
+            &*robot.vehicle,
+        );
         let poses = model.predict(&start, &cmds);
         for (line, p) in expected.lines().skip(1).zip(&poses) {
             let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
@@ -686,6 +688,61 @@ fn version_1_model_files_read_as_their_parts_and_predict_the_same() {
                 "{name}: {line} vs {p:?}"
             );
         }
+    }
+}
+
+/// A slip-ipem file written by the release before the yaw disturbance and the transport of
+/// the body velocity (no such fields, a covariance of the weights and lags only), and what
+/// it predicted then, from `tests/data/slip-ipem-v1/`: read by this build, it predicts the
+/// same poses and covariances.
+#[test]
+fn slip_ipem_files_of_the_previous_release_predict_the_same() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/slip-ipem-v1");
+    let text = std::fs::read_to_string(dir.join("slip-ipem.json")).unwrap();
+    assert!(!text.contains("disturbance_logit") && !text.contains("transport"));
+    let (model, robot) = model_from_json("slip-ipem.json", &text).unwrap();
+    let expected = std::fs::read_to_string(dir.join("slip-ipem.predict.csv")).unwrap();
+    let cmds: Vec<Input> = (0..40)
+        .map(|k| Input::new(2.0 + 0.1 * k as f64, 5.0))
+        .collect();
+    // As `drive predict` starts: the encoders only. A measured yaw rate changes nothing
+    // either: the file has no disturbance.
+    let start = StartState::measured(
+        Pose::new(0.5, -1.0, 0.3),
+        Input::new(1.0, 2.0),
+        &*robot.vehicle,
+    );
+    for start in [start, start.with_yaw_rate(0.7)] {
+        let (mut poses, mut covariances) = (Vec::new(), Vec::new());
+        model
+            .predict_with_covariance_into(&start, &cmds, &mut poses, &mut covariances)
+            .unwrap();
+        assert_eq!(poses, model.predict(&start, &cmds));
+        let mut rows = 0;
+        for ((line, p), c) in expected.lines().skip(1).zip(&poses).zip(&covariances) {
+            let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * (1.0 + a.abs());
+            assert!(
+                close(v[2], p.x) && close(v[3], p.y) && close(v[4], p.z),
+                "{line} vs {p:?}"
+            );
+            let cov = [
+                c[(0, 0)],
+                c[(0, 1)],
+                c[(0, 2)],
+                c[(1, 1)],
+                c[(1, 2)],
+                c[(2, 2)],
+            ];
+            for (a, b) in v[5..].iter().zip(cov) {
+                assert!(
+                    (a - b).abs() <= 1e-9 * (1e-6 + a.abs()),
+                    "{line} vs {cov:?}"
+                );
+            }
+            rows += 1;
+        }
+        assert_eq!(rows, 40);
     }
 }
 
@@ -769,6 +826,7 @@ fn a_composed_model_rolls_out_in_batch_as_one_by_one() {
             pose: Pose::new(i as f64, 0.0, 0.1 * i as f64),
             input: Input::new(0.5 * i as f64, 0.0),
             body_velocity: BodyVelocity::zeros(),
+            yaw_rate: None,
         })
         .collect();
     let commands: Vec<Input> = (0..5 * 20)

@@ -1,6 +1,6 @@
 //! Dataset types: windows of DRIVE driving data and the robot that recorded them.
 
-use crate::{BodyVelocity, CommandModel, Input, Pose, StartState};
+use crate::{CommandModel, Input, Pose, StartState};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -222,18 +222,14 @@ impl Window {
     ///     measured: vec![Input::new(1.0, 0.5); 2], pose: vec![Pose::zeros(); 2], imu_yaw_rate: vec![0.3; 2] };
     /// assert_eq!(w.start_state_with(&V, StartInfo::Encoders).body_velocity.z, 0.5);
     /// assert_eq!(w.start_state_with(&V, StartInfo::EncodersImu).body_velocity.z, 0.3);
+    /// assert_eq!(w.start_state_with(&V, StartInfo::EncodersImu).yaw_rate, Some(0.3));
+    /// assert_eq!(w.start_state_with(&V, StartInfo::Encoders).yaw_rate, None);
     /// ```
     pub fn start_state_with(&self, vehicle: &dyn CommandModel, info: StartInfo) -> StartState {
-        let measured = self.measured[0];
-        let from_encoders = vehicle.body_velocity(&measured);
-        let yaw_rate = match info {
-            StartInfo::Encoders => from_encoders.z,
-            StartInfo::EncodersImu => self.imu_yaw_rate[0],
-        };
-        StartState {
-            pose: self.pose[0],
-            input: measured,
-            body_velocity: BodyVelocity::new(from_encoders.x, from_encoders.y, yaw_rate),
+        let start = StartState::measured(self.pose[0], self.measured[0], vehicle);
+        match info {
+            StartInfo::Encoders => start,
+            StartInfo::EncodersImu => start.with_yaw_rate(self.imu_yaw_rate[0]),
         }
     }
 }

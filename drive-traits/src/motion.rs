@@ -29,6 +29,12 @@ pub struct StartState {
     /// Measured body velocity at the start (used by models whose state is a velocity, such
     /// as acceleration-based BLR).
     pub body_velocity: BodyVelocity,
+    /// The yaw rate measured at the start by a sensor of the body's own rotation (the IMU),
+    /// when the start information includes one (`StartInfo::EncodersImu`); `None` when only
+    /// the encoders are known. Unlike `body_velocity`, never derived from the input: a model
+    /// may read it as evidence of how the body turns beyond what the commands explain
+    /// (slip-ipem's yaw disturbance).
+    pub yaw_rate: Option<f64>,
 }
 
 impl StartState {
@@ -38,7 +44,22 @@ impl StartState {
             pose,
             input: Input::zeros(),
             body_velocity: BodyVelocity::zeros(),
+            yaw_rate: None,
         }
+    }
+
+    /// The same start with the yaw rate `yaw_rate` measured by the IMU: also the body
+    /// velocity's yaw rate.
+    ///
+    /// ```
+    /// use drive_traits::{Pose, StartState};
+    /// let s = StartState::at_rest(Pose::zeros()).with_yaw_rate(0.4);
+    /// assert_eq!((s.yaw_rate, s.body_velocity.z), (Some(0.4), 0.4));
+    /// ```
+    pub fn with_yaw_rate(mut self, yaw_rate: f64) -> Self {
+        self.yaw_rate = Some(yaw_rate);
+        self.body_velocity.z = yaw_rate;
+        self
     }
 
     /// At `pose` with the measured input `input`: the body velocity from the encoders
@@ -56,6 +77,7 @@ impl StartState {
             pose,
             input,
             body_velocity: vehicle.body_velocity(&input),
+            yaw_rate: None,
         }
     }
 }

@@ -8,8 +8,8 @@
 //! powertrain by one composed model (eq. 1).
 
 use crate::{
-    BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, Input, PartTag, Pose,
-    PoseCovariance, Powertrain, RegistryItem, RobotDescription, Tagged, Window, WindowSet,
+    BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, Input, PartTag, PoseCovariance,
+    Powertrain, RegistryItem, RobotDescription, StartState, Tagged, Window, WindowSet,
 };
 
 /// A fitted slip model: the slip velocity `g` (eq. 2, 5) at a commanded body velocity `f`.
@@ -49,6 +49,37 @@ pub trait SlipModel: std::fmt::Debug + Send + Sync {
         out.extend(f.iter().map(|f| f - self.slip(f)));
     }
 
+    /// The body velocities of a rollout from `start` through the commanded body velocities
+    /// `f`, into `out` (cleared first): what the composed model integrates (eq. 1). A slip
+    /// model with a state of its own (a body lag, a disturbance seen at the start, such as
+    /// slip-ipem's) reads what was measured at the start here; the default ignores the start
+    /// and calls [`SlipModel::body_velocities_into`].
+    ///
+    /// ```
+    /// # use drive_traits::{BodyVelocity, Pose, SlipModel, StartState, Tagged};
+    /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct Skid { lost: f64 }
+    /// # #[typetag::serde(name = "skid-rollout-doc")]
+    /// # impl SlipModel for Skid {
+    /// #     fn slip(&self, f: &BodyVelocity) -> BodyVelocity { BodyVelocity::new(0.0, 0.0, self.lost * f.z) }
+    /// #     fn clone_box(&self) -> Box<dyn SlipModel> { Box::new(self.clone()) }
+    /// # }
+    /// # impl Tagged for Skid { const TAG: &'static str = "skid-rollout-doc"; }
+    /// let start = StartState::at_rest(Pose::zeros()).with_yaw_rate(0.3);
+    /// let mut v = Vec::new();
+    /// // A slip model without a state of its own: the start changes nothing.
+    /// Skid { lost: 0.75 }.rollout_velocities_into(&start, &[BodyVelocity::new(1.0, 0.0, 2.0)], &mut v);
+    /// assert_eq!(v[0], BodyVelocity::new(1.0, 0.0, 0.5));
+    /// ```
+    fn rollout_velocities_into(
+        &self,
+        start: &StartState,
+        f: &[BodyVelocity],
+        out: &mut Vec<BodyVelocity>,
+    ) {
+        let _ = start;
+        self.body_velocities_into(f, out)
+    }
+
     /// The predictive variance of the slip at `f`, per body dimension (eq. 7 for a BLR);
     /// `None` for a model without uncertainty.
     fn slip_variance(&self, f: &BodyVelocity) -> Option<BodyVelocity> {
@@ -76,11 +107,12 @@ pub trait SlipModel: std::fmt::Debug + Send + Sync {
     /// zero), for a model whose slip errors are correlated along the horizon (uncertain
     /// parameters shared by every step, a velocity bias held over the rollout): the
     /// step-by-step propagation of [`SlipModel::slip_variances_into`] assumes them
-    /// independent (eq. 7). `false` (the default, `out` unspecified): the model has no such
+    /// independent (eq. 7). The rollout is the one of [`SlipModel::rollout_velocities_into`]
+    /// from the same start. `false` (the default, `out` unspecified): the model has no such
     /// covariance, and a composed model propagates its slip variances instead.
     fn rollout_covariances_into(
         &self,
-        start: &Pose,
+        start: &StartState,
         f: &[BodyVelocity],
         dt: f64,
         out: &mut Vec<PoseCovariance>,

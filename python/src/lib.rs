@@ -10,7 +10,8 @@ use drive::traits::{
 };
 use drive::Registries;
 use numpy::{
-    IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,
+    IntoPyArray, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+    PyUntypedArrayMethods,
 };
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
@@ -185,12 +186,13 @@ struct Model {
 }
 
 impl Model {
-    fn start(&self, pose: [f64; 3], wheels: [f64; 2]) -> StartState {
-        StartState::measured(
+    fn start(&self, pose: [f64; 3], wheels: [f64; 2], yaw_rate: Option<f64>) -> StartState {
+        let start = StartState::measured(
             Pose::new(pose[0], pose[1], pose[2]),
             Input::new(wheels[0], wheels[1]),
             self.robot.vehicle.as_ref(),
-        )
+        );
+        yaw_rate.map_or(start, |w| start.with_yaw_rate(w))
     }
 }
 
@@ -327,17 +329,23 @@ impl Model {
 
     /// Poses (H, 3): x, y, yaw after each of the (H, 2) commands (the vehicle's inputs), from
     /// `start` (x, y, yaw; the origin by default) with the measured inputs `start_wheels`
-    /// (zero by default), as `drive predict`.
-    #[pyo3(signature = (commands, start=None, start_wheels=None))]
+    /// (zero by default) and the yaw rate the IMU measured, `start_yaw_rate` (none by
+    /// default), as `drive predict`.
+    #[pyo3(signature = (commands, start=None, start_wheels=None, start_yaw_rate=None))]
     fn predict<'py>(
         &self,
         py: Python<'py>,
         commands: &Bound<'py, PyAny>,
         start: Option<&Bound<'py, PyAny>>,
         start_wheels: Option<&Bound<'py, PyAny>>,
+        start_yaw_rate: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let start: [f64; 3] = numbers_of("start", start)?;
         let start_wheels: [f64; 2] = numbers_of("start_wheels", start_wheels)?;
+        let yaw_rate = start_yaw_rate
+            .filter(|w| !w.is_none())
+            .map(|w| number_of("start_yaw_rate", "a number (rad/s)", w))
+            .transpose()?;
         let commands = float_array(py, "commands", "(H, 2)", commands, 2)?;
         let commands: PyReadonlyArray2<'py, f64> = commands.extract()?;
         let shape = commands.shape();
@@ -348,7 +356,7 @@ impl Model {
         }
         let flat: Vec<f64> = commands.as_array().iter().copied().collect();
         finite("commands", &flat)?;
-        let start = self.start(start, start_wheels);
+        let start = self.start(start, start_wheels, yaw_rate);
         finite(
             "start",
             &[
@@ -357,6 +365,7 @@ impl Model {
                 start.pose.z,
                 start.input.x,
                 start.input.y,
+                start.body_velocity.z,
             ],
         )?;
         let cmds: Vec<Input> = flat
@@ -375,15 +384,17 @@ impl Model {
     }
 
     /// Poses (B, H, 3) of B command sequences (B, H, 2), each from its row of `starts`
-    /// (B, 3; the origin by default) and `start_wheels` (B, 2; zero by default); computed
-    /// in parallel without the GIL. Row b equals `predict(commands[b], starts[b], ...)`.
-    #[pyo3(signature = (commands, starts=None, start_wheels=None))]
+    /// (B, 3; the origin by default), `start_wheels` (B, 2; zero by default) and
+    /// `start_yaw_rates` (B,; none by default); computed in parallel without the GIL. Row b
+    /// equals `predict(commands[b], starts[b], ...)`.
+    #[pyo3(signature = (commands, starts=None, start_wheels=None, start_yaw_rates=None))]
     fn predict_batch<'py>(
         &self,
         py: Python<'py>,
         commands: &Bound<'py, PyAny>,
         starts: Option<&Bound<'py, PyAny>>,
         start_wheels: Option<&Bound<'py, PyAny>>,
+        start_yaw_rates: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
         let commands = float_array(py, "commands", "(B, H, 2)", commands, 3)?;
         let commands: PyReadonlyArray3<'py, f64> = commands.extract()?;
@@ -425,11 +436,28 @@ impl Model {
         };
         let poses0 = rows(starts, 3, "starts")?;
         let wheels = rows(start_wheels, 2, "start_wheels")?;
+        let yaw_rates: Option<Vec<f64>> = match start_yaw_rates.filter(|w| !w.is_none()) {
+            None => None,
+            Some(a) => {
+                let a: PyReadonlyArray1<'py, f64> =
+                    float_array(py, "start_yaw_rates", "(B,)", a, 1)?.extract()?;
+                if a.shape() != [b] {
+                    return Err(err(format!(
+                        "start_yaw_rates must be a ({b},) array, got shape {:?}",
+                        a.shape()
+                    )));
+                }
+                let v: Vec<f64> = a.as_array().iter().copied().collect();
+                finite("start_yaw_rates", &v)?;
+                Some(v)
+            }
+        };
         let starts: Vec<StartState> = (0..b)
             .map(|i| {
                 self.start(
                     [poses0[3 * i], poses0[3 * i + 1], poses0[3 * i + 2]],
                     [wheels[2 * i], wheels[2 * i + 1]],
+                    yaw_rates.as_ref().map(|w| w[i]),
                 )
             })
             .collect();

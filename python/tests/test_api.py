@@ -112,6 +112,42 @@ def test_predict_batch_matches_predict_row_by_row(husky):
     np.testing.assert_array_equal(model.predict_batch(commands[:2])[1], model.predict(commands[1]))
 
 
+def test_the_start_yaw_rate_reaches_slip_ipem_as_on_the_command_line(husky, tmp_path):
+    """slip-ipem reads the IMU's yaw rate at the start (its yaw disturbance): predict's
+    start_yaw_rate is drive predict's --start-yaw-rate, and predict_batch's start_yaw_rates
+    its rows."""
+    model = drive.fit(husky, "slip-ipem", split=0.5)
+    saved = tmp_path / "ipem.json"
+    model.save(saved)
+    rng = np.random.default_rng(11)
+    commands = rng.uniform(-5, 5, size=(40, 2))
+    cmds = tmp_path / "cmds.csv"
+    commands_csv(cmds, commands, model.dt)
+    out = cli(
+        "predict", "--model", saved, "--commands", cmds, "--start-wheels", "2,3", "--start-yaw-rate", "0.6"
+    ).stdout
+    lines = out.strip().splitlines()
+    header = lines[0].split(",")
+    table = np.array([[float(v) for v in l.split(",")] for l in lines[1:]])
+    expected = table[:, [header.index(c) for c in ("x", "y", "yaw")]]
+    got = model.predict(commands, start_wheels=(2.0, 3.0), start_yaw_rate=0.6)
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9)
+    # The measured yaw rate changes the prediction; None is no measurement.
+    assert not np.allclose(got, model.predict(commands, start_wheels=(2.0, 3.0)))
+    np.testing.assert_array_equal(
+        model.predict(commands, start_yaw_rate=None), model.predict(commands)
+    )
+    batch_commands = rng.uniform(-5, 5, size=(9, 40, 2))
+    rates = rng.uniform(-1, 1, size=9)
+    batch = model.predict_batch(batch_commands, start_yaw_rates=rates)
+    for b in range(9):
+        assert np.array_equal(batch[b], model.predict(batch_commands[b], start_yaw_rate=rates[b])), b
+    with pytest.raises(drive.DriveError, match="start_yaw_rates must be a \\(9,\\) array"):
+        model.predict_batch(batch_commands, start_yaw_rates=rates[:3])
+    with pytest.raises(drive.DriveError, match="start_yaw_rate must be a number"):
+        model.predict(commands, start_yaw_rate="fast")
+
+
 def test_user_errors_raise_with_the_command_lines_message(husky, tmp_path):
     missing = tmp_path / "missing.csv"
     cli_err = cli("eval", "--data", missing, ok=False).stderr.strip()

@@ -24,6 +24,20 @@ pub struct Args {
     /// rest).
     #[arg(long, alias = "start-input", value_parser = parse_pair, allow_hyphen_values = true)]
     start_wheels: Option<[f64; 2]>,
+    /// The yaw rate the IMU measured at the start (rad/s), as `drive eval` starts by
+    /// default (`--start encoders+imu`): models that read it (slip-ipem's yaw disturbance,
+    /// acc-BLR's velocity state) start from it (default: none, the encoders only).
+    #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
+    start_yaw_rate: Option<f64>,
+}
+
+/// One finite number.
+fn parse_number(s: &str) -> Result<f64, String> {
+    s.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("'{s}' is not a finite number"))
 }
 
 /// Reads a command file with the header `t,<columns>` sampled at period `dt`.
@@ -121,6 +135,9 @@ pub fn run(args: &Args) -> Result<()> {
         .start_wheels
         .map_or(Input::zeros(), |[l, r]| Input::new(l, r));
     let start = StartState::measured(pose, measured, robot.vehicle.as_ref());
+    let start = args
+        .start_yaw_rate
+        .map_or(start, |w| start.with_yaw_rate(w));
     let (mut poses, mut covs) = (Vec::new(), Vec::new());
     let with_cov = model
         .predict_with_covariance_into(&start, &cmds, &mut poses, &mut covs)

@@ -12,10 +12,19 @@
 //!   saturates outside the data instead of extrapolating a polynomial:
 //!   `a, b, ab, a^2, b^2, |a|, |b|, a|a|, b|b|, a|b|, |a|b, a^2 b, ab^2` ([`FEATURE_NAMES`]).
 //!   None is nonzero at rest, so a stopped robot never drifts.
-//! - **Body lag.** The body velocity moves each step by a learned share of the way to its
-//!   steady value `f - g(f)` (per body dimension, `sigmoid(lag_logit)`, 1 = no lag): the
-//!   inertia of a vehicle on low traction, which a static slip map cannot represent. A
-//!   weak prior draws the share towards 0.95 (nearly none) where the data says nothing.
+//! - **Body dynamics.** The body velocity moves each step by a learned share of the way to
+//!   its steady value `f - g(f)` (per body dimension, `sigmoid(lag_logit)`, 1 = no lag): the
+//!   inertia of a vehicle on low traction, which a static slip map cannot represent. The
+//!   lagging velocity is carried through the body's rotation (rigid-body kinematics: a
+//!   velocity fixed in the world turns the other way in the body frame, so a vehicle that
+//!   turns while it slides drifts sideways). A weak prior draws the shares towards 0.95
+//!   (nearly no lag) where the data says nothing.
+//! - **Yaw disturbance.** When the yaw rate is measured at the start (the IMU,
+//!   [`StartState::yaw_rate`]), its difference from the model's yaw rate there is a
+//!   disturbance the model has not explained (the ground's turning resistance varies from
+//!   moment to moment); a learned share of it (`trust`) is added to the yaw rate and decays
+//!   by a learned factor per step (`persistence`): the best prediction of a first-order
+//!   Gauss-Markov disturbance from one measurement. Without a measured yaw rate it is zero.
 //! - **Objective.** For every training window, the composed model (powertrain, vehicle,
 //!   slip) is rolled out from the window's first measured pose over the whole window, and
 //!   the pose errors at every step are the residuals: position error over its robust scale
@@ -30,9 +39,14 @@
 //!   hand-written derivatives of eq. 1.
 //! - **Hyperparameter.** `lambda` is chosen on an inner split of the training windows only:
 //!   the first `1 - validation` of the training intervals fit, the last `validation` score
-//!   (their loss, without the penalty), going from the strongest penalty to the weakest
-//!   with warm starts; the model is then refitted on every training window with the chosen
-//!   `lambda`. The evaluation half is never seen.
+//!   (their loss, without the penalty). The path starts in the middle of the grid and walks
+//!   to weaker and to stronger penalties with warm starts (a path that starts at the
+//!   strongest penalty, where the slip weights are held near zero, lets the body dynamics
+//!   absorb what the slip should explain and stays in that basin); the strongest penalty
+//!   whose held-out loss is within one standard error of the best (paired over the held-out
+//!   intervals) is chosen, so that the choice does not jump with every interval added. The
+//!   model is then refitted on every training window with the chosen `lambda`. The
+//!   evaluation half is never seen.
 //! - **Uncertainty.** A pose covariance along every rollout: the parameters' Laplace
 //!   covariance (a sandwich with windows as clusters, since the steps of one window share
 //!   their errors) pushed through the rollout, plus a body-velocity bias held over the
@@ -49,7 +63,7 @@ use argmin::core::{
 use argmin::solver::trustregion::{Dogleg, TrustRegion};
 use drive_traits::{
     unwrap_angles, wrap_angle, BodyVelocity, FitError, Pose, PoseCovariance, SlipData, SlipLearner,
-    SlipModel, Tagged,
+    SlipModel, StartState, Tagged,
 };
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
@@ -58,6 +72,7 @@ use num_dual::{Derivative, DualNum, DualSVec64};
 use serde::{Deserialize, Serialize};
 use std::cell::RefCell;
 use std::f64::consts::TAU;
+use std::ops::Mul;
 
 /// The number of slip functions per body dimension.
 pub const FEATURES: usize = 13;
@@ -65,18 +80,26 @@ pub const FEATURES: usize = 13;
 /// The number of slip weights: [`FEATURES`] per body dimension (x, y, yaw).
 pub const WEIGHTS: usize = 3 * FEATURES;
 
-/// The number of fitted parameters: the slip weights and the three lag logits.
-pub const PARAMETERS: usize = WEIGHTS + 3;
+/// The number of body-dynamics parameters: the three lag logits, then the yaw
+/// disturbance's trust and persistence logits.
+pub const DYNAMICS: usize = 5;
 
-/// The lag logit the fit starts from and is drawn towards (a weak prior): a lag of
-/// `sigmoid(3) = 0.95` per step, nearly none.
-const LAG_PRIOR: f64 = 3.0;
+/// The number of fitted parameters: the slip weights and the body dynamics.
+pub const PARAMETERS: usize = WEIGHTS + DYNAMICS;
 
-/// The strength of the pull towards [`LAG_PRIOR`] (it only matters for a dimension the
-/// data says nothing about).
-const LAG_PRIOR_WEIGHT: f64 = 1e-4;
+/// The number of parameters of a model file written before the yaw disturbance (the
+/// weights and the three lag logits): its covariance is that size.
+const PARAMETERS_V1: usize = WEIGHTS + 3;
 
-/// The weights and the three components of the velocity bias: the variables of the
+/// The logits the fit starts from and is drawn towards (a weak prior): a lag of
+/// `sigmoid(3) = 0.95` per step (nearly none), a disturbance trust and persistence of 0.5.
+const DYNAMICS_PRIOR: [f64; DYNAMICS] = [3.0, 3.0, 3.0, 0.0, 0.0];
+
+/// The strength of the pull towards [`DYNAMICS_PRIOR`] (it only matters for what the data
+/// says nothing about).
+const DYNAMICS_PRIOR_WEIGHT: f64 = 1e-4;
+
+/// The parameters and the three components of the velocity bias: the variables of the
 /// covariance rollout.
 const WITH_BIAS: usize = PARAMETERS + 3;
 
@@ -131,13 +154,19 @@ pub fn slip_features(f: &BodyVelocity, scale: &[f64; 2]) -> [f64; FEATURES] {
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct SlipIpem {
-    /// The ridge strengths tried on the inner split, strongest first (each > 0).
+    /// The ridge strengths tried on the inner split, strongest first (each > 0); the path
+    /// starts at the middle one (index `(n - 1) / 2`).
     pub ridge: Vec<f64>,
     /// The share of the training intervals (the last ones) held out to choose the ridge
     /// strength, in (0, 1).
     pub validation: f64,
-    /// Trust-region iterations per fit (>= 1).
+    /// Trust-region iterations of the final fit (>= 1).
     pub max_iterations: u64,
+    /// Trust-region iterations per fit of the ridge path and per warm-started refit (the
+    /// uncertainty calibration's, [`SlipModel::refit`]), >= 1: these only rank the
+    /// strengths or rescale the uncertainty, and the final fit continues from the chosen
+    /// one.
+    pub path_iterations: u64,
     /// Convergence of the final fit: it stops when the Gauss-Newton model promises less
     /// than this fraction of the cost (the Newton decrement), > 0.
     pub tolerance: f64,
@@ -149,18 +178,20 @@ pub struct SlipIpem {
 impl Default for SlipIpem {
     fn default() -> Self {
         SlipIpem {
-            ridge: vec![1.0, 3e-1, 1e-1, 3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4],
+            ridge: vec![1e-1, 1e-2, 1e-3, 1e-4],
             validation: 0.25,
             max_iterations: 100,
-            tolerance: 1e-6,
+            path_iterations: 8,
+            tolerance: 1e-5,
             path_tolerance: 1e-4,
         }
     }
 }
 
-/// The ridge strength used when the training windows span too few intervals to hold some
-/// out (the middle of the default grid).
-pub const FALLBACK_RIDGE: f64 = 1e-2;
+/// The fewest held-out intervals the ridge strength is chosen on: with fewer (under about
+/// 10 training intervals, a minute of driving), one or two intervals would decide, and the
+/// strongest penalty of the grid is taken instead.
+pub const MIN_HELD_OUT_INTERVALS: usize = 3;
 
 impl SlipIpem {
     fn validate(&self) -> Result<(), FitError> {
@@ -177,11 +208,21 @@ impl SlipIpem {
         if let Some(&r) = self.ridge.iter().find(|r| !(r.is_finite() && **r > 0.0)) {
             return bad("ridge", r, "a finite ridge strength > 0");
         }
+        if let Some(w) = self.ridge.windows(2).find(|w| w[1] >= w[0]) {
+            return bad(
+                "ridge",
+                w[1],
+                "strengths in decreasing order (strongest first)",
+            );
+        }
         if !(self.validation > 0.0 && self.validation < 1.0) {
             return bad("validation", self.validation, "a share in (0, 1)");
         }
         if self.max_iterations == 0 {
             return bad("max_iterations", 0.0, "at least one iteration");
+        }
+        if self.path_iterations == 0 {
+            return bad("path_iterations", 0.0, "at least one iteration");
         }
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
             return bad("tolerance", self.tolerance, "a finite tolerance > 0");
@@ -209,10 +250,28 @@ pub struct SlipIpemModel {
     /// The body-velocity lag per step (x, y, yaw) as logits: the body velocity moves by
     /// `sigmoid(lag_logit)` of the way to its steady value `f - g` each step (1: no lag).
     pub lag_logit: [f64; 3],
+    /// The yaw disturbance's trust and persistence as logits: `sigmoid(trust)` of the
+    /// measured start yaw rate's difference from the model's is added to the yaw rate, and
+    /// decays by `sigmoid(persistence)` per step. Absent from files written before it (no
+    /// disturbance).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub disturbance_logit: Option<[f64; 2]>,
+    /// Whether the lagging body velocity is carried through the body's rotation: true for
+    /// every model fitted since it was introduced, false (absent) in files written before,
+    /// which predict as they did.
+    #[serde(default)]
+    pub transport: bool,
+    /// The step the body dynamics were fitted at (s): the lag shares and the disturbance's
+    /// persistence are per step, and the transport turns the velocity by the yaw rate over
+    /// one step. 0 (absent) in files written before the transport.
+    #[serde(default)]
+    pub dt: f64,
     /// The ridge strength chosen on the inner split.
     pub ridge: f64,
     /// The covariance of the fitted parameters, row-major [`PARAMETERS`] x [`PARAMETERS`]:
-    /// the weights in the order of `weights` (x, y, yaw), then the three lag logits.
+    /// the weights in the order of `weights` (x, y, yaw), then the three lag logits and the
+    /// two disturbance logits (without them, `(PARAMETERS - 2)^2` entries, in a file written
+    /// before the disturbance).
     pub weight_covariance: Vec<f64>,
     /// The variance of the body-velocity bias held over a rollout (x, y, yaw).
     pub bias_variance: [f64; 3],
@@ -231,52 +290,162 @@ struct Track {
     features: Vec<[f64; FEATURES]>,
     /// Measured poses, yaw unwrapped along the window.
     target: Vec<Pose>,
+    /// The yaw rate the IMU measured at the window start (what the predictions start from
+    /// by default), when finite.
+    yaw_rate: Option<f64>,
+}
+
+/// The body dynamics' coefficients: what moves the body velocity from one step to the
+/// next besides the slip map (numbers, or dual numbers carrying their derivatives). `Y` is
+/// the number type of the yaw path, `T` of the position path (see [`rollout`]).
+#[derive(Clone, Copy, Debug)]
+struct Dynamics<Y, T = Y> {
+    /// Share of the way to the steady body velocity covered per step along x and y (1:
+    /// no lag).
+    lag_xy: [T; 2],
+    /// The same for the yaw rate.
+    lag_yaw: Y,
+    /// Share of the measured start yaw rate's difference from the model's taken as a
+    /// disturbance (0: none).
+    trust: Y,
+    /// Factor by which the disturbance decays per step.
+    persistence: Y,
+    /// Whether the lagging velocity is carried through the body's rotation.
+    transport: bool,
+}
+
+impl Dynamics<f64> {
+    /// No lag, no disturbance: the body velocity is the steady one at every step.
+    const NONE: Dynamics<f64> = Dynamics {
+        lag_xy: [1.0; 2],
+        lag_yaw: 1.0,
+        trust: 0.0,
+        persistence: 0.0,
+        transport: true,
+    };
+
+    /// The same coefficients as dual numbers without derivatives.
+    fn constant<T: DualNum<f64> + Copy>(&self) -> Dynamics<T> {
+        Dynamics {
+            lag_xy: self.lag_xy.map(T::from),
+            lag_yaw: T::from(self.lag_yaw),
+            trust: T::from(self.trust),
+            persistence: T::from(self.persistence),
+            transport: self.transport,
+        }
+    }
+}
+
+/// The body velocity along a rollout: the lagging state, the yaw disturbance and the yaw
+/// rate of the last step. One implementation for the fit (dual numbers), the mean
+/// prediction and the covariance rollout, so that they never disagree.
+struct Body<Y, T> {
+    velocity: Option<([T; 2], Y)>,
+    disturbance: Y,
+    yaw_rate: Y,
+}
+
+impl<Y, T> Body<Y, T>
+where
+    Y: DualNum<f64> + Copy,
+    T: DualNum<f64> + Copy + Mul<Y, Output = T>,
+{
+    fn new() -> Self {
+        Body {
+            velocity: None,
+            disturbance: Y::from(0.0),
+            yaw_rate: Y::from(0.0),
+        }
+    }
+
+    /// The body velocity (x and y, yaw rate) of the next step towards the steady velocity
+    /// `target`; the first step starts at `target`, and the yaw rate measured then (when
+    /// given) sets the disturbance.
+    #[inline]
+    fn step(
+        &mut self,
+        target: ([T; 2], Y),
+        dynamics: &Dynamics<Y, T>,
+        measured_yaw_rate: Option<f64>,
+        dt: f64,
+    ) -> ([T; 2], Y) {
+        let (xy, yaw_rate) = match self.velocity {
+            None => {
+                if let Some(w) = measured_yaw_rate {
+                    self.disturbance = dynamics.trust * (Y::from(w) - target.1);
+                }
+                target
+            }
+            Some(([mut px, mut py], pz)) => {
+                if dynamics.transport {
+                    // The body turned by yaw_rate * dt: a velocity that the ground has not
+                    // yet changed turns the other way in the body frame.
+                    let (s, c) = (self.yaw_rate * dt).sin_cos();
+                    (px, py) = (px * c + py * s, py * c - px * s);
+                }
+                let [lx, ly] = dynamics.lag_xy;
+                let [tx, ty] = target.0;
+                (
+                    [px + lx * (tx - px), py + ly * (ty - py)],
+                    pz + dynamics.lag_yaw * (target.1 - pz),
+                )
+            }
+        };
+        self.velocity = Some((xy, yaw_rate));
+        let yaw_rate = yaw_rate + self.disturbance;
+        self.disturbance *= dynamics.persistence;
+        self.yaw_rate = yaw_rate;
+        (xy, yaw_rate)
+    }
 }
 
 /// Euler rollout of eq. 1 over the commanded body velocities `f` from `start`, with the
-/// slip `slip(k)` at each step (`v = f - g`, eq. 2): `visit(k, pose_k)` for every `k >= 1`.
-/// Generic over the number type, so that the same code gives poses (`f64`) and their
-/// derivatives (num-dual's dual numbers).
+/// slip `slip(k)` (x and y, yaw) at each step (`v = f - g`, eq. 2) through the body
+/// dynamics: `visit(k, position_k, yaw_k)` for every `k >= 1`. Generic over the number
+/// types, so that the same code gives poses (`f64`) and their derivatives (num-dual's dual
+/// numbers): `Y` for the yaw path (the yaw rate and the heading), `T` for the position path.
+/// The yaw path never depends on the position path, so a Jacobian with respect to
+/// parameters of the position path only can run the yaw path in plain numbers (`Y = f64`).
 #[inline]
-fn rollout<T: DualNum<f64> + Copy>(
+fn rollout<Y, T>(
     start: &Pose,
+    measured_yaw_rate: Option<f64>,
     f: &[BodyVelocity],
     dt: f64,
-    lag: &[T; 3],
-    mut slip: impl FnMut(usize) -> [T; 3],
-    mut visit: impl FnMut(usize, &[T; 3]),
-) {
-    let (mut x, mut y, mut yaw) = (T::from(start.x), T::from(start.y), T::from(start.z));
+    dynamics: &Dynamics<Y, T>,
+    mut slip: impl FnMut(usize) -> ([T; 2], Y),
+    mut visit: impl FnMut(usize, &[T; 2], &Y),
+) where
+    Y: DualNum<f64> + Copy,
+    T: DualNum<f64> + Copy + Mul<Y, Output = T>,
+{
+    let (mut x, mut y, mut yaw) = (T::from(start.x), T::from(start.y), Y::from(start.z));
     let n = f.len();
-    let mut prev: Option<[T; 3]> = None;
+    let mut body = Body::new();
     for (k, fk) in f.iter().enumerate() {
         if k > 0 {
-            visit(k, &[x, y, yaw]);
+            visit(k, &[x, y], &yaw);
         }
         if k + 1 == n {
             break;
         }
-        let g = slip(k);
-        let target = [
-            T::from(fk.x) - g[0],
-            T::from(fk.y) - g[1],
-            T::from(fk.z) - g[2],
-        ];
-        let v = match prev {
-            None => target,
-            Some([px, py, pz]) => [
-                px + lag[0] * (target[0] - px),
-                py + lag[1] * (target[1] - py),
-                pz + lag[2] * (target[2] - pz),
-            ],
-        };
-        prev = Some(v);
-        let [vx, vy, vz] = v;
+        let (g, gz) = slip(k);
+        let target = (
+            [T::from(fk.x) - g[0], T::from(fk.y) - g[1]],
+            Y::from(fk.z) - gz,
+        );
+        let ([vx, vy], vz) = body.step(target, dynamics, measured_yaw_rate, dt);
         let (s, c) = yaw.sin_cos();
-        x += (c * vx - s * vy) * dt;
-        y += (s * vx + c * vy) * dt;
+        x += (vx * c - vy * s) * dt;
+        y += (vx * s + vy * c) * dt;
         yaw += vz * dt;
     }
+}
+
+/// A slip (x, y, yaw) as the rollout takes it: x and y, then yaw.
+#[inline]
+fn split<T: Copy>(g: [T; 3]) -> ([T; 2], T) {
+    ([g[0], g[1]], g[2])
 }
 
 /// The slip (x, y, yaw) of the weights `theta` at the slip functions `phi`.
@@ -303,24 +472,67 @@ fn seeded_slip<const N: usize>(
     unit: &[f64; 3],
     bias: Option<usize>,
 ) -> [DualSVec64<N>; 3] {
-    let mut eps = [SVector::<f64, N>::zeros(); 3];
-    let mut re = [0.0; 3];
-    for d in 0..3 {
+    std::array::from_fn(|d| {
         let w = &theta[d * FEATURES..(d + 1) * FEATURES];
-        for (j, (w, p)) in w.iter().zip(phi).enumerate() {
-            re[d] += w * p;
-            eps[d][d * FEATURES + j] = unit[d] * p;
-        }
+        let mut g = seeded_dimension::<N>(w, phi, unit[d], d * FEATURES);
         if let Some(b) = bias {
-            eps[d][b + d] = 1.0;
+            g += DualSVec64::from(0.0).derivative(b + d);
         }
+        g
+    })
+}
+
+/// One dimension's slip `sum_j w_j phi_j` as a dual number seeded on its weights, variables
+/// `offset + j` (derivative `unit * phi_j`: the weights are `unit` times the variables).
+#[inline]
+fn seeded_dimension<const N: usize>(
+    w: &[f64],
+    phi: &[f64; FEATURES],
+    unit: f64,
+    offset: usize,
+) -> DualSVec64<N> {
+    let mut eps = SVector::<f64, N>::zeros();
+    for (j, p) in phi.iter().enumerate() {
+        eps[offset + j] = unit * p;
     }
-    let [e0, e1, e2] = eps;
-    [
-        DualSVec64::new(re[0], Derivative::some(e0)),
-        DualSVec64::new(re[1], Derivative::some(e1)),
-        DualSVec64::new(re[2], Derivative::some(e2)),
-    ]
+    DualSVec64::new(dot(w, phi), Derivative::some(eps))
+}
+
+/// `sum_j w_j phi_j`.
+#[inline]
+fn dot(w: &[f64], phi: &[f64; FEATURES]) -> f64 {
+    w.iter().zip(phi).map(|(w, p)| w * p).sum()
+}
+
+/// The dual numbers of the Jacobian's yaw-path group: the yaw weights, the yaw lag, the
+/// disturbance's trust and persistence.
+const YAW_VARIABLES: usize = FEATURES + 3;
+
+/// The dual numbers of the Jacobian's position-path group: the x and y weights, the x and
+/// y lags.
+const POSITION_VARIABLES: usize = 2 * FEATURES + 2;
+
+type YawDual = DualSVec64<YAW_VARIABLES>;
+type PositionDual = DualSVec64<POSITION_VARIABLES>;
+
+/// The parameter of variable `j` of the yaw-path group.
+#[inline]
+fn yaw_variable(j: usize) -> usize {
+    if j < FEATURES {
+        2 * FEATURES + j
+    } else {
+        WEIGHTS + 2 + (j - FEATURES)
+    }
+}
+
+/// The parameter of variable `j` of the position-path group.
+#[inline]
+fn position_variable(j: usize) -> usize {
+    if j < 2 * FEATURES {
+        j
+    } else {
+        WEIGHTS + (j - 2 * FEATURES)
+    }
 }
 
 /// The scale `c` of the robust loss, in units of the residuals' robust error scale (the
@@ -346,14 +558,18 @@ fn robust_weight(s: f64) -> f64 {
 /// The weighted pose error of a predicted pose against the measured one: position over
 /// `w[0]`, yaw (wrapped to the nearest turn) over `w[1]`.
 #[inline]
-fn residual<T: DualNum<f64> + Copy>(p: &[T; 3], target: &Pose, w: &[f64; 2]) -> [T; 3] {
-    let d = p[2] - target.z;
+fn residual<Y: DualNum<f64> + Copy, T: DualNum<f64> + Copy>(
+    xy: &[T; 2],
+    yaw: &Y,
+    target: &Pose,
+    w: &[f64; 2],
+) -> ([T; 2], Y) {
+    let d = *yaw - target.z;
     let turns = (d.re() / TAU).round();
-    [
-        (p[0] - target.x) * w[0],
-        (p[1] - target.y) * w[0],
+    (
+        [(xy[0] - target.x) * w[0], (xy[1] - target.y) * w[0]],
         (d - turns * TAU) * w[1],
-    ]
+    )
 }
 
 /// The weights of the unitless parameters `u`: `theta = scale * u` per body dimension.
@@ -367,17 +583,44 @@ fn theta_of(u: &[f64], scale: &[f64; 3]) -> [f64; PARAMETERS] {
     })
 }
 
-/// The lag coefficients of the logits in `theta`.
-fn lag_of(theta: &[f64; PARAMETERS]) -> [f64; 3] {
-    std::array::from_fn(|d| 1.0 / (1.0 + (-theta[WEIGHTS + d]).exp()))
+fn sigmoid<T: DualNum<f64> + Copy>(x: T) -> T {
+    (T::from(1.0) + (-x).exp()).recip()
 }
 
-/// The lag coefficients as dual numbers seeded on their logits (variables `WEIGHTS + d`).
-fn seeded_lag<const N: usize>(theta: &[f64; PARAMETERS]) -> [DualSVec64<N>; 3] {
-    std::array::from_fn(|d| {
-        let rho = DualSVec64::<N>::from(theta[WEIGHTS + d]).derivative(WEIGHTS + d);
-        (DualSVec64::<N>::from(1.0) + (-rho).exp()).recip()
-    })
+/// The body dynamics of the logits in `theta` (with the disturbance and transport of a
+/// model fitted now).
+fn dynamics_of(theta: &[f64; PARAMETERS]) -> Dynamics<f64> {
+    let c = |j: usize| sigmoid(theta[WEIGHTS + j]);
+    Dynamics {
+        lag_xy: [c(0), c(1)],
+        lag_yaw: c(2),
+        trust: c(3),
+        persistence: c(4),
+        transport: true,
+    }
+}
+
+/// The dual number of a coefficient `sigmoid(logit)` seeded on its logit, variable `index`.
+fn seeded_sigmoid<const N: usize>(logit: f64, index: usize) -> DualSVec64<N> {
+    sigmoid(DualSVec64::<N>::from(logit).derivative(index))
+}
+
+/// The body dynamics as dual numbers seeded on their logits in `theta` (variables
+/// `WEIGHTS + j`); without `disturbance`, none (and no derivative).
+fn seeded_dynamics<const N: usize>(
+    theta: &[f64; PARAMETERS],
+    disturbance: bool,
+    transport: bool,
+) -> Dynamics<DualSVec64<N>> {
+    let c = |j: usize| seeded_sigmoid::<N>(theta[WEIGHTS + j], WEIGHTS + j);
+    let zero = DualSVec64::<N>::from(0.0);
+    Dynamics {
+        lag_xy: [c(0), c(1)],
+        lag_yaw: c(2),
+        trust: if disturbance { c(3) } else { zero },
+        persistence: if disturbance { c(4) } else { zero },
+        transport,
+    }
 }
 
 /// The least-squares problem of one fit: the residuals of every step of every window, and
@@ -428,8 +671,8 @@ impl<'a> Ipem<'a> {
         }
     }
 
-    /// The penalty at `u`: the ridge on the weights, the weak pull of the lag logits
-    /// towards [`LAG_PRIOR`].
+    /// The penalty at `u`: the ridge on the weights, the weak pull of the body dynamics'
+    /// logits towards [`DYNAMICS_PRIOR`].
     fn penalty(&self, u: &DVector<f64>) -> f64 {
         (0..PARAMETERS)
             .map(|j| {
@@ -444,7 +687,7 @@ impl<'a> Ipem<'a> {
         if j < WEIGHTS {
             (self.ridge, 0.0)
         } else {
-            (LAG_PRIOR_WEIGHT, LAG_PRIOR)
+            (DYNAMICS_PRIOR_WEIGHT, DYNAMICS_PRIOR[j - WEIGHTS])
         }
     }
 
@@ -459,46 +702,139 @@ impl<'a> Ipem<'a> {
 
     /// The sum of the residuals' robust losses at `u`.
     fn sum_of_losses(&self, u: &[f64]) -> f64 {
+        self.losses_by_interval(u).iter().sum()
+    }
+
+    /// The sums of the residuals' robust losses at `u` per interval, in the tracks' order.
+    fn losses_by_interval(&self, u: &[f64]) -> Vec<f64> {
         let theta = theta_of(u, &self.scale);
-        let lag = lag_of(&theta);
-        let mut sum = 0.0;
+        let dynamics = dynamics_of(&theta);
+        let mut out: Vec<f64> = Vec::new();
+        let mut interval = None;
         for t in &self.tracks {
-            let slip = |k: usize| slip_of(&theta, &t.features[k]);
-            rollout(&t.target[0], &t.f, self.dt, &lag, slip, |k, p| {
-                for r in residual(p, &t.target[k], &self.weights) {
-                    sum += robust_loss(r * r);
-                }
-            });
+            if interval != Some(t.interval) {
+                interval = Some(t.interval);
+                out.push(0.0);
+            }
+            let mut sum = 0.0;
+            let slip = |k: usize| split(slip_of(&theta, &t.features[k]));
+            rollout(
+                &t.target[0],
+                t.yaw_rate,
+                &t.f,
+                self.dt,
+                &dynamics,
+                slip,
+                |k, xy, yaw| {
+                    let ([rx, ry], rz) = residual(xy, yaw, &t.target[k], &self.weights);
+                    sum += robust_loss(rx * rx) + robust_loss(ry * ry) + robust_loss(rz * rz);
+                },
+            );
+            // A value was pushed when the interval began.
+            *out.last_mut().expect("pushed above") += sum;
         }
-        sum
+        out
     }
 
     /// Runs the rollouts with dual numbers at `u`: `visit(window, jt, r)` with each
     /// window's transposed residual Jacobian (`PARAMETERS` x residuals) and residuals.
     fn jacobians(&self, u: &[f64], mut visit: impl FnMut(usize, &Mat<f64>, &[f64])) {
         let theta = theta_of(u, &self.scale);
-        let lag = seeded_lag::<PARAMETERS>(&theta);
+        let weights = |d: usize| &theta[d * FEATURES..(d + 1) * FEATURES];
+        let logit = |j: usize| theta[WEIGHTS + j];
+        let fixed = dynamics_of(&theta);
+        // The Jacobian in two groups of columns, each by forward-mode differentiation of the
+        // rollout: the yaw path's variables (the yaw weights, the yaw lag, the disturbance's
+        // trust and persistence), on which every residual depends; then the position path's
+        // (the x and y weights and lags), on which the yaw never depends, so that its yaw
+        // path runs in plain numbers.
+        let yaw_dynamics: Dynamics<YawDual> = Dynamics {
+            lag_xy: fixed.lag_xy.map(YawDual::from),
+            lag_yaw: seeded_sigmoid(logit(2), FEATURES),
+            trust: seeded_sigmoid(logit(3), FEATURES + 1),
+            persistence: seeded_sigmoid(logit(4), FEATURES + 2),
+            transport: true,
+        };
+        let position_dynamics: Dynamics<f64, PositionDual> = Dynamics {
+            lag_xy: [
+                seeded_sigmoid(logit(0), 2 * FEATURES),
+                seeded_sigmoid(logit(1), 2 * FEATURES + 1),
+            ],
+            lag_yaw: fixed.lag_yaw,
+            trust: fixed.trust,
+            persistence: fixed.persistence,
+            transport: true,
+        };
         let mut jt = Mat::<f64>::zeros(PARAMETERS, 0);
-        let mut r = Vec::new();
+        let (mut r, mut row_weights) = (Vec::new(), Vec::new());
         for (i, t) in self.tracks.iter().enumerate() {
-            let m = 3 * t.f.len().saturating_sub(1);
-            jt.resize_with(PARAMETERS, m, |_, _| 0.0);
+            // Every entry zero: the groups write their own rows only.
+            jt.resize_with(PARAMETERS, 0, |_, _| 0.0);
+            jt.resize_with(PARAMETERS, 3 * t.f.len().saturating_sub(1), |_, _| 0.0);
             r.clear();
-            let slip =
-                |k: usize| seeded_slip::<PARAMETERS>(&theta, &t.features[k], &self.scale, None);
-            rollout(&t.target[0], &t.f, self.dt, &lag, slip, |k, p| {
-                for ri in residual(p, &t.target[k], &self.weights) {
-                    let col = r.len();
-                    // Iteratively reweighted: the Gauss-Newton model of the robust loss
-                    // weighs each residual's row by sqrt(rho'(r^2)).
-                    let w = robust_weight(ri.re * ri.re).sqrt();
-                    let g = ri.eps.unwrap_generic(Const::<PARAMETERS>, U1);
-                    for (out, gj) in jt.col_as_slice_mut(col).iter_mut().zip(g.iter()) {
-                        *out = gj * w;
+            row_weights.clear();
+            let slip = |k: usize| {
+                let phi = &t.features[k];
+                (
+                    [dot(weights(0), phi), dot(weights(1), phi)].map(YawDual::from),
+                    seeded_dimension(weights(2), phi, self.scale[2], 0),
+                )
+            };
+            rollout(
+                &t.target[0],
+                t.yaw_rate,
+                &t.f,
+                self.dt,
+                &yaw_dynamics,
+                slip,
+                |k, xy, yaw| {
+                    let ([rx, ry], rz) = residual(xy, yaw, &t.target[k], &self.weights);
+                    for ri in [rx, ry, rz] {
+                        let col = r.len();
+                        // Iteratively reweighted: the Gauss-Newton model of the robust loss
+                        // weighs each residual's row by sqrt(rho'(r^2)).
+                        let w = robust_weight(ri.re * ri.re).sqrt();
+                        let g = ri.eps.unwrap_generic(Const::<YAW_VARIABLES>, U1);
+                        let column = jt.col_as_slice_mut(col);
+                        for (j, gj) in g.iter().enumerate() {
+                            column[yaw_variable(j)] = gj * w;
+                        }
+                        r.push(ri.re * w);
+                        row_weights.push(w);
                     }
-                    r.push(ri.re * w);
-                }
-            });
+                },
+            );
+            let slip = |k: usize| {
+                let phi = &t.features[k];
+                (
+                    [
+                        seeded_dimension(weights(0), phi, self.scale[0], 0),
+                        seeded_dimension(weights(1), phi, self.scale[1], FEATURES),
+                    ],
+                    dot(weights(2), phi),
+                )
+            };
+            let mut col = 0;
+            rollout(
+                &t.target[0],
+                t.yaw_rate,
+                &t.f,
+                self.dt,
+                &position_dynamics,
+                slip,
+                |k, xy, yaw| {
+                    let (rxy, _) = residual(xy, yaw, &t.target[k], &self.weights);
+                    for (c, ri) in rxy.iter().enumerate() {
+                        let w = row_weights[col + c];
+                        let g = ri.eps.unwrap_generic(Const::<POSITION_VARIABLES>, U1);
+                        let column = jt.col_as_slice_mut(col + c);
+                        for (j, gj) in g.iter().enumerate() {
+                            column[position_variable(j)] = gj * w;
+                        }
+                    }
+                    col += 3;
+                },
+            );
             visit(i, &jt, &r);
         }
     }
@@ -625,7 +961,7 @@ impl<O, S: Solver<O, TrState>> Solver<O, TrState> for UntilConverged<S> {
 fn solve(
     problem: Ipem<'_>,
     start: DVector<f64>,
-    cfg: &SlipIpem,
+    iterations: u64,
     tolerance: f64,
 ) -> Result<DVector<f64>, FitError> {
     let optimizer = |e: ArgminError| FitError::Optimizer {
@@ -637,7 +973,7 @@ fn solve(
         tolerance,
     };
     let result = Executor::new(problem, solver)
-        .configure(|state| state.param(start).max_iters(cfg.max_iterations))
+        .configure(|state| state.param(start).max_iters(iterations))
         .run()
         .map_err(optimizer)?;
     let u = result
@@ -705,6 +1041,12 @@ impl SlipIpem {
                     .map(|f| slip_features(f, &scale))
                     .collect(),
                 target,
+                yaw_rate: w
+                    .window
+                    .imu_yaw_rate
+                    .first()
+                    .copied()
+                    .filter(|w| w.is_finite()),
             });
         }
         if tracks.is_empty() {
@@ -724,12 +1066,20 @@ fn error_scales(tracks: &[&Track], dt: f64) -> [f64; 2] {
     let zero = [0.0; PARAMETERS];
     let (mut et, mut er) = (Vec::new(), Vec::new());
     for t in tracks {
-        let slip = |k: usize| slip_of(&zero, &t.features[k]);
-        rollout(&t.target[0], &t.f, dt, &[1.0; 3], slip, |k, p| {
-            let m = &t.target[k];
-            et.push((p[0] - m.x).hypot(p[1] - m.y));
-            er.push(wrap_angle(p[2] - m.z).abs());
-        });
+        let slip = |k: usize| split(slip_of(&zero, &t.features[k]));
+        rollout(
+            &t.target[0],
+            None,
+            &t.f,
+            dt,
+            &Dynamics::NONE,
+            slip,
+            |k, xy, yaw| {
+                let m = &t.target[k];
+                et.push((xy[0] - m.x).hypot(xy[1] - m.y));
+                er.push(wrap_angle(yaw - m.z).abs());
+            },
+        );
     }
     let scale = |e: &mut Vec<f64>, gauss: f64| {
         let v = drive_traits::median(e) / gauss;
@@ -761,56 +1111,30 @@ impl SlipLearner for SlipIpem {
         let mut intervals: Vec<usize> = tracks.iter().map(|t| t.interval).collect();
         intervals.dedup();
         let held = ((intervals.len() as f64) * self.validation).round() as usize;
-        let (fit_on, check_on): (Vec<&Track>, Vec<&Track>) = if held >= 1 && held < intervals.len()
-        {
-            let cut = intervals[intervals.len() - held];
-            all.iter().partition(|t| t.interval < cut)
-        } else {
-            (Vec::new(), Vec::new())
-        };
+        let (fit_on, check_on): (Vec<&Track>, Vec<&Track>) =
+            if held >= MIN_HELD_OUT_INTERVALS && held < intervals.len() {
+                let cut = intervals[intervals.len() - held];
+                all.iter().partition(|t| t.interval < cut)
+            } else {
+                (Vec::new(), Vec::new())
+            };
 
-        let mut u = DVector::from_fn(PARAMETERS, |j, _| if j < WEIGHTS { 0.0 } else { LAG_PRIOR });
-        let (ridge, inner) = if fit_on.is_empty() || check_on.is_empty() {
-            (FALLBACK_RIDGE, None)
+        let u0 = DVector::from_fn(PARAMETERS, |j, _| {
+            if j < WEIGHTS {
+                0.0
+            } else {
+                DYNAMICS_PRIOR[j - WEIGHTS]
+            }
+        });
+        let (ridge, u, inner) = if fit_on.is_empty() || check_on.is_empty() {
+            (self.ridge[0], u0, None)
         } else {
-            // Strongest penalty first, each fit warm-started from the previous one; the
-            // held-out windows' loss (the objective without its penalty) decides, and two
-            // worse strengths in a row end the path.
-            let mut best: Option<(f64, f64, DVector<f64>)> = None;
-            let mut worse = 0;
-            for &ridge in &self.ridge {
-                let problem = Ipem::new(fit_on.clone(), weights, unit, ridge, dt);
-                u = solve(problem, u, self, self.path_tolerance)?;
-                let held_out = Ipem::new(check_on.clone(), weights, unit, ridge, dt)
-                    .sum_of_losses(u.as_slice());
-                match &best {
-                    Some((b, _, _))
-                        if held_out.partial_cmp(b) != Some(std::cmp::Ordering::Less) =>
-                    {
-                        worse += 1;
-                        if worse >= 2 {
-                            break;
-                        }
-                    }
-                    _ if held_out.is_finite() => {
-                        worse = 0;
-                        best = Some((held_out, ridge, u.clone()));
-                    }
-                    _ => worse += 1,
-                }
-            }
-            // No finite held-out loss at any strength: refused.
-            match best {
-                Some((_, ridge, ub)) => {
-                    u = ub.clone();
-                    (ridge, Some(ub))
-                }
-                None => {
-                    return Err(FitError::NonFinite {
-                        what: "slip-ipem: the held-out loss".into(),
-                    })
-                }
-            }
+            let path = self.ridge_path(&fit_on, &check_on, weights, unit, dt, u0)?;
+            let (ridge, u) = one_standard_error(&path).ok_or_else(|| FitError::NonFinite {
+                // No finite held-out loss at any strength: refused.
+                what: "slip-ipem: the held-out loss".into(),
+            })?;
+            (ridge, u.clone(), Some(u))
         };
 
         let bias_on = inner
@@ -824,10 +1148,64 @@ impl SlipLearner for SlipIpem {
             scale,
             ridge,
             u,
+            self.max_iterations,
             self.tolerance,
             dt,
         )
     }
+}
+
+/// One fit of the ridge path: its strength, held-out losses per interval and parameters.
+struct PathPoint {
+    ridge: f64,
+    losses: Vec<f64>,
+    u: DVector<f64>,
+}
+
+impl PathPoint {
+    /// The total held-out loss (infinite when not finite).
+    fn held_out(&self) -> f64 {
+        let sum: f64 = self.losses.iter().sum();
+        if sum.is_finite() {
+            sum
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// The strength chosen on the ridge path, and its parameters: the strongest penalty whose
+/// held-out loss exceeds the best one's by at most one standard error of the paired
+/// difference over the held-out intervals (the "one-standard-error rule", Hastie,
+/// Tibshirani and Friedman, *The Elements of Statistical Learning*, 7.10): of the strengths
+/// the held-out intervals cannot tell apart, the simplest model, so that the choice does
+/// not jump as intervals are added. `None` when no held-out loss is finite.
+fn one_standard_error(path: &[PathPoint]) -> Option<(f64, DVector<f64>)> {
+    let best = path
+        .iter()
+        .filter(|p| p.held_out().is_finite())
+        .min_by(|a, b| a.held_out().total_cmp(&b.held_out()))?;
+    let within = |p: &PathPoint| {
+        let n = p.losses.len();
+        if !p.held_out().is_finite() || n != best.losses.len() || n < 2 {
+            return false;
+        }
+        let d: Vec<f64> = p
+            .losses
+            .iter()
+            .zip(&best.losses)
+            .map(|(a, b)| a - b)
+            .collect();
+        let mean = d.iter().sum::<f64>() / n as f64;
+        let variance = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+        mean <= (variance / n as f64).sqrt()
+    };
+    let chosen = path
+        .iter()
+        .filter(|p| p.ridge > best.ridge && within(p))
+        .max_by(|a, b| a.ridge.total_cmp(&b.ridge))
+        .unwrap_or(best);
+    Some((chosen.ridge, chosen.u.clone()))
 }
 
 /// What both fits start from: the rollout tracks, the input scales, the residual weights
@@ -877,11 +1255,12 @@ impl SlipIpem {
             dt,
         } = self.prepare(data)?;
         let all: Vec<&Track> = tracks.iter().collect();
+        let theta = like.theta();
         let u = DVector::from_fn(PARAMETERS, |j, _| {
             if j < WEIGHTS {
-                like.weights[j / FEATURES][j % FEATURES] / unit[j / FEATURES]
+                theta[j] / unit[j / FEATURES]
             } else {
-                like.lag_logit[j - WEIGHTS]
+                theta[j]
             }
         });
         self.finish(
@@ -892,9 +1271,70 @@ impl SlipIpem {
             scale,
             like.ridge.max(f64::MIN_POSITIVE),
             u,
+            self.path_iterations,
             self.path_tolerance,
             dt,
         )
+    }
+
+    /// The ridge path on the inner split: the fits on `fit_on` at the strengths of the grid,
+    /// from its middle to the weaker ones, then from the middle to the stronger ones, each
+    /// warm-started from its neighbour (the middle from `u0`); a direction ends after two
+    /// strengths in a row whose held-out loss is not below that direction's best. Each
+    /// fit's strength, held-out losses per interval of `check_on`, and parameters.
+    fn ridge_path(
+        &self,
+        fit_on: &[&Track],
+        check_on: &[&Track],
+        weights: [f64; 2],
+        unit: [f64; 3],
+        dt: f64,
+        u0: DVector<f64>,
+    ) -> Result<Vec<PathPoint>, FitError> {
+        let mid = (self.ridge.len() - 1) / 2;
+        let weaker = self.ridge[mid..].iter().copied();
+        let stronger = self.ridge[..mid].iter().rev().copied();
+        let mut path: Vec<PathPoint> = Vec::with_capacity(self.ridge.len());
+        for (direction, strengths) in [weaker.collect::<Vec<_>>(), stronger.collect()]
+            .into_iter()
+            .enumerate()
+        {
+            // The stronger direction starts from the middle's fit.
+            let mut u = if direction == 0 {
+                u0.clone()
+            } else {
+                path[0].u.clone()
+            };
+            let mut best = if direction == 0 {
+                f64::INFINITY
+            } else {
+                path[0].held_out()
+            };
+            let mut worse = 0;
+            for ridge in strengths {
+                let problem = Ipem::new(fit_on.to_vec(), weights, unit, ridge, dt);
+                u = solve(problem, u, self.path_iterations, self.path_tolerance)?;
+                let losses = Ipem::new(check_on.to_vec(), weights, unit, ridge, dt)
+                    .losses_by_interval(u.as_slice());
+                let point = PathPoint {
+                    ridge,
+                    losses,
+                    u: u.clone(),
+                };
+                let held_out = point.held_out();
+                path.push(point);
+                if held_out < best {
+                    best = held_out;
+                    worse = 0;
+                } else {
+                    worse += 1;
+                    if worse >= 2 {
+                        break;
+                    }
+                }
+            }
+        }
+        Ok(path)
     }
 
     /// The final fit at `ridge` from `u` on `all`, the Laplace covariance of its weights
@@ -910,11 +1350,12 @@ impl SlipIpem {
         scale: [f64; 2],
         ridge: f64,
         u: DVector<f64>,
+        iterations: u64,
         tolerance: f64,
         dt: f64,
     ) -> Result<SlipIpemModel, FitError> {
         let problem = Ipem::new(all.to_vec(), weights, unit, ridge, dt);
-        let u = solve(problem, u, self, tolerance)?;
+        let u = solve(problem, u, iterations, tolerance)?;
         let theta = theta_of(u.as_slice(), &unit);
 
         // Laplace covariance of the weights: a sandwich H^-1 B H^-1 / n^2 with B the sum
@@ -964,6 +1405,9 @@ impl SlipIpem {
             scale,
             weights: [0, 1, 2].map(|d| theta[d * FEATURES..(d + 1) * FEATURES].to_vec()),
             lag_logit: std::array::from_fn(|d| theta[WEIGHTS + d]),
+            disturbance_logit: Some([theta[WEIGHTS + 3], theta[WEIGHTS + 4]]),
+            transport: true,
+            dt,
             ridge,
             weight_covariance,
             bias_variance,
@@ -981,7 +1425,7 @@ impl SlipIpem {
 /// (yaw first, which only the yaw bias moves; then one variance for x and y).
 fn bias_variance(tracks: &[&Track], theta: &[f64; PARAMETERS], dt: f64) -> [f64; 3] {
     let theta_d: [DualSVec64<3>; PARAMETERS] = theta.map(DualSVec64::from);
-    let lag = lag_of(theta).map(DualSVec64::from);
+    let dynamics = dynamics_of(theta).constant::<DualSVec64<3>>();
     // The bias enters as slip: its derivative is the slip's with respect to the bias.
     let bias: [DualSVec64<3>; 3] = std::array::from_fn(|d| DualSVec64::from(0.0).derivative(d));
     // Sums for the yaw regression and the translational one.
@@ -991,21 +1435,30 @@ fn bias_variance(tracks: &[&Track], theta: &[f64; PARAMETERS], dt: f64) -> [f64;
     for t in tracks {
         let slip = |k: usize| {
             let g = slip_of(&theta_d, &t.features[k]);
-            [g[0] + bias[0], g[1] + bias[1], g[2] + bias[2]]
+            split([g[0] + bias[0], g[1] + bias[1], g[2] + bias[2]])
         };
-        rollout(&t.target[0], &t.f, dt, &lag, slip, |k, p| {
-            let m = &t.target[k];
-            let g = |i: usize| p[i].eps.unwrap_generic(Const::<3>, U1);
-            let (gx, gy, gz) = (g(0), g(1), g(2));
-            let ez = wrap_angle(p[2].re - m.z);
-            yy += gz[2].powi(4);
-            ye += gz[2].powi(2) * ez * ez;
-            let et2 = (p[0].re - m.x).powi(2) + (p[1].re - m.y).powi(2);
-            // Translational sensitivity to the x and y biases together, and to the yaw bias.
-            let st = gx[0].powi(2) + gx[1].powi(2) + gy[0].powi(2) + gy[1].powi(2);
-            let sw = gx[2].powi(2) + gy[2].powi(2);
-            rows.push((st, sw, et2));
-        });
+        rollout(
+            &t.target[0],
+            t.yaw_rate,
+            &t.f,
+            dt,
+            &dynamics,
+            slip,
+            |k, xy, yaw| {
+                let m = &t.target[k];
+                let p = [xy[0], xy[1], *yaw];
+                let g = |i: usize| p[i].eps.unwrap_generic(Const::<3>, U1);
+                let (gx, gy, gz) = (g(0), g(1), g(2));
+                let ez = wrap_angle(p[2].re - m.z);
+                yy += gz[2].powi(4);
+                ye += gz[2].powi(2) * ez * ez;
+                let et2 = (p[0].re - m.x).powi(2) + (p[1].re - m.y).powi(2);
+                // Translational sensitivity to the x and y biases together, and to the yaw bias.
+                let st = gx[0].powi(2) + gx[1].powi(2) + gy[0].powi(2) + gy[1].powi(2);
+                let sw = gx[2].powi(2) + gy[2].powi(2);
+                rows.push((st, sw, et2));
+            },
+        );
     }
     let q_yaw = if yy > 0.0 { (ye / yy).max(0.0) } else { 0.0 };
     for (st, sw, et2) in rows {
@@ -1018,18 +1471,82 @@ fn bias_variance(tracks: &[&Track], theta: &[f64; PARAMETERS], dt: f64) -> [f64;
 }
 
 impl SlipIpemModel {
-    /// The weights as one fixed-size array (x, y, yaw); NaN where a loaded file lacks one,
-    /// so that a malformed model never predicts plausible numbers.
+    /// The parameters as one fixed-size array: the weights (x, y, yaw), the lag logits and
+    /// the disturbance logits (0 in a file written before them, whose disturbance is off);
+    /// NaN where a loaded file lacks a weight, so that a malformed model never predicts
+    /// plausible numbers.
     fn theta(&self) -> [f64; PARAMETERS] {
         std::array::from_fn(|j| {
-            if j >= WEIGHTS {
-                return self.lag_logit[j - WEIGHTS];
+            if j < WEIGHTS {
+                self.weights[j / FEATURES]
+                    .get(j % FEATURES)
+                    .copied()
+                    .unwrap_or(f64::NAN)
+            } else if j < WEIGHTS + 3 {
+                self.lag_logit[j - WEIGHTS]
+            } else {
+                self.disturbance_logit.map_or(0.0, |d| d[j - WEIGHTS - 3])
             }
-            self.weights[j / FEATURES]
-                .get(j % FEATURES)
-                .copied()
-                .unwrap_or(f64::NAN)
         })
+    }
+
+    /// The body dynamics: the lags, the disturbance (none in a file written before it) and
+    /// the transport.
+    fn dynamics(&self) -> Dynamics<f64> {
+        let [lx, ly, lz] = self.lag_logit.map(sigmoid);
+        let [trust, persistence] = self.disturbance_logit.map_or([0.0; 2], |d| d.map(sigmoid));
+        Dynamics {
+            lag_xy: [lx, ly],
+            lag_yaw: lz,
+            trust,
+            persistence,
+            transport: self.transport,
+        }
+    }
+
+    /// The parameters' covariance (a file written before the disturbance holds the weights'
+    /// and lags' only: the disturbance's rows are zero, it is off); `None` for a covariance
+    /// of another size.
+    fn covariance(&self) -> Option<SMatrix<f64, PARAMETERS, PARAMETERS>> {
+        let c = &self.weight_covariance;
+        if c.len() == PARAMETERS * PARAMETERS {
+            return Some(SMatrix::from_row_slice(c));
+        }
+        if self.disturbance_logit.is_none() && c.len() == PARAMETERS_V1 * PARAMETERS_V1 {
+            return Some(SMatrix::from_fn(|i, j| {
+                if i < PARAMETERS_V1 && j < PARAMETERS_V1 {
+                    c[i * PARAMETERS_V1 + j]
+                } else {
+                    0.0
+                }
+            }));
+        }
+        None
+    }
+
+    /// The body velocities of a rollout through `f` (eq. 2 through the body dynamics), the
+    /// yaw rate measured at the start setting the disturbance when given.
+    fn velocities(&self, yaw_rate: Option<f64>, f: &[BodyVelocity], out: &mut Vec<BodyVelocity>) {
+        let theta = self.theta();
+        let dynamics = self.dynamics();
+        let yaw_rate = yaw_rate.filter(|w| w.is_finite());
+        let mut body = Body::new();
+        out.clear();
+        out.extend(f.iter().map(|f| {
+            let g = slip_of(&theta, &slip_features(f, &self.scale));
+            let target = ([f.x - g[0], f.y - g[1]], f.z - g[2]);
+            let ([x, y], z) = body.step(target, &dynamics, yaw_rate, self.dt);
+            BodyVelocity::new(x, y, z)
+        }));
+    }
+
+    /// The size the covariance of this model's file has.
+    fn covariance_size(&self) -> usize {
+        if self.disturbance_logit.is_some() {
+            PARAMETERS
+        } else {
+            PARAMETERS_V1
+        }
     }
 }
 
@@ -1054,73 +1571,72 @@ impl SlipModel for SlipIpemModel {
     }
 
     fn body_velocities_into(&self, f: &[BodyVelocity], out: &mut Vec<BodyVelocity>) {
-        let theta = self.theta();
-        let lag = lag_of(&theta);
-        let w: [[f64; FEATURES]; 3] =
-            std::array::from_fn(|d| std::array::from_fn(|j| theta[d * FEATURES + j]));
-        out.clear();
-        let mut prev: Option<BodyVelocity> = None;
-        out.extend(f.iter().map(|f| {
-            let phi = slip_features(f, &self.scale);
-            let dot = |w: &[f64; FEATURES]| {
-                let mut s = 0.0;
-                for j in 0..FEATURES {
-                    s += w[j] * phi[j];
-                }
-                s
-            };
-            let target = BodyVelocity::new(f.x - dot(&w[0]), f.y - dot(&w[1]), f.z - dot(&w[2]));
-            let v = match prev {
-                None => target,
-                Some(p) => BodyVelocity::new(
-                    p.x + lag[0] * (target.x - p.x),
-                    p.y + lag[1] * (target.y - p.y),
-                    p.z + lag[2] * (target.z - p.z),
-                ),
-            };
-            prev = Some(v);
-            v
-        }));
+        self.velocities(None, f, out);
+    }
+
+    /// The body dynamics from the yaw rate measured at the start, when there is one.
+    fn rollout_velocities_into(
+        &self,
+        start: &StartState,
+        f: &[BodyVelocity],
+        out: &mut Vec<BodyVelocity>,
+    ) {
+        self.velocities(start.yaw_rate, f, out);
     }
 
     /// The weights' covariance and the held bias pushed through the rollout (first order,
     /// by forward-mode differentiation of eq. 1).
     fn rollout_covariances_into(
         &self,
-        start: &Pose,
+        start: &StartState,
         f: &[BodyVelocity],
         dt: f64,
         out: &mut Vec<PoseCovariance>,
     ) -> bool {
         out.clear();
-        if self.weight_covariance.len() != PARAMETERS * PARAMETERS {
+        let Some(cov) = self.covariance() else {
             // A malformed model (its file check says so): no covariance rather than a panic.
             return false;
-        }
+        };
         if f.is_empty() {
             return true;
         }
         let theta = self.theta();
         let features: Vec<[f64; FEATURES]> =
             f.iter().map(|f| slip_features(f, &self.scale)).collect();
-        let slip =
-            |k: usize| seeded_slip::<WITH_BIAS>(&theta, &features[k], &[1.0; 3], Some(PARAMETERS));
-        let lag = seeded_lag::<WITH_BIAS>(&theta);
-        let cov = SMatrix::<f64, PARAMETERS, PARAMETERS>::from_row_slice(&self.weight_covariance);
+        let slip = |k: usize| {
+            split(seeded_slip::<WITH_BIAS>(
+                &theta,
+                &features[k],
+                &[1.0; 3],
+                Some(PARAMETERS),
+            ))
+        };
+        let dynamics =
+            seeded_dynamics::<WITH_BIAS>(&theta, self.disturbance_logit.is_some(), self.transport);
         let q = self.bias_variance;
         out.push(PoseCovariance::zeros());
-        rollout(start, f, dt, &lag, slip, |_, p| {
-            let j: SMatrix<f64, 3, WITH_BIAS> = SMatrix::from_rows(&[
-                p[0].eps.unwrap_generic(Const::<WITH_BIAS>, U1).transpose(),
-                p[1].eps.unwrap_generic(Const::<WITH_BIAS>, U1).transpose(),
-                p[2].eps.unwrap_generic(Const::<WITH_BIAS>, U1).transpose(),
-            ]);
-            let jw = j.fixed_columns::<PARAMETERS>(0);
-            let jb = j.fixed_columns::<3>(PARAMETERS);
-            let qb = SMatrix::<f64, 3, 3>::from_diagonal(&SVector::from(q));
-            let c = jw * cov * jw.transpose() + jb * qb * jb.transpose();
-            out.push(0.5 * (c + c.transpose()));
-        });
+        let yaw_rate = start.yaw_rate.filter(|w| w.is_finite());
+        rollout(
+            &start.pose,
+            yaw_rate,
+            f,
+            dt,
+            &dynamics,
+            slip,
+            |_, xy, yaw| {
+                let j: SMatrix<f64, 3, WITH_BIAS> = SMatrix::from_rows(&[
+                    xy[0].eps.unwrap_generic(Const::<WITH_BIAS>, U1).transpose(),
+                    xy[1].eps.unwrap_generic(Const::<WITH_BIAS>, U1).transpose(),
+                    yaw.eps.unwrap_generic(Const::<WITH_BIAS>, U1).transpose(),
+                ]);
+                let jw = j.fixed_columns::<PARAMETERS>(0);
+                let jb = j.fixed_columns::<3>(PARAMETERS);
+                let qb = SMatrix::<f64, 3, 3>::from_diagonal(&SVector::from(q));
+                let c = jw * cov * jw.transpose() + jb * qb * jb.transpose();
+                out.push(0.5 * (c + c.transpose()));
+            },
+        );
         true
     }
 
@@ -1145,21 +1661,34 @@ impl SlipModel for SlipIpemModel {
         if !self.lag_logit.iter().all(|v| v.is_finite()) {
             return Err("slip-ipem: a lag logit is not finite".into());
         }
+        if !self
+            .disturbance_logit
+            .is_none_or(|d| d.iter().all(|v| v.is_finite()))
+        {
+            return Err("slip-ipem: a disturbance logit is not finite".into());
+        }
+        if self.transport && !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(format!(
+                "slip-ipem: dt = {} is not a positive number of seconds",
+                self.dt
+            ));
+        }
         if !(self.ridge.is_finite() && self.ridge >= 0.0) {
             return Err(format!(
                 "slip-ipem: ridge {} is not a finite number >= 0",
                 self.ridge
             ));
         }
-        if self.weight_covariance.len() != PARAMETERS * PARAMETERS {
+        let size = self.covariance_size();
+        if self.weight_covariance.len() != size * size {
             return Err(format!(
                 "slip-ipem: {} weight covariance entries, expected {}",
                 self.weight_covariance.len(),
-                PARAMETERS * PARAMETERS
+                size * size
             ));
         }
-        let c = |i: usize, j: usize| self.weight_covariance[i * PARAMETERS + j];
-        for i in 0..PARAMETERS {
+        let c = |i: usize, j: usize| self.weight_covariance[i * size + j];
+        for i in 0..size {
             if !(c(i, i).is_finite() && c(i, i) >= 0.0) {
                 return Err(format!(
                     "slip-ipem: weight variance {i} is not a finite number >= 0"
@@ -1214,6 +1743,9 @@ mod tests {
             scale: [1.0, 2.0],
             weights: w,
             lag_logit: [8.0, 8.0, (0.3f64 / 0.7).ln()],
+            disturbance_logit: Some([-30.0, 0.0]),
+            transport: true,
+            dt: 0.05,
             ridge: 0.0,
             weight_covariance: vec![0.0; PARAMETERS * PARAMETERS],
             bias_variance: [0.0; 3],
@@ -1247,6 +1779,8 @@ mod tests {
             let mut pose = Vec::new();
             let start = Pose::new(draw(), draw(), 3.0 * draw());
             integrate(&start, &v, 0.05, &mut pose);
+            // An IMU that measures the yaw rate.
+            let imu_yaw_rate = v.iter().map(|v| v.z).collect();
             out.push(Window {
                 index: i,
                 interval: i / 3,
@@ -1258,7 +1792,7 @@ mod tests {
                 command: command.clone(),
                 measured: command,
                 pose,
-                imu_yaw_rate: vec![0.0; 40],
+                imu_yaw_rate,
             });
         }
         (robot, out)
@@ -1322,7 +1856,17 @@ mod tests {
             }
         });
         let g = problem.gradient(&u).unwrap();
-        for j in [0, 5, 14, 27, 38, WEIGHTS, WEIGHTS + 2] {
+        for j in [
+            0,
+            5,
+            14,
+            27,
+            38,
+            WEIGHTS,
+            WEIGHTS + 2,
+            WEIGHTS + 3,
+            WEIGHTS + 4,
+        ] {
             let h = 1e-6;
             let (mut up, mut down) = (u.clone(), u.clone());
             up[j] += h;
@@ -1382,7 +1926,8 @@ mod tests {
             .unwrap();
         let f = vec![BodyVelocity::new(0.6, 0.0, 0.8); 40];
         let mut cov = Vec::new();
-        assert!(model.rollout_covariances_into(&Pose::zeros(), &f, 0.05, &mut cov));
+        let start = StartState::at_rest(Pose::zeros()).with_yaw_rate(0.5);
+        assert!(model.rollout_covariances_into(&start, &f, 0.05, &mut cov));
         assert_eq!(cov.len(), 40);
         assert_eq!(cov[0], PoseCovariance::zeros());
         for c in &cov {
@@ -1422,6 +1967,14 @@ mod tests {
                 ..SlipIpem::default()
             },
             SlipIpem {
+                path_iterations: 0,
+                ..SlipIpem::default()
+            },
+            SlipIpem {
+                ridge: vec![1e-3, 1e-2],
+                ..SlipIpem::default()
+            },
+            SlipIpem {
                 tolerance: f64::NAN,
                 ..SlipIpem::default()
             },
@@ -1445,5 +1998,202 @@ mod tests {
         let mut m = truth();
         m.lag_logit[0] = f64::NAN;
         assert!(m.check().is_err());
+    }
+
+    /// A model without slip whose body dynamics are given by their logits.
+    fn dynamics_only(lag: [f64; 3], disturbance: [f64; 2], transport: bool) -> SlipIpemModel {
+        SlipIpemModel {
+            scale: [1.0, 1.0],
+            weights: [
+                vec![0.0; FEATURES],
+                vec![0.0; FEATURES],
+                vec![0.0; FEATURES],
+            ],
+            lag_logit: lag,
+            disturbance_logit: Some(disturbance),
+            transport,
+            dt: 0.05,
+            ridge: 0.0,
+            weight_covariance: vec![0.0; PARAMETERS * PARAMETERS],
+            bias_variance: [0.0; 3],
+        }
+    }
+
+    #[test]
+    fn transport_keeps_a_sliding_velocity_fixed_in_the_world() {
+        // No grip at all (lag shares of e^-40): the body turns at 1 rad/s under a velocity
+        // that nothing changes. In the world it keeps going straight along x at 1 m/s.
+        let f = vec![BodyVelocity::new(1.0, 0.0, 1.0); 40];
+        let start = StartState::at_rest(Pose::zeros());
+        let (mut v, mut poses) = (Vec::new(), Vec::new());
+        dynamics_only([-40.0; 3], [-40.0, 0.0], true).rollout_velocities_into(&start, &f, &mut v);
+        integrate(&Pose::zeros(), &v, 0.05, &mut poses);
+        for (k, p) in poses.iter().enumerate() {
+            assert!((p.x - 0.05 * k as f64).abs() < 1e-12, "{k}: {p:?}");
+            assert!(p.y.abs() < 1e-12, "{k}: {p:?}");
+            assert!((p.z - 0.05 * k as f64).abs() < 1e-12, "{k}: {p:?}");
+        }
+        // In the body frame the velocity turned the other way: after 1 s by -1 rad.
+        assert!((v[20].x - (-1.0f64).cos()).abs() < 1e-12);
+        assert!((v[20].y - (-1.0f64).sin()).abs() < 1e-12);
+        // Without the transport the velocity turns with the body: a circle of radius 1 m.
+        dynamics_only([-40.0; 3], [-40.0, 0.0], false).rollout_velocities_into(&start, &f, &mut v);
+        integrate(&Pose::zeros(), &v, 0.05, &mut poses);
+        assert!(poses[39].y > 0.5);
+    }
+
+    #[test]
+    fn a_measured_start_yaw_rate_sets_a_decaying_disturbance() {
+        // No lag; the whole disturbance trusted (e^40), decaying by 0.8 per step.
+        let model = dynamics_only([40.0; 3], [40.0, (0.8f64 / 0.2).ln()], true);
+        let f = vec![BodyVelocity::new(0.5, 0.0, 0.2); 12];
+        let mut v = Vec::new();
+        let start = StartState::at_rest(Pose::zeros()).with_yaw_rate(1.0);
+        model.rollout_velocities_into(&start, &f, &mut v);
+        for (k, v) in v.iter().enumerate() {
+            let expected = 0.2 + (1.0 - 0.2) * 0.8f64.powi(k as i32);
+            assert!((v.z - expected).abs() < 1e-12, "{k}: {} vs {expected}", v.z);
+            assert!((v.x - 0.5).abs() < 1e-12);
+        }
+        // Without a measured yaw rate (the encoders only, or the mean prediction), none.
+        model.rollout_velocities_into(&StartState::at_rest(Pose::zeros()), &f, &mut v);
+        assert!(v.iter().all(|v| (v.z - 0.2).abs() < 1e-12));
+        model.body_velocities_into(&f, &mut v);
+        assert!(v.iter().all(|v| (v.z - 0.2).abs() < 1e-12));
+    }
+
+    #[test]
+    fn one_standard_error_picks_the_strongest_strength_the_held_out_intervals_cannot_tell_apart() {
+        let point = |ridge: f64, losses: [f64; 4]| PathPoint {
+            ridge,
+            losses: losses.to_vec(),
+            u: DVector::from_element(1, ridge),
+        };
+        // Best: 1e-3 (4.0). 1e-2 is worse by 0.025 per interval on average, with a paired
+        // standard error of 0.075: within. 1e-1 is worse by 0.5 everywhere: beyond.
+        let path = [
+            point(1e-2, [1.1, 0.9, 1.2, 0.9]),
+            point(1e-3, [1.0; 4]),
+            point(1e-4, [1.0, 1.0, 1.0, 1.05]),
+            point(1e-1, [1.5; 4]),
+        ];
+        let (ridge, u) = one_standard_error(&path).unwrap();
+        assert_eq!((ridge, u[0]), (1e-2, 1e-2));
+        // With 1e-2 clearly worse too, the best.
+        let path = [point(1e-2, [1.5; 4]), point(1e-3, [1.0; 4])];
+        assert_eq!(one_standard_error(&path).unwrap().0, 1e-3);
+        // A strength whose held-out loss is not finite is never chosen; none finite: none.
+        let path = [point(1e-1, [f64::NAN; 4]), point(1e-3, [1.0; 4])];
+        assert_eq!(one_standard_error(&path).unwrap().0, 1e-3);
+        assert!(one_standard_error(&[point(1e-1, [f64::INFINITY; 4])]).is_none());
+    }
+
+    #[test]
+    fn the_ridge_path_starts_in_the_middle_and_walks_both_ways() {
+        let (robot, ws) = windows(24, 7);
+        let set = WindowSet::new(&robot, &ws);
+        let data = SlipData::new(&set, &CommandedPowertrain);
+        let learner = SlipIpem {
+            ridge: vec![1e-1, 1e-2, 1e-3, 1e-4, 1e-5],
+            ..SlipIpem::default()
+        };
+        let Prepared {
+            tracks,
+            weights,
+            unit,
+            dt,
+            ..
+        } = learner.prepare(&data).unwrap();
+        let (fit_on, check_on): (Vec<&Track>, Vec<&Track>) =
+            tracks.iter().partition(|t| t.interval < 6);
+        let u0 = DVector::from_fn(PARAMETERS, |j, _| {
+            if j < WEIGHTS {
+                0.0
+            } else {
+                DYNAMICS_PRIOR[j - WEIGHTS]
+            }
+        });
+        let path = learner
+            .ridge_path(&fit_on, &check_on, weights, unit, dt, u0)
+            .unwrap();
+        let ridges: Vec<f64> = path.iter().map(|p| p.ridge).collect();
+        assert_eq!(ridges[0], 1e-3, "{ridges:?}");
+        let weaker = ridges.iter().take_while(|r| **r <= 1e-3).count();
+        assert!(
+            ridges[..weaker].windows(2).all(|w| w[1] < w[0]),
+            "{ridges:?}"
+        );
+        assert!(
+            ridges[weaker..].windows(2).all(|w| w[1] > w[0]),
+            "{ridges:?}"
+        );
+        assert_eq!(ridges[weaker], 1e-2, "{ridges:?}");
+        assert!(path.iter().all(|p| p.losses.len() == 2));
+    }
+
+    #[test]
+    fn jacobian_in_two_groups_equals_the_forward_mode_jacobian_of_every_parameter() {
+        let (robot, ws) = windows(6, 8);
+        let set = WindowSet::new(&robot, &ws);
+        let data = SlipData::new(&set, &CommandedPowertrain);
+        let Prepared {
+            tracks,
+            weights,
+            unit,
+            dt,
+            ..
+        } = SlipIpem::default().prepare(&data).unwrap();
+        let all: Vec<&Track> = tracks.iter().collect();
+        let problem = Ipem::new(all.clone(), weights, unit, 0.01, dt);
+        let u: Vec<f64> = (0..PARAMETERS)
+            .map(|j| {
+                if j < WEIGHTS {
+                    0.07 * ((j * 5 % 13) as f64 - 6.0)
+                } else {
+                    [0.5, -1.0, 1.5, 0.3, 1.2][j - WEIGHTS]
+                }
+            })
+            .collect();
+        let theta = theta_of(&u, &unit);
+        let dynamics = seeded_dynamics::<PARAMETERS>(&theta, true, true);
+        let mut checked = 0;
+        problem.jacobians(&u, |i, jt, r| {
+            let t = all[i];
+            let slip = |k: usize| {
+                split(seeded_slip::<PARAMETERS>(
+                    &theta,
+                    &t.features[k],
+                    &unit,
+                    None,
+                ))
+            };
+            let mut col = 0;
+            rollout(
+                &t.target[0],
+                t.yaw_rate,
+                &t.f,
+                dt,
+                &dynamics,
+                slip,
+                |k, xy, yaw| {
+                    let ([rx, ry], rz) = residual(xy, yaw, &t.target[k], &weights);
+                    for ri in [rx, ry, rz] {
+                        let w = robust_weight(ri.re * ri.re).sqrt();
+                        assert!((r[col] - ri.re * w).abs() < 1e-12);
+                        let g = ri.eps.unwrap_generic(Const::<PARAMETERS>, U1);
+                        for j in 0..PARAMETERS {
+                            let (a, b) = (jt[(j, col)], g[j] * w);
+                            assert!(
+                                (a - b).abs() <= 1e-12 * (1.0 + b.abs()),
+                                "{j}, {col}: {a} vs {b}"
+                            );
+                        }
+                        col += 1;
+                        checked += 1;
+                    }
+                },
+            );
+        });
+        assert_eq!(checked, 6 * 39 * 3);
     }
 }
