@@ -103,7 +103,7 @@ pub fn builtin_slip_learners() -> Registry<dyn FitSlip> {
         ),
         (
             "slip-ipem",
-            "slip nonlinear in the commanded body velocity, fitted with argmin on the multi-step (integrated) prediction error of its rollouts; ridge strength chosen on an inner split of the training windows",
+            "slip nonlinear in the commanded body velocity, with a body lag and a yaw disturbance from the IMU, fitted with argmin on the multi-step (integrated) prediction error of its rollouts; ridge strength chosen on an inner split of the training windows",
             Arc::new(SlipIpem::default()),
         ),
     ];

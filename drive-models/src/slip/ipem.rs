@@ -36,7 +36,10 @@
 //! - **Fit.** argmin's trust region with the dogleg step on the Gauss-Newton model of that
 //!   cost (iteratively reweighted for the robust loss); its Jacobian comes from forward-mode
 //!   automatic differentiation of the rollout (the `num-dual` crate), never from
-//!   hand-written derivatives of eq. 1.
+//!   hand-written derivatives of eq. 1, in two groups of columns: the yaw path's variables
+//!   (yaw weights, yaw lag, disturbance), on which every residual depends, then the position
+//!   path's (x and y weights and lags), on which the yaw never depends, so that this group
+//!   runs the yaw path in plain numbers.
 //! - **Hyperparameter.** `lambda` is chosen on an inner split of the training windows only:
 //!   the first `1 - validation` of the training intervals fit, the last `validation` score
 //!   (their loss, without the penalty). The path starts in the middle of the grid and walks
@@ -44,7 +47,8 @@
 //!   strongest penalty, where the slip weights are held near zero, lets the body dynamics
 //!   absorb what the slip should explain and stays in that basin); the strongest penalty
 //!   whose held-out loss is within one standard error of the best (paired over the held-out
-//!   intervals) is chosen, so that the choice does not jump with every interval added. The
+//!   intervals) is chosen, so that the choice does not jump with every interval added. With
+//!   fewer than [`MIN_HELD_OUT_INTERVALS`] held-out intervals, the strongest penalty. The
 //!   model is then refitted on every training window with the chosen `lambda`. The
 //!   evaluation half is never seen.
 //! - **Uncertainty.** A pose covariance along every rollout: the parameters' Laplace

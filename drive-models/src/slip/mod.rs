@@ -5,7 +5,7 @@
 //! |---|---|---|---|
 //! | `no-slip` | [`NoSlip`] | [`NoSlipModel`] | `g = 0`: the vehicle does what it is commanded |
 //! | `slip-blr` | [`SlipBlr`] | [`SlipBlrModel`] | the paper's slip-based BLR (eq. 5-7) |
-//! | `slip-ipem` | [`SlipIpem`] | [`SlipIpemModel`] | slip nonlinear in the commanded body velocity, fitted on multi-step rollout errors ([`ipem`]) |
+//! | `slip-ipem` | [`SlipIpem`] | [`SlipIpemModel`] | slip nonlinear in the commanded body velocity with a body lag and an IMU yaw disturbance, fitted on multi-step rollout errors ([`ipem`]) |
 
 pub mod ipem;
 mod none;
