@@ -587,6 +587,7 @@ fn theta_of(u: &[f64], scale: &[f64; 3]) -> [f64; PARAMETERS] {
     })
 }
 
+/// `1 / (1 + e^-x)`: a coefficient in (0, 1) of its logit.
 fn sigmoid<T: DualNum<f64> + Copy>(x: T) -> T {
     (T::from(1.0) + (-x).exp()).recip()
 }
