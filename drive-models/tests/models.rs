@@ -654,6 +654,21 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
     );
 }
 
+/// The commands and start of the model-file fixtures' `*.predict.csv`: `drive predict
+/// --commands` with `t,cmd_left,cmd_right` = `k/20, 2 + 0.1 k, 5` (k = 0..39), `--start
+/// 0.5,-1.0,0.3 --start-wheels 1,2`.
+fn fixture_commands_and_start(robot: &RobotDescription) -> (Vec<Input>, StartState) {
+    let cmds = (0..40)
+        .map(|k| Input::new(2.0 + 0.1 * k as f64, 5.0))
+        .collect();
+    let start = StartState::measured(
+        Pose::new(0.5, -1.0, 0.3),
+        Input::new(1.0, 2.0),
+        &*robot.vehicle,
+    );
+    (cmds, start)
+}
+
 /// The version 1 files written by `drive train` before the models were composed of parts
 /// (the previous release, on the bundled Husky data's training half), and what they
 /// predicted, from `tests/data/v1/`.
@@ -670,14 +685,7 @@ fn version_1_model_files_read_as_their_parts_and_predict_the_same() {
         );
         // What the previous release printed with `drive predict` for these commands.
         let expected = std::fs::read_to_string(dir.join(format!("{name}.predict.csv"))).unwrap();
-        let cmds: Vec<Input> = (0..40)
-            .map(|k| Input::new(2.0 + 0.1 * k as f64, 5.0))
-            .collect();
-        let start = StartState::measured(
-            Pose::new(0.5, -1.0, 0.3),
-            Input::new(1.0, 2.0),
-            &*robot.vehicle,
-        );
+        let (cmds, start) = fixture_commands_and_start(&robot);
         let poses = model.predict(&start, &cmds);
         for (line, p) in expected.lines().skip(1).zip(&poses) {
             let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
@@ -702,16 +710,9 @@ fn slip_ipem_files_of_the_previous_release_predict_the_same() {
     assert!(!text.contains("disturbance_logit") && !text.contains("transport"));
     let (model, robot) = model_from_json("slip-ipem.json", &text).unwrap();
     let expected = std::fs::read_to_string(dir.join("slip-ipem.predict.csv")).unwrap();
-    let cmds: Vec<Input> = (0..40)
-        .map(|k| Input::new(2.0 + 0.1 * k as f64, 5.0))
-        .collect();
     // As `drive predict` starts: the encoders only. A measured yaw rate changes nothing
     // either: the file has no disturbance.
-    let start = StartState::measured(
-        Pose::new(0.5, -1.0, 0.3),
-        Input::new(1.0, 2.0),
-        &*robot.vehicle,
-    );
+    let (cmds, start) = fixture_commands_and_start(&robot);
     for start in [start, start.with_yaw_rate(0.7)] {
         let (mut poses, mut covariances) = (Vec::new(), Vec::new());
         model
