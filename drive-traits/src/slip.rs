@@ -126,6 +126,13 @@ pub trait SlipModel: std::fmt::Debug + Send + Sync {
         Ok(())
     }
 
+    /// The command period (s) the slip model's own dynamics were fitted at (a lag per
+    /// step), when they depend on it; a composed model checks that it is its own. `None` by
+    /// default (a slip map without dynamics).
+    fn step(&self) -> Option<f64> {
+        None
+    }
+
     /// This model's structure and chosen hyperparameters fitted on other slip data (warm-
     /// started from it where that helps): what the framework's uncertainty calibration
     /// fits on the training intervals before its held-out ones. `None` (the default): the

@@ -223,21 +223,29 @@ fn dataset_of<'a, 'py>(obj: &'a Bound<'py, PyAny>) -> PyResult<PyRef<'py, Datase
     })
 }
 
+/// `obj`'s repr for a message, cut to 40 characters (a 400-digit integer stays one line).
+fn short_repr(obj: &Bound<'_, PyAny>) -> String {
+    let r = obj
+        .repr()
+        .map_or_else(|_| type_name(obj), |r| r.to_string());
+    match r.char_indices().nth(40) {
+        Some((cut, _)) => format!("{}... ({} characters)", &r[..cut], r.chars().count()),
+        None => r,
+    }
+}
+
 /// A real number (not a bool), or a `DriveError` saying what `what` must be.
 fn number_of(what: &str, expected: &str, obj: &Bound<'_, PyAny>) -> PyResult<f64> {
-    if obj.is_instance_of::<pyo3::types::PyBool>() {
-        return Err(err(format!(
-            "{what} must be {expected}, got {}",
-            obj.repr()?
-        )));
-    }
-    obj.extract::<f64>().map_err(|_| {
+    let bad = || {
         err(format!(
             "{what} must be {expected}, got {}",
-            obj.repr()
-                .map_or_else(|_| type_name(obj), |r| r.to_string())
+            short_repr(obj)
         ))
-    })
+    };
+    if obj.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(bad());
+    }
+    obj.extract::<f64>().map_err(|_| bad())
 }
 
 /// `N` real numbers (a start pose, start wheels; zeros when None), or a `DriveError`.
@@ -248,8 +256,7 @@ fn numbers_of<const N: usize>(what: &str, obj: Option<&Bound<'_, PyAny>>) -> PyR
     let bad = || {
         err(format!(
             "{what} must be {N} numbers, got {}",
-            obj.repr()
-                .map_or_else(|_| type_name(obj), |r| r.to_string())
+            short_repr(obj)
         ))
     };
     if obj.is_instance_of::<pyo3::types::PyString>() {
@@ -292,12 +299,25 @@ fn float_array<'py>(
             "{what} must be a {shape} array of real numbers, got complex numbers"
         )));
     }
+    // Booleans are not numbers here (True would silently be 1).
+    let kind: Option<String> = numpy
+        .call_method1("asarray", (obj,))
+        .and_then(|a| a.getattr("dtype")?.getattr("kind")?.extract())
+        .ok();
+    if kind.as_deref() == Some("b") {
+        return Err(err(format!(
+            "{what} must be a {shape} array of numbers, got booleans"
+        )));
+    }
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", "float64")?;
+    // asarray keeps a 0-d input 0-d (ascontiguousarray would make it 1-d), so that its
+    // shape is reported as it is.
     let a = numpy
-        .call_method("ascontiguousarray", (obj,), Some(&kwargs))
+        .call_method("asarray", (obj,), Some(&kwargs))
         .map_err(|e| err(format!("{what} must be a {shape} array of numbers: {e}")))?;
     let dims: Vec<usize> = a.getattr("shape")?.extract()?;
+    let a = numpy.call_method1("ascontiguousarray", (a,))?;
     if dims.len() != ndim {
         return Err(err(format!(
             "{what} must be a {shape} array, got shape {dims:?}"
@@ -356,18 +376,12 @@ impl Model {
         }
         let flat: Vec<f64> = commands.as_array().iter().copied().collect();
         finite("commands", &flat)?;
+        finite("start", &start)?;
+        finite("start_wheels", &start_wheels)?;
+        if let Some(w) = yaw_rate {
+            finite("start_yaw_rate", &[w])?;
+        }
         let start = self.start(start, start_wheels, yaw_rate);
-        finite(
-            "start",
-            &[
-                start.pose.x,
-                start.pose.y,
-                start.pose.z,
-                start.input.x,
-                start.input.y,
-                start.body_velocity.z,
-            ],
-        )?;
         let cmds: Vec<Input> = flat
             .chunks_exact(2)
             .map(|c| Input::new(c[0], c[1]))

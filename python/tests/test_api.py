@@ -146,6 +146,19 @@ def test_the_start_yaw_rate_reaches_slip_ipem_as_on_the_command_line(husky, tmp_
         model.predict_batch(batch_commands, start_yaw_rates=rates[:3])
     with pytest.raises(drive.DriveError, match="start_yaw_rate must be a number"):
         model.predict(commands, start_yaw_rate="fast")
+    # Each start argument is named in its own error.
+    for kwargs, says in [
+        ({"start_yaw_rate": float("nan")}, "start_yaw_rate: value 0 is not a finite number"),
+        ({"start_wheels": (0.0, float("inf"))}, "start_wheels: value 1 is not a finite number"),
+        ({"start": (0.0, 0.0, float("nan"))}, "start: value 2 is not a finite number"),
+        ({"start_yaw_rate": 10**400}, r"got 1000000000.*\(401 characters\)$"),
+    ]:
+        with pytest.raises(drive.DriveError, match=says):
+            model.predict(commands, **kwargs)
+    with pytest.raises(drive.DriveError, match="got booleans"):
+        model.predict_batch(batch_commands, start_yaw_rates=np.ones(9, dtype=bool))
+    with pytest.raises(drive.DriveError, match=r"must be a \(B,\) array, got shape \[\]"):
+        model.predict_batch(batch_commands, start_yaw_rates=0.5)
 
 
 def test_user_errors_raise_with_the_command_lines_message(husky, tmp_path):

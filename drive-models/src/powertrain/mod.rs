@@ -15,16 +15,13 @@ pub use commanded::{Commanded, CommandedPowertrain};
 pub use fopdt::{Fopdt, FopdtPowertrain, SideResponse};
 pub use rate_limited::{RateLimited, RateLimitedPowertrain, RateLimitedResponse};
 
-/// Checks a fitted powertrain's sample period and saturation limits read from a file.
-/// `Err` when `powertrain` was fitted at another command period than the model's `dt`
-/// (its time constants would be read in the wrong unit of steps).
-pub(crate) fn check_same_step(
-    powertrain: &dyn drive_traits::Powertrain,
-    dt: f64,
-) -> Result<(), String> {
-    match powertrain.step() {
+/// Checks a fitted part's sample period read from a file: `Err` when the `part` (the
+/// powertrain, the slip model) was fitted at another command period `step` than the
+/// model's `dt` (its time constants or lags would be read in the wrong unit of steps).
+pub(crate) fn check_same_step(part: &str, step: Option<f64>, dt: f64) -> Result<(), String> {
+    match step {
         Some(step) if (step - dt).abs() > 1e-9 * dt.abs().max(step.abs()) => Err(format!(
-            "the powertrain's step {} s is not the model's {} s",
+            "the {part}'s step {} s is not the model's {} s",
             drive_traits::limits::Short(step),
             drive_traits::limits::Short(dt)
         )),

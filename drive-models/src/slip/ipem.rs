@@ -65,6 +65,7 @@ use argmin::core::{
     State, TerminationReason, TerminationStatus, KV,
 };
 use argmin::solver::trustregion::{Dogleg, TrustRegion};
+use drive_traits::limits::{Short, MAX_ABS_MEASUREMENT};
 use drive_traits::{
     unwrap_angles, wrap_angle, BodyVelocity, FitError, Pose, PoseCovariance, SlipData, SlipLearner,
     SlipModel, StartState, Tagged,
@@ -192,6 +193,14 @@ impl Default for SlipIpem {
     }
 }
 
+/// The largest magnitude of a logit in a model file: beyond it the coefficient is 0 or 1 to
+/// machine precision and its derivative is not a number.
+const MAX_LOGIT: f64 = 700.0;
+
+/// The largest variance in a model file: a standard deviation of the largest measurement
+/// ([`MAX_ABS_MEASUREMENT`]).
+const MAX_VARIANCE: f64 = MAX_ABS_MEASUREMENT * MAX_ABS_MEASUREMENT;
+
 /// The fewest held-out intervals the ridge strength is chosen on: with fewer (under about
 /// 10 training intervals, a minute of driving), one or two intervals would decide, and the
 /// strongest penalty of the grid is taken instead.
@@ -255,9 +264,10 @@ pub struct SlipIpemModel {
     /// `sigmoid(lag_logit)` of the way to its steady value `f - g` each step (1: no lag).
     pub lag_logit: [f64; 3],
     /// The yaw disturbance's trust and persistence as logits: `sigmoid(trust)` of the
-    /// measured start yaw rate's difference from the model's is added to the yaw rate, and
-    /// decays by `sigmoid(persistence)` per step. Absent from files written before it (no
-    /// disturbance).
+    /// measured start yaw rate's difference from the model's (bounded by `scale[1]`, the
+    /// largest commanded yaw rate: a larger one is a faulty IMU, not the ground) is added to
+    /// the yaw rate, and decays by `sigmoid(persistence)` per step. Absent from files written
+    /// before it (no disturbance).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub disturbance_logit: Option<[f64; 2]>,
     /// Whether the lagging body velocity is carried through the body's rotation: true for
@@ -314,6 +324,10 @@ struct Dynamics<Y, T = Y> {
     trust: Y,
     /// Factor by which the disturbance decays per step.
     persistence: Y,
+    /// The largest departure of the measured start yaw rate from the model's taken as it
+    /// is (rad/s): beyond it, this much (the largest commanded yaw rate of the training
+    /// windows: a larger disturbance is not one the ground causes but a faulty IMU).
+    disturbance_limit: f64,
     /// Whether the lagging velocity is carried through the body's rotation.
     transport: bool,
 }
@@ -325,6 +339,7 @@ impl Dynamics<f64> {
         lag_yaw: 1.0,
         trust: 0.0,
         persistence: 0.0,
+        disturbance_limit: 0.0,
         transport: true,
     };
 
@@ -335,6 +350,7 @@ impl Dynamics<f64> {
             lag_yaw: T::from(self.lag_yaw),
             trust: T::from(self.trust),
             persistence: T::from(self.persistence),
+            disturbance_limit: self.disturbance_limit,
             transport: self.transport,
         }
     }
@@ -376,7 +392,14 @@ where
         let (xy, yaw_rate) = match self.velocity {
             None => {
                 if let Some(w) = measured_yaw_rate {
-                    self.disturbance = dynamics.trust * (Y::from(w) - target.1);
+                    let limit = dynamics.disturbance_limit;
+                    let departure = Y::from(w) - target.1;
+                    let departure = if departure.re().abs() > limit {
+                        Y::from(limit.copysign(departure.re()))
+                    } else {
+                        departure
+                    };
+                    self.disturbance = dynamics.trust * departure;
                 }
                 target
             }
@@ -593,14 +616,15 @@ fn sigmoid<T: DualNum<f64> + Copy>(x: T) -> T {
 }
 
 /// The body dynamics of the logits in `theta` (with the disturbance and transport of a
-/// model fitted now).
-fn dynamics_of(theta: &[f64; PARAMETERS]) -> Dynamics<f64> {
+/// model fitted now), the disturbance bounded by `limit` (rad/s).
+fn dynamics_of(theta: &[f64; PARAMETERS], limit: f64) -> Dynamics<f64> {
     let c = |j: usize| sigmoid(theta[WEIGHTS + j]);
     Dynamics {
         lag_xy: [c(0), c(1)],
         lag_yaw: c(2),
         trust: c(3),
         persistence: c(4),
+        disturbance_limit: limit,
         transport: true,
     }
 }
@@ -611,10 +635,12 @@ fn seeded_sigmoid<const N: usize>(logit: f64, index: usize) -> DualSVec64<N> {
 }
 
 /// The body dynamics as dual numbers seeded on their logits in `theta` (variables
-/// `WEIGHTS + j`); without `disturbance`, none (and no derivative).
+/// `WEIGHTS + j`); without `disturbance`, none (and no derivative), else bounded by
+/// `limit`.
 fn seeded_dynamics<const N: usize>(
     theta: &[f64; PARAMETERS],
     disturbance: bool,
+    limit: f64,
     transport: bool,
 ) -> Dynamics<DualSVec64<N>> {
     let c = |j: usize| seeded_sigmoid::<N>(theta[WEIGHTS + j], WEIGHTS + j);
@@ -624,6 +650,7 @@ fn seeded_dynamics<const N: usize>(
         lag_yaw: c(2),
         trust: if disturbance { c(3) } else { zero },
         persistence: if disturbance { c(4) } else { zero },
+        disturbance_limit: limit,
         transport,
     }
 }
@@ -713,7 +740,7 @@ impl<'a> Ipem<'a> {
     /// The sums of the residuals' robust losses at `u` per interval, in the tracks' order.
     fn losses_by_interval(&self, u: &[f64]) -> Vec<f64> {
         let theta = theta_of(u, &self.scale);
-        let dynamics = dynamics_of(&theta);
+        let dynamics = dynamics_of(&theta, self.scale[2]);
         let mut out: Vec<f64> = Vec::new();
         let mut interval = None;
         for t in &self.tracks {
@@ -747,7 +774,7 @@ impl<'a> Ipem<'a> {
         let theta = theta_of(u, &self.scale);
         let weights = |d: usize| &theta[d * FEATURES..(d + 1) * FEATURES];
         let logit = |j: usize| theta[WEIGHTS + j];
-        let fixed = dynamics_of(&theta);
+        let fixed = dynamics_of(&theta, self.scale[2]);
         // The Jacobian in two groups of columns, each by forward-mode differentiation of the
         // rollout: the yaw path's variables (the yaw weights, the yaw lag, the disturbance's
         // trust and persistence), on which every residual depends; then the position path's
@@ -758,6 +785,7 @@ impl<'a> Ipem<'a> {
             lag_yaw: seeded_sigmoid(logit(2), FEATURES),
             trust: seeded_sigmoid(logit(3), FEATURES + 1),
             persistence: seeded_sigmoid(logit(4), FEATURES + 2),
+            disturbance_limit: fixed.disturbance_limit,
             transport: true,
         };
         let position_dynamics: Dynamics<f64, PositionDual> = Dynamics {
@@ -768,6 +796,7 @@ impl<'a> Ipem<'a> {
             lag_yaw: fixed.lag_yaw,
             trust: fixed.trust,
             persistence: fixed.persistence,
+            disturbance_limit: fixed.disturbance_limit,
             transport: true,
         };
         let mut jt = Mat::<f64>::zeros(PARAMETERS, 0);
@@ -1404,7 +1433,7 @@ impl SlipIpem {
             Some((tracks, theta_inner)) => (tracks, theta_inner),
             None => (all.to_vec(), theta),
         };
-        let bias_variance = bias_variance(&bias_tracks, &bias_theta, dt);
+        let bias_variance = bias_variance(&bias_tracks, &bias_theta, unit[2], dt);
 
         let model = SlipIpemModel {
             scale,
@@ -1427,10 +1456,11 @@ impl SlipIpem {
 /// The variance of a body-velocity bias (x, y, yaw) held over each rollout that makes the
 /// predicted squared pose errors match the measured ones on `tracks`, on average over
 /// their steps: least squares of `e_i^2 ~ sum_d q_d (de_i / db_d)^2`, clamped at zero
-/// (yaw first, which only the yaw bias moves; then one variance for x and y).
-fn bias_variance(tracks: &[&Track], theta: &[f64; PARAMETERS], dt: f64) -> [f64; 3] {
+/// (yaw first, which only the yaw bias moves; then one variance for x and y). `limit`
+/// bounds the yaw disturbance (rad/s).
+fn bias_variance(tracks: &[&Track], theta: &[f64; PARAMETERS], limit: f64, dt: f64) -> [f64; 3] {
     let theta_d: [DualSVec64<3>; PARAMETERS] = theta.map(DualSVec64::from);
-    let dynamics = dynamics_of(theta).constant::<DualSVec64<3>>();
+    let dynamics = dynamics_of(theta, limit).constant::<DualSVec64<3>>();
     // The bias enters as slip: its derivative is the slip's with respect to the bias.
     let bias: [DualSVec64<3>; 3] = std::array::from_fn(|d| DualSVec64::from(0.0).derivative(d));
     // Sums for the yaw regression and the translational one.
@@ -1505,6 +1535,7 @@ impl SlipIpemModel {
             lag_yaw: lz,
             trust,
             persistence,
+            disturbance_limit: self.scale[1],
             transport: self.transport,
         }
     }
@@ -1617,8 +1648,12 @@ impl SlipModel for SlipIpemModel {
                 Some(PARAMETERS),
             ))
         };
-        let dynamics =
-            seeded_dynamics::<WITH_BIAS>(&theta, self.disturbance_logit.is_some(), self.transport);
+        let dynamics = seeded_dynamics::<WITH_BIAS>(
+            &theta,
+            self.disturbance_logit.is_some(),
+            self.scale[1],
+            self.transport,
+        );
         let q = self.bias_variance;
         out.push(PoseCovariance::zeros());
         let yaw_rate = start.yaw_rate.filter(|w| w.is_finite());
@@ -1646,10 +1681,16 @@ impl SlipModel for SlipIpemModel {
     }
 
     fn check(&self) -> Result<(), String> {
-        if !self.scale.iter().all(|s| s.is_finite() && *s > 0.0) {
+        if !self
+            .scale
+            .iter()
+            .all(|s| s.is_finite() && *s > 0.0 && *s <= MAX_ABS_MEASUREMENT)
+        {
             return Err(format!(
-                "slip-ipem: scale {:?} is not two positive numbers",
-                self.scale
+                "slip-ipem: scale [{}, {}] is not two positive numbers up to {}",
+                Short(self.scale[0]),
+                Short(self.scale[1]),
+                Short(MAX_ABS_MEASUREMENT)
             ));
         }
         for (d, w) in ["x", "y", "yaw"].iter().zip(&self.weights) {
@@ -1659,23 +1700,35 @@ impl SlipModel for SlipIpemModel {
                     w.len()
                 ));
             }
-            if !w.iter().all(|v| v.is_finite()) {
-                return Err(format!("slip-ipem: a {d} weight is not finite"));
+            if let Some(v) = w
+                .iter()
+                .find(|v| !(v.is_finite() && v.abs() <= MAX_ABS_MEASUREMENT))
+            {
+                return Err(format!(
+                    "slip-ipem: {d} weight {} is not a number within +-{} (a slip velocity)",
+                    Short(*v),
+                    Short(MAX_ABS_MEASUREMENT)
+                ));
             }
         }
-        if !self.lag_logit.iter().all(|v| v.is_finite()) {
-            return Err("slip-ipem: a lag logit is not finite".into());
-        }
-        if !self
-            .disturbance_logit
-            .is_none_or(|d| d.iter().all(|v| v.is_finite()))
-        {
-            return Err("slip-ipem: a disturbance logit is not finite".into());
+        let logits = self.lag_logit.iter().map(|v| ("lag", v)).chain(
+            self.disturbance_logit
+                .iter()
+                .flatten()
+                .map(|v| ("disturbance", v)),
+        );
+        for (what, v) in logits {
+            if !(v.is_finite() && v.abs() <= MAX_LOGIT) {
+                return Err(format!(
+                    "slip-ipem: {what} logit {} is not a number within +-{MAX_LOGIT}",
+                    Short(*v)
+                ));
+            }
         }
         if self.transport && !(self.dt.is_finite() && self.dt > 0.0) {
             return Err(format!(
-                "slip-ipem: dt = {} is not a positive number of seconds",
-                self.dt
+                "slip-ipem: dt (the step its body dynamics were fitted at) is {}: missing or not a positive number of seconds",
+                Short(self.dt)
             ));
         }
         if !(self.ridge.is_finite() && self.ridge >= 0.0) {
@@ -1693,10 +1746,13 @@ impl SlipModel for SlipIpemModel {
             ));
         }
         let c = |i: usize, j: usize| self.weight_covariance[i * size + j];
+        let variance = |v: f64| v.is_finite() && (0.0..=MAX_VARIANCE).contains(&v);
         for i in 0..size {
-            if !(c(i, i).is_finite() && c(i, i) >= 0.0) {
+            if !variance(c(i, i)) {
                 return Err(format!(
-                    "slip-ipem: weight variance {i} is not a finite number >= 0"
+                    "slip-ipem: weight variance {i} is {}, not a number in [0, {}]",
+                    Short(c(i, i)),
+                    Short(MAX_VARIANCE)
                 ));
             }
             for j in 0..i {
@@ -1706,14 +1762,20 @@ impl SlipModel for SlipIpemModel {
                 }
             }
         }
-        if !self
-            .bias_variance
-            .iter()
-            .all(|v| v.is_finite() && *v >= 0.0)
-        {
-            return Err("slip-ipem: a bias variance is not a finite number >= 0".into());
+        if let Some(v) = self.bias_variance.iter().find(|v| !variance(**v)) {
+            return Err(format!(
+                "slip-ipem: bias variance {} is not a number in [0, {}]",
+                Short(*v),
+                Short(MAX_VARIANCE)
+            ));
         }
         Ok(())
+    }
+
+    /// The step the body dynamics were fitted at, for a model with the transport (files
+    /// written before it do not record theirs).
+    fn step(&self) -> Option<f64> {
+        self.transport.then_some(self.dt)
     }
 
     fn clone_box(&self) -> Box<dyn SlipModel> {
@@ -2003,6 +2065,53 @@ mod tests {
         let mut m = truth();
         m.lag_logit[0] = f64::NAN;
         assert!(m.check().is_err());
+        // Magnitudes no fit writes, which would make the covariance not a number: refused
+        // with the value, not left for a prediction to fail on.
+        let refused = |edit: &dyn Fn(&mut SlipIpemModel), says: &str| {
+            let mut m = truth();
+            edit(&mut m);
+            let e = m.check().unwrap_err();
+            assert!(e.contains(says), "{e}");
+        };
+        refused(&|m| m.lag_logit[1] = -1e308, "lag logit -1e308");
+        refused(
+            &|m| m.disturbance_logit = Some([0.0, 800.0]),
+            "disturbance logit 800",
+        );
+        refused(&|m| m.weights[2][4] = 1e308, "yaw weight 1e308");
+        refused(
+            &|m| m.weight_covariance[0] = -1.5,
+            "weight variance 0 is -1.5",
+        );
+        refused(&|m| m.bias_variance[2] = 1e300, "bias variance 1e300");
+        refused(
+            &|m| m.dt = 0.0,
+            "dt (the step its body dynamics were fitted at) is 0: missing",
+        );
+        // A file written before the transport does not record its step.
+        let mut m = truth();
+        m.transport = false;
+        m.dt = 0.0;
+        assert!(m.check().is_ok() && m.step().is_none());
+        assert_eq!(truth().step(), Some(0.05));
+    }
+
+    #[test]
+    fn a_model_whose_slip_step_is_not_its_own_is_refused() {
+        let (robot, train) = windows(30, 9);
+        let model = Composed::new(Commanded, SlipIpem::default())
+            .fit(&WindowSet::new(&robot, &train))
+            .unwrap();
+        assert!(model.check().is_ok());
+        let text = crate::model_file::model_to_json(&model, &robot).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        *v.pointer_mut("/model/slip/dt").unwrap() = serde_json::json!(0.1);
+        let err = crate::model_file::model_from_json("m.json", &v.to_string()).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("the slip model's step 0.1 s is not the model's 0.05 s"),
+            "{err}"
+        );
     }
 
     /// A model without slip whose body dynamics are given by their logits.
@@ -2160,7 +2269,7 @@ mod tests {
             })
             .collect();
         let theta = theta_of(&u, &unit);
-        let dynamics = seeded_dynamics::<PARAMETERS>(&theta, true, true);
+        let dynamics = seeded_dynamics::<PARAMETERS>(&theta, true, unit[2], true);
         let mut checked = 0;
         problem.jacobians(&u, |i, jt, r| {
             let t = all[i];
@@ -2200,5 +2309,28 @@ mod tests {
             );
         });
         assert_eq!(checked, 6 * 39 * 3);
+    }
+
+    #[test]
+    fn a_faulty_imu_does_not_wreck_the_fit() {
+        // The IMU reads 1e6 rad/s at every window start: no disturbance the ground could
+        // cause. The fit must still learn the slip (the deviation is bounded by the largest
+        // commanded yaw rate, and the trust then falls).
+        let (robot, mut train) = windows(150, 2);
+        for w in &mut train {
+            w.imu_yaw_rate[0] = 1e6;
+        }
+        let (_, test) = windows(30, 3);
+        let model = Composed::new(Commanded, SlipIpem::default())
+            .fit(&WindowSet::new(&robot, &train))
+            .unwrap();
+        let no_slip = Composed::new(Commanded, crate::slip::NoSlip)
+            .fit(&WindowSet::new(&robot, &train))
+            .unwrap();
+        let (fitted, reference) = (mean_error(&model, &test), mean_error(&no_slip, &test));
+        assert!(
+            fitted < 0.1 * reference,
+            "slip-ipem {fitted} m vs no slip {reference} m"
+        );
     }
 }
