@@ -322,9 +322,9 @@ impl MotionModel for ComposedModel {
         drive_traits::check_step(self.dt)?;
         self.vehicle.check()?;
         self.powertrain.check()?;
-        crate::powertrain::check_same_step("powertrain", self.powertrain.step(), self.dt)?;
+        crate::check_same_step("powertrain", self.powertrain.step(), self.dt)?;
         self.slip.check()?;
-        crate::powertrain::check_same_step("slip model", self.slip.step(), self.dt)
+        crate::check_same_step("slip model", self.slip.step(), self.dt)
     }
 
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {

@@ -27,5 +27,20 @@ pub mod slip;
 pub mod vehicles;
 
 pub use composed::{Composed, ComposedModel, GrowingFit};
+
+/// Checks a fitted part's sample period read from a file: `Err` when the `part` (the
+/// powertrain, the slip model) was fitted at another command period `step` than the
+/// model's `dt` (its time constants or lags would be read in the wrong unit of steps).
+pub(crate) fn check_same_step(part: &str, step: Option<f64>, dt: f64) -> Result<(), String> {
+    match step {
+        Some(step) if (step - dt).abs() > 1e-9 * dt.abs().max(step.abs()) => Err(format!(
+            "the {part}'s step {} s is not the model's {} s",
+            drive_traits::limits::Short(step),
+            drive_traits::limits::Short(dt)
+        )),
+        _ => Ok(()),
+    }
+}
+
 pub use registry::{LearnerKind, ModelAlias, ModelSpec, Models};
 pub use vehicles::DifferentialDrive;

@@ -230,6 +230,15 @@ pub fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
     Ok(out)
 }
 
+/// One finite number.
+pub fn parse_number(s: &str) -> Result<f64, String> {
+    s.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("'{s}' is not a finite number"))
+}
+
 /// Two comma-separated numbers.
 pub fn parse_pair(s: &str) -> Result<[f64; 2], String> {
     parse_numbers::<2>(s)

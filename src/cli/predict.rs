@@ -1,6 +1,6 @@
 //! `drive predict`: poses from a saved model and a command sequence.
 
-use super::common::{parse_pair, parse_triplet};
+use super::common::{parse_number, parse_pair, parse_triplet};
 use crate::models::model_file::model_from_json;
 use crate::traits::limits::Short;
 use crate::traits::{Input, MotionError, Pose, StartState};
@@ -29,15 +29,6 @@ pub struct Args {
     /// acc-BLR's velocity state) start from it (default: none, the encoders only).
     #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
     start_yaw_rate: Option<f64>,
-}
-
-/// One finite number.
-fn parse_number(s: &str) -> Result<f64, String> {
-    s.trim()
-        .parse::<f64>()
-        .ok()
-        .filter(|v| v.is_finite())
-        .ok_or_else(|| format!("'{s}' is not a finite number"))
 }
 
 /// Reads a command file with the header `t,<columns>` sampled at period `dt`.

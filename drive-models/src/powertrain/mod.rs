@@ -15,20 +15,6 @@ pub use commanded::{Commanded, CommandedPowertrain};
 pub use fopdt::{Fopdt, FopdtPowertrain, SideResponse};
 pub use rate_limited::{RateLimited, RateLimitedPowertrain, RateLimitedResponse};
 
-/// Checks a fitted part's sample period read from a file: `Err` when the `part` (the
-/// powertrain, the slip model) was fitted at another command period `step` than the
-/// model's `dt` (its time constants or lags would be read in the wrong unit of steps).
-pub(crate) fn check_same_step(part: &str, step: Option<f64>, dt: f64) -> Result<(), String> {
-    match step {
-        Some(step) if (step - dt).abs() > 1e-9 * dt.abs().max(step.abs()) => Err(format!(
-            "the {part}'s step {} s is not the model's {} s",
-            drive_traits::limits::Short(step),
-            drive_traits::limits::Short(dt)
-        )),
-        _ => Ok(()),
-    }
-}
-
 pub(crate) fn check_step_and_limits(
     dt: f64,
     limits: &drive_traits::InputSpace,
