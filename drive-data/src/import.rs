@@ -469,6 +469,7 @@ pub fn import_raw(
             "the imu_yaw_rate column holds the yaw rate from localization (finite differences of its yaw), as the IMU was not recorded".into(),
         );
     }
+    data.link_start_velocities();
     Ok((data, report))
 }
 
@@ -564,6 +565,7 @@ fn cut_interval(
                     .map(|row| relative_pose(&p0, &pose(row)))
                     .collect(),
                 imu_yaw_rate: chunk.iter().map(|row| row.imu_rate[2]).collect(),
+                start_velocity: None,
             }
         })
         .collect())

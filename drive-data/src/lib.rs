@@ -55,7 +55,9 @@ pub fn parse_dataset(
     check_pair(csv_name, sidecar_name, &announced, windows.len(), || {
         CsvDigest::of(csv_text)
     })?;
-    Ok(Dataset { robot, windows })
+    let mut data = Dataset { robot, windows };
+    data.link_start_velocities();
+    Ok(data)
 }
 
 /// Checks a CSV against what its sidecar announces: the number of windows, then the digest.
@@ -127,7 +129,9 @@ pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataE
     check_pair(&csv_name, &sidecar_name, &announced, windows.len(), || {
         digest
     })?;
-    Ok(Dataset { robot, windows })
+    let mut data = Dataset { robot, windows };
+    data.link_start_velocities();
+    Ok(data)
 }
 
 /// Writes a dataset as a window CSV at `csv` and its sidecar beside it, both or neither

@@ -356,6 +356,7 @@ mod tests {
                 measured: vec![u; 40],
                 pose,
                 imu_yaw_rate: vec![rate; 40],
+                start_velocity: None,
             }],
         }
     }

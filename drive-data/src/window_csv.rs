@@ -208,6 +208,7 @@ fn parse_lines<S: AsRef<str>>(
             measured: p.measured,
             pose: p.pose,
             imu_yaw_rate: p.imu,
+            start_velocity: None,
         });
         Ok(())
     };

@@ -620,6 +620,7 @@ mod tests {
                     })
                     .collect(),
                 imu_yaw_rate: vec![0.0; 40],
+                start_velocity: None,
             })
             .collect()
     }

@@ -19,7 +19,7 @@ use crate::vehicles::Ackermann;
 use crate::{Composed, DifferentialDrive};
 use drive_traits::{
     Baseline, CommandModel, FitError, FitPowertrain, FitSlip, Learner, MotionModel, Registry,
-    RegistryError, RegistryItem, StartInfo, WindowSet,
+    RegistryError, RegistryItem, StartInfo, Window, WindowSet,
 };
 use serde::Serialize;
 use std::sync::Arc;
@@ -223,7 +223,39 @@ impl ModelSpec {
     /// Fits the model on the training windows; with [`Uncertainty::Calibrated`] (the
     /// default) a model with a pose covariance is calibrated on held-out training intervals
     /// (see [`crate::calibration`]), which fits it once more on the intervals before them.
+    ///
+    /// The fit sees what the predictions will: the localization's start velocities
+    /// ([`Window::start_velocity`]) only when [`ModelSpec::start`] gives them
+    /// ([`StartInfo::EncodersImuLocalization`]), so that a model whose state is a velocity
+    /// is not fitted for a start it will not have.
     pub fn fit(&self, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, FitError> {
+        self.as_predicted(train, |train| self.fit_as_predicted(train))
+    }
+
+    /// Runs `fit` on the training windows as the predictions will see them: without their
+    /// start velocities unless [`ModelSpec::start`] gives them (a copy, when they have any).
+    fn as_predicted<R>(&self, train: &WindowSet<'_>, fit: impl FnOnce(&WindowSet<'_>) -> R) -> R {
+        if self.start == StartInfo::EncodersImuLocalization
+            || train.windows.iter().all(|w| w.start_velocity.is_none())
+        {
+            return fit(train);
+        }
+        let owned: Vec<Window> = train
+            .windows
+            .iter()
+            .map(|w| Window {
+                start_velocity: None,
+                ..(*w).clone()
+            })
+            .collect();
+        fit(&WindowSet {
+            robot: train.robot,
+            windows: owned.iter().collect(),
+        })
+    }
+
+    /// [`ModelSpec::fit`] on windows that hold what the predictions will start from.
+    fn fit_as_predicted(&self, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, FitError> {
         if self.uncertainty == Uncertainty::Paper {
             return self.fit_uncalibrated(train);
         }
@@ -254,6 +286,12 @@ impl ModelSpec {
         &self,
         train: &WindowSet<'_>,
     ) -> Result<Box<dyn MotionModel>, FitError> {
+        self.as_predicted(train, |train| self.fit_parts(train))
+    }
+
+    /// [`ModelSpec::fit_uncalibrated`] on windows that hold what the predictions will start
+    /// from.
+    fn fit_parts(&self, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, FitError> {
         match &self.parts {
             Parts::Composed(powertrain, slip) => Ok(Box::new(Learner::fit(
                 &Composed::from_parts(self.canonical(), powertrain.clone(), slip.clone()),

@@ -56,6 +56,7 @@ fn window(
         measured,
         pose,
         imu_yaw_rate: vec![0.0; n],
+        start_velocity: None,
     }
 }
 
@@ -493,6 +494,7 @@ fn acc_blr_prediction_hand_computed() {
         input: Input::zeros(),
         body_velocity: BodyVelocity::new(0.2, 0.3, 0.0),
         yaw_rate: None,
+        velocity: None,
     };
     // f = (1, 0, 0) from wheels 10, 10: v0 = 0.2 (lateral dropped), v1 = 0.6, v2 = 0.8.
     let p = m.predict(&start, &[Input::new(10.0, 10.0); 4]);
@@ -616,6 +618,7 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
         input: Input::new(1.0, 2.0),
         body_velocity: BodyVelocity::new(0.1, 0.0, 0.1),
         yaw_rate: None,
+        velocity: None,
     };
     let cmds: Vec<Input> = (0..40)
         .map(|k| Input::new(k as f64 * 0.1, 3.0 - k as f64 * 0.05))
@@ -828,6 +831,7 @@ fn a_composed_model_rolls_out_in_batch_as_one_by_one() {
             input: Input::new(0.5 * i as f64, 0.0),
             body_velocity: BodyVelocity::zeros(),
             yaw_rate: None,
+            velocity: None,
         })
         .collect();
     let commands: Vec<Input> = (0..5 * 20)

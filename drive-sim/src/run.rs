@@ -323,11 +323,13 @@ pub fn simulate(
         RunnerState::Done(_) => runner.state().clone(),
         _ => RunnerState::Done(StopReason::Duration),
     };
+    let mut dataset = Dataset {
+        robot: description,
+        windows,
+    };
+    dataset.link_start_velocities();
     Ok(Simulation {
-        dataset: Dataset {
-            robot: description,
-            windows,
-        },
+        dataset,
         stop,
         characterization: runner.characterization(),
         states,
@@ -356,5 +358,6 @@ fn window_from(samples: &[Recorded], index: usize) -> Window {
             .map(|r| relative_pose(&p0, &r.pose))
             .collect(),
         imu_yaw_rate: samples.iter().map(|r| r.imu).collect(),
+        start_velocity: None,
     }
 }

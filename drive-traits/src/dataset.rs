@@ -123,6 +123,11 @@ pub struct Window {
     pub pose: Vec<Pose>,
     /// IMU angular velocity about the vertical axis per sample (rad/s).
     pub imu_yaw_rate: Vec<f64>,
+    /// The body-frame velocity (x forward, y left; m/s) at the window start as the
+    /// localization measured it before the window: set by [`Dataset::link_start_velocities`]
+    /// from the preceding window when it runs on into this one, `None` otherwise. It is not
+    /// a column of the window CSV: readers derive it.
+    pub start_velocity: Option<[f64; 2]>,
 }
 
 impl Window {
@@ -230,20 +235,106 @@ impl Window {
         match info {
             StartInfo::Encoders => start,
             StartInfo::EncodersImu => start.with_yaw_rate(self.imu_yaw_rate[0]),
+            StartInfo::EncodersImuLocalization => {
+                let start = start.with_yaw_rate(self.imu_yaw_rate[0]);
+                match self.start_velocity {
+                    Some(v) => start.with_velocity(v),
+                    None => start,
+                }
+            }
         }
+    }
+
+    /// The body-frame velocity (x forward, y left; m/s) at this window's last sample from
+    /// its localization: the displacement over the last `span` samples, turned into the body
+    /// frame of the last sample and divided by their time (`span` steps of `dt`). Positions
+    /// are read in `frame`. `None` when the window is shorter than `span + 1` samples, `span`
+    /// is 0 or a value is not finite.
+    ///
+    /// ```
+    /// use drive_traits::{Input, Phase, Pose, PositionFrame, Window};
+    /// // Driving at 2 m/s along the world's y axis while heading along it (yaw pi/2).
+    /// let h = std::f64::consts::FRAC_PI_2;
+    /// let pose = (0..6).map(|k| Pose::new(0.0, 0.1 * k as f64, if k == 0 { 0.0 } else { h })).collect();
+    /// let w = Window { index: 0, interval: 0, phase: Phase::Steady, command: vec![Input::zeros(); 6],
+    ///     measured: vec![Input::zeros(); 6], pose, imu_yaw_rate: vec![0.0; 6], start_velocity: None };
+    /// let [vx, vy] = w.end_velocity(4, 0.05, PositionFrame::FirstSample).unwrap();
+    /// assert!((vx - 2.0).abs() < 1e-12 && vy.abs() < 1e-12);
+    /// assert!(w.end_velocity(6, 0.05, PositionFrame::FirstSample).is_none());
+    /// ```
+    pub fn end_velocity(&self, span: usize, dt: f64, frame: PositionFrame) -> Option<[f64; 2]> {
+        let n = self.pose.len();
+        if span == 0 || n < span + 1 {
+            return None;
+        }
+        let (a, b) = (self.pose[n - 1 - span], self.pose[n - 1]);
+        let (dx, dy) = (b.x - a.x, b.y - a.y);
+        // The positions' frame is turned by `offset` from the first sample's; the body frame
+        // of the last sample by its yaw.
+        let offset = match frame {
+            PositionFrame::FirstSample => 0.0,
+            PositionFrame::PaperMean5 => self.paper_frame_angle(),
+        };
+        let (s, c) = (offset - b.z).sin_cos();
+        let t = span as f64 * dt;
+        let v = [(c * dx - s * dy) / t, (s * dx + c * dy) / t];
+        v.iter().all(|x| x.is_finite()).then_some(v)
+    }
+
+    /// Whether `next` runs on from this window without a gap: its index is the next one and,
+    /// for each measured input and the IMU's yaw rate, the step from this window's last
+    /// sample to `next`'s first is no larger than the largest step between two samples
+    /// inside either window (a gap in the recording shows as a jump the robot cannot make
+    /// in one step).
+    ///
+    /// ```
+    /// use drive_traits::{Input, Phase, Pose, Window};
+    /// let w = |index, wheel: [f64; 3]| Window { index, interval: 0, phase: Phase::Steady,
+    ///     command: vec![Input::zeros(); 3], measured: wheel.iter().map(|&u| Input::new(u, u)).collect(),
+    ///     pose: vec![Pose::zeros(); 3], imu_yaw_rate: vec![0.0; 3], start_velocity: None };
+    /// assert!(w(0, [1.0, 1.1, 1.2]).continued_by(&w(1, [1.3, 1.4, 1.5])));
+    /// assert!(!w(0, [1.0, 1.1, 1.2]).continued_by(&w(1, [3.0, 3.1, 3.2]))); // a jump of 1.8
+    /// assert!(!w(0, [1.0, 1.1, 1.2]).continued_by(&w(2, [1.3, 1.4, 1.5]))); // a window missing
+    /// ```
+    pub fn continued_by(&self, next: &Window) -> bool {
+        let len = |w: &Window| w.measured.len().min(w.imu_yaw_rate.len());
+        let (n, m) = (len(self), len(next));
+        if next.index != self.index + 1 || n == 0 || m == 0 {
+            return false;
+        }
+        let channels: [fn(&Window, usize) -> f64; 3] = [
+            |w, k| w.measured[k].x,
+            |w, k| w.measured[k].y,
+            |w, k| w.imu_yaw_rate[k],
+        ];
+        channels.iter().all(|value| {
+            let largest_step = |w: &Window| {
+                (1..len(w))
+                    .map(|k| (value(w, k) - value(w, k - 1)).abs())
+                    .fold(0.0, f64::max)
+            };
+            // A NaN anywhere makes this false: no link.
+            (value(next, 0) - value(self, n - 1)).abs()
+                <= largest_step(self).max(largest_step(next))
+        })
     }
 }
 
 /// What a prediction may use of the measurements at the window start (the same for every
 /// model of a comparison). The pose and the measured input are always known; the body
 /// velocity (used by models whose state is a velocity, such as acc-BLR) comes from the
-/// encoders through the vehicle's eq. 4, with the IMU's yaw rate or without it.
+/// encoders through the vehicle's eq. 4, with the IMU's yaw rate or without it, and with
+/// the localization's velocity just before the window or without it.
 ///
 /// ```
 /// use drive_traits::StartInfo;
 /// assert_eq!(StartInfo::default(), StartInfo::EncodersImu);
 /// assert_eq!(StartInfo::parse("encoders").unwrap(), StartInfo::Encoders);
 /// assert_eq!(StartInfo::EncodersImu.as_str(), "encoders+imu");
+/// assert_eq!(
+///     StartInfo::parse("encoders+imu+localization").unwrap(),
+///     StartInfo::EncodersImuLocalization
+/// );
 /// assert!(StartInfo::parse("gps").is_err());
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, Serialize, Deserialize)]
@@ -255,17 +346,24 @@ pub enum StartInfo {
     #[default]
     #[serde(rename = "encoders+imu")]
     EncodersImu,
+    /// The encoders, the IMU and the localization: besides the IMU's yaw rate, the body
+    /// velocity's x and y are the localization's just before the window
+    /// ([`Window::start_velocity`]) where the data has it, what a robot running a
+    /// model-predictive controller knows. The paper's models do not use it.
+    #[serde(rename = "encoders+imu+localization")]
+    EncodersImuLocalization,
 }
 
 impl StartInfo {
     /// The names, as the command line takes them.
-    pub const NAMES: [&'static str; 2] = ["encoders", "encoders+imu"];
+    pub const NAMES: [&'static str; 3] = ["encoders", "encoders+imu", "encoders+imu+localization"];
 
     /// The start information of a name.
     pub fn parse(name: &str) -> Result<Self, String> {
         match name {
             "encoders" => Ok(StartInfo::Encoders),
             "encoders+imu" => Ok(StartInfo::EncodersImu),
+            "encoders+imu+localization" => Ok(StartInfo::EncodersImuLocalization),
             other => Err(format!(
                 "unknown start information {other:?}; known: {}",
                 Self::NAMES.join(", ")
@@ -278,9 +376,15 @@ impl StartInfo {
         match self {
             StartInfo::Encoders => "encoders",
             StartInfo::EncodersImu => "encoders+imu",
+            StartInfo::EncodersImuLocalization => "encoders+imu+localization",
         }
     }
 }
+
+/// The time over which [`Window::end_velocity`] measures the localization's velocity at a
+/// window's end (s): long enough to span several localization updates (lidar ICP runs at
+/// about 10 Hz), short enough to be the velocity of that instant.
+pub const END_VELOCITY_SPAN_S: f64 = 0.5;
 
 /// The frame a window's positions (`x`, `y`) are expressed in. Yaw is always relative to
 /// the window's first sample.
@@ -445,6 +549,50 @@ impl Dataset {
     /// All windows as a [`WindowSet`].
     pub fn all(&self) -> WindowSet<'_> {
         WindowSet::new(&self.robot, &self.windows)
+    }
+
+    /// Sets every window's [`Window::start_velocity`]: the localization's velocity at the
+    /// end of the preceding window ([`Window::end_velocity`] over
+    /// [`END_VELOCITY_SPAN_S`]) when that window runs on into it
+    /// ([`Window::continued_by`]), `None` otherwise (the first window, after a gap, or
+    /// with a non-finite value). Readers of window data call it; call it again after
+    /// building or editing windows by hand.
+    ///
+    /// ```
+    /// use drive_traits::{Dataset, Input, Phase, Pose, RobotDescription, Window};
+    /// # use drive_traits::{BodyVelocity, CommandModel, InputAxis};
+    /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
+    /// # #[typetag::serde(name = "v-link-doc")] impl CommandModel for V {
+    /// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
+    /// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
+    /// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+    /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
+    /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
+    /// // Two windows of 40 samples at 20 Hz, driving straight at 1 m/s.
+    /// let window = |index| Window { index, interval: 0, phase: Phase::Steady,
+    ///     command: vec![Input::new(1.0, 0.0); 40], measured: vec![Input::new(1.0, 0.0); 40],
+    ///     pose: (0..40).map(|k| Pose::new(0.05 * k as f64, 0.0, 0.0)).collect(),
+    ///     imu_yaw_rate: vec![0.0; 40], start_velocity: None };
+    /// let mut data = Dataset { robot: RobotDescription::new("toy", "", 20.0, 40, V),
+    ///     windows: vec![window(0), window(1)] };
+    /// data.link_start_velocities();
+    /// assert_eq!(data.windows[0].start_velocity, None);
+    /// let [vx, vy] = data.windows[1].start_velocity.unwrap();
+    /// assert!((vx - 1.0).abs() < 1e-12 && vy.abs() < 1e-12);
+    /// ```
+    pub fn link_start_velocities(&mut self) {
+        let dt = self.robot.dt();
+        let span = (END_VELOCITY_SPAN_S / dt).round().max(1.0) as usize;
+        let frame = self.robot.position_frame;
+        let mut before: Option<[f64; 2]> = None;
+        for i in 0..self.windows.len() {
+            let start = match i.checked_sub(1) {
+                Some(p) if self.windows[p].continued_by(&self.windows[i]) => before,
+                _ => None,
+            };
+            before = self.windows[i].end_velocity(span, dt, frame);
+            self.windows[i].start_velocity = start;
+        }
     }
 
     /// Expresses every window's positions in its first sample's frame (see

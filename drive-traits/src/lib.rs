@@ -42,7 +42,7 @@ mod velocity;
 
 pub use dataset::{
     assign_intervals, Dataset, Phase, PositionFrame, RobotDescription, StartInfo, Window,
-    WindowSet, PAPER_FRAME_SAMPLES, WINDOWS_PER_INTERVAL, WINDOW_S,
+    WindowSet, END_VELOCITY_SPAN_S, PAPER_FRAME_SAMPLES, WINDOWS_PER_INTERVAL, WINDOW_S,
 };
 pub use error::{FitError, MotionError};
 pub use learner::{Baseline, Learner};

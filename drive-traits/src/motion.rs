@@ -35,6 +35,11 @@ pub struct StartState {
     /// may read it as evidence of how the body turns beyond what the commands explain
     /// (slip-ipem's yaw disturbance).
     pub yaw_rate: Option<f64>,
+    /// The body-frame velocity (x forward, y left; m/s) at the start as the localization
+    /// measured it just before (`StartInfo::EncodersImuLocalization`); `None` when it is
+    /// not known. Like `yaw_rate`, never derived from the input: a model whose state is a
+    /// velocity may start from it (slip-ipem's lagging body velocity).
+    pub velocity: Option<[f64; 2]>,
 }
 
 impl StartState {
@@ -45,6 +50,7 @@ impl StartState {
             input: Input::zeros(),
             body_velocity: BodyVelocity::zeros(),
             yaw_rate: None,
+            velocity: None,
         }
     }
 
@@ -59,6 +65,22 @@ impl StartState {
     pub fn with_yaw_rate(mut self, yaw_rate: f64) -> Self {
         self.yaw_rate = Some(yaw_rate);
         self.body_velocity.z = yaw_rate;
+        self
+    }
+
+    /// The same start with the body-frame velocity `[x, y]` (m/s) measured by the
+    /// localization just before it: also the body velocity's x and y.
+    ///
+    /// ```
+    /// use drive_traits::{Pose, StartState};
+    /// let s = StartState::at_rest(Pose::zeros()).with_velocity([1.5, -0.2]);
+    /// assert_eq!(s.velocity, Some([1.5, -0.2]));
+    /// assert_eq!((s.body_velocity.x, s.body_velocity.y), (1.5, -0.2));
+    /// ```
+    pub fn with_velocity(mut self, velocity: [f64; 2]) -> Self {
+        self.velocity = Some(velocity);
+        self.body_velocity.x = velocity[0];
+        self.body_velocity.y = velocity[1];
         self
     }
 
@@ -78,6 +100,7 @@ impl StartState {
             input,
             body_velocity: vehicle.body_velocity(&input),
             yaw_rate: None,
+            velocity: None,
         }
     }
 }

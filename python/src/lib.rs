@@ -2,11 +2,12 @@
 //! fitted models with numpy predictions, the protocol runner a ROS 2 node drives a robot with. The Python package `drive` (py/drive) wraps this
 //! module; every user error raises `drive.DriveError` with the command line's message.
 
-use drive::eval::{compare, split_by_interval};
+use drive::eval::{compare_specs, split_by_interval};
 use drive::models::batch::predict_batch_parallel;
 use drive::models::model_file::{model_from_json, model_to_json};
 use drive::traits::{
-    Dataset as RustDataset, Input, MotionError, MotionModel, Pose, RobotDescription, StartState,
+    Dataset as RustDataset, Input, MotionError, MotionModel, Pose, RobotDescription, StartInfo,
+    StartState,
 };
 use drive::Registries;
 use numpy::{
@@ -139,17 +140,36 @@ fn load_dataset(
     Ok(Dataset { inner })
 }
 
+/// What the predictions start from, by its command-line name (`drive eval --start`; the
+/// default when None).
+fn start_info_of(obj: Option<&Bound<'_, PyAny>>) -> PyResult<StartInfo> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(StartInfo::default());
+    };
+    let name: String = obj.extract().map_err(|_| {
+        err(format!(
+            "start must be one of {}, got {}",
+            StartInfo::NAMES.join(", "),
+            short_repr(obj)
+        ))
+    })?;
+    StartInfo::parse(&name).map_err(err)
+}
+
 /// `drive eval --json` as a JSON text: the models (default: the paper's four) fitted on the
-/// first `split` of the intervals and scored on the rest.
+/// first `split` of the intervals and scored on the rest, their predictions starting from
+/// `start` (`drive eval --start`).
 #[pyfunction]
-#[pyo3(signature = (dataset, models=None, split=0.5))]
+#[pyo3(signature = (dataset, models=None, split=0.5, start=None))]
 fn evaluate_json(
     py: Python<'_>,
     dataset: &Bound<'_, PyAny>,
     models: Option<&Bound<'_, PyAny>>,
     split: f64,
+    start: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<String> {
     let dataset = dataset_of(dataset)?;
+    let start = start_info_of(start)?;
     let models: Option<Vec<String>> = models
         .filter(|m| !m.is_none())
         .map(|m| {
@@ -172,7 +192,14 @@ fn evaluate_json(
     let data = &dataset.inner;
     let result = py.detach(|| {
         let registries = Registries::builtin();
-        compare(&registries, data, split, &names).map_err(|e| e.to_string())
+        let specs: Vec<_> = registries
+            .models()
+            .resolve_list(&names)
+            .map_err(|e| e.to_string())?
+            .into_iter()
+            .map(|s| s.clone().with_uncertainty(s.uncertainty, start))
+            .collect();
+        compare_specs(data, split, &specs).map_err(|e| e.to_string())
     });
     let cmp = result.map_err(err)?;
     serde_json::to_string(&cmp).map_err(err)
@@ -186,13 +213,20 @@ struct Model {
 }
 
 impl Model {
-    fn start(&self, pose: [f64; 3], wheels: [f64; 2], yaw_rate: Option<f64>) -> StartState {
+    fn start(
+        &self,
+        pose: [f64; 3],
+        wheels: [f64; 2],
+        yaw_rate: Option<f64>,
+        velocity: Option<[f64; 2]>,
+    ) -> StartState {
         let start = StartState::measured(
             Pose::new(pose[0], pose[1], pose[2]),
             Input::new(wheels[0], wheels[1]),
             self.robot.vehicle.as_ref(),
         );
-        yaw_rate.map_or(start, |w| start.with_yaw_rate(w))
+        let start = yaw_rate.map_or(start, |w| start.with_yaw_rate(w));
+        velocity.map_or(start, |v| start.with_velocity(v))
     }
 }
 
@@ -349,9 +383,10 @@ impl Model {
 
     /// Poses (H, 3): x, y, yaw after each of the (H, 2) commands (the vehicle's inputs), from
     /// `start` (x, y, yaw; the origin by default) with the measured inputs `start_wheels`
-    /// (zero by default) and the yaw rate the IMU measured, `start_yaw_rate` (none by
-    /// default), as `drive predict`.
-    #[pyo3(signature = (commands, start=None, start_wheels=None, start_yaw_rate=None))]
+    /// (zero by default), the yaw rate the IMU measured, `start_yaw_rate` (none by
+    /// default), and the body velocity (x, y; m/s) the localization measured just before,
+    /// `start_velocity` (none by default), as `drive predict`.
+    #[pyo3(signature = (commands, start=None, start_wheels=None, start_yaw_rate=None, start_velocity=None))]
     fn predict<'py>(
         &self,
         py: Python<'py>,
@@ -359,7 +394,15 @@ impl Model {
         start: Option<&Bound<'py, PyAny>>,
         start_wheels: Option<&Bound<'py, PyAny>>,
         start_yaw_rate: Option<&Bound<'py, PyAny>>,
+        start_velocity: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let velocity: Option<[f64; 2]> = start_velocity
+            .filter(|v| !v.is_none())
+            .map(|v| numbers_of("start_velocity", Some(v)))
+            .transpose()?;
+        if let Some(v) = velocity {
+            finite("start_velocity", &v)?;
+        }
         let start: [f64; 3] = numbers_of("start", start)?;
         let start_wheels: [f64; 2] = numbers_of("start_wheels", start_wheels)?;
         let yaw_rate = start_yaw_rate
@@ -381,7 +424,7 @@ impl Model {
         if let Some(w) = yaw_rate {
             finite("start_yaw_rate", &[w])?;
         }
-        let start = self.start(start, start_wheels, yaw_rate);
+        let start = self.start(start, start_wheels, yaw_rate, velocity);
         let cmds: Vec<Input> = flat
             .chunks_exact(2)
             .map(|c| Input::new(c[0], c[1]))
@@ -399,9 +442,10 @@ impl Model {
 
     /// Poses (B, H, 3) of B command sequences (B, H, 2), each from its row of `starts`
     /// (B, 3; the origin by default), `start_wheels` (B, 2; zero by default) and
-    /// `start_yaw_rates` (B,; none by default); computed in parallel without the GIL. Row b
-    /// equals `predict(commands[b], starts[b], ...)`.
-    #[pyo3(signature = (commands, starts=None, start_wheels=None, start_yaw_rates=None))]
+    /// `start_yaw_rates` (B,; none by default) and `start_velocities` (B, 2; none by
+    /// default); computed in parallel without the GIL. Row b equals
+    /// `predict(commands[b], starts[b], ...)`.
+    #[pyo3(signature = (commands, starts=None, start_wheels=None, start_yaw_rates=None, start_velocities=None))]
     fn predict_batch<'py>(
         &self,
         py: Python<'py>,
@@ -409,6 +453,7 @@ impl Model {
         starts: Option<&Bound<'py, PyAny>>,
         start_wheels: Option<&Bound<'py, PyAny>>,
         start_yaw_rates: Option<&Bound<'py, PyAny>>,
+        start_velocities: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
         let commands = float_array(py, "commands", "(B, H, 2)", commands, 3)?;
         let commands: PyReadonlyArray3<'py, f64> = commands.extract()?;
@@ -418,6 +463,10 @@ impl Model {
         };
         let start_wheels = match start_wheels {
             Some(a) => Some(float_array(py, "start_wheels", "(B, 2)", a, 2)?.extract()?),
+            None => None,
+        };
+        let start_velocities = match start_velocities.filter(|a| !a.is_none()) {
+            Some(a) => Some(float_array(py, "start_velocities", "(B, 2)", a, 2)?.extract()?),
             None => None,
         };
         let shape = commands.shape().to_vec();
@@ -450,6 +499,10 @@ impl Model {
         };
         let poses0 = rows(starts, 3, "starts")?;
         let wheels = rows(start_wheels, 2, "start_wheels")?;
+        let velocities = start_velocities
+            .is_some()
+            .then(|| rows(start_velocities, 2, "start_velocities"))
+            .transpose()?;
         let yaw_rates: Option<Vec<f64>> = match start_yaw_rates.filter(|w| !w.is_none()) {
             None => None,
             Some(a) => {
@@ -472,6 +525,7 @@ impl Model {
                     [poses0[3 * i], poses0[3 * i + 1], poses0[3 * i + 2]],
                     [wheels[2 * i], wheels[2 * i + 1]],
                     yaw_rates.as_ref().map(|w| w[i]),
+                    velocities.as_ref().map(|v| [v[2 * i], v[2 * i + 1]]),
                 )
             })
             .collect();
@@ -511,16 +565,19 @@ impl Model {
 }
 
 /// Fits `model` (a model name, as `drive train --model`) on the dataset's first `split` of
-/// the intervals (all of them when None).
+/// the intervals (all of them when None), for predictions that start from `start`
+/// (`drive train --start`).
 #[pyfunction]
-#[pyo3(signature = (dataset, model, split=None))]
+#[pyo3(signature = (dataset, model, split=None, start=None))]
 fn fit(
     py: Python<'_>,
     dataset: &Bound<'_, PyAny>,
     model: &Bound<'_, PyAny>,
     split: Option<&Bound<'_, PyAny>>,
+    start: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Model> {
     let dataset = dataset_of(dataset)?;
+    let start = start_info_of(start)?;
     let model: String = model.extract().map_err(|_| {
         err(format!(
             "model must be a model name such as 'slip-blr' (see drive list), got {}",
@@ -534,6 +591,7 @@ fn fit(
         .transpose()?;
     let registries = Registries::builtin();
     let spec = registries.model(model).map_err(err)?.clone();
+    let spec = spec.clone().with_uncertainty(spec.uncertainty, start);
     let data = &dataset.inner;
     let fitted = py.detach(|| -> Result<Box<dyn MotionModel>, String> {
         let train = match split {

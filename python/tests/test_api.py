@@ -161,6 +161,44 @@ def test_the_start_yaw_rate_reaches_slip_ipem_as_on_the_command_line(husky, tmp_
         model.predict_batch(batch_commands, start_yaw_rates=0.5)
 
 
+def test_the_start_velocity_reaches_slip_ipem_as_on_the_command_line(husky, tmp_path):
+    """fit(start="encoders+imu+localization") is drive train --start, predict's
+    start_velocity drive predict's --start-velocity, predict_batch's start_velocities its
+    rows, and evaluate(start=...) drive eval --start."""
+    start = "encoders+imu+localization"
+    model = drive.fit(husky, "slip-ipem", split=0.5, start=start)
+    saved = tmp_path / "ipem.json"
+    model.save(saved)
+    rng = np.random.default_rng(12)
+    commands = rng.uniform(-5, 5, size=(40, 2))
+    cmds = tmp_path / "cmds.csv"
+    commands_csv(cmds, commands, model.dt)
+    out = cli(
+        "predict", "--model", saved, "--commands", cmds, "--start-wheels", "2,3", "--start-velocity", "0.4,-0.1"
+    ).stdout
+    lines = out.strip().splitlines()
+    header = lines[0].split(",")
+    table = np.array([[float(v) for v in l.split(",")] for l in lines[1:]])
+    expected = table[:, [header.index(c) for c in ("x", "y", "yaw")]]
+    got = model.predict(commands, start_wheels=(2.0, 3.0), start_velocity=(0.4, -0.1))
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9)
+    assert not np.allclose(got, model.predict(commands, start_wheels=(2.0, 3.0)))
+    batch_commands = rng.uniform(-5, 5, size=(5, 40, 2))
+    velocities = rng.uniform(-1, 1, size=(5, 2))
+    batch = model.predict_batch(batch_commands, start_velocities=velocities)
+    for b in range(5):
+        one = model.predict(batch_commands[b], start_velocity=velocities[b])
+        assert np.array_equal(batch[b], one), b
+    with pytest.raises(drive.DriveError, match=r"start_velocities must be a \(5, 2\) array"):
+        model.predict_batch(batch_commands, start_velocities=velocities[:2])
+    with pytest.raises(drive.DriveError, match="start_velocity: value 1 is not a finite number"):
+        model.predict(commands, start_velocity=(0.0, float("nan")))
+    expected = json.loads(cli("eval", "--json", "--models", "slip-ipem", "--start", start).stdout)
+    close(drive.evaluate(husky, models=["slip-ipem"], start=start), expected)
+    with pytest.raises(drive.DriveError, match="unknown start information"):
+        drive.evaluate(husky, models=["slip-blr"], start="gps")
+
+
 def test_user_errors_raise_with_the_command_lines_message(husky, tmp_path):
     missing = tmp_path / "missing.csv"
     cli_err = cli("eval", "--data", missing, ok=False).stderr.strip()

@@ -43,9 +43,11 @@ pub struct ModelsArg {
 #[derive(clap::Args)]
 pub struct PredictionArgs {
     /// What every model's predictions start from: the encoders only (the body velocity is
-    /// eq. 4 on the measured wheels) or the encoders and the IMU's yaw rate (used by models
-    /// whose state is a velocity, such as acc-blr).
-    #[arg(long, default_value = "encoders+imu", value_parser = ["encoders", "encoders+imu"])]
+    /// eq. 4 on the measured wheels), the encoders and the IMU's yaw rate, or these and the
+    /// localization's velocity over the half second before the window (when the preceding
+    /// window runs on into it). Models whose state is a velocity (acc-blr, slip-ipem) read
+    /// them; the paper's others start from the encoders whatever this says.
+    #[arg(long, default_value = "encoders+imu", value_parser = crate::traits::StartInfo::NAMES)]
     pub start: String,
     /// Pose covariance: calibrated (the model's own, scaled per horizon step by
     /// cross-conformal calibration on two halves of the training intervals) or paper (eq. 7

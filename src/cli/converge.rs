@@ -30,7 +30,7 @@ pub struct Args {
     #[arg(long, default_value_t = 100)]
     max_points: usize,
     /// What the predictions start from (see drive eval --help).
-    #[arg(long, default_value = "encoders+imu", value_parser = ["encoders", "encoders+imu"])]
+    #[arg(long, default_value = "encoders+imu", value_parser = crate::traits::StartInfo::NAMES)]
     start: String,
     /// Print one JSON object on stdout instead of the table.
     #[arg(long)]

@@ -29,6 +29,12 @@ pub struct Args {
     /// acc-BLR's velocity state) start from it (default: none, the encoders only).
     #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
     start_yaw_rate: Option<f64>,
+    /// The body velocity x,y (m/s, body frame: forward, left) the localization measured
+    /// just before the start, as `drive eval --start encoders+imu+localization` starts:
+    /// models that read it (slip-ipem's lagging velocity, acc-BLR's velocity state) start
+    /// from it (default: none).
+    #[arg(long, value_parser = parse_pair, allow_hyphen_values = true)]
+    start_velocity: Option<[f64; 2]>,
 }
 
 /// Reads a command file with the header `t,<columns>` sampled at period `dt`.
@@ -129,6 +135,9 @@ pub fn run(args: &Args) -> Result<()> {
     let start = args
         .start_yaw_rate
         .map_or(start, |w| start.with_yaw_rate(w));
+    let start = args
+        .start_velocity
+        .map_or(start, |v| start.with_velocity(v));
     let (mut poses, mut covs) = (Vec::new(), Vec::new());
     let with_cov = model
         .predict_with_covariance_into(&start, &cmds, &mut poses, &mut covs)

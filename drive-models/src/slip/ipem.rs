@@ -85,9 +85,9 @@ pub const FEATURES: usize = 13;
 /// The number of slip weights: [`FEATURES`] per body dimension (x, y, yaw).
 pub const WEIGHTS: usize = 3 * FEATURES;
 
-/// The number of body-dynamics parameters: the three lag logits, then the yaw
-/// disturbance's trust and persistence logits.
-pub const DYNAMICS: usize = 5;
+/// The number of body-dynamics parameters: the three lag logits, the yaw disturbance's
+/// trust and persistence logits, then the start velocity's trust logit.
+pub const DYNAMICS: usize = 6;
 
 /// The number of fitted parameters: the slip weights and the body dynamics.
 pub const PARAMETERS: usize = WEIGHTS + DYNAMICS;
@@ -96,9 +96,14 @@ pub const PARAMETERS: usize = WEIGHTS + DYNAMICS;
 /// weights and the three lag logits): its covariance is that size.
 const PARAMETERS_V1: usize = WEIGHTS + 3;
 
+/// The number of parameters of a model file written before the start velocity (the
+/// weights, the lag and the disturbance logits): its covariance is that size.
+const PARAMETERS_V2: usize = WEIGHTS + 5;
+
 /// The logits the fit starts from and is drawn towards (a weak prior): a lag of
-/// `sigmoid(3) = 0.95` per step (nearly none), a disturbance trust and persistence of 0.5.
-const DYNAMICS_PRIOR: [f64; DYNAMICS] = [3.0, 3.0, 3.0, 0.0, 0.0];
+/// `sigmoid(3) = 0.95` per step (nearly none), a disturbance trust and persistence of 0.5,
+/// a start velocity trust of `sigmoid(2) = 0.88` (a measured velocity is mostly right).
+const DYNAMICS_PRIOR: [f64; DYNAMICS] = [3.0, 3.0, 3.0, 0.0, 0.0, 2.0];
 
 /// The strength of the pull towards [`DYNAMICS_PRIOR`] (it only matters for what the data
 /// says nothing about).
@@ -270,6 +275,13 @@ pub struct SlipIpemModel {
     /// before it (no disturbance).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub disturbance_logit: Option<[f64; 2]>,
+    /// The start velocity's trust as a logit: when the body velocity is measured at the
+    /// start ([`StartState::velocity`], the localization's), the lagging velocity starts
+    /// `sigmoid(velocity_logit)` of the way from the steady velocity to it (the departure
+    /// bounded by `scale[0]` per component: a larger one is a localization glitch). Absent
+    /// from files written before it (the steady velocity).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity_logit: Option<f64>,
     /// Whether the lagging body velocity is carried through the body's rotation: true for
     /// every model fitted since it was introduced, false (absent) in files written before,
     /// which predict as they did.
@@ -283,9 +295,10 @@ pub struct SlipIpemModel {
     /// The ridge strength chosen on the inner split.
     pub ridge: f64,
     /// The covariance of the fitted parameters, row-major [`PARAMETERS`] x [`PARAMETERS`]:
-    /// the weights in the order of `weights` (x, y, yaw), then the three lag logits and the
-    /// two disturbance logits (without them, `(PARAMETERS - 2)^2` entries, in a file written
-    /// before the disturbance).
+    /// the weights in the order of `weights` (x, y, yaw), then the three lag logits, the two
+    /// disturbance logits and the start velocity's logit (in a file written before the
+    /// start velocity, without its row: `(PARAMETERS - 1)^2` entries; before the
+    /// disturbance, `(PARAMETERS - 3)^2`).
     pub weight_covariance: Vec<f64>,
     /// The variance of the body-velocity bias held over a rollout (x, y, yaw).
     pub bias_variance: [f64; 3],
@@ -304,9 +317,26 @@ struct Track {
     features: Vec<[f64; FEATURES]>,
     /// Measured poses, yaw unwrapped along the window.
     target: Vec<Pose>,
-    /// The yaw rate the IMU measured at the window start (what the predictions start from
-    /// by default), when finite.
+    /// What was measured at the window start besides the pose.
+    measured: Measured,
+}
+
+/// What a rollout starts from besides the pose, when measured: the yaw rate (the IMU) and
+/// the body's velocity (the localization just before the start), each when finite.
+#[derive(Clone, Copy, Debug, Default)]
+struct Measured {
     yaw_rate: Option<f64>,
+    velocity: Option<[f64; 2]>,
+}
+
+impl Measured {
+    /// The finite measurements of `start`.
+    fn of(start: &StartState) -> Self {
+        Measured {
+            yaw_rate: start.yaw_rate.filter(|w| w.is_finite()),
+            velocity: start.velocity.filter(|v| v.iter().all(|x| x.is_finite())),
+        }
+    }
 }
 
 /// The body dynamics' coefficients: what moves the body velocity from one step to the
@@ -324,6 +354,13 @@ struct Dynamics<Y, T = Y> {
     trust: Y,
     /// Factor by which the disturbance decays per step.
     persistence: Y,
+    /// Share of the measured start velocity's difference from the model's steady one (x
+    /// and y) that the lagging velocity starts from (0: the steady velocity).
+    velocity_trust: T,
+    /// The largest departure of the measured start velocity from the model's, per
+    /// component, taken as it is (m/s): beyond it, this much (the largest commanded speed
+    /// of the training windows: a larger one is a localization glitch, not the ground).
+    velocity_limit: f64,
     /// The largest departure of the measured start yaw rate from the model's taken as it
     /// is (rad/s): beyond it, this much (the largest commanded yaw rate of the training
     /// windows: a larger disturbance is not one the ground causes but a faulty IMU).
@@ -339,6 +376,8 @@ impl Dynamics<f64> {
         lag_yaw: 1.0,
         trust: 0.0,
         persistence: 0.0,
+        velocity_trust: 0.0,
+        velocity_limit: 0.0,
         disturbance_limit: 0.0,
         transport: true,
     };
@@ -350,6 +389,8 @@ impl Dynamics<f64> {
             lag_yaw: T::from(self.lag_yaw),
             trust: T::from(self.trust),
             persistence: T::from(self.persistence),
+            velocity_trust: T::from(self.velocity_trust),
+            velocity_limit: self.velocity_limit,
             disturbance_limit: self.disturbance_limit,
             transport: self.transport,
         }
@@ -379,19 +420,20 @@ where
     }
 
     /// The body velocity (x and y, yaw rate) of the next step towards the steady velocity
-    /// `target`; the first step starts at `target`, and the yaw rate measured then (when
-    /// given) sets the disturbance.
+    /// `target`; the first step starts at `target`, moved towards the velocity measured
+    /// then (when given) by its trust, and the yaw rate measured then (when given) sets the
+    /// disturbance.
     #[inline]
     fn step(
         &mut self,
         target: ([T; 2], Y),
         dynamics: &Dynamics<Y, T>,
-        measured_yaw_rate: Option<f64>,
+        measured: &Measured,
         dt: f64,
     ) -> ([T; 2], Y) {
         let (xy, yaw_rate) = match self.velocity {
             None => {
-                if let Some(w) = measured_yaw_rate {
+                if let Some(w) = measured.yaw_rate {
                     let limit = dynamics.disturbance_limit;
                     let departure = Y::from(w) - target.1;
                     let departure = if departure.re().abs() > limit {
@@ -401,7 +443,20 @@ where
                     };
                     self.disturbance = dynamics.trust * departure;
                 }
-                target
+                let xy = match measured.velocity {
+                    Some(v) => std::array::from_fn(|i| {
+                        let limit = dynamics.velocity_limit;
+                        let departure = T::from(v[i]) - target.0[i];
+                        let departure = if departure.re().abs() > limit {
+                            T::from(limit.copysign(departure.re()))
+                        } else {
+                            departure
+                        };
+                        target.0[i] + dynamics.velocity_trust * departure
+                    }),
+                    None => target.0,
+                };
+                (xy, target.1)
             }
             Some(([mut px, mut py], pz)) => {
                 if dynamics.transport {
@@ -436,7 +491,7 @@ where
 #[inline]
 fn rollout<Y, T>(
     start: &Pose,
-    measured_yaw_rate: Option<f64>,
+    measured: &Measured,
     f: &[BodyVelocity],
     dt: f64,
     dynamics: &Dynamics<Y, T>,
@@ -461,7 +516,7 @@ fn rollout<Y, T>(
             [T::from(fk.x) - g[0], T::from(fk.y) - g[1]],
             Y::from(fk.z) - gz,
         );
-        let ([vx, vy], vz) = body.step(target, dynamics, measured_yaw_rate, dt);
+        let ([vx, vy], vz) = body.step(target, dynamics, measured, dt);
         let (s, c) = yaw.sin_cos();
         x += (vx * c - vy * s) * dt;
         y += (vx * s + vy * c) * dt;
@@ -536,8 +591,8 @@ fn dot(w: &[f64], phi: &[f64; FEATURES]) -> f64 {
 const YAW_VARIABLES: usize = FEATURES + 3;
 
 /// The dual numbers of the Jacobian's position-path group: the x and y weights, the x and
-/// y lags.
-const POSITION_VARIABLES: usize = 2 * FEATURES + 2;
+/// y lags, the start velocity's trust.
+const POSITION_VARIABLES: usize = 2 * FEATURES + 3;
 
 type YawDual = DualSVec64<YAW_VARIABLES>;
 type PositionDual = DualSVec64<POSITION_VARIABLES>;
@@ -558,7 +613,7 @@ fn position_variable(j: usize) -> usize {
     if j < 2 * FEATURES {
         j
     } else {
-        WEIGHTS + (j - 2 * FEATURES)
+        [WEIGHTS, WEIGHTS + 1, WEIGHTS + 5][j - 2 * FEATURES]
     }
 }
 
@@ -615,16 +670,19 @@ fn sigmoid<T: DualNum<f64> + Copy>(x: T) -> T {
     (T::from(1.0) + (-x).exp()).recip()
 }
 
-/// The body dynamics of the logits in `theta` (with the disturbance and transport of a
-/// model fitted now), the disturbance bounded by `limit` (rad/s).
-fn dynamics_of(theta: &[f64; PARAMETERS], limit: f64) -> Dynamics<f64> {
+/// The body dynamics of the logits in `theta` (with the disturbance, start velocity and
+/// transport of a model fitted now), the start velocity's departure bounded by `limits[0]`
+/// (m/s), the disturbance by `limits[1]` (rad/s).
+fn dynamics_of(theta: &[f64; PARAMETERS], limits: [f64; 2]) -> Dynamics<f64> {
     let c = |j: usize| sigmoid(theta[WEIGHTS + j]);
     Dynamics {
         lag_xy: [c(0), c(1)],
         lag_yaw: c(2),
         trust: c(3),
         persistence: c(4),
-        disturbance_limit: limit,
+        velocity_trust: c(5),
+        velocity_limit: limits[0],
+        disturbance_limit: limits[1],
         transport: true,
     }
 }
@@ -635,12 +693,12 @@ fn seeded_sigmoid<const N: usize>(logit: f64, index: usize) -> DualSVec64<N> {
 }
 
 /// The body dynamics as dual numbers seeded on their logits in `theta` (variables
-/// `WEIGHTS + j`); without `disturbance`, none (and no derivative), else bounded by
-/// `limit`.
+/// `WEIGHTS + j`); without `disturbance` (`velocity`), no disturbance (start velocity) and
+/// no derivative for it; bounded by `limits` as in [`dynamics_of`].
 fn seeded_dynamics<const N: usize>(
     theta: &[f64; PARAMETERS],
-    disturbance: bool,
-    limit: f64,
+    [disturbance, velocity]: [bool; 2],
+    limits: [f64; 2],
     transport: bool,
 ) -> Dynamics<DualSVec64<N>> {
     let c = |j: usize| seeded_sigmoid::<N>(theta[WEIGHTS + j], WEIGHTS + j);
@@ -650,7 +708,9 @@ fn seeded_dynamics<const N: usize>(
         lag_yaw: c(2),
         trust: if disturbance { c(3) } else { zero },
         persistence: if disturbance { c(4) } else { zero },
-        disturbance_limit: limit,
+        velocity_trust: if velocity { c(5) } else { zero },
+        velocity_limit: limits[0],
+        disturbance_limit: limits[1],
         transport,
     }
 }
@@ -703,6 +763,12 @@ impl<'a> Ipem<'a> {
         }
     }
 
+    /// The bounds of the start velocity's departure (the largest commanded speed) and of
+    /// the disturbance (the largest commanded yaw rate).
+    fn limits(&self) -> [f64; 2] {
+        [self.scale[0], self.scale[2]]
+    }
+
     /// The penalty at `u`: the ridge on the weights, the weak pull of the body dynamics'
     /// logits towards [`DYNAMICS_PRIOR`].
     fn penalty(&self, u: &DVector<f64>) -> f64 {
@@ -740,7 +806,7 @@ impl<'a> Ipem<'a> {
     /// The sums of the residuals' robust losses at `u` per interval, in the tracks' order.
     fn losses_by_interval(&self, u: &[f64]) -> Vec<f64> {
         let theta = theta_of(u, &self.scale);
-        let dynamics = dynamics_of(&theta, self.scale[2]);
+        let dynamics = dynamics_of(&theta, self.limits());
         let mut out: Vec<f64> = Vec::new();
         let mut interval = None;
         for t in &self.tracks {
@@ -752,7 +818,7 @@ impl<'a> Ipem<'a> {
             let slip = |k: usize| split(slip_of(&theta, &t.features[k]));
             rollout(
                 &t.target[0],
-                t.yaw_rate,
+                &t.measured,
                 &t.f,
                 self.dt,
                 &dynamics,
@@ -774,7 +840,7 @@ impl<'a> Ipem<'a> {
         let theta = theta_of(u, &self.scale);
         let weights = |d: usize| &theta[d * FEATURES..(d + 1) * FEATURES];
         let logit = |j: usize| theta[WEIGHTS + j];
-        let fixed = dynamics_of(&theta, self.scale[2]);
+        let fixed = dynamics_of(&theta, self.limits());
         // The Jacobian in two groups of columns, each by forward-mode differentiation of the
         // rollout: the yaw path's variables (the yaw weights, the yaw lag, the disturbance's
         // trust and persistence), on which every residual depends; then the position path's
@@ -785,6 +851,8 @@ impl<'a> Ipem<'a> {
             lag_yaw: seeded_sigmoid(logit(2), FEATURES),
             trust: seeded_sigmoid(logit(3), FEATURES + 1),
             persistence: seeded_sigmoid(logit(4), FEATURES + 2),
+            velocity_trust: YawDual::from(fixed.velocity_trust),
+            velocity_limit: fixed.velocity_limit,
             disturbance_limit: fixed.disturbance_limit,
             transport: true,
         };
@@ -796,6 +864,8 @@ impl<'a> Ipem<'a> {
             lag_yaw: fixed.lag_yaw,
             trust: fixed.trust,
             persistence: fixed.persistence,
+            velocity_trust: seeded_sigmoid(logit(5), 2 * FEATURES + 2),
+            velocity_limit: fixed.velocity_limit,
             disturbance_limit: fixed.disturbance_limit,
             transport: true,
         };
@@ -816,7 +886,7 @@ impl<'a> Ipem<'a> {
             };
             rollout(
                 &t.target[0],
-                t.yaw_rate,
+                &t.measured,
                 &t.f,
                 self.dt,
                 &yaw_dynamics,
@@ -851,7 +921,7 @@ impl<'a> Ipem<'a> {
             let mut col = 0;
             rollout(
                 &t.target[0],
-                t.yaw_rate,
+                &t.measured,
                 &t.f,
                 self.dt,
                 &position_dynamics,
@@ -1075,12 +1145,18 @@ impl SlipIpem {
                     .map(|f| slip_features(f, &scale))
                     .collect(),
                 target,
-                yaw_rate: w
-                    .window
-                    .imu_yaw_rate
-                    .first()
-                    .copied()
-                    .filter(|w| w.is_finite()),
+                measured: Measured {
+                    yaw_rate: w
+                        .window
+                        .imu_yaw_rate
+                        .first()
+                        .copied()
+                        .filter(|w| w.is_finite()),
+                    velocity: w
+                        .window
+                        .start_velocity
+                        .filter(|v| v.iter().all(|x| x.is_finite())),
+                },
             });
         }
         if tracks.is_empty() {
@@ -1103,7 +1179,7 @@ fn error_scales(tracks: &[&Track], dt: f64) -> [f64; 2] {
         let slip = |k: usize| split(slip_of(&zero, &t.features[k]));
         rollout(
             &t.target[0],
-            None,
+            &Measured::default(),
             &t.f,
             dt,
             &Dynamics::NONE,
@@ -1416,10 +1492,18 @@ impl SlipIpem {
                 what: "slip-ipem: the weights' covariance".into(),
             })?;
         let cov_u = &h_inv * meat * &h_inv / (n * n);
-        let weight_covariance: Vec<f64> = (0..PARAMETERS)
+        // Without a measured start velocity in the training windows its trust is not
+        // fitted: the model has none (its file is that of a model fitted before it).
+        let with_velocity = all.iter().any(|t| t.measured.velocity.is_some());
+        let size = if with_velocity {
+            PARAMETERS
+        } else {
+            PARAMETERS_V2
+        };
+        let weight_covariance: Vec<f64> = (0..size)
             .flat_map(|i| {
                 let cov_u = &cov_u;
-                (0..PARAMETERS).map(move |j| {
+                (0..size).map(move |j| {
                     let unit_of = |i: usize| if i < WEIGHTS { unit[i / FEATURES] } else { 1.0 };
                     cov_u[(i, j)] * unit_of(i) * unit_of(j)
                 })
@@ -1433,13 +1517,14 @@ impl SlipIpem {
             Some((tracks, theta_inner)) => (tracks, theta_inner),
             None => (all.to_vec(), theta),
         };
-        let bias_variance = bias_variance(&bias_tracks, &bias_theta, unit[2], dt);
+        let bias_variance = bias_variance(&bias_tracks, &bias_theta, [unit[0], unit[2]], dt);
 
         let model = SlipIpemModel {
             scale,
             weights: [0, 1, 2].map(|d| theta[d * FEATURES..(d + 1) * FEATURES].to_vec()),
             lag_logit: std::array::from_fn(|d| theta[WEIGHTS + d]),
             disturbance_logit: Some([theta[WEIGHTS + 3], theta[WEIGHTS + 4]]),
+            velocity_logit: with_velocity.then_some(theta[WEIGHTS + 5]),
             transport: true,
             dt,
             ridge,
@@ -1456,11 +1541,16 @@ impl SlipIpem {
 /// The variance of a body-velocity bias (x, y, yaw) held over each rollout that makes the
 /// predicted squared pose errors match the measured ones on `tracks`, on average over
 /// their steps: least squares of `e_i^2 ~ sum_d q_d (de_i / db_d)^2`, clamped at zero
-/// (yaw first, which only the yaw bias moves; then one variance for x and y). `limit`
-/// bounds the yaw disturbance (rad/s).
-fn bias_variance(tracks: &[&Track], theta: &[f64; PARAMETERS], limit: f64, dt: f64) -> [f64; 3] {
+/// (yaw first, which only the yaw bias moves; then one variance for x and y). `limits`
+/// bound the start velocity and the yaw disturbance (see [`dynamics_of`]).
+fn bias_variance(
+    tracks: &[&Track],
+    theta: &[f64; PARAMETERS],
+    limits: [f64; 2],
+    dt: f64,
+) -> [f64; 3] {
     let theta_d: [DualSVec64<3>; PARAMETERS] = theta.map(DualSVec64::from);
-    let dynamics = dynamics_of(theta, limit).constant::<DualSVec64<3>>();
+    let dynamics = dynamics_of(theta, limits).constant::<DualSVec64<3>>();
     // The bias enters as slip: its derivative is the slip's with respect to the bias.
     let bias: [DualSVec64<3>; 3] = std::array::from_fn(|d| DualSVec64::from(0.0).derivative(d));
     // Sums for the yaw regression and the translational one.
@@ -1474,7 +1564,7 @@ fn bias_variance(tracks: &[&Track], theta: &[f64; PARAMETERS], limit: f64, dt: f
         };
         rollout(
             &t.target[0],
-            t.yaw_rate,
+            &t.measured,
             &t.f,
             dt,
             &dynamics,
@@ -1506,8 +1596,9 @@ fn bias_variance(tracks: &[&Track], theta: &[f64; PARAMETERS], limit: f64, dt: f
 }
 
 impl SlipIpemModel {
-    /// The parameters as one fixed-size array: the weights (x, y, yaw), the lag logits and
-    /// the disturbance logits (0 in a file written before them, whose disturbance is off);
+    /// The parameters as one fixed-size array: the weights (x, y, yaw), the lag logits, the
+    /// disturbance logits and the start velocity's logit (0 in a file written before them,
+    /// where they are off);
     /// NaN where a loaded file lacks a weight, so that a malformed model never predicts
     /// plausible numbers.
     fn theta(&self) -> [f64; PARAMETERS] {
@@ -1519,14 +1610,16 @@ impl SlipIpemModel {
                     .unwrap_or(f64::NAN)
             } else if j < WEIGHTS + 3 {
                 self.lag_logit[j - WEIGHTS]
-            } else {
+            } else if j < WEIGHTS + 5 {
                 self.disturbance_logit.map_or(0.0, |d| d[j - WEIGHTS - 3])
+            } else {
+                self.velocity_logit.unwrap_or(0.0)
             }
         })
     }
 
-    /// The body dynamics: the lags, the disturbance (none in a file written before it) and
-    /// the transport.
+    /// The body dynamics: the lags, the disturbance and the start velocity (none in a file
+    /// written before them) and the transport.
     fn dynamics(&self) -> Dynamics<f64> {
         let [lx, ly, lz] = self.lag_logit.map(sigmoid);
         let [trust, persistence] = self.disturbance_logit.map_or([0.0; 2], |d| d.map(sigmoid));
@@ -1535,53 +1628,52 @@ impl SlipIpemModel {
             lag_yaw: lz,
             trust,
             persistence,
+            velocity_trust: self.velocity_logit.map_or(0.0, sigmoid),
+            velocity_limit: self.scale[0],
             disturbance_limit: self.scale[1],
             transport: self.transport,
         }
     }
 
-    /// The parameters' covariance (a file written before the disturbance holds the weights'
-    /// and lags' only: the disturbance's rows are zero, it is off); `None` for a covariance
-    /// of another size.
+    /// The parameters' covariance (a file written before the disturbance or the start
+    /// velocity holds the parameters it had only: the others' rows are zero, they are off);
+    /// `None` for a covariance of another size.
     fn covariance(&self) -> Option<SMatrix<f64, PARAMETERS, PARAMETERS>> {
         let c = &self.weight_covariance;
-        if c.len() == PARAMETERS * PARAMETERS {
-            return Some(SMatrix::from_row_slice(c));
-        }
-        if self.disturbance_logit.is_none() && c.len() == PARAMETERS_V1 * PARAMETERS_V1 {
-            return Some(SMatrix::from_fn(|i, j| {
-                if i < PARAMETERS_V1 && j < PARAMETERS_V1 {
-                    c[i * PARAMETERS_V1 + j]
+        let size = self.covariance_size();
+        (c.len() == size * size).then(|| {
+            SMatrix::from_fn(|i, j| {
+                if i < size && j < size {
+                    c[i * size + j]
                 } else {
                     0.0
                 }
-            }));
-        }
-        None
+            })
+        })
     }
 
-    /// The body velocities of a rollout through `f` (eq. 2 through the body dynamics), the
-    /// yaw rate measured at the start setting the disturbance when given.
-    fn velocities(&self, yaw_rate: Option<f64>, f: &[BodyVelocity], out: &mut Vec<BodyVelocity>) {
+    /// The body velocities of a rollout through `f` (eq. 2 through the body dynamics) from
+    /// what was measured at the start.
+    fn velocities(&self, measured: &Measured, f: &[BodyVelocity], out: &mut Vec<BodyVelocity>) {
         let theta = self.theta();
         let dynamics = self.dynamics();
-        let yaw_rate = yaw_rate.filter(|w| w.is_finite());
         let mut body = Body::new();
         out.clear();
         out.extend(f.iter().map(|f| {
             let g = slip_of(&theta, &slip_features(f, &self.scale));
             let target = ([f.x - g[0], f.y - g[1]], f.z - g[2]);
-            let ([x, y], z) = body.step(target, &dynamics, yaw_rate, self.dt);
+            let ([x, y], z) = body.step(target, &dynamics, measured, self.dt);
             BodyVelocity::new(x, y, z)
         }));
     }
 
-    /// The size the covariance of this model's file has.
+    /// The size the covariance of this model's file has: the parameters it holds (the
+    /// disturbance and start velocity came later; a file with the start velocity has both).
     fn covariance_size(&self) -> usize {
-        if self.disturbance_logit.is_some() {
-            PARAMETERS
-        } else {
-            PARAMETERS_V1
+        match (self.disturbance_logit, self.velocity_logit) {
+            (_, Some(_)) => PARAMETERS,
+            (Some(_), None) => PARAMETERS_V2,
+            (None, None) => PARAMETERS_V1,
         }
     }
 }
@@ -1607,17 +1699,18 @@ impl SlipModel for SlipIpemModel {
     }
 
     fn body_velocities_into(&self, f: &[BodyVelocity], out: &mut Vec<BodyVelocity>) {
-        self.velocities(None, f, out);
+        self.velocities(&Measured::default(), f, out);
     }
 
-    /// The body dynamics from the yaw rate measured at the start, when there is one.
+    /// The body dynamics from the yaw rate and the velocity measured at the start, when
+    /// there are.
     fn rollout_velocities_into(
         &self,
         start: &StartState,
         f: &[BodyVelocity],
         out: &mut Vec<BodyVelocity>,
     ) {
-        self.velocities(start.yaw_rate, f, out);
+        self.velocities(&Measured::of(start), f, out);
     }
 
     /// The weights' covariance and the held bias pushed through the rollout (first order,
@@ -1650,16 +1743,18 @@ impl SlipModel for SlipIpemModel {
         };
         let dynamics = seeded_dynamics::<WITH_BIAS>(
             &theta,
-            self.disturbance_logit.is_some(),
-            self.scale[1],
+            [
+                self.disturbance_logit.is_some(),
+                self.velocity_logit.is_some(),
+            ],
+            self.scale,
             self.transport,
         );
         let q = self.bias_variance;
         out.push(PoseCovariance::zeros());
-        let yaw_rate = start.yaw_rate.filter(|w| w.is_finite());
         rollout(
             &start.pose,
-            yaw_rate,
+            &Measured::of(start),
             f,
             dt,
             &dynamics,
@@ -1711,12 +1806,17 @@ impl SlipModel for SlipIpemModel {
                 ));
             }
         }
-        let logits = self.lag_logit.iter().map(|v| ("lag", v)).chain(
-            self.disturbance_logit
-                .iter()
-                .flatten()
-                .map(|v| ("disturbance", v)),
-        );
+        let logits = self
+            .lag_logit
+            .iter()
+            .map(|v| ("lag", v))
+            .chain(
+                self.disturbance_logit
+                    .iter()
+                    .flatten()
+                    .map(|v| ("disturbance", v)),
+            )
+            .chain(self.velocity_logit.iter().map(|v| ("start velocity", v)));
         for (what, v) in logits {
             if !(v.is_finite() && v.abs() <= MAX_LOGIT) {
                 return Err(format!(
@@ -1811,6 +1911,7 @@ mod tests {
             weights: w,
             lag_logit: [8.0, 8.0, (0.3f64 / 0.7).ln()],
             disturbance_logit: Some([-30.0, 0.0]),
+            velocity_logit: Some(-30.0),
             transport: true,
             dt: 0.05,
             ridge: 0.0,
@@ -1860,6 +1961,7 @@ mod tests {
                 measured: command,
                 pose,
                 imu_yaw_rate,
+                start_velocity: None,
             });
         }
         (robot, out)
@@ -2125,6 +2227,7 @@ mod tests {
             ],
             lag_logit: lag,
             disturbance_logit: Some(disturbance),
+            velocity_logit: Some(-30.0),
             transport,
             dt: 0.05,
             ridge: 0.0,
@@ -2174,6 +2277,78 @@ mod tests {
         assert!(v.iter().all(|v| (v.z - 0.2).abs() < 1e-12));
         model.body_velocities_into(&f, &mut v);
         assert!(v.iter().all(|v| (v.z - 0.2).abs() < 1e-12));
+    }
+
+    #[test]
+    fn a_measured_start_velocity_starts_the_lagging_velocity() {
+        // Lag 0.25 per step along x and y, none in yaw, no transport (no turning anyway);
+        // the start velocity trusted at 0.75.
+        let mut model = dynamics_only(
+            [(0.25f64 / 0.75).ln(), (0.25f64 / 0.75).ln(), 40.0],
+            [-40.0, 0.0],
+            false,
+        );
+        model.velocity_logit = Some(3f64.ln());
+        let f = vec![BodyVelocity::new(1.0, 0.0, 0.0); 10];
+        let mut v = Vec::new();
+        let start = StartState::at_rest(Pose::zeros()).with_velocity([0.2, 0.4]);
+        model.rollout_velocities_into(&start, &f, &mut v);
+        for (k, v) in v.iter().enumerate() {
+            // Starts 0.75 of the way from the steady (1, 0) to the measured (0.2, 0.4), then
+            // covers a quarter of the remaining way each step.
+            let share = 0.75 * 0.75f64.powi(k as i32);
+            let expected = [1.0 + share * (0.2 - 1.0), share * 0.4];
+            assert!(
+                (v.x - expected[0]).abs() < 1e-12,
+                "{k}: {} vs {:?}",
+                v.x,
+                expected
+            );
+            assert!(
+                (v.y - expected[1]).abs() < 1e-12,
+                "{k}: {} vs {:?}",
+                v.y,
+                expected
+            );
+        }
+        // A localization glitch departs by at most the largest commanded speed (scale 1).
+        let glitch = StartState::at_rest(Pose::zeros()).with_velocity([-1e9, 0.0]);
+        model.rollout_velocities_into(&glitch, &f, &mut v);
+        assert!((v[0].x - (1.0 - 0.75)).abs() < 1e-12, "{}", v[0].x);
+        // A non-finite measurement is no measurement.
+        let broken = StartState::at_rest(Pose::zeros()).with_velocity([0.2, f64::NAN]);
+        model.rollout_velocities_into(&broken, &f, &mut v);
+        assert!(v.iter().all(|v| v.x == 1.0 && v.y == 0.0));
+        // Without a measured velocity, the steady one; and a file without the trust (written
+        // before it) ignores a measured one.
+        model.rollout_velocities_into(&StartState::at_rest(Pose::zeros()), &f, &mut v);
+        assert!(v.iter().all(|v| v.x == 1.0 && v.y == 0.0));
+        model.velocity_logit = None;
+        model.weight_covariance = vec![0.0; PARAMETERS_V2 * PARAMETERS_V2];
+        assert!(model.check().is_ok());
+        model.rollout_velocities_into(&start, &f, &mut v);
+        assert!(v.iter().all(|v| v.x == 1.0 && v.y == 0.0));
+    }
+
+    #[test]
+    fn the_start_velocity_is_fitted_only_when_the_training_windows_have_it() {
+        let (robot, mut ws) = windows(40, 5);
+        let learner = Composed::new(Commanded, SlipIpem::default());
+        let without = learner.fit(&WindowSet::new(&robot, &ws)).unwrap();
+        let json = |m: &dyn MotionModel| serde_json::to_value(m).unwrap();
+        assert!(json(&without)["slip"].get("velocity_logit").is_none());
+        // The windows start at their steady velocity (the generator's), measured with an
+        // error: the trust is fitted, and a fit with it has the longer covariance.
+        for (i, w) in ws.iter_mut().enumerate() {
+            w.start_velocity = Some([0.1 * ((i % 5) as f64 - 2.0), 0.0]);
+        }
+        let with = learner.fit(&WindowSet::new(&robot, &ws)).unwrap();
+        let slip = &json(&with)["slip"];
+        assert!(slip["velocity_logit"].as_f64().unwrap().is_finite());
+        assert_eq!(
+            slip["weight_covariance"].as_array().unwrap().len(),
+            PARAMETERS * PARAMETERS
+        );
     }
 
     #[test]
@@ -2247,7 +2422,12 @@ mod tests {
 
     #[test]
     fn jacobian_in_two_groups_equals_the_forward_mode_jacobian_of_every_parameter() {
-        let (robot, ws) = windows(6, 8);
+        let (robot, mut ws) = windows(6, 8);
+        // Start velocities measured at some windows (off the steady ones, within and beyond
+        // the bound), so that their trust's column is checked too.
+        for (i, w) in ws.iter_mut().enumerate().filter(|(i, _)| i % 3 != 2) {
+            w.start_velocity = Some([0.3 * i as f64 - 0.4, 0.1 - 0.5 * i as f64]);
+        }
         let set = WindowSet::new(&robot, &ws);
         let data = SlipData::new(&set, &CommandedPowertrain);
         let Prepared {
@@ -2264,12 +2444,13 @@ mod tests {
                 if j < WEIGHTS {
                     0.07 * ((j * 5 % 13) as f64 - 6.0)
                 } else {
-                    [0.5, -1.0, 1.5, 0.3, 1.2][j - WEIGHTS]
+                    [0.5, -1.0, 1.5, 0.3, 1.2, 0.4][j - WEIGHTS]
                 }
             })
             .collect();
         let theta = theta_of(&u, &unit);
-        let dynamics = seeded_dynamics::<PARAMETERS>(&theta, true, unit[2], true);
+        let dynamics =
+            seeded_dynamics::<PARAMETERS>(&theta, [true, true], [unit[0], unit[2]], true);
         let mut checked = 0;
         problem.jacobians(&u, |i, jt, r| {
             let t = all[i];
@@ -2284,7 +2465,7 @@ mod tests {
             let mut col = 0;
             rollout(
                 &t.target[0],
-                t.yaw_rate,
+                &t.measured,
                 &t.f,
                 dt,
                 &dynamics,

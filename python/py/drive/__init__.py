@@ -39,10 +39,11 @@ __all__ = [
 ]
 
 
-def evaluate(dataset, models=None, split=0.5):
+def evaluate(dataset, models=None, split=0.5, start=None):
     """The models (default: naive, powertrain, slip-blr, acc-blr) fitted on the first
-    `split` of the dataset's intervals and scored on the rest: the same dict as
-    `drive eval --json`."""
+    `split` of the dataset's intervals and scored on the rest, their predictions starting
+    from `start` ("encoders", "encoders+imu" (the default) or "encoders+imu+localization",
+    as `drive eval --start`): the same dict as `drive eval --json`."""
     if isinstance(models, str):
         models = [m.strip() for m in models.split(",") if m.strip()]
     if not _is_number(split):
@@ -51,7 +52,9 @@ def evaluate(dataset, models=None, split=0.5):
         raise DriveError(
             f"models must be model names (a list of str, or one str with commas), got {models!r}"
         )
-    return _json.loads(_evaluate_json(dataset, None if models is None else list(models), float(split)))
+    return _json.loads(
+        _evaluate_json(dataset, None if models is None else list(models), float(split), start)
+    )
 
 
 class Measurements:
