@@ -291,7 +291,7 @@ pub fn vehicle_mismatch(
 ///     command: vec![Input::zeros(); 5], measured: vec![Input::zeros(); 5],
 ///     // Turning at 1 rad/s through +-pi, localized every other sample.
 ///     pose: [3.0, 3.0, 3.1, 3.1, -3.083185307179586].iter().map(|&z| Pose::new(0.0, 0.0, z)).collect(),
-///     imu_yaw_rate: vec![0.0; 5],
+///     imu_yaw_rate: vec![0.0; 5], start_velocity: None,
 /// };
 /// let r = drive_data::quality::yaw_rate_from_localization(&w, 0.05);
 /// assert!(r.iter().all(|v| v.abs() < 2.5 && *v > 0.0), "{r:?}");

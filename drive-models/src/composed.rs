@@ -30,7 +30,7 @@ use std::sync::Arc;
 /// assert_eq!(naive.label(), "no-slip+commanded");
 /// let robot = RobotDescription::new("toy", "", 10.0, 3, DifferentialDrive::new(0.1, 0.5));
 /// let w = Window { index: 0, interval: 0, phase: Phase::Transient, command: vec![Input::new(10.0, 10.0); 3],
-///     measured: vec![Input::zeros(); 3], pose: vec![Pose::zeros(); 3], imu_yaw_rate: vec![0.0; 3] };
+///     measured: vec![Input::zeros(); 3], pose: vec![Pose::zeros(); 3], imu_yaw_rate: vec![0.0; 3], start_velocity: None };
 /// let windows = [w];
 /// let model = naive.fit(&WindowSet::new(&robot, &windows)).unwrap();
 /// let poses = model.predict(&StartState::at_rest(Pose::zeros()), &[Input::new(10.0, 10.0); 3]);
@@ -100,7 +100,7 @@ impl Composed {
     /// use drive_traits::{Input, Learner, MotionModel, Phase, Pose, RobotDescription, StartState, Window, WindowSet};
     /// let robot = RobotDescription::new("toy", "", 10.0, 3, DifferentialDrive::new(0.1, 0.5));
     /// let w = |i| Window { index: i, interval: i, phase: Phase::Transient, command: vec![Input::new(10.0, 10.0); 3],
-    ///     measured: vec![Input::zeros(); 3], pose: vec![Pose::zeros(); 3], imu_yaw_rate: vec![0.0; 3] };
+    ///     measured: vec![Input::zeros(); 3], pose: vec![Pose::zeros(); 3], imu_yaw_rate: vec![0.0; 3], start_velocity: None };
     /// let windows = [w(0), w(1)];
     /// let learner = Composed::new(Commanded, NoSlip);
     /// let mut fit = learner.growing(&robot).expect("no-slip fits online");

@@ -157,7 +157,7 @@ impl Window {
     ///     index: 0, interval: 0, phase: Phase::Transient,
     ///     command: vec![Default::default(); 5], measured: vec![Default::default(); 5],
     ///     pose: yaws.iter().map(|y| Pose::new(0.0, 0.0, *y)).collect(),
-    ///     imu_yaw_rate: vec![0.0; 5],
+    ///     imu_yaw_rate: vec![0.0; 5], start_velocity: None,
     /// };
     /// assert!((w.paper_frame_angle() - (-18.77 / 5.0)).abs() < 1e-12);
     /// ```
@@ -188,7 +188,7 @@ impl Window {
     ///     .collect();
     /// let mut w = Window { index: 0, interval: 0, phase: Phase::Transient,
     ///     command: vec![Input::zeros(); 6], measured: vec![Input::zeros(); 6],
-    ///     pose, imu_yaw_rate: vec![0.0; 6] };
+    ///     pose, imu_yaw_rate: vec![0.0; 6], start_velocity: None };
     /// assert!((w.paper_frame_angle() - a).abs() < 1e-12);
     /// w.to_first_sample_frame();
     /// assert!((w.pose[5].x - 0.5).abs() < 1e-12 && w.pose[5].y.abs() < 1e-12);
@@ -224,7 +224,7 @@ impl Window {
     /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
     /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
     /// let w = Window { index: 0, interval: 0, phase: Phase::Steady, command: vec![Input::zeros(); 2],
-    ///     measured: vec![Input::new(1.0, 0.5); 2], pose: vec![Pose::zeros(); 2], imu_yaw_rate: vec![0.3; 2] };
+    ///     measured: vec![Input::new(1.0, 0.5); 2], pose: vec![Pose::zeros(); 2], imu_yaw_rate: vec![0.3; 2], start_velocity: None };
     /// assert_eq!(w.start_state_with(&V, StartInfo::Encoders).body_velocity.z, 0.5);
     /// assert_eq!(w.start_state_with(&V, StartInfo::EncodersImu).body_velocity.z, 0.3);
     /// assert_eq!(w.start_state_with(&V, StartInfo::EncodersImu).yaw_rate, Some(0.3));
@@ -486,7 +486,7 @@ impl<'a> WindowSet<'a> {
     /// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
     /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
     /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
-    /// let window = |index, interval| Window { index, interval, phase: Phase::Steady, command: vec![], measured: vec![], pose: vec![], imu_yaw_rate: vec![] };
+    /// let window = |index, interval| Window { index, interval, phase: Phase::Steady, command: vec![], measured: vec![], pose: vec![], imu_yaw_rate: vec![], start_velocity: None };
     /// let data = Dataset { robot: RobotDescription::new("toy", "", 20.0, 40, V),
     ///     windows: (0..10).map(|i| window(i, i / 2)).collect() };
     /// let folds = data.all().interval_folds(2).unwrap(); // 5 intervals: 2 and 3
