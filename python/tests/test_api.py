@@ -73,6 +73,19 @@ def commands_csv(path, commands, dt):
     path.write_text("\n".join(rows) + "\n")
 
 
+def cli_poses(model, commands, tmp_path, *flags):
+    """The x, y, yaw columns `drive predict` prints for `model` (saved to a file) on
+    `commands`, with the start `flags`."""
+    saved = tmp_path / "model.json"
+    model.save(saved)
+    cmds = tmp_path / "cmds.csv"
+    commands_csv(cmds, commands, model.dt)
+    lines = cli("predict", "--model", saved, "--commands", cmds, *flags).stdout.strip().splitlines()
+    header = lines[0].split(",")
+    table = np.array([[float(v) for v in l.split(",")] for l in lines[1:]])
+    return table[:, [header.index(c) for c in ("x", "y", "yaw")]]
+
+
 def test_predict_equals_drive_train_and_predict(husky, tmp_path):
     rng = np.random.default_rng(7)
     commands = rng.uniform(-5, 5, size=(40, 2))
@@ -117,19 +130,9 @@ def test_the_start_yaw_rate_reaches_slip_ipem_as_on_the_command_line(husky, tmp_
     start_yaw_rate is drive predict's --start-yaw-rate, and predict_batch's start_yaw_rates
     its rows."""
     model = drive.fit(husky, "slip-ipem", split=0.5)
-    saved = tmp_path / "ipem.json"
-    model.save(saved)
     rng = np.random.default_rng(11)
     commands = rng.uniform(-5, 5, size=(40, 2))
-    cmds = tmp_path / "cmds.csv"
-    commands_csv(cmds, commands, model.dt)
-    out = cli(
-        "predict", "--model", saved, "--commands", cmds, "--start-wheels", "2,3", "--start-yaw-rate", "0.6"
-    ).stdout
-    lines = out.strip().splitlines()
-    header = lines[0].split(",")
-    table = np.array([[float(v) for v in l.split(",")] for l in lines[1:]])
-    expected = table[:, [header.index(c) for c in ("x", "y", "yaw")]]
+    expected = cli_poses(model, commands, tmp_path, "--start-wheels", "2,3", "--start-yaw-rate", "0.6")
     got = model.predict(commands, start_wheels=(2.0, 3.0), start_yaw_rate=0.6)
     np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9)
     # The measured yaw rate changes the prediction; None is no measurement.
@@ -167,19 +170,9 @@ def test_the_start_velocity_reaches_slip_ipem_as_on_the_command_line(husky, tmp_
     rows, and evaluate(start=...) drive eval --start."""
     start = "encoders+imu+localization"
     model = drive.fit(husky, "slip-ipem", split=0.5, start=start)
-    saved = tmp_path / "ipem.json"
-    model.save(saved)
     rng = np.random.default_rng(12)
     commands = rng.uniform(-5, 5, size=(40, 2))
-    cmds = tmp_path / "cmds.csv"
-    commands_csv(cmds, commands, model.dt)
-    out = cli(
-        "predict", "--model", saved, "--commands", cmds, "--start-wheels", "2,3", "--start-velocity", "0.4,-0.1"
-    ).stdout
-    lines = out.strip().splitlines()
-    header = lines[0].split(",")
-    table = np.array([[float(v) for v in l.split(",")] for l in lines[1:]])
-    expected = table[:, [header.index(c) for c in ("x", "y", "yaw")]]
+    expected = cli_poses(model, commands, tmp_path, "--start-wheels", "2,3", "--start-velocity", "0.4,-0.1")
     got = model.predict(commands, start_wheels=(2.0, 3.0), start_velocity=(0.4, -0.1))
     np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9)
     assert not np.allclose(got, model.predict(commands, start_wheels=(2.0, 3.0)))

@@ -321,6 +321,32 @@ struct Track {
     measured: Measured,
 }
 
+impl Track {
+    /// [`rollout`] of this window from its first measured pose and what was measured at
+    /// its start.
+    #[inline]
+    fn rollout<Y, T>(
+        &self,
+        dt: f64,
+        dynamics: &Dynamics<Y, T>,
+        slip: impl FnMut(usize) -> ([T; 2], Y),
+        visit: impl FnMut(usize, &[T; 2], &Y),
+    ) where
+        Y: DualNum<f64> + Copy,
+        T: DualNum<f64> + Copy + Mul<Y, Output = T>,
+    {
+        rollout(
+            &self.target[0],
+            &self.measured,
+            &self.f,
+            dt,
+            dynamics,
+            slip,
+            visit,
+        );
+    }
+}
+
 /// What a rollout starts from besides the pose, when measured: the yaw rate (the IMU) and
 /// the body's velocity (the localization just before the start), each when finite.
 #[derive(Clone, Copy, Debug, Default)]
@@ -816,18 +842,10 @@ impl<'a> Ipem<'a> {
             }
             let mut sum = 0.0;
             let slip = |k: usize| split(slip_of(&theta, &t.features[k]));
-            rollout(
-                &t.target[0],
-                &t.measured,
-                &t.f,
-                self.dt,
-                &dynamics,
-                slip,
-                |k, xy, yaw| {
-                    let ([rx, ry], rz) = residual(xy, yaw, &t.target[k], &self.weights);
-                    sum += robust_loss(rx * rx) + robust_loss(ry * ry) + robust_loss(rz * rz);
-                },
-            );
+            t.rollout(self.dt, &dynamics, slip, |k, xy, yaw| {
+                let ([rx, ry], rz) = residual(xy, yaw, &t.target[k], &self.weights);
+                sum += robust_loss(rx * rx) + robust_loss(ry * ry) + robust_loss(rz * rz);
+            });
             // A value was pushed when the interval began.
             *out.last_mut().expect("pushed above") += sum;
         }
@@ -884,30 +902,22 @@ impl<'a> Ipem<'a> {
                     seeded_dimension(weights(2), phi, self.scale[2], 0),
                 )
             };
-            rollout(
-                &t.target[0],
-                &t.measured,
-                &t.f,
-                self.dt,
-                &yaw_dynamics,
-                slip,
-                |k, xy, yaw| {
-                    let ([rx, ry], rz) = residual(xy, yaw, &t.target[k], &self.weights);
-                    for ri in [rx, ry, rz] {
-                        let col = r.len();
-                        // Iteratively reweighted: the Gauss-Newton model of the robust loss
-                        // weighs each residual's row by sqrt(rho'(r^2)).
-                        let w = robust_weight(ri.re * ri.re).sqrt();
-                        let g = ri.eps.unwrap_generic(Const::<YAW_VARIABLES>, U1);
-                        let column = jt.col_as_slice_mut(col);
-                        for (j, gj) in g.iter().enumerate() {
-                            column[yaw_variable(j)] = gj * w;
-                        }
-                        r.push(ri.re * w);
-                        row_weights.push(w);
+            t.rollout(self.dt, &yaw_dynamics, slip, |k, xy, yaw| {
+                let ([rx, ry], rz) = residual(xy, yaw, &t.target[k], &self.weights);
+                for ri in [rx, ry, rz] {
+                    let col = r.len();
+                    // Iteratively reweighted: the Gauss-Newton model of the robust loss
+                    // weighs each residual's row by sqrt(rho'(r^2)).
+                    let w = robust_weight(ri.re * ri.re).sqrt();
+                    let g = ri.eps.unwrap_generic(Const::<YAW_VARIABLES>, U1);
+                    let column = jt.col_as_slice_mut(col);
+                    for (j, gj) in g.iter().enumerate() {
+                        column[yaw_variable(j)] = gj * w;
                     }
-                },
-            );
+                    r.push(ri.re * w);
+                    row_weights.push(w);
+                }
+            });
             let slip = |k: usize| {
                 let phi = &t.features[k];
                 (
@@ -919,26 +929,18 @@ impl<'a> Ipem<'a> {
                 )
             };
             let mut col = 0;
-            rollout(
-                &t.target[0],
-                &t.measured,
-                &t.f,
-                self.dt,
-                &position_dynamics,
-                slip,
-                |k, xy, yaw| {
-                    let (rxy, _) = residual(xy, yaw, &t.target[k], &self.weights);
-                    for (c, ri) in rxy.iter().enumerate() {
-                        let w = row_weights[col + c];
-                        let g = ri.eps.unwrap_generic(Const::<POSITION_VARIABLES>, U1);
-                        let column = jt.col_as_slice_mut(col + c);
-                        for (j, gj) in g.iter().enumerate() {
-                            column[position_variable(j)] = gj * w;
-                        }
+            t.rollout(self.dt, &position_dynamics, slip, |k, xy, yaw| {
+                let (rxy, _) = residual(xy, yaw, &t.target[k], &self.weights);
+                for (c, ri) in rxy.iter().enumerate() {
+                    let w = row_weights[col + c];
+                    let g = ri.eps.unwrap_generic(Const::<POSITION_VARIABLES>, U1);
+                    let column = jt.col_as_slice_mut(col + c);
+                    for (j, gj) in g.iter().enumerate() {
+                        column[position_variable(j)] = gj * w;
                     }
-                    col += 3;
-                },
-            );
+                }
+                col += 3;
+            });
             visit(i, &jt, &r);
         }
     }
@@ -1562,28 +1564,20 @@ fn bias_variance(
             let g = slip_of(&theta_d, &t.features[k]);
             split([g[0] + bias[0], g[1] + bias[1], g[2] + bias[2]])
         };
-        rollout(
-            &t.target[0],
-            &t.measured,
-            &t.f,
-            dt,
-            &dynamics,
-            slip,
-            |k, xy, yaw| {
-                let m = &t.target[k];
-                let p = [xy[0], xy[1], *yaw];
-                let g = |i: usize| p[i].eps.unwrap_generic(Const::<3>, U1);
-                let (gx, gy, gz) = (g(0), g(1), g(2));
-                let ez = wrap_angle(p[2].re - m.z);
-                yy += gz[2].powi(4);
-                ye += gz[2].powi(2) * ez * ez;
-                let et2 = (p[0].re - m.x).powi(2) + (p[1].re - m.y).powi(2);
-                // Translational sensitivity to the x and y biases together, and to the yaw bias.
-                let st = gx[0].powi(2) + gx[1].powi(2) + gy[0].powi(2) + gy[1].powi(2);
-                let sw = gx[2].powi(2) + gy[2].powi(2);
-                rows.push((st, sw, et2));
-            },
-        );
+        t.rollout(dt, &dynamics, slip, |k, xy, yaw| {
+            let m = &t.target[k];
+            let p = [xy[0], xy[1], *yaw];
+            let g = |i: usize| p[i].eps.unwrap_generic(Const::<3>, U1);
+            let (gx, gy, gz) = (g(0), g(1), g(2));
+            let ez = wrap_angle(p[2].re - m.z);
+            yy += gz[2].powi(4);
+            ye += gz[2].powi(2) * ez * ez;
+            let et2 = (p[0].re - m.x).powi(2) + (p[1].re - m.y).powi(2);
+            // Translational sensitivity to the x and y biases together, and to the yaw bias.
+            let st = gx[0].powi(2) + gx[1].powi(2) + gy[0].powi(2) + gy[1].powi(2);
+            let sw = gx[2].powi(2) + gy[2].powi(2);
+            rows.push((st, sw, et2));
+        });
     }
     let q_yaw = if yy > 0.0 { (ye / yy).max(0.0) } else { 0.0 };
     for (st, sw, et2) in rows {
@@ -2463,31 +2457,23 @@ mod tests {
                 ))
             };
             let mut col = 0;
-            rollout(
-                &t.target[0],
-                &t.measured,
-                &t.f,
-                dt,
-                &dynamics,
-                slip,
-                |k, xy, yaw| {
-                    let ([rx, ry], rz) = residual(xy, yaw, &t.target[k], &weights);
-                    for ri in [rx, ry, rz] {
-                        let w = robust_weight(ri.re * ri.re).sqrt();
-                        assert!((r[col] - ri.re * w).abs() < 1e-12);
-                        let g = ri.eps.unwrap_generic(Const::<PARAMETERS>, U1);
-                        for j in 0..PARAMETERS {
-                            let (a, b) = (jt[(j, col)], g[j] * w);
-                            assert!(
-                                (a - b).abs() <= 1e-12 * (1.0 + b.abs()),
-                                "{j}, {col}: {a} vs {b}"
-                            );
-                        }
-                        col += 1;
-                        checked += 1;
+            t.rollout(dt, &dynamics, slip, |k, xy, yaw| {
+                let ([rx, ry], rz) = residual(xy, yaw, &t.target[k], &weights);
+                for ri in [rx, ry, rz] {
+                    let w = robust_weight(ri.re * ri.re).sqrt();
+                    assert!((r[col] - ri.re * w).abs() < 1e-12);
+                    let g = ri.eps.unwrap_generic(Const::<PARAMETERS>, U1);
+                    for j in 0..PARAMETERS {
+                        let (a, b) = (jt[(j, col)], g[j] * w);
+                        assert!(
+                            (a - b).abs() <= 1e-12 * (1.0 + b.abs()),
+                            "{j}, {col}: {a} vs {b}"
+                        );
                     }
-                },
-            );
+                    col += 1;
+                    checked += 1;
+                }
+            });
         });
         assert_eq!(checked, 6 * 39 * 3);
     }
