@@ -46,3 +46,4 @@ pub mod bundled;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod fuzz;
+pub mod suite;

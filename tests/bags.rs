@@ -4,30 +4,11 @@
 
 mod common;
 use common::{ok, user_error};
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// Writes the committed fixtures out: the logger CSV and the bag directory.
 fn fixtures(dir: &Path) -> (PathBuf, PathBuf) {
-    let here = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/bags");
-    let gunzip = |name: &str| {
-        let mut out = Vec::new();
-        flate2::read::GzDecoder::new(std::fs::File::open(here.join(name)).unwrap())
-            .read_to_end(&mut out)
-            .unwrap();
-        out
-    };
-    let raw = dir.join("raw.csv");
-    std::fs::write(&raw, gunzip("husky_snow_raw.csv.gz")).unwrap();
-    let bag = dir.join("husky_snow");
-    std::fs::create_dir(&bag).unwrap();
-    std::fs::write(bag.join("bag.mcap"), gunzip("husky_snow.mcap.gz")).unwrap();
-    std::fs::copy(
-        here.join("husky_snow_metadata.yaml"),
-        bag.join("metadata.yaml"),
-    )
-    .unwrap();
-    (raw, bag)
+    common::bag_fixtures(dir, "raw.csv", "husky_snow")
 }
 
 fn s(p: &Path) -> &str {

@@ -157,6 +157,9 @@ pub enum DataErrorKind {
     /// The CSV and the sidecar disagree.
     #[error("{0}")]
     Inconsistent(String),
+    /// No bundled dataset of that name (`bundled:NAME`).
+    #[error("{0}")]
+    NotBundled(String),
 }
 
 /// An error in a dataset, with where it is.

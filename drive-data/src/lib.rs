@@ -20,12 +20,14 @@
 #![warn(missing_docs)]
 
 mod bag;
+pub mod bundled;
 mod error;
 mod import;
 pub mod output;
 pub mod quality;
 mod raw_log;
 mod sidecar;
+pub mod suite;
 mod window_csv;
 
 pub use bag::{bag_files, read_bag, BagTopics, MAX_BAG_BYTES};
@@ -104,8 +106,21 @@ pub fn sidecar_path(csv: &Path) -> PathBuf {
 }
 
 /// Reads a dataset from a window CSV file and its sidecar (by default beside the CSV, see
-/// [`sidecar_path`]).
+/// [`sidecar_path`]); `bundled:NAME` is the bundled dataset of that name (see [`bundled`]),
+/// which carries its own sidecar.
 pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataError> {
+    if let Some(name) = bundled::name_in(csv) {
+        if let Some(s) = sidecar {
+            return Err(DataError::new(
+                Location::file(&s.display().to_string()),
+                DataErrorKind::BadSidecar(format!(
+                    "{} is a bundled dataset, which carries its own sidecar (give no sidecar)",
+                    csv.display()
+                )),
+            ));
+        }
+        return bundled::load(name);
+    }
     let sidecar = sidecar
         .map(Path::to_path_buf)
         .unwrap_or_else(|| sidecar_path(csv));

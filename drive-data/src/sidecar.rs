@@ -92,7 +92,8 @@ impl CsvDigest {
 /// datasets have it, `wheel_radius` and `baseline` (positive numbers) for a differential
 /// drive. Optional: `robot` (string), `windows` (integer), `csv` (`{"rows": integer,
 /// "fnv1a64": "16 hex digits"}`, see [`CsvDigest`]), `position_frame` (`"first-sample"`,
-/// the default, or `"paper-mean5"`: see [`PositionFrame`]). Other fields are ignored.
+/// the default, or `"paper-mean5"`: see [`PositionFrame`]), `terrain` (free text, at most
+/// 200 characters: the ground the data was recorded on). Other fields are ignored.
 ///
 /// ```
 /// let side = r#"{"name": "run", "rate_hz": 20, "window_len": 40,
@@ -100,6 +101,9 @@ impl CsvDigest {
 /// let (robot, windows) = drive_data::parse_sidecar("run.json", side).unwrap();
 /// assert_eq!(robot.vehicle.axes()[1].measured_column, "enc_right");
 /// assert_eq!(windows, drive_data::Announced::default());
+/// assert_eq!(robot.terrain, "");
+/// let on_grass = side.replace("\"run\",", "\"run\", \"terrain\": \" wet grass \",");
+/// assert_eq!(drive_data::parse_sidecar("run.json", &on_grass).unwrap().0.terrain, "wet grass");
 /// let legacy = r#"{"name": "run", "rate_hz": 20, "window_len": 40, "wheel_radius": 0.3, "baseline": 1.2}"#;
 /// assert_eq!(drive_data::parse_sidecar("run.json", legacy).unwrap().0, robot);
 /// ```
@@ -226,6 +230,19 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
             ))
         }
     };
+    let terrain = match required(obj, "terrain") {
+        None => String::new(),
+        Some(Value::String(s)) => s.trim().to_string(),
+        Some(v) => return Err(bad("terrain", format!("expected a string, found {v}"))),
+    };
+    // Free text for labels and tables, not a document.
+    limits::at_most(
+        "terrain (characters)",
+        terrain.chars().count() as f64,
+        200.0,
+        "",
+    )
+    .map_err(|e| bad("terrain", e.to_string()))?;
     let windows = integer("windows", 0)?;
     let csv = match required(obj, "csv") {
         None => None,
@@ -260,6 +277,7 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
             window_len,
             vehicle,
             position_frame,
+            terrain,
         },
         Announced { windows, csv },
     ))
@@ -288,6 +306,9 @@ pub fn sidecar_json(
         "position_frame": robot.position_frame.as_str(),
         "windows": windows,
     });
+    if !robot.terrain.is_empty() {
+        value["terrain"] = robot.terrain.clone().into();
+    }
     if let Some(d) = csv {
         value["csv"] = d.to_json();
     }

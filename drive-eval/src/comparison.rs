@@ -154,6 +154,9 @@ pub struct Comparison {
     pub robot: String,
     /// The vehicle type (from the sidecar).
     pub vehicle: String,
+    /// The ground the data was recorded on (the sidecar's free-text `terrain`; empty when
+    /// not recorded).
+    pub terrain: String,
     /// The frame of the positions scored: `paper-mean5` (the paper parser's, as published)
     /// or `first-sample` (the frame of yaw; imported, simulated or corrected data).
     pub position_frame: &'static str,
@@ -288,6 +291,7 @@ pub fn compare_specs(
         dataset: data.robot.name.clone(),
         robot: data.robot.robot.clone(),
         vehicle: vehicle_type(data),
+        terrain: data.robot.terrain.clone(),
         position_frame: data.robot.position_frame.as_str(),
         split,
         train_intervals,

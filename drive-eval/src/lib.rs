@@ -9,9 +9,11 @@
 //! | `experiment.rs` | the engine: settings x models -> cells, simulated runs ([`run_cells`], [`simulate_runs`]) |
 //! | `comparison.rs` | the model comparison (Fig. 6) |
 //! | `uncertainty.rs` | coverage of the predicted pose covariance, NLL, reliability |
+//! | `terrain.rs` | the terrain's unpredictability (energy-based, T-FR 2025) |
 //! | `convergence.rs` | error against training time (Fig. 7) |
 //! | `protocols.rs`, `regions.rs` | data-gathering protocols (Table I) on the simulator and on recorded data |
 //! | `matrix/` | the evaluation matrix: sweep file, run, statistics, outputs |
+//! | `bench.rs` | the benchmark: datasets x models, transfer between runs, leaderboard |
 //!
 //! ```
 //! use drive_eval::{mrmse, Mrmse};
@@ -25,6 +27,7 @@
 
 #![warn(missing_docs)]
 
+mod bench;
 mod compare;
 mod comparison;
 mod convergence;
@@ -36,8 +39,14 @@ mod regions;
 mod registries;
 mod split;
 mod stats;
+mod terrain;
 mod uncertainty;
 
+pub use bench::{
+    bench_units, run_bench, terrain_known, Bench, BenchConfig, BenchDataset, BenchError,
+    BenchInput, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,
+    TransferCell, TransferGroup, TransferSummary, UnpredictabilityBin,
+};
 pub use compare::{
     evaluate_errors, evaluate_model, evaluate_model_from, ModelReport, WindowErrors,
 };
@@ -62,7 +71,11 @@ pub use protocols::{
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use registries::{Catalog, Listed, Registries};
 pub use split::{split_by_interval, SplitError};
-pub use stats::{improvement_percent, paired_bootstrap, quantile, PairedErrors, Summary};
+pub use stats::{improvement_percent, paired_bootstrap, quantile, spearman, PairedErrors, Summary};
+pub use terrain::{
+    energy_unpredictability, unpredictability, Unpredictability, UnpredictabilityConfig,
+    UnpredictabilitySummary, WindowUnpredictability,
+};
 pub use uncertainty::{
     score_uncertainty, ReliabilityPoint, UncertaintyReport, COVERAGE_HORIZONS_S, RELIABILITY_LEVELS,
 };

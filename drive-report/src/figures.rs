@@ -66,7 +66,7 @@ pub enum Key {
 
 /// Draws the title and a legend laid out in rows above the plots (so that no legend covers
 /// data), and returns the area left for the plots.
-fn header<DB: DrawingBackend>(
+pub fn header<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
     keys: &[(String, Key)],
@@ -328,7 +328,8 @@ fn tukey(values: &[f64]) -> Option<TukeyBox> {
     })
 }
 
-fn box_panel<DB: DrawingBackend>(
+/// One panel of box plots (see [`error_boxes`]), the y axis described by `y_desc`.
+pub fn box_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     groups: &[BoxGroup],
     y_desc: &str,

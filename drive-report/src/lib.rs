@@ -24,6 +24,7 @@
 #![warn(missing_docs)]
 
 pub mod analysis;
+pub mod bench;
 pub mod figures;
 
 use analysis::{Calibration, InputSpaceFigure, PowertrainTrace, Trajectory};
@@ -72,6 +73,9 @@ pub enum ReportError {
     /// input.
     #[error(transparent)]
     Write(#[from] OutputError),
+    /// A figure or a document could not be made.
+    #[error("drawing {0}")]
+    Draw(String),
 }
 
 /// What the report is made with.
@@ -101,6 +105,9 @@ pub struct ReportOptions {
     pub start: drive_traits::StartInfo,
     /// How the models' pose covariances are made.
     pub uncertainty: drive_models::calibration::Uncertainty,
+    /// The robot's body footprint for the terrain's total unpredictability, and where it
+    /// comes from; without it the report gives the translational and rotational ones.
+    pub body: Option<(String, drive_samplers::BodySize)>,
 }
 
 impl Default for ReportOptions {
@@ -119,6 +126,7 @@ impl Default for ReportOptions {
             size: (1200, 800),
             start: drive_traits::StartInfo::default(),
             uncertainty: drive_models::calibration::Uncertainty::default(),
+            body: None,
         }
     }
 }
@@ -156,6 +164,8 @@ pub struct Report {
     pub trajectories: Vec<Trajectory>,
     /// Calibration of the BLR models.
     pub calibration: Vec<Calibration>,
+    /// The terrain's unpredictability (energy-based, T-FR 2025).
+    pub unpredictability: drive_eval::Unpredictability,
     vehicle: Arc<dyn CommandModel>,
     dt: f64,
 }
@@ -173,7 +183,7 @@ pub fn nll_text(nll: f64) -> String {
 }
 
 /// Registers the embedded font once (plotters' ab_glyph text renderer has no font of its own).
-fn register_font() {
+pub(crate) fn register_font() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         // The font file is part of this crate and parses (tested).
@@ -244,8 +254,14 @@ impl Report {
             .iter()
             .filter_map(|(name, m)| analysis::calibration(name, *m, &eval, options.start))
             .collect();
+        let unpredictability = drive_eval::unpredictability(
+            data,
+            options.body.as_ref().map(|b| b.1),
+            &drive_eval::UnpredictabilityConfig::default(),
+        );
         Ok(Report {
             dataset: format!("{} ({})", data.robot.name, data.robot.robot),
+            unpredictability,
             options: options.clone(),
             comparison,
             convergence,
@@ -380,6 +396,68 @@ impl Report {
         }
     }
 
+    /// The terrain's unpredictability and how each model's error grows with it.
+    fn unpredictability_section(&self, s: &mut String) {
+        let u = &self.unpredictability;
+        let _ = writeln!(s, "\n## The terrain's unpredictability\n");
+        let _ = writeln!(
+            s,
+            "How far the motion the robot made is from the motion it was commanded, as kinetic energy (the T-FR 2025 follow-up's metric: 0 when the robot moves as commanded, 1 when it does not move; median over the {} windows' samples; see the README's \"Benchmark\").\n",
+            u.pooled
+        );
+        let cell = |v: Option<drive_eval::UnpredictabilitySummary>| {
+            v.map_or("-".to_string(), |v| {
+                format!(
+                    "{:.3} [{:.3}, {:.3}] ({} samples)",
+                    v.median, v.iqr[0], v.iqr[1], v.samples
+                )
+            })
+        };
+        let _ = writeln!(s, "| kind | median [IQR] |\n|---|---|");
+        let _ = writeln!(s, "| translational | {} |", cell(u.translational));
+        let _ = writeln!(s, "| rotational | {} |", cell(u.rotational));
+        let _ = writeln!(
+            s,
+            "| total | {} |",
+            match (&self.options.body, u.total) {
+                (Some((from, _)), Some(t)) => format!("{} (body: {from})", cell(Some(t))),
+                _ => "- (needs the robot's body size: --robot with body_length and body_width)"
+                    .to_string(),
+            }
+        );
+        let _ = writeln!(
+            s,
+            "\nEach model's error against its evaluation windows' unpredictability: Spearman's correlation (translational error with translational unpredictability, rotational with rotational) and the median errors in the thirds of the windows sorted by their {} unpredictability.\n",
+            if u.total.is_some() { "total" } else { "translational" }
+        );
+        let _ = writeln!(
+            s,
+            "| model | Spearman t | Spearman r | low third (t / r) | middle third | high third |\n|---|---|---|---|---|---|"
+        );
+        for m in &self.comparison.models {
+            let g = drive_eval::ErrorGrowth::of(&m.report, u);
+            let r = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:+.2}"));
+            let third = |i: usize| {
+                g.thirds.get(i).map_or("-".to_string(), |t| {
+                    format!(
+                        "{:.4} / {:.4}",
+                        t.translational_median_m, t.rotational_median_rad
+                    )
+                })
+            };
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} |",
+                m.name,
+                r(g.spearman_translational),
+                r(g.spearman_rotational),
+                third(0),
+                third(1),
+                third(2)
+            );
+        }
+    }
+
     /// The Markdown report.
     pub fn markdown(&self) -> String {
         let mut s = String::new();
@@ -422,6 +500,7 @@ impl Report {
                 m.all.rotational_rad.improvement_over_naive_percent,
             );
         }
+        self.unpredictability_section(&mut s);
         let conv = &self.convergence;
         let _ = writeln!(s, "\n## Convergence (Fig. 7)\n");
         match conv.convergence_time_s {

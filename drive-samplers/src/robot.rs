@@ -43,7 +43,9 @@ pub enum RobotError {
 ///
 /// In TOML: `name`, `mass_kg`, `max_speed` (the manufacturer's top speed, m/s),
 /// `max_linear_acceleration`, `max_angular_acceleration`; optional `rate_hz` (20),
-/// `controller_max_linear`, `controller_max_angular`, `tracked`; the vehicle as a
+/// `controller_max_linear`, `controller_max_angular`, `tracked`, `body_length` and
+/// `body_width` (the body's footprint in m, both or neither: its moment of inertia for the
+/// terrain's unpredictability); the vehicle as a
 /// `[vehicle]` table (`type = "differential"`, `wheel_radius`, `baseline`; `type =
 /// "ackermann"`, `wheelbase`, `max_steering`; any registered vehicle type with its
 /// geometry), or `wheel_radius` and `baseline` for a differential drive; the input space as
@@ -103,6 +105,32 @@ pub struct RobotSpec {
     pub nominal_input_space: InputSpace,
     /// Tracks rather than wheels.
     pub tracked: bool,
+    /// The body's footprint, when known: what its moment of inertia about the vertical axis
+    /// is computed from (a uniform box, [`BodySize::inertia_per_mass`]).
+    pub body: Option<BodySize>,
+}
+
+/// A robot body's footprint (m): length along its x axis (forward), width along y.
+///
+/// ```
+/// let husky = drive_samplers::BodySize { length_m: 0.8382, width_m: 0.6604 };
+/// // A uniform box: I / m = (l^2 + w^2) / 12.
+/// assert!((husky.inertia_per_mass() - 0.0949).abs() < 1e-4);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct BodySize {
+    /// Length along the robot's x axis (m).
+    pub length_m: f64,
+    /// Width along the robot's y axis (m).
+    pub width_m: f64,
+}
+
+impl BodySize {
+    /// The moment of inertia about the vertical axis per unit mass (m^2) of a uniform box of
+    /// this footprint: `(l^2 + w^2) / 12`.
+    pub fn inertia_per_mass(&self) -> f64 {
+        (self.length_m * self.length_m + self.width_m * self.width_m) / 12.0
+    }
 }
 
 impl RegistryItem for RobotSpec {}
@@ -143,6 +171,10 @@ struct RobotFile {
     input_limits: Option<[[f64; 2]; 2]>,
     #[serde(default)]
     tracked: bool,
+    #[serde(default)]
+    body_length: Option<f64>,
+    #[serde(default)]
+    body_width: Option<f64>,
 }
 
 fn default_rate() -> f64 {
@@ -153,9 +185,16 @@ fn default_rate() -> f64 {
 /// `warthog` (470 kg, 5 m/s), differential drives; and a car, `autorally` (see
 /// [`autorally`]). Acceleration limits are this project's defaults (about one top speed
 /// per second), not the manufacturers'.
+///
+/// Masses are the paper's (Sec. IV-A). Body footprints: the Husky's (0.8382 m x 0.6604 m)
+/// and the Warthog's (2.13 m x 1.52 m) are those of the T-FR 2025 follow-up's
+/// unpredictability metric (norlab-ulaval/doughnut_calib,
+/// `drive/model_training/data_utils/robot_param.yaml`), so that the metric reads as theirs;
+/// the HD2's is not published with the DRIVE material and is left unset (give `body_length`
+/// and `body_width` in a robot file).
 pub fn builtin_robots() -> Registry<RobotSpec> {
     let mut r: Registry<RobotSpec> = Registry::new("robot");
-    for (name, description, mass_kg, max_speed, wheel_radius, baseline, tracked) in [
+    for (name, description, mass_kg, max_speed, wheel_radius, baseline, tracked, body) in [
         (
             "husky",
             "Clearpath Husky: wheeled skid-steer, 75 kg, 1 m/s",
@@ -164,6 +203,7 @@ pub fn builtin_robots() -> Registry<RobotSpec> {
             0.165,
             0.55,
             false,
+            Some((0.8382, 0.6604)),
         ),
         (
             "hd2",
@@ -173,6 +213,7 @@ pub fn builtin_robots() -> Registry<RobotSpec> {
             0.116,
             0.5927,
             true,
+            None,
         ),
         (
             "warthog",
@@ -182,6 +223,7 @@ pub fn builtin_robots() -> Registry<RobotSpec> {
             0.3,
             1.1652,
             false,
+            Some((2.13, 1.52)),
         ),
     ] {
         let vehicle = DifferentialDrive::new(wheel_radius, baseline);
@@ -204,6 +246,7 @@ pub fn builtin_robots() -> Registry<RobotSpec> {
             .expect("positive presets"),
             vehicle: Arc::new(vehicle),
             tracked,
+            body: body.map(|(length_m, width_m)| BodySize { length_m, width_m }),
         };
         // Distinct names (autorally follows).
         r.register_trusted(name, description, Arc::new(spec))
@@ -258,6 +301,7 @@ pub fn autorally() -> RobotSpec {
             .expect("a positive preset"),
         vehicle: Arc::new(vehicle),
         tracked: false,
+        body: None,
     }
 }
 
@@ -425,6 +469,22 @@ impl RobotSpec {
                 format!("missing field `{field}` (or give input_rate_limits)"),
             )),
         };
+        let body = match (f.body_length, f.body_width) {
+            (Some(length_m), Some(width_m)) => Some(BodySize { length_m, width_m }),
+            (None, None) => None,
+            (Some(_), None) => {
+                return Err(invalid(
+                    "body_width",
+                    "missing field `body_width` (give body_length and body_width together)".into(),
+                ))
+            }
+            (None, Some(_)) => {
+                return Err(invalid(
+                    "body_length",
+                    "missing field `body_length` (give body_length and body_width together)".into(),
+                ))
+            }
+        };
         let spec = RobotSpec {
             name: f.name,
             mass_kg: f.mass_kg,
@@ -446,6 +506,7 @@ impl RobotSpec {
             input_limits,
             nominal_input_space: nominal,
             tracked: f.tracked,
+            body,
         };
         spec.validate(file)?;
         Ok(spec)
@@ -564,6 +625,16 @@ impl RobotSpec {
                     return invalid(
                         field,
                         &format!("expected a positive number, found {}", Short(v)),
+                    );
+                }
+            }
+        }
+        if let Some(b) = self.body {
+            for (field, v) in [("body_length", b.length_m), ("body_width", b.width_m)] {
+                if !(v.is_finite() && v > 0.0 && v <= 100.0) {
+                    return invalid(
+                        field,
+                        &format!("expected a length in m in (0, 100], found {}", Short(v)),
                     );
                 }
             }

@@ -827,6 +827,7 @@ fn tightest_box(draws: &[Input], g: &DifferentialDrive, start: f64) -> f64 {
 ///         window_len: 40,
 ///         vehicle: robot.vehicle.clone(),
 ///         position_frame: Default::default(),
+///         terrain: String::new(),
 ///     },
 ///     windows: Vec::new(),
 /// };
@@ -1211,6 +1212,7 @@ pub struct Scatter {
 ///         window_len: 40,
 ///         vehicle: std::sync::Arc::new(g.clone()),
 ///         position_frame: Default::default(),
+///         terrain: String::new(),
 ///     },
 ///     windows: Vec::new(),
 /// };

@@ -200,6 +200,7 @@ pub fn simulate(
         vehicle: Arc::clone(&robot.vehicle),
         // Poses are re-based on the first sample of each window (position and yaw).
         position_frame: drive_traits::PositionFrame::FirstSample,
+        terrain: config.terrain.name.clone(),
     };
     let active = |t: f64, kind: fn(&Event) -> Option<(f64, f64)>| {
         config

@@ -63,6 +63,10 @@ pub struct RobotDescription {
     /// `position_frame`; [`PositionFrame::FirstSample`] when it says nothing).
     #[serde(default)]
     pub position_frame: PositionFrame,
+    /// The ground the data was recorded on, free text (the sidecar's `terrain`; empty when
+    /// it says nothing).
+    #[serde(default)]
+    pub terrain: String,
 }
 
 impl RobotDescription {
@@ -81,6 +85,7 @@ impl RobotDescription {
             window_len,
             vehicle: Arc::new(vehicle),
             position_frame: PositionFrame::default(),
+            terrain: String::new(),
         }
     }
 
@@ -98,6 +103,7 @@ impl PartialEq for RobotDescription {
             && self.rate_hz == other.rate_hz
             && self.window_len == other.window_len
             && self.position_frame == other.position_frame
+            && self.terrain == other.terrain
             && serde_json::to_value(self.vehicle.as_ref()).ok()
                 == serde_json::to_value(other.vehicle.as_ref()).ok()
     }

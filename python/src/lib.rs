@@ -170,18 +170,7 @@ fn evaluate_json(
 ) -> PyResult<String> {
     let dataset = dataset_of(dataset)?;
     let start = start_info_of(start)?;
-    let models: Option<Vec<String>> = models
-        .filter(|m| !m.is_none())
-        .map(|m| {
-            m.extract().map_err(|_| {
-                err(format!(
-                    "models must be model names (a list of str, or one str with commas), got {}",
-                    type_name(m)
-                ))
-            })
-        })
-        .transpose()?;
-    let names = models.unwrap_or_else(|| {
+    let names = model_names(models)?.unwrap_or_else(|| {
         ["naive", "powertrain", "slip-blr", "acc-blr"]
             .map(String::from)
             .to_vec()
@@ -203,6 +192,77 @@ fn evaluate_json(
     });
     let cmp = result.map_err(err)?;
     serde_json::to_string(&cmp).map_err(err)
+}
+
+/// The model names of `models` (a list of str), `None` for the default.
+fn model_names(models: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<String>>> {
+    models
+        .filter(|m| !m.is_none())
+        .map(|m| {
+            m.extract().map_err(|_| {
+                err(format!(
+                    "models must be model names (a list of str, or one str with commas), got {}",
+                    type_name(m)
+                ))
+            })
+        })
+        .transpose()
+}
+
+/// `drive bench --json` as a JSON text: the models (default: naive, powertrain, slip-blr,
+/// acc-blr, slip-ipem) on every dataset of the suite file `suite` (every bundled dataset when
+/// None), each split at `split`, with the transfer between runs of one robot unless
+/// `transfer` is false.
+#[pyfunction]
+#[pyo3(signature = (suite=None, models=None, split=0.5, transfer=true))]
+fn bench_json(
+    py: Python<'_>,
+    suite: Option<&Bound<'_, PyAny>>,
+    models: Option<&Bound<'_, PyAny>>,
+    split: f64,
+    transfer: bool,
+) -> PyResult<String> {
+    let suite = suite
+        .filter(|p| !p.is_none())
+        .map(|p| path_of("suite", p))
+        .transpose()?;
+    let names = model_names(models)?.unwrap_or_else(|| {
+        ["naive", "powertrain", "slip-blr", "acc-blr", "slip-ipem"]
+            .map(String::from)
+            .to_vec()
+    });
+    if names.is_empty() {
+        return Err(err("models is empty"));
+    }
+    if !(split > 0.0 && split < 1.0) {
+        return Err(err(format!(
+            "split {split} must lie strictly between 0 and 1"
+        )));
+    }
+    let result = py.detach(|| -> Result<String, String> {
+        let registries = Registries::builtin();
+        let specs = registries
+            .models()
+            .resolve_list(&names)
+            .map_err(|e| e.to_string())?;
+        let inputs = match &suite {
+            Some(path) => {
+                let entries = drive::data::suite::read_suite(path).map_err(|e| e.to_string())?;
+                drive::suite::load(&registries, &entries)
+            }
+            None => drive::suite::bundled(&registries),
+        }
+        .map_err(|e| e.to_string())?;
+        let config = drive::eval::BenchConfig {
+            split,
+            transfer,
+            ..Default::default()
+        };
+        let bench =
+            drive::eval::run_bench(&inputs, &specs, &config, &|| {}).map_err(|e| e.to_string())?;
+        serde_json::to_string(&bench).map_err(|e| e.to_string())
+    });
+    result.map_err(err)
 }
 
 /// A fitted motion model: predictions from commands, saved as the command line's model file.
@@ -625,6 +685,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Model>()?;
     m.add_function(wrap_pyfunction!(load_dataset, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate_json, m)?)?;
+    m.add_function(wrap_pyfunction!(bench_json, m)?)?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(load_model, m)?)?;
     runner::register(m)?;

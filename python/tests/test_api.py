@@ -57,6 +57,25 @@ def test_evaluate_equals_drive_eval_json(husky):
     close(drive.evaluate(husky, models=models.split(","), split=0.3), expected)
 
 
+def test_bench_equals_drive_bench_json(tmp_path):
+    suite = tmp_path / "suite.toml"
+    suite.write_text(
+        '[[dataset]]\nbundled = "warthog_grass_2024-08-08"\n'
+        '[[dataset]]\npath = "bundled:warthog_asphalt_slow_2024-08-08"\nterrain = "slow asphalt"\n'
+    )
+    models = "naive,slip-blr,acc-blr"
+    expected = json.loads(cli("bench", "--suite", suite, "--json", "--models", models).stdout)
+    got = drive.bench(str(suite), models=models)
+    close(got, expected)
+    assert [d["terrain"] for d in got["datasets"]] == ["grass", "slow asphalt"]
+    assert {r["model"] for r in got["leaderboard"]} == set(models.split(","))
+    assert 0.0 <= got["datasets"][0]["unpredictability"]["total"]["median"] <= 1.0
+    with pytest.raises(drive.DriveError, match="robot"):
+        bad = tmp_path / "bad.toml"
+        bad.write_text('[[dataset]]\nraw = "log.csv"\n')
+        drive.bench(bad)
+
+
 def test_from_pandas_equals_the_files(husky, tmp_path):
     pd = pytest.importorskip("pandas")
     df = pd.read_csv(ROOT / "data" / "husky_drive.csv.gz")

@@ -57,14 +57,31 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             &r.name,
         ));
     }
+    let of = super::common::robot_of(registries, &args.data, args.robot.as_deref(), &data)?;
+    let u = crate::eval::unpredictability(
+        &data,
+        of.body,
+        &crate::eval::UnpredictabilityConfig::default(),
+    );
+    let unpredictability = serde_json::json!({
+        "translational": u.translational,
+        "rotational": u.rotational,
+        "total": u.total,
+        "pooled": u.pooled,
+        "body": of.body,
+        "body_source": of.source,
+    });
     if args.json {
         outln!(
             "{}",
-            serde_json::json!({"dataset": data.robot.name, "windows": data.windows.len(), "checks": findings})
+            serde_json::json!({"dataset": data.robot.name, "windows": data.windows.len(), "checks": findings, "unpredictability": unpredictability})
         );
     } else {
+        let median = |s: Option<crate::eval::UnpredictabilitySummary>| {
+            s.map_or("-".to_string(), |s| format!("{:.3}", s.median))
+        };
         out!(
-            "{}: {} windows, {}\n{}",
+            "{}: {} windows, {}\n{}the terrain's unpredictability (median over the {} windows; 0 moves as commanded, 1 does not move): translational {}, rotational {}, total {}{}\n",
             data.robot.name,
             data.windows.len(),
             if findings.is_empty() {
@@ -72,7 +89,16 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             } else {
                 format!("{} finding(s)", findings.len())
             },
-            to_text(&findings)
+            to_text(&findings),
+            u.pooled,
+            median(u.translational),
+            median(u.rotational),
+            median(u.total),
+            if of.body.is_some() {
+                format!(" (body of the {})", of.source)
+            } else {
+                " (no body size for the total: --robot with body_length and body_width)".into()
+            }
         );
     }
     if let Some(f) = stopping(&findings, &args.allow) {

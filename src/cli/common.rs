@@ -5,14 +5,19 @@ use crate::data::output::Outputs;
 use crate::data::{read_dataset, DataError};
 use crate::traits::Dataset;
 use anyhow::Result;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::ffi::OsString;
+use std::io::IsTerminal as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 /// A dataset to work on.
 #[derive(clap::Args)]
 pub struct DataArgs {
-    /// Window CSV (format: "Data format" in the README); the bundled Husky dataset when absent.
+    /// Window CSV (format: "Data format" in the README), or a bundled dataset as
+    /// bundled:NAME (see drive list); the bundled Husky dataset when absent.
     #[arg(long)]
     pub data: Option<PathBuf>,
     /// Sidecar JSON of the window CSV; by default the CSV's path with a .json extension.
@@ -86,6 +91,8 @@ impl DataArgs {
     pub fn inputs(&self) -> Vec<(&'static str, PathBuf)> {
         match &self.data {
             None => Vec::new(),
+            // A bundled dataset is no file.
+            Some(csv) if crate::data::bundled::name_in(csv).is_some() => Vec::new(),
             Some(csv) => vec![
                 ("--data", csv.clone()),
                 (
@@ -109,6 +116,29 @@ pub fn robot_input(name_or_path: &str) -> Vec<(&'static str, PathBuf)> {
         .map(|p| ("--robot", p.to_path_buf()))
         .into_iter()
         .collect()
+}
+
+/// The robot of the dataset `args` names, for its body (the terrain's unpredictability):
+/// `explicit` (`--robot`) when given, the robot a bundled dataset was recorded with, else
+/// the registered robot recognised in the sidecar's robot text.
+pub fn robot_of(
+    registries: &crate::Registries,
+    args: &DataArgs,
+    explicit: Option<&str>,
+    data: &Dataset,
+) -> Result<crate::suite::RobotOf> {
+    let bundled = match &args.data {
+        None => Some("husky".to_string()),
+        Some(p) => crate::data::bundled::name_in(p)
+            .and_then(crate::bundled::find)
+            .map(|b| b.robot.to_string()),
+    };
+    let explicit = explicit.map(str::to_string).or(bundled);
+    Ok(crate::suite::robot_of(
+        registries,
+        data,
+        explicit.as_deref(),
+    )?)
 }
 
 /// `Err` when `--max-samples` is beyond the ceiling it may be raised to.
@@ -295,4 +325,50 @@ pub fn emit<T: serde::Serialize>(
         out!("{}", table(value));
     }
     Ok(())
+}
+
+/// A progress bar drawn on stderr once the run has lasted a second, when stderr is a
+/// terminal; nothing otherwise.
+pub struct Progress {
+    /// The bar.
+    pub bar: ProgressBar,
+    /// When the run started.
+    pub start: Instant,
+    shown: Mutex<bool>,
+    terminal: bool,
+}
+
+impl Progress {
+    /// A hidden bar named `label`, shown once the run lasts a second on a terminal.
+    pub fn new(label: &str) -> Self {
+        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
+        bar.set_style(
+            ProgressStyle::with_template(
+                &format!(
+                    "{{spinner}} {label} [{{elapsed_precise}}] {{wide_bar}} {{pos}}/{{len}} (eta {{eta}})"
+                ),
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        Progress {
+            bar,
+            start: Instant::now(),
+            shown: Mutex::new(false),
+            terminal: std::io::stderr().is_terminal(),
+        }
+    }
+
+    /// Moves the bar to `done` of `total`.
+    pub fn update(&self, done: usize, total: usize) {
+        self.bar.set_length(total as u64);
+        self.bar.set_position(done as u64);
+        if self.terminal && self.start.elapsed() > Duration::from_secs(1) {
+            let mut shown = self.shown.lock().unwrap_or_else(|p| p.into_inner());
+            if !*shown {
+                *shown = true;
+                self.bar.set_draw_target(ProgressDrawTarget::stderr());
+                self.bar.enable_steady_tick(Duration::from_millis(200));
+            }
+        }
+    }
 }

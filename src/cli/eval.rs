@@ -128,12 +128,17 @@ pub fn table(cmp: &Comparison) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "DRIVE model comparison on {} ({})",
+        "DRIVE model comparison on {} ({}{})",
         cmp.dataset,
         if cmp.robot.is_empty() {
             "robot not named"
         } else {
             &cmp.robot
+        },
+        if cmp.terrain.is_empty() {
+            String::new()
+        } else {
+            format!("; terrain: {}", cmp.terrain)
         }
     );
     let _ = writeln!(

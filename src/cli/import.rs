@@ -45,6 +45,10 @@ pub struct Args {
     /// The longest time without a localization update inside an interval (s).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     localization_timeout: f64,
+    /// The ground the run was recorded on, free text (written into the sidecar's
+    /// `terrain`; `drive bench` groups datasets by it).
+    #[arg(long, default_value = "")]
+    terrain: String,
     /// Print the keep/drop report as one JSON object on stdout.
     #[arg(long)]
     json: bool,
@@ -109,6 +113,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         vehicle: Arc::clone(&spec.vehicle),
         // Poses are re-based on the first sample of each window (position and yaw).
         position_frame: crate::traits::PositionFrame::FirstSample,
+        terrain: args.terrain.trim().to_string(),
     };
     let (data, report) = import_raw(&log, &description, &config)?;
     let failure = report.nothing_usable().or_else(|| {

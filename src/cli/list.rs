@@ -1,24 +1,59 @@
-//! `drive list`: the registered parts.
+//! `drive list`: the registered parts and the bundled datasets.
 
 use super::common::emit;
 use crate::eval::{Catalog, Listed};
 use crate::Registries;
 use anyhow::Result;
+use serde::Serialize;
 use std::fmt::Write as _;
 
 #[derive(clap::Args)]
 pub struct Args {
     /// Print one JSON object (lists vehicles, powertrains, learners, samplers, terrains,
-    /// robots, simulators, models) instead of the text.
+    /// robots, simulators, models, datasets) instead of the text.
     #[arg(long)]
     json: bool,
 }
 
-pub fn run(args: &Args, registries: &Registries) -> Result<()> {
-    emit(args.json, &registries.catalog(), text)
+/// A bundled dataset as listed.
+#[derive(Serialize)]
+struct ListedDataset {
+    /// `bundled:NAME`.
+    name: String,
+    robot: &'static str,
+    terrain: &'static str,
+    windows: usize,
+    description: &'static str,
 }
 
-fn text(c: &Catalog) -> String {
+/// The registered parts and the bundled datasets.
+#[derive(Serialize)]
+struct Listing {
+    #[serde(flatten)]
+    catalog: Catalog,
+    datasets: Vec<ListedDataset>,
+}
+
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let datasets = crate::bundled::BUNDLED
+        .iter()
+        .map(|b| ListedDataset {
+            name: format!("{}{}", crate::bundled::PREFIX, b.name),
+            robot: b.robot,
+            terrain: b.terrain,
+            windows: b.windows,
+            description: b.description,
+        })
+        .collect();
+    let listing = Listing {
+        catalog: registries.catalog(),
+        datasets,
+    };
+    emit(args.json, &listing, text)
+}
+
+fn text(l: &Listing) -> String {
+    let c = &l.catalog;
     let mut s = String::new();
     let section = |s: &mut String, title: &str, items: &[Listed]| {
         let _ = writeln!(s, "{title}:");
@@ -62,5 +97,25 @@ fn text(c: &Catalog) -> String {
         &c.simulators,
     );
     let _ = writeln!(s, "models ({}): {}", c.models.len(), c.models.join(", "));
+    let _ = writeln!(
+        s,
+        "\ndatasets (bundled; --data bundled:NAME, or path = \"bundled:NAME\" in a suite):"
+    );
+    let width = l.datasets.iter().map(|d| d.name.len()).max().unwrap_or(0) + 2;
+    for d in &l.datasets {
+        let _ = writeln!(
+            s,
+            "  {:<width$}{} windows, robot {}, terrain {}: {}",
+            d.name,
+            d.windows,
+            d.robot,
+            if d.terrain.is_empty() {
+                "not recorded"
+            } else {
+                d.terrain
+            },
+            d.description
+        );
+    }
     s
 }

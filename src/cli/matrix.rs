@@ -3,9 +3,8 @@
 use crate::eval::{run_matrix, DatasetSource, MatrixResult, SweepFile};
 use crate::Registries;
 use anyhow::{Context, Result};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -23,63 +22,21 @@ pub struct Args {
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     run_with(&args.config, &args.out, args.json, registries).map(|_| ())
 }
-use std::sync::Mutex;
-use std::time::{Duration, Instant};
 
 /// Resolves a sweep's dataset: a bundled name, or a file relative to the sweep file.
 fn load_source(base: &Path, source: &DatasetSource) -> Result<crate::traits::Dataset, String> {
     if let Some(name) = &source.bundled {
-        return match name.as_str() {
-            "husky" => crate::bundled::husky().map_err(|e| e.to_string()),
-            other => Err(format!(
-                "no bundled dataset '{other}' (the bundled datasets are: husky)"
-            )),
-        };
+        return crate::bundled::load(name).map_err(|e| e.to_string());
     }
     // The plan checks that exactly one of file and bundled is given.
     let file = source.file.as_ref().ok_or("no file given")?;
+    if crate::data::bundled::name_in(file).is_some() {
+        // `file = "bundled:NAME"` is no path relative to the sweep file.
+        return crate::data::read_dataset(file, source.sidecar.as_deref())
+            .map_err(|e| e.to_string());
+    }
     let sidecar = source.sidecar.as_ref().map(|s| base.join(s));
     crate::data::read_dataset(&base.join(file), sidecar.as_deref()).map_err(|e| e.to_string())
-}
-
-/// A progress bar drawn on stderr once the run has lasted a second, when stderr is a
-/// terminal; nothing otherwise.
-struct Progress {
-    bar: ProgressBar,
-    start: Instant,
-    shown: Mutex<bool>,
-    terminal: bool,
-}
-
-impl Progress {
-    fn new() -> Self {
-        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} matrix [{elapsed_precise}] {wide_bar} {pos}/{len} (eta {eta})",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        Progress {
-            bar,
-            start: Instant::now(),
-            shown: Mutex::new(false),
-            terminal: std::io::stderr().is_terminal(),
-        }
-    }
-
-    fn update(&self, done: usize, total: usize) {
-        self.bar.set_length(total as u64);
-        self.bar.set_position(done as u64);
-        if self.terminal && self.start.elapsed() > Duration::from_secs(1) {
-            let mut shown = self.shown.lock().unwrap_or_else(|p| p.into_inner());
-            if !*shown {
-                *shown = true;
-                self.bar.set_draw_target(ProgressDrawTarget::stderr());
-                self.bar.enable_steady_tick(Duration::from_millis(200));
-            }
-        }
-    }
 }
 
 /// Runs `drive matrix` on the sweep file `config` with the parts of `registries`, writing
@@ -120,7 +77,7 @@ pub fn run_with(
             ("summary.md in --out", &files[2]),
         ],
     )?;
-    let progress = Progress::new();
+    let progress = super::common::Progress::new("matrix");
     let result = run_matrix(&plan, registries, &|d, t| progress.update(d, t))?;
     progress.bar.finish_and_clear();
     let markdown = result.to_markdown();

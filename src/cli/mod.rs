@@ -28,6 +28,7 @@ macro_rules! outln {
     };
 }
 
+mod bench;
 mod check;
 mod common;
 mod compare_protocols;
@@ -102,6 +103,12 @@ enum Command {
     /// Write DIR/report.md (model comparison, convergence time, fitted parameters,
     /// uncertainty calibration) and the paper's figures as PNG and SVG for one dataset.
     Report(report::Args),
+    /// Benchmark models across datasets (every bundled dataset, or a suite file of window
+    /// CSVs, raw logs and bags): each dataset's comparison as drive eval, the transfer
+    /// between runs of the same robot, the terrain's unpredictability (energy-based) and a
+    /// leaderboard; tables on stdout, --json, or --out DIR with CSV, Markdown and an HTML
+    /// page.
+    Bench(bench::Args),
     /// Predict poses from a saved model and a command sequence.
     Predict(predict::Args),
     /// List the registered parts: vehicles, powertrains, learners, samplers, terrains,
@@ -142,6 +149,7 @@ where
             Command::Check(a) => check::run(&a, registries),
             Command::Matrix(a) => matrix::run(&a, registries),
             Command::Report(a) => report::run(&a, registries),
+            Command::Bench(a) => bench::run(&a, registries),
             Command::Predict(a) => predict::run(&a),
             Command::List(a) => list::run(&a, registries),
         });

@@ -80,6 +80,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         model: args.model.clone(),
         start: args.prediction.start()?,
         uncertainty: args.prediction.uncertainty()?,
+        body: {
+            let robot =
+                super::common::robot_of(registries, &args.data, args.robot.as_deref(), &dataset)?;
+            robot.body.map(|b| (robot.source, b))
+        },
         ..Default::default()
     };
     let report = crate::report::Report::build(registries, &dataset, &options)?;

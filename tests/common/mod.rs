@@ -23,6 +23,35 @@ pub fn ok(args: &[&str]) -> String {
     String::from_utf8(out.stdout).unwrap()
 }
 
+/// Writes the bag importer's committed fixtures (tests/bags: a Husky on snow) into `dir`: the
+/// DRIVE logger's CSV as `raw` and its rosbag2 recording as the folder `bag`.
+pub fn bag_fixtures(
+    dir: &std::path::Path,
+    raw: &str,
+    bag: &str,
+) -> (std::path::PathBuf, std::path::PathBuf) {
+    use std::io::Read;
+    let here = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/bags");
+    let gunzip = |name: &str| {
+        let mut out = Vec::new();
+        flate2::read::GzDecoder::new(std::fs::File::open(here.join(name)).unwrap())
+            .read_to_end(&mut out)
+            .unwrap();
+        out
+    };
+    let raw = dir.join(raw);
+    std::fs::write(&raw, gunzip("husky_snow_raw.csv.gz")).unwrap();
+    let bag = dir.join(bag);
+    std::fs::create_dir(&bag).unwrap();
+    std::fs::write(bag.join("bag.mcap"), gunzip("husky_snow.mcap.gz")).unwrap();
+    std::fs::copy(
+        here.join("husky_snow_metadata.yaml"),
+        bag.join("metadata.yaml"),
+    )
+    .unwrap();
+    (raw, bag)
+}
+
 /// A user error: non-zero exit, one clear line on stderr, nothing on stdout.
 pub fn user_error(args: &[&str]) -> String {
     let out = drive(args);

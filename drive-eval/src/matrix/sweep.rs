@@ -48,7 +48,8 @@ pub enum MatrixError {
 }
 
 /// One recorded dataset of a sweep file: a window CSV (`file`, with an optional `sidecar`,
-/// paths relative to the sweep file), or a bundled dataset (`bundled = "husky"`).
+/// paths relative to the sweep file), or a bundled dataset (`bundled = "husky"`, or any name
+/// of `drive list`'s datasets; `file = "bundled:NAME"` is the same).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DatasetSource {

@@ -23,6 +23,7 @@ from collections.abc import Mapping as _Mapping
 
 from . import _native
 from ._native import Command, Dataset, DriveError, Model, fit, load_dataset, load_model
+from ._native import bench_json as _bench_json
 from ._native import evaluate_json as _evaluate_json
 
 __all__ = [
@@ -32,6 +33,7 @@ __all__ = [
     "Measurements",
     "Model",
     "ProtocolRunner",
+    "bench",
     "evaluate",
     "fit",
     "load_dataset",
@@ -39,11 +41,9 @@ __all__ = [
 ]
 
 
-def evaluate(dataset, models=None, split=0.5, start=None):
-    """The models (default: naive, powertrain, slip-blr, acc-blr) fitted on the first
-    `split` of the dataset's intervals and scored on the rest, their predictions starting
-    from `start` ("encoders", "encoders+imu" (the default) or "encoders+imu+localization",
-    as `drive eval --start`): the same dict as `drive eval --json`."""
+def _model_names(models, split):
+    """`models` (None, a list of names, or one str with commas) as a list of names (None for
+    the default), after checking `split` is a number."""
     if isinstance(models, str):
         models = [m.strip() for m in models.split(",") if m.strip()]
     if not _is_number(split):
@@ -52,9 +52,28 @@ def evaluate(dataset, models=None, split=0.5, start=None):
         raise DriveError(
             f"models must be model names (a list of str, or one str with commas), got {models!r}"
         )
-    return _json.loads(
-        _evaluate_json(dataset, None if models is None else list(models), float(split), start)
-    )
+    return None if models is None else list(models)
+
+
+def evaluate(dataset, models=None, split=0.5, start=None):
+    """The models (default: naive, powertrain, slip-blr, acc-blr) fitted on the first
+    `split` of the dataset's intervals and scored on the rest, their predictions starting
+    from `start` ("encoders", "encoders+imu" (the default) or "encoders+imu+localization",
+    as `drive eval --start`): the same dict as `drive eval --json`."""
+    models = _model_names(models, split)
+    return _json.loads(_evaluate_json(dataset, models, float(split), start))
+
+
+def bench(suite=None, models=None, split=0.5, transfer=True):
+    """The benchmark of `drive bench --json`, as a dict: the models (default: naive,
+    powertrain, slip-blr, acc-blr, slip-ipem) on every dataset of the suite file `suite` (a
+    path to a TOML file; every bundled dataset when None), each dataset's first `split` of
+    the intervals training; the transfer between runs of the same robot unless `transfer` is
+    False; the terrain's unpredictability; the leaderboard."""
+    models = _model_names(models, split)
+    if not isinstance(transfer, bool):
+        raise DriveError(f"transfer must be True or False, got {transfer!r}")
+    return _json.loads(_bench_json(suite, models, float(split), transfer))
 
 
 class Measurements:

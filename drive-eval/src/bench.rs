@@ -1,0 +1,800 @@
+//! The benchmark: many datasets (robots, terrains) x many models, on the one experiment
+//! engine.
+//!
+//! - **Within each dataset**: the paper's split, exactly as `drive eval` runs it
+//!   ([`compare_specs`]), with every model's improvement over slip-BLR and its paired
+//!   bootstrap interval.
+//! - **Transfer**: for every ordered pair of datasets of the same robot, each model fitted
+//!   on all of the first and scored on the evaluation half of the second, against the same
+//!   model fitted on the second's own training half.
+//! - **Leaderboard**: per model, the mean rank over datasets, the datasets where it beats
+//!   slip-BLR with an interval excluding 0, and the geometric mean of its median's ratio to
+//!   slip-BLR's.
+//! - **The terrain's unpredictability** ([`unpredictability`]) per dataset, and how each
+//!   model's error grows with it.
+
+use crate::{
+    compare_specs, evaluate_errors, spearman, split_by_interval, unpredictability, BootstrapConfig,
+    CompareError, Comparison, Mrmse, PairedImprovement, Unpredictability, UnpredictabilityConfig,
+    UnpredictabilitySummary, WindowUnpredictability,
+};
+use drive_models::calibration::Uncertainty;
+use drive_models::ModelSpec;
+use drive_samplers::BodySize;
+use drive_traits::{Dataset, FitError, MotionModel};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::{BTreeMap, HashMap};
+use thiserror::Error;
+
+/// One dataset of a benchmark, loaded, with its labels.
+#[derive(Debug, Clone)]
+pub struct BenchInput {
+    /// Its name in the results (unique within the benchmark).
+    pub name: String,
+    /// Where it was read from (a path, `bundled:NAME`).
+    pub source: String,
+    /// The robot's identity: datasets of the same robot are compared in transfer. A
+    /// registered robot's name when one was given or recognised, else the sidecar's robot.
+    pub robot: String,
+    /// The ground, free text (empty or `unknown...` when not known).
+    pub terrain: String,
+    /// The body's footprint, for the total unpredictability.
+    pub body: Option<BodySize>,
+    /// Where the body's footprint comes from (empty without one).
+    pub body_source: String,
+    /// The windows.
+    pub data: Dataset,
+}
+
+/// How the benchmark runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchConfig {
+    /// Training fraction of each dataset's intervals (the paper's 0.5).
+    pub split: f64,
+    /// Whether to run the transfer between datasets of the same robot.
+    pub transfer: bool,
+    /// The unpredictability's settings.
+    pub unpredictability: UnpredictabilityConfig,
+}
+
+impl Default for BenchConfig {
+    fn default() -> Self {
+        BenchConfig {
+            split: 0.5,
+            transfer: true,
+            unpredictability: UnpredictabilityConfig::default(),
+        }
+    }
+}
+
+/// Why a benchmark could not run.
+#[derive(Debug, Error)]
+pub enum BenchError {
+    /// No dataset, or no model.
+    #[error("{0}")]
+    Empty(&'static str),
+    /// Two datasets share a name.
+    #[error("two datasets are named '{0}' (give one a name = \"...\")")]
+    DuplicateName(String),
+    /// The comparison failed on one dataset.
+    #[error("dataset '{name}': {reason}")]
+    Dataset {
+        /// The dataset.
+        name: String,
+        /// Why.
+        reason: CompareError,
+    },
+    /// A transfer fit failed.
+    #[error("transfer: fitting {model} on all of '{dataset}': {reason}")]
+    TransferFit {
+        /// Model.
+        model: String,
+        /// The training dataset.
+        dataset: String,
+        /// Why.
+        reason: FitError,
+    },
+}
+
+/// A model's median ratio to slip-BLR's (below 1: better than slip-BLR).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Ratio {
+    /// Of the translational medians.
+    pub translational: f64,
+    /// Of the rotational medians.
+    pub rotational: f64,
+}
+
+/// The errors in one third of a dataset's evaluation windows sorted by their
+/// unpredictability.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct UnpredictabilityBin {
+    /// The range of the windows' unpredictability.
+    pub unpredictability: [f64; 2],
+    /// Windows in the bin.
+    pub windows: usize,
+    /// Median translational MRMSE (m).
+    pub translational_median_m: f64,
+    /// Median rotational MRMSE (rad).
+    pub rotational_median_rad: f64,
+}
+
+/// How a model's error grows with the windows' unpredictability on one dataset.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ErrorGrowth {
+    /// Spearman's correlation of the translational MRMSE with the translational
+    /// unpredictability over the evaluation windows.
+    pub spearman_translational: Option<f64>,
+    /// The same, rotational.
+    pub spearman_rotational: Option<f64>,
+    /// Which unpredictability sorts the windows into thirds (`total`, or `translational`
+    /// without the body's size).
+    pub binned_by: &'static str,
+    /// The evaluation windows in thirds of that unpredictability, lowest first.
+    pub thirds: Vec<UnpredictabilityBin>,
+}
+
+/// One model on one dataset.
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchModel {
+    /// The name asked (`slip-blr`).
+    pub name: String,
+    /// The full name (`slip-blr+fopdt`).
+    pub model: String,
+    /// Median translational MRMSE on the evaluation windows (m).
+    pub translational_median_m: f64,
+    /// Median rotational MRMSE (rad).
+    pub rotational_median_rad: f64,
+    /// Translational quartiles (m).
+    pub translational_iqr_m: [f64; 2],
+    /// Rotational quartiles (rad).
+    pub rotational_iqr_rad: [f64; 2],
+    /// Rank among the benchmark's models on this dataset by translational median (1 best,
+    /// ties share their mean rank).
+    pub rank_translational: f64,
+    /// The same, rotational.
+    pub rank_rotational: f64,
+    /// Improvement over naive with 95% paired bootstrap intervals.
+    pub improvement_over_naive: PairedImprovement,
+    /// Improvement over slip-BLR (fitted on the same training intervals) with 95% paired
+    /// bootstrap intervals; absent when slip-BLR cannot be fitted on the data.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub improvement_over_slip_blr: Option<PairedImprovement>,
+    /// The median's ratio to slip-BLR's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ratio_to_slip_blr: Option<Ratio>,
+    /// Share of the measured positions inside the predicted 95% region at 2 s, for a model
+    /// with a pose covariance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub position_coverage95_2s: Option<f64>,
+    /// The same for the yaw's interval.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub yaw_coverage95_2s: Option<f64>,
+    /// Time to fit (s).
+    pub fit_seconds: f64,
+    /// How the error grows with the windows' unpredictability.
+    pub error_growth: ErrorGrowth,
+}
+
+/// A dataset's unpredictability as the benchmark reports it: the summaries, the body used.
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchUnpredictability {
+    /// Translational.
+    pub translational: Option<UnpredictabilitySummary>,
+    /// Rotational.
+    pub rotational: Option<UnpredictabilitySummary>,
+    /// Total; `None` without the body's size.
+    pub total: Option<UnpredictabilitySummary>,
+    /// The windows pooled (`steady` or `all`).
+    pub pooled: &'static str,
+    /// The body's footprint used by the total.
+    pub body: Option<BodySize>,
+    /// Where it comes from.
+    pub body_source: String,
+}
+
+/// One dataset's results.
+#[derive(Debug, Serialize)]
+pub struct BenchDataset {
+    /// Its name in the benchmark.
+    pub name: String,
+    /// Where it was read from.
+    pub source: String,
+    /// The robot's identity (see [`BenchInput::robot`]).
+    pub robot: String,
+    /// The sidecar's robot text.
+    pub robot_description: String,
+    /// The ground.
+    pub terrain: String,
+    /// The vehicle type.
+    pub vehicle: String,
+    /// Windows in the dataset.
+    pub windows: usize,
+    /// DRIVE intervals in the dataset.
+    pub intervals: usize,
+    /// Training windows (the first `split` of the intervals).
+    pub train_windows: usize,
+    /// Evaluation windows.
+    pub eval_windows: usize,
+    /// The frame of the positions scored.
+    pub position_frame: &'static str,
+    /// One entry per model, in the order asked.
+    pub models: Vec<BenchModel>,
+    /// The terrain's unpredictability.
+    pub unpredictability: BenchUnpredictability,
+    /// The full comparison (per-window errors, fitted models).
+    #[serde(skip)]
+    pub comparison: Comparison,
+    /// Every window's unpredictability.
+    #[serde(skip)]
+    pub window_unpredictability: Vec<WindowUnpredictability>,
+}
+
+/// One model fitted on all of one dataset and scored on another's evaluation windows.
+#[derive(Debug, Clone, Serialize)]
+pub struct TransferCell {
+    /// Model name as asked.
+    pub model: String,
+    /// The dataset it was fitted on (all of it).
+    pub train: String,
+    /// The dataset it was scored on (its evaluation windows).
+    pub test: String,
+    /// The robot both datasets are of.
+    pub robot: String,
+    /// Whether the two terrains are the same; `None` when one is not known.
+    pub same_terrain: Option<bool>,
+    /// Median translational MRMSE on the test dataset's evaluation windows (m).
+    pub translational_median_m: f64,
+    /// Median rotational MRMSE (rad).
+    pub rotational_median_rad: f64,
+    /// The same model fitted on the test dataset's own training half (m).
+    pub own_translational_median_m: f64,
+    /// The same, rotational (rad).
+    pub own_rotational_median_rad: f64,
+    /// `100 (transfer - own) / own`, translational: what is lost by fitting elsewhere.
+    pub loss_translational_percent: f64,
+    /// The same, rotational.
+    pub loss_rotational_percent: f64,
+}
+
+/// The transfer of one model over a group of pairs.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TransferGroup {
+    /// Ordered pairs of datasets in the group.
+    pub pairs: usize,
+    /// Median over the pairs of the translational loss (percent).
+    pub median_loss_translational_percent: Option<f64>,
+    /// Median over the pairs of the rotational loss (percent).
+    pub median_loss_rotational_percent: Option<f64>,
+}
+
+/// One model's transfer: on the same terrain, on another one.
+#[derive(Debug, Clone, Serialize)]
+pub struct TransferSummary {
+    /// Model name as asked.
+    pub model: String,
+    /// Pairs of the same robot on the same terrain.
+    pub same_terrain: TransferGroup,
+    /// Pairs of the same robot on two terrains.
+    pub other_terrain: TransferGroup,
+    /// Pairs where a terrain is not known (not in either group).
+    pub unknown_terrain_pairs: usize,
+}
+
+/// One model's standing over the datasets.
+#[derive(Debug, Clone, Serialize)]
+pub struct LeaderboardRow {
+    /// Model name as asked.
+    pub model: String,
+    /// Datasets it was scored on.
+    pub datasets: usize,
+    /// Mean over the datasets of the mean of its translational and rotational ranks.
+    pub mean_rank: f64,
+    /// Mean translational rank.
+    pub mean_rank_translational: f64,
+    /// Mean rotational rank.
+    pub mean_rank_rotational: f64,
+    /// Datasets where it beats slip-BLR in both translation and rotation, each with its 95%
+    /// interval above 0.
+    pub wins_over_slip_blr: usize,
+    /// Datasets where it beats slip-BLR in translation with the interval above 0.
+    pub wins_translational: usize,
+    /// Datasets where it beats slip-BLR in rotation with the interval above 0.
+    pub wins_rotational: usize,
+    /// Datasets where slip-BLR beats it in translation or rotation with the interval below 0.
+    pub losses_to_slip_blr: usize,
+    /// Geometric mean over the datasets of its median's ratio to slip-BLR's.
+    pub ratio_to_slip_blr: Ratio,
+    /// Mean over the datasets of the Spearman correlation of its window errors with the
+    /// windows' unpredictability (translational, rotational).
+    pub error_growth_spearman: [Option<f64>; 2],
+}
+
+/// A benchmark's results.
+#[derive(Debug, Serialize)]
+pub struct Bench {
+    /// The training fraction of each dataset.
+    pub split: f64,
+    /// The models, as asked.
+    pub model_names: Vec<String>,
+    /// The bootstrap behind the intervals.
+    pub bootstrap: BootstrapConfig,
+    /// One entry per dataset, in the suite's order.
+    pub datasets: Vec<BenchDataset>,
+    /// Every model on every ordered pair of datasets of the same robot.
+    pub transfer: Vec<TransferCell>,
+    /// The transfer per model: same terrain against another terrain.
+    pub transfer_summary: Vec<TransferSummary>,
+    /// Models by mean rank, best first.
+    pub leaderboard: Vec<LeaderboardRow>,
+    /// Ordered pairs of the same robot skipped (another rate or vehicle), with why.
+    pub transfer_skipped: Vec<String>,
+}
+
+/// The work units of a benchmark (for a progress bar): one per dataset's comparison, one
+/// per transfer fit, one per transfer score.
+pub fn bench_units(inputs: &[BenchInput], models: usize, config: &BenchConfig) -> usize {
+    let pairs = if config.transfer {
+        transfer_pairs(inputs).0.len()
+    } else {
+        0
+    };
+    let trained: usize = if config.transfer {
+        let mut a: Vec<usize> = transfer_pairs(inputs).0.iter().map(|p| p.0).collect();
+        a.sort_unstable();
+        a.dedup();
+        a.len()
+    } else {
+        0
+    };
+    inputs.len() + trained * models + pairs * models
+}
+
+/// The ordered pairs (train, test) of datasets of the same robot that can be compared, and
+/// the pairs skipped with why.
+fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
+    let mut pairs = Vec::new();
+    let mut skipped = Vec::new();
+    for (a, ia) in inputs.iter().enumerate() {
+        for (b, ib) in inputs.iter().enumerate() {
+            if a == b || ia.robot != ib.robot {
+                continue;
+            }
+            let (ra, rb) = (&ia.data.robot, &ib.data.robot);
+            let why = if ra.rate_hz != rb.rate_hz || ra.window_len != rb.window_len {
+                Some(format!(
+                    "{} Hz x {} samples against {} Hz x {}",
+                    ra.rate_hz, ra.window_len, rb.rate_hz, rb.window_len
+                ))
+            } else if crate::vehicle_type(&ia.data) != crate::vehicle_type(&ib.data) {
+                Some(format!(
+                    "a {} vehicle against a {} one",
+                    crate::vehicle_type(&ia.data),
+                    crate::vehicle_type(&ib.data)
+                ))
+            } else {
+                None
+            };
+            match why {
+                None => pairs.push((a, b)),
+                Some(why) => skipped.push(format!("{} -> {}: {why}", ia.name, ib.name)),
+            }
+        }
+    }
+    (pairs, skipped)
+}
+
+/// Whether a terrain label is known (not empty, not `unknown...`).
+pub fn terrain_known(terrain: &str) -> bool {
+    let t = terrain.trim().to_ascii_lowercase();
+    !(t.is_empty() || t.starts_with("unknown"))
+}
+
+/// Ranks (1 = smallest), ties sharing their mean rank.
+fn ranks(values: &[f64]) -> Vec<f64> {
+    let n = values.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
+    let mut r = vec![0.0; n];
+    let mut i = 0;
+    while i < n {
+        let mut j = i;
+        while j + 1 < n && values[order[j + 1]] == values[order[i]] {
+            j += 1;
+        }
+        let mean = (i + j) as f64 / 2.0 + 1.0;
+        for &k in &order[i..=j] {
+            r[k] = mean;
+        }
+        i = j + 1;
+    }
+    r
+}
+
+fn median(values: &[f64]) -> Option<f64> {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    (!v.is_empty()).then(|| drive_traits::median(&mut v))
+}
+
+impl ErrorGrowth {
+    /// How the errors of `report` grow with the unpredictability `u` of the same dataset's
+    /// windows.
+    pub fn of(report: &crate::ModelReport, u: &Unpredictability) -> ErrorGrowth {
+        error_growth(&report.windows, &u.by_window(), u.total.is_some())
+    }
+}
+
+/// How a model's window errors grow with the windows' unpredictability.
+fn error_growth(
+    windows: &[crate::WindowErrors],
+    unpredictable: &HashMap<usize, WindowUnpredictability>,
+    with_total: bool,
+) -> ErrorGrowth {
+    let pairs = |pick: fn(&WindowUnpredictability) -> Option<f64>,
+                 error: fn(&Mrmse) -> f64|
+     -> (Vec<f64>, Vec<f64>) {
+        windows
+            .iter()
+            .filter_map(|w| {
+                let u = pick(unpredictable.get(&w.window)?)?;
+                let e = error(&w.error);
+                e.is_finite().then_some((e, u))
+            })
+            .unzip()
+    };
+    let (et, ut) = pairs(|u| u.translational, |e| e.translational);
+    let (er, ur) = pairs(|u| u.rotational, |e| e.rotational);
+    let binned_by = if with_total { "total" } else { "translational" };
+    let key: fn(&WindowUnpredictability) -> Option<f64> = if with_total {
+        |u| u.total
+    } else {
+        |u| u.translational
+    };
+    let mut sorted: Vec<(f64, &crate::WindowErrors)> = windows
+        .iter()
+        .filter_map(|w| Some((key(unpredictable.get(&w.window)?)?, w)))
+        .collect();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let n = sorted.len();
+    let mut thirds = Vec::new();
+    if n >= 3 {
+        for t in 0..3 {
+            let part = &sorted[t * n / 3..(t + 1) * n / 3];
+            let (Some(first), Some(last)) = (part.first(), part.last()) else {
+                continue;
+            };
+            let trans: Vec<f64> = part.iter().map(|(_, w)| w.error.translational).collect();
+            let rot: Vec<f64> = part.iter().map(|(_, w)| w.error.rotational).collect();
+            thirds.push(UnpredictabilityBin {
+                unpredictability: [first.0, last.0],
+                windows: part.len(),
+                translational_median_m: median(&trans).unwrap_or(f64::NAN),
+                rotational_median_rad: median(&rot).unwrap_or(f64::NAN),
+            });
+        }
+    }
+    ErrorGrowth {
+        spearman_translational: spearman(&et, &ut),
+        spearman_rotational: spearman(&er, &ur),
+        binned_by,
+        thirds,
+    }
+}
+
+fn ratio_of(improvement: &crate::Improvement) -> f64 {
+    1.0 - improvement.percent / 100.0
+}
+
+/// One dataset: the comparison (as `drive eval`) and the unpredictability.
+fn within(
+    input: &BenchInput,
+    specs: &[ModelSpec],
+    config: &BenchConfig,
+) -> Result<BenchDataset, BenchError> {
+    let comparison =
+        compare_specs(&input.data, config.split, specs).map_err(|reason| BenchError::Dataset {
+            name: input.name.clone(),
+            reason,
+        })?;
+    let u: Unpredictability = unpredictability(&input.data, input.body, &config.unpredictability);
+    let by_window = u.by_window();
+    let trans: Vec<f64> = comparison
+        .models
+        .iter()
+        .map(|m| m.translational_median_m)
+        .collect();
+    let rot: Vec<f64> = comparison
+        .models
+        .iter()
+        .map(|m| m.rotational_median_rad)
+        .collect();
+    let (rank_t, rank_r) = (ranks(&trans), ranks(&rot));
+    let at_2s = |c: &Option<BTreeMap<String, f64>>| {
+        c.as_ref().and_then(|c| c.iter().last().map(|(_, v)| *v))
+    };
+    let models = comparison
+        .models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| BenchModel {
+            name: m.name.clone(),
+            model: m.model.clone(),
+            translational_median_m: m.translational_median_m,
+            rotational_median_rad: m.rotational_median_rad,
+            translational_iqr_m: m.translational_iqr_m,
+            rotational_iqr_rad: m.rotational_iqr_rad,
+            rank_translational: rank_t[i],
+            rank_rotational: rank_r[i],
+            improvement_over_naive: m.improvement_over_naive,
+            improvement_over_slip_blr: m.improvement_over_slip_blr,
+            ratio_to_slip_blr: m.improvement_over_slip_blr.map(|b| Ratio {
+                translational: ratio_of(&b.translational),
+                rotational: ratio_of(&b.rotational),
+            }),
+            position_coverage95_2s: at_2s(&m.coverage95),
+            yaw_coverage95_2s: at_2s(&m.yaw_coverage95),
+            fit_seconds: m.fit_seconds,
+            error_growth: error_growth(&m.report.windows, &by_window, u.total.is_some()),
+        })
+        .collect();
+    let data = &input.data;
+    Ok(BenchDataset {
+        name: input.name.clone(),
+        source: input.source.clone(),
+        robot: input.robot.clone(),
+        robot_description: data.robot.robot.clone(),
+        terrain: input.terrain.clone(),
+        vehicle: comparison.vehicle.clone(),
+        windows: data.windows.len(),
+        intervals: data.interval_count(),
+        train_windows: comparison.train_windows,
+        eval_windows: comparison.eval_windows,
+        position_frame: comparison.position_frame,
+        models,
+        unpredictability: BenchUnpredictability {
+            translational: u.translational,
+            rotational: u.rotational,
+            total: u.total,
+            pooled: u.pooled,
+            body: input.body,
+            body_source: input.body_source.clone(),
+        },
+        comparison,
+        window_unpredictability: u.windows,
+    })
+}
+
+/// Runs the benchmark: every model of `specs` on every dataset of `inputs` (in parallel),
+/// the transfer between datasets of the same robot, the leaderboard. `progress` is called
+/// after each unit of work ([`bench_units`] of them).
+///
+/// ```
+/// use drive_eval::{run_bench, BenchConfig, BenchInput, Registries};
+/// let registries = Registries::builtin();
+/// let sim = |terrain: &str, seed| {
+///     let data = drive_eval::simulate_protocol(&registries, "husky", terrain, "uniform", 8, seed).unwrap().dataset;
+///     BenchInput { name: format!("{terrain}-{seed}"), source: "simulated".into(), robot: "husky".into(),
+///         terrain: terrain.into(), body: None, body_source: String::new(), data }
+/// };
+/// let inputs = vec![sim("tile", 1), sim("snow", 2), sim("snow", 3)];
+/// let specs = registries.models().resolve_list(&["naive", "slip-blr"]).unwrap();
+/// let bench = run_bench(&inputs, &specs, &BenchConfig::default(), &|| {}).unwrap();
+/// assert_eq!(bench.datasets.len(), 3);
+/// assert_eq!(bench.transfer.len(), 3 * 2 * 2); // 6 ordered pairs, 2 models
+/// assert_eq!(bench.leaderboard[0].model, "slip-blr");
+/// ```
+pub fn run_bench(
+    inputs: &[BenchInput],
+    specs: &[ModelSpec],
+    config: &BenchConfig,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Bench, BenchError> {
+    if inputs.is_empty() {
+        return Err(BenchError::Empty("the suite holds no dataset"));
+    }
+    if specs.is_empty() {
+        return Err(BenchError::Empty("no model to benchmark"));
+    }
+    for (i, a) in inputs.iter().enumerate() {
+        if inputs[..i].iter().any(|b| b.name == a.name) {
+            return Err(BenchError::DuplicateName(a.name.clone()));
+        }
+    }
+    let datasets: Vec<BenchDataset> = inputs
+        .par_iter()
+        .map(|input| {
+            let d = within(input, specs, config);
+            progress();
+            d
+        })
+        .collect::<Result<_, _>>()?;
+    let (pairs, transfer_skipped) = if config.transfer {
+        transfer_pairs(inputs)
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    let transfer = transfer_cells(inputs, specs, config, &pairs, &datasets, progress)?;
+    let transfer_summary = specs
+        .iter()
+        .map(|spec| summarize_transfer(&spec.name, &transfer))
+        .collect();
+    let leaderboard = leaderboard(specs, &datasets);
+    Ok(Bench {
+        split: config.split,
+        model_names: specs.iter().map(|s| s.name.clone()).collect(),
+        bootstrap: datasets
+            .first()
+            .map_or_else(BootstrapConfig::default, |d| d.comparison.bootstrap),
+        datasets,
+        transfer,
+        transfer_summary,
+        leaderboard,
+        transfer_skipped,
+    })
+}
+
+/// Fits every model on all of each training dataset of `pairs`, scores it on each test
+/// dataset's evaluation windows.
+fn transfer_cells(
+    inputs: &[BenchInput],
+    specs: &[ModelSpec],
+    config: &BenchConfig,
+    pairs: &[(usize, usize)],
+    datasets: &[BenchDataset],
+    progress: &(dyn Fn() + Sync),
+) -> Result<Vec<TransferCell>, BenchError> {
+    let mut trained: Vec<usize> = pairs.iter().map(|p| p.0).collect();
+    trained.sort_unstable();
+    trained.dedup();
+    // Point predictions only: no calibration of the covariance.
+    let plain: Vec<ModelSpec> = specs
+        .iter()
+        .map(|s| s.clone().with_uncertainty(Uncertainty::Paper, s.start))
+        .collect();
+    let jobs: Vec<(usize, usize)> = trained
+        .iter()
+        .flat_map(|&a| (0..plain.len()).map(move |m| (a, m)))
+        .collect();
+    let fitted: Vec<((usize, usize), Box<dyn MotionModel>)> = jobs
+        .par_iter()
+        .map(|&(a, m)| {
+            let model =
+                plain[m]
+                    .fit(&inputs[a].data.all())
+                    .map_err(|reason| BenchError::TransferFit {
+                        model: specs[m].name.clone(),
+                        dataset: inputs[a].name.clone(),
+                        reason,
+                    });
+            progress();
+            model.map(|model| ((a, m), model))
+        })
+        .collect::<Result<_, _>>()?;
+    let fitted: HashMap<(usize, usize), Box<dyn MotionModel>> = fitted.into_iter().collect();
+    let cells: Vec<(usize, usize, usize)> = pairs
+        .iter()
+        .flat_map(|&(a, b)| (0..specs.len()).map(move |m| (a, b, m)))
+        .collect();
+    cells
+        .par_iter()
+        .map(|&(a, b, m)| {
+            let (ia, ib) = (&inputs[a], &inputs[b]);
+            // The split was checked when the test dataset was compared.
+            let (_, eval) =
+                split_by_interval(&ib.data, config.split).map_err(|e| BenchError::Dataset {
+                    name: ib.name.clone(),
+                    reason: e.into(),
+                })?;
+            // Every (training dataset, model) of a pair was fitted above.
+            let model = &fitted[&(a, m)];
+            let report = evaluate_errors(model.as_ref(), &eval, plain[m].start);
+            let own = &datasets[b].models[m];
+            let t = report.translational(None).map_or(f64::NAN, |s| s.median);
+            let r = report.rotational(None).map_or(f64::NAN, |s| s.median);
+            let loss = |x: f64, own: f64| -crate::improvement_percent(x, own);
+            progress();
+            Ok(TransferCell {
+                model: specs[m].name.clone(),
+                train: ia.name.clone(),
+                test: ib.name.clone(),
+                robot: ia.robot.clone(),
+                same_terrain: (terrain_known(&ia.terrain) && terrain_known(&ib.terrain))
+                    .then(|| ia.terrain.trim().eq_ignore_ascii_case(ib.terrain.trim())),
+                translational_median_m: t,
+                rotational_median_rad: r,
+                own_translational_median_m: own.translational_median_m,
+                own_rotational_median_rad: own.rotational_median_rad,
+                loss_translational_percent: loss(t, own.translational_median_m),
+                loss_rotational_percent: loss(r, own.rotational_median_rad),
+            })
+        })
+        .collect()
+}
+
+fn summarize_transfer(model: &str, cells: &[TransferCell]) -> TransferSummary {
+    let group = |same: bool| {
+        let of: Vec<&TransferCell> = cells
+            .iter()
+            .filter(|c| c.model == model && c.same_terrain == Some(same))
+            .collect();
+        let t: Vec<f64> = of.iter().map(|c| c.loss_translational_percent).collect();
+        let r: Vec<f64> = of.iter().map(|c| c.loss_rotational_percent).collect();
+        TransferGroup {
+            pairs: of.len(),
+            median_loss_translational_percent: median(&t),
+            median_loss_rotational_percent: median(&r),
+        }
+    };
+    TransferSummary {
+        model: model.to_string(),
+        same_terrain: group(true),
+        other_terrain: group(false),
+        unknown_terrain_pairs: cells
+            .iter()
+            .filter(|c| c.model == model && c.same_terrain.is_none())
+            .count(),
+    }
+}
+
+fn leaderboard(specs: &[ModelSpec], datasets: &[BenchDataset]) -> Vec<LeaderboardRow> {
+    let mut rows: Vec<LeaderboardRow> = specs
+        .iter()
+        .enumerate()
+        .map(|(m, spec)| {
+            let of: Vec<&BenchModel> = datasets.iter().map(|d| &d.models[m]).collect();
+            let n = of.len().max(1) as f64;
+            let mean = |f: &dyn Fn(&BenchModel) -> f64| of.iter().map(|b| f(b)).sum::<f64>() / n;
+            let above = |i: &crate::Improvement| i.ci[0] > 0.0;
+            let below = |i: &crate::Improvement| i.ci[1] < 0.0;
+            let count = |f: &dyn Fn(&PairedImprovement) -> bool| {
+                of.iter()
+                    .filter(|b| b.improvement_over_slip_blr.as_ref().is_some_and(f))
+                    .count()
+            };
+            let geometric = |pick: fn(&Ratio) -> f64| {
+                let logs: Vec<f64> = of
+                    .iter()
+                    .filter_map(|b| b.ratio_to_slip_blr.as_ref().map(pick))
+                    .map(f64::ln)
+                    .collect();
+                if logs.is_empty() {
+                    f64::NAN
+                } else {
+                    (logs.iter().sum::<f64>() / logs.len() as f64).exp()
+                }
+            };
+            let mean_of =
+                |v: Vec<f64>| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+            LeaderboardRow {
+                model: spec.name.clone(),
+                datasets: of.len(),
+                mean_rank: mean(&|b| 0.5 * (b.rank_translational + b.rank_rotational)),
+                mean_rank_translational: mean(&|b| b.rank_translational),
+                mean_rank_rotational: mean(&|b| b.rank_rotational),
+                wins_over_slip_blr: count(&|i| above(&i.translational) && above(&i.rotational)),
+                wins_translational: count(&|i| above(&i.translational)),
+                wins_rotational: count(&|i| above(&i.rotational)),
+                losses_to_slip_blr: count(&|i| below(&i.translational) || below(&i.rotational)),
+                ratio_to_slip_blr: Ratio {
+                    translational: geometric(|r| r.translational),
+                    rotational: geometric(|r| r.rotational),
+                },
+                error_growth_spearman: [
+                    mean_of(
+                        of.iter()
+                            .filter_map(|b| b.error_growth.spearman_translational)
+                            .collect(),
+                    ),
+                    mean_of(
+                        of.iter()
+                            .filter_map(|b| b.error_growth.spearman_rotational)
+                            .collect(),
+                    ),
+                ],
+            }
+        })
+        .collect();
+    rows.sort_by(|a, b| a.mean_rank.total_cmp(&b.mean_rank));
+    rows
+}

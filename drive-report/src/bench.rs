@@ -1,0 +1,1058 @@
+//! The outputs of a benchmark ([`drive_eval::Bench`]): CSV tables, a Markdown summary, the
+//! JSON document and one self-contained HTML page whose figures (SVG) are embedded.
+//!
+//! | figure | shows |
+//! |---|---|
+//! | `medians` | every model's median MRMSE with its quartiles, per dataset |
+//! | `ratio_to_slip_blr` | every model's median over slip-BLR's with the 95% paired bootstrap interval, per dataset |
+//! | `transfer` | per model, the loss of a model fitted on another run of the robot, train x test |
+//! | `unpredictability` | the windows' unpredictability per dataset, labelled with its terrain |
+//! | `error_vs_unpredictability` | each model's median error against the dataset's unpredictability |
+
+use crate::figures::{self, BoxGroup, DrawResult, COLOURS};
+use crate::ReportError;
+use drive_eval::{Bench, TransferCell};
+use drive_traits::Phase;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::fmt::Write as _;
+
+const FONT: &str = "sans-serif";
+
+/// Every file of `drive bench --out` by name, with its content.
+///
+/// ```no_run
+/// # fn demo(bench: &drive_eval::Bench) -> Result<(), drive_report::ReportError> {
+/// let files = drive_report::bench::files(bench)?;
+/// assert!(files.iter().any(|(name, _)| *name == "bench.html"));
+/// # Ok(()) }
+/// ```
+pub fn files(bench: &Bench) -> Result<Vec<(&'static str, String)>, ReportError> {
+    Ok(vec![
+        ("bench.md", markdown(bench)),
+        ("bench.html", html(bench)?),
+        ("datasets.csv", datasets_csv(bench)),
+        ("transfer.csv", transfer_csv(bench)),
+        ("leaderboard.csv", leaderboard_csv(bench)),
+        ("windows.csv", windows_csv(bench)),
+        (
+            "bench.json",
+            serde_json::to_string_pretty(bench).map_err(|e| ReportError::Draw(e.to_string()))?
+                + "\n",
+        ),
+    ])
+}
+
+/// A CSV field: quoted when it holds a comma, a quote or a line break.
+fn field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn num(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite())
+        .map_or(String::new(), |x| x.to_string())
+}
+
+/// One row per dataset and model.
+pub fn datasets_csv(b: &Bench) -> String {
+    let mut s = String::from(
+        "dataset,robot,terrain,model,full_model,eval_windows,translational_median_m,translational_q1_m,translational_q3_m,rotational_median_rad,rotational_q1_rad,rotational_q3_rad,rank_translational,rank_rotational,vs_slip_blr_translational_percent,vs_slip_blr_translational_ci_low,vs_slip_blr_translational_ci_high,vs_slip_blr_rotational_percent,vs_slip_blr_rotational_ci_low,vs_slip_blr_rotational_ci_high,ratio_to_slip_blr_translational,ratio_to_slip_blr_rotational,position_coverage95_2s,yaw_coverage95_2s,spearman_error_unpredictability_translational,spearman_error_unpredictability_rotational,unpredictability_translational,unpredictability_rotational,unpredictability_total\n",
+    );
+    for d in &b.datasets {
+        let u = &d.unpredictability;
+        for m in &d.models {
+            let v = m.improvement_over_slip_blr;
+            let row = [
+                field(&d.name),
+                field(&d.robot),
+                field(&d.terrain),
+                field(&m.name),
+                field(&m.model),
+                d.eval_windows.to_string(),
+                num(Some(m.translational_median_m)),
+                num(Some(m.translational_iqr_m[0])),
+                num(Some(m.translational_iqr_m[1])),
+                num(Some(m.rotational_median_rad)),
+                num(Some(m.rotational_iqr_rad[0])),
+                num(Some(m.rotational_iqr_rad[1])),
+                num(Some(m.rank_translational)),
+                num(Some(m.rank_rotational)),
+                num(v.map(|i| i.translational.percent)),
+                num(v.map(|i| i.translational.ci[0])),
+                num(v.map(|i| i.translational.ci[1])),
+                num(v.map(|i| i.rotational.percent)),
+                num(v.map(|i| i.rotational.ci[0])),
+                num(v.map(|i| i.rotational.ci[1])),
+                num(m.ratio_to_slip_blr.map(|r| r.translational)),
+                num(m.ratio_to_slip_blr.map(|r| r.rotational)),
+                num(m.position_coverage95_2s),
+                num(m.yaw_coverage95_2s),
+                num(m.error_growth.spearman_translational),
+                num(m.error_growth.spearman_rotational),
+                num(u.translational.map(|x| x.median)),
+                num(u.rotational.map(|x| x.median)),
+                num(u.total.map(|x| x.median)),
+            ];
+            let _ = writeln!(s, "{}", row.join(","));
+        }
+    }
+    s
+}
+
+/// One row per model and ordered pair of datasets.
+pub fn transfer_csv(b: &Bench) -> String {
+    let mut s = String::from(
+        "model,robot,train,test,same_terrain,translational_median_m,rotational_median_rad,own_translational_median_m,own_rotational_median_rad,loss_translational_percent,loss_rotational_percent\n",
+    );
+    for c in &b.transfer {
+        let row = [
+            field(&c.model),
+            field(&c.robot),
+            field(&c.train),
+            field(&c.test),
+            c.same_terrain.map_or(String::new(), |x| x.to_string()),
+            num(Some(c.translational_median_m)),
+            num(Some(c.rotational_median_rad)),
+            num(Some(c.own_translational_median_m)),
+            num(Some(c.own_rotational_median_rad)),
+            num(Some(c.loss_translational_percent)),
+            num(Some(c.loss_rotational_percent)),
+        ];
+        let _ = writeln!(s, "{}", row.join(","));
+    }
+    s
+}
+
+/// One row per model, best first.
+pub fn leaderboard_csv(b: &Bench) -> String {
+    let mut s = String::from(
+        "model,datasets,mean_rank,mean_rank_translational,mean_rank_rotational,wins_over_slip_blr,wins_translational,wins_rotational,losses_to_slip_blr,ratio_to_slip_blr_translational,ratio_to_slip_blr_rotational,error_growth_spearman_translational,error_growth_spearman_rotational\n",
+    );
+    for r in &b.leaderboard {
+        let row = [
+            field(&r.model),
+            r.datasets.to_string(),
+            num(Some(r.mean_rank)),
+            num(Some(r.mean_rank_translational)),
+            num(Some(r.mean_rank_rotational)),
+            r.wins_over_slip_blr.to_string(),
+            r.wins_translational.to_string(),
+            r.wins_rotational.to_string(),
+            r.losses_to_slip_blr.to_string(),
+            num(Some(r.ratio_to_slip_blr.translational)),
+            num(Some(r.ratio_to_slip_blr.rotational)),
+            num(r.error_growth_spearman[0]),
+            num(r.error_growth_spearman[1]),
+        ];
+        let _ = writeln!(s, "{}", row.join(","));
+    }
+    s
+}
+
+/// One row per dataset, window and model: the window's unpredictability and, for an
+/// evaluation window, the model's errors.
+pub fn windows_csv(b: &Bench) -> String {
+    let mut s = String::from(
+        "dataset,window,interval,phase,part,unpredictability_translational,unpredictability_rotational,unpredictability_total,model,translational_m,rotational_rad\n",
+    );
+    for d in &b.datasets {
+        let errors: Vec<std::collections::HashMap<usize, drive_eval::Mrmse>> = d
+            .comparison
+            .models
+            .iter()
+            .map(|m| {
+                m.report
+                    .windows
+                    .iter()
+                    .map(|w| (w.window, w.error))
+                    .collect()
+            })
+            .collect();
+        for w in &d.window_unpredictability {
+            let head = [
+                field(&d.name),
+                w.window.to_string(),
+                w.interval.to_string(),
+                w.phase.as_str().to_string(),
+            ];
+            let u = [num(w.translational), num(w.rotational), num(w.total)];
+            let evaluated = errors.first().is_some_and(|e| e.contains_key(&w.window));
+            if !evaluated {
+                let _ = writeln!(s, "{},train,{},,,", head.join(","), u.join(","));
+                continue;
+            }
+            for (m, e) in d.models.iter().zip(&errors) {
+                let (t, r) = e.get(&w.window).map_or((None, None), |e| {
+                    (Some(e.translational), Some(e.rotational))
+                });
+                let _ = writeln!(
+                    s,
+                    "{},eval,{},{},{},{}",
+                    head.join(","),
+                    u.join(","),
+                    field(&m.name),
+                    num(t),
+                    num(r)
+                );
+            }
+        }
+    }
+    s
+}
+
+fn pct(i: &drive_eval::Improvement) -> String {
+    let sure = if i.ci[0] > 0.0 || i.ci[1] < 0.0 {
+        "**"
+    } else {
+        ""
+    };
+    format!(
+        "{sure}{:+.1}%{sure} [{:+.1}, {:+.1}]",
+        i.percent, i.ci[0], i.ci[1]
+    )
+}
+
+fn or_dash(v: Option<f64>, digits: usize) -> String {
+    v.filter(|x| x.is_finite())
+        .map_or("-".into(), |v| format!("{v:.digits$}"))
+}
+
+fn terrain(t: &str) -> &str {
+    if t.is_empty() {
+        "not recorded"
+    } else {
+        t
+    }
+}
+
+/// One section of tables per part of the benchmark, as Markdown (also the HTML page's
+/// tables, converted).
+pub fn markdown(b: &Bench) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# DRIVE benchmark\n");
+    let _ = writeln!(
+        s,
+        "{} datasets x {} models ({}). Each dataset's first {} of the DRIVE intervals trains, the rest evaluates, as `drive eval`; errors are the paper's multi-step RMSE (eq. 8) over 2 s. Intervals are 95% paired bootstrap intervals ({} resamples of the evaluation intervals); **bold** where they exclude 0.\n",
+        b.datasets.len(),
+        b.model_names.len(),
+        b.model_names.join(", "),
+        b.split,
+        b.bootstrap.resamples
+    );
+    let _ = writeln!(s, "## Leaderboard\n");
+    let _ = writeln!(
+        s,
+        "Mean rank over the datasets (translational and rotational ranks averaged, 1 best); wins: datasets where the model beats slip-BLR with the interval above 0 in both, in translation, in rotation; losses: datasets where slip-BLR beats it in either; ratio: geometric mean of the median's ratio to slip-BLR's; growth: mean over the datasets of the Spearman correlation of a window's error with its unpredictability.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| # | model | mean rank | wins (both / t / r) | losses | ratio t | ratio r | growth t | growth r |\n|---|---|---|---|---|---|---|---|---|"
+    );
+    for (i, r) in b.leaderboard.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.2} | {} / {} / {} | {} | {:.3} | {:.3} | {} | {} |",
+            i + 1,
+            r.model,
+            r.mean_rank,
+            r.wins_over_slip_blr,
+            r.wins_translational,
+            r.wins_rotational,
+            r.losses_to_slip_blr,
+            r.ratio_to_slip_blr.translational,
+            r.ratio_to_slip_blr.rotational,
+            or_dash(r.error_growth_spearman[0], 2),
+            or_dash(r.error_growth_spearman[1], 2)
+        );
+    }
+    let _ = writeln!(s, "\n## Datasets\n");
+    let _ = writeln!(
+        s,
+        "Unpredictability (T-FR 2025's energy metric; median over the {} windows' samples): 0 when the robot moves as commanded, 1 when it does not move.\n",
+        b.datasets
+            .first()
+            .map_or("steady", |d| d.unpredictability.pooled)
+    );
+    let _ = writeln!(
+        s,
+        "| # | dataset | robot | terrain | windows | evaluated | unpredictability t | r | total | body |\n|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for (i, d) in b.datasets.iter().enumerate() {
+        let u = &d.unpredictability;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            i + 1,
+            md(&d.name),
+            md(&d.robot),
+            md(terrain(&d.terrain)),
+            d.windows,
+            d.eval_windows,
+            or_dash(u.translational.map(|x| x.median), 3),
+            or_dash(u.rotational.map(|x| x.median), 3),
+            or_dash(u.total.map(|x| x.median), 3),
+            md(&u.body_source)
+        );
+    }
+    let _ = writeln!(s, "\n## Per dataset\n");
+    for d in &b.datasets {
+        let _ = writeln!(
+            s,
+            "### {} ({}, {})\n",
+            md(&d.name),
+            md(&d.robot),
+            md(terrain(&d.terrain))
+        );
+        let _ = writeln!(
+            s,
+            "| model | translational [m] median [IQR] | rotational [rad] median [IQR] | vs slip-BLR: translational | rotational | coverage 95% at 2 s (position, yaw) |\n|---|---|---|---|---|---|"
+        );
+        for m in &d.models {
+            let v = m.improvement_over_slip_blr;
+            let _ = writeln!(
+                s,
+                "| {} | {:.4} [{:.4}, {:.4}] | {:.4} [{:.4}, {:.4}] | {} | {} | {} |",
+                md(&m.name),
+                m.translational_median_m,
+                m.translational_iqr_m[0],
+                m.translational_iqr_m[1],
+                m.rotational_median_rad,
+                m.rotational_iqr_rad[0],
+                m.rotational_iqr_rad[1],
+                v.map_or("-".into(), |i| pct(&i.translational)),
+                v.map_or("-".into(), |i| pct(&i.rotational)),
+                match (m.position_coverage95_2s, m.yaw_coverage95_2s) {
+                    (Some(p), Some(y)) => format!("{:.1}%, {:.1}%", 100.0 * p, 100.0 * y),
+                    _ => "-".into(),
+                }
+            );
+        }
+        let _ = writeln!(s);
+    }
+    let _ = writeln!(s, "## Transfer between runs of the same robot\n");
+    if b.transfer.is_empty() {
+        let _ = writeln!(s, "No two datasets of the same robot could be compared.\n");
+    } else {
+        let _ = writeln!(
+            s,
+            "Each model fitted on all of one run and scored on the evaluation windows of another run of the same robot; the loss is against the same model fitted on that run's own training half (median over the pairs).\n"
+        );
+        let _ = writeln!(
+            s,
+            "| model | same terrain: pairs | loss t | loss r | other terrain: pairs | loss t | loss r | terrain unknown |\n|---|---|---|---|---|---|---|---|"
+        );
+        for t in &b.transfer_summary {
+            let g = |g: &drive_eval::TransferGroup| {
+                format!(
+                    "{} | {} | {}",
+                    g.pairs,
+                    g.median_loss_translational_percent
+                        .map_or("-".into(), |v| format!("{v:+.1}%")),
+                    g.median_loss_rotational_percent
+                        .map_or("-".into(), |v| format!("{v:+.1}%"))
+                )
+            };
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} |",
+                md(&t.model),
+                g(&t.same_terrain),
+                g(&t.other_terrain),
+                t.unknown_terrain_pairs
+            );
+        }
+        let _ = writeln!(
+            s,
+            "\nEvery pair (translational / rotational median MRMSE of the transferred model; its loss):\n"
+        );
+        let _ = writeln!(
+            s,
+            "| model | train | test | same terrain | transferred | own | loss |\n|---|---|---|---|---|---|---|"
+        );
+        for c in &b.transfer {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {:.4} / {:.4} | {:.4} / {:.4} | {:+.1}% / {:+.1}% |",
+                md(&c.model),
+                md(&c.train),
+                md(&c.test),
+                c.same_terrain
+                    .map_or("unknown", |x| if x { "yes" } else { "no" }),
+                c.translational_median_m,
+                c.rotational_median_rad,
+                c.own_translational_median_m,
+                c.own_rotational_median_rad,
+                c.loss_translational_percent,
+                c.loss_rotational_percent
+            );
+        }
+    }
+    for skipped in &b.transfer_skipped {
+        let _ = writeln!(s, "\nTransfer skipped: {}", md(skipped));
+    }
+    let _ = writeln!(s, "\n## Error against the unpredictability\n");
+    let _ = writeln!(
+        s,
+        "Each dataset's evaluation windows in thirds of their unpredictability ({}), lowest first: median translational [m] / rotational [rad] MRMSE per third.\n",
+        b.datasets
+            .first()
+            .and_then(|d| d.models.first())
+            .map_or("total", |m| m.error_growth.binned_by)
+    );
+    let _ = writeln!(
+        s,
+        "| dataset | model | low third | middle third | high third | Spearman t | Spearman r |\n|---|---|---|---|---|---|---|"
+    );
+    for d in &b.datasets {
+        for m in &d.models {
+            let third = |i: usize| {
+                m.error_growth.thirds.get(i).map_or("-".into(), |t| {
+                    format!(
+                        "{:.3} / {:.3} (u {:.2}-{:.2})",
+                        t.translational_median_m,
+                        t.rotational_median_rad,
+                        t.unpredictability[0],
+                        t.unpredictability[1]
+                    )
+                })
+            };
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {} |",
+                md(&d.name),
+                md(&m.name),
+                third(0),
+                third(1),
+                third(2),
+                or_dash(m.error_growth.spearman_translational, 2),
+                or_dash(m.error_growth.spearman_rotational, 2)
+            );
+        }
+    }
+    s
+}
+
+/// Text for a Markdown table cell: no pipe, no line break.
+fn md(s: &str) -> String {
+    s.replace('|', "/").replace(['\n', '\r'], " ")
+}
+
+/// Text for HTML.
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// One kind of a window's unpredictability.
+type PickKind = fn(&drive_eval::WindowUnpredictability) -> Option<f64>;
+
+/// The figures of the page: name, caption, size.
+fn figure_list(b: &Bench) -> Vec<(&'static str, String, (u32, u32))> {
+    let w = (240 + 110 * b.datasets.len() as u32).clamp(900, 2400);
+    let h = 600;
+    let mut f = vec![
+        (
+            "medians",
+            "Median MRMSE per dataset and model, with the quartiles (log scale)".to_string(),
+            (w, h),
+        ),
+        (
+            "ratio_to_slip_blr",
+            "Each model's median over slip-BLR's, with the 95% paired bootstrap interval (log scale; below 1: better than slip-BLR)".to_string(),
+            (w, h),
+        ),
+    ];
+    if !b.transfer.is_empty() {
+        let groups = transfer_groups(b);
+        let cells: usize = groups
+            .iter()
+            .map(|(_, names)| names.len())
+            .max()
+            .unwrap_or(1);
+        let side = (100 + 50 * cells as u32).clamp(320, 900);
+        f.push((
+            "transfer",
+            "Transfer: loss of each model fitted on all of one run (row) and scored on another run of the robot (column), against the model fitted on that run itself [%]; the diagonal names the run by its number in the datasets table".to_string(),
+            (
+                2 * side,
+                (60 + b.model_names.len() as u32 * side * groups.len() as u32).min(12000),
+            ),
+        ));
+    }
+    f.push((
+        "unpredictability",
+        "The terrain's unpredictability per window, per dataset (steady windows; 0: moves as commanded, 1: does not move)".to_string(),
+        (w.max(1200), h),
+    ));
+    f.push((
+        "error_vs_unpredictability",
+        "Each model's median error against the dataset's unpredictability".to_string(),
+        (1100, 520),
+    ));
+    f
+}
+
+/// The robots with transfer pairs, and their datasets in the suite's order.
+fn transfer_groups(b: &Bench) -> Vec<(String, Vec<String>)> {
+    let mut groups: Vec<(String, Vec<String>)> = Vec::new();
+    for d in &b.datasets {
+        let paired = b
+            .transfer
+            .iter()
+            .any(|c| c.train == d.name || c.test == d.name);
+        if !paired {
+            continue;
+        }
+        match groups.iter_mut().find(|g| g.0 == d.robot) {
+            Some(g) => g.1.push(d.name.clone()),
+            None => groups.push((d.robot.clone(), vec![d.name.clone()])),
+        }
+    }
+    groups
+}
+
+/// Draws one figure of the page as SVG text.
+pub fn figure_svg(b: &Bench, name: &str) -> Result<String, ReportError> {
+    crate::register_font();
+    let size = figure_list(b)
+        .into_iter()
+        .find(|f| f.0 == name)
+        .map_or((1000, 560), |f| f.2);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        draw(b, name, &root).map_err(|e| ReportError::Draw(format!("{name}: {e}")))?;
+    }
+    Ok(svg)
+}
+
+fn draw<DB: DrawingBackend>(b: &Bench, name: &str, root: &DrawingArea<DB, Shift>) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    match name {
+        "medians" => points_per_dataset(root, b, false),
+        "ratio_to_slip_blr" => points_per_dataset(root, b, true),
+        "transfer" => transfer(root, b),
+        "unpredictability" => {
+            root.fill(&WHITE)?;
+            let body = figures::header(root, "Unpredictability per dataset (steady windows)", &[])?;
+            let panels = body.split_evenly((1, 3));
+            let kinds: [(&str, PickKind); 3] = [
+                ("translational", |w| w.translational),
+                ("rotational", |w| w.rotational),
+                ("total", |w| w.total),
+            ];
+            for (panel, (kind, pick)) in panels.iter().zip(kinds) {
+                let groups: Vec<BoxGroup> = b
+                    .datasets
+                    .iter()
+                    .enumerate()
+                    .map(|(i, d)| {
+                        (
+                            number(&(i as f64)),
+                            d.window_unpredictability
+                                .iter()
+                                .filter(|w| w.phase == Phase::Steady)
+                                .filter_map(pick)
+                                .collect(),
+                        )
+                    })
+                    .collect();
+                figures::box_panel(panel, &groups, &format!("{kind} unpredictability"))?;
+            }
+            root.present()?;
+            Ok(())
+        }
+        "error_vs_unpredictability" => error_vs_unpredictability(root, b),
+        other => Err(format!("no figure named {other}").into()),
+    }
+}
+
+/// A tick label of a log axis: only at 1, 2 and 5 times a power of ten (the others crowd).
+fn log_tick(v: &f64) -> String {
+    if !(v.is_finite() && *v > 0.0) {
+        return String::new();
+    }
+    let power = 10f64.powf(v.log10().floor());
+    let m = v / power;
+    if [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .any(|n| (m - n).abs() < 1e-6 * n)
+    {
+        let digits = (-v.log10().floor()).max(0.0) as usize;
+        format!("{v:.digits$}")
+    } else {
+        String::new()
+    }
+}
+
+/// The tick label of dataset `x` (0-based position): its number in the datasets table
+/// (names of any length side by side would overlap).
+fn number(x: &f64) -> String {
+    let i = x.round();
+    if (x - i).abs() < 1e-6 && i >= 0.0 {
+        format!("{}", i as usize + 1)
+    } else {
+        String::new()
+    }
+}
+
+/// The datasets by number, for the captions.
+fn numbered(b: &Bench) -> String {
+    let names: Vec<String> = b
+        .datasets
+        .iter()
+        .enumerate()
+        .map(|(i, d)| format!("{} {}", i + 1, d.name))
+        .collect();
+    format!("datasets: {}", names.join(", "))
+}
+
+/// Per dataset (x), per model (offset points): the median with its quartiles, or the ratio
+/// to slip-BLR with its interval; two panels (translational, rotational), log scale.
+fn points_per_dataset<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    b: &Bench,
+    ratio: bool,
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let keys: Vec<(String, figures::Key)> = b
+        .model_names
+        .iter()
+        .enumerate()
+        .map(|(i, m)| (m.clone(), figures::Key::Dot(COLOURS[i % COLOURS.len()])))
+        .collect();
+    let title = if ratio {
+        "Median MRMSE over slip-BLR's, 95% paired bootstrap intervals"
+    } else {
+        "Median MRMSE with quartiles"
+    };
+    let body = figures::header(root, title, &keys)?;
+    let panels = body.split_evenly((2, 1));
+    let n = b.datasets.len();
+    let models = b.model_names.len().max(1);
+    for (p, translational) in panels.iter().zip([true, false]) {
+        // (dataset, model, low, mid, high)
+        let mut points: Vec<(usize, usize, f64, f64, f64)> = Vec::new();
+        for (i, d) in b.datasets.iter().enumerate() {
+            for (j, m) in d.models.iter().enumerate() {
+                let v = if ratio {
+                    let Some(imp) = m.improvement_over_slip_blr else {
+                        continue;
+                    };
+                    let imp = if translational {
+                        imp.translational
+                    } else {
+                        imp.rotational
+                    };
+                    let r = |pct: f64| 1.0 - pct / 100.0;
+                    (r(imp.ci[1]), r(imp.percent), r(imp.ci[0]))
+                } else if translational {
+                    (
+                        m.translational_iqr_m[0],
+                        m.translational_median_m,
+                        m.translational_iqr_m[1],
+                    )
+                } else {
+                    (
+                        m.rotational_iqr_rad[0],
+                        m.rotational_median_rad,
+                        m.rotational_iqr_rad[1],
+                    )
+                };
+                points.push((i, j, v.0, v.1, v.2));
+            }
+        }
+        let positive: Vec<f64> = points
+            .iter()
+            .flat_map(|p| [p.2, p.3, p.4])
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .collect();
+        let lo = positive.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = positive.iter().copied().fold(0.0f64, f64::max);
+        let (lo, hi) = if lo.is_finite() && hi > 0.0 {
+            (lo / 1.3, hi * 1.3)
+        } else {
+            (0.01, 10.0)
+        };
+        let desc = match (ratio, translational) {
+            (true, true) => "translational, ratio to slip-BLR",
+            (true, false) => "rotational, ratio to slip-BLR",
+            (false, true) => "translational MRMSE [m]",
+            (false, false) => "rotational MRMSE [rad]",
+        };
+        let mut chart = ChartBuilder::on(p)
+            .margin(10)
+            .x_label_area_size(30)
+            .y_label_area_size(70)
+            .build_cartesian_2d(-0.5..n as f64 - 0.5, (lo..hi).log_scale())?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(n.max(1))
+            .x_label_formatter(&number)
+            .y_label_formatter(&log_tick)
+            .y_desc(desc)
+            .axis_desc_style((FONT, 15))
+            .label_style((FONT, 13))
+            .draw()?;
+        if ratio {
+            chart.draw_series(std::iter::once(PathElement::new(
+                vec![(-0.5, 1.0), (n as f64 - 0.5, 1.0)],
+                BLACK.stroke_width(1),
+            )))?;
+        }
+        let width = 0.7;
+        for (i, j, low, mid, high) in points {
+            let c = COLOURS[j % COLOURS.len()];
+            let x = i as f64 - width / 2.0 + width * (j as f64 + 0.5) / models as f64;
+            let clip = |v: f64| v.clamp(lo, hi);
+            if low.is_finite() && high.is_finite() {
+                chart.draw_series(std::iter::once(PathElement::new(
+                    vec![(x, clip(low)), (x, clip(high))],
+                    c.stroke_width(2),
+                )))?;
+            }
+            if mid.is_finite() && mid > 0.0 {
+                chart.draw_series(std::iter::once(Circle::new((x, clip(mid)), 4, c.filled())))?;
+            }
+        }
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// A colour for a loss in percent: white at 0, red for a loss, blue for a gain, saturated at
+/// +-100%.
+fn loss_colour(loss: f64) -> RGBColor {
+    if !loss.is_finite() {
+        return RGBColor(200, 200, 200);
+    }
+    let t = (loss.abs() / 100.0).min(1.0);
+    let fade = |c: u8| (255.0 - t * (255.0 - c as f64)) as u8;
+    if loss >= 0.0 {
+        RGBColor(fade(214), fade(39), fade(40))
+    } else {
+        RGBColor(fade(31), fade(119), fade(180))
+    }
+}
+
+/// Heat maps of the transfer losses: per robot and model, train (rows) x test (columns),
+/// translational and rotational side by side.
+fn transfer<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, b: &Bench) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let body = figures::header(
+        root,
+        "Transfer loss [%]: fitted on the row's run, scored on the column's (the diagonal names the run)",
+        &[],
+    )?;
+    let groups = transfer_groups(b);
+    let rows = b.model_names.len() * groups.len();
+    if rows == 0 {
+        root.present()?;
+        return Ok(());
+    }
+    let panels = body.split_evenly((rows, 2));
+    let mut k = 0;
+    for (robot, names) in &groups {
+        for model in &b.model_names {
+            for translational in [true, false] {
+                let panel = &panels[k];
+                k += 1;
+                let cells: Vec<&TransferCell> = b
+                    .transfer
+                    .iter()
+                    .filter(|c| &c.model == model && &c.robot == robot)
+                    .collect();
+                let n = names.len();
+                let title = format!(
+                    "{model} on {robot}, {}",
+                    if translational {
+                        "translational"
+                    } else {
+                        "rotational"
+                    }
+                );
+                let mut chart = ChartBuilder::on(panel)
+                    .margin(8)
+                    .caption(title, (FONT, 15))
+                    .x_label_area_size(22)
+                    .y_label_area_size(22)
+                    .build_cartesian_2d(0.0..n as f64, 0.0..n as f64)?;
+                chart
+                    .configure_mesh()
+                    .disable_mesh()
+                    .x_labels(0)
+                    .y_labels(0)
+                    .x_desc("scored on (test) ->")
+                    .y_desc("fitted on (train)")
+                    .axis_desc_style((FONT, 12))
+                    .draw()?;
+                for (r, train) in names.iter().enumerate() {
+                    for (c, test) in names.iter().enumerate() {
+                        let loss = if r == c {
+                            Some(0.0)
+                        } else {
+                            cells
+                                .iter()
+                                .find(|x| &x.train == train && &x.test == test)
+                                .map(|x| {
+                                    if translational {
+                                        x.loss_translational_percent
+                                    } else {
+                                        x.loss_rotational_percent
+                                    }
+                                })
+                        };
+                        // Row 0 at the top.
+                        let y0 = (n - 1 - r) as f64;
+                        let colour = loss.map_or(RGBColor(230, 230, 230), loss_colour);
+                        chart.draw_series(std::iter::once(Rectangle::new(
+                            [(c as f64, y0), (c as f64 + 1.0, y0 + 1.0)],
+                            colour.filled(),
+                        )))?;
+                        chart.draw_series(std::iter::once(Rectangle::new(
+                            [(c as f64, y0), (c as f64 + 1.0, y0 + 1.0)],
+                            WHITE.stroke_width(1),
+                        )))?;
+                        // The diagonal names the run (its number in the datasets table).
+                        let label = if r == c {
+                            b.datasets
+                                .iter()
+                                .position(|d| &d.name == train)
+                                .map(|i| format!("#{}", i + 1))
+                        } else {
+                            loss.filter(|l| l.is_finite()).map(|l| format!("{l:+.0}"))
+                        };
+                        if let Some(label) = label {
+                            chart.draw_series(std::iter::once(Text::new(
+                                label,
+                                (c as f64 + 0.3, y0 + 0.6),
+                                (FONT, 12).into_font(),
+                            )))?;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// Each model's median error (y) against the dataset's median unpredictability (x): total
+/// when known, else translational; translational and rotational panels.
+fn error_vs_unpredictability<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    b: &Bench,
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let keys: Vec<(String, figures::Key)> = b
+        .model_names
+        .iter()
+        .enumerate()
+        .map(|(i, m)| (m.clone(), figures::Key::Dot(COLOURS[i % COLOURS.len()])))
+        .collect();
+    let body = figures::header(
+        root,
+        "Median error against the dataset's unpredictability",
+        &keys,
+    )?;
+    let panels = body.split_evenly((1, 2));
+    for (p, translational) in panels.iter().zip([true, false]) {
+        let mut points = Vec::new();
+        for d in &b.datasets {
+            let u = &d.unpredictability;
+            let x = if translational {
+                u.total.or(u.translational)
+            } else {
+                u.total.or(u.rotational)
+            };
+            let Some(x) = x.map(|s| s.median) else {
+                continue;
+            };
+            for (j, m) in d.models.iter().enumerate() {
+                let y = if translational {
+                    m.translational_median_m
+                } else {
+                    m.rotational_median_rad
+                };
+                if y.is_finite() && y > 0.0 {
+                    points.push((x, y, j));
+                }
+            }
+        }
+        let lo = points.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        let hi = points.iter().map(|p| p.1).fold(0.0f64, f64::max);
+        let (lo, hi) = if lo.is_finite() && hi > 0.0 {
+            (lo / 1.3, hi * 1.3)
+        } else {
+            (0.01, 10.0)
+        };
+        let mut chart = ChartBuilder::on(p)
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..1.0, (lo..hi).log_scale())?;
+        chart
+            .configure_mesh()
+            .x_desc("unpredictability (total, or per kind without a body size)")
+            .y_desc(if translational {
+                "translational MRMSE [m]"
+            } else {
+                "rotational MRMSE [rad]"
+            })
+            .y_label_formatter(&log_tick)
+            .axis_desc_style((FONT, 14))
+            .label_style((FONT, 13))
+            .draw()?;
+        for (x, y, j) in points {
+            let c = COLOURS[j % COLOURS.len()];
+            chart.draw_series(std::iter::once(Circle::new((x, y), 5, c.filled())))?;
+        }
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// The Markdown tables as HTML (pipe tables, headings and paragraphs; nothing else is
+/// written by [`markdown`]).
+fn markdown_to_html(md: &str) -> String {
+    let inline = |t: &str| -> String {
+        // **bold** and `code`, after escaping.
+        let t = esc(t);
+        let mut out = String::new();
+        let mut bold = false;
+        let mut code = false;
+        let mut rest = t.as_str();
+        while !rest.is_empty() {
+            if let Some(r) = rest.strip_prefix("**") {
+                out.push_str(if bold { "</b>" } else { "<b>" });
+                bold = !bold;
+                rest = r;
+            } else if let Some(r) = rest.strip_prefix('`') {
+                out.push_str(if code { "</code>" } else { "<code>" });
+                code = !code;
+                rest = r;
+            } else {
+                let c = rest.chars().next().unwrap_or_default();
+                out.push(c);
+                rest = &rest[c.len_utf8()..];
+            }
+        }
+        if bold {
+            out.push_str("</b>");
+        }
+        if code {
+            out.push_str("</code>");
+        }
+        out
+    };
+    let mut html = String::new();
+    let lines: Vec<&str> = md.lines().collect();
+    let mut i = 0;
+    while i < lines.len() {
+        let line = lines[i];
+        if let Some(h) = line.strip_prefix("### ") {
+            let _ = writeln!(html, "<h3>{}</h3>", inline(h));
+        } else if let Some(h) = line.strip_prefix("## ") {
+            let _ = writeln!(html, "<h2>{}</h2>", inline(h));
+        } else if let Some(h) = line.strip_prefix("# ") {
+            let _ = writeln!(html, "<h1>{}</h1>", inline(h));
+        } else if line.starts_with('|') {
+            let cells = |l: &str| -> Vec<String> {
+                l.trim()
+                    .trim_matches('|')
+                    .split('|')
+                    .map(|c| inline(c.trim()))
+                    .collect()
+            };
+            html.push_str("<table>\n<tr>");
+            for c in cells(line) {
+                let _ = write!(html, "<th>{c}</th>");
+            }
+            html.push_str("</tr>\n");
+            i += 1;
+            // The separator row.
+            if i < lines.len() && lines[i].starts_with("|-") {
+                i += 1;
+            }
+            while i < lines.len() && lines[i].starts_with('|') {
+                html.push_str("<tr>");
+                for c in cells(lines[i]) {
+                    let _ = write!(html, "<td>{c}</td>");
+                }
+                html.push_str("</tr>\n");
+                i += 1;
+            }
+            html.push_str("</table>\n");
+            continue;
+        } else if !line.trim().is_empty() {
+            let _ = writeln!(html, "<p>{}</p>", inline(line));
+        }
+        i += 1;
+    }
+    html
+}
+
+/// The self-contained HTML page: the Markdown summary's tables and every figure as inline
+/// SVG. It loads nothing (a content security policy forbids any request).
+pub fn html(b: &Bench) -> Result<String, ReportError> {
+    let md = markdown(b);
+    // The figures go after the leaderboard and the datasets.
+    let body = markdown_to_html(&md);
+    let (head, tail) = match body.find("<h2>Per dataset</h2>") {
+        Some(i) => body.split_at(i),
+        None => (body.as_str(), ""),
+    };
+    let mut figures_html = String::from("<h2>Figures</h2>\n");
+    for (name, caption, _) in figure_list(b) {
+        let svg = figure_svg(b, name)?;
+        // The XML declaration of a standalone SVG file has no place inside HTML.
+        let svg = match svg.find("<svg") {
+            Some(i) => &svg[i..],
+            None => svg.as_str(),
+        };
+        let _ = writeln!(
+            figures_html,
+            "<figure id=\"{name}\">\n{svg}\n<figcaption>{}</figcaption>\n</figure>",
+            esc(
+                &if matches!(name, "transfer" | "error_vs_unpredictability") {
+                    caption
+                } else {
+                    format!("{caption}; {}", numbered(b))
+                }
+            )
+        );
+    }
+    Ok(format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; style-src 'unsafe-inline'; img-src data:\">\n\
+         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
+         <title>DRIVE benchmark</title>\n<style>\n\
+         body {{ font-family: sans-serif; margin: 2em auto; max-width: 1500px; padding: 0 1em; color: #222; }}\n\
+         table {{ border-collapse: collapse; margin: 0.5em 0 1.5em; font-size: 0.9em; }}\n\
+         th, td {{ border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; }}\n\
+         th {{ background: #f2f2f2; }}\n\
+         figure {{ margin: 1em 0 2em; overflow-x: auto; }}\n\
+         figure svg {{ max-width: 100%; height: auto; }}\n\
+         figcaption {{ font-style: italic; margin-top: 0.3em; }}\n\
+         </style>\n</head>\n<body>\n{head}{figures_html}{tail}</body>\n</html>\n"
+    ))
+}

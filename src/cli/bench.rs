@@ -1,0 +1,367 @@
+//! `drive bench`: a suite of datasets x models, the transfer between runs of one robot, the
+//! terrain's unpredictability and a leaderboard.
+
+use super::common::{emit, outputs_for, PredictionArgs, Progress};
+use crate::data::suite::{read_suite, SuiteSource};
+use crate::eval::{bench_units, run_bench, Bench, BenchConfig, BenchInput};
+use crate::Registries;
+use anyhow::{bail, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// The models of the benchmark by default: the paper's four and slip-ipem.
+pub const DEFAULT_MODELS: &str = "naive,powertrain,slip-blr,acc-blr,slip-ipem";
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The suite (TOML, one [[dataset]] table per dataset: path, raw or bag; robot, terrain,
+    /// name; see the README's "Benchmark"); every bundled dataset when absent.
+    #[arg(long)]
+    suite: Option<PathBuf>,
+    /// Models, comma-separated (as drive eval --models).
+    #[arg(long, value_delimiter = ',', default_value = DEFAULT_MODELS)]
+    models: Vec<String>,
+    /// Fraction of each dataset's intervals (in recording order) used for training.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
+    split: f64,
+    #[command(flatten)]
+    prediction: PredictionArgs,
+    /// Skip the transfer between datasets of the same robot.
+    #[arg(long)]
+    no_transfer: bool,
+    /// Print one JSON object on stdout instead of the tables.
+    #[arg(long)]
+    json: bool,
+    /// Also write DIR/bench.md, DIR/bench.html (self-contained, figures embedded),
+    /// DIR/datasets.csv, DIR/transfer.csv, DIR/leaderboard.csv, DIR/windows.csv and
+    /// DIR/bench.json.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// The files of `--out`.
+const FILES: [&str; 7] = [
+    "bench.md",
+    "bench.html",
+    "datasets.csv",
+    "transfer.csv",
+    "leaderboard.csv",
+    "windows.csv",
+    "bench.json",
+];
+
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let entries = match &args.suite {
+        Some(path) => Some(read_suite(path)?),
+        None => None,
+    };
+    // Inputs: the suite and every file it reads.
+    let mut inputs: Vec<(&'static str, PathBuf)> = Vec::new();
+    if let Some(path) = &args.suite {
+        inputs.push(("--suite", path.clone()));
+    }
+    for e in entries.iter().flatten() {
+        match &e.source {
+            SuiteSource::Windows { csv, sidecar } => {
+                if crate::data::bundled::name_in(csv).is_none() {
+                    inputs.push(("a dataset of --suite", csv.clone()));
+                    inputs.push((
+                        "a sidecar of --suite",
+                        sidecar
+                            .clone()
+                            .unwrap_or_else(|| crate::data::sidecar_path(csv)),
+                    ));
+                }
+            }
+            SuiteSource::Raw(p) => inputs.push(("a raw log of --suite", p.clone())),
+            SuiteSource::Bag { path, .. } => {
+                inputs.push(("a bag of --suite", path.clone()));
+                if let Ok(files) = crate::data::bag_files(path) {
+                    inputs.extend(files.into_iter().map(|f| ("a bag of --suite", f)));
+                }
+                if path.is_dir() {
+                    inputs.push(("a bag of --suite", path.join("metadata.yaml")));
+                }
+            }
+        }
+        if let Some(r) = &e.robot {
+            inputs.extend(super::common::robot_input(r));
+        }
+    }
+    let files: Vec<PathBuf> = args
+        .out
+        .iter()
+        .flat_map(|dir| FILES.iter().map(move |f| dir.join(f)))
+        .collect();
+    let mut planned: Vec<(&str, &Path)> = Vec::new();
+    if let Some(dir) = &args.out {
+        planned.push(("--out", dir.as_path()));
+        planned.extend(files.iter().map(|f| ("a file of --out", f.as_path())));
+    }
+    let mut outputs = outputs_for(&inputs, &planned)?;
+    let specs = args
+        .prediction
+        .apply(super::eval::specs(registries, &args.models, None)?)?;
+    if !(args.split > 0.0 && args.split < 1.0) {
+        bail!("--split {} must lie strictly between 0 and 1", args.split);
+    }
+    let datasets: Vec<BenchInput> = match &entries {
+        Some(e) => crate::suite::load(registries, e)?,
+        None => crate::suite::bundled(registries)?,
+    };
+    let config = BenchConfig {
+        split: args.split,
+        transfer: !args.no_transfer,
+        ..BenchConfig::default()
+    };
+    let progress = Progress::new("bench");
+    let total = bench_units(&datasets, specs.len(), &config);
+    let done = AtomicUsize::new(0);
+    let bench = run_bench(&datasets, &specs, &config, &|| {
+        progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, total)
+    })?;
+    progress.bar.finish_and_clear();
+    if let Some(dir) = &args.out {
+        let written = crate::report::bench::files(&bench)?;
+        for (name, content) in written {
+            outputs.write(&dir.join(name), content)?;
+        }
+        outputs.publish()?;
+    }
+    emit(args.json, &bench, text)?;
+    if let Some(dir) = &args.out {
+        eprintln!(
+            "{} datasets x {} models in {:.1} s; written to {}/ ({})",
+            bench.datasets.len(),
+            bench.model_names.len(),
+            progress.start.elapsed().as_secs_f64(),
+            dir.display(),
+            FILES.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// `+12.3` with a `!` when the interval excludes 0.
+fn signed(i: &crate::eval::Improvement) -> String {
+    let sure = i.ci[0] > 0.0 || i.ci[1] < 0.0;
+    format!("{:+.1}{}", i.percent, if sure { "!" } else { "" })
+}
+
+fn terrain_text(t: &str) -> String {
+    let t = if t.is_empty() { "not recorded" } else { t };
+    if t.chars().count() > 22 {
+        format!("{}...", t.chars().take(19).collect::<String>())
+    } else {
+        t.to_string()
+    }
+}
+
+fn or_dash(v: Option<f64>, digits: usize) -> String {
+    v.map_or("-".into(), |v| format!("{v:.digits$}"))
+}
+
+/// The benchmark as text: datasets, medians, improvements over slip-BLR, transfer,
+/// leaderboard.
+pub fn text(b: &Bench) -> String {
+    let mut s = String::new();
+    let nw = b
+        .datasets
+        .iter()
+        .map(|d| d.name.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(7)
+        + 2;
+    let mw = b
+        .model_names
+        .iter()
+        .map(String::len)
+        .max()
+        .unwrap_or(0)
+        .max(17)
+        + 2;
+    let header = format!(
+        "  {:<nw$}{}",
+        "dataset",
+        b.model_names
+            .iter()
+            .map(|m| format!("{m:<mw$}"))
+            .collect::<String>()
+    );
+    let _ = writeln!(
+        s,
+        "DRIVE benchmark: {} datasets x {} models; each dataset's first {} of the intervals trains, the rest evaluates (as drive eval)\n",
+        b.datasets.len(),
+        b.model_names.len(),
+        b.split
+    );
+    let _ = writeln!(
+        s,
+        "datasets (unpredictability: median over the {} windows' samples, 0 = moves as commanded, 1 = does not move)",
+        b.datasets
+            .first()
+            .map_or("steady", |d| d.unpredictability.pooled)
+    );
+    let _ = writeln!(
+        s,
+        "  {:<nw$}{:<10}{:<24}{:>8}  unpredictability transl. / rot. / total",
+        "dataset", "robot", "terrain", "eval win"
+    );
+    for d in &b.datasets {
+        let u = &d.unpredictability;
+        let _ = writeln!(
+            s,
+            "  {:<nw$}{:<10}{:<24}{:>8}  {} / {} / {}",
+            d.name,
+            if d.robot.chars().count() > 9 {
+                format!("{}.", d.robot.chars().take(8).collect::<String>())
+            } else {
+                d.robot.clone()
+            },
+            terrain_text(&d.terrain),
+            d.eval_windows,
+            or_dash(u.translational.map(|x| x.median), 3),
+            or_dash(u.rotational.map(|x| x.median), 3),
+            or_dash(u.total.map(|x| x.median), 3),
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nmedian MRMSE (paper eq. 8) on the evaluation windows: translational [m] / rotational [rad]; * best of the row"
+    );
+    let _ = writeln!(s, "{header}");
+    for d in &b.datasets {
+        let _ = write!(s, "  {:<nw$}", d.name);
+        let best_t = d
+            .models
+            .iter()
+            .map(|m| m.translational_median_m)
+            .fold(f64::INFINITY, f64::min);
+        let best_r = d
+            .models
+            .iter()
+            .map(|m| m.rotational_median_rad)
+            .fold(f64::INFINITY, f64::min);
+        for m in &d.models {
+            let star = |v: f64, best: f64| if v == best { "*" } else { "" };
+            let cell = format!(
+                "{:.3}{}/{:.3}{}",
+                m.translational_median_m,
+                star(m.translational_median_m, best_t),
+                m.rotational_median_rad,
+                star(m.rotational_median_rad, best_r)
+            );
+            let _ = write!(s, "{cell:<mw$}");
+        }
+        let _ = writeln!(s);
+    }
+    let _ = writeln!(
+        s,
+        "\nimprovement of the medians over slip-BLR, translational / rotational [%]; ! where the 95% paired bootstrap interval excludes 0"
+    );
+    let _ = writeln!(s, "{header}");
+    for d in &b.datasets {
+        let _ = write!(s, "  {:<nw$}", d.name);
+        for m in &d.models {
+            let cell = m.improvement_over_slip_blr.map_or("-".into(), |i| {
+                format!("{}/{}", signed(&i.translational), signed(&i.rotational))
+            });
+            let _ = write!(s, "{cell:<mw$}");
+        }
+        let _ = writeln!(s);
+    }
+    if b.transfer.is_empty() {
+        let _ = writeln!(
+            s,
+            "\ntransfer: no two datasets of the same robot{}",
+            if b.transfer_skipped.is_empty() {
+                ""
+            } else {
+                " that can be compared"
+            }
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "\ntransfer: each model fitted on all of one run, scored on another run of the same robot; median over the pairs of the loss against the model fitted on that run itself, translational / rotational [%]"
+        );
+        let group = |g: &crate::eval::TransferGroup| {
+            if g.pairs == 0 {
+                "-".to_string()
+            } else {
+                format!(
+                    "{:+.1} / {:+.1} ({} pairs)",
+                    g.median_loss_translational_percent.unwrap_or(f64::NAN),
+                    g.median_loss_rotational_percent.unwrap_or(f64::NAN),
+                    g.pairs
+                )
+            }
+        };
+        let _ = writeln!(
+            s,
+            "  {:<mw$}{:<30}{:<30}terrain unknown",
+            "model", "same terrain", "other terrain"
+        );
+        for t in &b.transfer_summary {
+            let _ = writeln!(
+                s,
+                "  {:<mw$}{:<30}{:<30}{} pairs",
+                t.model,
+                group(&t.same_terrain),
+                group(&t.other_terrain),
+                t.unknown_terrain_pairs
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\nleaderboard over {} datasets: mean rank (1 best; translational and rotational ranks averaged), datasets where the model beats slip-BLR with the 95% interval above 0 (both / translation / rotation) or loses to it, geometric mean of the median's ratio to slip-BLR's, mean Spearman correlation of the window errors with the windows' unpredictability",
+        b.datasets.len()
+    );
+    let _ = writeln!(
+        s,
+        "  {:<mw$}{:>9}  {:>14}  {:>6}  {:>8}  {:>8}  {:>13}",
+        "model", "mean rank", "wins (b/t/r)", "losses", "ratio t", "ratio r", "growth t / r"
+    );
+    for r in &b.leaderboard {
+        let growth = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:+.2}"));
+        let _ = writeln!(
+            s,
+            "  {:<mw$}{:>9.2}  {:>14}  {:>6}  {:>8.3}  {:>8.3}  {:>13}",
+            r.model,
+            r.mean_rank,
+            format!(
+                "{}/{}/{}",
+                r.wins_over_slip_blr, r.wins_translational, r.wins_rotational
+            ),
+            r.losses_to_slip_blr,
+            r.ratio_to_slip_blr.translational,
+            r.ratio_to_slip_blr.rotational,
+            format!(
+                "{} / {}",
+                growth(r.error_growth_spearman[0]),
+                growth(r.error_growth_spearman[1])
+            )
+        );
+    }
+    let no_body: Vec<&str> = b
+        .datasets
+        .iter()
+        .filter(|d| d.unpredictability.body.is_none())
+        .map(|d| d.name.as_str())
+        .collect();
+    if !no_body.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nno total unpredictability for {} (no body size: give robot = \"a preset or a robot file with body_length and body_width\")",
+            no_body.join(", ")
+        );
+    }
+    for skipped in &b.transfer_skipped {
+        let _ = writeln!(s, "transfer skipped: {skipped}");
+    }
+    // Cells are padded to their column: no trailing blanks.
+    s.lines().map(str::trim_end).collect::<Vec<_>>().join("\n") + "\n"
+}

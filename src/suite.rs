@@ -1,0 +1,270 @@
+//! The datasets of a benchmark: a suite file's entries (window CSVs, raw logs and bags
+//! imported on the fly, bundled datasets) or every bundled dataset, loaded with their robot
+//! and terrain for [`drive_eval::run_bench`].
+//!
+//! ```
+//! let registries = drive::Registries::builtin();
+//! let inputs = drive::suite::bundled(&registries).unwrap();
+//! assert_eq!(inputs.len(), drive::bundled::BUNDLED.len());
+//! assert_eq!(inputs[1].robot, "warthog");
+//! assert!(inputs[1].body.is_some());
+//! ```
+
+use crate::data::suite::{SuiteEntry, SuiteError, SuiteSource};
+use crate::data::{
+    import_raw, raw_columns, read_bag, read_dataset, read_raw_log, BagTopics, DataError,
+    ImportConfig,
+};
+use crate::eval::BenchInput;
+use crate::samplers::{window_len, BodySize, RobotError, RobotSpec};
+use crate::traits::{Dataset, PositionFrame, RobotDescription};
+use crate::Registries;
+use rayon::prelude::*;
+use std::sync::Arc;
+use thiserror::Error;
+
+/// Why a dataset of a suite could not be loaded.
+#[derive(Debug, Error)]
+pub enum SuiteLoadError {
+    /// The suite file is refused.
+    #[error(transparent)]
+    Suite(#[from] SuiteError),
+    /// A dataset could not be read or imported.
+    #[error("dataset '{name}': {source}")]
+    Data {
+        /// The dataset's name in the suite.
+        name: String,
+        /// Why.
+        source: DataError,
+    },
+    /// Its robot could not be loaded.
+    #[error("dataset '{name}': {source}")]
+    Robot {
+        /// The dataset's name in the suite.
+        name: String,
+        /// Why.
+        source: RobotError,
+    },
+    /// The import kept nothing, or a data check found the recording useless.
+    #[error("dataset '{name}': {message}")]
+    Import {
+        /// The dataset's name in the suite.
+        name: String,
+        /// Why.
+        message: String,
+    },
+}
+
+/// The robot a dataset is of: its identity (a registered robot's name when one is given or
+/// recognised), its body and where that body comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RobotOf {
+    /// The identity.
+    pub name: String,
+    /// The body's footprint, when known.
+    pub body: Option<BodySize>,
+    /// Where the identity and the body come from (one line).
+    pub source: String,
+}
+
+/// The registered robot whose name is a word of the sidecar's robot text ("Clearpath
+/// Husky" is `husky`), when exactly one is.
+///
+/// ```
+/// let registries = drive::Registries::builtin();
+/// assert_eq!(drive::suite::recognised_robot(&registries, "Clearpath Warthog (wheels)").as_deref(), Some("warthog"));
+/// assert_eq!(drive::suite::recognised_robot(&registries, "my rover"), None);
+/// ```
+pub fn recognised_robot(registries: &Registries, text: &str) -> Option<String> {
+    let words: Vec<String> = text
+        .split(|c: char| !c.is_alphanumeric())
+        .filter(|w| !w.is_empty())
+        .map(str::to_lowercase)
+        .collect();
+    let found: Vec<&str> = registries
+        .robots
+        .names()
+        .into_iter()
+        .filter(|n| words.iter().any(|w| w == &n.to_lowercase()))
+        .collect();
+    match found.as_slice() {
+        [one] => Some(one.to_string()),
+        _ => None,
+    }
+}
+
+/// The robot of `data`: `explicit` (a registered robot or a robot file) when given, else the
+/// robot recognised in the sidecar's robot text ([`recognised_robot`]), else the sidecar's
+/// text itself without a body.
+pub fn robot_of(
+    registries: &Registries,
+    data: &Dataset,
+    explicit: Option<&str>,
+) -> Result<RobotOf, RobotError> {
+    if let Some(r) = explicit {
+        let spec = registries.robot(r)?;
+        let from = match RobotSpec::file_of(r) {
+            Some(_) => format!("robot file {r}"),
+            None => format!("robot {r}"),
+        };
+        return Ok(of_spec(&spec, from));
+    }
+    if let Some(name) = recognised_robot(registries, &data.robot.robot) {
+        let spec = registries.robot(&name)?;
+        return Ok(of_spec(
+            &spec,
+            format!(
+                "robot {name}, recognised in the sidecar's robot \"{}\"",
+                data.robot.robot
+            ),
+        ));
+    }
+    let text = data.robot.robot.trim();
+    Ok(RobotOf {
+        name: if text.is_empty() {
+            data.robot.name.clone()
+        } else {
+            text.to_string()
+        },
+        body: None,
+        source: "the sidecar's robot, not a registered one: no body size".into(),
+    })
+}
+
+fn of_spec(spec: &RobotSpec, from: String) -> RobotOf {
+    RobotOf {
+        name: spec.name.clone(),
+        body: spec.body,
+        source: match spec.body {
+            Some(_) => from,
+            None => format!("{from}, which has no body size"),
+        },
+    }
+}
+
+/// Every bundled dataset, with the robot it was recorded with.
+pub fn bundled(registries: &Registries) -> Result<Vec<BenchInput>, SuiteLoadError> {
+    let entries: Vec<SuiteEntry> = crate::bundled::BUNDLED
+        .iter()
+        .map(|b| SuiteEntry {
+            source: SuiteSource::Windows {
+                csv: format!("{}{}", crate::bundled::PREFIX, b.name).into(),
+                sidecar: None,
+            },
+            name: None,
+            robot: Some(b.robot.to_string()),
+            terrain: None,
+            corrected_frame: false,
+        })
+        .collect();
+    load(registries, &entries)
+}
+
+/// Loads every entry of a suite (in parallel): reads the window CSVs, imports the raw logs
+/// and bags with their robot (as `drive import` does, refusing a recording a data check
+/// finds useless), and labels each with its robot and terrain.
+pub fn load(
+    registries: &Registries,
+    entries: &[SuiteEntry],
+) -> Result<Vec<BenchInput>, SuiteLoadError> {
+    entries
+        .par_iter()
+        .map(|e| load_entry(registries, e))
+        .collect()
+}
+
+fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput, SuiteLoadError> {
+    let name = entry.name();
+    let data_error = |source| SuiteLoadError::Data {
+        name: name.clone(),
+        source,
+    };
+    let robot_error = |source| SuiteLoadError::Robot {
+        name: name.clone(),
+        source,
+    };
+    let (mut data, source) = match &entry.source {
+        SuiteSource::Windows { csv, sidecar } => (
+            read_dataset(csv, sidecar.as_deref()).map_err(data_error)?,
+            csv.display().to_string(),
+        ),
+        SuiteSource::Raw(path) | SuiteSource::Bag { path, .. } => {
+            // The suite's parser requires a robot for a raw log or a bag.
+            let robot = entry.robot.as_deref().unwrap_or_default();
+            let spec = registries.robot(robot).map_err(robot_error)?;
+            let log = match &entry.source {
+                SuiteSource::Bag { topics, .. } => {
+                    let mut t = BagTopics::drive_logger(spec.vehicle.as_ref());
+                    for a in topics {
+                        t.set(a).map_err(|message| SuiteLoadError::Import {
+                            name: name.clone(),
+                            message,
+                        })?;
+                    }
+                    read_bag(path, &t)
+                }
+                _ => read_raw_log(path, &raw_columns(spec.vehicle.as_ref())),
+            }
+            .map_err(data_error)?;
+            let description = RobotDescription {
+                name: name.clone(),
+                robot: spec.name.clone(),
+                rate_hz: spec.rate_hz,
+                window_len: window_len(&spec),
+                vehicle: Arc::clone(&spec.vehicle),
+                position_frame: PositionFrame::FirstSample,
+                terrain: entry.terrain.clone().unwrap_or_default(),
+            };
+            let config = ImportConfig {
+                input_limits: Some(spec.input_space()),
+                ..ImportConfig::default()
+            };
+            let (data, report) = import_raw(&log, &description, &config).map_err(data_error)?;
+            let fatal = report
+                .checks
+                .iter()
+                .find(|f| f.severity == crate::data::quality::Severity::Fatal);
+            if let Some(why) = report.nothing_usable() {
+                return Err(SuiteLoadError::Import {
+                    name: name.clone(),
+                    message: why,
+                });
+            }
+            if let Some(f) = fatal {
+                return Err(SuiteLoadError::Import {
+                    name: name.clone(),
+                    message: format!(
+                        "check {}: {} (drive import --allow {} writes it anyway; bench the window CSV)",
+                        f.check, f.message, f.check
+                    ),
+                });
+            }
+            (data, path.display().to_string())
+        }
+    };
+    if entry.corrected_frame {
+        data.to_first_sample_frame();
+    }
+    let bundled_robot = match &entry.source {
+        SuiteSource::Windows { csv, .. } => crate::data::bundled::name_in(csv)
+            .and_then(crate::bundled::find)
+            .map(|b| b.robot.to_string()),
+        _ => None,
+    };
+    let explicit = entry.robot.clone().or(bundled_robot);
+    let robot = robot_of(registries, &data, explicit.as_deref()).map_err(robot_error)?;
+    let terrain = entry
+        .terrain
+        .clone()
+        .unwrap_or_else(|| data.robot.terrain.clone());
+    data.robot.terrain = terrain.clone();
+    Ok(BenchInput {
+        name,
+        source,
+        robot: robot.name,
+        terrain,
+        body: robot.body,
+        body_source: robot.source,
+        data,
+    })
+}

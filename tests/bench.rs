@@ -1,0 +1,291 @@
+//! `drive bench`: a suite of window CSVs, raw logs and bags gives, per dataset, exactly the
+//! medians of `drive eval` on the same file; transfer, leaderboard and unpredictability are
+//! in the JSON; outputs never replace inputs; bad suites fail in one line.
+
+mod common;
+use common::{ok, user_error};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Writes a bundled dataset out as a window CSV and its sidecar.
+fn export(name: &str, to: &Path) -> PathBuf {
+    let data = drive::bundled::load(name).unwrap();
+    drive::data::write_dataset(&data, to).unwrap();
+    to.to_path_buf()
+}
+
+/// Each model's (translational, rotational) medians from `drive eval --json`.
+fn eval_medians(data: &str, models: &str) -> Vec<(String, f64, f64)> {
+    let v: Value =
+        serde_json::from_str(&ok(&["eval", "--json", "--data", data, "--models", models])).unwrap();
+    v["models"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| {
+            (
+                m["name"].as_str().unwrap().to_string(),
+                m["translational_median_m"].as_f64().unwrap(),
+                m["rotational_median_rad"].as_f64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+fn bench_medians(dataset: &Value) -> Vec<(String, f64, f64)> {
+    dataset["models"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| {
+            (
+                m["name"].as_str().unwrap().to_string(),
+                m["translational_median_m"].as_f64().unwrap(),
+                m["rotational_median_rad"].as_f64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+const MODELS: &str = "naive,slip-blr,acc-blr";
+
+#[test]
+fn a_suite_of_window_csvs_raw_logs_and_bags_gives_the_medians_of_eval() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("runs")).unwrap();
+    let grass = export("warthog_grass_2024-08-08", &d.join("runs/grass.csv"));
+    let slow = export("warthog_asphalt_slow_2024-08-08", &d.join("runs/slow.csv"));
+    let (raw, bag) = common::bag_fixtures(d, "snow_raw.csv", "snow_bag");
+    let suite = d.join("suite.toml");
+    std::fs::write(
+        &suite,
+        "[[dataset]]\npath = \"runs/grass.csv\"\n\
+         [[dataset]]\npath = \"runs/slow.csv\"\nterrain = \"asphalt (slow)\"\n\
+         [[dataset]]\nraw = \"snow_raw.csv\"\nrobot = \"husky\"\nterrain = \"snow\"\n\
+         [[dataset]]\nbag = \"snow_bag\"\nrobot = \"husky\"\nterrain = \"snow\"\nname = \"snow-bag\"\n",
+    )
+    .unwrap();
+    let v: Value = serde_json::from_str(&ok(&[
+        "bench",
+        "--suite",
+        s(&suite),
+        "--json",
+        "--models",
+        MODELS,
+    ]))
+    .unwrap();
+    let datasets = v["datasets"].as_array().unwrap();
+    let names: Vec<&str> = datasets
+        .iter()
+        .map(|d| d["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["grass", "slow", "snow_raw", "snow-bag"]);
+    let terrains: Vec<&str> = datasets
+        .iter()
+        .map(|d| d["terrain"].as_str().unwrap())
+        .collect();
+    // The sidecar's terrain, or the suite's.
+    assert_eq!(terrains, ["grass", "asphalt (slow)", "snow", "snow"]);
+    assert_eq!(datasets[0]["robot"], "warthog"); // recognised in "Clearpath Warthog (wheels)"
+    assert_eq!(datasets[2]["robot"], "husky");
+    // The window CSVs: the same numbers as drive eval on the file.
+    assert_eq!(bench_medians(&datasets[0]), eval_medians(s(&grass), MODELS));
+    assert_eq!(bench_medians(&datasets[1]), eval_medians(s(&slow), MODELS));
+    // The raw log and the bag: the same numbers as drive eval on what drive import writes.
+    for (i, (flag, source)) in [(2, ("--raw", &raw)), (3, ("--bag", &bag))] {
+        let out = d.join(format!("imported{i}.csv"));
+        ok(&[
+            "import",
+            flag,
+            s(source),
+            "--robot",
+            "husky",
+            "--out",
+            s(&out),
+        ]);
+        assert_eq!(
+            bench_medians(&datasets[i]),
+            eval_medians(s(&out), MODELS),
+            "{flag}"
+        );
+    }
+    // Each dataset reports its unpredictability, within [0, 1]; the total with a body size.
+    for d in datasets {
+        let u = &d["unpredictability"];
+        for kind in ["translational", "rotational", "total"] {
+            let m = u[kind]["median"]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{kind}: {u}"));
+            assert!((0.0..=1.0).contains(&m), "{kind}: {m}");
+        }
+    }
+    // Transfer: two ordered pairs per robot, three models each.
+    let transfer = v["transfer"].as_array().unwrap();
+    assert_eq!(transfer.len(), 2 * 2 * 3);
+    let cell = transfer
+        .iter()
+        .find(|c| c["model"] == "slip-blr" && c["train"] == "grass" && c["test"] == "slow")
+        .unwrap();
+    assert_eq!(cell["same_terrain"], false);
+    assert_eq!(
+        cell["own_translational_median_m"].as_f64().unwrap(),
+        bench_medians(&datasets[1])[1].1
+    );
+    let snow = transfer
+        .iter()
+        .find(|c| c["model"] == "slip-blr" && c["train"] == "snow_raw")
+        .unwrap();
+    assert_eq!(snow["test"], "snow-bag");
+    assert_eq!(snow["same_terrain"], true);
+    // The naive model fits nothing: it transfers without a loss.
+    for c in transfer.iter().filter(|c| c["model"] == "naive") {
+        assert_eq!(c["loss_translational_percent"].as_f64().unwrap(), 0.0);
+    }
+    // The leaderboard: every model once, ranked.
+    let board = v["leaderboard"].as_array().unwrap();
+    assert_eq!(board.len(), 3);
+    let ranks: Vec<f64> = board
+        .iter()
+        .map(|r| r["mean_rank"].as_f64().unwrap())
+        .collect();
+    assert!(ranks.windows(2).all(|w| w[0] <= w[1]), "{ranks:?}");
+    let blr = board.iter().find(|r| r["model"] == "slip-blr").unwrap();
+    assert_eq!(
+        blr["ratio_to_slip_blr"]["translational"].as_f64(),
+        Some(1.0)
+    );
+    assert_eq!(blr["wins_over_slip_blr"], 0);
+    let naive = board.iter().find(|r| r["model"] == "naive").unwrap();
+    assert_eq!(naive["mean_rank"].as_f64(), Some(3.0));
+    assert!(naive["ratio_to_slip_blr"]["rotational"].as_f64().unwrap() > 1.0);
+}
+
+#[test]
+fn the_default_bench_ranks_five_models_on_every_bundled_dataset() {
+    let v: Value = serde_json::from_str(&ok(&["bench", "--json"])).unwrap();
+    let datasets = v["datasets"].as_array().unwrap();
+    assert_eq!(datasets.len(), drive::bundled::BUNDLED.len());
+    let models: Vec<&str> = datasets[0]["models"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        models,
+        ["naive", "powertrain", "slip-blr", "acc-blr", "slip-ipem"]
+    );
+    // The same numbers as drive eval on one of them, by its bundled name.
+    let asphalt = datasets
+        .iter()
+        .find(|d| d["name"] == "warthog_asphalt_a")
+        .unwrap();
+    assert_eq!(asphalt["terrain"], "asphalt");
+    assert_eq!(
+        bench_medians(asphalt),
+        eval_medians(
+            "bundled:warthog_asphalt_a",
+            "naive,powertrain,slip-blr,acc-blr,slip-ipem"
+        )
+    );
+    // Seven Warthog runs: 42 ordered pairs per model; the Husky has no partner.
+    assert_eq!(v["transfer"].as_array().unwrap().len(), 42 * 5);
+    assert_eq!(v["leaderboard"].as_array().unwrap().len(), 5);
+    let text = ok(&["bench", "--models", "naive,slip-blr", "--no-transfer"]);
+    assert!(text.contains("leaderboard over 8 datasets"), "{text}");
+    assert!(text.contains("warthog_grass_2024-08-08"), "{text}");
+}
+
+#[test]
+fn out_writes_tables_and_a_page_and_never_replaces_an_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let suite = d.join("suite.toml");
+    std::fs::write(
+        &suite,
+        "[[dataset]]\npath = \"bundled:warthog_grass_2024-08-08\"\n\
+         [[dataset]]\nbundled = \"warthog_asphalt_slow_2024-08-08\"\n",
+    )
+    .unwrap();
+    let out = d.join("out");
+    ok(&[
+        "bench",
+        "--suite",
+        s(&suite),
+        "--models",
+        "naive,slip-blr",
+        "--out",
+        s(&out),
+    ]);
+    for f in [
+        "bench.md",
+        "bench.html",
+        "datasets.csv",
+        "transfer.csv",
+        "leaderboard.csv",
+        "windows.csv",
+        "bench.json",
+    ] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+    let html = std::fs::read_to_string(out.join("bench.html")).unwrap();
+    assert_eq!(html.matches("<svg").count(), 5, "five figures");
+    assert!(html.contains("Content-Security-Policy"));
+    let csv = std::fs::read_to_string(out.join("datasets.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2 * 2);
+    // 45 evaluation windows x 2 models, 45 training windows of the grass run; 150 x 2 and
+    // 150 of the slow run.
+    let windows = std::fs::read_to_string(out.join("windows.csv")).unwrap();
+    assert_eq!(windows.lines().count(), 1 + 45 * 2 + 45 + 150 * 2 + 150);
+    // A window CSV of the suite where an output would go: refused, the file intact.
+    let runs = d.join("runs");
+    std::fs::create_dir(&runs).unwrap();
+    let csv_in = export("warthog_grass_2024-08-08", &runs.join("datasets.csv"));
+    let before = std::fs::read(&csv_in).unwrap();
+    std::fs::write(&suite, "[[dataset]]\npath = \"runs/datasets.csv\"\n").unwrap();
+    let err = user_error(&["bench", "--suite", s(&suite), "--out", s(&runs)]);
+    assert!(err.contains("datasets.csv"), "{err}");
+    assert_eq!(std::fs::read(&csv_in).unwrap(), before);
+}
+
+#[test]
+fn bad_suites_fail_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let suite = dir.path().join("suite.toml");
+    let cases = [
+        ("[[dataset]]\nraw = \"log.csv\"\n", "robot"),
+        (
+            "[[dataset]]\npath = \"a.csv\"\nraw = \"b.csv\"\n",
+            "exactly one",
+        ),
+        ("", "no dataset"),
+        (
+            "[[dataset]]\npath = \"bundled:mars\"\n",
+            "warthog_grass_2024-08-08",
+        ),
+        (
+            "[[dataset]]\npath = \"bundled:husky\"\n[[dataset]]\nbundled = \"husky_drive\"\n",
+            "two datasets are named 'husky_drive'",
+        ),
+        ("[[dataset]]\npath = \"missing.csv\"\n", "missing.csv"),
+        ("[[dataset]]\npaht = \"a.csv\"\n", "paht"),
+        (
+            "[[dataset]]\npath = \"bundled:husky\"\nframe = \"rotated\"\n",
+            "frame",
+        ),
+    ];
+    for (text, expected) in cases {
+        std::fs::write(&suite, text).unwrap();
+        let err = user_error(&["bench", "--suite", s(&suite), "--models", "naive"]);
+        assert!(err.contains(expected), "{text:?}: {err}");
+    }
+    let err = user_error(&["bench", "--suite", "/dev/zero"]);
+    assert!(err.contains("1 MiB"), "{err}");
+    let err = user_error(&["bench", "--models", "naive", "--split", "1"]);
+    assert!(err.contains("--split"), "{err}");
+}
