@@ -30,20 +30,20 @@ pub enum SuiteLoadError {
     #[error(transparent)]
     Suite(#[from] SuiteError),
     /// A dataset could not be read or imported.
-    #[error("dataset '{name}': {source}")]
+    #[error("dataset '{name}': {reason}")]
     Data {
         /// The dataset's name in the suite.
         name: String,
         /// Why.
-        source: DataError,
+        reason: DataError,
     },
     /// Its robot could not be loaded.
-    #[error("dataset '{name}': {source}")]
+    #[error("dataset '{name}': {reason}")]
     Robot {
         /// The dataset's name in the suite.
         name: String,
         /// Why.
-        source: RobotError,
+        reason: RobotOfError,
     },
     /// The import kept nothing, or a data check found the recording useless.
     #[error("dataset '{name}': {message}")]
@@ -52,6 +52,24 @@ pub enum SuiteLoadError {
         name: String,
         /// Why.
         message: String,
+    },
+}
+
+/// Why a dataset's robot could not be taken.
+#[derive(Debug, Error)]
+pub enum RobotOfError {
+    /// No such registered robot or robot file, or the file is refused.
+    #[error(transparent)]
+    Robot(#[from] RobotError),
+    /// The robot given has another vehicle type than the data's.
+    #[error("the robot {robot}'s vehicle is {theirs} and the data's is {ours}: it is not this data's robot")]
+    Vehicle {
+        /// The robot.
+        robot: String,
+        /// The robot's vehicle type.
+        theirs: String,
+        /// The data's vehicle type.
+        ours: String,
     },
 }
 
@@ -93,16 +111,27 @@ pub fn recognised_robot(registries: &Registries, text: &str) -> Option<String> {
     }
 }
 
-/// The robot of `data`: `explicit` (a registered robot or a robot file) when given, else the
-/// robot recognised in the sidecar's robot text ([`recognised_robot`]), else the sidecar's
-/// text itself without a body.
+/// The robot of `data`: `explicit` (a registered robot or a robot file) when given (an
+/// error when its vehicle type is not the data's), else the robot recognised in the
+/// sidecar's robot text ([`recognised_robot`], when its vehicle type is the data's), else
+/// the sidecar's text itself without a body.
 pub fn robot_of(
     registries: &Registries,
     data: &Dataset,
     explicit: Option<&str>,
-) -> Result<RobotOf, RobotError> {
+) -> Result<RobotOf, RobotOfError> {
+    let ours = crate::traits::vehicle_tag(data.robot.vehicle.as_ref()).unwrap_or_default();
+    let theirs =
+        |spec: &RobotSpec| crate::traits::vehicle_tag(spec.vehicle.as_ref()).unwrap_or_default();
     if let Some(r) = explicit {
         let spec = registries.robot(r)?;
+        if theirs(&spec) != ours {
+            return Err(RobotOfError::Vehicle {
+                robot: spec.name.clone(),
+                theirs: theirs(&spec),
+                ours,
+            });
+        }
         let from = match RobotSpec::file_of(r) {
             Some(_) => format!("robot file {r}"),
             None => format!("robot {r}"),
@@ -111,13 +140,15 @@ pub fn robot_of(
     }
     if let Some(name) = recognised_robot(registries, &data.robot.robot) {
         let spec = registries.robot(&name)?;
-        return Ok(of_spec(
-            &spec,
-            format!(
-                "robot {name}, recognised in the sidecar's robot \"{}\"",
-                data.robot.robot
-            ),
-        ));
+        if theirs(&spec) == ours {
+            return Ok(of_spec(
+                &spec,
+                format!(
+                    "robot {name}, recognised in the sidecar's robot \"{}\"",
+                    data.robot.robot
+                ),
+            ));
+        }
     }
     let text = data.robot.robot.trim();
     Ok(RobotOf {
@@ -175,13 +206,13 @@ pub fn load(
 
 fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput, SuiteLoadError> {
     let name = entry.name();
-    let data_error = |source| SuiteLoadError::Data {
+    let data_error = |reason| SuiteLoadError::Data {
         name: name.clone(),
-        source,
+        reason,
     };
-    let robot_error = |source| SuiteLoadError::Robot {
+    let robot_error = |reason| SuiteLoadError::Robot {
         name: name.clone(),
-        source,
+        reason,
     };
     let (mut data, source) = match &entry.source {
         SuiteSource::Windows { csv, sidecar } => (
@@ -191,7 +222,7 @@ fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput,
         SuiteSource::Raw(path) | SuiteSource::Bag { path, .. } => {
             // The suite's parser requires a robot for a raw log or a bag.
             let robot = entry.robot.as_deref().unwrap_or_default();
-            let spec = registries.robot(robot).map_err(robot_error)?;
+            let spec = registries.robot(robot).map_err(|e| robot_error(e.into()))?;
             let log = match &entry.source {
                 SuiteSource::Bag { topics, .. } => {
                     let mut t = BagTopics::drive_logger(spec.vehicle.as_ref());

@@ -142,8 +142,9 @@ fn a_suite_of_window_csvs_raw_logs_and_bags_gives_the_medians_of_eval() {
         .unwrap();
     assert_eq!(snow["test"], "snow-bag");
     assert_eq!(snow["same_terrain"], true);
-    // The naive model fits nothing: it transfers without a loss.
+    // The naive model fits nothing: between runs of one geometry it transfers without a loss.
     for c in transfer.iter().filter(|c| c["model"] == "naive") {
+        assert_eq!(c["same_geometry"], true);
         assert_eq!(c["loss_translational_percent"].as_f64().unwrap(), 0.0);
     }
     // The leaderboard: every model once, ranked.
@@ -193,8 +194,14 @@ fn the_default_bench_ranks_five_models_on_every_bundled_dataset() {
             "naive,powertrain,slip-blr,acc-blr,slip-ipem"
         )
     );
-    // Seven Warthog runs: 42 ordered pairs per model; the Husky has no partner.
-    assert_eq!(v["transfer"].as_array().unwrap().len(), 42 * 5);
+    // Seven Warthog runs: 42 ordered pairs per model; the Husky has no partner. The paper's
+    // run has another baseline than the doughnut_calib runs: its 12 pairs say so.
+    let transfer = v["transfer"].as_array().unwrap();
+    assert_eq!(transfer.len(), 42 * 5);
+    for c in transfer {
+        let paper = c["train"] == "warthog_drive" || c["test"] == "warthog_drive";
+        assert_eq!(c["same_geometry"], !paper, "{c}");
+    }
     assert_eq!(v["leaderboard"].as_array().unwrap().len(), 5);
     let text = ok(&["bench", "--models", "naive,slip-blr", "--no-transfer"]);
     assert!(text.contains("leaderboard over 8 datasets"), "{text}");
@@ -278,14 +285,56 @@ fn bad_suites_fail_in_one_line() {
             "[[dataset]]\npath = \"bundled:husky\"\nframe = \"rotated\"\n",
             "frame",
         ),
+        (
+            "[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\nrobot = \"autorally\"\n",
+            "the robot autorally's vehicle is ackermann and the data's is differential",
+        ),
     ];
     for (text, expected) in cases {
         std::fs::write(&suite, text).unwrap();
         let err = user_error(&["bench", "--suite", s(&suite), "--models", "naive"]);
         assert!(err.contains(expected), "{text:?}: {err}");
+        // The cause is said once (not again as the error's source).
+        assert!(err.matches("cannot read").count() <= 1, "{err}");
     }
     let err = user_error(&["bench", "--suite", "/dev/zero"]);
     assert!(err.contains("1 MiB"), "{err}");
     let err = user_error(&["bench", "--models", "naive", "--split", "1"]);
     assert!(err.contains("--split"), "{err}");
+}
+
+#[test]
+fn a_dataset_of_few_evaluation_intervals_counts_for_no_win_or_loss() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The first four intervals of the grass run: two evaluation intervals.
+    let mut data = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    data.windows.truncate(12);
+    let csv = d.join("short.csv");
+    drive::data::write_dataset(&data, &csv).unwrap();
+    let suite = d.join("suite.toml");
+    std::fs::write(&suite, "[[dataset]]\npath = \"short.csv\"\n").unwrap();
+    let args = ["bench", "--suite", s(&suite), "--models", "naive,slip-blr"];
+    let v: Value = serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
+    let dataset = &v["datasets"][0];
+    assert_eq!(dataset["eval_intervals"], 2);
+    assert_eq!(dataset["evidence"], false);
+    // The interval of two resampled intervals is no evidence: the naive model loses nowhere.
+    let naive = v["leaderboard"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["model"] == "naive")
+        .unwrap();
+    assert_eq!(naive["losses_to_slip_blr"], 0);
+    let text = ok(&[&args[..], &["--no-transfer"]].concat());
+    assert!(text.contains("too few evaluation intervals"), "{text}");
+    assert!(text.contains("short (2)"), "{text}");
+    assert!(text.contains("transfer: not run (--no-transfer)"), "{text}");
+    assert!(
+        !text
+            .lines()
+            .any(|l| l.starts_with("  short") && l.contains('!')),
+        "{text}"
+    );
 }

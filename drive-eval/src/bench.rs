@@ -56,6 +56,10 @@ pub struct BenchConfig {
     pub transfer: bool,
     /// The unpredictability's settings.
     pub unpredictability: UnpredictabilityConfig,
+    /// The evaluation intervals a dataset needs for its bootstrap intervals to count as
+    /// evidence in the leaderboard (wins and losses): with a handful of intervals, every
+    /// resample draws the same few and the interval collapses to a point.
+    pub min_evidence_intervals: usize,
 }
 
 impl Default for BenchConfig {
@@ -64,6 +68,7 @@ impl Default for BenchConfig {
             split: 0.5,
             transfer: true,
             unpredictability: UnpredictabilityConfig::default(),
+            min_evidence_intervals: 10,
         }
     }
 }
@@ -217,6 +222,11 @@ pub struct BenchDataset {
     pub train_windows: usize,
     /// Evaluation windows.
     pub eval_windows: usize,
+    /// Evaluation intervals (the blocks the bootstrap resamples).
+    pub eval_intervals: usize,
+    /// Whether the dataset has enough evaluation intervals for its bootstrap intervals to
+    /// count as evidence in the leaderboard ([`BenchConfig::min_evidence_intervals`]).
+    pub evidence: bool,
     /// The frame of the positions scored.
     pub position_frame: &'static str,
     /// One entry per model, in the order asked.
@@ -242,6 +252,10 @@ pub struct TransferCell {
     pub test: String,
     /// The robot both datasets are of.
     pub robot: String,
+    /// Whether the two runs' vehicle geometries are the same (the transferred model keeps
+    /// the geometry of the run it was fitted on: with another one, even the naive model's
+    /// errors differ).
+    pub same_geometry: bool,
     /// Whether the two terrains are the same; `None` when one is not known.
     pub same_terrain: Option<bool>,
     /// Median translational MRMSE on the test dataset's evaluation windows (m).
@@ -280,6 +294,8 @@ pub struct TransferSummary {
     pub other_terrain: TransferGroup,
     /// Pairs where a terrain is not known (not in either group).
     pub unknown_terrain_pairs: usize,
+    /// Pairs (in any group) between runs of two vehicle geometries.
+    pub other_geometry_pairs: usize,
 }
 
 /// One model's standing over the datasets.
@@ -296,7 +312,8 @@ pub struct LeaderboardRow {
     /// Mean rotational rank.
     pub mean_rank_rotational: f64,
     /// Datasets where it beats slip-BLR in both translation and rotation, each with its 95%
-    /// interval above 0.
+    /// interval above 0 (datasets with enough evaluation intervals only:
+    /// [`BenchDataset::evidence`]).
     pub wins_over_slip_blr: usize,
     /// Datasets where it beats slip-BLR in translation with the interval above 0.
     pub wins_translational: usize,
@@ -320,6 +337,8 @@ pub struct Bench {
     pub model_names: Vec<String>,
     /// The bootstrap behind the intervals.
     pub bootstrap: BootstrapConfig,
+    /// The evaluation intervals a dataset needs for its intervals to count as evidence.
+    pub min_evidence_intervals: usize,
     /// One entry per dataset, in the suite's order.
     pub datasets: Vec<BenchDataset>,
     /// Every model on every ordered pair of datasets of the same robot.
@@ -369,7 +388,7 @@ fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
                 ))
             } else if crate::vehicle_type(&ia.data) != crate::vehicle_type(&ib.data) {
                 Some(format!(
-                    "a {} vehicle against a {} one",
+                    "vehicle types {} and {}",
                     crate::vehicle_type(&ia.data),
                     crate::vehicle_type(&ib.data)
                 ))
@@ -550,6 +569,8 @@ fn within(
         intervals: data.interval_count(),
         train_windows: comparison.train_windows,
         eval_windows: comparison.eval_windows,
+        eval_intervals: comparison.eval_intervals,
+        evidence: comparison.eval_intervals >= config.min_evidence_intervals,
         position_frame: comparison.position_frame,
         models,
         unpredictability: BenchUnpredictability {
@@ -623,6 +644,7 @@ pub fn run_bench(
     Ok(Bench {
         split: config.split,
         model_names: specs.iter().map(|s| s.name.clone()).collect(),
+        min_evidence_intervals: config.min_evidence_intervals,
         bootstrap: datasets
             .first()
             .map_or_else(BootstrapConfig::default, |d| d.comparison.bootstrap),
@@ -699,6 +721,8 @@ fn transfer_cells(
                 train: ia.name.clone(),
                 test: ib.name.clone(),
                 robot: ia.robot.clone(),
+                same_geometry: serde_json::to_value(ia.data.robot.vehicle.as_ref()).ok()
+                    == serde_json::to_value(ib.data.robot.vehicle.as_ref()).ok(),
                 same_terrain: (terrain_known(&ia.terrain) && terrain_known(&ib.terrain))
                     .then(|| ia.terrain.trim().eq_ignore_ascii_case(ib.terrain.trim())),
                 translational_median_m: t,
@@ -734,6 +758,10 @@ fn summarize_transfer(model: &str, cells: &[TransferCell]) -> TransferSummary {
             .iter()
             .filter(|c| c.model == model && c.same_terrain.is_none())
             .count(),
+        other_geometry_pairs: cells
+            .iter()
+            .filter(|c| c.model == model && !c.same_geometry)
+            .count(),
     }
 }
 
@@ -748,7 +776,10 @@ fn leaderboard(specs: &[ModelSpec], datasets: &[BenchDataset]) -> Vec<Leaderboar
             let above = |i: &crate::Improvement| i.ci[0] > 0.0;
             let below = |i: &crate::Improvement| i.ci[1] < 0.0;
             let count = |f: &dyn Fn(&PairedImprovement) -> bool| {
-                of.iter()
+                datasets
+                    .iter()
+                    .filter(|d| d.evidence)
+                    .map(|d| &d.models[m])
                     .filter(|b| b.improvement_over_slip_blr.as_ref().is_some_and(f))
                     .count()
             };

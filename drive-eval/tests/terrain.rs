@@ -66,14 +66,21 @@ fn dataset(commands: &[Input], motion: impl Fn(&Input) -> [f64; 3]) -> Dataset {
     }
 }
 
-/// Commands spread over the input space, some of them turning on the spot.
+/// Commands spread over the input space, some of them turning on the spot, two of them
+/// turning two full turns in a second (12 rad/s) or more.
 fn commands() -> Vec<Input> {
-    (0..30)
+    let mut c: Vec<Input> = (0..30)
         .map(|i| {
             let a = i as f64 * 0.7;
             Input::new(5.0 * a.sin(), 5.0 * (1.3 * a + 0.4).cos())
         })
-        .collect()
+        .collect();
+    c.extend([
+        Input::new(-20.0, 20.0),
+        Input::new(10.0, 30.0),
+        Input::new(-20.0, 20.0),
+    ]);
+    c
 }
 
 fn as_commanded(u: &Input) -> [f64; 3] {
@@ -106,7 +113,7 @@ fn a_robot_that_moves_as_commanded_is_predictable() {
         let s = s.unwrap_or_else(|| panic!("{kind}: no sample"));
         assert!(s.median < 1e-9, "{kind}: median {}", s.median);
         assert!(s.iqr[1] < 1e-9, "{kind}: third quartile {}", s.iqr[1]);
-        assert!(s.samples > 500, "{kind}: {} samples", s.samples);
+        assert!(s.samples >= 250, "{kind}: {} samples", s.samples);
     }
     // Transient windows too, here: the motion follows the command at once.
     for w in &u.windows {

@@ -106,7 +106,7 @@ pub fn datasets_csv(b: &Bench) -> String {
 /// One row per model and ordered pair of datasets.
 pub fn transfer_csv(b: &Bench) -> String {
     let mut s = String::from(
-        "model,robot,train,test,same_terrain,translational_median_m,rotational_median_rad,own_translational_median_m,own_rotational_median_rad,loss_translational_percent,loss_rotational_percent\n",
+        "model,robot,train,test,same_terrain,same_geometry,translational_median_m,rotational_median_rad,own_translational_median_m,own_rotational_median_rad,loss_translational_percent,loss_rotational_percent\n",
     );
     for c in &b.transfer {
         let row = [
@@ -115,6 +115,7 @@ pub fn transfer_csv(b: &Bench) -> String {
             field(&c.train),
             field(&c.test),
             c.same_terrain.map_or(String::new(), |x| x.to_string()),
+            c.same_geometry.to_string(),
             num(Some(c.translational_median_m)),
             num(Some(c.rotational_median_rad)),
             num(Some(c.own_translational_median_m)),
@@ -204,8 +205,8 @@ pub fn windows_csv(b: &Bench) -> String {
     s
 }
 
-fn pct(i: &drive_eval::Improvement) -> String {
-    let sure = if i.ci[0] > 0.0 || i.ci[1] < 0.0 {
+fn pct(i: &drive_eval::Improvement, evidence: bool) -> String {
+    let sure = if evidence && (i.ci[0] > 0.0 || i.ci[1] < 0.0) {
         "**"
     } else {
         ""
@@ -236,7 +237,7 @@ pub fn markdown(b: &Bench) -> String {
     let _ = writeln!(s, "# DRIVE benchmark\n");
     let _ = writeln!(
         s,
-        "{} datasets x {} models ({}). Each dataset's first {} of the DRIVE intervals trains, the rest evaluates, as `drive eval`; errors are the paper's multi-step RMSE (eq. 8) over 2 s. Intervals are 95% paired bootstrap intervals ({} resamples of the evaluation intervals); **bold** where they exclude 0.\n",
+        "{} datasets x {} models ({}). Each dataset's first {} of the DRIVE intervals trains, the rest evaluates, as `drive eval`; errors are the paper's multi-step RMSE (eq. 8) over 2 s. Intervals are 95% paired bootstrap intervals ({} resamples of the evaluation intervals); **bold** where they exclude 0 on a dataset of enough evaluation intervals to count (see the leaderboard).\n",
         b.datasets.len(),
         b.model_names.len(),
         b.model_names.join(", "),
@@ -246,7 +247,8 @@ pub fn markdown(b: &Bench) -> String {
     let _ = writeln!(s, "## Leaderboard\n");
     let _ = writeln!(
         s,
-        "Mean rank over the datasets (translational and rotational ranks averaged, 1 best); wins: datasets where the model beats slip-BLR with the interval above 0 in both, in translation, in rotation; losses: datasets where slip-BLR beats it in either; ratio: geometric mean of the median's ratio to slip-BLR's; growth: mean over the datasets of the Spearman correlation of a window's error with its unpredictability.\n"
+        "Mean rank over the datasets (translational and rotational ranks averaged, 1 best); wins: datasets where the model beats slip-BLR with the interval above 0 in both, in translation, in rotation; losses: datasets where slip-BLR beats it in either (only datasets of {} evaluation intervals or more count: with fewer, every resample draws the same few); ratio: geometric mean of the median's ratio to slip-BLR's; growth: mean over the datasets of the Spearman correlation of a window's error with its unpredictability.\n",
+        b.min_evidence_intervals
     );
     let _ = writeln!(
         s,
@@ -323,8 +325,8 @@ pub fn markdown(b: &Bench) -> String {
                 m.rotational_median_rad,
                 m.rotational_iqr_rad[0],
                 m.rotational_iqr_rad[1],
-                v.map_or("-".into(), |i| pct(&i.translational)),
-                v.map_or("-".into(), |i| pct(&i.rotational)),
+                v.map_or("-".into(), |i| pct(&i.translational, d.evidence)),
+                v.map_or("-".into(), |i| pct(&i.rotational, d.evidence)),
                 match (m.position_coverage95_2s, m.yaw_coverage95_2s) {
                     (Some(p), Some(y)) => format!("{:.1}%, {:.1}%", 100.0 * p, 100.0 * y),
                     _ => "-".into(),
@@ -371,17 +373,18 @@ pub fn markdown(b: &Bench) -> String {
         );
         let _ = writeln!(
             s,
-            "| model | train | test | same terrain | transferred | own | loss |\n|---|---|---|---|---|---|---|"
+            "| model | train | test | same terrain | same geometry | transferred | own | loss |\n|---|---|---|---|---|---|---|---|"
         );
         for c in &b.transfer {
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {:.4} / {:.4} | {:.4} / {:.4} | {:+.1}% / {:+.1}% |",
+                "| {} | {} | {} | {} | {} | {:.4} / {:.4} | {:.4} / {:.4} | {:+.1}% / {:+.1}% |",
                 md(&c.model),
                 md(&c.train),
                 md(&c.test),
                 c.same_terrain
                     .map_or("unknown", |x| if x { "yes" } else { "no" }),
+                if c.same_geometry { "yes" } else { "no" },
                 c.translational_median_m,
                 c.rotational_median_rad,
                 c.own_translational_median_m,

@@ -129,7 +129,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         }
         outputs.publish()?;
     }
-    emit(args.json, &bench, text)?;
+    let transfer = config.transfer;
+    emit(args.json, &bench, |b| text(b, transfer))?;
     if let Some(dir) = &args.out {
         eprintln!(
             "{} datasets x {} models in {:.1} s; written to {}/ ({})",
@@ -143,9 +144,9 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     Ok(())
 }
 
-/// `+12.3` with a `!` when the interval excludes 0.
-fn signed(i: &crate::eval::Improvement) -> String {
-    let sure = i.ci[0] > 0.0 || i.ci[1] < 0.0;
+/// `+12.3` with a `!` when the interval excludes 0 and counts as evidence.
+fn signed(i: &crate::eval::Improvement, evidence: bool) -> String {
+    let sure = evidence && (i.ci[0] > 0.0 || i.ci[1] < 0.0);
     format!("{:+.1}{}", i.percent, if sure { "!" } else { "" })
 }
 
@@ -164,7 +165,7 @@ fn or_dash(v: Option<f64>, digits: usize) -> String {
 
 /// The benchmark as text: datasets, medians, improvements over slip-BLR, transfer,
 /// leaderboard.
-pub fn text(b: &Bench) -> String {
+pub fn text(b: &Bench, transfer: bool) -> String {
     let mut s = String::new();
     let nw = b
         .datasets
@@ -266,7 +267,11 @@ pub fn text(b: &Bench) -> String {
         let _ = write!(s, "  {:<nw$}", d.name);
         for m in &d.models {
             let cell = m.improvement_over_slip_blr.map_or("-".into(), |i| {
-                format!("{}/{}", signed(&i.translational), signed(&i.rotational))
+                format!(
+                    "{}/{}",
+                    signed(&i.translational, d.evidence),
+                    signed(&i.rotational, d.evidence)
+                )
             });
             let _ = write!(s, "{cell:<mw$}");
         }
@@ -275,11 +280,13 @@ pub fn text(b: &Bench) -> String {
     if b.transfer.is_empty() {
         let _ = writeln!(
             s,
-            "\ntransfer: no two datasets of the same robot{}",
-            if b.transfer_skipped.is_empty() {
-                ""
+            "\ntransfer: {}",
+            if !transfer {
+                "not run (--no-transfer)"
+            } else if b.transfer_skipped.is_empty() {
+                "no two datasets of the same robot"
             } else {
-                " that can be compared"
+                "no two datasets of the same robot that can be compared"
             }
         );
     } else {
@@ -314,11 +321,23 @@ pub fn text(b: &Bench) -> String {
                 t.unknown_terrain_pairs
             );
         }
+        if let Some(t) = b
+            .transfer_summary
+            .first()
+            .filter(|t| t.other_geometry_pairs > 0)
+        {
+            let _ = writeln!(
+                s,
+                "  ({} of the pairs join runs of two vehicle geometries: the model keeps the geometry of the run it was fitted on)",
+                t.other_geometry_pairs
+            );
+        }
     }
     let _ = writeln!(
         s,
-        "\nleaderboard over {} datasets: mean rank (1 best; translational and rotational ranks averaged), datasets where the model beats slip-BLR with the 95% interval above 0 (both / translation / rotation) or loses to it, geometric mean of the median's ratio to slip-BLR's, mean Spearman correlation of the window errors with the windows' unpredictability",
-        b.datasets.len()
+        "\nleaderboard over {} datasets: mean rank (1 best; translational and rotational ranks averaged), datasets where the model beats slip-BLR with the 95% interval above 0 (both / translation / rotation) or loses to it (datasets of {} evaluation intervals or more), geometric mean of the median's ratio to slip-BLR's, mean Spearman correlation of the window errors with the windows' unpredictability",
+        b.datasets.len(),
+        b.min_evidence_intervals
     );
     let _ = writeln!(
         s,
@@ -357,6 +376,19 @@ pub fn text(b: &Bench) -> String {
             s,
             "\nno total unpredictability for {} (no body size: give robot = \"a preset or a robot file with body_length and body_width\")",
             no_body.join(", ")
+        );
+    }
+    let few: Vec<String> = b
+        .datasets
+        .iter()
+        .filter(|d| !d.evidence)
+        .map(|d| format!("{} ({})", d.name, d.eval_intervals))
+        .collect();
+    if !few.is_empty() {
+        let _ = writeln!(
+            s,
+            "too few evaluation intervals for their bootstrap intervals to count (no ! and no win or loss): {}",
+            few.join(", ")
         );
     }
     for skipped in &b.transfer_skipped {
