@@ -214,6 +214,7 @@ fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput,
         name: name.clone(),
         reason,
     };
+    let mut notes = Vec::new();
     let (mut data, source) = match &entry.source {
         SuiteSource::Windows { csv, sidecar } => (
             read_dataset(csv, sidecar.as_deref()).map_err(data_error)?,
@@ -251,6 +252,13 @@ fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput,
                 ..ImportConfig::default()
             };
             let (data, report) = import_raw(&log, &description, &config).map_err(data_error)?;
+            notes.extend(
+                report
+                    .checks
+                    .iter()
+                    .filter(|f| f.severity == crate::data::quality::Severity::Warning)
+                    .map(|f| format!("check {}: {}", f.check, f.message)),
+            );
             let fatal = report
                 .checks
                 .iter()
@@ -297,5 +305,6 @@ fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput,
         body: robot.body,
         body_source: robot.source,
         data,
+        notes,
     })
 }

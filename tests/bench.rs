@@ -242,6 +242,28 @@ fn out_writes_tables_and_a_page_and_never_replaces_an_input() {
     }
     let html = std::fs::read_to_string(out.join("bench.html")).unwrap();
     assert_eq!(html.matches("<svg").count(), 5, "five figures");
+    // A name is text, in the page and in the Markdown.
+    std::fs::write(
+        &suite,
+        "[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\nname = \"<b>grass</b> & co\"\n",
+    )
+    .unwrap();
+    let escaped = d.join("escaped");
+    ok(&[
+        "bench",
+        "--suite",
+        s(&suite),
+        "--models",
+        "naive",
+        "--out",
+        s(&escaped),
+    ]);
+    let page = std::fs::read_to_string(escaped.join("bench.html")).unwrap();
+    let md = std::fs::read_to_string(escaped.join("bench.md")).unwrap();
+    for text in [&page, &md] {
+        assert!(!text.contains("<b>grass"), "markup passed through");
+        assert!(text.contains("&lt;b&gt;grass&lt;/b&gt; &amp; co"));
+    }
     assert!(html.contains("Content-Security-Policy"));
     let csv = std::fs::read_to_string(out.join("datasets.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 2 * 2);
@@ -289,6 +311,15 @@ fn bad_suites_fail_in_one_line() {
             "[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\nrobot = \"autorally\"\n",
             "the robot autorally's vehicle is ackermann and the data's is differential",
         ),
+        (
+            "[[dataset]]\npath = \"/dev/zero\"\nsidecar = \"s.json\"\n",
+            "not a regular file",
+        ),
+        (
+            "[[dataset]]\nbundled = \"husky\"\nname = \"a\\u001b[31mb\"\n",
+            "control character",
+        ),
+        ("[[dataset]]\npath = \"\"\n", "path must be non-empty"),
     ];
     for (text, expected) in cases {
         std::fs::write(&suite, text).unwrap();
@@ -298,7 +329,9 @@ fn bad_suites_fail_in_one_line() {
         assert!(err.matches("cannot read").count() <= 1, "{err}");
     }
     let err = user_error(&["bench", "--suite", "/dev/zero"]);
-    assert!(err.contains("1 MiB"), "{err}");
+    assert!(err.contains("not a regular file"), "{err}");
+    let err = user_error(&["bench", "--models", "naive,slip-blr,naive"]);
+    assert!(err.contains("'naive' is named twice"), "{err}");
     let err = user_error(&["bench", "--models", "naive", "--split", "1"]);
     assert!(err.contains("--split"), "{err}");
 }

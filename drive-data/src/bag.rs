@@ -166,7 +166,7 @@ pub fn bag_files(path: &Path) -> Result<Vec<PathBuf>, DataError> {
         return Ok(vec![path.to_path_buf()]);
     }
     let metadata = path.join("metadata.yaml");
-    if let Ok(text) = std::fs::read_to_string(&metadata) {
+    if let Ok(text) = drive_traits::files::read_text(&metadata, 1 << 20) {
         if let Some(storage) = text
             .lines()
             .find_map(|l| l.trim().strip_prefix("storage_identifier:"))
@@ -386,6 +386,8 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RawLog, DataError> {
         } else {
             format!("{}: ", file.display())
         };
+        drive_traits::files::regular(file)
+            .map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?;
         let size = std::fs::metadata(file)
             .map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?
             .len();

@@ -462,11 +462,23 @@ pub fn import_raw(
     report.checks = crate::quality::check(&data, config.input_limits.as_ref());
     if report.checks.iter().any(|f| f.check == "imu-constant") {
         let dt = robot.dt();
-        for w in &mut data.windows {
-            w.imu_yaw_rate = crate::quality::yaw_rate_from_localization(w, dt);
+        let vehicle = robot.vehicle.as_ref();
+        // From each sample and the ones before it only (see yaw_rate_from_localization).
+        let rates: Vec<Vec<f64>> = (0..data.windows.len())
+            .map(|i| {
+                let w = &data.windows[i];
+                let before = i
+                    .checked_sub(1)
+                    .map(|p| &data.windows[p])
+                    .filter(|b| b.continued_by(w));
+                crate::quality::yaw_rate_from_localization(w, before, vehicle, dt)
+            })
+            .collect();
+        for (w, r) in data.windows.iter_mut().zip(rates) {
+            w.imu_yaw_rate = r;
         }
         report.notes.push(
-            "the imu_yaw_rate column holds the yaw rate from localization (finite differences of its yaw), as the IMU was not recorded".into(),
+            "the imu_yaw_rate column holds the yaw rate from localization (backward differences of its yaw, from each sample and the ones before it), as the IMU was not recorded".into(),
         );
     }
     data.link_start_velocities();

@@ -105,6 +105,9 @@ pub fn sidecar_path(csv: &Path) -> PathBuf {
     csv.with_extension("json")
 }
 
+/// The largest raw logger CSV read (bytes): its text is held whole.
+pub const MAX_RAW_LOG_BYTES: u64 = 1 << 30;
+
 /// Reads a dataset from a window CSV file and its sidecar (by default beside the CSV, see
 /// [`sidecar_path`]); `bundled:NAME` is the bundled dataset of that name (see [`bundled`]),
 /// which carries its own sidecar.
@@ -126,9 +129,11 @@ pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataE
         .unwrap_or_else(|| sidecar_path(csv));
     let csv_name = csv.display().to_string();
     let sidecar_name = sidecar.display().to_string();
-    let opened = std::fs::File::open(csv)
+    let opened = drive_traits::files::regular(csv)
+        .and_then(|()| std::fs::File::open(csv))
         .map_err(|e| DataError::new(Location::file(&csv_name), DataErrorKind::Io(e.to_string())))?;
-    let sidecar_text = std::fs::read_to_string(&sidecar).map_err(|e| {
+    // A sidecar is a short JSON object.
+    let sidecar_text = drive_traits::files::read_text(&sidecar, 1 << 20).map_err(|e| {
         let kind = if e.kind() == std::io::ErrorKind::NotFound {
             DataErrorKind::MissingSidecar(format!(
                 "the sidecar JSON of {csv_name} was not found (expected at {sidecar_name}; give it with --sidecar)"
@@ -229,8 +234,19 @@ pub fn read_raw_log(path: &Path, columns: &[&'static str; 19]) -> Result<RawLog,
 
 fn read_text(path: &Path) -> Result<String, DataError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path)
-        .map_err(|e| DataError::new(Location::file(&name), DataErrorKind::Io(e.to_string())))?;
+    let io =
+        |e: std::io::Error| DataError::new(Location::file(&name), DataErrorKind::Io(e.to_string()));
+    drive_traits::files::regular(path).map_err(io)?;
+    let size = std::fs::metadata(path).map_err(io)?.len();
+    if size > MAX_RAW_LOG_BYTES {
+        return Err(DataError::new(
+            Location::file(&name),
+            DataErrorKind::Implausible(format!(
+                "{size} bytes, more than the {MAX_RAW_LOG_BYTES} a raw log is read to (about a day at 20 Hz)"
+            )),
+        ));
+    }
+    let bytes = std::fs::read(path).map_err(io)?;
     // A byte-order mark (spreadsheet exports) is not part of the text.
     let bytes = match bytes.strip_prefix(b"\xef\xbb\xbf") {
         Some(rest) => rest.to_vec(),

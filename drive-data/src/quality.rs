@@ -279,33 +279,49 @@ pub fn vehicle_mismatch(
     })
 }
 
-/// The yaw rate localization implies at each sample: the wrapped change of the window's
-/// yaw over two samples on each side (one-sided at the ends), which spans the held values of
-/// a localization slower than the command rate. What start states use when the IMU was not
-/// recorded.
+/// The yaw rate localization implies at each sample, from that sample and earlier ones only
+/// (a start state never reads the window it predicts): the wrapped change of the yaw over
+/// the two samples before (which spans the held values of a localization slower than the
+/// command rate). The first two samples take the same backward difference at the end of
+/// `before`, the window just before when it runs on into this one ([`Window::continued_by`]),
+/// or else the encoders' yaw rate through `vehicle` (eq. 4) at the sample. What the
+/// `imu_yaw_rate` column holds when the IMU was not recorded.
 ///
 /// ```
 /// # use drive_traits::{Input, Phase, Pose, Window};
+/// use drive_models::DifferentialDrive;
 /// let w = Window {
 ///     index: 0, interval: 0, phase: Phase::Steady,
-///     command: vec![Input::zeros(); 5], measured: vec![Input::zeros(); 5],
+///     command: vec![Input::zeros(); 5], measured: vec![Input::new(-1.0, 1.0); 5],
 ///     // Turning at 1 rad/s through +-pi, localized every other sample.
 ///     pose: [3.0, 3.0, 3.1, 3.1, -3.083185307179586].iter().map(|&z| Pose::new(0.0, 0.0, z)).collect(),
 ///     imu_yaw_rate: vec![0.0; 5], start_velocity: None,
 /// };
-/// let r = drive_data::quality::yaw_rate_from_localization(&w, 0.05);
-/// assert!(r.iter().all(|v| v.abs() < 2.5 && *v > 0.0), "{r:?}");
+/// let vehicle = DifferentialDrive::new(0.25, 1.0); // the wheels say 0.5 rad/s
+/// let r = drive_data::quality::yaw_rate_from_localization(&w, None, &vehicle, 0.05);
+/// assert_eq!(&r[..2], &[0.5, 0.5]);
+/// assert!(r[2..].iter().all(|v| (v - 1.0).abs() < 1e-9), "{r:?}");
 /// ```
-pub fn yaw_rate_from_localization(w: &Window, dt: f64) -> Vec<f64> {
-    let n = w.len();
-    (0..n)
+pub fn yaw_rate_from_localization(
+    w: &Window,
+    before: Option<&Window>,
+    vehicle: &dyn drive_traits::CommandModel,
+    dt: f64,
+) -> Vec<f64> {
+    let backward = |w: &Window, k: usize| -> f64 {
+        let d = w.pose[k].z - w.pose[k - 2].z;
+        d.sin().atan2(d.cos()) / (2.0 * dt)
+    };
+    let from_before = before
+        .filter(|b| b.len() >= 3)
+        .map(|b| backward(b, b.len() - 1));
+    (0..w.len())
         .map(|k| {
-            let (a, b) = (k.saturating_sub(2), (k + 2).min(n.saturating_sub(1)));
-            if b <= a {
-                return 0.0;
+            if k >= 2 {
+                backward(w, k)
+            } else {
+                from_before.unwrap_or_else(|| vehicle.body_velocity(&w.measured[k]).z)
             }
-            let d = w.pose[b].z - w.pose[a].z;
-            d.sin().atan2(d.cos()) / ((b - a) as f64 * dt)
         })
         .collect()
 }
@@ -369,8 +385,40 @@ mod tests {
         let stand = still.iter().find(|f| f.check == "not-moving").unwrap();
         assert_eq!(stand.severity, Severity::Fatal);
         // The localization's yaw rate follows the spin across the wraps.
-        let w = &spin(4.0, 1.0).windows[0];
-        let r = yaw_rate_from_localization(w, 0.05);
+        let data = spin(4.0, 1.0);
+        let w = &data.windows[0];
+        let r = yaw_rate_from_localization(w, None, data.robot.vehicle.as_ref(), 0.05);
         assert!(r.iter().all(|v| (v - 4.0).abs() < 1e-9), "{r:?}");
+    }
+
+    #[test]
+    fn the_yaw_rate_from_localization_reads_no_later_sample() {
+        let data = spin(4.0, 1.0);
+        let (before, w) = (&data.windows[0], &data.windows[0]);
+        let vehicle = data.robot.vehicle.as_ref();
+        let r = yaw_rate_from_localization(w, Some(before), vehicle, 0.05);
+        for k in 0..w.len() {
+            // Every sample after k made up: the rates up to k stay.
+            let mut altered = w.clone();
+            for (j, q) in altered.pose.iter_mut().enumerate().skip(k + 1) {
+                q.z = (j as f64 * 1.7).sin() * 3.0;
+            }
+            for m in altered.measured.iter_mut().skip(k + 1) {
+                *m = Input::new(9.0, -9.0);
+            }
+            let a = yaw_rate_from_localization(&altered, Some(before), vehicle, 0.05);
+            assert_eq!(&a[..=k], &r[..=k], "k = {k}");
+        }
+        // The window before gives the start; without it, the encoders do (here they say
+        // 1 rad/s while the localization turns at 4).
+        let mut slipping = w.clone();
+        slipping.measured = vec![Input::new(-1.0, 1.0); 40];
+        let r = yaw_rate_from_localization(&slipping, Some(before), vehicle, 0.05);
+        assert!(
+            (r[0] - 4.0).abs() < 1e-9 && (r[1] - 4.0).abs() < 1e-9,
+            "{r:?}"
+        );
+        let alone = yaw_rate_from_localization(&slipping, None, vehicle, 0.05);
+        assert_eq!(&alone[..2], &[1.0, 1.0]);
     }
 }

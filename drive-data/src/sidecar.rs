@@ -230,6 +230,11 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
             ))
         }
     };
+    for (field, text) in [("name", &name), ("robot", &robot)] {
+        if text.chars().any(char::is_control) {
+            return Err(bad(field, "holds a control character".into()));
+        }
+    }
     let terrain = match required(obj, "terrain") {
         None => String::new(),
         Some(Value::String(s)) => s.trim().to_string(),
@@ -243,6 +248,9 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
         "",
     )
     .map_err(|e| bad("terrain", e.to_string()))?;
+    if terrain.chars().any(char::is_control) {
+        return Err(bad("terrain", "holds a control character".into()));
+    }
     let windows = integer("windows", 0)?;
     let csv = match required(obj, "csv") {
         None => None,

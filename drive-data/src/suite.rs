@@ -209,12 +209,25 @@ pub fn parse_suite(file: &str, text: &str) -> Result<Vec<SuiteEntry>, SuiteError
             ("name", &e.name),
             ("terrain", &e.terrain),
             ("robot", &e.robot),
+            ("path", &e.path),
+            ("sidecar", &e.sidecar),
+            ("bundled", &e.bundled),
+            ("raw", &e.raw),
+            ("bag", &e.bag),
         ] {
             if let Some(v) = v {
-                if v.trim().is_empty() || v.chars().count() > 200 {
+                let most = if matches!(field, "name" | "terrain") {
+                    200
+                } else {
+                    4096
+                };
+                if v.trim().is_empty() || v.chars().count() > most {
                     return Err(err(format!(
-                        "{which}: {field} must be non-empty text of at most 200 characters"
+                        "{which}: {field} must be non-empty text of at most {most} characters"
                     )));
+                }
+                if v.chars().any(char::is_control) {
+                    return Err(err(format!("{which}: {field} holds a control character")));
                 }
             }
         }
@@ -254,7 +267,7 @@ pub fn parse_suite(file: &str, text: &str) -> Result<Vec<SuiteEntry>, SuiteError
         // A robot file is relative to the suite; a registered name stays a name.
         let robot = e.robot.map(|r| {
             let joined = base.join(&r);
-            if r.ends_with(".toml") || joined.exists() {
+            if r.ends_with(".toml") || joined.is_file() {
                 joined.display().to_string()
             } else {
                 r
@@ -273,25 +286,12 @@ pub fn parse_suite(file: &str, text: &str) -> Result<Vec<SuiteEntry>, SuiteError
 
 /// Reads and parses a suite file.
 pub fn read_suite(path: &Path) -> Result<Vec<SuiteEntry>, SuiteError> {
-    use std::io::Read as _;
     let file = path.display().to_string();
     let cannot = |e: std::io::Error| SuiteError {
         file: file.clone(),
         message: format!("cannot read: {e}"),
     };
-    // A suite is a short list: read at most 1 MiB (a device or a huge file is no suite).
-    const MAX: u64 = 1 << 20;
-    let mut text = String::new();
-    std::fs::File::open(path)
-        .map_err(cannot)?
-        .take(MAX + 1)
-        .read_to_string(&mut text)
-        .map_err(cannot)?;
-    if text.len() as u64 > MAX {
-        return Err(SuiteError {
-            file,
-            message: "more than 1 MiB; a suite file is a short list of datasets".into(),
-        });
-    }
+    // A suite is a short list: at most 1 MiB of a regular file.
+    let text = drive_traits::files::read_text(path, 1 << 20).map_err(cannot)?;
     parse_suite(&file, &text)
 }

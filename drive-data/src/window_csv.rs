@@ -84,14 +84,29 @@ pub(crate) fn read_windows(
     opened: std::fs::File,
     robot: &RobotDescription,
 ) -> Result<(Vec<Window>, crate::CsvDigest), DataError> {
-    use std::io::BufRead as _;
+    use std::io::{BufRead as _, Read as _};
+    // A line of a window CSV is a hundred characters or so: a longer one is no such file.
+    const MAX_LINE_BYTES: u64 = 1 << 16;
     let mut reader = std::io::BufReader::new(opened);
     let mut digest = crate::sidecar::DigestBuilder::default();
     let mut number = 0;
+    let mut failed = false;
     let lines = std::iter::from_fn(|| {
+        if failed {
+            return None;
+        }
         let mut line = String::new();
-        match reader.read_line(&mut line) {
+        match (&mut reader).take(MAX_LINE_BYTES + 1).read_line(&mut line) {
             Ok(0) => None,
+            Ok(n) if n as u64 > MAX_LINE_BYTES => {
+                failed = true;
+                Some(Err(DataError::new(
+                    Location::line(file, number + 1),
+                    DataErrorKind::Implausible(format!(
+                        "a line longer than {MAX_LINE_BYTES} bytes: not a window CSV"
+                    )),
+                )))
+            }
             Ok(_) => {
                 number += 1;
                 if number == 1 {

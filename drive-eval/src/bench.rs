@@ -45,6 +45,8 @@ pub struct BenchInput {
     pub body_source: String,
     /// The windows.
     pub data: Dataset,
+    /// What loading it noted (a data check's warning, a recognised robot): one line each.
+    pub notes: Vec<String>,
 }
 
 /// How the benchmark runs.
@@ -82,6 +84,9 @@ pub enum BenchError {
     /// Two datasets share a name.
     #[error("two datasets are named '{0}' (give one a name = \"...\")")]
     DuplicateName(String),
+    /// A model is named twice.
+    #[error("the model '{0}' is named twice")]
+    DuplicateModel(String),
     /// The comparison failed on one dataset.
     #[error("dataset '{name}': {reason}")]
     Dataset {
@@ -239,6 +244,8 @@ pub struct BenchDataset {
     /// Every window's unpredictability.
     #[serde(skip)]
     pub window_unpredictability: Vec<WindowUnpredictability>,
+    /// What loading it noted (a data check's warning): one line each.
+    pub notes: Vec<String>,
 }
 
 /// One model fitted on all of one dataset and scored on another's evaluation windows.
@@ -583,6 +590,7 @@ fn within(
         },
         comparison,
         window_unpredictability: u.windows,
+        notes: input.notes.clone(),
     })
 }
 
@@ -596,7 +604,7 @@ fn within(
 /// let sim = |terrain: &str, seed| {
 ///     let data = drive_eval::simulate_protocol(&registries, "husky", terrain, "uniform", 8, seed).unwrap().dataset;
 ///     BenchInput { name: format!("{terrain}-{seed}"), source: "simulated".into(), robot: "husky".into(),
-///         terrain: terrain.into(), body: None, body_source: String::new(), data }
+///         terrain: terrain.into(), body: None, body_source: String::new(), data, notes: Vec::new() }
 /// };
 /// let inputs = vec![sim("tile", 1), sim("snow", 2), sim("snow", 3)];
 /// let specs = registries.models().resolve_list(&["naive", "slip-blr"]).unwrap();
@@ -620,6 +628,14 @@ pub fn run_bench(
     for (i, a) in inputs.iter().enumerate() {
         if inputs[..i].iter().any(|b| b.name == a.name) {
             return Err(BenchError::DuplicateName(a.name.clone()));
+        }
+    }
+    for (i, a) in specs.iter().enumerate() {
+        if specs[..i]
+            .iter()
+            .any(|b| b.name == a.name || b.canonical() == a.canonical() && b.start == a.start)
+        {
+            return Err(BenchError::DuplicateModel(a.name.clone()));
         }
     }
     let datasets: Vec<BenchDataset> = inputs

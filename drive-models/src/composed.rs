@@ -224,34 +224,6 @@ impl Learner for Composed {
     }
 }
 
-impl Composed {
-    /// `like`'s parts fitted on other training windows: the powertrain by its learner, the
-    /// slip by [`SlipModel::refit`] when the fitted slip model offers it (the same
-    /// hyperparameters, warm-started), otherwise by the slip learner.
-    pub fn refit(
-        &self,
-        like: &ComposedModel,
-        train: &WindowSet<'_>,
-    ) -> Result<ComposedModel, FitError> {
-        if train.is_empty() {
-            return Err(FitError::EmptyTrainingSet);
-        }
-        let powertrain = self.powertrain.fit_boxed(train)?;
-        let data = SlipData::new(train, powertrain.as_ref());
-        let slip = match like.slip.refit(&data) {
-            Some(fitted) => fitted?,
-            None => self.slip.fit_boxed(&data)?,
-        };
-        Ok(ComposedModel {
-            label: self.label.clone(),
-            vehicle: Arc::clone(&train.robot.vehicle),
-            powertrain,
-            slip,
-            dt: train.robot.dt(),
-        })
-    }
-}
-
 /// A fitted composed model: vehicle, powertrain and slip model (eq. 1-5).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ComposedModel {

@@ -226,25 +226,37 @@ impl ModelSpec {
     ///
     /// The fit sees what the predictions will: the localization's start velocities
     /// ([`Window::start_velocity`]) only when [`ModelSpec::start`] gives them
-    /// ([`StartInfo::EncodersImuLocalization`]), so that a model whose state is a velocity
-    /// is not fitted for a start it will not have.
+    /// ([`StartInfo::EncodersImuLocalization`]), and the IMU ([`Window::imu_yaw_rate`]) only
+    /// when it gives it (not with [`StartInfo::Encoders`]: the column is then NaN, "not
+    /// measured"), so that no model is fitted for a start it will not have.
     pub fn fit(&self, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, FitError> {
         self.as_predicted(train, |train| self.fit_as_predicted(train))
     }
 
     /// Runs `fit` on the training windows as the predictions will see them: without their
-    /// start velocities unless [`ModelSpec::start`] gives them (a copy, when they have any).
+    /// start velocities unless [`ModelSpec::start`] gives them, without the IMU (NaN) when
+    /// it does not give it (a copy, when anything is taken away).
     fn as_predicted<R>(&self, train: &WindowSet<'_>, fit: impl FnOnce(&WindowSet<'_>) -> R) -> R {
-        if self.start == StartInfo::EncodersImuLocalization
-            || train.windows.iter().all(|w| w.start_velocity.is_none())
-        {
+        let drop_velocity = self.start != StartInfo::EncodersImuLocalization
+            && train.windows.iter().any(|w| w.start_velocity.is_some());
+        let drop_imu = self.start == StartInfo::Encoders;
+        if !drop_velocity && !drop_imu {
             return fit(train);
         }
         let owned: Vec<Window> = train
             .windows
             .iter()
             .map(|w| Window {
-                start_velocity: None,
+                start_velocity: if drop_velocity {
+                    None
+                } else {
+                    w.start_velocity
+                },
+                imu_yaw_rate: if drop_imu {
+                    vec![f64::NAN; w.imu_yaw_rate.len()]
+                } else {
+                    w.imu_yaw_rate.clone()
+                },
                 ..(*w).clone()
             })
             .collect();
@@ -264,10 +276,11 @@ impl ModelSpec {
                 let learner =
                     Composed::from_parts(self.canonical(), powertrain.clone(), slip.clone());
                 let model = Learner::fit(&learner, train)?;
-                let like = model.clone();
+                // Each fold is fitted from scratch, hyperparameters included: nothing of the
+                // held-out windows reaches the fits that score them.
                 self.calibrator
                     .calibrate(Box::new(model), train, self.start, |inner| {
-                        Ok(Box::new(learner.refit(&like, inner)?))
+                        Ok(Box::new(Learner::fit(&learner, inner)?))
                     })
             }
             Parts::Baseline(..) => {

@@ -300,6 +300,11 @@ pub fn markdown(b: &Bench) -> String {
             md(&u.body_source)
         );
     }
+    for d in &b.datasets {
+        for note in &d.notes {
+            let _ = writeln!(s, "\nNote on {}: {}", md(&d.name), md(note));
+        }
+    }
     let _ = writeln!(s, "\n## Per dataset\n");
     for d in &b.datasets {
         let _ = writeln!(
@@ -439,9 +444,21 @@ pub fn markdown(b: &Bench) -> String {
     s
 }
 
-/// Text for a Markdown table cell: no pipe, no line break.
+/// User text (names, terrains) for Markdown: no pipe, no line break, no HTML (`<`, `>`
+/// and `&` as entities, which Markdown shows as the characters).
 fn md(s: &str) -> String {
-    s.replace('|', "/").replace(['\n', '\r'], " ")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('|', "/")
+        .replace(['\n', '\r'], " ")
+}
+
+/// The characters [`md`] wrote as entities, back (before escaping for HTML once).
+fn unmd(s: &str) -> String {
+    s.replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&amp;", "&")
 }
 
 /// Text for HTML.
@@ -471,8 +488,8 @@ fn figure_list(b: &Bench) -> Vec<(&'static str, String, (u32, u32))> {
             (w, h),
         ),
     ];
-    if !b.transfer.is_empty() {
-        let groups = transfer_groups(b);
+    let groups = transfer_groups(b);
+    if !groups.is_empty() {
         let cells: usize = groups
             .iter()
             .map(|(_, names)| names.len())
@@ -501,15 +518,21 @@ fn figure_list(b: &Bench) -> Vec<(&'static str, String, (u32, u32))> {
     f
 }
 
-/// The robots with transfer pairs, and their datasets in the suite's order.
+/// Most datasets of one robot drawn in a transfer heat map (a larger group's map would be a
+/// wall of unreadable cells; `transfer.csv` has every pair).
+const MAX_HEAT_MAP: usize = 40;
+
+/// The robots with transfer pairs (of at most [`MAX_HEAT_MAP`] datasets), and their datasets
+/// in the suite's order.
 fn transfer_groups(b: &Bench) -> Vec<(String, Vec<String>)> {
+    let paired: std::collections::HashSet<&str> = b
+        .transfer
+        .iter()
+        .flat_map(|c| [c.train.as_str(), c.test.as_str()])
+        .collect();
     let mut groups: Vec<(String, Vec<String>)> = Vec::new();
     for d in &b.datasets {
-        let paired = b
-            .transfer
-            .iter()
-            .any(|c| c.train == d.name || c.test == d.name);
-        if !paired {
+        if !paired.contains(d.name.as_str()) {
             continue;
         }
         match groups.iter_mut().find(|g| g.0 == d.robot) {
@@ -517,6 +540,7 @@ fn transfer_groups(b: &Bench) -> Vec<(String, Vec<String>)> {
             None => groups.push((d.robot.clone(), vec![d.name.clone()])),
         }
     }
+    groups.retain(|g| g.1.len() <= MAX_HEAT_MAP);
     groups
 }
 
@@ -763,6 +787,12 @@ where
         &[],
     )?;
     let groups = transfer_groups(b);
+    // Each cell by (model, train, test).
+    let cells: std::collections::HashMap<(&str, &str, &str), &TransferCell> = b
+        .transfer
+        .iter()
+        .map(|c| ((c.model.as_str(), c.train.as_str(), c.test.as_str()), c))
+        .collect();
     let rows = b.model_names.len() * groups.len();
     if rows == 0 {
         root.present()?;
@@ -775,11 +805,6 @@ where
             for translational in [true, false] {
                 let panel = &panels[k];
                 k += 1;
-                let cells: Vec<&TransferCell> = b
-                    .transfer
-                    .iter()
-                    .filter(|c| &c.model == model && &c.robot == robot)
-                    .collect();
                 let n = names.len();
                 let title = format!(
                     "{model} on {robot}, {}",
@@ -810,8 +835,7 @@ where
                             Some(0.0)
                         } else {
                             cells
-                                .iter()
-                                .find(|x| &x.train == train && &x.test == test)
+                                .get(&(model.as_str(), train.as_str(), test.as_str()))
                                 .map(|x| {
                                     if translational {
                                         x.loss_translational_percent
@@ -938,8 +962,8 @@ where
 /// written by [`markdown`]).
 fn markdown_to_html(md: &str) -> String {
     let inline = |t: &str| -> String {
-        // **bold** and `code`, after escaping.
-        let t = esc(t);
+        // **bold** and `code`, after escaping (once: the Markdown's entities are undone first).
+        let t = esc(&unmd(t));
         let mut out = String::new();
         let mut bold = false;
         let mut code = false;

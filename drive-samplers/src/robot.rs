@@ -515,10 +515,12 @@ impl RobotSpec {
     /// A registered robot by name, or a TOML file by path.
     pub fn load(robots: &Registry<RobotSpec>, name_or_path: &str) -> Result<RobotSpec, RobotError> {
         if Self::file_of(name_or_path).is_some() {
-            let text = std::fs::read_to_string(name_or_path).map_err(|e| RobotError::Parse {
-                file: name_or_path.into(),
-                message: e.to_string(),
-            })?;
+            // A robot file is a few lines of TOML.
+            let text = drive_traits::files::read_text(std::path::Path::new(name_or_path), 1 << 20)
+                .map_err(|e| RobotError::Parse {
+                    file: name_or_path.into(),
+                    message: e.to_string(),
+                })?;
             return Self::from_toml(name_or_path, &text);
         }
         robots
@@ -534,7 +536,8 @@ impl RobotSpec {
     }
 
     /// The robot file `name_or_path` names, if it names a file rather than a registered
-    /// robot (what [`RobotSpec::load`] reads): a `.toml` path, or any existing path.
+    /// robot (what [`RobotSpec::load`] reads): a `.toml` path, or any existing file (a folder
+    /// named like a robot does not hide it).
     ///
     /// ```
     /// use drive_samplers::RobotSpec;
@@ -543,7 +546,7 @@ impl RobotSpec {
     /// ```
     pub fn file_of(name_or_path: &str) -> Option<&std::path::Path> {
         let path = std::path::Path::new(name_or_path);
-        (name_or_path.ends_with(".toml") || path.exists()).then_some(path)
+        (name_or_path.ends_with(".toml") || path.is_file()).then_some(path)
     }
 
     /// Checks physical ranges: positive rates, limits and mass, a finite nominal input

@@ -226,10 +226,12 @@ impl Terrain {
         }
         let path = std::path::Path::new(name_or_path);
         if name_or_path.ends_with(".toml") || path.exists() {
-            let text = std::fs::read_to_string(path).map_err(|e| TerrainError::Parse {
-                file: name_or_path.to_string(),
-                message: format!("cannot read: {e}"),
-            })?;
+            // A terrain file is a few tables of TOML.
+            let text =
+                drive_traits::files::read_text(path, 1 << 20).map_err(|e| TerrainError::Parse {
+                    file: name_or_path.to_string(),
+                    message: format!("cannot read: {e}"),
+                })?;
             return Terrain::from_toml(name_or_path, &text);
         }
         Err(terrains.get(name_or_path).err().map_or_else(

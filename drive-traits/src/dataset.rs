@@ -127,7 +127,9 @@ pub struct Window {
     pub measured: Vec<Input>,
     /// Localization pose per sample.
     pub pose: Vec<Pose>,
-    /// IMU angular velocity about the vertical axis per sample (rad/s).
+    /// IMU angular velocity about the vertical axis per sample (rad/s); NaN where it is not
+    /// given to a model (the training windows of a model fitted for
+    /// [`StartInfo::Encoders`] predictions).
     pub imu_yaw_rate: Vec<f64>,
     /// The body-frame velocity (x forward, y left; m/s) at the window start as the
     /// localization measured it before the window: set by [`Dataset::link_start_velocities`]

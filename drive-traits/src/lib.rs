@@ -27,6 +27,7 @@
 mod dataset;
 mod error;
 pub mod exact;
+pub mod files;
 mod learner;
 pub mod limits;
 mod motion;

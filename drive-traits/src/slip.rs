@@ -133,15 +133,6 @@ pub trait SlipModel: std::fmt::Debug + Send + Sync {
         None
     }
 
-    /// This model's structure and chosen hyperparameters fitted on other slip data (warm-
-    /// started from it where that helps): what the framework's uncertainty calibration
-    /// fits on the training intervals before its held-out ones. `None` (the default): the
-    /// learner fits again from scratch.
-    fn refit(&self, data: &SlipData<'_>) -> Option<Result<Box<dyn SlipModel>, FitError>> {
-        let _ = data;
-        None
-    }
-
     /// Boxed clone.
     fn clone_box(&self) -> Box<dyn SlipModel>;
 }

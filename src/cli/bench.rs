@@ -228,6 +228,11 @@ pub fn text(b: &Bench, transfer: bool) -> String {
             or_dash(u.total.map(|x| x.median), 3),
         );
     }
+    for d in &b.datasets {
+        for note in &d.notes {
+            let _ = writeln!(s, "  note on {}: {note}", d.name);
+        }
+    }
     let _ = writeln!(
         s,
         "\nmedian MRMSE (paper eq. 8) on the evaluation windows: translational [m] / rotational [rad]; * best of the row"

@@ -172,10 +172,8 @@ pub struct SlipIpem {
     pub validation: f64,
     /// Trust-region iterations of the final fit (>= 1).
     pub max_iterations: u64,
-    /// Trust-region iterations per fit of the ridge path and per warm-started refit (the
-    /// uncertainty calibration's, [`SlipModel::refit`]), >= 1: these only rank the
-    /// strengths or rescale the uncertainty, and the final fit continues from the chosen
-    /// one.
+    /// Trust-region iterations per fit of the ridge path, >= 1: these only rank the
+    /// strengths, and the final fit continues from the chosen one.
     pub path_iterations: u64,
     /// Convergence of the final fit: it stops when the Gauss-Newton model promises less
     /// than this fraction of the cost (the Newton decrement), > 0.
@@ -1350,45 +1348,6 @@ impl SlipIpem {
         })
     }
 
-    /// Fits `like`'s structure at its chosen ridge strength on other slip data, warm-started
-    /// from its weights, to the ridge path's tolerance; the held bias is matched on the
-    /// same windows (no inner split). What the framework's calibration refits on the
-    /// intervals before its held-out ones ([`SlipModel::refit`]).
-    pub fn refit_like(
-        &self,
-        like: &SlipIpemModel,
-        data: &SlipData<'_>,
-    ) -> Result<SlipIpemModel, FitError> {
-        let Prepared {
-            tracks,
-            scale,
-            weights,
-            unit,
-            dt,
-        } = self.prepare(data)?;
-        let all: Vec<&Track> = tracks.iter().collect();
-        let theta = like.theta();
-        let u = DVector::from_fn(PARAMETERS, |j, _| {
-            if j < WEIGHTS {
-                theta[j] / unit[j / FEATURES]
-            } else {
-                theta[j]
-            }
-        });
-        self.finish(
-            &all,
-            None,
-            weights,
-            unit,
-            scale,
-            like.ridge.max(f64::MIN_POSITIVE),
-            u,
-            self.path_iterations,
-            self.path_tolerance,
-            dt,
-        )
-    }
-
     /// The ridge path on the inner split: the fits on `fit_on` at the strengths of the grid,
     /// from its middle to the weaker ones, then from the middle to the stronger ones, each
     /// warm-started from its neighbour (the middle from `u0`); a direction ends after two
@@ -1674,14 +1633,6 @@ impl SlipIpemModel {
 
 #[typetag::serde(name = "slip-ipem")]
 impl SlipModel for SlipIpemModel {
-    fn refit(&self, data: &SlipData<'_>) -> Option<Result<Box<dyn SlipModel>, FitError>> {
-        Some(
-            SlipIpem::default()
-                .refit_like(self, data)
-                .map(|m| Box::new(m) as Box<dyn SlipModel>),
-        )
-    }
-
     fn slip(&self, f: &BodyVelocity) -> BodyVelocity {
         let phi = slip_features(f, &self.scale);
         let dot = |w: &[f64]| w.iter().zip(&phi).map(|(w, p)| w * p).sum::<f64>();
