@@ -181,6 +181,17 @@ pub struct BenchModel {
     /// The same for the yaw's interval.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub yaw_coverage95_2s: Option<f64>,
+    /// Position coverage of the 95% regions per phase (`transient`, `steady`) at 0.5, 1 and
+    /// 2 s, as `drive eval --json` gives it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coverage95_by_phase: Option<crate::GroupCoverage>,
+    /// Mean 95% ellipse area at 2 s over the constant circle of the same coverage.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub area_ratio_to_constant: Option<f64>,
+    /// Spearman's correlation at 2 s of the predicted spread with the error (`position`,
+    /// `yaw`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_rank_correlation: Option<BTreeMap<String, f64>>,
     /// Time to fit (s).
     pub fit_seconds: f64,
     /// How the error grows with the windows' unpredictability.
@@ -560,6 +571,9 @@ fn within(
             }),
             position_coverage95_2s: at_2s(&m.coverage95),
             yaw_coverage95_2s: at_2s(&m.yaw_coverage95),
+            coverage95_by_phase: m.coverage95_by_phase.clone(),
+            area_ratio_to_constant: m.area_ratio_to_constant,
+            error_rank_correlation: m.error_rank_correlation.clone(),
             fit_seconds: m.fit_seconds,
             error_growth: error_growth(&m.report.windows, &by_window, u.total.is_some()),
         })

@@ -130,6 +130,29 @@ pub struct ModelResult {
     /// Mean negative log-likelihood of the measured positions per step (nats).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nll: Option<f64>,
+    /// `coverage95` of the transient and of the steady windows.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coverage95_by_phase: Option<crate::GroupCoverage>,
+    /// `yaw_coverage95` of the transient and of the steady windows.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub yaw_coverage95_by_phase: Option<crate::GroupCoverage>,
+    /// `coverage95` in the thirds of the windows by commanded speed (`low`, `mid`, `high`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coverage95_by_speed: Option<crate::GroupCoverage>,
+    /// `yaw_coverage95` in the same thirds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub yaw_coverage95_by_speed: Option<crate::GroupCoverage>,
+    /// Mean 95% ellipse area at 2 s over the smallest constant circle of the same coverage.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub area_ratio_to_constant: Option<f64>,
+    /// Mean 95% yaw interval width at 2 s over the smallest constant width of the same
+    /// coverage.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub yaw_width_ratio_to_constant: Option<f64>,
+    /// Spearman's correlation at 2 s of the predicted spread with the actual error
+    /// (`position`, `yaw`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_rank_correlation: Option<BTreeMap<String, f64>>,
     /// Improvement of the medians over the naive model, with 95% paired bootstrap intervals.
     pub improvement_over_naive: PairedImprovement,
     /// Improvement of the medians over slip-BLR (the paper's model, `slip-blr+fopdt`, fitted
@@ -277,6 +300,13 @@ pub fn compare_specs(
             coverage95: u.map(|u| u.coverage95.clone()),
             yaw_coverage95: u.map(|u| u.yaw_coverage95.clone()),
             nll: u.map(|u| u.nll),
+            coverage95_by_phase: u.map(|u| u.coverage95_by_phase.clone()),
+            yaw_coverage95_by_phase: u.map(|u| u.yaw_coverage95_by_phase.clone()),
+            coverage95_by_speed: u.map(|u| u.coverage95_by_speed.clone()),
+            yaw_coverage95_by_speed: u.map(|u| u.yaw_coverage95_by_speed.clone()),
+            area_ratio_to_constant: u.map(|u| u.area_ratio_to_constant),
+            yaw_width_ratio_to_constant: u.map(|u| u.yaw_width_ratio_to_constant),
+            error_rank_correlation: u.map(|u| u.error_rank_correlation.clone()),
             improvement_over_naive: PairedImprovement::of(&report, &naive, &bootstrap),
             improvement_over_slip_blr: slip_blr
                 .as_ref()

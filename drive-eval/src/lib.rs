@@ -77,5 +77,6 @@ pub use terrain::{
     UnpredictabilitySummary, WindowUnpredictability,
 };
 pub use uncertainty::{
-    score_uncertainty, ReliabilityPoint, UncertaintyReport, COVERAGE_HORIZONS_S, RELIABILITY_LEVELS,
+    score_uncertainty, GroupCoverage, ReliabilityPoint, UncertaintyReport, COVERAGE_HORIZONS_S,
+    RELIABILITY_LEVELS,
 };

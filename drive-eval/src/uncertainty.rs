@@ -47,6 +47,87 @@ pub struct UncertaintyReport {
     /// Steps whose position covariance was not positive definite (counted as outside, left
     /// out of the NLL).
     pub degenerate: usize,
+    /// [`UncertaintyReport::coverage95`] of the transient and of the steady windows (keys
+    /// `"transient"`, `"steady"`; a phase without a window is absent).
+    pub coverage95_by_phase: GroupCoverage,
+    /// The same for the yaw.
+    pub yaw_coverage95_by_phase: GroupCoverage,
+    /// [`UncertaintyReport::coverage95`] in the thirds of the evaluation windows by their
+    /// commanded speed (the mean body speed of their commands through the vehicle; keys
+    /// `"low"`, `"mid"`, `"high"`).
+    pub coverage95_by_speed: GroupCoverage,
+    /// The same for the yaw.
+    pub yaw_coverage95_by_speed: GroupCoverage,
+    /// Sharpness at 2 s: the mean area of the predicted 95% position ellipses over the area
+    /// of the smallest circle, the same for every window, that holds as many of the measured
+    /// positions (below 1: the ellipses say more than a constant radius would).
+    pub area_ratio_to_constant: f64,
+    /// The same for the yaw: the mean width of the 95% intervals over the smallest constant
+    /// width of the same coverage.
+    pub yaw_width_ratio_to_constant: f64,
+    /// Spearman's correlation at 2 s between a window's predicted spread (the radius of the
+    /// circle of its ellipse's area; the yaw's standard deviation) and its actual error
+    /// (keys `"position"`, `"yaw"`): how well the uncertainty says which prediction is hard.
+    pub error_rank_correlation: BTreeMap<String, f64>,
+}
+
+/// Coverages per group (a phase, a third of the speed) and horizon (`"0.5"`, `"1.0"`,
+/// `"2.0"`).
+pub type GroupCoverage = BTreeMap<String, BTreeMap<String, f64>>;
+
+/// One evaluation window's phase, commanded speed and figures at each horizon.
+struct WindowRecord {
+    phase: drive_traits::Phase,
+    speed: f64,
+    at: Vec<AtStep>,
+}
+
+/// One window's uncertainty and error at one horizon step.
+#[derive(Debug, Clone, Copy)]
+struct AtStep {
+    /// Inside the 95% ellipse.
+    position: bool,
+    /// Inside the 95% yaw interval.
+    yaw: bool,
+    /// Area of the 95% ellipse (m^2); infinite for a degenerate covariance.
+    area: f64,
+    /// Position error norm (m).
+    error: f64,
+    /// Width of the 95% yaw interval (rad).
+    yaw_width: f64,
+    /// Absolute yaw error (rad).
+    yaw_error: f64,
+}
+
+/// The share inside at each horizon of `records` (window x horizon).
+fn horizon_shares(records: &[&[AtStep]], pick: fn(&AtStep) -> bool) -> BTreeMap<String, f64> {
+    COVERAGE_HORIZONS_S
+        .iter()
+        .enumerate()
+        .map(|(i, h)| {
+            let inside = records.iter().filter(|r| pick(&r[i])).count();
+            (
+                format!("{h:.1}"),
+                inside as f64 / records.len().max(1) as f64,
+            )
+        })
+        .collect()
+}
+
+/// The smallest constant bound holding a `share` of the `errors` (its order statistic of
+/// rank `ceil(share n)`); NaN without an error.
+fn constant_bound(errors: &[f64], share: f64) -> f64 {
+    let mut e: Vec<f64> = errors.iter().copied().filter(|x| x.is_finite()).collect();
+    if e.is_empty() {
+        return f64::NAN;
+    }
+    e.sort_by(f64::total_cmp);
+    let rank = ((share * e.len() as f64).ceil() as usize).clamp(1, e.len());
+    e[rank - 1]
+}
+
+fn mean(values: &[f64]) -> f64 {
+    values.iter().sum::<f64>() / values.len().max(1) as f64
 }
 
 /// Scores the pose covariance of `model` on the windows of `eval` (predictions from what
@@ -82,6 +163,12 @@ pub fn score_uncertainty(
     let mut reliability = [(0usize, 0usize); RELIABILITY_LEVELS.len()];
     let (mut nll, mut nll_count, mut degenerate) = (0.0, 0usize, 0usize);
     let (mut poses, mut covs) = (Vec::new(), Vec::new());
+    // Per window: its phase, its commanded speed, and its figures at each horizon.
+    let mut records: Vec<WindowRecord> = Vec::new();
+    let steps: Vec<usize> = COVERAGE_HORIZONS_S
+        .iter()
+        .map(|h| ((h / dt).round() as usize).clamp(1, n - 1))
+        .collect();
     for w in eval.windows.iter().filter(|w| w.len() >= 2) {
         model
             .predict_with_covariance_into(
@@ -92,6 +179,41 @@ pub fn score_uncertainty(
             )
             .ok()?;
         let errors = pose_errors(&poses, &w.pose);
+        let speed = w
+            .command
+            .iter()
+            .map(|u| {
+                let f = vehicle.body_velocity(u);
+                f.x.hypot(f.y)
+            })
+            .sum::<f64>()
+            / w.command.len().max(1) as f64;
+        let at: Vec<AtStep> = steps
+            .iter()
+            .map(|&k| {
+                let k = k.min(errors.len() - 1);
+                let (e, c) = (&errors[k], &covs[k]);
+                let det = c[(0, 0)] * c[(1, 1)] - c[(0, 1)] * c[(1, 0)];
+                let yaw_var = c[(2, 2)];
+                AtStep {
+                    position: position_score(e, c) <= chi2_pos,
+                    yaw: yaw_var > 0.0 && e.z * e.z / yaw_var <= chi2_yaw,
+                    area: if det > 0.0 {
+                        std::f64::consts::PI * chi2_pos * det.sqrt()
+                    } else {
+                        f64::INFINITY
+                    },
+                    error: e.x.hypot(e.y),
+                    yaw_width: 2.0 * (chi2_yaw * yaw_var.max(0.0)).sqrt(),
+                    yaw_error: e.z.abs(),
+                }
+            })
+            .collect();
+        records.push(WindowRecord {
+            phase: w.phase,
+            speed,
+            at,
+        });
         for (k, e) in errors.iter().enumerate().skip(1) {
             let c = &covs[k];
             counted[k] += 1;
@@ -128,6 +250,69 @@ pub fn score_uncertainty(
         return None;
     }
     let fraction = |hits: &[usize], k: usize| hits[k] as f64 / counted[k].max(1) as f64;
+    // By phase and by thirds of the commanded speed.
+    let by = |keep: &dyn Fn(&WindowRecord) -> bool| -> Vec<&[AtStep]> {
+        records
+            .iter()
+            .filter(|r| keep(r))
+            .map(|r| r.at.as_slice())
+            .collect()
+    };
+    let (mut coverage95_by_phase, mut yaw_coverage95_by_phase) = (BTreeMap::new(), BTreeMap::new());
+    for phase in [drive_traits::Phase::Transient, drive_traits::Phase::Steady] {
+        let of = by(&|r| r.phase == phase);
+        if !of.is_empty() {
+            coverage95_by_phase.insert(
+                phase.as_str().to_string(),
+                horizon_shares(&of, |a| a.position),
+            );
+            yaw_coverage95_by_phase
+                .insert(phase.as_str().to_string(), horizon_shares(&of, |a| a.yaw));
+        }
+    }
+    let mut speeds: Vec<f64> = records.iter().map(|r| r.speed).collect();
+    speeds.sort_by(f64::total_cmp);
+    let cut = |p: f64| crate::quantile(&speeds, p).unwrap_or(0.0);
+    let (low, high) = (cut(1.0 / 3.0), cut(2.0 / 3.0));
+    let (mut coverage95_by_speed, mut yaw_coverage95_by_speed) = (BTreeMap::new(), BTreeMap::new());
+    for (name, keep) in [
+        ("low", &(|s: f64| s <= low) as &dyn Fn(f64) -> bool),
+        ("mid", &|s: f64| s > low && s <= high),
+        ("high", &|s: f64| s > high),
+    ] {
+        let of = by(&|r| keep(r.speed));
+        if !of.is_empty() {
+            coverage95_by_speed.insert(name.to_string(), horizon_shares(&of, |a| a.position));
+            yaw_coverage95_by_speed.insert(name.to_string(), horizon_shares(&of, |a| a.yaw));
+        }
+    }
+    // Sharpness and ranking at the last horizon (2 s).
+    let last: Vec<AtStep> = records
+        .iter()
+        .filter_map(|r| r.at.last().copied())
+        .collect();
+    let share = |pick: fn(&AtStep) -> bool| {
+        last.iter().filter(|a| pick(a)).count() as f64 / last.len().max(1) as f64
+    };
+    let column = |pick: fn(&AtStep) -> f64| -> Vec<f64> { last.iter().map(pick).collect() };
+    let (area, error) = (column(|a| a.area), column(|a| a.error));
+    let (yaw_width, yaw_error) = (column(|a| a.yaw_width), column(|a| a.yaw_error));
+    let circle = constant_bound(&error, share(|a| a.position));
+    let area_ratio_to_constant = mean(&area) / (std::f64::consts::PI * circle * circle);
+    // A yaw interval is twice its half-width, the constant one twice its bound.
+    let yaw_width_ratio_to_constant =
+        mean(&yaw_width) / (2.0 * constant_bound(&yaw_error, share(|a| a.yaw)));
+    let radius: Vec<f64> = area
+        .iter()
+        .map(|a| (a / std::f64::consts::PI).sqrt())
+        .collect();
+    let mut error_rank_correlation = BTreeMap::new();
+    if let Some(r) = crate::spearman(&radius, &error) {
+        error_rank_correlation.insert("position".to_string(), r);
+    }
+    if let Some(r) = crate::spearman(&yaw_width, &yaw_error) {
+        error_rank_correlation.insert("yaw".to_string(), r);
+    }
     let at_horizons = |hits: &[usize]| {
         COVERAGE_HORIZONS_S
             .iter()
@@ -157,6 +342,13 @@ pub fn score_uncertainty(
             })
             .collect(),
         degenerate,
+        coverage95_by_phase,
+        yaw_coverage95_by_phase,
+        coverage95_by_speed,
+        yaw_coverage95_by_speed,
+        area_ratio_to_constant,
+        yaw_width_ratio_to_constant,
+        error_rank_correlation,
     })
 }
 
@@ -256,5 +448,106 @@ mod tests {
         let z = score_uncertainty(&Still { var: 0.0 }, &set, StartInfo::default()).unwrap();
         assert_eq!((z.coverage95["1.0"], z.degenerate), (0.0, 4 * 39));
         assert!(z.nll.is_nan());
+    }
+
+    /// Windows `i` whose measured position is `d_i` (m) from the start at every step, of
+    /// phase transient for the first two, their measured start input `(d_i, 0)` and
+    /// commands of body speed `d_i` (wheel velocities 10 d_i on 0.1 m wheels).
+    fn spread_windows() -> Vec<Window> {
+        [0.5, 1.0, 2.0, 3.0]
+            .iter()
+            .enumerate()
+            .map(|(i, d)| Window {
+                index: i,
+                interval: i,
+                phase: if i < 2 {
+                    Phase::Transient
+                } else {
+                    Phase::Steady
+                },
+                command: vec![Input::repeat(10.0 * d); 40],
+                measured: vec![Input::new(*d, 0.0); 40],
+                pose: (0..40)
+                    .map(|k| {
+                        if k == 0 {
+                            Pose::zeros()
+                        } else {
+                            Pose::new(*d, 0.0, 0.0)
+                        }
+                    })
+                    .collect(),
+                imu_yaw_rate: vec![0.0; 40],
+                start_velocity: None,
+            })
+            .collect()
+    }
+
+    /// Predicts the start pose with a variance of the squared measured start input's first
+    /// axis: a spread that knows each window's error.
+    #[derive(Debug, Serialize, Deserialize)]
+    struct Knowing;
+    #[typetag::serde(name = "knowing-uncertainty-test")]
+    impl MotionModel for Knowing {
+        fn name(&self) -> String {
+            "knowing".into()
+        }
+        fn dt(&self) -> f64 {
+            0.05
+        }
+        fn predict_into(&self, s: &StartState, c: &[Input], p: &mut Vec<Pose>) {
+            p.clear();
+            p.resize(c.len(), s.pose);
+        }
+        fn predict_with_covariance_into(
+            &self,
+            s: &StartState,
+            c: &[Input],
+            p: &mut Vec<Pose>,
+            cov: &mut Vec<PoseCovariance>,
+        ) -> Result<(), MotionError> {
+            self.predict_into(s, c, p);
+            cov.clear();
+            let var = s.input.x * s.input.x;
+            cov.extend((0..c.len()).map(|k| {
+                if k == 0 {
+                    PoseCovariance::zeros()
+                } else {
+                    PoseCovariance::identity() * var
+                }
+            }));
+            Ok(())
+        }
+    }
+    impl Tagged for Knowing {
+        const TAG: &'static str = "knowing-uncertainty-test";
+    }
+
+    #[test]
+    fn coverage_by_phase_and_speed_sharpness_and_ranking_hand_computed() {
+        let robot = RobotDescription::new("t", "", 20.0, 40, DifferentialDrive::new(0.1, 0.5));
+        let windows = spread_windows();
+        let set = WindowSet::new(&robot, &windows);
+        // One unit variance for all: errors 0.5, 1, 2 inside the 2.448 m circle, 3 out.
+        let u = score_uncertainty(&Still { var: 1.0 }, &set, StartInfo::default()).unwrap();
+        assert_eq!(u.coverage95_by_phase["transient"]["2.0"], 1.0);
+        assert_eq!(u.coverage95_by_phase["steady"]["2.0"], 0.5);
+        // Speeds 0.5, 1, 2, 3 m/s: thirds at 1 and 2 (linear interpolation).
+        assert_eq!(u.coverage95_by_speed["low"]["1.0"], 1.0);
+        assert_eq!(u.coverage95_by_speed["mid"]["1.0"], 1.0);
+        assert_eq!(u.coverage95_by_speed["high"]["1.0"], 0.0);
+        assert_eq!(u.yaw_coverage95_by_speed["high"]["0.5"], 1.0);
+        // Coverage 3/4: the smallest constant circle holding three errors has radius 2;
+        // every ellipse has area pi 5.99 against pi 4.
+        let chi2 = chi2_2(0.95);
+        assert!((u.area_ratio_to_constant - chi2 / 4.0).abs() < 1e-12);
+        // A constant spread ranks nothing.
+        assert!(!u.error_rank_correlation.contains_key("position"));
+        // A spread that grows with the error: ranked perfectly, every error inside; the
+        // constant circle must reach 3 m, the ellipses average pi 5.99 (0.25+1+4+9)/4.
+        let k = score_uncertainty(&Knowing, &set, StartInfo::default()).unwrap();
+        assert_eq!(k.error_rank_correlation["position"], 1.0);
+        assert_eq!(k.coverage95["2.0"], 1.0);
+        let expected = chi2 * (0.25 + 1.0 + 4.0 + 9.0) / 4.0 / 9.0;
+        assert!((k.area_ratio_to_constant - expected).abs() < 1e-12);
     }
 }

@@ -298,4 +298,46 @@ fn uncertainty_section(s: &mut String, cmp: &Comparison) {
         );
     }
     let _ = writeln!(s);
+    let _ = writeln!(
+        s,
+        "which predictions the regions say are hard, at 2 s: position coverage per phase and per third of the commanded speed; mean region area over the constant circle of the same coverage; rank correlation of the predicted spread with the error"
+    );
+    let _ = writeln!(
+        s,
+        "  {:<width$}{:<18}{:<24}{:<13}rank corr. position / yaw",
+        "", "transient/steady", "speed low/mid/high", "area ratio"
+    );
+    for m in cmp.models.iter().filter(|m| m.coverage95.is_some()) {
+        let at = |groups: &Option<crate::eval::GroupCoverage>, keys: &[&str]| {
+            keys.iter()
+                .map(|k| {
+                    groups
+                        .as_ref()
+                        .and_then(|g| g.get(*k))
+                        .and_then(|h| h.get("2.0"))
+                        .map_or("-".to_string(), |f| format!("{:.0}%", 100.0 * f))
+                })
+                .collect::<Vec<_>>()
+                .join("/")
+        };
+        let rank = |k: &str| {
+            m.error_rank_correlation
+                .as_ref()
+                .and_then(|r| r.get(k))
+                .map_or("-".to_string(), |v| format!("{v:+.2}"))
+        };
+        let _ = writeln!(
+            s,
+            "  {:<width$}{:<18}{:<24}{:<13}{} / {}",
+            m.name,
+            at(&m.coverage95_by_phase, &["transient", "steady"]),
+            at(&m.coverage95_by_speed, &["low", "mid", "high"]),
+            m.area_ratio_to_constant
+                .filter(|v| v.is_finite())
+                .map_or("-".to_string(), |v| format!("{v:.2}")),
+            rank("position"),
+            rank("yaw")
+        );
+    }
+    let _ = writeln!(s);
 }
