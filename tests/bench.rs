@@ -22,20 +22,11 @@ fn export(name: &str, to: &Path) -> PathBuf {
 fn eval_medians(data: &str, models: &str) -> Vec<(String, f64, f64)> {
     let v: Value =
         serde_json::from_str(&ok(&["eval", "--json", "--data", data, "--models", models])).unwrap();
-    v["models"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|m| {
-            (
-                m["name"].as_str().unwrap().to_string(),
-                m["translational_median_m"].as_f64().unwrap(),
-                m["rotational_median_rad"].as_f64().unwrap(),
-            )
-        })
-        .collect()
+    bench_medians(&v)
 }
 
+/// Each model's (translational, rotational) medians from an object with `models` (a
+/// dataset of `drive bench --json`, or `drive eval --json`).
 fn bench_medians(dataset: &Value) -> Vec<(String, f64, f64)> {
     dataset["models"]
         .as_array()

@@ -14,9 +14,9 @@
 //!   model's error grows with it.
 
 use crate::{
-    compare_specs, evaluate_errors, spearman, split_by_interval, unpredictability, BootstrapConfig,
-    CompareError, Comparison, Mrmse, PairedImprovement, Unpredictability, UnpredictabilityConfig,
-    UnpredictabilitySummary, WindowUnpredictability,
+    average_ranks, compare_specs, evaluate_errors, spearman, split_by_interval, unpredictability,
+    BootstrapConfig, CompareError, Comparison, Mrmse, PairedImprovement, Unpredictability,
+    UnpredictabilityConfig, UnpredictabilitySummary, WindowUnpredictability,
 };
 use drive_models::calibration::Uncertainty;
 use drive_models::ModelSpec;
@@ -372,20 +372,14 @@ pub struct Bench {
 /// The work units of a benchmark (for a progress bar): one per dataset's comparison, one
 /// per transfer fit, one per transfer score.
 pub fn bench_units(inputs: &[BenchInput], models: usize, config: &BenchConfig) -> usize {
-    let pairs = if config.transfer {
-        transfer_pairs(inputs).0.len()
-    } else {
-        0
-    };
-    let trained: usize = if config.transfer {
-        let mut a: Vec<usize> = transfer_pairs(inputs).0.iter().map(|p| p.0).collect();
-        a.sort_unstable();
-        a.dedup();
-        a.len()
-    } else {
-        0
-    };
-    inputs.len() + trained * models + pairs * models
+    if !config.transfer {
+        return inputs.len();
+    }
+    let pairs = transfer_pairs(inputs).0;
+    let mut trained: Vec<usize> = pairs.iter().map(|p| p.0).collect();
+    trained.sort_unstable();
+    trained.dedup();
+    inputs.len() + (trained.len() + pairs.len()) * models
 }
 
 /// The ordered pairs (train, test) of datasets of the same robot that can be compared, and
@@ -426,27 +420,6 @@ fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
 pub fn terrain_known(terrain: &str) -> bool {
     let t = terrain.trim().to_ascii_lowercase();
     !(t.is_empty() || t.starts_with("unknown"))
-}
-
-/// Ranks (1 = smallest), ties sharing their mean rank.
-fn ranks(values: &[f64]) -> Vec<f64> {
-    let n = values.len();
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
-    let mut r = vec![0.0; n];
-    let mut i = 0;
-    while i < n {
-        let mut j = i;
-        while j + 1 < n && values[order[j + 1]] == values[order[i]] {
-            j += 1;
-        }
-        let mean = (i + j) as f64 / 2.0 + 1.0;
-        for &k in &order[i..=j] {
-            r[k] = mean;
-        }
-        i = j + 1;
-    }
-    r
 }
 
 fn median(values: &[f64]) -> Option<f64> {
@@ -546,7 +519,7 @@ fn within(
         .iter()
         .map(|m| m.rotational_median_rad)
         .collect();
-    let (rank_t, rank_r) = (ranks(&trans), ranks(&rot));
+    let (rank_t, rank_r) = (average_ranks(&trans), average_ranks(&rot));
     let at_2s = |c: &Option<BTreeMap<String, f64>>| {
         c.as_ref().and_then(|c| c.iter().last().map(|(_, v)| *v))
     };

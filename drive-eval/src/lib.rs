@@ -71,7 +71,9 @@ pub use protocols::{
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use registries::{Catalog, Listed, Registries};
 pub use split::{split_by_interval, SplitError};
-pub use stats::{improvement_percent, paired_bootstrap, quantile, spearman, PairedErrors, Summary};
+pub use stats::{
+    average_ranks, improvement_percent, paired_bootstrap, quantile, spearman, PairedErrors, Summary,
+};
 pub use terrain::{
     energy_unpredictability, unpredictability, Unpredictability, UnpredictabilityConfig,
     UnpredictabilitySummary, WindowUnpredictability,

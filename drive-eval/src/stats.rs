@@ -179,6 +179,32 @@ pub fn paired_bootstrap(
     }
 }
 
+/// The ranks of `values` (1 = smallest), ties sharing their mean rank.
+///
+/// ```
+/// assert_eq!(drive_eval::average_ranks(&[3.0, 1.0, 3.0, 2.0]), vec![3.5, 1.0, 3.5, 2.0]);
+/// ```
+pub fn average_ranks(values: &[f64]) -> Vec<f64> {
+    let n = values.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
+    let mut r = vec![0.0; n];
+    let mut i = 0;
+    while i < n {
+        let mut j = i;
+        while j + 1 < n && values[order[j + 1]] == values[order[i]] {
+            j += 1;
+        }
+        // Ranks i + 1 ..= j + 1 share their mean.
+        let mean = (i + j) as f64 / 2.0 + 1.0;
+        for &k in &order[i..=j] {
+            r[k] = mean;
+        }
+        i = j + 1;
+    }
+    r
+}
+
 /// Spearman's rank correlation of paired values (ties get their average rank); `None` for
 /// fewer than 3 pairs or when either side is constant.
 ///
@@ -193,26 +219,7 @@ pub fn spearman(x: &[f64], y: &[f64]) -> Option<f64> {
     if n < 3 {
         return None;
     }
-    let ranks = |v: &[f64]| -> Vec<f64> {
-        let mut order: Vec<usize> = (0..n).collect();
-        order.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
-        let mut r = vec![0.0; n];
-        let mut i = 0;
-        while i < n {
-            let mut j = i;
-            while j + 1 < n && v[order[j + 1]] == v[order[i]] {
-                j += 1;
-            }
-            // Ranks i + 1 ..= j + 1 share their mean.
-            let mean = (i + j) as f64 / 2.0 + 1.0;
-            for &k in &order[i..=j] {
-                r[k] = mean;
-            }
-            i = j + 1;
-        }
-        r
-    };
-    let (rx, ry) = (ranks(&x[..n]), ranks(&y[..n]));
+    let (rx, ry) = (average_ranks(&x[..n]), average_ranks(&y[..n]));
     let mean = (n as f64 + 1.0) / 2.0;
     let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
     for (a, b) in rx.iter().zip(&ry) {

@@ -76,13 +76,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             }
             SuiteSource::Raw(p) => inputs.push(("a raw log of --suite", p.clone())),
             SuiteSource::Bag { path, .. } => {
-                inputs.push(("a bag of --suite", path.clone()));
-                if let Ok(files) = crate::data::bag_files(path) {
-                    inputs.extend(files.into_iter().map(|f| ("a bag of --suite", f)));
-                }
-                if path.is_dir() {
-                    inputs.push(("a bag of --suite", path.join("metadata.yaml")));
-                }
+                inputs.extend(super::common::bag_inputs("a bag of --suite", path))
             }
         }
         if let Some(r) = &e.robot {

@@ -110,6 +110,19 @@ impl DataArgs {
     }
 }
 
+/// The files a bag reads, as inputs named `what`: the recording, its .mcap files and, for a
+/// bag directory, its metadata.yaml (an output inside it must not replace them).
+pub fn bag_inputs(what: &'static str, bag: &Path) -> Vec<(&'static str, PathBuf)> {
+    let mut inputs = vec![(what, bag.to_path_buf())];
+    if let Ok(files) = crate::data::bag_files(bag) {
+        inputs.extend(files.into_iter().map(|f| (what, f)));
+    }
+    if bag.is_dir() {
+        inputs.push((what, bag.join("metadata.yaml")));
+    }
+    inputs
+}
+
 /// The robot file a `--robot` argument reads, if it names one (see `RobotSpec::load`).
 pub fn robot_input(name_or_path: &str) -> Vec<(&'static str, PathBuf)> {
     crate::samplers::RobotSpec::file_of(name_or_path)

@@ -72,16 +72,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if args.raw.is_some() && !args.topic.is_empty() {
         bail!("--topic names topics of a bag (--bag), not columns of --raw");
     }
-    let mut inputs = vec![(flag, source.clone())];
-    if args.bag.is_some() {
-        // The bag directory's files are inputs too (an output inside it must not replace them).
-        if let Ok(files) = crate::data::bag_files(&source) {
-            inputs.extend(files.into_iter().map(|f| ("--bag", f)));
-        }
-        if source.is_dir() {
-            inputs.push(("--bag", source.join("metadata.yaml")));
-        }
-    }
+    let mut inputs = if args.bag.is_some() {
+        super::common::bag_inputs("--bag", &source)
+    } else {
+        vec![(flag, source.clone())]
+    };
     inputs.extend(super::common::robot_input(&args.robot));
     let mut outputs = super::common::outputs_for(
         &inputs,
