@@ -16,14 +16,18 @@
 //!    score under the covariance the final model (fitted on all training windows) predicts
 //!    for the same window: the squared Mahalanobis distance of the position error under
 //!    the 2x2 position block, and the squared yaw error over the yaw variance;
-//! 3. per step, the conformal quantile of the scores (rank `ceil((n + 1) level)` of `n`,
-//!    pooled over the steps within 10% of `k` to steady it) over the chi-square quantile
-//!    of the same level is the step's scale (position: 2 degrees of freedom, yaw: 1);
-//! 4. the model fitted on all training windows predicts, and its covariance at step `k` is
-//!    `D C D` with `D = diag(sqrt(s_p), sqrt(s_p), sqrt(s_yaw))`, the scales first carried
-//!    over from the held-out fit's covariance to the final one's by the ratio of their
-//!    geometric mean sizes on the held-out windows (a model whose parameter uncertainty
-//!    shrinks with more data would otherwise come out too confident).
+//! 3. a difficulty of each prediction ([`crate::difficulty`]: what the prediction itself says,
+//!    its speed, its turning, how far from the start's motion) is fitted per step on those
+//!    scores, each score divided by the difficulty fitted without its own fold, the
+//!    difficulty tempered by its out-of-fold calibration slope (off with
+//!    [`Calibrator::difficulty`] or [`Uncertainty::Horizon`]);
+//! 4. per step, the conformal quantile of the scores over their difficulty (rank
+//!    `ceil((n + 1) level)`, pooled over the steps within 10% of `k`, as many on each side,
+//!    to steady it) over the chi-square quantile of the same level is the step's scale
+//!    (position: 2 degrees of freedom, yaw: 1);
+//! 5. the model fitted on all training windows predicts, and its covariance at step `k` is
+//!    `D C D` with `D = diag(sqrt(s_p d_p), sqrt(s_p d_p), sqrt(s_yaw d_yaw))`: the step's
+//!    scales times the prediction's difficulties.
 //!
 //! Under exchangeable windows, split conformal gives the level's coverage on new windows
 //! with a finite-sample guarantee (Vovk et al. 2005; Angelopoulos and Bates 2021); cross-
@@ -42,6 +46,10 @@ use drive_traits::{
     StartInfo, StartState, Tagged, WindowSet,
 };
 use serde::{Deserialize, Serialize};
+
+use crate::difficulty::{
+    fit_step, log_sizes, motion_features, Features, Row, StepDifficulty, FEATURES,
+};
 
 /// The chi-square quantile of 2 degrees of freedom at `level`: `-2 ln(1 - level)`.
 ///
@@ -109,7 +117,7 @@ fn erf(x: f64) -> f64 {
 /// use drive_models::calibration::Uncertainty;
 /// assert_eq!(Uncertainty::parse("paper").unwrap(), Uncertainty::Paper);
 /// assert_eq!(Uncertainty::default(), Uncertainty::Calibrated);
-/// assert!(Uncertainty::parse("bayes").unwrap_err().contains("calibrated, paper"));
+/// assert!(Uncertainty::parse("bayes").unwrap_err().contains("calibrated, paper, horizon"));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -121,17 +129,22 @@ pub enum Uncertainty {
     /// The model's own propagation as published (eq. 7 propagated through eq. 1 for the
     /// BLRs), without calibration.
     Paper,
+    /// The model's covariance scaled per horizon step only, without the learned difficulty
+    /// (the calibration of the previous release: regions whose size says little about which
+    /// window is hard).
+    Horizon,
 }
 
 impl Uncertainty {
     /// The names, as the command line takes them.
-    pub const NAMES: [&'static str; 2] = ["calibrated", "paper"];
+    pub const NAMES: [&'static str; 3] = ["calibrated", "paper", "horizon"];
 
     /// The method of a name.
     pub fn parse(name: &str) -> Result<Self, String> {
         match name {
             "calibrated" => Ok(Uncertainty::Calibrated),
             "paper" => Ok(Uncertainty::Paper),
+            "horizon" => Ok(Uncertainty::Horizon),
             other => Err(format!(
                 "unknown uncertainty method {other:?}; known: {}",
                 Self::NAMES.join(", ")
@@ -144,6 +157,7 @@ impl Uncertainty {
         match self {
             Uncertainty::Calibrated => "calibrated",
             Uncertainty::Paper => "paper",
+            Uncertainty::Horizon => "horizon",
         }
     }
 }
@@ -153,7 +167,7 @@ impl Uncertainty {
 /// ```
 /// use drive_models::calibration::Calibrator;
 /// let c = Calibrator::default();
-/// assert_eq!((c.folds, c.level), (2, 0.95));
+/// assert_eq!((c.folds, c.level, c.difficulty), (2, 0.95, true));
 /// assert!(Calibrator { level: 1.5, ..c }.check().is_err());
 /// assert!(Calibrator { folds: 1, ..c }.check().is_err());
 /// ```
@@ -165,6 +179,14 @@ pub struct Calibrator {
     pub level: f64,
     /// Smallest ratio of the position covariance's eigenvalues, in [0, 1).
     pub shape_floor: f64,
+    /// Whether the regions also follow a learned difficulty of each prediction
+    /// ([`crate::difficulty`]); without it, one scale per horizon step.
+    #[serde(default = "yes")]
+    pub difficulty: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl Default for Calibrator {
@@ -173,6 +195,7 @@ impl Default for Calibrator {
             folds: 2,
             level: 0.95,
             shape_floor: 1e-2,
+            difficulty: true,
         }
     }
 }
@@ -244,11 +267,13 @@ impl Calibrator {
             return Ok(model);
         };
         let n = train.windows.iter().map(|w| w.len()).max().unwrap_or(0);
-        let mut position: Vec<Vec<f64>> = vec![Vec::new(); n];
-        let mut yaw: Vec<Vec<f64>> = vec![Vec::new(); n];
+        let mut position: Vec<Vec<Row>> = vec![Vec::new(); n];
+        let mut yaw: Vec<Vec<Row>> = vec![Vec::new(); n];
         let mut windows = 0;
-        let mut predicted = Vec::new();
-        for (rest, held) in folds {
+        let (mut predicted, mut features) = (Vec::new(), Vec::new());
+        let dt = model.dt();
+        let folds_count = folds.len();
+        for (fold, (rest, held)) in folds.into_iter().enumerate() {
             let Ok(fold_model) = fit(&rest) else {
                 return Ok(model);
             };
@@ -262,6 +287,7 @@ impl Calibrator {
                     return Ok(model);
                 }
                 windows += 1;
+                motion_features(&s, &poses, dt, &mut features);
                 let errors = pose_errors(&predicted, &w.pose);
                 for (k, e) in errors
                     .iter()
@@ -270,22 +296,123 @@ impl Calibrator {
                     .take(covs.len().saturating_sub(1))
                 {
                     let c = floored(&covs[k], self.shape_floor);
-                    position[k].push(position_score(e, &c));
-                    yaw[k].push(e.z * e.z / c[(2, 2)]);
+                    let (size, yaw_size) = log_sizes(&c);
+                    let mut x = features[k];
+                    x[FEATURES - 1] = size;
+                    position[k].push(Row {
+                        x,
+                        score: position_score(e, &c),
+                        fold,
+                    });
+                    x[FEATURES - 1] = yaw_size;
+                    yaw[k].push(Row {
+                        x,
+                        score: e.z * e.z / c[(2, 2)],
+                        fold,
+                    });
                 }
             }
         }
+        let (position_difficulty, mut position_scores) = self.difficulties(&position, folds_count);
+        let (yaw_difficulty, mut yaw_scores) = self.difficulties(&yaw, folds_count);
         let calibration = HorizonCalibration {
             level: self.level,
             shape_floor: self.shape_floor,
             windows,
-            position_scale: self.scales(&mut position, chi2_2(self.level)),
-            yaw_scale: self.scales(&mut yaw, chi2_1(self.level)),
+            position_scale: self.scales(&mut position_scores, chi2_2(self.level)),
+            yaw_scale: self.scales(&mut yaw_scores, chi2_1(self.level)),
+            position_difficulty,
+            yaw_difficulty,
         };
         if calibration.check().is_err() {
             return Ok(model);
         }
         Ok(Box::new(CalibratedModel { model, calibration }))
+    }
+
+    /// Per step, the difficulty fitted on the rows pooled over the steps within 10% of it
+    /// (none without [`Calibrator::difficulty`]), and the scores divided by the difficulty
+    /// fitted without their own fold (cross-fitting: no score sizes its own region).
+    ///
+    /// The difficulty is then tempered, `d^gamma` with one `gamma` in `[0, 1]` for all steps:
+    /// the slope of the out-of-fold log scores on the out-of-fold log difficulties (each
+    /// centred per step), the calibration slope of the difficulty. A difficulty that ranks
+    /// the windows well but overstates how much harder the hard ones are (fitted noise) gets
+    /// a slope under 1 and is flattened (never steepened: the ridge's shrinkage is kept);
+    /// `gamma = 0` is one size per step. With the slope, a window of twice the difficulty of
+    /// another gets, on held-out windows, errors twice as large, so that each kind of
+    /// window (transient or steady, slow or fast) keeps close to the level's coverage.
+    fn difficulties(
+        &self,
+        rows: &[Vec<Row>],
+        folds: usize,
+    ) -> (Vec<StepDifficulty>, Vec<Vec<f64>>) {
+        let n = rows.len();
+        let raw = || rows.iter().map(|r| r.iter().map(|r| r.score).collect());
+        if !self.difficulty {
+            return (Vec::new(), raw().collect());
+        }
+        let mut fitted = Vec::with_capacity(n);
+        // Per step and row: the log of the out-of-fold difficulty.
+        let mut log_d: Vec<Vec<f64>> = Vec::with_capacity(n);
+        for k in 0..n {
+            if k == 0 {
+                fitted.push(StepDifficulty::NONE);
+                log_d.push(Vec::new());
+                continue;
+            }
+            let (lo, hi) = pooled_steps(k, n);
+            let pooled = || rows[lo..=hi].iter().flatten();
+            fitted.push(fit_step(pooled(), None));
+            let out_of_fold: Vec<StepDifficulty> =
+                (0..folds).map(|f| fit_step(pooled(), Some(f))).collect();
+            log_d.push(
+                rows[k]
+                    .iter()
+                    .map(|r| out_of_fold[r.fold].multiplier(&r.x).ln())
+                    .collect(),
+            );
+        }
+        if fitted.iter().all(|d| *d == StepDifficulty::NONE) {
+            return (Vec::new(), raw().collect());
+        }
+        let (mut sxy, mut sxx) = (0.0, 0.0);
+        for (step, l) in rows.iter().zip(&log_d).skip(1) {
+            let pairs: Vec<(f64, f64)> = step
+                .iter()
+                .zip(l)
+                .filter(|(r, l)| r.score > 0.0 && r.score.is_finite() && l.is_finite())
+                .map(|(r, l)| (*l, r.score.ln()))
+                .collect();
+            let m = pairs.len().max(1) as f64;
+            let (lx, ly) = pairs
+                .iter()
+                .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / m, b + y / m));
+            for (x, y) in &pairs {
+                sxy += (x - lx) * (y - ly);
+                sxx += (x - lx) * (x - lx);
+            }
+        }
+        let gamma = if sxx > 1e-12 {
+            (sxy / sxx).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        if gamma == 0.0 {
+            return (Vec::new(), raw().collect());
+        }
+        let fitted = fitted.into_iter().map(|d| d.tempered(gamma)).collect();
+        let scores = rows
+            .iter()
+            .zip(&log_d)
+            .map(|(step, l)| {
+                step.iter()
+                    .zip(l)
+                    .map(|(r, l)| r.score / (gamma * l).exp())
+                    .collect()
+            })
+            .collect();
+        (fitted, scores)
     }
 
     /// Per step, the conformal quantile of the scores pooled over the steps within 10% of
@@ -297,8 +424,8 @@ impl Calibrator {
                 if k == 0 {
                     return 1.0;
                 }
-                let r = ((k as f64) * 0.1).round().max(1.0) as usize;
-                let mut pooled: Vec<f64> = (k.saturating_sub(r).max(1)..=(k + r).min(n - 1))
+                let (lo, hi) = pooled_steps(k, n);
+                let mut pooled: Vec<f64> = (lo..=hi)
                     .flat_map(|j| scores[j].iter().copied())
                     .filter(|s| !s.is_nan())
                     .collect();
@@ -306,6 +433,15 @@ impl Calibrator {
             })
             .collect()
     }
+}
+
+/// The steps pooled with step `k >= 1` of `n`: those within 10% of it (at least one each
+/// side), as many on each side (errors grow along a window: steps on one side only would
+/// bias the step's quantile), the start excluded.
+fn pooled_steps(k: usize, n: usize) -> (usize, usize) {
+    let r = ((k as f64) * 0.1).round().max(1.0) as usize;
+    let r = r.min(k - 1).min(n - 1 - k);
+    (k - r, k + r)
 }
 
 /// The split-conformal quantile of `scores` at `level`: the `ceil((n + 1) level)`-th
@@ -395,6 +531,13 @@ pub struct HorizonCalibration {
     pub position_scale: Vec<f64>,
     /// Scale of the yaw variance at each step.
     pub yaw_scale: Vec<f64>,
+    /// The learned difficulty of the position at each step ([`crate::difficulty`]; empty:
+    /// none, every prediction's region sized alike).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub position_difficulty: Vec<StepDifficulty>,
+    /// The learned difficulty of the yaw at each step (empty: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub yaw_difficulty: Vec<StepDifficulty>,
 }
 
 impl HorizonCalibration {
@@ -426,23 +569,41 @@ impl HorizonCalibration {
                 Short(*s)
             ));
         }
+        for d in [&self.position_difficulty, &self.yaw_difficulty] {
+            if !d.is_empty() && d.len() != self.position_scale.len() {
+                return Err("calibration difficulties and scales are of different lengths".into());
+            }
+            d.iter().try_for_each(StepDifficulty::check)?;
+        }
         Ok(())
     }
 
     /// The calibrated covariance at step `k` (beyond the calibrated horizon: the last
-    /// step's scales).
-    pub fn apply(&self, k: usize, c: &PoseCovariance) -> PoseCovariance {
+    /// step's scales) of a prediction whose motion features at `k` are `x`
+    /// ([`crate::difficulty::motion_features`]; unused without a difficulty).
+    pub fn apply(&self, k: usize, c: &PoseCovariance, x: &Features) -> PoseCovariance {
         if k == 0 {
             return *c;
         }
         let i = k.min(self.position_scale.len() - 1);
-        let d = [
-            self.position_scale[i].sqrt(),
-            self.position_scale[i].sqrt(),
-            self.yaw_scale[i].sqrt(),
-        ];
         let f = floored(c, self.shape_floor);
+        let (mut sp, mut sy) = (self.position_scale[i], self.yaw_scale[i]);
+        if let (Some(dp), Some(dy)) = (self.position_difficulty.get(i), self.yaw_difficulty.get(i))
+        {
+            let (size, yaw_size) = log_sizes(&f);
+            let mut x = *x;
+            x[FEATURES - 1] = size;
+            sp *= dp.multiplier(&x);
+            x[FEATURES - 1] = yaw_size;
+            sy *= dy.multiplier(&x);
+        }
+        let d = [sp.sqrt(), sp.sqrt(), sy.sqrt()];
         PoseCovariance::from_fn(|r, col| f[(r, col)] * d[r] * d[col])
+    }
+
+    /// Whether the regions follow a learned difficulty.
+    pub fn has_difficulty(&self) -> bool {
+        !self.position_difficulty.is_empty()
     }
 }
 
@@ -472,6 +633,7 @@ impl HorizonCalibration {
 /// let calibration = HorizonCalibration {
 ///     level: 0.95, shape_floor: 0.0, windows: 20,
 ///     position_scale: vec![1.0, 4.0], yaw_scale: vec![1.0, 9.0],
+///     position_difficulty: vec![], yaw_difficulty: vec![],
 /// };
 /// let model = CalibratedModel { model: Box::new(Unsure), calibration };
 /// let (mut p, mut c) = (vec![], vec![]);
@@ -532,8 +694,13 @@ impl MotionModel for CalibratedModel {
     ) -> Result<(), MotionError> {
         self.model
             .predict_with_covariance_into(start, commands, poses, covariances)?;
+        let mut features = Vec::new();
+        if self.calibration.has_difficulty() {
+            motion_features(start, poses, self.model.dt(), &mut features);
+        }
         for (k, c) in covariances.iter_mut().enumerate() {
-            *c = self.calibration.apply(k, c);
+            let x = features.get(k).copied().unwrap_or([0.0; FEATURES]);
+            *c = self.calibration.apply(k, c, &x);
         }
         Ok(())
     }
@@ -677,6 +844,140 @@ mod tests {
         )
         .unwrap();
         assert_eq!(c1[2], PoseCovariance::identity());
+    }
+
+    /// Drives straight ahead at the first command's x (m/s), with a unit covariance on every
+    /// axis after the start.
+    #[derive(Debug, Serialize, Deserialize)]
+    struct Ahead;
+    #[typetag::serde(name = "ahead-calibration-test")]
+    impl MotionModel for Ahead {
+        fn name(&self) -> String {
+            "ahead".into()
+        }
+        fn dt(&self) -> f64 {
+            0.05
+        }
+        fn predict_into(&self, s: &StartState, c: &[Input], p: &mut Vec<Pose>) {
+            let v = c.first().map_or(0.0, |u| u.x);
+            p.clear();
+            p.extend((0..c.len()).map(|k| s.pose + Pose::new(v * 0.05 * k as f64, 0.0, 0.0)));
+        }
+        fn predict_with_covariance_into(
+            &self,
+            s: &StartState,
+            c: &[Input],
+            p: &mut Vec<Pose>,
+            cov: &mut Vec<PoseCovariance>,
+        ) -> Result<(), MotionError> {
+            Still.predict_with_covariance_into(s, c, p, cov)?;
+            self.predict_into(s, c, p);
+            Ok(())
+        }
+    }
+
+    /// Windows driven at 0.2 or 2 m/s (alternating by interval), whose errors around the
+    /// straight path grow with the speed: standard deviation 0.1 + speed / 2 (m, rad) at
+    /// the end, growing linearly along the window.
+    fn speed_windows(count: usize, seed: u64) -> Vec<Window> {
+        let z = normals(count * 3, seed);
+        (0..count)
+            .map(|i| {
+                let v = if (i / 3) % 2 == 0 { 0.2 } else { 2.0 };
+                let sd = 0.1 + 0.5 * v;
+                Window {
+                    index: i,
+                    interval: i / 3,
+                    phase: Phase::Steady,
+                    command: vec![Input::new(v, v); 40],
+                    measured: vec![Input::new(v, v); 40],
+                    pose: (0..40)
+                        .map(|k| {
+                            let g = k as f64 / 39.0;
+                            Pose::new(
+                                v * 0.05 * k as f64 + g * sd * z[3 * i],
+                                g * sd * z[3 * i + 1],
+                                g * sd * z[3 * i + 2],
+                            )
+                        })
+                        .collect(),
+                    imu_yaw_rate: vec![0.0; 40],
+                    start_velocity: None,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_learned_difficulty_sizes_each_prediction_by_how_hard_it_is() {
+        let robot = RobotDescription::new("t", "", 20.0, 40, DifferentialDrive::new(0.1, 0.5));
+        let train = speed_windows(1200, 4);
+        let set = WindowSet::new(&robot, &train);
+        let calibrate = |difficulty: bool| {
+            Calibrator {
+                difficulty,
+                ..Calibrator::default()
+            }
+            .calibrate(Box::new(Ahead), &set, StartInfo::default(), |_| {
+                Ok(Box::new(Ahead))
+            })
+            .unwrap()
+        };
+        let test = speed_windows(3000, 5);
+        // Per speed: coverage of the position and the yaw at the last step, and the mean
+        // ellipse area.
+        let score = |model: &dyn MotionModel| {
+            let (mut p, mut c) = (Vec::new(), Vec::new());
+            let mut out = [[0.0; 3]; 2];
+            for w in &test {
+                model
+                    .predict_with_covariance_into(
+                        &w.start_state(robot.vehicle.as_ref()),
+                        &w.command,
+                        &mut p,
+                        &mut c,
+                    )
+                    .unwrap();
+                let e = pose_errors(&p, &w.pose);
+                let fast = usize::from(w.command[0].x > 1.0);
+                out[fast][0] += f64::from(u8::from(position_score(&e[39], &c[39]) <= chi2_2(0.95)));
+                out[fast][1] +=
+                    f64::from(u8::from(e[39].z * e[39].z / c[39][(2, 2)] <= chi2_1(0.95)));
+                out[fast][2] += c[39][(0, 0)];
+            }
+            out.map(|g| g.map(|v| v / 1500.0))
+        };
+        let [slow, fast] = score(calibrate(true).as_ref());
+        let [slow_h, fast_h] = score(calibrate(false).as_ref());
+        // One size per step covers the slow windows always and the fast ones too rarely.
+        assert!(
+            slow_h[0] > 0.99 && fast_h[0] < 0.92,
+            "{slow_h:?} {fast_h:?}"
+        );
+        // With the difficulty, the slow windows' regions shrink towards their errors (0.2 /
+        // 1.1 the fast ones'; by less, the ridge shrinks the difficulty towards one size)
+        // while the fast windows keep at least their coverage, and the mean area falls.
+        let ratio = (slow[2] / fast[2]).sqrt();
+        assert!(ratio < 0.6, "radius ratio {ratio}");
+        for (i, what) in ["position", "yaw"].iter().enumerate() {
+            assert!(slow[i] >= 0.92, "slow {what} {}", slow[i]);
+            assert!(
+                fast[i] >= fast_h[i] - 0.005,
+                "fast {what} {} against {}",
+                fast[i],
+                fast_h[i]
+            );
+        }
+        assert!(slow[2] + fast[2] < slow_h[2] + fast_h[2]);
+    }
+
+    #[test]
+    fn steps_are_pooled_symmetrically() {
+        assert_eq!(pooled_steps(20, 40), (18, 22));
+        assert_eq!(pooled_steps(39, 40), (39, 39));
+        assert_eq!(pooled_steps(38, 40), (37, 39));
+        assert_eq!(pooled_steps(1, 40), (1, 1));
+        assert_eq!(pooled_steps(3, 40), (2, 4));
     }
 
     #[test]

@@ -19,6 +19,7 @@ pub mod batch;
 pub mod blr;
 pub mod calibration;
 mod composed;
+pub mod difficulty;
 pub mod model_file;
 pub mod powertrain;
 pub mod registry;

@@ -271,6 +271,10 @@ impl ModelSpec {
         if self.uncertainty == Uncertainty::Paper {
             return self.fit_uncalibrated(train);
         }
+        let calibrator = Calibrator {
+            difficulty: self.calibrator.difficulty && self.uncertainty == Uncertainty::Calibrated,
+            ..self.calibrator
+        };
         match &self.parts {
             Parts::Composed(powertrain, slip) => {
                 let learner =
@@ -278,17 +282,15 @@ impl ModelSpec {
                 let model = Learner::fit(&learner, train)?;
                 // Each fold is fitted from scratch, hyperparameters included: nothing of the
                 // held-out windows reaches the fits that score them.
-                self.calibrator
-                    .calibrate(Box::new(model), train, self.start, |inner| {
-                        Ok(Box::new(Learner::fit(&learner, inner)?))
-                    })
+                calibrator.calibrate(Box::new(model), train, self.start, |inner| {
+                    Ok(Box::new(Learner::fit(&learner, inner)?))
+                })
             }
             Parts::Baseline(..) => {
                 let model = self.fit_uncalibrated(train)?;
-                self.calibrator
-                    .calibrate(model, train, self.start, |inner| {
-                        self.fit_uncalibrated(inner)
-                    })
+                calibrator.calibrate(model, train, self.start, |inner| {
+                    self.fit_uncalibrated(inner)
+                })
             }
         }
     }

@@ -54,10 +54,11 @@ pub struct PredictionArgs {
     /// them; the paper's others start from the encoders whatever this says.
     #[arg(long, default_value = "encoders+imu", value_parser = crate::traits::StartInfo::NAMES)]
     pub start: String,
-    /// Pose covariance: calibrated (the model's own, scaled per horizon step by
-    /// cross-conformal calibration on two halves of the training intervals) or paper (eq. 7
-    /// propagated, as published).
-    #[arg(long, default_value = "calibrated", value_parser = ["calibrated", "paper"])]
+    /// Pose covariance: calibrated (the model's own, scaled per horizon step and by a
+    /// learned difficulty of each prediction, by cross-conformal calibration on two halves
+    /// of the training intervals), horizon (the same without the difficulty: one size per
+    /// step) or paper (eq. 7 propagated, as published).
+    #[arg(long, default_value = "calibrated", value_parser = crate::models::calibration::Uncertainty::NAMES)]
     pub uncertainty: String,
 }
 
