@@ -44,6 +44,9 @@ pub struct UncertaintyReport {
     pub coverage95_per_step: Vec<f64>,
     /// Nominal against observed coverage, 50% to 99%.
     pub reliability: Vec<ReliabilityPoint>,
+    /// [`UncertaintyReport::reliability`] over the transient and over the steady windows
+    /// (keys `"transient"`, `"steady"`; a phase without a window is absent).
+    pub reliability_by_phase: BTreeMap<String, Vec<ReliabilityPoint>>,
     /// Steps whose position covariance was not positive definite (counted as outside, left
     /// out of the NLL).
     pub degenerate: usize,
@@ -161,6 +164,9 @@ pub fn score_uncertainty(
     let mut yaw_inside = vec![0usize; n];
     let mut counted = vec![0usize; n];
     let mut reliability = [(0usize, 0usize); RELIABILITY_LEVELS.len()];
+    // The same per phase (transient, steady), with the steps counted.
+    let mut phase_reliability = [[(0usize, 0usize); RELIABILITY_LEVELS.len()]; 2];
+    let mut phase_steps = [0usize; 2];
     let (mut nll, mut nll_count, mut degenerate) = (0.0, 0usize, 0usize);
     let (mut poses, mut covs) = (Vec::new(), Vec::new());
     // Per window: its phase, its commanded speed, and its figures at each horizon.
@@ -230,9 +236,17 @@ pub fn score_uncertainty(
             if y2 <= chi2_yaw {
                 yaw_inside[k] += 1;
             }
-            for (slot, (lp, ly)) in reliability.iter_mut().zip(&levels) {
+            let phase = usize::from(w.phase == drive_traits::Phase::Steady);
+            phase_steps[phase] += 1;
+            for ((slot, by_phase), (lp, ly)) in reliability
+                .iter_mut()
+                .zip(&mut phase_reliability[phase])
+                .zip(&levels)
+            {
                 slot.0 += usize::from(m2 <= *lp);
                 slot.1 += usize::from(y2 <= *ly);
+                by_phase.0 += usize::from(m2 <= *lp);
+                by_phase.1 += usize::from(y2 <= *ly);
             }
             let det = c[(0, 0)] * c[(1, 1)] - c[(0, 1)] * c[(1, 0)];
             // A singular covariance has no density: counted apart, not as -inf or NaN.
@@ -322,6 +336,23 @@ pub fn score_uncertainty(
             })
             .collect::<BTreeMap<_, _>>()
     };
+    let points = |counts: &[(usize, usize)], total: usize| -> Vec<ReliabilityPoint> {
+        RELIABILITY_LEVELS
+            .iter()
+            .zip(counts)
+            .map(|(&nominal, (p, y))| ReliabilityPoint {
+                nominal,
+                position: *p as f64 / total as f64,
+                yaw: *y as f64 / total as f64,
+            })
+            .collect()
+    };
+    let reliability_by_phase = [drive_traits::Phase::Transient, drive_traits::Phase::Steady]
+        .iter()
+        .zip(phase_reliability.iter().zip(phase_steps))
+        .filter(|(_, (_, steps))| *steps > 0)
+        .map(|(phase, (counts, steps))| (phase.as_str().to_string(), points(counts, steps)))
+        .collect();
     Some(UncertaintyReport {
         coverage95: at_horizons(&inside),
         yaw_coverage95: at_horizons(&yaw_inside),
@@ -332,15 +363,8 @@ pub fn score_uncertainty(
         },
         coverage95_overall: inside.iter().sum::<usize>() as f64 / total as f64,
         coverage95_per_step: (1..n).map(|k| fraction(&inside, k)).collect(),
-        reliability: RELIABILITY_LEVELS
-            .iter()
-            .zip(reliability)
-            .map(|(&nominal, (p, y))| ReliabilityPoint {
-                nominal,
-                position: p as f64 / total as f64,
-                yaw: y as f64 / total as f64,
-            })
-            .collect(),
+        reliability: points(&reliability, total),
+        reliability_by_phase,
         degenerate,
         coverage95_by_phase,
         yaw_coverage95_by_phase,
@@ -531,6 +555,16 @@ mod tests {
         let u = score_uncertainty(&Still { var: 1.0 }, &set, StartInfo::default()).unwrap();
         assert_eq!(u.coverage95_by_phase["transient"]["2.0"], 1.0);
         assert_eq!(u.coverage95_by_phase["steady"]["2.0"], 0.5);
+        // The reliability per phase: the 50% circle (radius sqrt(1.386) = 1.18 m) holds the
+        // transient errors 0.5 and 1 at every step, neither steady one (2, 3); the yaw
+        // errors are 0.
+        let half = |phase: &str| u.reliability_by_phase[phase][0];
+        assert_eq!(
+            (half("transient").nominal, half("transient").position),
+            (0.5, 1.0)
+        );
+        assert_eq!((half("steady").position, half("steady").yaw), (0.0, 1.0));
+        assert_eq!(u.reliability[0].position, 0.5);
         // Speeds 0.5, 1, 2, 3 m/s: thirds at 1 and 2 (linear interpolation).
         assert_eq!(u.coverage95_by_speed["low"]["1.0"], 1.0);
         assert_eq!(u.coverage95_by_speed["mid"]["1.0"], 1.0);

@@ -5,8 +5,8 @@
 //! error were independent at every step. Real slip errors are correlated along a rollout
 //! (a terrain patch, a lagging powertrain), so the propagated covariance grows too slowly:
 //! on the bundled Husky data its 95% ellipse holds about 65% of the measured positions at
-//! 0.5 s and 30% at 2 s. [`Uncertainty::Calibrated`] (the default) keeps the model's
-//! covariance *shape* and corrects its *size*, step by step:
+//! 0.5 s and 30% at 2 s. [`Uncertainty::Calibrated`] (the default) corrects its *size*,
+//! step by step, and its *shape* where the errors say it is wrong:
 //!
 //! 1. the training intervals are cut into [`Calibrator::folds`] contiguous blocks (two by
 //!    default: the first and the second half); each block is held out in turn and the same
@@ -21,13 +21,21 @@
 //!    scores, each score divided by the difficulty fitted without its own fold, the
 //!    difficulty tempered by its out-of-fold calibration slope (off with
 //!    [`Calibrator::difficulty`] or [`Uncertainty::Horizon`]);
-//! 4. per step, the conformal quantile of the scores over their difficulty (rank
+//! 4. the region's shape: the model's covariance, or, where it gives smaller regions on
+//!    the held-out windows at the same coverage (geometric mean over the steps of the mean
+//!    area), the held-out errors' own shape in the frame of the predicted heading
+//!    (along and across the path; Tyler's scale-free estimate over the neighbouring steps);
+//!    on the bundled Husky data slip-ipem's errors are longer along its path than its
+//!    covariance says. Steps 2 and 3 are made for both shapes and the choice is stored;
+//! 5. per step, the conformal quantile of the scores over their difficulty (rank
 //!    `ceil((n + 1) level)`, pooled over the steps within 10% of `k`, as many on each side,
 //!    to steady it) over the chi-square quantile of the same level is the step's scale
 //!    (position: 2 degrees of freedom, yaw: 1);
-//! 5. the model fitted on all training windows predicts, and its covariance at step `k` is
+//! 6. the model fitted on all training windows predicts, and its covariance at step `k` is
 //!    `D C D` with `D = diag(sqrt(s_p d_p), sqrt(s_p d_p), sqrt(s_yaw d_yaw))`: the step's
-//!    scales times the prediction's difficulties.
+//!    scales times the prediction's difficulties (with the heading shape, its position
+//!    block is `s_p d_p R S R^T`, `R` the predicted heading's rotation, uncorrelated with
+//!    the yaw).
 //!
 //! Under exchangeable windows, split conformal gives the level's coverage on new windows
 //! with a finite-sample guarantee (Vovk et al. 2005; Angelopoulos and Bates 2021); cross-
@@ -269,6 +277,8 @@ impl Calibrator {
         let n = train.windows.iter().map(|w| w.len()).max().unwrap_or(0);
         let mut position: Vec<Vec<Row>> = vec![Vec::new(); n];
         let mut yaw: Vec<Vec<Row>> = vec![Vec::new(); n];
+        // Per step and position row: the error along and across the predicted heading.
+        let mut along_across: Vec<Vec<[f64; 2]>> = vec![Vec::new(); n];
         let mut windows = 0;
         let (mut predicted, mut features) = (Vec::new(), Vec::new());
         let dt = model.dt();
@@ -304,6 +314,7 @@ impl Calibrator {
                         score: position_score(e, &c),
                         fold,
                     });
+                    along_across[k].push(heading_frame(e, predicted[k].z));
                     x[FEATURES - 1] = yaw_size;
                     yaw[k].push(Row {
                         x,
@@ -313,16 +324,79 @@ impl Calibrator {
                 }
             }
         }
-        let (position_difficulty, mut position_scores) = self.difficulties(&position, folds_count);
-        let (yaw_difficulty, mut yaw_scores) = self.difficulties(&yaw, folds_count);
+        let chi2 = chi2_2(self.level);
+        let by_model = self.difficulties(&position, folds_count);
+        let model_scale = self.scales(&mut by_model.scores.clone(), chi2);
+        let model_area = mean_areas(&position, &by_model, &model_scale, |r| {
+            r.x[FEATURES - 1].exp()
+        });
+        // The same with the errors' own shape in the predicted heading's frame.
+        // Each held-out error is scored under the shape estimated without its own fold
+        // (as the difficulty: no error shapes its own region); the shape kept is estimated
+        // on all of them.
+        let shape_of = |k: usize, skip: Option<usize>| -> [f64; 3] {
+            let (lo, hi) = neighbour_steps(k, n);
+            let kept = (lo..=hi).flat_map(|j| {
+                position[j]
+                    .iter()
+                    .zip(&along_across[j])
+                    .filter(move |(r, _)| Some(r.fold) != skip)
+                    .map(|(_, u)| u)
+            });
+            error_shape(kept, self.shape_floor).unwrap_or(UNIT_SHAPE)
+        };
+        let heading_shape: Vec<[f64; 3]> = (0..n)
+            .map(|k| {
+                if k == 0 {
+                    UNIT_SHAPE
+                } else {
+                    shape_of(k, None)
+                }
+            })
+            .collect();
+        let by_heading_rows: Vec<Vec<Row>> = (0..n)
+            .map(|k| {
+                if k == 0 {
+                    return position[0].clone();
+                }
+                let out_of_fold: Vec<[f64; 3]> =
+                    (0..folds_count).map(|f| shape_of(k, Some(f))).collect();
+                position[k]
+                    .iter()
+                    .zip(&along_across[k])
+                    .map(|(r, u)| Row {
+                        score: shape_score(u, &out_of_fold[r.fold]),
+                        ..*r
+                    })
+                    .collect()
+            })
+            .collect();
+        let by_heading = self.difficulties(&by_heading_rows, folds_count);
+        let heading_scale = self.scales(&mut by_heading.scores.clone(), chi2);
+        let heading_area = mean_areas(&by_heading_rows, &by_heading, &heading_scale, |_| 1.0);
+        // The shape whose regions are smaller, step by step (geometric mean of the ratios),
+        // at the same calibrated coverage.
+        let log_ratio: f64 = heading_area
+            .iter()
+            .zip(&model_area)
+            .filter(|(h, m)| h.is_finite() && m.is_finite() && **h > 0.0 && **m > 0.0)
+            .map(|(h, m)| (h / m).ln())
+            .sum();
+        let (position_fit, position_scale, heading_shape) = if log_ratio < 0.0 {
+            (by_heading, heading_scale, heading_shape)
+        } else {
+            (by_model, model_scale, Vec::new())
+        };
+        let mut yaw_fit = self.difficulties(&yaw, folds_count);
         let calibration = HorizonCalibration {
             level: self.level,
             shape_floor: self.shape_floor,
             windows,
-            position_scale: self.scales(&mut position_scores, chi2_2(self.level)),
-            yaw_scale: self.scales(&mut yaw_scores, chi2_1(self.level)),
-            position_difficulty,
-            yaw_difficulty,
+            position_scale,
+            yaw_scale: self.scales(&mut yaw_fit.scores, chi2_1(self.level)),
+            position_difficulty: position_fit.difficulty,
+            yaw_difficulty: yaw_fit.difficulty,
+            heading_shape,
         };
         if calibration.check().is_err() {
             return Ok(model);
@@ -330,9 +404,10 @@ impl Calibrator {
         Ok(Box::new(CalibratedModel { model, calibration }))
     }
 
-    /// Per step, the difficulty fitted on the rows pooled over the steps within 10% of it
-    /// (none without [`Calibrator::difficulty`]), and the scores divided by the difficulty
-    /// fitted without their own fold (cross-fitting: no score sizes its own region).
+    /// Per step, the difficulty fitted on the rows of its [`neighbour_steps`] (none without
+    /// [`Calibrator::difficulty`], and none at a step where a fold's fit has too few rows),
+    /// and the scores divided by the difficulty fitted without their own fold (cross-fitting:
+    /// no score sizes its own region).
     ///
     /// The difficulty is then tempered, `d^gamma` with one `gamma` in `[0, 1]` for all steps:
     /// the slope of the out-of-fold log scores on the out-of-fold log difficulties (each
@@ -342,15 +417,18 @@ impl Calibrator {
     /// `gamma = 0` is one size per step. With the slope, a window of twice the difficulty of
     /// another gets, on held-out windows, errors twice as large, so that each kind of
     /// window (transient or steady, slow or fast) keeps close to the level's coverage.
-    fn difficulties(
-        &self,
-        rows: &[Vec<Row>],
-        folds: usize,
-    ) -> (Vec<StepDifficulty>, Vec<Vec<f64>>) {
+    fn difficulties(&self, rows: &[Vec<Row>], folds: usize) -> Difficulties {
         let n = rows.len();
-        let raw = || rows.iter().map(|r| r.iter().map(|r| r.score).collect());
+        let raw = || Difficulties {
+            difficulty: Vec::new(),
+            scores: rows
+                .iter()
+                .map(|r| r.iter().map(|r| r.score).collect())
+                .collect(),
+            log_multipliers: rows.iter().map(|r| vec![0.0; r.len()]).collect(),
+        };
         if !self.difficulty {
-            return (Vec::new(), raw().collect());
+            return raw();
         }
         let mut fitted = Vec::with_capacity(n);
         // Per step and row: the log of the out-of-fold difficulty.
@@ -361,11 +439,18 @@ impl Calibrator {
                 log_d.push(Vec::new());
                 continue;
             }
-            let (lo, hi) = pooled_steps(k, n);
+            let (lo, hi) = neighbour_steps(k, n);
             let pooled = || rows[lo..=hi].iter().flatten();
-            fitted.push(fit_step(pooled(), None));
             let out_of_fold: Vec<StepDifficulty> =
                 (0..folds).map(|f| fit_step(pooled(), Some(f))).collect();
+            // A step where a fold's fit has too few scores has none (its scores would be
+            // scaled without the difficulty its regions are then given).
+            if out_of_fold.contains(&StepDifficulty::NONE) {
+                fitted.push(StepDifficulty::NONE);
+                log_d.push(vec![0.0; rows[k].len()]);
+                continue;
+            }
+            fitted.push(fit_step(pooled(), None));
             log_d.push(
                 rows[k]
                     .iter()
@@ -374,7 +459,7 @@ impl Calibrator {
             );
         }
         if fitted.iter().all(|d| *d == StepDifficulty::NONE) {
-            return (Vec::new(), raw().collect());
+            return raw();
         }
         let (mut sxy, mut sxx) = (0.0, 0.0);
         for (step, l) in rows.iter().zip(&log_d).skip(1) {
@@ -399,20 +484,29 @@ impl Calibrator {
             0.0
         };
         if gamma == 0.0 {
-            return (Vec::new(), raw().collect());
+            return raw();
         }
-        let fitted = fitted.into_iter().map(|d| d.tempered(gamma)).collect();
-        let scores = rows
+        let log_multipliers: Vec<Vec<f64>> = log_d
             .iter()
-            .zip(&log_d)
-            .map(|(step, l)| {
-                step.iter()
-                    .zip(l)
-                    .map(|(r, l)| r.score / (gamma * l).exp())
-                    .collect()
+            .zip(rows)
+            .map(|(l, step)| {
+                if l.is_empty() {
+                    vec![0.0; step.len()]
+                } else {
+                    l.iter().map(|l| gamma * l).collect()
+                }
             })
             .collect();
-        (fitted, scores)
+        let scores = rows
+            .iter()
+            .zip(&log_multipliers)
+            .map(|(step, l)| step.iter().zip(l).map(|(r, l)| r.score / l.exp()).collect())
+            .collect();
+        Difficulties {
+            difficulty: fitted.into_iter().map(|d| d.tempered(gamma)).collect(),
+            scores,
+            log_multipliers,
+        }
     }
 
     /// Per step, the conformal quantile of the scores pooled over the steps within 10% of
@@ -442,6 +536,110 @@ fn pooled_steps(k: usize, n: usize) -> (usize, usize) {
     let r = ((k as f64) * 0.1).round().max(1.0) as usize;
     let r = r.min(k - 1).min(n - 1 - k);
     (k - r, k + r)
+}
+
+/// The steps whose held-out errors shape the difficulty and the heading shape of step
+/// `k >= 1` of `n`: those within 10% of it (at least one each side), the start excluded.
+/// Unlike [`pooled_steps`], not as many on each side: a difficulty and a shape are relative
+/// (the step's quantile sets the size), and the last step gets its neighbours' errors.
+fn neighbour_steps(k: usize, n: usize) -> (usize, usize) {
+    let r = ((k as f64) * 0.1).round().max(1.0) as usize;
+    ((k - r).max(1), (k + r).min(n - 1))
+}
+
+/// A calibration's difficulty per step, and per step and held-out row its score over its
+/// out-of-fold difficulty and the log of that difficulty.
+struct Difficulties {
+    difficulty: Vec<StepDifficulty>,
+    scores: Vec<Vec<f64>>,
+    log_multipliers: Vec<Vec<f64>>,
+}
+
+/// Per step, the mean over the held-out rows of the calibrated region's area over
+/// `pi chi2` (scale times out-of-fold difficulty times the root determinant of the shape,
+/// `root_det`); NaN at a step without rows.
+fn mean_areas(
+    rows: &[Vec<Row>],
+    fit: &Difficulties,
+    scale: &[f64],
+    root_det: impl Fn(&Row) -> f64,
+) -> Vec<f64> {
+    rows.iter()
+        .zip(&fit.log_multipliers)
+        .zip(scale)
+        .map(|((step, l), s)| {
+            let sum: f64 = step
+                .iter()
+                .zip(l)
+                .map(|(r, l)| s * l.exp() * root_det(r))
+                .sum();
+            sum / step.len() as f64
+        })
+        .collect()
+}
+
+/// The unit shape `[a, b, d]` (the symmetric 2x2 `[[a, b], [b, d]]`, determinant 1).
+const UNIT_SHAPE: [f64; 3] = [1.0, 0.0, 1.0];
+
+/// A position error `e` in the frame of the heading `yaw`: `[along, across]`.
+fn heading_frame(e: &Pose, yaw: f64) -> [f64; 2] {
+    let (s, c) = yaw.sin_cos();
+    [c * e.x + s * e.y, -s * e.x + c * e.y]
+}
+
+/// `u^T S^-1 u` for the shape `s` (`[a, b, d]`).
+fn shape_score(u: &[f64; 2], s: &[f64; 3]) -> f64 {
+    let [a, b, d] = *s;
+    let det = a * d - b * b;
+    (d * u[0] * u[0] - 2.0 * b * u[0] * u[1] + a * u[1] * u[1]) / det
+}
+
+/// The shape of the errors `u` whatever their sizes: Tyler's M-estimator of scatter (Tyler
+/// 1987, "A distribution-free M-estimator of multivariate scatter"), the fixed point of
+/// `S = 2 mean(u u^T / u^T S^-1 u)`, scaled to determinant 1, its smaller eigenvalue raised
+/// to at least `floor` times the larger. Each error counts by its direction only, so a few
+/// large errors (the hard windows, sized by the difficulty) do not set the shape of all.
+/// `None` with fewer than 3 non-zero errors or all along one line.
+fn error_shape<'a>(u: impl Iterator<Item = &'a [f64; 2]> + Clone, floor: f64) -> Option<[f64; 3]> {
+    let nonzero =
+        move |u: &&[f64; 2]| u[0].is_finite() && u[1].is_finite() && u[0].hypot(u[1]) > 1e-12;
+    if u.clone().filter(nonzero).count() < 3 {
+        return None;
+    }
+    let mut s = UNIT_SHAPE;
+    for _ in 0..100 {
+        let (mut a, mut b, mut d, mut m) = (0.0, 0.0, 0.0, 0.0);
+        for u in u.clone().filter(nonzero) {
+            let w = 1.0 / shape_score(u, &s);
+            a += w * u[0] * u[0];
+            b += w * u[0] * u[1];
+            d += w * u[1] * u[1];
+            m += 1.0;
+        }
+        let det = (a * d - b * b) / (m * m);
+        if !(det > 1e-300 && det.is_finite()) {
+            return None;
+        }
+        let root = det.sqrt();
+        let next = [a / m / root, b / m / root, d / m / root];
+        let change = next
+            .iter()
+            .zip(&s)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        s = next;
+        if change < 1e-10 {
+            break;
+        }
+    }
+    // The eigenvalue floor, then determinant 1 again.
+    let [a, b, d] = s;
+    let mean = 0.5 * (a + d);
+    let spread = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    let lift = (floor * (mean + spread) - (mean - spread)).max(0.0);
+    let (a, d) = (a + lift, d + lift);
+    let root = (a * d - b * b).sqrt();
+    Some([a / root, b / root, d / root])
 }
 
 /// The split-conformal quantile of `scores` at `level`: the `ceil((n + 1) level)`-th
@@ -538,6 +736,12 @@ pub struct HorizonCalibration {
     /// The learned difficulty of the yaw at each step (empty: none).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub yaw_difficulty: Vec<StepDifficulty>,
+    /// The shape of the position region at each step in the frame of the predicted heading,
+    /// `[a, b, d]` for `[[along^2, along across], [along across, across^2]]` scaled to
+    /// determinant 1, where the held-out errors' own shape gave smaller regions than the
+    /// model's covariance (empty: the model's covariance shapes the region).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub heading_shape: Vec<[f64; 3]>,
 }
 
 impl HorizonCalibration {
@@ -575,13 +779,34 @@ impl HorizonCalibration {
             }
             d.iter().try_for_each(StepDifficulty::check)?;
         }
+        if !self.heading_shape.is_empty() {
+            if self.heading_shape.len() != self.position_scale.len() {
+                return Err(
+                    "calibration heading shapes and scales are of different lengths".into(),
+                );
+            }
+            for &[a, b, d] in &self.heading_shape {
+                let det = a * d - b * b;
+                if !(a > 0.0 && d > 0.0 && (det - 1.0).abs() < 1e-6 && a < 1e6 && d < 1e6) {
+                    return Err(format!(
+                        "calibration heading shape [{}, {}, {}] is not positive definite of determinant 1",
+                        Short(a),
+                        Short(b),
+                        Short(d)
+                    ));
+                }
+            }
+        }
         Ok(())
     }
 
     /// The calibrated covariance at step `k` (beyond the calibrated horizon: the last
     /// step's scales) of a prediction whose motion features at `k` are `x`
-    /// ([`crate::difficulty::motion_features`]; unused without a difficulty).
-    pub fn apply(&self, k: usize, c: &PoseCovariance, x: &Features) -> PoseCovariance {
+    /// ([`crate::difficulty::motion_features`]; unused without a difficulty) and whose
+    /// predicted heading at `k` is `yaw` (unused without a heading shape). With a heading
+    /// shape, the position block is that shape turned to `yaw` and scaled, and the position
+    /// is uncorrelated with the yaw.
+    pub fn apply(&self, k: usize, c: &PoseCovariance, x: &Features, yaw: f64) -> PoseCovariance {
         if k == 0 {
             return *c;
         }
@@ -598,7 +823,23 @@ impl HorizonCalibration {
             sy *= dy.multiplier(&x);
         }
         let d = [sp.sqrt(), sp.sqrt(), sy.sqrt()];
-        PoseCovariance::from_fn(|r, col| f[(r, col)] * d[r] * d[col])
+        let mut out = PoseCovariance::from_fn(|r, col| f[(r, col)] * d[r] * d[col]);
+        if let Some(&[a, b, d]) = self.heading_shape.get(i) {
+            // R S R^T with R the rotation by `yaw`.
+            let (s, c) = yaw.sin_cos();
+            let xx = c * c * a - 2.0 * c * s * b + s * s * d;
+            let xy = c * s * (a - d) + (c * c - s * s) * b;
+            let yy = s * s * a + 2.0 * c * s * b + c * c * d;
+            out[(0, 0)] = sp * xx;
+            out[(0, 1)] = sp * xy;
+            out[(1, 0)] = sp * xy;
+            out[(1, 1)] = sp * yy;
+            for j in 0..2 {
+                out[(j, 2)] = 0.0;
+                out[(2, j)] = 0.0;
+            }
+        }
+        out
     }
 
     /// Whether the regions follow a learned difficulty.
@@ -633,7 +874,7 @@ impl HorizonCalibration {
 /// let calibration = HorizonCalibration {
 ///     level: 0.95, shape_floor: 0.0, windows: 20,
 ///     position_scale: vec![1.0, 4.0], yaw_scale: vec![1.0, 9.0],
-///     position_difficulty: vec![], yaw_difficulty: vec![],
+///     position_difficulty: vec![], yaw_difficulty: vec![], heading_shape: vec![],
 /// };
 /// let model = CalibratedModel { model: Box::new(Unsure), calibration };
 /// let (mut p, mut c) = (vec![], vec![]);
@@ -700,7 +941,8 @@ impl MotionModel for CalibratedModel {
         }
         for (k, c) in covariances.iter_mut().enumerate() {
             let x = features.get(k).copied().unwrap_or([0.0; FEATURES]);
-            *c = self.calibration.apply(k, c, &x);
+            let yaw = poses.get(k).map_or(start.pose.z, |p| p.z);
+            *c = self.calibration.apply(k, c, &x, yaw);
         }
         Ok(())
     }
@@ -969,6 +1211,189 @@ mod tests {
             );
         }
         assert!(slow[2] + fast[2] < slow_h[2] + fast_h[2]);
+    }
+
+    /// Windows started at headings spread over the circle, whose position errors at the end
+    /// have standard deviations 3 m along the start heading and 0.5 m across it (growing
+    /// linearly along the window), yaw error 0.2 rad.
+    fn heading_windows(count: usize, seed: u64) -> Vec<Window> {
+        let z = normals(count * 3, seed);
+        (0..count)
+            .map(|i| {
+                let heading = (i as f64 * 2.399_963) % std::f64::consts::TAU - std::f64::consts::PI;
+                let (s, c) = heading.sin_cos();
+                let (along, across) = (3.0 * z[3 * i], 0.5 * z[3 * i + 1]);
+                Window {
+                    index: i,
+                    interval: i / 3,
+                    phase: Phase::Steady,
+                    command: vec![Input::zeros(); 40],
+                    measured: vec![Input::zeros(); 40],
+                    pose: (0..40)
+                        .map(|k| {
+                            let g = k as f64 / 39.0;
+                            Pose::new(
+                                g * (c * along - s * across),
+                                g * (s * along + c * across),
+                                heading + g * 0.2 * z[3 * i + 2],
+                            )
+                        })
+                        .collect(),
+                    imu_yaw_rate: vec![0.0; 40],
+                    start_velocity: None,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn errors_longer_along_the_heading_get_regions_of_their_shape() {
+        let robot = RobotDescription::new("t", "", 20.0, 40, DifferentialDrive::new(0.1, 0.5));
+        let train = heading_windows(900, 6);
+        // `Still`'s unit covariance is round: the errors' own shape, turned with each
+        // prediction's heading, gives smaller regions and is chosen.
+        let model = Calibrator::default()
+            .calibrate(
+                Box::new(Still),
+                &WindowSet::new(&robot, &train),
+                StartInfo::default(),
+                |_| Ok(Box::new(Still)),
+            )
+            .unwrap();
+        let test = heading_windows(3000, 7);
+        let (mut p, mut c) = (Vec::new(), Vec::new());
+        let (mut inside, mut area, mut radius) = (0, 0.0, Vec::new());
+        for w in &test {
+            model
+                .predict_with_covariance_into(
+                    &w.start_state(robot.vehicle.as_ref()),
+                    &w.command,
+                    &mut p,
+                    &mut c,
+                )
+                .unwrap();
+            let e = pose_errors(&p, &w.pose);
+            inside += usize::from(position_score(&e[39], &c[39]) <= chi2_2(0.95));
+            let det = c[39][(0, 0)] * c[39][(1, 1)] - c[39][(0, 1)].powi(2);
+            area += std::f64::consts::PI * chi2_2(0.95) * det.sqrt() / 3000.0;
+            radius.push(e[39].x.hypot(e[39].y));
+            // The long axis follows the heading: along it the variance is about 36 times
+            // the one across it (3^2 / 0.5^2).
+            let (s, co) = w.pose[0].z.sin_cos();
+            let along =
+                co * co * c[39][(0, 0)] + 2.0 * s * co * c[39][(0, 1)] + s * s * c[39][(1, 1)];
+            let across =
+                s * s * c[39][(0, 0)] - 2.0 * s * co * c[39][(0, 1)] + co * co * c[39][(1, 1)];
+            assert!(
+                (20.0..60.0).contains(&(along / across)),
+                "{along} / {across}"
+            );
+        }
+        let f = inside as f64 / 3000.0;
+        assert!((0.93..=0.975).contains(&f), "position coverage {f}");
+        // Against the smallest circle holding as many errors: the ellipse of these errors
+        // has about a quarter of its area (pi 5.99 * 3 * 0.5 = 28 m^2 against pi 5.9^2).
+        radius.sort_by(f64::total_cmp);
+        let circle = std::f64::consts::PI * radius[inside.saturating_sub(1)].powi(2);
+        assert!(area / circle < 0.4, "area ratio {}", area / circle);
+    }
+
+    #[test]
+    fn tylers_shape_ignores_the_errors_sizes() {
+        // Directions on an ellipse of axes 2 and 0.5 turned by 30 degrees, each at a size
+        // from 0.01 to 100: the shape is the ellipse's, of determinant 1.
+        let (s, c) = (30f64.to_radians()).sin_cos();
+        let u: Vec<[f64; 2]> = (0..400)
+            .map(|i| {
+                let t = i as f64 * 0.7;
+                let size = 10f64.powf((i % 5) as f64 - 2.0);
+                let (a, b) = (2.0 * t.cos() * size, 0.5 * t.sin() * size);
+                [c * a - s * b, s * a + c * b]
+            })
+            .collect();
+        let [a, b, d] = error_shape(u.iter(), 0.0).unwrap();
+        // R diag(4, 0.25) R^T over its root determinant 1.
+        let expected = [
+            c * c * 4.0 + s * s * 0.25,
+            c * s * (4.0 - 0.25),
+            s * s * 4.0 + c * c * 0.25,
+        ];
+        for (got, want) in [a, b, d].iter().zip(expected) {
+            assert!(
+                (got - want).abs() < 0.05,
+                "{:?} against {expected:?}",
+                [a, b, d]
+            );
+        }
+        // The floor rounds a line into a thin ellipse; too few errors give none.
+        let line: Vec<[f64; 2]> = (1..10).map(|i| [i as f64, 0.0]).collect();
+        assert_eq!(error_shape(line.iter(), 0.01), None);
+        assert_eq!(error_shape([[1.0, 0.0], [0.0, 1.0]].iter(), 0.01), None);
+        let near_line: Vec<[f64; 2]> = (1..10)
+            .map(|i| [i as f64, 1e-3 * if i % 2 == 0 { 1.0 } else { -1.0 }])
+            .collect();
+        let thin = error_shape(near_line.iter(), 0.01).unwrap();
+        // Raised to a hundredth of the larger eigenvalue before the lift (as `floored`).
+        assert!((0.0098..0.0101).contains(&(thin[2] / thin[0])), "{thin:?}");
+    }
+
+    #[test]
+    fn a_heading_shape_turns_with_the_predicted_heading() {
+        let calibration = HorizonCalibration {
+            level: 0.95,
+            shape_floor: 0.01,
+            windows: 10,
+            position_scale: vec![1.0, 2.0],
+            yaw_scale: vec![1.0, 3.0],
+            position_difficulty: vec![],
+            yaw_difficulty: vec![],
+            heading_shape: vec![UNIT_SHAPE, [4.0, 0.0, 0.25]],
+        };
+        assert_eq!(calibration.check(), Ok(()));
+        let c = PoseCovariance::identity();
+        let x = [0.0; FEATURES];
+        // Heading along y: the long axis (4, times the scale 2) is y.
+        let turned = calibration.apply(1, &c, &x, std::f64::consts::FRAC_PI_2);
+        assert!((turned[(1, 1)] - 8.0).abs() < 1e-12 && (turned[(0, 0)] - 0.5).abs() < 1e-12);
+        assert!(turned[(0, 1)].abs() < 1e-12 && (turned[(2, 2)] - 3.0).abs() < 1e-12);
+        let ahead = calibration.apply(1, &c, &x, 0.0);
+        assert!((ahead[(0, 0)] - 8.0).abs() < 1e-12);
+        // A shape not of determinant 1 is refused on load.
+        let bad = HorizonCalibration {
+            heading_shape: vec![UNIT_SHAPE, [4.0, 0.0, 1.0]],
+            ..calibration
+        };
+        assert!(bad.check().unwrap_err().contains("determinant 1"));
+    }
+
+    #[test]
+    fn a_step_whose_fold_fits_lack_scores_has_no_difficulty() {
+        // Scores that grow with the speed feature, 100 in fold 0 and 10 in fold 1: the fit
+        // without fold 0 has too few, so the step has no difficulty at all (its fit on all
+        // 110 would be applied to regions whose scale was set without it).
+        let rows: Vec<Row> = (0..110)
+            .map(|i| {
+                let s = (i % 10) as f64;
+                Row {
+                    x: [1.0, s, 0.0, 0.0, 0.0, 0.0],
+                    score: (0.3 * s).exp() * (1.0 + 0.1 * (i % 7) as f64),
+                    fold: usize::from(i >= 100),
+                }
+            })
+            .collect();
+        assert_ne!(fit_step(rows.iter(), None), StepDifficulty::NONE);
+        let fit = Calibrator::default().difficulties(&[Vec::new(), rows.clone()], 2);
+        assert!(fit.difficulty.is_empty());
+        let raw: Vec<f64> = rows.iter().map(|r| r.score).collect();
+        assert_eq!(fit.scores[1], raw);
+        // With the folds balanced, the difficulty is learned.
+        let balanced: Vec<Row> = rows
+            .iter()
+            .enumerate()
+            .map(|(i, r)| Row { fold: i % 2, ..*r })
+            .collect();
+        let fit = Calibrator::default().difficulties(&[Vec::new(), balanced], 2);
+        assert!(fit.difficulty[1].beta[1] > 0.0, "{:?}", fit.difficulty);
     }
 
     #[test]

@@ -233,6 +233,16 @@ pub struct Calibration {
     /// Nominal against observed coverage (position and yaw), 50% to 99%: the reliability
     /// diagram.
     pub reliability: Vec<drive_eval::ReliabilityPoint>,
+    /// The reliability diagram of the transient and of the steady windows.
+    pub reliability_by_phase: std::collections::BTreeMap<String, Vec<drive_eval::ReliabilityPoint>>,
+    /// Position coverage at 0.5, 1 and 2 s per phase (`"transient"`, `"steady"`).
+    pub coverage95_by_phase: drive_eval::GroupCoverage,
+    /// Position coverage per third of the commanded speed (`"low"`, `"mid"`, `"high"`).
+    pub coverage95_by_speed: drive_eval::GroupCoverage,
+    /// Mean 95% region area at 2 s over the constant circle of the same coverage.
+    pub area_ratio_to_constant: f64,
+    /// Rank correlation at 2 s of the predicted spread with the error (`"position"`, `"yaw"`).
+    pub error_rank_correlation: std::collections::BTreeMap<String, f64>,
 }
 
 /// The calibration of a model with pose covariances; `None` for a model without them. The
@@ -248,6 +258,11 @@ pub fn calibration(
         coverage95: u.coverage95,
         yaw_coverage95: u.yaw_coverage95,
         reliability: u.reliability,
+        reliability_by_phase: u.reliability_by_phase,
+        coverage95_by_phase: u.coverage95_by_phase,
+        coverage95_by_speed: u.coverage95_by_speed,
+        area_ratio_to_constant: u.area_ratio_to_constant,
+        error_rank_correlation: u.error_rank_correlation,
         model: name.to_string(),
         inside_fraction: u.coverage95_per_step,
         inside_overall: u.coverage95_overall,

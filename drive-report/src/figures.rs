@@ -622,7 +622,8 @@ where
 
 /// The reliability diagram: observed against nominal coverage (50% to 99%) of the predicted
 /// position ellipses (solid, with dots) and yaw intervals (crosses), every horizon step of
-/// every evaluation window; a calibrated model lies on the diagonal.
+/// every evaluation window, then of the transient and of the steady windows alone (three
+/// panels); a calibrated model lies on the diagonal in each.
 pub fn calibration<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     cals: &[Calibration],
@@ -657,46 +658,62 @@ where
         "Reliability of the predicted uncertainty: observed against nominal coverage",
         &keys,
     )?;
-    let mut chart = ChartBuilder::on(&body)
-        .margin(15)
-        .x_label_area_size(50)
-        .y_label_area_size(70)
-        .build_cartesian_2d(45.0..100.0, 0.0..100.0)?;
-    chart
-        .configure_mesh()
-        .x_desc("nominal coverage of the predicted region [%]")
-        .y_desc("measured poses inside it [% of steps]")
-        .axis_desc_style((FONT, LABEL))
-        .label_style((FONT, LABEL - 2))
-        .x_label_formatter(&|v| format!("{v:.0}"))
-        .y_label_formatter(&|v| format!("{v:.0}"))
-        .draw()?;
-    chart.draw_series(std::iter::once(PathElement::new(
-        vec![(45.0, 45.0), (100.0, 100.0)],
-        COLOURS[5].stroke_width(2),
-    )))?;
-    for (i, c) in cals.iter().enumerate() {
-        let colour = COLOURS[(i + 2) % COLOURS.len()];
-        let points = |pick: fn(&drive_eval::ReliabilityPoint) -> f64| -> Vec<(f64, f64)> {
-            c.reliability
-                .iter()
-                .filter(|p| pick(p).is_finite())
-                .map(|p| (100.0 * p.nominal, 100.0 * pick(p)))
-                .collect()
-        };
-        let position = points(|p| p.position);
-        let yaw = points(|p| p.yaw);
-        chart.draw_series(LineSeries::new(position.clone(), colour.stroke_width(2)))?;
-        chart.draw_series(
-            position
-                .iter()
-                .map(|&(x, y)| Circle::new((x, y), 4, colour.filled())),
-        )?;
-        chart.draw_series(LineSeries::new(yaw.clone(), colour.stroke_width(1)))?;
-        chart.draw_series(
-            yaw.iter()
-                .map(|&(x, y)| Cross::new((x, y), 5, colour.stroke_width(2))),
-        )?;
+    let panels = body.split_evenly((1, 3));
+    let phases: [(&str, Option<&str>); 3] = [
+        ("every window", None),
+        ("transient windows", Some("transient")),
+        ("steady windows", Some("steady")),
+    ];
+    for (panel, (title, phase)) in panels.iter().zip(phases) {
+        let mut chart = ChartBuilder::on(panel)
+            .margin(15)
+            .caption(title, (FONT, LABEL))
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(45.0..100.0, 0.0..100.0)?;
+        chart
+            .configure_mesh()
+            .x_desc("nominal coverage of the predicted region [%]")
+            .y_desc("measured poses inside it [% of steps]")
+            .axis_desc_style((FONT, LABEL))
+            .label_style((FONT, LABEL - 2))
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .y_label_formatter(&|v| format!("{v:.0}"))
+            .draw()?;
+        chart.draw_series(std::iter::once(PathElement::new(
+            vec![(45.0, 45.0), (100.0, 100.0)],
+            COLOURS[5].stroke_width(2),
+        )))?;
+        for (i, c) in cals.iter().enumerate() {
+            let colour = COLOURS[(i + 2) % COLOURS.len()];
+            let diagram = match phase {
+                None => Some(&c.reliability),
+                Some(p) => c.reliability_by_phase.get(p),
+            };
+            let Some(diagram) = diagram else {
+                continue;
+            };
+            let points = |pick: fn(&drive_eval::ReliabilityPoint) -> f64| -> Vec<(f64, f64)> {
+                diagram
+                    .iter()
+                    .filter(|p| pick(p).is_finite())
+                    .map(|p| (100.0 * p.nominal, 100.0 * pick(p)))
+                    .collect()
+            };
+            let position = points(|p| p.position);
+            let yaw = points(|p| p.yaw);
+            chart.draw_series(LineSeries::new(position.clone(), colour.stroke_width(2)))?;
+            chart.draw_series(
+                position
+                    .iter()
+                    .map(|&(x, y)| Circle::new((x, y), 4, colour.filled())),
+            )?;
+            chart.draw_series(LineSeries::new(yaw.clone(), colour.stroke_width(1)))?;
+            chart.draw_series(
+                yaw.iter()
+                    .map(|&(x, y)| Cross::new((x, y), 5, colour.stroke_width(2))),
+            )?;
+        }
     }
     root.present()?;
     Ok(())

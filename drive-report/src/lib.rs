@@ -10,7 +10,7 @@
 //! | `errors_per_protocol` | MRMSE box plots per data-gathering protocol (regions vs uniform) | Fig. 5 |
 //! | `convergence` | error against training time (log-log), convergence time marked | Fig. 7 |
 //! | `trajectories` | predicted and measured paths with 95% ellipses | |
-//! | `calibration` | reliability diagram: observed against nominal coverage (50-99%) of the predicted position and yaw regions | |
+//! | `calibration` | reliability diagrams: observed against nominal coverage (50-99%) of the predicted position and yaw regions, over every window, the transient and the steady ones | |
 //!
 //! ```no_run
 //! # fn demo(data: &drive_traits::Dataset) -> Result<(), drive_report::ReportError> {
@@ -604,7 +604,7 @@ impl Report {
         if !self.calibration.is_empty() {
             let _ = writeln!(
                 s,
-                "Uncertainty: {}; predictions start from {}. Share of the measured poses inside the predicted 95% regions (a calibrated model holds 95%), and the reliability diagram (`calibration.png`: observed against nominal coverage, 50% to 99%).\n",
+                "Uncertainty: {}; predictions start from {}. Share of the measured poses inside the predicted 95% regions (a calibrated model holds 95%), and the reliability diagrams (`calibration.png`: observed against nominal coverage, 50% to 99%, over every window, then the transient and the steady ones).\n",
                 self.options.uncertainty.as_str(),
                 self.options.start.as_str()
             );
@@ -639,6 +639,49 @@ impl Report {
                 } else {
                     String::new()
                 }
+            );
+        }
+        if !self.calibration.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nWhich predictions the regions say are hard, at 2 s: position coverage per phase (the diagram's second and third panels) and per third of the commanded speed; the mean region area over the smallest constant circle of the same coverage (under 1: the regions say more than one radius would); the rank correlation of each window's predicted spread with its error.\n"
+            );
+            let _ = writeln!(
+                s,
+                "| model | transient / steady | speed low / mid / high | area ratio | rank corr. position / yaw |"
+            );
+            let _ = writeln!(s, "|---|---|---|---|---|");
+        }
+        for cal in &self.calibration {
+            let at = |groups: &drive_eval::GroupCoverage, keys: &[&str]| {
+                keys.iter()
+                    .map(|k| {
+                        groups
+                            .get(*k)
+                            .and_then(|h| h.get("2.0"))
+                            .map_or("-".to_string(), |f| format!("{:.1}%", 100.0 * f))
+                    })
+                    .collect::<Vec<_>>()
+                    .join(" / ")
+            };
+            let rank = |k: &str| {
+                cal.error_rank_correlation
+                    .get(k)
+                    .map_or("-".to_string(), |v| format!("{v:+.2}"))
+            };
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} / {} |",
+                cal.model,
+                at(&cal.coverage95_by_phase, &["transient", "steady"]),
+                at(&cal.coverage95_by_speed, &["low", "mid", "high"]),
+                if cal.area_ratio_to_constant.is_finite() {
+                    format!("{:.2}", cal.area_ratio_to_constant)
+                } else {
+                    "-".to_string()
+                },
+                rank("position"),
+                rank("yaw")
             );
         }
         let _ = writeln!(s, "\n## Data-gathering protocols on this data (Fig. 5)\n");
