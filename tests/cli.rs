@@ -144,6 +144,30 @@ fn calibrated_95_percent_regions_hold_90_to_98_percent_and_the_papers_do_not() {
             }
         }
         assert!(f(&m["nll"]).is_finite());
+        // Issue 29: which predictions the regions say are hard, in the JSON the issue names.
+        for (key, groups) in [
+            ("coverage95_by_phase", &["steady", "transient"][..]),
+            ("yaw_coverage95_by_phase", &["steady", "transient"][..]),
+            ("coverage95_by_speed", &["high", "low", "mid"][..]),
+        ] {
+            let g = m[key].as_object().unwrap();
+            assert_eq!(g.keys().collect::<Vec<_>>(), groups, "{name} {key}");
+            for horizons in g.values() {
+                let h = horizons.as_object().unwrap();
+                assert_eq!(h.keys().collect::<Vec<_>>(), ["0.5", "1.0", "2.0"]);
+                assert!(h.values().all(|v| (0.0..=1.0).contains(&f(v))));
+            }
+        }
+        assert!(f(&m["area_ratio_to_constant"]) > 0.0);
+        for axis in ["position", "yaw"] {
+            let r = f(&m["error_rank_correlation"][axis]);
+            assert!((-1.0..=1.0).contains(&r), "{name} {axis} {r}");
+        }
+        for phase in ["transient", "steady"] {
+            let diagram = m["reliability_by_phase"][phase].as_array().unwrap();
+            assert_eq!(diagram.len(), 8);
+            assert_eq!(f(&diagram[5]["nominal"]), 0.95);
+        }
     }
     // The paper's propagation (eq. 7, independent steps) is far too confident at 2 s.
     let paper: serde_json::Value = serde_json::from_str(&ok(&[

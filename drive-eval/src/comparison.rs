@@ -153,6 +153,10 @@ pub struct ModelResult {
     /// (`position`, `yaw`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error_rank_correlation: Option<BTreeMap<String, f64>>,
+    /// The reliability diagram (nominal against observed coverage, every step) of the
+    /// transient and of the steady windows.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reliability_by_phase: Option<BTreeMap<String, Vec<crate::ReliabilityPoint>>>,
     /// Improvement of the medians over the naive model, with 95% paired bootstrap intervals.
     pub improvement_over_naive: PairedImprovement,
     /// Improvement of the medians over slip-BLR (the paper's model, `slip-blr+fopdt`, fitted
@@ -307,6 +311,7 @@ pub fn compare_specs(
             area_ratio_to_constant: u.map(|u| u.area_ratio_to_constant),
             yaw_width_ratio_to_constant: u.map(|u| u.yaw_width_ratio_to_constant),
             error_rank_correlation: u.map(|u| u.error_rank_correlation.clone()),
+            reliability_by_phase: u.map(|u| u.reliability_by_phase.clone()),
             improvement_over_naive: PairedImprovement::of(&report, &naive, &bootstrap),
             improvement_over_slip_blr: slip_blr
                 .as_ref()
