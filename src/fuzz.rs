@@ -8,6 +8,7 @@
 //! assert!(!drive::fuzz::model_file(b"{\"format_version\": 1}"));
 //! assert!(!drive::fuzz::sidecar(b"{\"rate_hz\": 1e999}"));
 //! assert!(!drive::fuzz::robot_toml(b"max_speed = 1e308"));
+//! assert!(!drive::fuzz::bag(b"\x89MCAP0\r\n"));
 //! ```
 
 use crate::data::{import_raw, parse_dataset, parse_raw_log, ImportConfig};
@@ -123,5 +124,18 @@ pub fn model_file(bytes: &[u8]) -> bool {
     let mut poses = Vec::new();
     let mut covariances = Vec::new();
     let _ = model.predict_with_covariance_into(&start, &commands, &mut poses, &mut covariances);
+    true
+}
+
+/// The rosbag2 (MCAP) reader on one file's bytes with the DRIVE logger's topics of a
+/// differential drive, then the import of the rows it made.
+pub fn bag(bytes: &[u8]) -> bool {
+    let vehicle = crate::models::DifferentialDrive::new(0.165, 0.555);
+    let topics = crate::data::BagTopics::drive_logger(&vehicle);
+    let Ok(log) = crate::data::read_bag_bytes("fuzz.mcap", bytes, &topics) else {
+        return false;
+    };
+    let robot = RobotDescription::new("fuzz", "fuzz", 20.0, 2, vehicle);
+    let _ = import_raw(&log, &robot, &ImportConfig::default());
     true
 }

@@ -208,9 +208,28 @@ fn cases() -> Vec<Case> {
         Case { name: "model powertrain step", file: File::Model(|m| edit_model(&m, |v| composed(v)["powertrain"]["dt"] = 0.1.into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "powertrain's step 0.1 s is not the model's 0.05 s"] },
         Case { name: "model calibration scale", file: File::Model(|m| edit_model(&m, |v| v["model"]["calibration"]["yaw_scale"][3] = (-2.0).into())),
-            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "calibration scale -2 is not a finite number > 0"] },
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "calibration yaw_scale: the scale -2.0 is not a number in [1e-30, 1e30]"] },
         Case { name: "model robot rate", file: File::Model(|m| edit_model(&m, |v| v["robot"]["rate_hz"] = 10.0.into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "not the robot's command period"] },
+        // Issue 34: model files no fit writes.
+        Case { name: "model calibration of another horizon", file: File::Model(|m| edit_model(&m, |v| {
+                for key in ["position_scale", "yaw_scale"] {
+                    v["model"]["calibration"][key].as_array_mut().unwrap().push(1.0.into());
+                }
+            })),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "41 scales for a robot whose windows have 40 samples"] },
+        Case { name: "model huge calibration scale", file: File::Model(|m| edit_model(&m, |v| v["model"]["calibration"]["yaw_scale"][3] = 1e300.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "not a number in [1e-30, 1e30]"] },
+        Case { name: "model dead time of years", file: File::Model(|m| edit_model(&m, |v| composed(v)["powertrain"]["axes"][0]["delay"] = 1e9.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "delay 1e9 is not a number of seconds in [0, 60]"] },
+        Case { name: "model geometry not the robot's", file: File::Model(|m| edit_model(&m, |v| composed(v)["vehicle"]["baseline"] = 9.0.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "is not the robot's"] },
+        Case { name: "model duplicated key", file: File::Model(|m| m.replacen("\"format_version\": 2,", "\"format_version\": 2, \"format_version\": 1,", 1)),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json, line", "\"format_version\" appears twice"] },
+        Case { name: "commands from a device", file: File::None,
+            args: &["predict", "--model", "{model}", "--commands", "/dev/zero"], says: &["/dev/zero", "not a regular file"] },
+        Case { name: "model from a device", file: File::None,
+            args: &["predict", "--model", "/dev/zero", "--commands", "{commands}"], says: &["/dev/zero", "not a regular file"] },
         Case { name: "prediction beyond the model", file: File::None,
             args: &["predict", "--model", "{model}", "--commands", "{commands}", "--start-wheels", "1e308,1e308"], says: &["not a finite number from step"] },
     ]

@@ -142,7 +142,7 @@ fn bad_bags_fail_in_one_line_and_write_nothing() {
     .unwrap();
     let out = dir.path().join("out.csv");
     let bad = |source: &Path, extra: &[&str]| user_error(&import("--bag", source, &out, extra));
-    assert!(bad(&truncated, &[]).contains("a truncated or damaged file?"));
+    assert!(bad(&truncated, &[]).contains("a truncated or damaged file"));
     assert!(bad(&raw, &[]).contains("not an MCAP file"));
     assert!(bad(&empty_dir, &[]).contains("no .mcap file in the bag directory"));
     assert!(bad(&sqlite, &[]).contains("the bag's storage is sqlite3, only mcap is read"));
@@ -174,6 +174,58 @@ fn bad_bags_fail_in_one_line_and_write_nothing() {
     );
     assert!(!out.exists());
     assert_eq!(std::fs::read(bag.join("bag.mcap")).unwrap(), bytes);
+}
+
+#[test]
+fn damaged_and_crafted_bags_are_refused_before_anything_is_allocated_for_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, bag) = fixtures(dir.path());
+    let bytes = std::fs::read(bag.join("bag.mcap")).unwrap();
+    let out = dir.path().join("out.csv");
+    let write = |name: &str, b: &[u8]| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, b).unwrap();
+        p
+    };
+    // The first record's length (after the 8 magic bytes and its opcode) near u64::MAX and
+    // at 2^45: refused, nothing allocated for it.
+    for length in [u64::MAX - 8, 1u64 << 45] {
+        let mut crafted = bytes.clone();
+        crafted[9..17].copy_from_slice(&length.to_le_bytes());
+        let p = write("crafted.mcap", &crafted);
+        let err = user_error(&import("--bag", &p, &out, &[]));
+        assert!(err.contains("cannot read record 1"), "{err}");
+    }
+    // The fixture's chunks carry no CRC (0: rosbags writes none). Given the first chunk its
+    // CRC, the bag reads; a byte flipped inside the chunk's records is then refused.
+    let chunk = 8 + 9 + 26; // after the magic and the 26-byte header record
+    assert_eq!(bytes[chunk], 0x06, "the fixture's second record is a chunk");
+    let content = chunk + 9;
+    let compression = u32::from_le_bytes(bytes[content + 28..content + 32].try_into().unwrap());
+    assert_eq!(compression, 0, "an uncompressed chunk");
+    let records_len =
+        u64::from_le_bytes(bytes[content + 32..content + 40].try_into().unwrap()) as usize;
+    let records = content + 40..content + 40 + records_len;
+    let mut crc = flate2::Crc::new();
+    crc.update(&bytes[records.clone()]);
+    let mut with_crc = bytes.clone();
+    with_crc[content + 24..content + 28].copy_from_slice(&crc.sum().to_le_bytes());
+    let p = write("with_crc.mcap", &with_crc);
+    ok(&import("--bag", &p, &out, &[]));
+    std::fs::remove_file(&out).unwrap();
+    std::fs::remove_file(out.with_extension("json")).unwrap();
+    let mut flipped = with_crc;
+    flipped[records.start + records_len / 2] ^= 0x55;
+    let p = write("flipped.mcap", &flipped);
+    let err = user_error(&import("--bag", &p, &out, &[]));
+    assert!(
+        err.contains("damaged") && err.contains("Chunk CRC failed"),
+        "{err}"
+    );
+    // A leftover .mcap of another run beside the bag's own: metadata.yaml lists the files.
+    std::fs::write(bag.join("old_run.mcap"), b"not this run").unwrap();
+    ok(&import("--bag", &bag, &out, &[]));
+    assert!(out.exists());
 }
 
 /// A bag without an IMU imports as the raw log of the same run with a constant IMU: the

@@ -180,6 +180,57 @@ fn encoders_not_recorded_are_refused() {
 }
 
 #[test]
+fn a_robot_that_never_moved_and_encoders_in_another_unit_are_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    // Commanded at full speed; the encoders read +-1e-9 and localization its noise around
+    // one pose: the robot never moved.
+    let raw = raw_log(dir.path(), "still.csv", |f, col| {
+        // Alternating by the parity of the time's last digit.
+        let k = f[col("ros_time")]
+            .bytes()
+            .last()
+            .map_or(0, |b| usize::from(b % 2));
+        let noise = if k == 0 { "1e-9" } else { "-1e-9" };
+        f[col("meas_left_vel")] = noise.into();
+        f[col("meas_right_vel")] = noise.into();
+        f[col("icp_pos_x")] = format!("{}", 3.0 + 1e-4 * k as f64);
+        f[col("icp_pos_y")] = "-1.0".into();
+        f[col("icp_quat_z")] = "0".into();
+        f[col("icp_quat_w")] = "1".into();
+    });
+    let (code, json, err) = import(&raw, "husky", &dir.path().join("w.csv"), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    let found = checks(&json);
+    assert!(
+        found.contains(&("not-moving".into(), "fatal".into())),
+        "{json}"
+    );
+    assert!(
+        found.contains(&("encoders-stuck".into(), "fatal".into())),
+        "{json}"
+    );
+    // Encoders in thousandths of their unit: the distance they imply is 1/1000 of the one
+    // localization saw.
+    let milli = raw_log(dir.path(), "milli.csv", |f, col| {
+        for c in ["meas_left_vel", "meas_right_vel"] {
+            let v: f64 = f[col(c)].parse().unwrap();
+            f[col(c)] = format!("{}", v * 1e-3);
+        }
+    });
+    let (code, json, err) = import(&milli, "husky", &dir.path().join("m.csv"), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(
+        checks(&json),
+        vec![("encoder-units".into(), "warning".into())],
+        "{json}"
+    );
+    assert!(
+        json.contains("0.001x the distance localization saw"),
+        "{json}"
+    );
+}
+
+#[test]
 fn a_window_csv_of_another_robot_is_flagged() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("w.csv").display().to_string();

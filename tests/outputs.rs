@@ -57,6 +57,23 @@ fn fixtures(dir: &Path) {
         &at("model.json"),
     ]);
     std::fs::write(dir.join("sweep.toml"), "learners = [\"no-slip\"]\npowertrains = [\"commanded\"]\n\n[[datasets]]\nfile = \"data.csv\"\n").unwrap();
+    // A twin's terrain file, and one inside a matrix's output folder named like one of its
+    // outputs, read by a sweep's simulated part.
+    let twin = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/husky_twin.toml"),
+    )
+    .unwrap();
+    std::fs::write(dir.join("twin.toml"), &twin).unwrap();
+    std::fs::create_dir(dir.join("matrix-out")).unwrap();
+    std::fs::write(dir.join("matrix-out/matrix.json"), &twin).unwrap();
+    std::fs::write(
+        dir.join("twin-sweep.toml"),
+        format!(
+            "learners = [\"no-slip\"]\npowertrains = [\"commanded\"]\n\n[simulated]\nrobots = [\"husky\"]\nterrains = [\"{}\"]\nsamplers = [\"uniform\"]\ndurations = [60]\nseeds = [1]\ntest_duration = 60\n",
+            s(&dir.join("matrix-out/matrix.json"))
+        ),
+    )
+    .unwrap();
 }
 
 #[test]
@@ -182,6 +199,47 @@ fn an_output_that_would_replace_an_input_is_refused_before_anything_is_written()
             ],
             "--out",
         ),
+        // Issue 34: a terrain file is an input like every other.
+        (
+            vec![
+                "simulate".into(),
+                "--robot".into(),
+                "husky".into(),
+                "--terrain".into(),
+                at("twin.toml"),
+                "--duration".into(),
+                "40".into(),
+                "--out".into(),
+                at("twin.toml"),
+            ],
+            "the input --terrain",
+        ),
+        (
+            vec![
+                "simulate".into(),
+                "--robot".into(),
+                "husky".into(),
+                "--terrain".into(),
+                at("twin.toml"),
+                "--duration".into(),
+                "40".into(),
+                "--out".into(),
+                at("new.csv"),
+                "--raw-out".into(),
+                at("twin.toml"),
+            ],
+            "the input --terrain",
+        ),
+        (
+            vec![
+                "matrix".into(),
+                "--config".into(),
+                at("twin-sweep.toml"),
+                "--out".into(),
+                at("matrix-out"),
+            ],
+            "a terrain of --config",
+        ),
         (
             vec![
                 "matrix".into(),
@@ -225,14 +283,15 @@ fn an_output_that_would_replace_an_input_is_refused_before_anything_is_written()
     }
 }
 
-/// Runs `drive` with `args` under a file-size limit of a few kilobytes (SIGXFSZ ignored, so
-/// that a write beyond it fails with an error instead of killing the process).
+/// Runs `drive` with `args` under a file-size limit of a few kilobytes (with SIGXFSZ at its
+/// default, which kills the process: the program ignores it itself, so that a write beyond
+/// the limit fails with an error).
 fn drive_with_small_file_limit(args: &[&str]) -> std::process::Output {
     let quoted: Vec<String> = args.iter().map(|a| format!("'{a}'")).collect();
     Command::new("sh")
         .arg("-c")
         .arg(format!(
-            "trap '' XFSZ; ulimit -f 8 && exec '{}' {}",
+            "trap - XFSZ; ulimit -f 8 && exec '{}' {}",
             env!("CARGO_BIN_EXE_drive"),
             quoted.join(" ")
         ))

@@ -150,13 +150,20 @@ impl BagTopics {
     }
 }
 
-/// The files of a bag: the `.mcap` file itself, or the `.mcap` files of a rosbag2
-/// directory (with its `metadata.yaml`), in name order.
+/// The files of a bag: the `.mcap` file itself, or those of a rosbag2 directory: the files
+/// its `metadata.yaml` lists (`relative_file_paths`, in its order; a leftover `.mcap` of
+/// another run in the folder is not read), or, without a `metadata.yaml`, its `.mcap`
+/// files in name order.
 ///
 /// ```
 /// let dir = tempfile::tempdir().unwrap();
 /// std::fs::write(dir.path().join("run_0.mcap"), b"").unwrap();
-/// std::fs::write(dir.path().join("metadata.yaml"), "storage_identifier: mcap\n").unwrap();
+/// std::fs::write(dir.path().join("old_run.mcap"), b"").unwrap();
+/// std::fs::write(
+///     dir.path().join("metadata.yaml"),
+///     "rosbag2_bagfile_information:\n  storage_identifier: \"mcap\"\n  relative_file_paths:\n    - run_0.mcap\n",
+/// )
+/// .unwrap();
 /// assert_eq!(drive_data::bag_files(dir.path()).unwrap(), [dir.path().join("run_0.mcap")]);
 /// ```
 pub fn bag_files(path: &Path) -> Result<Vec<PathBuf>, DataError> {
@@ -166,18 +173,20 @@ pub fn bag_files(path: &Path) -> Result<Vec<PathBuf>, DataError> {
         return Ok(vec![path.to_path_buf()]);
     }
     let metadata = path.join("metadata.yaml");
-    if let Ok(text) = drive_traits::files::read_text(&metadata, 1 << 20) {
-        if let Some(storage) = text
-            .lines()
-            .find_map(|l| l.trim().strip_prefix("storage_identifier:"))
-            .map(str::trim)
-        {
-            if storage != "mcap" {
-                return err(DataErrorKind::Inconsistent(format!(
-                    "the bag's storage is {storage}, only mcap is read (ros2 bag convert can rewrite it as mcap)"
-                )));
+    if metadata.exists() {
+        let text = match drive_traits::files::read_text(&metadata, 1 << 20) {
+            Ok(t) => t,
+            Err(e) => {
+                return err(DataErrorKind::Io(format!("{}: {e}", metadata.display())));
             }
-        }
+        };
+        let listed = match bag_metadata(&text) {
+            Ok(l) => l,
+            Err(e) => {
+                return err(DataErrorKind::Inconsistent(format!("metadata.yaml: {e}")));
+            }
+        };
+        return Ok(listed.into_iter().map(|f| path.join(f)).collect());
     }
     let mut files: Vec<PathBuf> = match std::fs::read_dir(path) {
         Ok(entries) => entries
@@ -190,6 +199,65 @@ pub fn bag_files(path: &Path) -> Result<Vec<PathBuf>, DataError> {
     if files.is_empty() {
         return err(DataErrorKind::Inconsistent(
             "no .mcap file in the bag directory".into(),
+        ));
+    }
+    Ok(files)
+}
+
+/// The files a rosbag2 `metadata.yaml` lists (`relative_file_paths`, as a block list or
+/// inline `[a, b]`), after checking its `storage_identifier` is mcap. Only these two keys
+/// are read, each name plain or quoted; a name that leaves the bag's folder is refused.
+fn bag_metadata(text: &str) -> Result<Vec<String>, String> {
+    let unquote = |v: &str| v.trim().trim_matches(|c| c == '"' || c == '\'').to_string();
+    let lines: Vec<&str> = text.lines().collect();
+    let value_of = |key: &str| {
+        lines.iter().enumerate().find_map(|(i, l)| {
+            let t = l.trim_start();
+            t.strip_prefix(key)
+                .and_then(|rest| rest.strip_prefix(':'))
+                .map(|rest| (i, l.len() - t.len(), rest.trim().to_string()))
+        })
+    };
+    if let Some((_, _, storage)) = value_of("storage_identifier") {
+        let storage = unquote(&storage);
+        if storage != "mcap" {
+            return Err(format!(
+                "the bag's storage is {storage}, only mcap is read (ros2 bag convert can rewrite it as mcap)"
+            ));
+        }
+    }
+    let Some((at, indent, inline)) = value_of("relative_file_paths") else {
+        return Err("no relative_file_paths: which files make the bag is not said".into());
+    };
+    let files: Vec<String> = if let Some(list) = inline.strip_prefix('[') {
+        let list = list
+            .strip_suffix(']')
+            .ok_or("relative_file_paths: an inline list without its closing ]")?;
+        list.split(',')
+            .map(unquote)
+            .filter(|f| !f.is_empty())
+            .collect()
+    } else {
+        lines[at + 1..]
+            .iter()
+            .take_while(|l| {
+                let t = l.trim_start();
+                t.is_empty() || (t.starts_with('-') && l.len() - t.len() >= indent)
+            })
+            .filter_map(|l| l.trim_start().strip_prefix('-').map(unquote))
+            .filter(|f| !f.is_empty())
+            .collect()
+    };
+    if files.is_empty() {
+        return Err("relative_file_paths lists no file".into());
+    }
+    if let Some(f) = files.iter().find(|f| {
+        !Path::new(f)
+            .components()
+            .all(|c| matches!(c, std::path::Component::Normal(_)))
+    }) {
+        return Err(format!(
+            "the listed file {f:?} is not inside the bag's folder"
         ));
     }
     Ok(files)
@@ -345,6 +413,36 @@ fn decode(ty: &str, bytes: &[u8], joint: Option<&str>) -> Result<Value, String> 
     })
 }
 
+/// `value` when every number in it is finite and within the measurement bound the CSV
+/// readers keep (+-1e9; a quaternion's components within +-2).
+fn plausible(value: Value) -> Result<Value, String> {
+    use drive_traits::limits::{Short, MAX_ABS_MEASUREMENT};
+    let check = |what: &str, v: &[f64], bound: f64| -> Result<(), String> {
+        match v.iter().find(|x| !(x.is_finite() && x.abs() <= bound)) {
+            Some(x) => Err(format!(
+                "{what} {} is not a finite number within +-{}",
+                Short(*x),
+                Short(bound)
+            )),
+            None => Ok(()),
+        }
+    };
+    match &value {
+        Value::Pose(p, q) => {
+            check("a position", p, MAX_ABS_MEASUREMENT)?;
+            check("a quaternion component", q, 2.0)?;
+        }
+        Value::Number(v) => check("the value", &[*v], MAX_ABS_MEASUREMENT)?,
+        Value::Imu(w, a) => {
+            check("an angular velocity", w, MAX_ABS_MEASUREMENT)?;
+            check("an acceleration", a, MAX_ABS_MEASUREMENT)?;
+        }
+        Value::Twist(t) => check("a command", t, MAX_ABS_MEASUREMENT)?,
+        Value::Step(_) | Value::Bool(_) | Value::Text(_) => {}
+    }
+    Ok(value)
+}
+
 /// The index of the named joint in a JointState message.
 fn joint_index(names: &[String], joint: Option<&str>) -> Result<usize, String> {
     let Some(joint) = joint else {
@@ -358,69 +456,65 @@ fn joint_index(names: &[String], joint: Option<&str>) -> Result<usize, String> {
     })
 }
 
-/// The largest bag read (bytes): far beyond a DRIVE run (20 minutes at 20 Hz are a few MB).
-pub const MAX_BAG_BYTES: u64 = 4 << 30;
+/// What the messages of a bag's files give: every selected message, and what the bag holds.
+#[derive(Default)]
+struct Collected {
+    /// (log_time, entry, value) of every selected message.
+    messages: Vec<(u64, usize, Value)>,
+    /// topic -> (type, encoding) of every channel, for messages about what the bag holds.
+    seen: BTreeMap<String, (String, String)>,
+    /// Messages read, on every topic.
+    count: usize,
+}
 
-/// Reads a rosbag2 recording (a `.mcap` file or a bag directory) into the DRIVE logger's
-/// rows: one row per message on the `cmd` topic, every other topic's latest message held
-/// (see the module documentation). The rows' `line` is their line in the logger CSV they
-/// would make (header on line 1), so that [`crate::import_raw`]'s drop reasons point into
-/// [`crate::write_raw_log`]'s output of them. `imu_acceleration_x/y/z` are kept as extra
-/// columns, as the logger exports them.
-///
-/// Fails with the file and the reason on a file that is not MCAP or is truncated, a missing
-/// topic, a topic of another message type or encoding, or a message that does not decode.
-pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RawLog, DataError> {
-    let name = path.display().to_string();
-    let at = || Location::file(&name);
-    let fail = |kind| DataError::new(at(), kind);
-    let files = bag_files(path)?;
-    // (log_time, entry, value) of every selected message.
-    let mut messages: Vec<(u64, usize, Value)> = Vec::new();
-    // topic -> (type, encoding) of every channel, for messages about what the bag holds.
-    let mut seen: BTreeMap<String, (String, String)> = BTreeMap::new();
-    for file in &files {
-        // Messages name the file inside a bag directory (the bag itself is the location).
-        let fname = if file == path {
-            String::new()
-        } else {
-            format!("{}: ", file.display())
-        };
-        drive_traits::files::regular(file)
-            .map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?;
-        let size = std::fs::metadata(file)
-            .map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?
-            .len();
-        if size > MAX_BAG_BYTES {
-            return Err(fail(DataErrorKind::Implausible(format!(
-                "{fname}{size} bytes, more than the {MAX_BAG_BYTES} read"
-            ))));
-        }
-        let bytes =
-            std::fs::read(file).map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?;
-        if !bytes.starts_with(b"\x89MCAP") {
-            return Err(fail(DataErrorKind::Inconsistent(format!(
-                "{fname}not an MCAP file (rosbag2's sqlite3 .db3 files: ros2 bag convert them to MCAP first)"
-            ))));
-        }
-        let stream = mcap::MessageStream::new(&bytes).map_err(|e| {
-            fail(DataErrorKind::Inconsistent(format!(
-                "{fname}: not an MCAP file ({e})"
-            )))
-        })?;
+impl Collected {
+    /// Reads one MCAP stream (`fname`: its name in messages, empty for the bag itself):
+    /// streamed (the magic bytes are checked first; memory is bounded by the largest record),
+    /// every length checked against MAX_BAG_RECORD_BYTES before it is read, each chunk's CRC
+    /// and the data section's checked where the bag carries them.
+    fn read(
+        &mut self,
+        source: impl std::io::Read,
+        fname: &str,
+        topics: &BagTopics,
+        fail: &dyn Fn(DataErrorKind) -> DataError,
+    ) -> Result<(), DataError> {
+        let options = mcap::sans_io::LinearReaderOptions::default()
+            .with_record_length_limit(MAX_BAG_RECORD_BYTES)
+            .with_prevalidate_chunk_crcs(true)
+            .with_validate_data_section_crc(true);
+        let stream =
+            mcap::io::MessageReader::new_with_options(std::io::BufReader::new(source), options);
         for (n, message) in stream.enumerate() {
+            self.count += 1;
+            if self.count > MAX_BAG_MESSAGES {
+                return Err(fail(DataErrorKind::Implausible(format!(
+                    "{fname}more than {MAX_BAG_MESSAGES} messages (MAX_BAG_MESSAGES, on every topic): ros2 bag filter the DRIVE topics out first"
+                ))));
+            }
             let message = message.map_err(|e| {
-                fail(DataErrorKind::Inconsistent(format!(
-                    "{fname}cannot read record {} ({e}; a truncated or damaged file?)",
-                    n + 1
-                )))
+                let why = match &e {
+                    mcap::McapError::BadMagic => {
+                        "not an MCAP file (rosbag2's sqlite3 .db3 files: ros2 bag convert them to MCAP first)".to_string()
+                    }
+                    mcap::McapError::BadChunkCrc { .. } | mcap::McapError::BadDataCrc { .. } => {
+                        format!("damaged after its first {n} messages: {e}")
+                    }
+                    _ => format!(
+                        "cannot read record {} ({e}; a truncated or damaged file, or a record beyond the {} MB read?)",
+                        n + 1,
+                        MAX_BAG_RECORD_BYTES >> 20
+                    ),
+                };
+                fail(DataErrorKind::Inconsistent(format!("{fname}{why}")))
             })?;
             let channel = &message.channel;
             let ty = channel
                 .schema
                 .as_ref()
                 .map_or(String::new(), |s| s.name.clone());
-            seen.entry(channel.topic.clone())
+            self.seen
+                .entry(channel.topic.clone())
                 .or_insert_with(|| (ty.clone(), channel.message_encoding.clone()));
             for (i, (key, signal, topic, joint)) in topics.entries.iter().enumerate() {
                 if *topic != channel.topic {
@@ -453,16 +547,93 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RawLog, DataError> {
                         "topic {topic} ({key}) is a JointState: name its joint with --topic {key}={topic}:JOINT"
                     ))));
                 }
-                let value = decode(&ty, &message.data, joint.as_deref()).map_err(|e| {
-                    fail(DataErrorKind::Inconsistent(format!(
-                        "{fname}message {} on {topic} ({key}, {ty}): {e}",
-                        n + 1
-                    )))
-                })?;
-                messages.push((message.log_time, i, value));
+                let value = decode(&ty, &message.data, joint.as_deref())
+                    .and_then(plausible)
+                    .map_err(|e| {
+                        fail(DataErrorKind::Inconsistent(format!(
+                            "{fname}message {} on {topic} ({key}, {ty}): {e}",
+                            n + 1
+                        )))
+                    })?;
+                self.messages.push((message.log_time, i, value));
             }
         }
+        Ok(())
     }
+}
+
+/// The largest bag read (bytes): far beyond a DRIVE run (20 minutes at 20 Hz are a few MB).
+/// A bag is streamed, never held whole: its memory is bounded by
+/// [`MAX_BAG_RECORD_BYTES`] and [`MAX_BAG_MESSAGES`], not by its size.
+pub const MAX_BAG_BYTES: u64 = 4 << 30;
+
+/// The largest record of a bag (bytes), a chunk's compressed and its decompressed size
+/// included: a length beyond it (a corrupt or crafted file) is refused before anything is
+/// allocated for it.
+pub const MAX_BAG_RECORD_BYTES: usize = 256 << 20;
+
+/// The most messages a bag may hold, on every topic (a 20-minute DRIVE run with its IMU at
+/// 200 Hz holds a few hundred thousand).
+pub const MAX_BAG_MESSAGES: usize = 5_000_000;
+
+/// Reads a rosbag2 recording (a `.mcap` file or a bag directory) into the DRIVE logger's
+/// rows: one row per message on the `cmd` topic, every other topic's latest message held
+/// (see the module documentation). The rows' `line` is their line in the logger CSV they
+/// would make (header on line 1), so that [`crate::import_raw`]'s drop reasons point into
+/// [`crate::write_raw_log`]'s output of them. `imu_acceleration_x/y/z` are kept as extra
+/// columns, as the logger exports them.
+///
+/// Fails with the file and the reason on a file that is not MCAP or is truncated, a missing
+/// topic, a topic of another message type or encoding, or a message that does not decode.
+pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RawLog, DataError> {
+    let name = path.display().to_string();
+    let at = || Location::file(&name);
+    let fail = |kind| DataError::new(at(), kind);
+    let files = bag_files(path)?;
+    let mut collected = Collected::default();
+    for file in &files {
+        // Messages name the file inside a bag directory (the bag itself is the location).
+        let fname = if file == path {
+            String::new()
+        } else {
+            format!("{}: ", file.display())
+        };
+        drive_traits::files::regular(file)
+            .map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?;
+        let size = std::fs::metadata(file)
+            .map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?
+            .len();
+        if size > MAX_BAG_BYTES {
+            return Err(fail(DataErrorKind::Implausible(format!(
+                "{fname}{size} bytes, more than the {MAX_BAG_BYTES} read"
+            ))));
+        }
+        let opened = std::fs::File::open(file)
+            .map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?;
+        collected.read(opened, &fname, topics, &fail)?;
+    }
+    rows_of(collected, topics, &name, &fail)
+}
+
+/// A bag given as the bytes of one `.mcap` file (`name` in messages): [`read_bag`] without
+/// the files (for the fuzz target).
+pub fn read_bag_bytes(name: &str, bytes: &[u8], topics: &BagTopics) -> Result<RawLog, DataError> {
+    let fail = |kind| DataError::new(Location::file(name), kind);
+    let mut collected = Collected::default();
+    collected.read(bytes, "", topics, &fail)?;
+    rows_of(collected, topics, name, &fail)
+}
+
+/// The logger's rows of the collected messages (see [`read_bag`]).
+fn rows_of(
+    collected: Collected,
+    topics: &BagTopics,
+    name: &str,
+    fail: &dyn Fn(DataErrorKind) -> DataError,
+) -> Result<RawLog, DataError> {
+    let Collected {
+        mut messages, seen, ..
+    } = collected;
     for (key, signal, topic, _) in &topics.entries {
         // The operator's switch and the IMU may be absent: never pressed, and the yaw rate
         // from localization (the raw import's imu-constant fallback).
@@ -487,7 +658,7 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RawLog, DataError> {
                                                      // time otherwise keep their order in the file.
     messages.sort_by_key(|m| (m.0, m.1 == command));
     let mut log = RawLog {
-        file: name.clone(),
+        file: name.to_string(),
         rows: Vec::new(),
         extra_columns: [
             "imu_acceleration_x",
@@ -546,4 +717,58 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<RawLog, DataError> {
         ))));
     }
     Ok(log)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decoded_values_beyond_the_readers_bounds_are_refused() {
+        assert!(plausible(Value::Number(3.0)).is_ok());
+        assert!(plausible(Value::Pose([1.0, 2.0, 0.0], [0.0, 0.0, 0.0, 1.0])).is_ok());
+        let refused = [
+            (Value::Number(1e300), "the value 1e300"),
+            (Value::Twist([0.0, 1e15]), "a command 1e15"),
+            (
+                Value::Pose([1e12, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]),
+                "a position 1e12",
+            ),
+            (
+                Value::Pose([0.0; 3], [f64::NAN, 0.0, 0.0, 1.0]),
+                "a quaternion component NaN",
+            ),
+            (
+                Value::Imu([0.0, 0.0, 1e300], [0.0; 3]),
+                "an angular velocity",
+            ),
+        ];
+        for (v, says) in refused {
+            let e = plausible(v).unwrap_err();
+            assert!(e.contains(says) && e.contains("within +-"), "{e}");
+        }
+    }
+
+    #[test]
+    fn the_metadata_says_which_files_make_the_bag() {
+        let rosbag2 = "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: mcap\n  duration:\n    nanoseconds: 1\n  relative_file_paths:\n    - run_0.mcap\n    - \"run_1.mcap\"\n  files:\n    - path: run_0.mcap\n";
+        assert_eq!(bag_metadata(rosbag2).unwrap(), ["run_0.mcap", "run_1.mcap"]);
+        // Quoted storage, an inline list, items at the key's indentation.
+        let inline = "storage_identifier: \"mcap\"\nrelative_file_paths: [a.mcap, 'b.mcap']\n";
+        assert_eq!(bag_metadata(inline).unwrap(), ["a.mcap", "b.mcap"]);
+        let flush = "relative_file_paths:\n- a.mcap\nstarting_time: 0\n";
+        assert_eq!(bag_metadata(flush).unwrap(), ["a.mcap"]);
+        // Refused: another storage, no list, a file outside the folder.
+        let sqlite = "storage_identifier: sqlite3\nrelative_file_paths:\n  - a.db3\n";
+        assert!(bag_metadata(sqlite)
+            .unwrap_err()
+            .contains("storage is sqlite3"));
+        assert!(bag_metadata("storage_identifier: mcap\n")
+            .unwrap_err()
+            .contains("no relative_file_paths"));
+        let outside = "relative_file_paths:\n  - ../other/run.mcap\n";
+        assert!(bag_metadata(outside)
+            .unwrap_err()
+            .contains("not inside the bag's folder"));
+    }
 }

@@ -359,15 +359,18 @@ pub fn import_raw(
     let max_gap_ns = (config.max_gap_s * 1e9).max(2.0 * period_ns);
 
     // Steps in order of first appearance, with their rows (indices into `rows`).
+    // (A map from step to its place keeps this linear in the steps.)
     let mut steps: Vec<(u64, Vec<usize>)> = Vec::new();
+    let mut place: std::collections::HashMap<u64, usize> = std::collections::HashMap::new();
     for (i, r) in rows.iter().enumerate() {
         if r.calib_state != CalibState::Calib {
             continue;
         }
-        match steps.iter_mut().find(|(s, _)| *s == r.calib_step) {
-            Some((_, idx)) => idx.push(i),
-            None => steps.push((r.calib_step, vec![i])),
-        }
+        let at = *place.entry(r.calib_step).or_insert_with(|| {
+            steps.push((r.calib_step, Vec::new()));
+            steps.len() - 1
+        });
+        steps[at].1.push(i);
     }
 
     let mut report = ImportReport {

@@ -30,7 +30,10 @@ mod sidecar;
 pub mod suite;
 mod window_csv;
 
-pub use bag::{bag_files, read_bag, BagTopics, MAX_BAG_BYTES};
+pub use bag::{
+    bag_files, read_bag, read_bag_bytes, BagTopics, MAX_BAG_BYTES, MAX_BAG_MESSAGES,
+    MAX_BAG_RECORD_BYTES,
+};
 pub use error::{DataError, DataErrorKind, Location};
 pub use import::{import_raw, DropReason, ImportConfig, ImportReport, StepOutcome};
 pub use raw_log::{

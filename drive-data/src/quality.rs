@@ -31,8 +31,7 @@ pub enum Severity {
 /// One thing a check found.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Finding {
-    /// The check's key (`not-moving`, `imu-constant`, `encoders-zero`, `outside-limits`),
-    /// the name `--allow` takes.
+    /// The check's key (one of [`CHECKS`]), the name `--allow` takes.
     pub check: &'static str,
     /// How bad.
     pub severity: Severity,
@@ -41,7 +40,7 @@ pub struct Finding {
 }
 
 /// The checks, their keys and what they look for.
-pub const CHECKS: [(&str, &str); 4] = [
+pub const CHECKS: [(&str, &str); 6] = [
     (
         "not-moving",
         "localization still while the encoders turn (wheels off the ground, localization frozen)",
@@ -55,6 +54,14 @@ pub const CHECKS: [(&str, &str); 4] = [
         "encoders at zero under commands (encoders not recorded)",
     ),
     (
+        "encoders-stuck",
+        "encoders under a millionth of the largest command throughout commanded windows (stuck at their noise, not recorded)",
+    ),
+    (
+        "encoder-units",
+        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius)",
+    ),
+    (
         "outside-limits",
         "commands or encoder speeds beyond three times the robot description's limits (wrong robot file?)",
     ),
@@ -64,14 +71,7 @@ pub const CHECKS: [(&str, &str); 4] = [
 /// through the vehicle) and as localization saw it: (implied distance m, implied yaw rad,
 /// localized distance m, localized yaw rad (signed)), net over the window.
 fn motion(data: &Dataset, w: &Window) -> (f64, f64, f64, f64) {
-    let dt = data.robot.dt();
-    let (mut x, mut y, mut yaw) = (0.0f64, 0.0f64, 0.0f64);
-    for u in w.measured.iter().take(w.len().saturating_sub(1)) {
-        let v = data.robot.vehicle.body_velocity(u);
-        x += (v.x * yaw.cos() - v.y * yaw.sin()) * dt;
-        y += (v.x * yaw.sin() + v.y * yaw.cos()) * dt;
-        yaw += v.z * dt;
-    }
+    let (distance, yaw) = dead_reckoned(data, &w.measured, w.len());
     let (first, last) = (w.pose[0], w.pose[w.len() - 1]);
     let moved = ((last.x - first.x).powi(2) + (last.y - first.y).powi(2)).sqrt();
     // Unwrapped: a fast spin passes +-pi within a window.
@@ -83,7 +83,21 @@ fn motion(data: &Dataset, w: &Window) -> (f64, f64, f64, f64) {
             d.sin().atan2(d.cos())
         })
         .sum::<f64>();
-    ((x * x + y * y).sqrt(), yaw.abs(), moved, turned)
+    (distance, yaw, moved, turned)
+}
+
+/// The net distance and the absolute net yaw change that the first `len - 1` of `inputs`
+/// imply through the vehicle (eq. 4, dead-reckoned over the window).
+fn dead_reckoned(data: &Dataset, inputs: &[drive_traits::Input], len: usize) -> (f64, f64) {
+    let dt = data.robot.dt();
+    let (mut x, mut y, mut yaw) = (0.0f64, 0.0f64, 0.0f64);
+    for u in inputs.iter().take(len.saturating_sub(1)) {
+        let v = data.robot.vehicle.body_velocity(u);
+        x += (v.x * yaw.cos() - v.y * yaw.sin()) * dt;
+        y += (v.x * yaw.sin() + v.y * yaw.cos()) * dt;
+        yaw += v.z * dt;
+    }
+    ((x * x + y * y).sqrt(), yaw.abs())
 }
 
 /// Runs every check on `data`; `limits` is the robot description's input space when known
@@ -126,6 +140,46 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         {
             still += 1;
         }
+    }
+    // Windows where the commands (through the vehicle) ask for real motion but neither the
+    // encoders nor localization saw a tenth of it: a robot that never moved (e-stop, motors
+    // off) whose encoders and localization read only their noise.
+    let (mut asked, mut ignored) = (0usize, 0usize);
+    for (w, &(d, r, moved, turned)) in windows.iter().zip(&motions) {
+        let (cd, cr) = dead_reckoned(data, &w.command, w.len());
+        let significant: Vec<(f64, f64, f64)> = [(cd, d, moved), (cr, r, turned.abs())]
+            .into_iter()
+            .filter(|(c, _, _)| *c >= 0.2)
+            .collect();
+        if significant.is_empty() {
+            continue;
+        }
+        asked += 1;
+        if significant
+            .iter()
+            .all(|(c, enc, seen)| *enc < 0.1 * c && *seen < 0.1 * c)
+        {
+            ignored += 1;
+        }
+    }
+    if asked > 0 && ignored * 10 >= asked && still * 10 < driven.max(1) {
+        let fatal = ignored * 2 > asked;
+        out.push(Finding {
+            check: "not-moving",
+            severity: if fatal {
+                Severity::Fatal
+            } else {
+                Severity::Warning
+            },
+            message: format!(
+                "in {ignored} of {asked} windows whose commands ask for at least 0.2 m or 0.2 rad of motion, neither the encoders nor localization saw a tenth of it: {}",
+                if fatal {
+                    "the robot did not move (e-stop engaged, motors off?)"
+                } else {
+                    "stopped in those windows?"
+                }
+            ),
+        });
     }
     if driven > 0 && still * 10 >= driven {
         let fatal = still * 2 > driven;
@@ -201,6 +255,63 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
                 message: format!(
                     "the encoders read zero throughout {zero} of {} commanded windows: not recorded?",
                     commanded.len()
+                ),
+            });
+        }
+    }
+    // encoders-stuck: not exactly zero, but under a millionth of the largest command
+    // throughout commanded windows.
+    if largest > 0.0 {
+        let commanded: Vec<&&Window> = windows
+            .iter()
+            .filter(|w| {
+                w.command
+                    .iter()
+                    .any(|u| u.x.abs().max(u.y.abs()) >= 0.1 * largest)
+            })
+            .collect();
+        let tiny = |w: &Window| {
+            w.measured
+                .iter()
+                .all(|u| u.x.abs().max(u.y.abs()) <= 1e-6 * largest)
+                && w.measured.iter().any(|u| u.x != 0.0 || u.y != 0.0)
+        };
+        let stuck = commanded.iter().filter(|w| tiny(w)).count();
+        if stuck > 0 && stuck * 10 >= commanded.len() {
+            out.push(Finding {
+                check: "encoders-stuck",
+                severity: if stuck == commanded.len() {
+                    Severity::Fatal
+                } else {
+                    Severity::Warning
+                },
+                message: format!(
+                    "the encoders stay under a millionth of the largest command ({}) throughout {stuck} of {} commanded windows: stuck, or not recorded?",
+                    Short(1e-6 * largest),
+                    commanded.len()
+                ),
+            });
+        }
+    }
+    // encoder-units: over the windows where localization saw at least 0.2 m, the median ratio
+    // of the distance the encoders imply to the one localization saw (0.8-1.05 on the
+    // bundled runs, slip included).
+    let mut ratios: Vec<f64> = motions
+        .iter()
+        .filter(|m| m.2 >= 0.2)
+        .map(|m| m.0 / m.2)
+        .collect();
+    if ratios.len() >= 10 {
+        ratios.sort_by(f64::total_cmp);
+        let median = ratios[ratios.len() / 2];
+        if !(0.4..=2.5).contains(&median) {
+            out.push(Finding {
+                check: "encoder-units",
+                severity: Severity::Warning,
+                message: format!(
+                    "the encoders imply {}x the distance localization saw (median over {} windows): encoders in another unit, or the wrong wheel radius?",
+                    Short((median * 1000.0).round() / 1000.0),
+                    ratios.len()
                 ),
             });
         }

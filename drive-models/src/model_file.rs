@@ -13,6 +13,15 @@ use thiserror::Error;
 /// The format version this build writes.
 pub const MODEL_FORMAT_VERSION: u64 = 2;
 
+/// Largest model file read (bytes): a slip-ipem model is about 100 kB; a plug-in model that
+/// stores its training data (a kNN) some megabytes. Readers cap the file at this before
+/// parsing ([`drive_traits::files::read_text`]).
+pub const MAX_MODEL_FILE_BYTES: u64 = 64 << 20;
+
+/// Largest calibration scale a file may hold (a calibrated covariance over the model's
+/// own, whose variances are at least 1e-12; errors beyond 1e9 m are refused on reading).
+const MAX_CALIBRATION_SCALE: f64 = 1e30;
+
 const FORMAT_NAME: &str = "drive-motion-model";
 
 /// Why a model file could not be loaded.
@@ -87,11 +96,14 @@ pub fn model_from_json(
 ) -> Result<(Box<dyn MotionModel>, RobotDescription), ModelFileError> {
     // A byte-order mark (an editor's) is not part of the JSON.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut value: Value = serde_json::from_str(text).map_err(|e| ModelFileError::Parse {
+    let parse_error = |e: serde_json::Error| ModelFileError::Parse {
         file: file.into(),
         line: e.line(),
         message: e.to_string(),
-    })?;
+    };
+    // A key given twice would be read as its last value, silently: refused.
+    serde_json::from_str::<NoDuplicateKeys>(text).map_err(parse_error)?;
+    let mut value: Value = serde_json::from_str(text).map_err(parse_error)?;
     let obj = value.as_object_mut().ok_or_else(|| ModelFileError::Parse {
         file: file.into(),
         line: 1,
@@ -133,8 +145,24 @@ pub fn model_from_json(
         field: "model",
     })?;
     // A model that carries its vehicle must carry the robot's: the command columns come
-    // from the one, the physics from the other.
-    if let Some(vehicle) = model.get("vehicle") {
+    // from the one, the physics from the other. A wrapper (the calibrated model) holds the
+    // model it wraps under "model".
+    let mut inner = &model;
+    while inner.get("vehicle").is_none() {
+        match inner.get("model") {
+            Some(m) => inner = m,
+            None => break,
+        }
+    }
+    if let Some(calibration) = model.get("calibration") {
+        check_calibration(calibration, robot.window_len).map_err(|message| {
+            ModelFileError::Model {
+                file: file.into(),
+                message,
+            }
+        })?;
+    }
+    if let Some(vehicle) = inner.get("vehicle") {
         // Both as written by the vehicle's own type (so that 1 and 1.0 are the same).
         let saved = |v: &dyn drive_traits::CommandModel| serde_json::to_value(v).ok();
         let theirs = serde_json::from_value::<Box<dyn drive_traits::CommandModel>>(vehicle.clone())
@@ -172,6 +200,87 @@ pub fn model_from_json(
         });
     }
     Ok((model, robot))
+}
+
+/// The calibration of a calibrated model file against its robot: as many per-step scales
+/// as the robot's window has samples (what a fit writes), each within
+/// [1 / MAX_CALIBRATION_SCALE, MAX_CALIBRATION_SCALE].
+fn check_calibration(calibration: &Value, window_len: usize) -> Result<(), String> {
+    for key in ["position_scale", "yaw_scale"] {
+        let Some(scales) = calibration.get(key).and_then(Value::as_array) else {
+            continue;
+        };
+        if scales.len() != window_len {
+            return Err(format!(
+                "calibration {key}: {} scales for a robot whose windows have {window_len} samples",
+                scales.len()
+            ));
+        }
+        if let Some(v) = scales.iter().find(|v| {
+            !v.as_f64()
+                .is_some_and(|v| (1.0 / MAX_CALIBRATION_SCALE..=MAX_CALIBRATION_SCALE).contains(&v))
+        }) {
+            return Err(format!(
+                "calibration {key}: the scale {v} is not a number in [1e-30, 1e30]"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Any JSON value, refused where an object names a key twice (`serde_json::Value` keeps
+/// the last silently).
+struct NoDuplicateKeys;
+
+impl<'de> serde::Deserialize<'de> for NoDuplicateKeys {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(NoDuplicateKeysVisitor)
+    }
+}
+
+struct NoDuplicateKeysVisitor;
+
+impl<'de> serde::de::Visitor<'de> for NoDuplicateKeysVisitor {
+    type Value = NoDuplicateKeys;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a JSON value")
+    }
+    fn visit_bool<E>(self, _: bool) -> Result<Self::Value, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_i64<E>(self, _: i64) -> Result<Self::Value, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_u64<E>(self, _: u64) -> Result<Self::Value, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_f64<E>(self, _: f64) -> Result<Self::Value, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_str<E>(self, _: &str) -> Result<Self::Value, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_unit<E>(self) -> Result<Self::Value, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+        while seq.next_element::<NoDuplicateKeys>()?.is_some() {}
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+        let mut seen = std::collections::HashSet::new();
+        while let Some(key) = map.next_key::<String>()? {
+            if seen.contains(&key) {
+                return Err(serde::de::Error::custom(format!(
+                    "the key \"{key}\" appears twice in one object"
+                )));
+            }
+            map.next_value::<NoDuplicateKeys>()?;
+            seen.insert(key);
+        }
+        Ok(NoDuplicateKeys)
+    }
 }
 
 /// Rewrites a version 1 file (in place) as version 2: the robot's wheel radius and baseline

@@ -673,7 +673,9 @@ fn load_model(path: &Bound<'_, PyAny>) -> PyResult<Model> {
     let path = path_of("path", path)?;
     let name = path.display().to_string();
     // The command line's words (drive predict --model).
-    let text = std::fs::read_to_string(&path).map_err(|e| err(format!("reading {name}: {e}")))?;
+    let text =
+        drive::traits::files::read_text(&path, drive::models::model_file::MAX_MODEL_FILE_BYTES)
+            .map_err(|e| err(format!("reading {name}: {e}")))?;
     let (model, robot) = model_from_json(&name, &text).map_err(err)?;
     Ok(Model { model, robot })
 }

@@ -132,6 +132,16 @@ pub fn robot_input(name_or_path: &str) -> Vec<(&'static str, PathBuf)> {
         .collect()
 }
 
+/// The terrain file a `--terrain` argument (or a sweep's terrain) reads, if it names one: a
+/// `.toml` name or an existing file (see `Terrain::load`), as the input `what`.
+pub fn terrain_input(what: &'static str, name_or_path: &str) -> Vec<(&'static str, PathBuf)> {
+    let path = Path::new(name_or_path);
+    (name_or_path.ends_with(".toml") || path.is_file())
+        .then(|| (what, path.to_path_buf()))
+        .into_iter()
+        .collect()
+}
+
 /// The robot of the dataset `args` names, for its body (the terrain's unpredictability):
 /// `explicit` (`--robot`) when given, the robot a bundled dataset was recorded with, else
 /// the registered robot recognised in the sidecar's robot text.

@@ -51,7 +51,21 @@ pub fn run_with(
     let text = std::fs::read_to_string(config).with_context(|| format!("reading {name}"))?;
     let sweep = SweepFile::parse(&name, &text)?;
     let base = config.parent().unwrap_or(Path::new("."));
-    let read = Mutex::new(vec![("--config", config.to_path_buf())]);
+    let mut inputs = vec![("--config", config.to_path_buf())];
+    // The robot and terrain files the simulated part reads (named as on the command line).
+    if let Some(sim) = &sweep.simulated {
+        for r in &sim.robots {
+            inputs.extend(
+                super::common::robot_input(r)
+                    .into_iter()
+                    .map(|(_, p)| ("a robot of --config", p)),
+            );
+        }
+        for t in &sim.terrains {
+            inputs.extend(super::common::terrain_input("a terrain of --config", t));
+        }
+    }
+    let read = Mutex::new(inputs);
     let plan = sweep.plan(registries, &|s| {
         if let Some(file) = &s.file {
             let csv = base.join(file);

@@ -120,7 +120,20 @@ enum Command {
 /// the registered parts, runs the command. An error is one line on stderr and exit code 1;
 /// an argument error exit code 2.
 pub fn main(registries: Registries) -> ExitCode {
+    ignore_file_size_signal();
     run(std::env::args_os(), &registries)
+}
+
+/// A write beyond the file-size limit (`ulimit -f`) raises SIGXFSZ, which kills the process
+/// by default (exit 153, no message, staged temporaries left behind). Ignored, the write
+/// fails with EFBIG instead: reported as an error, the temporaries removed.
+fn ignore_file_size_signal() {
+    #[cfg(unix)]
+    // SAFETY: setting a standard signal's disposition to SIG_IGN, before any thread starts;
+    // no handler runs.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
 }
 
 /// Runs the command line on `args` (the program name first) with `registries`.

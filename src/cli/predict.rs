@@ -14,7 +14,8 @@ pub struct Args {
     #[arg(long)]
     model: PathBuf,
     /// CSV with columns t and the vehicle's command columns (cmd_left,cmd_right for a
-    /// differential drive), at the model's command rate.
+    /// differential drive), at the model's command rate; at most 1,000,000 commands, lines
+    /// of at most 4096 bytes.
     #[arg(long)]
     commands: PathBuf,
     /// Start pose x,y,yaw (m, m, rad) (default: origin).
@@ -37,20 +38,50 @@ pub struct Args {
     start_velocity: Option<[f64; 2]>,
 }
 
+/// Longest line of a command file (bytes): a line is three numbers.
+const MAX_COMMAND_LINE_BYTES: u64 = 4096;
+
+/// Most commands of one prediction (`--commands`): about 14 hours at 20 Hz.
+const MAX_COMMANDS: usize = 1_000_000;
+
 /// Reads a command file with the header `t,<columns>` sampled at period `dt`.
 fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>> {
     use std::io::BufRead as _;
+    use std::io::Read as _;
     let name = path.display().to_string();
+    crate::traits::files::regular(path).with_context(|| format!("reading {name}"))?;
     let file = std::fs::File::open(path).with_context(|| format!("reading {name}"))?;
-    // Line by line: the file is never held whole.
-    let mut lines = std::io::BufReader::new(file)
-        .lines()
-        .enumerate()
-        .map(|(i, l)| {
-            l.map(|l| (i, l))
-                .map_err(|e| anyhow::anyhow!("{name}, line {}: cannot read: {e}", i + 1))
-        })
-        .filter(|l| l.as_ref().map_or(true, |(_, l)| !l.trim().is_empty()));
+    // Line by line (the file is never held whole), each line capped.
+    let mut reader = std::io::BufReader::new(file);
+    let mut number = 0;
+    let mut failed = false;
+    let mut lines = std::iter::from_fn(|| {
+        if failed {
+            return None;
+        }
+        let mut line = String::new();
+        let read = (&mut reader)
+            .take(MAX_COMMAND_LINE_BYTES + 1)
+            .read_line(&mut line);
+        let i = number;
+        number += 1;
+        match read {
+            Ok(0) => None,
+            Ok(n) if n as u64 > MAX_COMMAND_LINE_BYTES => {
+                failed = true;
+                Some(Err(anyhow::anyhow!(
+                    "{name}, line {}: longer than {MAX_COMMAND_LINE_BYTES} bytes: not a command file",
+                    i + 1
+                )))
+            }
+            Ok(_) => Some(Ok((i, line.trim_end_matches(['\n', '\r']).to_string()))),
+            Err(e) => {
+                failed = true;
+                Some(Err(anyhow::anyhow!("{name}, line {}: cannot read: {e}", i + 1)))
+            }
+        }
+    })
+    .filter(|l| l.as_ref().map_or(true, |(_, l)| !l.trim().is_empty()));
     let Some(first) = lines.next() else {
         bail!("{name}: the file is empty")
     };
@@ -107,6 +138,12 @@ fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>>
                 Short(expected)
             );
         }
+        if out.len() == MAX_COMMANDS {
+            bail!(
+                "{name}, line {}: more than {MAX_COMMANDS} commands (the limit of one prediction)",
+                i + 1
+            );
+        }
         out.push(Input::new(v[1], v[2]));
     }
     if out.is_empty() {
@@ -117,7 +154,11 @@ fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>>
 
 pub fn run(args: &Args) -> Result<()> {
     let name = args.model.display().to_string();
-    let text = std::fs::read_to_string(&args.model).with_context(|| format!("reading {name}"))?;
+    let text = crate::traits::files::read_text(
+        &args.model,
+        crate::models::model_file::MAX_MODEL_FILE_BYTES,
+    )
+    .with_context(|| format!("reading {name}"))?;
     let (model, robot) = model_from_json(&name, &text)?;
     let [a, b] = robot.vehicle.axes();
     let cmds = read_commands(

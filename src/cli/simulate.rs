@@ -51,8 +51,9 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if let Some(raw) = &args.raw_out {
         planned.push(("--raw-out", raw));
     }
-    let mut outputs =
-        super::common::outputs_for(&super::common::robot_input(&args.robot), &planned)?;
+    let mut inputs = super::common::robot_input(&args.robot);
+    inputs.extend(super::common::terrain_input("--terrain", &args.terrain));
+    let mut outputs = super::common::outputs_for(&inputs, &planned)?;
     super::common::check_max_samples(args.max_samples)?;
     let spec = registries.robot(&args.robot)?;
     let ground = registries.terrain(&args.terrain)?;

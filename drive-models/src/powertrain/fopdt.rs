@@ -18,6 +18,14 @@ use drive_traits::{
 };
 use serde::{Deserialize, Serialize};
 
+/// Longest time constant a powertrain file may hold (s): an hour, beyond any wheel's
+/// response (the fit's own ceiling, [`Fopdt::max_time_constant`], is at most this).
+pub const MAX_TIME_CONSTANT_S: f64 = 3600.0;
+
+/// Longest dead time a powertrain file may hold (s): a minute, far beyond any drive's
+/// (the fit searches up to one window).
+pub const MAX_DEAD_TIME_S: f64 = 60.0;
+
 /// The response of one input axis (one side of a skid-steer): time constant and dead time.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SideResponse {
@@ -169,15 +177,18 @@ impl Powertrain for FopdtPowertrain {
 
     fn check(&self) -> Result<(), String> {
         for (i, r) in self.axes.iter().enumerate() {
-            if !(r.time_constant.is_finite() && r.time_constant > 0.0) {
+            if !(r.time_constant.is_finite()
+                && r.time_constant > 0.0
+                && r.time_constant <= MAX_TIME_CONSTANT_S)
+            {
                 return Err(format!(
-                    "powertrain axis {i} time constant {} is not a positive number of seconds",
+                    "powertrain axis {i} time constant {} is not a positive number of seconds up to {MAX_TIME_CONSTANT_S}",
                     drive_traits::limits::Short(r.time_constant)
                 ));
             }
-            if !(r.delay.is_finite() && r.delay >= 0.0) {
+            if !(r.delay.is_finite() && r.delay >= 0.0 && r.delay <= MAX_DEAD_TIME_S) {
                 return Err(format!(
-                    "powertrain axis {i} delay {} is not a non-negative number of seconds",
+                    "powertrain axis {i} delay {} is not a number of seconds in [0, {MAX_DEAD_TIME_S}]",
                     drive_traits::limits::Short(r.delay)
                 ));
             }
@@ -321,11 +332,14 @@ impl CostFunction for SideFit {
 
 impl Fopdt {
     pub(crate) fn validate(&self) -> Result<(), FitError> {
-        if !(self.max_time_constant.is_finite() && self.max_time_constant > 0.0) {
+        if !(self.max_time_constant.is_finite()
+            && self.max_time_constant > 0.0
+            && self.max_time_constant <= MAX_TIME_CONSTANT_S)
+        {
             return Err(FitError::InvalidHyperparameter {
                 name: "max_time_constant",
                 value: self.max_time_constant,
-                expected: "a positive number of seconds",
+                expected: "a positive number of seconds up to 3600",
             });
         }
         if !(self.max_delay_fraction.is_finite() && (0.0..=1.0).contains(&self.max_delay_fraction))
@@ -375,7 +389,7 @@ impl Fopdt {
             // Below the longest time constant even for a command period of minutes.
             min_tc: (dt / 20.0).min(0.5 * self.max_time_constant),
             max_tc: self.max_time_constant,
-            max_delay: self.max_delay_fraction * duration,
+            max_delay: (self.max_delay_fraction * duration).min(MAX_DEAD_TIME_S),
             samples: samples as f64,
         };
         // Coarse grid seed: time constants geometric from dt/2 to the maximum, delays every

@@ -1807,6 +1807,18 @@ impl SlipModel for SlipIpemModel {
                 }
             }
         }
+        // Positive semi-definite: no direction of the weights with a negative variance.
+        if size > 0 {
+            let eigen = DMatrix::from_row_slice(size, size, &self.weight_covariance)
+                .symmetric_eigenvalues();
+            let top = eigen.amax().max(f64::MIN_POSITIVE);
+            if let Some(l) = eigen.iter().find(|l| **l < -1e-9 * top) {
+                return Err(format!(
+                    "slip-ipem: the weight covariance has the eigenvalue {}: not positive semi-definite",
+                    Short(*l)
+                ));
+            }
+        }
         if let Some(v) = self.bias_variance.iter().find(|v| !variance(**v)) {
             return Err(format!(
                 "slip-ipem: bias variance {} is not a number in [0, {}]",
@@ -2157,6 +2169,28 @@ mod tests {
         assert!(
             err.to_string()
                 .contains("the slip model's step 0.1 s is not the model's 0.05 s"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_symmetric_weight_covariance_with_a_negative_eigenvalue_is_refused() {
+        let (robot, train) = windows(30, 9);
+        let model = Composed::new(Commanded, SlipIpem::default())
+            .fit(&WindowSet::new(&robot, &train))
+            .unwrap();
+        let text = crate::model_file::model_to_json(&model, &robot).unwrap();
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let c = v.pointer_mut("/model/slip/weight_covariance").unwrap();
+        let n = (c.as_array().unwrap().len() as f64).sqrt() as usize;
+        // [[a, b], [b, d]] with b^2 > a d: symmetric, every variance valid, yet indefinite.
+        let (a, d) = (c[0].as_f64().unwrap(), c[n + 1].as_f64().unwrap());
+        let b = 2.0 * (a * d).sqrt() + 1.0;
+        c[1] = serde_json::json!(b);
+        c[n] = serde_json::json!(b);
+        let err = crate::model_file::model_from_json("m.json", &v.to_string()).unwrap_err();
+        assert!(
+            err.to_string().contains("not positive semi-definite"),
             "{err}"
         );
     }
