@@ -230,6 +230,8 @@ fn cases() -> Vec<Case> {
             args: &["predict", "--model", "{model}", "--commands", "/dev/zero"], says: &["/dev/zero", "not a regular file"] },
         Case { name: "model from a device", file: File::None,
             args: &["predict", "--model", "/dev/zero", "--commands", "{commands}"], says: &["/dev/zero", "not a regular file"] },
+        Case { name: "sweep from a device", file: File::None,
+            args: &["matrix", "--config", "/dev/zero", "--out", "{out}"], says: &["/dev/zero", "not a regular file"] },
         Case { name: "prediction beyond the model", file: File::None,
             args: &["predict", "--model", "{model}", "--commands", "{commands}", "--start-wheels", "1e308,1e308"], says: &["not a finite number from step"] },
     ]

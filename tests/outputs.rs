@@ -522,3 +522,53 @@ fn standard_streams_and_pipes_are_written_into_not_replaced() {
         assert!(!dir.path().join("pipe.json").exists());
     }
 }
+
+/// Issue 35: `drive eval --data run.csv --json > run.json` (the shell empties the sidecar
+/// before drive starts) says what happened, rather than that the sidecar is empty.
+#[cfg(unix)]
+#[test]
+fn a_redirect_onto_an_input_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    fixtures(dir.path());
+    let at = |n: &str| s(&dir.path().join(n));
+    for (command, target, says) in [
+        (
+            format!("eval --data '{}' --json", at("data.csv")),
+            at("data.json"),
+            "the input sidecar of --data",
+        ),
+        (
+            format!("check --data '{}' --json", at("data.csv")),
+            at("data.csv"),
+            "the input --data",
+        ),
+        (
+            format!(
+                "predict --model '{}' --commands '{}'",
+                at("model.json"),
+                at("model.json")
+            ),
+            at("model.json"),
+            "the input --model",
+        ),
+    ] {
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "exec '{}' {command} > '{target}'",
+                env!("CARGO_BIN_EXE_drive")
+            ))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{command}: {err}");
+        assert!(
+            err.contains("the standard output is") && err.contains(says),
+            "{command}: {err}"
+        );
+        assert!(
+            err.contains("the shell emptied it before drive started"),
+            "{err}"
+        );
+    }
+}

@@ -282,6 +282,16 @@ fn degenerate_data_is_refused_with_its_reason() {
         .retain(|w| w.phase == Phase::Transient);
     let err = sim_fit(&transient_only, &husky(), "twin").unwrap_err();
     assert!(err.to_string().contains("steady windows"), "{err}");
+    // Positions in millimetres: refused by the data check, before any fit runs.
+    let mut millimetres = run(&generator(), 30, 1);
+    for w in &mut millimetres.windows {
+        for p in &mut w.pose {
+            p.x *= 1000.0;
+            p.y *= 1000.0;
+        }
+    }
+    let err = sim_fit(&millimetres, &husky(), "twin").unwrap_err();
+    assert!(err.to_string().contains("(encoder-units)"), "{err}");
 }
 
 #[test]

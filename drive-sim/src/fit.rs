@@ -868,10 +868,12 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
             });
         }
     }
-    // Data a twin cannot come from: the quality checks' fatal findings.
+    // Data a twin cannot come from: the quality checks' fatal findings, and encoders and
+    // localization in different units (positions in millimetres: the fit would run minutes
+    // before finding that the speeds do not follow the wheels).
     if let Some(f) = drive_data::quality::check(data, None)
         .into_iter()
-        .find(|f| f.severity == drive_data::quality::Severity::Fatal)
+        .find(|f| f.severity == drive_data::quality::Severity::Fatal || f.check == "encoder-units")
     {
         return Err(SimFitError::Unfit(format!("{} ({})", f.message, f.check)));
     }

@@ -44,6 +44,7 @@ pub fn stopping<'a>(findings: &'a [Finding], allow: &[String]) -> Option<&'a Fin
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     known_checks(&args.allow)?;
+    super::common::stdout_not_an_input(&args.data.inputs())?;
     let data = load(&args.data)?;
     let robot = match &args.robot {
         Some(r) => Some(registries.robot(r)?),

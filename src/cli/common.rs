@@ -176,6 +176,36 @@ pub fn check_max_samples(max_samples: usize) -> Result<()> {
     Ok(())
 }
 
+/// `Err` when the standard output is one of `inputs` (`drive eval --data run.csv --json >
+/// run.json`): the shell emptied that file before the command started, and its reader would
+/// only say it is empty. Compared by device and inode, so a link or another path to the
+/// same file counts.
+pub fn stdout_not_an_input(inputs: &[(&'static str, PathBuf)]) -> Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        let Ok(out) = std::fs::metadata("/dev/stdout") else {
+            return Ok(());
+        };
+        if !out.is_file() {
+            return Ok(());
+        }
+        for (role, path) in inputs {
+            let same =
+                std::fs::metadata(path).is_ok_and(|m| m.dev() == out.dev() && m.ino() == out.ino());
+            if same {
+                anyhow::bail!(
+                    "the standard output is {}, the input {role}: the shell emptied it before drive started (its content is gone: restore it, or re-create it with the command that wrote it); redirect the output to another file",
+                    path.display()
+                );
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = inputs;
+    Ok(())
+}
+
 /// Staged outputs of a command that reads `inputs`, checked up front against `planned`
 /// (flag, path): an output never replaces an input or another output, and the files
 /// appear together when the command succeeds (see `drive_data::output`).
@@ -183,6 +213,7 @@ pub fn outputs_for(
     inputs: &[(&'static str, PathBuf)],
     planned: &[(&str, &Path)],
 ) -> Result<Outputs> {
+    stdout_not_an_input(inputs)?;
     let inputs: Vec<(&str, &Path)> = inputs.iter().map(|(r, p)| (*r, p.as_path())).collect();
     let outputs = Outputs::new(&inputs);
     outputs.check(planned)?;

@@ -48,7 +48,9 @@ pub fn run_with(
     registries: &Registries,
 ) -> Result<MatrixResult> {
     let name = config.display().to_string();
-    let text = std::fs::read_to_string(config).with_context(|| format!("reading {name}"))?;
+    // A sweep file is a page of TOML: a regular file of at most 1 MB.
+    let text = crate::traits::files::read_text(config, 1 << 20)
+        .with_context(|| format!("reading {name}"))?;
     let sweep = SweepFile::parse(&name, &text)?;
     let base = config.parent().unwrap_or(Path::new("."));
     let mut inputs = vec![("--config", config.to_path_buf())];

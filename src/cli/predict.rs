@@ -153,6 +153,10 @@ fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>>
 }
 
 pub fn run(args: &Args) -> Result<()> {
+    super::common::stdout_not_an_input(&[
+        ("--model", args.model.clone()),
+        ("--commands", args.commands.clone()),
+    ])?;
     let name = args.model.display().to_string();
     let text = crate::traits::files::read_text(
         &args.model,
