@@ -1009,3 +1009,34 @@ fn eval_all_scores_every_combination_and_names_combine_in_every_command() {
     let err = user_error(&["eval", "--models", "naive+fopdt"]);
     assert!(err.contains("names a whole model"), "{err}");
 }
+
+#[test]
+fn a_model_trained_on_too_few_intervals_to_calibrate_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.json");
+    let train = |split: &str, uncertainty: &str| {
+        let o = drive(&[
+            "train",
+            "--model",
+            "slip-blr",
+            "--split",
+            split,
+            "--uncertainty",
+            uncertainty,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success());
+        String::from_utf8(o.stderr).unwrap()
+    };
+    // One training interval: no block to hold out.
+    let err = train("0.005", "calibrated");
+    assert!(
+        err.contains("note: slip-blr's uncertainty is not calibrated")
+            && err.contains("span 1 interval(s)"),
+        "{err}"
+    );
+    // Calibrated when it can be, and the paper's uncertainty is asked for as such.
+    assert!(!train("0.5", "calibrated").contains("not calibrated"));
+    assert!(!train("0.005", "paper").contains("not calibrated"));
+}

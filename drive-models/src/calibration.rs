@@ -56,7 +56,7 @@ use drive_traits::{
 use serde::{Deserialize, Serialize};
 
 use crate::difficulty::{
-    fit_step, log_sizes, motion_features, Features, Row, StepDifficulty, FEATURES,
+    fit_step, log_sizes, motion_features, FeatureWalk, Features, Row, StepDifficulty, FEATURES,
 };
 
 /// The chi-square quantile of 2 degrees of freedom at `level`: `-2 ln(1 - level)`.
@@ -935,12 +935,13 @@ impl MotionModel for CalibratedModel {
     ) -> Result<(), MotionError> {
         self.model
             .predict_with_covariance_into(start, commands, poses, covariances)?;
-        let mut features = Vec::new();
-        if self.calibration.has_difficulty() {
-            motion_features(start, poses, self.model.dt(), &mut features);
-        }
+        // The difficulty's features walked along the prediction (no buffer per call).
+        let mut walk = FeatureWalk::new(start, self.model.dt());
         for (k, c) in covariances.iter_mut().enumerate() {
-            let x = features.get(k).copied().unwrap_or([0.0; FEATURES]);
+            let x = match (k, poses.get(k)) {
+                (1.., Some(p)) if self.calibration.has_difficulty() => walk.step(&poses[k - 1], p),
+                _ => [0.0; FEATURES],
+            };
             let yaw = poses.get(k).map_or(start.pose.z, |p| p.z);
             *c = self.calibration.apply(k, c, &x, yaw);
         }

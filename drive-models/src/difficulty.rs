@@ -65,23 +65,66 @@ const RIDGE: f64 = 1.0;
 pub fn motion_features(start: &StartState, poses: &[Pose], dt: f64, out: &mut Vec<Features>) {
     out.clear();
     out.resize(poses.len(), [0.0; FEATURES]);
-    let v0 = start.body_velocity;
-    let start_speed = v0.x.hypot(v0.y);
-    let (mut path, mut turn) = (0.0, 0.0);
+    let mut walk = FeatureWalk::new(start, dt);
     for k in 1..poses.len() {
-        let (a, b) = (&poses[k - 1], &poses[k]);
-        path += (b.x - a.x).hypot(b.y - a.y);
-        turn += wrap_angle(b.z - a.z);
-        let t = k as f64 * dt;
-        let (s, rate) = (path / t, turn / t);
-        out[k] = [
+        out[k] = walk.step(&poses[k - 1], &poses[k]);
+    }
+}
+
+/// [`motion_features`] one step at a time, without a buffer: `step` is given the poses
+/// `k - 1` and `k` for `k = 1, 2, ...` in turn and returns the features at `k`.
+///
+/// ```
+/// use drive_models::difficulty::{motion_features, FeatureWalk};
+/// use drive_traits::{Pose, StartState};
+/// let poses: Vec<Pose> = (0..5).map(|k| Pose::new(0.1 * k as f64, 0.0, 0.05 * k as f64)).collect();
+/// let start = StartState::at_rest(Pose::zeros());
+/// let mut all = Vec::new();
+/// motion_features(&start, &poses, 0.1, &mut all);
+/// let mut walk = FeatureWalk::new(&start, 0.1);
+/// for k in 1..poses.len() {
+///     assert_eq!(walk.step(&poses[k - 1], &poses[k]), all[k]);
+/// }
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct FeatureWalk {
+    start_speed: f64,
+    start_rate: f64,
+    dt: f64,
+    k: usize,
+    path: f64,
+    turn: f64,
+}
+
+impl FeatureWalk {
+    /// A walk from `start` at sample period `dt`, before step 1.
+    pub fn new(start: &StartState, dt: f64) -> Self {
+        let v0 = start.body_velocity;
+        FeatureWalk {
+            start_speed: v0.x.hypot(v0.y),
+            start_rate: v0.z,
+            dt,
+            k: 0,
+            path: 0.0,
+            turn: 0.0,
+        }
+    }
+
+    /// The features at the next step, whose pose is `b` after `a`.
+    pub fn step(&mut self, a: &Pose, b: &Pose) -> Features {
+        self.k += 1;
+        self.path += (b.x - a.x).hypot(b.y - a.y);
+        self.turn += wrap_angle(b.z - a.z);
+        let t = self.k as f64 * self.dt;
+        let (s, rate) = (self.path / t, self.turn / t);
+        [
             1.0,
             s,
             rate.abs(),
-            (s - start_speed).abs(),
-            (rate - v0.z).abs(),
+            (s - self.start_speed).abs(),
+            (rate - self.start_rate).abs(),
             0.0,
-        ];
+        ]
     }
 }
 
@@ -172,11 +215,14 @@ pub(crate) struct Row {
 /// Least squares of `ln score` on the features of `rows` (excluding the fold `skip`),
 /// with a ridge on standardized features; [`StepDifficulty::NONE`] with too few rows.
 pub(crate) fn fit_step<'a>(
-    rows: impl Iterator<Item = &'a Row> + Clone,
+    rows: impl Iterator<Item = &'a Row>,
     skip: Option<usize>,
 ) -> StepDifficulty {
-    let keep = |r: &&Row| Some(r.fold) != skip && r.score.is_finite();
-    let mut scores: Vec<f64> = rows.clone().filter(keep).map(|r| r.score).collect();
+    // The rows fitted on, gathered once.
+    let kept: Vec<&Row> = rows
+        .filter(|r| Some(r.fold) != skip && r.score.is_finite())
+        .collect();
+    let mut scores: Vec<f64> = kept.iter().map(|r| r.score).collect();
     if scores.len() < MIN_ROWS {
         return StepDifficulty::NONE;
     }
@@ -185,12 +231,12 @@ pub(crate) fn fit_step<'a>(
     let floor = (scores[scores.len() / 2] * 1e-3).max(1e-300);
     let n = scores.len() as f64;
     let (mut mean, mut sq) = ([0.0; FEATURES], [0.0; FEATURES]);
-    for r in rows.clone().filter(keep) {
+    for r in &kept {
         for (m, x) in mean.iter_mut().zip(&r.x).skip(1) {
             *m += x / n;
         }
     }
-    for r in rows.clone().filter(keep) {
+    for r in &kept {
         for ((q, x), m) in sq.iter_mut().zip(&r.x).zip(&mean).skip(1) {
             *q += (x - m).powi(2) / n;
         }
@@ -199,7 +245,7 @@ pub(crate) fn fit_step<'a>(
     let used = |j: usize| j == 0 || sd[j] > 1e-9 * (1.0 + mean[j].abs());
     let mut a = SMatrix::<f64, FEATURES, FEATURES>::zeros();
     let mut b = SVector::<f64, FEATURES>::zeros();
-    for r in rows.clone().filter(keep) {
+    for r in &kept {
         let z = SVector::<f64, FEATURES>::from_fn(|j, _| {
             if j == 0 {
                 1.0
@@ -229,8 +275,8 @@ pub(crate) fn fit_step<'a>(
         }
     }
     let z = |x: &Features| -> f64 { beta.iter().zip(x).map(|(b, x)| b * x).sum() };
-    let (lo, hi) = rows
-        .filter(keep)
+    let (lo, hi) = kept
+        .iter()
         .map(|r| z(&r.x))
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
             (lo.min(v), hi.max(v))

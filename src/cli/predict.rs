@@ -38,6 +38,22 @@ pub struct Args {
     start_velocity: Option<[f64; 2]>,
 }
 
+/// A number at the precision it has (the shortest text that reads back to it), in
+/// scientific notation when it is tiny or huge: `3.5e-5` rather than `0.000035`, and a
+/// denormal in a few characters rather than 300.
+struct Num(f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let v = self.0;
+        if v != 0.0 && (v.abs() < 1e-4 || v.abs() >= 1e16) {
+            write!(f, "{v:e}")
+        } else {
+            write!(f, "{v}")
+        }
+    }
+}
+
 /// Longest line of a command file (bytes): a line is three numbers.
 const MAX_COMMAND_LINE_BYTES: u64 = 4096;
 
@@ -204,18 +220,25 @@ pub fn run(args: &Args) -> Result<()> {
     // Written in chunks of about 64 kB.
     let mut row = String::new();
     for (k, p) in poses.iter().enumerate() {
-        let _ = write!(row, "{k},{},{},{},{}", k as f64 / rate_hz, p.x, p.y, p.z);
+        let _ = write!(
+            row,
+            "{k},{},{},{},{}",
+            Num(k as f64 / rate_hz),
+            Num(p.x),
+            Num(p.y),
+            Num(p.z)
+        );
         if with_cov {
             let c = &covs[k];
             let _ = write!(
                 row,
                 ",{},{},{},{},{},{}",
-                c[(0, 0)],
-                c[(0, 1)],
-                c[(0, 2)],
-                c[(1, 1)],
-                c[(1, 2)],
-                c[(2, 2)]
+                Num(c[(0, 0)]),
+                Num(c[(0, 1)]),
+                Num(c[(0, 2)]),
+                Num(c[(1, 1)]),
+                Num(c[(1, 2)]),
+                Num(c[(2, 2)])
             );
         }
         row.push('\n');

@@ -38,6 +38,34 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let model = spec
         .fit(&train)
         .with_context(|| format!("fitting {}", args.model))?;
+    // A calibration asked for but not made (fewer training intervals than its folds, or a
+    // fold's refit failed) leaves the model's own covariance: said, not silent.
+    let calibrated = serde_json::to_value(model.as_ref())
+        .ok()
+        .is_some_and(|v| v.get("type").and_then(|t| t.as_str()) == Some("calibrated"));
+    let has_covariance = model
+        .predict_with_covariance_into(
+            &crate::traits::StartState::at_rest(crate::traits::Pose::zeros()),
+            &[crate::traits::Input::zeros(); 2],
+            &mut Vec::new(),
+            &mut Vec::new(),
+        )
+        .is_ok();
+    if spec.uncertainty != crate::models::calibration::Uncertainty::Paper
+        && has_covariance
+        && !calibrated
+    {
+        eprintln!(
+            "note: {}'s uncertainty is not calibrated (the calibration holds out blocks of training intervals, and the training windows span {} interval(s), or a fold's refit failed); its covariance is the model's own",
+            args.model,
+            train
+                .windows
+                .iter()
+                .map(|w| w.interval)
+                .collect::<std::collections::BTreeSet<_>>()
+                .len()
+        );
+    }
     let text = model_to_json(model.as_ref(), &dataset.robot)
         .with_context(|| format!("saving {}", args.model))?;
     outputs.write(&args.out, text)?;
