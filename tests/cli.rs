@@ -1040,3 +1040,29 @@ fn a_model_trained_on_too_few_intervals_to_calibrate_says_so() {
     assert!(!train("0.5", "calibrated").contains("not calibrated"));
     assert!(!train("0.005", "paper").contains("not calibrated"));
 }
+
+#[test]
+fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("m.json");
+    ok(&[
+        "train",
+        "--model",
+        "naive",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    let commands = dir.path().join("c.csv");
+    std::fs::write(&commands, "t,cmd_left,cmd_right\n0,1e15,1\n0.05,1,1\n").unwrap();
+    let err = user_error(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--commands",
+        commands.to_str().unwrap(),
+    ]);
+    assert!(
+        err.contains("c.csv, line 2, column 'cmd_left' = 1e15 is more than the limit of 1e9"),
+        "{err}"
+    );
+}

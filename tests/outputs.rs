@@ -571,4 +571,28 @@ fn a_redirect_onto_an_input_is_named() {
             "{err}"
         );
     }
+    // Appended (`>>`): refused too, and the file kept as it was.
+    let commands = dir.path().join("commands.csv");
+    std::fs::write(&commands, "t,cmd_left,cmd_right\n0,1,1\n").unwrap();
+    let before = std::fs::read(&commands).unwrap();
+    let model = dir.path().join("model2.json");
+    ok(&["train", "--model", "naive", "--out", &s(&model)]);
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "exec '{}' predict --model '{}' --commands '{}' >> '{}'",
+            env!("CARGO_BIN_EXE_drive"),
+            s(&model),
+            s(&commands),
+            s(&commands)
+        ))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("the input --commands: the output would be written onto its end"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(&commands).unwrap(), before);
 }

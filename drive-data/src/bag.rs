@@ -489,7 +489,7 @@ impl Collected {
             self.count += 1;
             if self.count > MAX_BAG_MESSAGES {
                 return Err(fail(DataErrorKind::Implausible(format!(
-                    "{fname}more than {MAX_BAG_MESSAGES} messages (MAX_BAG_MESSAGES, on every topic): ros2 bag filter the DRIVE topics out first"
+                    "{fname}more than {MAX_BAG_MESSAGES} messages on all its topics: ros2 bag filter the DRIVE topics out first"
                 ))));
             }
             let message = message.map_err(|e| {

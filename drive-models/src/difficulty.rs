@@ -39,6 +39,11 @@ pub const FEATURES: usize = 6;
 /// A prediction's difficulty features at one step (see the module's table).
 pub type Features = [f64; FEATURES];
 
+/// Largest difficulty coefficient a file may hold (in the features' raw units). A fit's
+/// are its standardized coefficients (a few units, under the ridge) over its features'
+/// spreads, which are at least 1e-9: far below this.
+const MAX_COEFFICIENT: f64 = 1e15;
+
 /// Fewest scores a step's difficulty is fitted on (below: no difficulty at that step).
 const MIN_ROWS: usize = 30;
 
@@ -191,8 +196,16 @@ impl StepDifficulty {
 
     /// Checks values read from a file.
     pub fn check(&self) -> Result<(), String> {
-        if self.beta.iter().chain(&self.range).any(|v| !v.is_finite()) {
-            return Err("a difficulty coefficient or bound is not finite".into());
+        if self
+            .beta
+            .iter()
+            .chain(&self.range)
+            .any(|v| !(v.is_finite() && v.abs() <= MAX_COEFFICIENT))
+        {
+            return Err(format!(
+                "a difficulty coefficient or bound is not a number within +-{}",
+                drive_traits::limits::Short(MAX_COEFFICIENT)
+            ));
         }
         if self.range[0] > self.range[1] || self.range[0] < -50.0 || self.range[1] > 50.0 {
             return Err(format!(
@@ -319,5 +332,19 @@ mod tests {
         // Leaving a fold out (every other row) gives the same fit here.
         assert!((fit_step(rows.iter(), Some(0)).beta[1] - 1.0).abs() < 1e-3);
         assert_eq!(fit_step(rows[..20].iter(), None), StepDifficulty::NONE);
+    }
+
+    #[test]
+    fn coefficients_no_fit_writes_are_refused_on_load() {
+        let mut d = StepDifficulty {
+            beta: [0.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+            range: [-1.0, 2.0],
+        };
+        assert!(d.check().is_ok());
+        d.beta[1] = 1e300;
+        assert!(d.check().unwrap_err().contains("within +-1e15"));
+        d.beta[1] = 1.0;
+        d.range = [3.0, 2.0];
+        assert!(d.check().unwrap_err().contains("ordered"));
     }
 }

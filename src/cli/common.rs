@@ -194,8 +194,14 @@ pub fn stdout_not_an_input(inputs: &[(&'static str, PathBuf)]) -> Result<()> {
             let same =
                 std::fs::metadata(path).is_ok_and(|m| m.dev() == out.dev() && m.ino() == out.ino());
             if same {
+                // `>` empties the file before drive starts; `>>` would write onto its end.
+                let what = if out.len() == 0 {
+                    "the shell emptied it before drive started (its content is gone: restore it, or re-create it with the command that wrote it)"
+                } else {
+                    "the output would be written onto its end"
+                };
                 anyhow::bail!(
-                    "the standard output is {}, the input {role}: the shell emptied it before drive started (its content is gone: restore it, or re-create it with the command that wrote it); redirect the output to another file",
+                    "the standard output is {}, the input {role}: {what}; redirect the output to another file",
                     path.display()
                 );
             }

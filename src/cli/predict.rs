@@ -141,6 +141,13 @@ fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>>
                     f.trim()
                 );
             }
+            // As the CSV readers: a value beyond 1e9 is a corrupted number.
+            crate::traits::limits::at_most(
+                &format!("{name}, line {}, column '{}'", i + 1, cols[j]),
+                x.abs(),
+                crate::traits::limits::MAX_ABS_MEASUREMENT,
+                "",
+            )?;
             v[j] = x;
         }
         let t0 = *t0.get_or_insert(v[0]);
