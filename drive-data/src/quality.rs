@@ -224,8 +224,9 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
             });
         }
     }
-    // encoders-zero: windows commanded at a tenth of the largest command or more, with the
-    // encoders exactly zero throughout.
+    // encoders-zero and encoders-stuck: windows commanded at a tenth of the largest command
+    // or more, with the encoders exactly zero throughout, or (stuck) not zero but under a
+    // millionth of the largest command throughout.
     let largest = windows
         .iter()
         .flat_map(|w| w.command.iter())
@@ -240,57 +241,45 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
                     .any(|u| u.x.abs().max(u.y.abs()) >= 0.1 * largest)
             })
             .collect();
-        let zero = commanded
-            .iter()
-            .filter(|w| w.measured.iter().all(|u| u.x == 0.0 && u.y == 0.0))
-            .count();
-        if zero > 0 && zero * 10 >= commanded.len() {
-            out.push(Finding {
-                check: "encoders-zero",
-                severity: if zero == commanded.len() {
-                    Severity::Fatal
-                } else {
-                    Severity::Warning
-                },
-                message: format!(
-                    "the encoders read zero throughout {zero} of {} commanded windows: not recorded?",
-                    commanded.len()
-                ),
-            });
-        }
-    }
-    // encoders-stuck: not exactly zero, but under a millionth of the largest command
-    // throughout commanded windows.
-    if largest > 0.0 {
-        let commanded: Vec<&&Window> = windows
-            .iter()
-            .filter(|w| {
-                w.command
-                    .iter()
-                    .any(|u| u.x.abs().max(u.y.abs()) >= 0.1 * largest)
-            })
-            .collect();
+        let zero = |w: &Window| w.measured.iter().all(|u| u.x == 0.0 && u.y == 0.0);
         let tiny = |w: &Window| {
-            w.measured
-                .iter()
-                .all(|u| u.x.abs().max(u.y.abs()) <= 1e-6 * largest)
-                && w.measured.iter().any(|u| u.x != 0.0 || u.y != 0.0)
+            !zero(w)
+                && w.measured
+                    .iter()
+                    .all(|u| u.x.abs().max(u.y.abs()) <= 1e-6 * largest)
         };
+        let zeros = commanded.iter().filter(|w| zero(w)).count();
         let stuck = commanded.iter().filter(|w| tiny(w)).count();
-        if stuck > 0 && stuck * 10 >= commanded.len() {
-            out.push(Finding {
-                check: "encoders-stuck",
-                severity: if stuck == commanded.len() {
-                    Severity::Fatal
-                } else {
-                    Severity::Warning
-                },
-                message: format!(
-                    "the encoders stay under a millionth of the largest command ({}) throughout {stuck} of {} commanded windows: stuck, or not recorded?",
-                    Short(1e-6 * largest),
-                    commanded.len()
+        for (count, check, what) in [
+            (zeros, "encoders-zero", "read zero".to_string()),
+            (
+                stuck,
+                "encoders-stuck",
+                format!(
+                    "stay under a millionth of the largest command ({})",
+                    Short(1e-6 * largest)
                 ),
-            });
+            ),
+        ] {
+            if count > 0 && count * 10 >= commanded.len() {
+                out.push(Finding {
+                    check,
+                    severity: if count == commanded.len() {
+                        Severity::Fatal
+                    } else {
+                        Severity::Warning
+                    },
+                    message: format!(
+                        "the encoders {what} throughout {count} of {} commanded windows: {}",
+                        commanded.len(),
+                        if check == "encoders-zero" {
+                            "not recorded?"
+                        } else {
+                            "stuck, or not recorded?"
+                        }
+                    ),
+                });
+            }
         }
     }
     // encoder-units: over the windows where localization saw at least 0.2 m, the median ratio
