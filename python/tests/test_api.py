@@ -412,12 +412,16 @@ def test_wrong_types_and_unintegrable_inputs_raise_drive_errors(husky, tmp_path)
     model_file = tmp_path / "m.json"
     model.save(model_file)
     cmds = tmp_path / "huge.csv"
-    cmds.write_text("t,cmd_left,cmd_right\n" + "".join(f"{k * 0.05},1e300,1e300\n" for k in range(40)))
+    cmds.write_text("t,cmd_left,cmd_right\n" + "".join(f"{k * 0.05},1,1\n" for k in range(40)))
     cli_err = cli(
         "predict", "--model", model_file, "--commands", cmds, "--start-wheels", "1e300,1e300",
         ok=False,
     ).stderr.strip()
     assert "not a finite number" in cli_err
+    # Commands of 1e300 in a file are refused as corrupted numbers before any prediction.
+    cmds.write_text("t,cmd_left,cmd_right\n" + "".join(f"{k * 0.05},1e300,1e300\n" for k in range(40)))
+    cli_err = cli("predict", "--model", model_file, "--commands", cmds, ok=False).stderr.strip()
+    assert "is more than the limit of 1e9" in cli_err
     with pytest.raises(drive.DriveError, match="the prediction is not a finite number"):
         model.predict(huge, start_wheels=(1e300, 1e300))
     with pytest.raises(drive.DriveError, match="sequence 1: the prediction is not a finite"):
