@@ -28,6 +28,17 @@ pub enum Severity {
     Fatal,
 }
 
+impl Severity {
+    /// [`Severity::Fatal`] when `fatal`, else [`Severity::Warning`].
+    fn fatal_if(fatal: bool) -> Severity {
+        if fatal {
+            Severity::Fatal
+        } else {
+            Severity::Warning
+        }
+    }
+}
+
 /// One thing a check found.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Finding {
@@ -166,11 +177,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         let fatal = ignored * 2 > asked;
         out.push(Finding {
             check: "not-moving",
-            severity: if fatal {
-                Severity::Fatal
-            } else {
-                Severity::Warning
-            },
+            severity: Severity::fatal_if(fatal),
             message: format!(
                 "in {ignored} of {asked} windows whose commands ask for at least 0.2 m or 0.2 rad of motion, neither the encoders nor localization saw a tenth of it: {}",
                 if fatal {
@@ -185,11 +192,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         let fatal = still * 2 > driven;
         out.push(Finding {
             check: "not-moving",
-            severity: if fatal {
-                Severity::Fatal
-            } else {
-                Severity::Warning
-            },
+            severity: Severity::fatal_if(fatal),
             message: format!(
                 "in {still} of {driven} windows where the encoders imply at least 0.2 m or 0.2 rad of motion, localization saw less than a tenth of it: {}",
                 if fatal {
@@ -264,11 +267,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
             if count > 0 && count * 10 >= commanded.len() {
                 out.push(Finding {
                     check,
-                    severity: if count == commanded.len() {
-                        Severity::Fatal
-                    } else {
-                        Severity::Warning
-                    },
+                    severity: Severity::fatal_if(count == commanded.len()),
                     message: format!(
                         "the encoders {what} throughout {count} of {} commanded windows: {}",
                         commanded.len(),
