@@ -164,6 +164,64 @@ fn ipem(c: &mut Criterion) {
     });
 }
 
+/// One tick of the MPPI controller (issue 30): 1024 candidates of 40 steps after half a
+/// second of history (the `drive track` default), rolled out with slip-BLR and with
+/// slip-ipem fitted on the husky training half, scored against a figure-eight; one core.
+fn control(c: &mut Criterion) {
+    use drive::control::{ControlSetup, ControlState, InputMap, MakeController, Mppi, PathShape};
+    use std::sync::Arc;
+    let data = drive::bundled::husky().unwrap();
+    let (train, eval) = split_by_interval(&data, 0.5).unwrap();
+    let husky = Registries::builtin().robot("husky").unwrap();
+    let path = PathShape::FigureEight.at_scale(4.0).unwrap();
+    let reference: Vec<Pose> = (1..=40)
+        .map(|k| path.point_at(0.025 * k as f64).pose())
+        .collect();
+    let w = eval.windows[5];
+    let start = w.start_state_with(
+        data.robot.vehicle.as_ref(),
+        drive::traits::StartInfo::EncodersImu,
+    );
+    let past: Vec<Input> = w.command[..10].to_vec();
+    let mut group = c.benchmark_group("control");
+    let models: [(&str, Box<dyn MotionModel>); 2] = [
+        ("slip-blr", Box::new(slip_blr().fit(&train).unwrap())),
+        (
+            "slip-ipem",
+            Box::new(
+                Composed::new(Fopdt::default(), SlipIpem::default())
+                    .fit(&train)
+                    .unwrap(),
+            ),
+        ),
+    ];
+    for (name, model) in models {
+        let setup = ControlSetup {
+            model: Arc::from(model),
+            robot: husky.clone(),
+            to_vehicle: InputMap::identity(),
+            speed: 0.5,
+        };
+        let mut controller = Mppi::default().make(&setup).unwrap();
+        let state = ControlState {
+            now: start,
+            sent: Default::default(),
+            past: Some((start, &past)),
+        };
+        group.bench_function(
+            format!("mppi tick, {name}, 1024 x 40 steps (+10 of history), one core"),
+            |b| {
+                b.iter(|| {
+                    controller
+                        .command(black_box(&state), black_box(&reference))
+                        .unwrap()
+                })
+            },
+        );
+    }
+    group.finish();
+}
+
 /// The bundled data repeated `times` times, each copy's intervals and windows renumbered
 /// after the previous copy's (the issue-14 scaling case of `drive converge`).
 fn repeated(times: usize) -> drive::traits::Dataset {
@@ -202,5 +260,5 @@ fn converge(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, load, train, eval, predict, batch, ipem, converge);
+criterion_group!(benches, load, train, eval, predict, batch, ipem, converge, control);
 criterion_main!(benches);

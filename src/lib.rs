@@ -11,6 +11,8 @@
 //! - [`samplers`] (drive-samplers): robots, input-space samplers, the protocol runner;
 //! - [`eval`] (drive-eval): the eq. 8 metric, the experiment engine and the analyses;
 //! - [`sim`] (drive-sim): simulated UGVs to run the protocol without a robot;
+//! - [`control`] (drive-control): reference paths, the controller trait, MPPI and the
+//!   one-tick path follower ([`control::Tracker`]);
 //! - [`report`] (drive-report): the paper's figures and a Markdown report for one dataset;
 //! - [`cli`]: the command line, runnable with a researcher's own [`Registries`].
 //!
@@ -31,6 +33,7 @@
 
 #![warn(missing_docs)]
 
+pub use drive_control as control;
 pub use drive_data as data;
 pub use drive_eval as eval;
 pub use drive_models as models;

@@ -14,6 +14,7 @@
 //! | `protocols.rs`, `regions.rs` | data-gathering protocols (Table I) on the simulator and on recorded data |
 //! | `matrix/` | the evaluation matrix: sweep file, run, statistics, outputs |
 //! | `bench.rs` | the benchmark: datasets x models, transfer between runs, leaderboard |
+//! | `closed_loop.rs` | a controller with a fitted model driving the simulator along paths (`drive track`) |
 //!
 //! ```
 //! use drive_eval::{mrmse, Mrmse};
@@ -28,6 +29,7 @@
 #![warn(missing_docs)]
 
 mod bench;
+pub mod closed_loop;
 mod compare;
 mod comparison;
 mod convergence;
@@ -46,6 +48,10 @@ pub use bench::{
     bench_units, run_bench, terrain_known, Bench, BenchConfig, BenchDataset, BenchError,
     BenchInput, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,
     TransferCell, TransferGroup, TransferSummary, UnpredictabilityBin,
+};
+pub use closed_loop::{
+    run_track, PathChoice, PlacedPath, TrackError, TrackResult, TrackRun, TrackStudy, TrackSummary,
+    Training,
 };
 pub use compare::{
     evaluate_errors, evaluate_model, evaluate_model_from, ModelReport, WindowErrors,

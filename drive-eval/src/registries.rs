@@ -1,6 +1,7 @@
 //! Every registry of parts, in one place: what the experiments, the command line and a
 //! researcher's own program take.
 
+use drive_control::{builtin_controllers, MakeController};
 use drive_models::registry::{
     builtin_aliases, builtin_baselines, builtin_powertrains, builtin_slip_learners,
     builtin_vehicles,
@@ -48,6 +49,8 @@ pub struct Registries {
     pub robots: Registry<RobotSpec>,
     /// Simulated plants by vehicle type (a vehicle without one gets the kinematic plant).
     pub simulators: Registry<dyn MakePlant>,
+    /// Controllers of the closed loop (`drive track`).
+    pub controllers: Registry<dyn MakeController>,
 }
 
 impl std::fmt::Debug for Registries {
@@ -60,6 +63,7 @@ impl std::fmt::Debug for Registries {
             .field("samplers", &self.samplers.names())
             .field("terrains", &self.terrains.names())
             .field("robots", &self.robots.names())
+            .field("controllers", &self.controllers.names())
             .finish()
     }
 }
@@ -83,6 +87,7 @@ impl Registries {
             terrains: builtin_terrains(),
             robots: builtin_robots(),
             simulators: builtin_plants(),
+            controllers: builtin_controllers(),
         }
     }
 
@@ -186,6 +191,7 @@ impl Registries {
             terrains: plain(pairs(&self.terrains)),
             robots,
             simulators: plain(pairs(&self.simulators)),
+            controllers: plain(pairs(&self.controllers)),
             models: self
                 .models()
                 .all()
@@ -234,6 +240,8 @@ pub struct Catalog {
     pub robots: Vec<Listed>,
     /// Simulated plants, by vehicle type.
     pub simulators: Vec<Listed>,
+    /// Controllers of the closed loop.
+    pub controllers: Vec<Listed>,
     /// Every model combination (`learner+powertrain`).
     pub models: Vec<String>,
 }

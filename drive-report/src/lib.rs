@@ -26,6 +26,7 @@
 pub mod analysis;
 pub mod bench;
 pub mod figures;
+pub mod track;
 
 use analysis::{Calibration, InputSpaceFigure, PowertrainTrace, Trajectory};
 use drive_data::output::{OutputError, Outputs};

@@ -268,4 +268,11 @@ impl crate::Plant for CarSimulator {
         }
         self.instruments.end_tick();
     }
+
+    fn true_pose(&self) -> Option<Pose> {
+        Some(
+            self.instruments
+                .mounted(&self.state.rear_axle_pose(&self.params)),
+        )
+    }
 }

@@ -35,6 +35,12 @@ pub trait Plant: Send {
     fn measure(&mut self) -> Measured;
     /// Applies `command` (the vehicle's inputs) for one command tick.
     fn advance(&mut self, command: Input);
+    /// Where the localization's frame truly is now: the pose the localization measures,
+    /// without its noise, latency or update rate (what a closed-loop experiment scores);
+    /// `None` for a plant that does not know (the default).
+    fn true_pose(&self) -> Option<Pose> {
+        None
+    }
 }
 
 /// Builds the plant of a robot on a terrain, seeded: what the simulator registry holds, by
@@ -203,5 +209,9 @@ impl Plant for KinematicPlant {
             self.pose = euler_step(&self.pose, &self.velocity, h);
         }
         self.instruments.end_tick();
+    }
+
+    fn true_pose(&self) -> Option<Pose> {
+        Some(self.instruments.mounted(&self.pose))
     }
 }

@@ -133,6 +133,26 @@ impl Instruments {
         }
     }
 
+    /// `pose` (of the body's turning centre) moved to where the localization's frame sits
+    /// on the body ([`Sensors::icp_mount`]).
+    ///
+    /// ```
+    /// use drive_sim::{Instruments, Sensors};
+    /// use drive_traits::Pose;
+    /// let i = Instruments::new(Sensors { icp_mount: [0.5, 0.0, 0.1], ..Sensors::default() }, 20.0, 1);
+    /// let p = i.mounted(&Pose::new(1.0, 0.0, std::f64::consts::FRAC_PI_2));
+    /// assert!((p - Pose::new(1.0, 0.5, std::f64::consts::FRAC_PI_2 + 0.1)).norm() < 1e-12);
+    /// ```
+    pub fn mounted(&self, pose: &Pose) -> Pose {
+        let [mx, my, myaw] = self.sensors.icp_mount;
+        let (sin, cos) = pose.z.sin_cos();
+        Pose::new(
+            pose.x + cos * mx - sin * my,
+            pose.y + sin * mx + cos * my,
+            pose.z + myaw,
+        )
+    }
+
     /// A normal draw of standard deviation `sd` (zero when `sd` is not positive).
     pub fn noise(&mut self, sd: f64) -> f64 {
         if sd > 0.0 {
@@ -155,13 +175,7 @@ impl Instruments {
         let period = (self.rate_hz / self.sensors.icp_rate_hz).round().max(1.0) as usize;
         let fresh_pose = self.tick % period == 0;
         let now = self.time();
-        let [mx, my, myaw] = self.sensors.icp_mount;
-        let (sin, cos) = pose.z.sin_cos();
-        let pose = Pose::new(
-            pose.x + cos * mx - sin * my,
-            pose.y + sin * mx + cos * my,
-            pose.z + myaw,
-        );
+        let pose = self.mounted(&pose);
         let delayed = self.sensors.icp_latency > 0.0 || self.sensors.icp_jitter > 0.0;
         let pose = if delayed {
             self.past.push_back((now, pose));

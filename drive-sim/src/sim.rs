@@ -192,4 +192,7 @@ impl Plant for Simulator {
     fn advance(&mut self, command: Input) {
         self.step(command)
     }
+    fn true_pose(&self) -> Option<Pose> {
+        Some(self.instruments.mounted(&self.state.pose))
+    }
 }

@@ -1,5 +1,6 @@
 //! Python bindings of the DRIVE framework (`pip install ./python`): datasets, evaluation,
-//! fitted models with numpy predictions, the protocol runner a ROS 2 node drives a robot with. The Python package `drive` (py/drive) wraps this
+//! fitted models with numpy predictions, the protocol runner a ROS 2 node drives a robot with,
+//! and the path follower that puts a fitted model inside a model-predictive controller. The Python package `drive` (py/drive) wraps this
 //! module; every user error raises `drive.DriveError` with the command line's message.
 
 use drive::eval::{compare_specs, split_by_interval};
@@ -20,6 +21,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 mod runner;
+mod tracker;
 
 create_exception!(
     _native,
@@ -268,7 +270,7 @@ fn bench_json(
 /// A fitted motion model: predictions from commands, saved as the command line's model file.
 #[pyclass(module = "drive._native", frozen)]
 struct Model {
-    model: Box<dyn MotionModel>,
+    model: std::sync::Arc<dyn MotionModel>,
     robot: RobotDescription,
 }
 
@@ -662,7 +664,7 @@ fn fit(
             .map_err(|e| format!("fitting {model}: {e}"))
     });
     Ok(Model {
-        model: fitted.map_err(err)?,
+        model: fitted.map_err(err)?.into(),
         robot: data.robot.clone(),
     })
 }
@@ -677,7 +679,10 @@ fn load_model(path: &Bound<'_, PyAny>) -> PyResult<Model> {
         drive::traits::files::read_text(&path, drive::models::model_file::MAX_MODEL_FILE_BYTES)
             .map_err(|e| err(format!("reading {name}: {e}")))?;
     let (model, robot) = model_from_json(&name, &text).map_err(err)?;
-    Ok(Model { model, robot })
+    Ok(Model {
+        model: model.into(),
+        robot,
+    })
 }
 
 #[pymodule]
@@ -691,5 +696,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(load_model, m)?)?;
     runner::register(m)?;
+    tracker::register(m)?;
     Ok(())
 }

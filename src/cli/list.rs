@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 #[derive(clap::Args)]
 pub struct Args {
     /// Print one JSON object (lists vehicles, powertrains, learners, samplers, terrains,
-    /// robots, simulators, models, datasets) instead of the text.
+    /// robots, simulators, controllers, models, datasets) instead of the text.
     #[arg(long)]
     json: bool,
 }
@@ -96,6 +96,7 @@ fn text(l: &Listing) -> String {
         "simulators (by vehicle; others get the kinematic plant)",
         &c.simulators,
     );
+    section(&mut s, "controllers (drive track)", &c.controllers);
     let _ = writeln!(s, "models ({}): {}", c.models.len(), c.models.join(", "));
     let _ = writeln!(
         s,

@@ -42,6 +42,7 @@ mod protocol;
 mod report;
 mod sim_fit;
 mod simulate;
+mod track;
 mod train;
 
 use crate::Registries;
@@ -109,6 +110,11 @@ enum Command {
     /// leaderboard; tables on stdout, --json, or --out DIR with CSV, Markdown and an HTML
     /// page.
     Bench(bench::Args),
+    /// Follow paths in closed loop: each model inside a model-predictive controller (MPPI)
+    /// driving the simulated robot (a preset terrain or a twin of a real run) along a line,
+    /// circle, figure-eight, zigzag or a path file; cross-track and heading errors,
+    /// completion and controller time per model, training data, path, speed and seed.
+    Track(track::Args),
     /// Predict poses from a saved model and a command sequence.
     Predict(predict::Args),
     /// List the registered parts: vehicles, powertrains, learners, samplers, terrains,
@@ -163,6 +169,7 @@ where
             Command::Matrix(a) => matrix::run(&a, registries),
             Command::Report(a) => report::run(&a, registries),
             Command::Bench(a) => bench::run(&a, registries),
+            Command::Track(a) => track::run(&a, registries),
             Command::Predict(a) => predict::run(&a),
             Command::List(a) => list::run(&a, registries),
         });

@@ -9,6 +9,9 @@ and the protocol runner a ROS 2 node drives a robot with.
     >>> runner = drive.ProtocolRunner("husky", "uniform", seed=0, geofence=20.0)
     >>> command = runner.tick({"t": 0.0, "encoder": (0.0, 0.0), "pose": (0.0, 0.0, 0.0),
     ...                        "deadman": True})    # command.inputs, .linear, .angular
+    >>> tracker = drive.Tracker(model, "husky", path_xy, speed=0.5)   # MPPI with the model
+    >>> tick = tracker.tick(0.0, (0.0, 0.0), pose=(0.0, 0.0, 0.0), imu_yaw_rate=0.0)
+    >>> tick["command"], tick["done"]               # the wheel velocities to send
 
 Every user error raises `drive.DriveError` (a ValueError) with the command line's message.
 """
@@ -22,7 +25,7 @@ import numpy as _np
 from collections.abc import Mapping as _Mapping
 
 from . import _native
-from ._native import Command, Dataset, DriveError, Model, fit, load_dataset, load_model
+from ._native import Command, Dataset, DriveError, Model, Tracker, fit, load_dataset, load_model
 from ._native import bench_json as _bench_json
 from ._native import evaluate_json as _evaluate_json
 
@@ -33,6 +36,7 @@ __all__ = [
     "Measurements",
     "Model",
     "ProtocolRunner",
+    "Tracker",
     "bench",
     "evaluate",
     "fit",

@@ -1,0 +1,356 @@
+//! Following a path with a controller, one tick at a time: the [`Tracker`] keeps where the
+//! robot is on the path, estimates its state from what its sensors report, asks the
+//! controller for a command and holds that command to the robot's limits.
+//!
+//! The state estimate: the last localization fix, carried forward to the tick's time with
+//! the body velocity the fixes of the last half second show (the localization often runs
+//! slower than the commands, 10 Hz against 20 Hz); the measured inputs as they are; the
+//! IMU's yaw rate and the localization's velocity only when the model was fitted to start
+//! from them ([`StartInfo`]), as `drive eval --start` gives them.
+
+use crate::controller::{
+    ControlError, ControlSetup, ControlState, Controller, InputMap, MakeController,
+};
+use crate::path::ReferencePath;
+use drive_samplers::{next_command, RobotSpec, SentCommand};
+use drive_traits::{
+    euler_step, wrap_angle, BodyVelocity, CommandModel, Input, Pose, StartInfo, StartState,
+};
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+/// What the robot's sensors report at a tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Observation {
+    /// Time (s).
+    pub t: f64,
+    /// Measured inputs (encoder wheel velocities for a skid-steer), in the vehicle's (the
+    /// model's) coordinates.
+    pub input: Input,
+    /// A new localization fix, when one arrived at this tick.
+    pub pose: Option<Pose>,
+    /// The IMU's yaw rate (rad/s), when the robot has one.
+    pub imu_yaw_rate: Option<f64>,
+}
+
+/// Settings of a [`Tracker`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackerConfig {
+    /// Speed along the path (m/s).
+    pub speed: f64,
+    /// What the model's predictions start from (as it was fitted).
+    pub start: StartInfo,
+    /// The path is done when the robot is this close to its end (m); default
+    /// `max(0.2 m, speed x 0.5 s)`.
+    pub goal_tolerance: Option<f64>,
+    /// How far back the controller's predictions start (s): from the state this long ago
+    /// through the commands sent since, so that the commands still in flight (dead time,
+    /// lag) act in them ([`ControlState::past`]); 0 starts them from now.
+    pub history_s: f64,
+}
+
+impl TrackerConfig {
+    /// At `speed` (m/s), the predictions starting from the encoders and the IMU half a
+    /// second back.
+    ///
+    /// ```
+    /// let c = drive_control::TrackerConfig::new(0.5);
+    /// assert_eq!((c.speed, c.history_s), (0.5, 0.5));
+    /// ```
+    pub fn new(speed: f64) -> Self {
+        TrackerConfig {
+            speed,
+            start: StartInfo::EncodersImu,
+            goal_tolerance: None,
+            history_s: 0.5,
+        }
+    }
+}
+
+/// What one tick did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tick {
+    /// The command to send, in the vehicle's coordinates.
+    pub command: Input,
+    /// The same in the controller's coordinates.
+    pub controller_input: Input,
+    /// The estimated pose the tick planned from.
+    pub estimate: Pose,
+    /// Arc length reached on the path (m).
+    pub progress_m: f64,
+    /// Signed distance of the estimate from the path (m, positive to its left).
+    pub cross_track_m: f64,
+    /// Heading of the estimate against the path's (rad).
+    pub heading_error_rad: f64,
+    /// The end of the path is reached (the command then stops the robot).
+    pub done: bool,
+}
+
+/// Longest the localization's velocity is measured over (s), as a window's start velocity.
+const VELOCITY_SPAN_S: f64 = 0.5;
+
+/// Follows a path with a controller and a fitted model, tick by tick: the online use of a
+/// model (a ROS node calls [`Tracker::tick`] at the command rate).
+///
+/// ```
+/// use drive_control::{builtin_controllers, ControlSetup, InputMap, Mppi, Observation, PathShape, Tracker, TrackerConfig};
+/// use drive_models::{ComposedModel, DifferentialDrive, powertrain::CommandedPowertrain, slip::NoSlipModel};
+/// use drive_traits::{Input, Pose, StartInfo};
+/// use std::sync::Arc;
+/// let husky = drive_samplers::builtin_robots().get("husky").unwrap().part().as_ref().clone();
+/// let model = Arc::new(ComposedModel { label: "naive".into(), vehicle: husky.vehicle.clone(),
+///     powertrain: Box::new(CommandedPowertrain), slip: Box::new(NoSlipModel), dt: 0.05 });
+/// let setup = ControlSetup { model, robot: husky.clone(), to_vehicle: InputMap::identity(), speed: 0.5 };
+/// let path = PathShape::Line.at_scale(1.0).unwrap();
+/// let config = TrackerConfig { start: StartInfo::Encoders, ..TrackerConfig::new(0.5) };
+/// let mut tracker = Tracker::new(&Mppi { samples: 64, ..Mppi::default() }, &setup, path, config, husky.vehicle.clone()).unwrap();
+/// let mut input = Input::zeros();
+/// for k in 0..10 {
+///     // (A robot on a stand: its wheels follow the commands, it stays where it is.)
+///     let tick = tracker.tick(&Observation { t: 0.05 * k as f64, input, pose: Some(Pose::zeros()), imu_yaw_rate: None }).unwrap();
+///     input = tick.command;
+/// }
+/// // Starting on the path, at rest: it drives forward (both wheels ahead), within the
+/// // acceleration limit (1 m/s^2 for half a second: at most 0.5 m/s on 0.165 m wheels).
+/// assert!(input.x > 0.5 && input.y > 0.5 && input.x <= 0.5 / 0.165 + 1e-9);
+/// ```
+pub struct Tracker {
+    controller: Box<dyn Controller>,
+    robot: RobotSpec,
+    to_vehicle: InputMap,
+    vehicle: Arc<dyn CommandModel>,
+    path: ReferencePath,
+    config: TrackerConfig,
+    dt: f64,
+    progress: f64,
+    sent: SentCommand,
+    fixes: VecDeque<(f64, Pose)>,
+    /// The start states of the last ticks, and the commands sent at them (the vehicle's).
+    past_states: VecDeque<StartState>,
+    past_commands: VecDeque<Input>,
+    history: usize,
+    reference: Vec<Pose>,
+    goal_tolerance: f64,
+    window: f64,
+    done: bool,
+    stop: Input,
+}
+
+impl std::fmt::Debug for Tracker {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Tracker")
+            .field("controller", &self.controller.name())
+            .field("path", &self.path.name())
+            .field("progress", &self.progress)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Tracker {
+    /// A tracker of `path` with the controller `make` builds for `setup`; `vehicle` is the
+    /// model's vehicle (what the measured inputs mean as a body velocity).
+    pub fn new(
+        make: &dyn MakeController,
+        setup: &ControlSetup,
+        path: ReferencePath,
+        config: TrackerConfig,
+        vehicle: Arc<dyn CommandModel>,
+    ) -> Result<Self, ControlError> {
+        let speed = config.speed;
+        if !(speed.is_finite() && speed > 0.0) {
+            return Err(ControlError::BadSetting {
+                field: "speed",
+                message: format!("{speed} m/s is not a positive speed"),
+            });
+        }
+        let goal_tolerance = match config.goal_tolerance {
+            Some(g) if !(g.is_finite() && g > 0.0) => {
+                return Err(ControlError::BadSetting {
+                    field: "goal_tolerance",
+                    message: format!("{g} m is not a positive distance"),
+                })
+            }
+            Some(g) => g,
+            None => (speed * 0.5).max(0.2),
+        };
+        let dt = 1.0 / setup.robot.rate_hz;
+        if !(config.history_s.is_finite() && (0.0..=10.0).contains(&config.history_s)) {
+            return Err(ControlError::BadSetting {
+                field: "history_s",
+                message: format!("{} s is not in [0, 10]", config.history_s),
+            });
+        }
+        let history = (config.history_s / dt).round() as usize;
+        let controller = make.make(setup)?;
+        let space = setup.robot.input_space();
+        let stop = space.clamp(
+            &setup
+                .robot
+                .vehicle
+                .input_for(&BodyVelocity::zeros())
+                .unwrap_or_else(|| space.center()),
+        );
+        Ok(Tracker {
+            reference: Vec::with_capacity(controller.horizon()),
+            controller,
+            robot: setup.robot.clone(),
+            to_vehicle: setup.to_vehicle.clone(),
+            vehicle,
+            path,
+            config,
+            dt,
+            progress: 0.0,
+            sent: SentCommand::default(),
+            fixes: VecDeque::new(),
+            past_states: VecDeque::with_capacity(history + 1),
+            past_commands: VecDeque::with_capacity(history + 1),
+            history,
+            goal_tolerance,
+            // Where the robot is searched on the path around its last progress: two
+            // seconds of travel ahead, one behind, at least a metre.
+            window: (2.0 * speed).max(1.0),
+            done: false,
+            stop,
+        })
+    }
+
+    /// The path followed.
+    pub fn path(&self) -> &ReferencePath {
+        &self.path
+    }
+
+    /// Arc length reached (m).
+    pub fn progress(&self) -> f64 {
+        self.progress
+    }
+
+    /// The robot was stopped by something else (a safety stop, an operator taking over):
+    /// forgets the commands sent (the next ones ramp up from rest within the acceleration
+    /// limits), their history and the controller's plan; keeps the progress along the
+    /// path and the localization fixes.
+    pub fn reset(&mut self) {
+        self.sent = SentCommand::default();
+        self.past_states.clear();
+        self.past_commands.clear();
+        self.controller.reset();
+    }
+
+    /// The body velocity `[x, y]` (body frame of the last fix) and yaw rate the fixes of
+    /// the last half second show; zero with fewer than two.
+    fn fix_velocity(&self) -> (f64, f64, f64) {
+        let (Some(&(tb, b)), Some(&(ta, a))) = (self.fixes.back(), self.fixes.front()) else {
+            return (0.0, 0.0, 0.0);
+        };
+        let span = tb - ta;
+        if self.fixes.len() < 2 || span <= 0.0 {
+            return (0.0, 0.0, 0.0);
+        }
+        let (s, c) = b.z.sin_cos();
+        let (dx, dy) = (b.x - a.x, b.y - a.y);
+        (
+            (c * dx + s * dy) / span,
+            (-s * dx + c * dy) / span,
+            wrap_angle(b.z - a.z) / span,
+        )
+    }
+
+    /// One tick: takes the sensors' report, returns the command to send now.
+    pub fn tick(&mut self, obs: &Observation) -> Result<Tick, ControlError> {
+        let finite = obs.t.is_finite()
+            && obs.input.iter().all(|v| v.is_finite())
+            && obs.pose.is_none_or(|p| p.iter().all(|v| v.is_finite()))
+            && obs.imu_yaw_rate.is_none_or(f64::is_finite);
+        if !finite {
+            return Err(ControlError::BadState(format!(
+                "t {}, inputs {:?}, pose {:?}, IMU {:?}",
+                obs.t,
+                obs.input.as_slice(),
+                obs.pose.map(|p| [p.x, p.y, p.z]),
+                obs.imu_yaw_rate
+            )));
+        }
+        if let Some(p) = obs.pose {
+            self.fixes.push_back((obs.t, p));
+            while self.fixes.len() > 2
+                && self.fixes.back().map_or(0.0, |b| b.0) - self.fixes[1].0 >= VELOCITY_SPAN_S
+            {
+                self.fixes.pop_front();
+            }
+        }
+        let &(t_fix, fix) = self.fixes.back().ok_or(ControlError::NoLocalization)?;
+        let (vx, vy, w_fix) = self.fix_velocity();
+        let yaw_rate = obs.imu_yaw_rate.unwrap_or(w_fix);
+        // The last fix carried forward to now.
+        let estimate = euler_step(
+            &fix,
+            &BodyVelocity::new(vx, vy, yaw_rate),
+            (obs.t - t_fix).clamp(0.0, 1.0),
+        );
+        let near = self.path.project(
+            [estimate.x, estimate.y],
+            self.progress - self.window / 2.0,
+            self.progress + self.window,
+        );
+        self.progress = near.point.s;
+        let heading_error = wrap_angle(estimate.z - near.point.heading);
+        let end = self.path.point_at(self.path.length());
+        if !self.done
+            && self.path.length() - self.progress <= self.goal_tolerance
+            && (estimate.x - end.x).hypot(estimate.y - end.y) <= self.goal_tolerance
+        {
+            self.done = true;
+            self.controller.reset();
+        }
+        let mut start = StartState::measured(estimate, obs.input, self.vehicle.as_ref());
+        if self.config.start != StartInfo::Encoders {
+            if let Some(w) = obs.imu_yaw_rate {
+                start = start.with_yaw_rate(w);
+            }
+        }
+        if self.config.start == StartInfo::EncodersImuLocalization && self.fixes.len() >= 2 {
+            start = start.with_velocity([vx, vy]);
+        }
+        let wanted = if self.done {
+            self.stop
+        } else {
+            self.reference.clear();
+            for k in 1..=self.controller.horizon() {
+                let s = self.progress + self.config.speed * self.dt * k as f64;
+                self.reference.push(self.path.point_at(s).pose());
+            }
+            let state = ControlState {
+                now: start,
+                sent: self.sent,
+                past: self
+                    .past_states
+                    .front()
+                    .map(|s| (*s, &*self.past_commands.make_contiguous())),
+            };
+            self.controller.command(&state, &self.reference)?
+        };
+        let space = self.robot.input_space();
+        let u = space.clamp(&next_command(
+            &self.robot,
+            &mut self.sent,
+            &space.clamp(&wanted),
+        ));
+        let command = self.to_vehicle.apply(&u);
+        if self.history > 0 {
+            self.past_states.push_back(start);
+            self.past_commands.push_back(command);
+            if self.past_states.len() > self.history {
+                self.past_states.pop_front();
+                self.past_commands.pop_front();
+            }
+        }
+        Ok(Tick {
+            command,
+            controller_input: u,
+            estimate,
+            progress_m: self.progress,
+            cross_track_m: near.cross_track,
+            heading_error_rad: heading_error,
+            done: self.done,
+        })
+    }
+}

@@ -1,0 +1,866 @@
+//! The closed-loop experiment (`drive track`): a controller with a fitted model drives the
+//! simulated robot (a preset terrain or a twin of a real run) along reference paths, for
+//! each model, training source, path, speed and seed; scored by how closely the robot
+//! followed the path.
+//!
+//! One run: the plant at rest; the path placed where the robot's localization frame starts,
+//! leaving along its heading; a [`Tracker`] ticked at the robot's command rate with what
+//! the plant's sensors report, its commands sent to the plant; the run ends when the
+//! tracker reaches the end of the path, or at the time limit (then not completed). The
+//! scores use the plant's true pose of the localization frame ([`drive_sim::Plant::true_pose`]), not
+//! the noisy localization the controller sees.
+//!
+//! The speeds are fractions of the robot's top speed **on this terrain**, measured on the
+//! plant as DRIVE's characterization does (Sec. III-A, step 1): the straightest fastest
+//! input of the input space held for 6 s, the speed over its last 2 s. The preset paths are
+//! scaled to it: `max(2 m, 4 s x top speed)`.
+
+use crate::{simulate_run, ExperimentError, Registries, SimRun};
+use drive_control::{
+    ControlError, ControlSetup, InputMap, MakeController, Observation, PathError, PathShape,
+    ReferencePath, Tracker, TrackerConfig,
+};
+use drive_models::{DifferentialDrive, ModelSpec};
+use drive_samplers::{next_command, RobotSpec, RunnerConfig, SentCommand};
+use drive_sim::{plant_for, scale_difference, Terrain};
+use drive_traits::limits::Short;
+use drive_traits::{
+    vehicle_as, vehicle_tag, wrap_angle, Dataset, FitError, Input, MotionModel, Pose, WindowSet,
+};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::sync::Arc;
+use std::time::Instant;
+use thiserror::Error;
+
+/// Why a closed-loop study could not run.
+#[derive(Debug, Error)]
+pub enum TrackError {
+    /// A simulated training run or a part's name failed.
+    #[error(transparent)]
+    Experiment(#[from] ExperimentError),
+    /// The controller could not be built or gave no command.
+    #[error("{model} on {path}: {source}")]
+    Control {
+        /// The model.
+        model: String,
+        /// The path.
+        path: String,
+        /// Why.
+        source: ControlError,
+    },
+    /// A path is refused.
+    #[error(transparent)]
+    Path(#[from] PathError),
+    /// A model could not be fitted on its training data.
+    #[error("fitting {model} on {data}: {reason}")]
+    Fit {
+        /// The model.
+        model: String,
+        /// Its training data.
+        data: String,
+        /// Why.
+        reason: FitError,
+    },
+    /// A setting of the study is out of range, or its parts do not fit together.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// What a model is fitted on.
+#[derive(Debug, Clone)]
+pub enum Training {
+    /// A recorded (or simulated) dataset: every one of its windows.
+    Data {
+        /// Its label in the results (the file's name).
+        name: String,
+        /// The windows.
+        dataset: Arc<Dataset>,
+    },
+    /// A DRIVE run on the plant itself, simulated for each seed.
+    Protocol {
+        /// The registered sampler it is driven by (`uniform`, `linear`, `angular`).
+        sampler: String,
+        /// Driving time (s), characterization excluded.
+        driving_s: f64,
+    },
+}
+
+impl Training {
+    /// The label in the results: the dataset's name, or the sampler's.
+    pub fn label(&self) -> String {
+        match self {
+            Training::Data { name, .. } => name.clone(),
+            Training::Protocol { sampler, .. } => sampler.clone(),
+        }
+    }
+}
+
+/// A path of the study: a preset shape (scaled to the robot's top speed) or a given one.
+#[derive(Debug, Clone)]
+pub enum PathChoice {
+    /// A preset shape.
+    Preset(PathShape),
+    /// A path as given (a CSV file), placed at the robot's start.
+    Given(ReferencePath),
+}
+
+impl PathChoice {
+    /// The path's name.
+    pub fn name(&self) -> String {
+        match self {
+            PathChoice::Preset(s) => s.as_str().to_string(),
+            PathChoice::Given(p) => p.name().to_string(),
+        }
+    }
+}
+
+/// A closed-loop study.
+#[derive(Clone)]
+pub struct TrackStudy {
+    /// The robot.
+    pub robot: RobotSpec,
+    /// The ground: a preset terrain, or a twin (`drive sim-fit`).
+    pub terrain: Terrain,
+    /// What the models are fitted on; each is a column of the results.
+    pub training: Vec<Training>,
+    /// The models.
+    pub models: Vec<ModelSpec>,
+    /// The paths.
+    pub paths: Vec<PathChoice>,
+    /// Speeds along the path, as fractions of the robot's top speed, in (0, 1].
+    pub speeds: Vec<f64>,
+    /// Seeds: the plant's noise, and the simulated training runs.
+    pub seeds: Vec<u64>,
+    /// The controller's name, for the results.
+    pub controller_name: String,
+    /// The controller.
+    pub controller: Arc<dyn MakeController>,
+    /// Time limit of a run (s); default: twice the path's length at its speed, plus 20 s.
+    pub time_limit_s: Option<f64>,
+}
+
+impl std::fmt::Debug for TrackStudy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TrackStudy")
+            .field("robot", &self.robot.name)
+            .field("terrain", &self.terrain.name)
+            .field("controller", &self.controller_name)
+            .finish_non_exhaustive()
+    }
+}
+
+/// One closed-loop run.
+#[derive(Debug, Clone, Serialize)]
+pub struct TrackRun {
+    /// The model.
+    pub model: String,
+    /// What it was fitted on ([`Training::label`]).
+    pub train: String,
+    /// The path.
+    pub path: String,
+    /// Speed as a fraction of the top speed.
+    pub speed_fraction: f64,
+    /// Speed (m/s).
+    pub speed_m_s: f64,
+    /// Seed.
+    pub seed: u64,
+    /// RMS distance of the robot from the path (m), over the run.
+    pub cross_track_rms_m: f64,
+    /// Largest distance from the path (m).
+    pub cross_track_max_m: f64,
+    /// RMS heading error against the path's direction (rad).
+    pub heading_rms_rad: f64,
+    /// The end of the path was reached within the time limit.
+    pub completed: bool,
+    /// Time driven (s): to the end of the path, or to the time limit.
+    pub duration_s: f64,
+    /// RMS of the commands, normalised by the input space's half-range (0: at its centre,
+    /// 1: at its corners).
+    pub effort: f64,
+    /// Median time the controller took per tick (ms).
+    pub tick_ms_median: f64,
+    /// The path's length (m).
+    pub length_m: f64,
+    /// The robot's positions, one per tick (for figures; not in the JSON).
+    #[serde(skip)]
+    pub trajectory: Vec<[f64; 2]>,
+}
+
+/// Runs of one model, training, path and speed over the seeds.
+#[derive(Debug, Clone, Serialize)]
+pub struct TrackSummary {
+    /// The model.
+    pub model: String,
+    /// What it was fitted on.
+    pub train: String,
+    /// The path.
+    pub path: String,
+    /// Speed as a fraction of the top speed.
+    pub speed_fraction: f64,
+    /// Runs (seeds).
+    pub runs: usize,
+    /// Mean over the runs of their RMS cross-track error (m).
+    pub cross_track_rms_m: f64,
+    /// Largest cross-track error of any run (m).
+    pub cross_track_max_m: f64,
+    /// Mean of the runs' RMS heading error (rad).
+    pub heading_rms_rad: f64,
+    /// Share of the runs that reached the end.
+    pub completed_share: f64,
+    /// Mean time of the completed runs (s); absent when none completed.
+    pub duration_s: Option<f64>,
+    /// Mean effort.
+    pub effort: f64,
+    /// How much lower the RMS cross-track error is than the first model's with the same
+    /// training, path and speed (%; positive is better), when this is not the first model.
+    pub improvement_over_first_percent: Option<f64>,
+}
+
+/// A placed reference path, for figures.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlacedPath {
+    /// The path's name.
+    pub path: String,
+    /// Its points.
+    pub points: Vec<[f64; 2]>,
+}
+
+/// What a closed-loop study found.
+#[derive(Debug, Clone, Serialize)]
+pub struct TrackResult {
+    /// The robot.
+    pub robot: String,
+    /// The terrain (or twin).
+    pub terrain: String,
+    /// The controller.
+    pub controller: String,
+    /// The robot's top speed on this terrain, as measured (m/s).
+    pub top_speed_m_s: f64,
+    /// The preset paths' scale (m).
+    pub path_scale_m: f64,
+    /// The models, in order (the first is the one improvements are measured against).
+    pub models: Vec<String>,
+    /// The training sources, in order.
+    pub training: Vec<String>,
+    /// Every run.
+    pub runs: Vec<TrackRun>,
+    /// Per model, training, path and speed.
+    pub summary: Vec<TrackSummary>,
+    /// The paths as placed.
+    pub paths: Vec<PlacedPath>,
+    /// What the reader should know (a run that ended at its time limit, ...).
+    pub notes: Vec<String>,
+}
+
+/// The robot as the controller commands it, and how its commands reach the plant.
+struct Driven {
+    /// The robot the plant simulates.
+    plant: RobotSpec,
+    /// The robot as the controller sees it (a twin's protocol geometry and input box).
+    controller: RobotSpec,
+    to_vehicle: InputMap,
+}
+
+/// For a twin whose real run drew its commands in another geometry than the robot's
+/// (`drive_sim::TwinProtocol`), the controller commands in that geometry and its box, as
+/// the real run's node did, and its commands reach the robot with their wheel-speed
+/// difference scaled; otherwise the robot itself.
+fn driven(robot: &RobotSpec, terrain: &Terrain) -> Result<Driven, TrackError> {
+    let Some(p) = terrain.protocol else {
+        return Ok(Driven {
+            plant: robot.clone(),
+            controller: robot.clone(),
+            to_vehicle: InputMap::identity(),
+        });
+    };
+    let nominal: DifferentialDrive = vehicle_as(robot.vehicle.as_ref()).ok_or_else(|| {
+        TrackError::Invalid(format!(
+            "terrain '{}' is a twin of a differential drive; robot '{}' is not one",
+            terrain.name, robot.name
+        ))
+    })?;
+    if let Some(why) = p.refuses(nominal.wheel_radius, nominal.baseline) {
+        return Err(TrackError::Invalid(format!(
+            "terrain '{}' cannot drive robot '{}': {why}",
+            terrain.name, robot.name
+        )));
+    }
+    let space = p.space().ok_or_else(|| {
+        TrackError::Invalid(format!(
+            "terrain '{}': its protocol's input limits are not a box",
+            terrain.name
+        ))
+    })?;
+    let gain = p.difference_gain(nominal.baseline);
+    let mut controller = robot.clone();
+    controller.vehicle = Arc::new(DifferentialDrive::new(nominal.wheel_radius, p.baseline));
+    controller.input_limits = Some(space);
+    controller.input_rate_limits = None;
+    Ok(Driven {
+        plant: robot.clone(),
+        controller,
+        to_vehicle: InputMap::new(move |u: &Input| scale_difference(*u, gain)),
+    })
+}
+
+/// The input of the controller's space that drives fastest straight ahead: among the
+/// corners, edge midpoints and centre of the box, the largest forward speed, then the
+/// smallest yaw rate.
+fn fastest_straight(robot: &RobotSpec) -> Input {
+    let j = robot.input_space();
+    let (lo, mid, hi) = (j.min, j.center(), j.max);
+    let mut best = mid;
+    let mut key = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for a in [lo.x, mid.x, hi.x] {
+        for b in [lo.y, mid.y, hi.y] {
+            let u = Input::new(a, b);
+            let v = robot.vehicle.body_velocity(&u);
+            let k = (v.x, -v.z.abs());
+            if k.0 > key.0 + 1e-9 || ((k.0 - key.0).abs() <= 1e-9 && k.1 > key.1) {
+                key = k;
+                best = u;
+            }
+        }
+    }
+    best
+}
+
+/// Seconds the top-speed probe holds its input, and the span it measures over.
+const PROBE_S: f64 = 6.0;
+const PROBE_SPAN_S: f64 = 2.0;
+
+/// The robot's top speed on this terrain (m/s): the straightest fastest input held for 6 s
+/// within its acceleration limits, the true speed over the last 2 s.
+fn top_speed(
+    registries: &Registries,
+    d: &Driven,
+    terrain: &Terrain,
+    seed: u64,
+) -> Result<f64, TrackError> {
+    let mut plant = plant_for(&registries.simulators, &d.plant, terrain, seed)
+        .map_err(|reason| TrackError::Invalid(format!("simulating {}: {reason}", d.plant.name)))?;
+    let target = fastest_straight(&d.controller);
+    let mut sent = SentCommand::default();
+    let ticks = (PROBE_S * d.plant.rate_hz).round() as usize;
+    let span = (PROBE_SPAN_S * d.plant.rate_hz).round() as usize;
+    let mut poses = Vec::with_capacity(ticks + 1);
+    for _ in 0..=ticks {
+        let m = plant.measure();
+        poses.push(plant.true_pose().unwrap_or(m.pose));
+        let u = next_command(&d.controller, &mut sent, &target);
+        plant.advance(d.to_vehicle.apply(&u));
+    }
+    let (a, b) = (poses[ticks - span], poses[ticks]);
+    let speed = (b.x - a.x).hypot(b.y - a.y) / PROBE_SPAN_S;
+    if !(speed.is_finite() && speed > 1e-3) {
+        return Err(TrackError::Invalid(format!(
+            "robot '{}' does not drive forward on terrain '{}' (top speed measured {} m/s): nothing to follow a path with",
+            d.plant.name,
+            terrain.name,
+            Short(speed)
+        )));
+    }
+    Ok(speed)
+}
+
+/// One run's settings.
+struct RunPlan<'a> {
+    model: &'a Arc<dyn MotionModel>,
+    spec: &'a ModelSpec,
+    train: String,
+    path: &'a ReferencePath,
+    path_name: String,
+    fraction: f64,
+    speed: f64,
+    seed: u64,
+    time_limit_s: f64,
+}
+
+/// Drives one run.
+fn drive(
+    registries: &Registries,
+    study: &TrackStudy,
+    d: &Driven,
+    plan: &RunPlan<'_>,
+) -> Result<TrackRun, TrackError> {
+    let control = |source| TrackError::Control {
+        model: plan.spec.name.clone(),
+        path: plan.path_name.clone(),
+        source,
+    };
+    let mut plant = plant_for(&registries.simulators, &d.plant, &study.terrain, plan.seed)
+        .map_err(|reason| TrackError::Invalid(format!("simulating {}: {reason}", d.plant.name)))?;
+    let first = plant.measure();
+    let start = plant.true_pose().unwrap_or(first.pose);
+    let path = plan.path.placed_at(&start);
+    let setup = ControlSetup {
+        model: Arc::clone(plan.model),
+        robot: d.controller.clone(),
+        to_vehicle: d.to_vehicle.clone(),
+        speed: plan.speed,
+    };
+    let config = TrackerConfig {
+        start: plan.spec.start,
+        ..TrackerConfig::new(plan.speed)
+    };
+    let mut tracker = Tracker::new(
+        study.controller.as_ref(),
+        &setup,
+        path.clone(),
+        config,
+        Arc::clone(&d.plant.vehicle),
+    )
+    .map_err(control)?;
+    let space = d.controller.input_space();
+    let half = (space.max - space.min) * 0.5;
+    let centre = space.center();
+    let window = (2.0 * plan.speed).max(1.0);
+    let (mut progress, mut cross2, mut cross_max, mut head2, mut effort2) =
+        (0.0, 0.0, 0.0f64, 0.0, 0.0);
+    let mut ticks_ms = Vec::new();
+    let mut trajectory = Vec::new();
+    let mut m = first;
+    let (completed, duration) = loop {
+        let obs = Observation {
+            t: m.t,
+            input: m.input,
+            pose: m.fresh_pose.then_some(m.pose),
+            imu_yaw_rate: Some(m.imu_yaw_rate),
+        };
+        let clock = Instant::now();
+        let tick = tracker.tick(&obs).map_err(control)?;
+        ticks_ms.push(clock.elapsed().as_secs_f64() * 1e3);
+        let truth: Pose = plant.true_pose().unwrap_or(m.pose);
+        trajectory.push([truth.x, truth.y]);
+        let near = path.project(
+            [truth.x, truth.y],
+            progress - window / 2.0,
+            progress + window,
+        );
+        progress = near.point.s;
+        cross2 += near.cross_track * near.cross_track;
+        cross_max = cross_max.max(near.cross_track.abs());
+        let yaw = wrap_angle(truth.z - near.point.heading);
+        head2 += yaw * yaw;
+        effort2 += (tick.controller_input - centre)
+            .component_div(&half)
+            .norm_squared()
+            / 2.0;
+        if tick.done {
+            break (true, m.t);
+        }
+        if m.t >= plan.time_limit_s {
+            break (false, m.t);
+        }
+        plant.advance(tick.command);
+        m = plant.measure();
+    };
+    let n = ticks_ms.len() as f64;
+    ticks_ms.sort_by(f64::total_cmp);
+    Ok(TrackRun {
+        model: plan.spec.name.clone(),
+        train: plan.train.clone(),
+        path: plan.path_name.clone(),
+        speed_fraction: plan.fraction,
+        speed_m_s: plan.speed,
+        seed: plan.seed,
+        cross_track_rms_m: (cross2 / n).sqrt(),
+        cross_track_max_m: cross_max,
+        heading_rms_rad: (head2 / n).sqrt(),
+        completed,
+        duration_s: duration,
+        effort: (effort2 / n).sqrt(),
+        tick_ms_median: ticks_ms[ticks_ms.len() / 2],
+        length_m: path.length(),
+        trajectory,
+    })
+}
+
+/// A model fitted on one training set (of a seed, for a simulated one).
+struct Fitted {
+    training: usize,
+    seed: Option<u64>,
+    model: usize,
+    fitted: Arc<dyn MotionModel>,
+}
+
+/// Most runs of one study (models x trainings x paths x speeds x seeds).
+pub const MAX_TRACK_RUNS: usize = 10_000;
+
+/// Runs the closed-loop study: the top speed, the training data and the fits, then every
+/// run, in parallel (rayon); `progress` is called after each run.
+///
+/// ```no_run
+/// use drive_control::PathShape;
+/// use drive_eval::{run_track, PathChoice, Registries, Training, TrackStudy};
+/// use std::sync::Arc;
+/// let r = Registries::builtin();
+/// let study = TrackStudy {
+///     robot: r.robot("husky").unwrap(),
+///     terrain: r.terrain("gravel").unwrap(),
+///     training: vec![Training::Protocol { sampler: "uniform".into(), driving_s: 300.0 }],
+///     models: r.models().resolve_list(&["naive", "slip-blr"]).unwrap(),
+///     paths: vec![PathChoice::Preset(PathShape::FigureEight)],
+///     speeds: vec![0.5],
+///     seeds: vec![1],
+///     controller_name: "mppi".into(),
+///     controller: Arc::clone(r.controllers.get("mppi").unwrap().part()),
+///     time_limit_s: None,
+/// };
+/// let result = run_track(&r, &study, &|| {}).unwrap();
+/// assert_eq!(result.runs.len(), 2);
+/// ```
+pub fn run_track(
+    registries: &Registries,
+    study: &TrackStudy,
+    progress: &(dyn Fn() + Sync),
+) -> Result<TrackResult, TrackError> {
+    for (what, empty) in [
+        ("models", study.models.is_empty()),
+        ("training data", study.training.is_empty()),
+        ("paths", study.paths.is_empty()),
+        ("speeds", study.speeds.is_empty()),
+        ("seeds", study.seeds.is_empty()),
+    ] {
+        if empty {
+            return Err(TrackError::Invalid(format!("the study has no {what}")));
+        }
+    }
+    for &f in &study.speeds {
+        if !(f.is_finite() && f > 0.0 && f <= 1.0) {
+            return Err(TrackError::Invalid(format!(
+                "speed {} is not a fraction of the robot's top speed in (0, 1]",
+                Short(f)
+            )));
+        }
+    }
+    if let Some(t) = study.time_limit_s {
+        if !(t.is_finite() && t > 0.0 && t <= 86_400.0) {
+            return Err(TrackError::Invalid(format!(
+                "time limit {} s is not a positive number of seconds (at most a day)",
+                Short(t)
+            )));
+        }
+    }
+    let runs_planned = study.models.len()
+        * study.training.len()
+        * study.paths.len()
+        * study.speeds.len()
+        * study.seeds.len();
+    drive_traits::limits::at_most(
+        "the study's runs (models x training x paths x speeds x seeds)",
+        runs_planned as f64,
+        MAX_TRACK_RUNS as f64,
+        "",
+    )
+    .map_err(ExperimentError::from)?;
+    let d = driven(&study.robot, &study.terrain)?;
+    let mut notes = Vec::new();
+    for t in &study.training {
+        if let Training::Data { name, dataset } = t {
+            check_data(name, dataset, &d.plant, &mut notes)?;
+        }
+    }
+    let top = top_speed(registries, &d, &study.terrain, study.seeds[0])?;
+    let scale = (4.0 * top).max(2.0);
+    // The training data: a dataset once, a simulated run per seed.
+    let mut sets: Vec<(usize, Option<u64>, Arc<Dataset>)> = Vec::new();
+    let mut runs_to_simulate = Vec::new();
+    for (i, t) in study.training.iter().enumerate() {
+        match t {
+            Training::Data { dataset, .. } => sets.push((i, None, Arc::clone(dataset))),
+            Training::Protocol { sampler, driving_s } => {
+                registries
+                    .samplers
+                    .get(sampler)
+                    .map_err(ExperimentError::from)?;
+                let intervals = crate::intervals_in(*driving_s)?;
+                for &seed in &study.seeds {
+                    runs_to_simulate.push((
+                        i,
+                        seed,
+                        SimRun {
+                            robot: d.plant.clone(),
+                            terrain: study.terrain.clone(),
+                            sampler: sampler.clone(),
+                            runner: RunnerConfig {
+                                max_intervals: Some(intervals),
+                                ..RunnerConfig::default()
+                            },
+                            seed,
+                        },
+                    ));
+                }
+            }
+        }
+    }
+    let simulated: Vec<(usize, u64, Arc<Dataset>)> = runs_to_simulate
+        .par_iter()
+        .map(|(i, seed, run)| {
+            simulate_run(registries, run).map(|s| (*i, *seed, Arc::new(s.dataset)))
+        })
+        .collect::<Result<_, _>>()?;
+    sets.extend(simulated.into_iter().map(|(i, s, d)| (i, Some(s), d)));
+    // The fits: every model on every training set.
+    let fits: Vec<Fitted> = sets
+        .par_iter()
+        .flat_map(|(i, seed, data)| {
+            (0..study.models.len())
+                .into_par_iter()
+                .map(move |m| (*i, *seed, Arc::clone(data), m))
+        })
+        .map(|(i, seed, data, m)| {
+            let spec = &study.models[m];
+            let train = WindowSet {
+                robot: &data.robot,
+                windows: data.windows.iter().collect(),
+            };
+            spec.fit_uncalibrated(&train)
+                .map(|model| Fitted {
+                    training: i,
+                    seed,
+                    model: m,
+                    fitted: Arc::from(model),
+                })
+                .map_err(|reason| TrackError::Fit {
+                    model: spec.name.clone(),
+                    data: data.robot.name.clone(),
+                    reason,
+                })
+        })
+        .collect::<Result<_, _>>()?;
+    // The paths.
+    let paths: Vec<(String, ReferencePath)> = study
+        .paths
+        .iter()
+        .map(|p| match p {
+            PathChoice::Preset(shape) => Ok((p.name(), shape.at_scale(scale)?)),
+            PathChoice::Given(path) => Ok((p.name(), path.clone())),
+        })
+        .collect::<Result<_, PathError>>()?;
+    // Every run.
+    let mut plans = Vec::new();
+    for (i, t) in study.training.iter().enumerate() {
+        for &seed in &study.seeds {
+            for (m, spec) in study.models.iter().enumerate() {
+                let model = fits
+                    .iter()
+                    .find(|f| {
+                        f.training == i
+                            && f.model == m
+                            && (f.seed.is_none() || f.seed == Some(seed))
+                    })
+                    .map(|f| &f.fitted)
+                    .ok_or_else(|| TrackError::Invalid("a fit is missing".into()))?;
+                for (name, path) in &paths {
+                    for &fraction in &study.speeds {
+                        let speed = fraction * top;
+                        plans.push(RunPlan {
+                            model,
+                            spec,
+                            train: t.label(),
+                            path,
+                            path_name: name.clone(),
+                            fraction,
+                            speed,
+                            seed,
+                            time_limit_s: study
+                                .time_limit_s
+                                .unwrap_or(2.0 * path.length() / speed + 20.0),
+                        });
+                    }
+                }
+            }
+        }
+    }
+    let runs: Vec<TrackRun> = plans
+        .par_iter()
+        .map(|plan| {
+            let run = drive(registries, study, &d, plan);
+            progress();
+            run
+        })
+        .collect::<Result<_, _>>()?;
+    for r in runs.iter().filter(|r| !r.completed) {
+        notes.push(format!(
+            "{} ({}) on {} at {:.0}% seed {}: the time limit ({:.0} s) ended the run before the end of the path",
+            r.model,
+            r.train,
+            r.path,
+            100.0 * r.speed_fraction,
+            r.seed,
+            r.duration_s
+        ));
+    }
+    let summary = summarise(study, &runs);
+    let start = Pose::zeros();
+    Ok(TrackResult {
+        robot: study.robot.name.clone(),
+        terrain: study.terrain.name.clone(),
+        controller: study.controller_name.clone(),
+        top_speed_m_s: top,
+        path_scale_m: scale,
+        models: study.models.iter().map(|m| m.name.clone()).collect(),
+        training: study.training.iter().map(Training::label).collect(),
+        runs,
+        summary,
+        paths: paths
+            .iter()
+            .map(|(name, p)| PlacedPath {
+                path: name.clone(),
+                points: p.placed_at(&start).points().to_vec(),
+            })
+            .collect(),
+        notes,
+    })
+}
+
+/// A dataset the models are fitted on must be of the plant's robot: its rate and vehicle.
+fn check_data(
+    name: &str,
+    data: &Dataset,
+    robot: &RobotSpec,
+    notes: &mut Vec<String>,
+) -> Result<(), TrackError> {
+    if data.windows.is_empty() {
+        return Err(TrackError::Invalid(format!("{name}: no windows to fit on")));
+    }
+    if (data.robot.rate_hz - robot.rate_hz).abs() > 1e-9 * robot.rate_hz {
+        return Err(TrackError::Invalid(format!(
+            "{name} is recorded at {} Hz; robot '{}' is commanded at {} Hz",
+            Short(data.robot.rate_hz),
+            robot.name,
+            Short(robot.rate_hz)
+        )));
+    }
+    let (a, b) = (
+        vehicle_tag(data.robot.vehicle.as_ref()),
+        vehicle_tag(robot.vehicle.as_ref()),
+    );
+    if a != b {
+        return Err(TrackError::Invalid(format!(
+            "{name} is of a '{}' vehicle; robot '{}' is a '{}'",
+            a.unwrap_or_default(),
+            robot.name,
+            b.unwrap_or_default()
+        )));
+    }
+    let (ga, gb) = (data.robot.vehicle.geometry(), robot.vehicle.geometry());
+    let differs = ga.len() != gb.len()
+        || ga
+            .iter()
+            .zip(&gb)
+            .any(|(x, y)| (x.1 - y.1).abs() > 0.01 * y.1.abs().max(1e-9));
+    if differs {
+        notes.push(format!(
+            "{name}: its vehicle geometry {ga:?} is not robot '{}''s {gb:?}; the models keep the data's",
+            robot.name
+        ));
+    }
+    Ok(())
+}
+
+/// Per model, training, path and speed: the runs' means, and the improvement over the
+/// first model.
+fn summarise(study: &TrackStudy, runs: &[TrackRun]) -> Vec<TrackSummary> {
+    let mut out: Vec<TrackSummary> = Vec::new();
+    for t in &study.training {
+        for p in &study.paths {
+            for &f in &study.speeds {
+                let mut block: Vec<TrackSummary> = Vec::new();
+                for spec in &study.models {
+                    let these: Vec<&TrackRun> = runs
+                        .iter()
+                        .filter(|r| {
+                            r.train == t.label()
+                                && r.path == p.name()
+                                && r.speed_fraction == f
+                                && r.model == spec.name
+                        })
+                        .collect();
+                    if these.is_empty() {
+                        continue;
+                    }
+                    let n = these.len() as f64;
+                    let mean =
+                        |g: fn(&TrackRun) -> f64| these.iter().map(|r| g(r)).sum::<f64>() / n;
+                    let done: Vec<f64> = these
+                        .iter()
+                        .filter(|r| r.completed)
+                        .map(|r| r.duration_s)
+                        .collect();
+                    block.push(TrackSummary {
+                        model: spec.name.clone(),
+                        train: t.label(),
+                        path: p.name(),
+                        speed_fraction: f,
+                        runs: these.len(),
+                        cross_track_rms_m: mean(|r| r.cross_track_rms_m),
+                        cross_track_max_m: these
+                            .iter()
+                            .map(|r| r.cross_track_max_m)
+                            .fold(0.0, f64::max),
+                        heading_rms_rad: mean(|r| r.heading_rms_rad),
+                        completed_share: done.len() as f64 / n,
+                        duration_s: (!done.is_empty())
+                            .then(|| done.iter().sum::<f64>() / done.len() as f64),
+                        effort: mean(|r| r.effort),
+                        improvement_over_first_percent: None,
+                    });
+                }
+                // Against the first model of the study, when it ran here.
+                let base = block
+                    .first()
+                    .filter(|s| s.model == study.models[0].name)
+                    .map(|s| s.cross_track_rms_m);
+                if let Some(base) = base.filter(|b| *b > 0.0) {
+                    for s in block.iter_mut().skip(1) {
+                        s.improvement_over_first_percent =
+                            Some(100.0 * (base - s.cross_track_rms_m) / base);
+                    }
+                }
+                out.extend(block);
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_fastest_straight_input_of_a_differential_drive_is_both_wheels_at_the_top() {
+        let husky = Registries::builtin().robot("husky").unwrap();
+        let u = fastest_straight(&husky);
+        let j = husky.input_space();
+        assert_eq!(u, j.max);
+    }
+
+    #[test]
+    fn a_twin_is_commanded_in_its_protocol_geometry() {
+        let r = Registries::builtin();
+        let husky = r.robot("husky").unwrap();
+        let twin = r
+            .terrain(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../examples/husky_twin.toml"
+            ))
+            .unwrap();
+        let d = driven(&husky, &twin).unwrap();
+        let p = twin.protocol.unwrap();
+        assert_eq!(d.controller.input_space(), p.space().unwrap());
+        // A pure turn in the protocol's geometry reaches the robot with its wheel-speed
+        // difference stretched by nominal / protocol baseline.
+        let u = d.to_vehicle.apply(&Input::new(-1.0, 1.0));
+        assert!((u.y - 0.55 / p.baseline).abs() < 1e-12 && (u.x + u.y).abs() < 1e-12);
+        // The preset terrains drive the robot itself.
+        let d = driven(&husky, &r.terrain("gravel").unwrap()).unwrap();
+        assert_eq!(
+            d.to_vehicle.apply(&Input::new(-1.0, 1.0)),
+            Input::new(-1.0, 1.0)
+        );
+    }
+}

@@ -1,0 +1,222 @@
+//! The closed loop's online path follower for a Python driver (a ROS 2 node): a fitted
+//! model inside the MPPI controller, ticked with what the robot measured.
+
+use crate::{err, number_of, start_info_of, type_name, Model};
+use drive::control::{
+    ControlSetup, InputMap, MakeController, Mppi, PathShape, ReferencePath, Tracker as RustTracker,
+    TrackerConfig,
+};
+use drive::traits::{vehicle_tag, Input, Pose};
+use drive::Registries;
+use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// Follows a path with a fitted model inside a model-predictive controller (MPPI), one tick
+/// at a time: `tick` takes what the robot measured and returns the command to send.
+///
+/// A tracker belongs to the thread that made it (a ROS 2 node's executor thread).
+#[pyclass(module = "drive._native", unsendable)]
+pub(crate) struct Tracker {
+    tracker: RustTracker,
+    vehicle: std::sync::Arc<dyn drive::traits::CommandModel>,
+    last_t: Option<f64>,
+}
+
+/// The path `obj`: an (N, 2) array of x, y points (m), or a preset name with its scale.
+fn path_of(py: Python<'_>, obj: &Bound<'_, PyAny>, scale: f64) -> PyResult<ReferencePath> {
+    if let Ok(name) = obj.extract::<String>() {
+        let shape = PathShape::parse(&name).map_err(err)?;
+        return shape.at_scale(scale).map_err(err);
+    }
+    let a = crate::float_array(py, "path", "(N, 2)", obj, 2)?;
+    let a: PyReadonlyArray2<'_, f64> = a.extract()?;
+    if a.shape()[1] != 2 {
+        return Err(err(format!(
+            "path must be an (N, 2) array of x, y points, got shape {:?}",
+            a.shape()
+        )));
+    }
+    let points: Vec<[f64; 2]> = a
+        .as_array()
+        .rows()
+        .into_iter()
+        .map(|r| [r[0], r[1]])
+        .collect();
+    ReferencePath::new("path", points).map_err(err)
+}
+
+#[pymethods]
+impl Tracker {
+    /// A tracker of `path` (an (N, 2) array of x, y in the localization's frame, or a preset
+    /// name, "line", "circle", "figure8" or "zigzag", of size `scale` m starting at the
+    /// origin along +x) at `speed` m/s, with `model` (a `drive.Model`) predicting for the
+    /// MPPI controller (`samples` candidates of `horizon` steps, `temperature`; the
+    /// defaults of `drive track`), on `robot` (a registered name or a robot TOML file: its
+    /// input space and acceleration limits bound the commands). `start` is what the
+    /// model's predictions start from, as it was fitted ("encoders+imu" by default);
+    /// `history` (s) how far back the predictions start, through the commands sent since.
+    #[new]
+    #[pyo3(signature = (model, robot, path, speed, *, scale=4.0, start=None, samples=None, horizon=None, temperature=None, history=0.5))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        model: &Bound<'_, PyAny>,
+        robot: &Bound<'_, PyAny>,
+        path: &Bound<'_, PyAny>,
+        speed: &Bound<'_, PyAny>,
+        scale: f64,
+        start: Option<&Bound<'_, PyAny>>,
+        samples: Option<usize>,
+        horizon: Option<usize>,
+        temperature: Option<f64>,
+        history: f64,
+    ) -> PyResult<Self> {
+        let model = model.extract::<PyRef<'_, Model>>().map_err(|_| {
+            err(format!(
+                "model must be a drive.Model (drive.fit or drive.load_model), got {}",
+                type_name(model)
+            ))
+        })?;
+        let robot_name: String = robot.extract().map_err(|_| {
+            err(format!(
+                "robot must be a robot name or a robot TOML file, got {}",
+                type_name(robot)
+            ))
+        })?;
+        let robot = Registries::builtin().robot(&robot_name).map_err(err)?;
+        let (a, b) = (
+            vehicle_tag(model.robot.vehicle.as_ref()),
+            vehicle_tag(robot.vehicle.as_ref()),
+        );
+        if a != b {
+            return Err(err(format!(
+                "the model is of a '{}' vehicle; robot '{}' is a '{}'",
+                a.unwrap_or_default(),
+                robot.name,
+                b.unwrap_or_default()
+            )));
+        }
+        if (model.model.dt() * robot.rate_hz - 1.0).abs() > 1e-6 {
+            return Err(err(format!(
+                "the model predicts at steps of {} s; robot '{}' is commanded at {} Hz",
+                model.model.dt(),
+                robot.name,
+                robot.rate_hz
+            )));
+        }
+        let speed = number_of("speed", "a positive speed in m/s", speed)?;
+        let path = path_of(py, path, scale)?;
+        let start = start_info_of(start)?;
+        let d = Mppi::default();
+        let mppi = Mppi {
+            samples: samples.unwrap_or(d.samples),
+            horizon: horizon.unwrap_or(d.horizon),
+            temperature: temperature.unwrap_or(d.temperature),
+            ..d
+        };
+        let setup = ControlSetup {
+            model: model.model.clone(),
+            robot: robot.clone(),
+            to_vehicle: InputMap::identity(),
+            speed,
+        };
+        let config = TrackerConfig {
+            start,
+            history_s: history,
+            ..TrackerConfig::new(speed)
+        };
+        // Checked by the tracker (settings, speed).
+        let _ = mppi.make(&setup).map_err(err)?;
+        let tracker = RustTracker::new(&mppi, &setup, path, config, model.robot.vehicle.clone())
+            .map_err(err)?;
+        Ok(Tracker {
+            tracker,
+            vehicle: robot.vehicle.clone(),
+            last_t: None,
+        })
+    }
+
+    /// One tick: `t` the time (s, increasing); `inputs` the measured inputs (left, right
+    /// wheel velocities, rad/s, for a differential drive); `pose` a new localization fix
+    /// (x, y, yaw) when one arrived, else None; `imu_yaw_rate` the IMU's yaw rate (rad/s)
+    /// or None. Returns a dict: `command` (the two inputs to send), `done` (the end of
+    /// the path is reached; the command then stops the robot), `linear` and `angular` (the
+    /// body velocity the command asks for: a Twist's linear.x and angular.z), `progress_m`,
+    /// `cross_track_m` (positive left of the path), `heading_error_rad` and `estimate`
+    /// (x, y, yaw the tick planned from).
+    #[pyo3(signature = (t, inputs, pose=None, imu_yaw_rate=None))]
+    fn tick<'py>(
+        &mut self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        inputs: &Bound<'py, PyAny>,
+        pose: Option<&Bound<'py, PyAny>>,
+        imu_yaw_rate: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let t = number_of("t", "a time in s", t)?;
+        if let Some(last) = self.last_t {
+            if !(t > last) {
+                return Err(err(format!(
+                    "t = {t} does not come after the last tick's {last}"
+                )));
+            }
+        }
+        let inputs: [f64; 2] = crate::numbers_of("inputs", Some(inputs))?;
+        let pose: Option<[f64; 3]> = pose
+            .filter(|p| !p.is_none())
+            .map(|p| crate::numbers_of("pose", Some(p)))
+            .transpose()?;
+        let imu = imu_yaw_rate
+            .filter(|w| !w.is_none())
+            .map(|w| number_of("imu_yaw_rate", "a number (rad/s)", w))
+            .transpose()?;
+        let obs = drive::control::Observation {
+            t,
+            input: Input::new(inputs[0], inputs[1]),
+            pose: pose.map(|p| Pose::new(p[0], p[1], p[2])),
+            imu_yaw_rate: imu,
+        };
+        let tick = py.detach(|| self.tracker.tick(&obs)).map_err(err)?;
+        self.last_t = Some(t);
+        let d = PyDict::new(py);
+        let body = self.vehicle.body_velocity(&tick.command);
+        d.set_item("command", (tick.command.x, tick.command.y))?;
+        d.set_item("linear", body.x)?;
+        d.set_item("angular", body.z)?;
+        d.set_item("done", tick.done)?;
+        d.set_item("progress_m", tick.progress_m)?;
+        d.set_item("cross_track_m", tick.cross_track_m)?;
+        d.set_item("heading_error_rad", tick.heading_error_rad)?;
+        d.set_item(
+            "estimate",
+            (tick.estimate.x, tick.estimate.y, tick.estimate.z),
+        )?;
+        Ok(d)
+    }
+
+    /// Tells the tracker the robot was stopped by something else (a safety stop, an
+    /// operator taking over): its next commands ramp up from rest; the progress along the
+    /// path is kept.
+    fn reset(&mut self) {
+        self.tracker.reset();
+    }
+
+    /// The path's length (m).
+    #[getter]
+    fn length(&self) -> f64 {
+        self.tracker.path().length()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Tracker(path of {:.1} m, progress {:.1} m)",
+            self.tracker.path().length(),
+            self.tracker.progress()
+        )
+    }
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Tracker>()
+}

@@ -1,0 +1,258 @@
+"""The closed loop from Python: `drive.Tracker` (a fitted model inside the MPPI controller of
+`drive track`) on a small simulated robot, its errors, and the ROS 2 path-following node
+(examples/ros2/drive_track_*.py) with fake messages and a fake rclpy."""
+
+import importlib.util
+import math
+import sys
+import types
+from pathlib import Path as FsPath
+from types import SimpleNamespace as NS
+
+import numpy as np
+import pytest
+
+import drive
+
+ROS2 = FsPath(__file__).resolve().parents[2] / "examples" / "ros2"
+
+
+def load(name):
+    spec = importlib.util.spec_from_file_location(name, ROS2 / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def model_file(tmp_path_factory):
+    """The naive model of the bundled Husky run (the stand-in robot below has no slip),
+    saved as `drive train` saves it."""
+    path = tmp_path_factory.mktemp("track") / "naive.json"
+    drive.fit(drive.load_dataset(), "naive", split=0.5).save(path)
+    return path
+
+
+class Wheels:
+    """A Husky-like skid-steer on a stand-in ground: each wheel follows its command with a
+    first-order lag; the body moves as the ideal differential drive (radius 0.165 m,
+    baseline 0.55 m, the bundled data's geometry)."""
+
+    r, b, dt = 0.165, 0.55, 0.05
+
+    def __init__(self):
+        self.wl = self.wr = 0.0
+        self.x = self.y = self.yaw = 0.0
+
+    def advance(self, left, right):
+        self.wl += 0.4 * (left - self.wl)
+        self.wr += 0.4 * (right - self.wr)
+        v = self.r * (self.wl + self.wr) / 2
+        w = self.r * (self.wr - self.wl) / self.b
+        self.x += v * math.cos(self.yaw) * self.dt
+        self.y += v * math.sin(self.yaw) * self.dt
+        self.yaw += w * self.dt
+
+    @property
+    def yaw_rate(self):
+        return self.r * (self.wr - self.wl) / self.b
+
+
+def circle(radius, n=100):
+    a = np.linspace(0.0, 2 * math.pi, n)
+    return np.stack([radius * np.sin(a), radius * (1 - np.cos(a))], axis=1)
+
+
+def test_the_tracker_follows_a_circle_to_its_end(model_file):
+    model = drive.load_model(model_file)
+    tracker = drive.Tracker(model, "husky", circle(2.0), 0.4, samples=256)
+    assert tracker.length == pytest.approx(4 * math.pi, rel=1e-3)
+    robot = Wheels()
+    worst = 0.0
+    for k in range(1200):
+        fix = (robot.x, robot.y, robot.yaw) if k % 2 == 0 else None
+        tick = tracker.tick(k * 0.05, (robot.wl, robot.wr), pose=fix, imu_yaw_rate=robot.yaw_rate)
+        if tick["done"]:
+            break
+        left, right = tick["command"]
+        # The body velocity the command asks for, as a Twist would carry it.
+        assert tick["linear"] == pytest.approx(0.165 * (left + right) / 2)
+        assert tick["angular"] == pytest.approx(0.165 * (right - left) / 0.55)
+        robot.advance(left, right)
+        worst = max(worst, abs(math.hypot(robot.x, robot.y - 2.0) - 2.0))
+    assert tick["done"], f"not done after {k} ticks at {tick['progress_m']} m"
+    assert worst < 0.25
+    # Done: the commands stop the robot within its acceleration limit (1 m/s^2: 0.05 m/s,
+    # about 0.3 rad/s of wheel speed, per tick).
+    speeds = []
+    for j in range(40):
+        tick = tracker.tick((k + 1 + j) * 0.05, (robot.wl, robot.wr), pose=None)
+        assert tick["done"]
+        speeds.append(tick["linear"])
+        robot.advance(*tick["command"])
+    assert all(b <= a + 1e-9 for a, b in zip(speeds, speeds[1:]))
+    assert all(a - b <= 0.05 + 1e-9 for a, b in zip(speeds, speeds[1:]))
+    assert tick["command"] == pytest.approx((0.0, 0.0), abs=1e-9)
+
+
+def test_tracker_errors_are_drive_errors(model_file):
+    model = drive.load_model(model_file)
+    with pytest.raises(drive.DriveError, match="distinct point"):
+        drive.Tracker(model, "husky", np.array([[1.0, 1.0], [1.0, 1.0]]), 0.5)
+    with pytest.raises(drive.DriveError, match="finite"):
+        drive.Tracker(model, "husky", np.array([[0.0, 0.0], [np.nan, 1.0]]), 0.5)
+    with pytest.raises(drive.DriveError, match=r"\(N, 2\)"):
+        drive.Tracker(model, "husky", np.zeros((4, 3)), 0.5)
+    with pytest.raises(drive.DriveError, match="unknown path"):
+        drive.Tracker(model, "husky", "spiral", 0.5)
+    with pytest.raises(drive.DriveError, match="speed"):
+        drive.Tracker(model, "husky", "line", -1.0)
+    with pytest.raises(drive.DriveError, match="'ackermann'"):
+        drive.Tracker(model, "autorally", "line", 0.5)
+    with pytest.raises(drive.DriveError, match="drive.Model"):
+        drive.Tracker("slip-blr", "husky", "line", 0.5)
+    with pytest.raises(drive.DriveError, match="samples"):
+        drive.Tracker(model, "husky", "line", 0.5, samples=1)
+    tracker = drive.Tracker(model, "husky", "line", 0.5, scale=2.0, samples=64)
+    assert tracker.length == pytest.approx(12.0)
+    with pytest.raises(drive.DriveError, match="no localization"):
+        tracker.tick(0.0, (0.0, 0.0))
+    tracker.tick(0.0, (0.0, 0.0), pose=(0.0, 0.0, 0.0))
+    with pytest.raises(drive.DriveError, match="does not come after"):
+        tracker.tick(0.0, (0.0, 0.0))
+    with pytest.raises(drive.DriveError, match="not finite"):
+        tracker.tick(0.05, (0.0, float("nan")))
+    with pytest.raises(drive.DriveError, match="3 numbers"):
+        tracker.tick(0.1, (0.0, 0.0), pose=(0.0, 0.0))
+
+
+# The ROS 2 node ---------------------------------------------------------------------------
+
+
+def odometry(x, y, yaw):
+    q = NS(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+    return NS(pose=NS(pose=NS(position=NS(x=x, y=y, z=0.0), orientation=q)))
+
+
+def path_msg(points):
+    return NS(poses=[NS(pose=NS(position=NS(x=float(x), y=float(y), z=0.0))) for x, y in points])
+
+
+def joint_state(left, right):
+    return NS(name=["left_wheel", "right_wheel", "caster"], velocity=[left, right, 0.0])
+
+
+@pytest.fixture
+def logic_module():
+    load("drive_protocol_logic")
+    return load("drive_track_logic")
+
+
+def drive_node_logic(logic, robot, seconds, pressed=True, odom=True):
+    outs = []
+    for _ in range(int(seconds * 20)):
+        now = drive_node_logic.t
+        logic.on_joy(NS(buttons=[1 if pressed else 0]), now)
+        logic.on_joint_state(joint_state(robot.wl, robot.wr), now)
+        if odom:
+            logic.on_odometry(odometry(robot.x, robot.y, robot.yaw), now)
+        logic.on_imu(NS(angular_velocity=NS(x=0.0, y=0.0, z=robot.yaw_rate)))
+        out = logic.on_timer(now)
+        outs.append(out)
+        robot.advance(*out.inputs)
+        drive_node_logic.t += 0.05
+    return outs
+
+
+def test_the_node_logic_follows_a_path_and_stops_safely(logic_module, model_file):
+    drive_node_logic.t = 0.0
+    logic = logic_module.TrackLogic(model_file, "husky", 0.4, samples=256)
+    robot = Wheels()
+    # No path yet: zero, idle.
+    (out,) = drive_node_logic(logic, robot, 0.05)
+    assert (out.linear, out.angular, out.state) == (0.0, 0.0, "idle")
+    logic.on_path(path_msg([(0.0, 0.0), (3.0, 0.0)]))
+    outs = drive_node_logic(logic, robot, 2.0)
+    assert outs[-1].state == "following" and outs[-1].linear > 0.1
+    # The dead-man released: zero at once.
+    out = drive_node_logic(logic, robot, 0.5, pressed=False)[-1]
+    assert (out.linear, out.angular, out.state) == (0.0, 0.0, "held")
+    # Stale localization: zero too.
+    outs = drive_node_logic(logic, robot, 1.0, odom=False)
+    assert outs[-1].state == "held" and outs[-1].linear == 0.0
+    # Held again: the commands ramp up from rest (1 m/s^2 at 20 Hz: 0.05 m/s per tick).
+    outs = drive_node_logic(logic, robot, 12.0)
+    assert outs[0].linear <= 0.05 + 1e-9
+    assert outs[-1].state == "done" and logic.done
+    assert robot.x == pytest.approx(3.0, abs=0.3)
+    # A path it cannot follow: an error, zero commands.
+    logic.on_path(path_msg([(1.0, 1.0)]))
+    out = drive_node_logic(logic, robot, 0.05)[-1]
+    assert (out.linear, out.state) == (0.0, "error") and "path refused" in logic.error
+    # Not-finite measurements are dropped.
+    logic.on_imu(NS(angular_velocity=NS(z=float("nan"))))
+    logic.on_joint_state(joint_state(float("inf"), 0.0), 0.0)
+    assert logic.dropped == 2
+
+
+@pytest.fixture
+def fake_ros(monkeypatch, logic_module):
+    from test_ros2 import FakeNode, message
+
+    vec = lambda: NS(x=0.0, y=0.0, z=0.0)  # noqa: E731
+    modules = {
+        "rclpy": NS(init=lambda args=None: None, ok=lambda: True, shutdown=lambda: None),
+        "rclpy.node": NS(Node=FakeNode),
+        "geometry_msgs.msg": NS(Twist=message("Twist", linear=vec, angular=vec)),
+        "nav_msgs.msg": NS(Odometry=message("Odometry"), Path=message("Path", poses=list)),
+        "sensor_msgs.msg": NS(
+            Joy=message("Joy", buttons=list, axes=list),
+            Imu=message("Imu", angular_velocity=vec),
+            # (Its field `name` would clash with message()'s first argument.)
+            JointState=type("JointState", (), {}),
+        ),
+        "std_msgs.msg": NS(
+            Bool=message("Bool", data=False),
+            Float64=message("Float64", data=0.0),
+            Int32=message("Int32", data=0),
+            String=message("String", data=""),
+        ),
+    }
+    for name, module in modules.items():
+        monkeypatch.setitem(sys.modules, name, module)
+    for name in ("geometry_msgs", "nav_msgs", "sensor_msgs", "std_msgs"):
+        monkeypatch.setitem(sys.modules, name, types.ModuleType(name))
+    FakeNode.clock = [0.0]
+    FakeNode.overrides = {}
+    FakeNode.made = []
+    return load("drive_track_node"), FakeNode
+
+
+def test_the_track_node_wires_topics_and_needs_a_model(fake_ros, model_file):
+    module, FakeNode = fake_ros
+    with pytest.raises(ValueError, match="model_file"):
+        module.DriveTrackNode()
+    FakeNode.overrides = {"model_file": str(model_file), "samples": 128}
+    node = module.DriveTrackNode()
+    assert set(node.subscriptions) == {"path_in", "joint_states", "odometry_in", "imu_in", "joy_in"}
+    assert set(node.publishers) == {"cmd_vel", "track/cross_track"}
+    (timer,) = node.timers
+    assert timer.period == pytest.approx(1 / 20)
+    node.subscriptions["path_in"][1](path_msg([(0.0, 0.0), (2.0, 0.0)]))
+    for k in range(40):
+        FakeNode.clock[0] = k / 20
+        node.subscriptions["joy_in"][1](NS(buttons=[1]))
+        node.subscriptions["joint_states"][1](joint_state(0.0, 0.0))
+        node.subscriptions["odometry_in"][1](odometry(0.0, 0.0, 0.0))
+        timer.callback()
+    cmds = node.publishers["cmd_vel"].sent
+    assert len(cmds) == 40 and cmds[-1].linear.x > 0.0
+    FakeNode.overrides = {"model_file": str(model_file), "use_joint_states": False}
+    node = module.DriveTrackNode()
+    assert "wheel_vel_left_measured" in node.subscriptions
+
+
+def test_the_ros2_package_files_are_valid():
+    for name in ("drive_track_node.py", "drive_track_logic.py"):
+        compile((ROS2 / name).read_text(), name, "exec")

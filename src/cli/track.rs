@@ -1,0 +1,330 @@
+//! `drive track`: the learned models inside a model-predictive controller, on the
+//! simulator (a preset terrain or a twin of a real run): path following per model, training
+//! data, path, speed and seed.
+
+use super::common::{emit, outputs_for, parse_number, Progress};
+use crate::control::{MakeController, Mppi, PathShape, ReferencePath};
+use crate::eval::{run_track, PathChoice, TrackResult, TrackStudy, Training};
+use crate::traits::limits;
+use crate::Registries;
+use anyhow::{bail, Context, Result};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+
+/// Largest path file read (bytes): 100,000 points of two numbers.
+const MAX_PATH_FILE_BYTES: u64 = 8 << 20;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The robot (a registered name or a robot TOML file).
+    #[arg(long, default_value = "husky")]
+    robot: String,
+    /// The ground: a registered terrain, or a twin's terrain file (`drive sim-fit`).
+    #[arg(long, default_value = "gravel")]
+    terrain: String,
+    /// Window CSVs (or bundled:NAME) to fit the models on, every window of each,
+    /// comma-separated; recorded with the robot.
+    #[arg(long, value_delimiter = ',')]
+    train_data: Vec<PathBuf>,
+    /// Samplers of simulated DRIVE training runs on the same robot and ground (one run per
+    /// seed each), comma-separated: uniform (DRIVE), linear, angular, ...; the closed-loop
+    /// Table I with all three. Default: uniform, when no --train-data is given.
+    #[arg(long, value_delimiter = ',')]
+    train_sampler: Vec<String>,
+    /// Driving time of each simulated training run (s).
+    #[arg(long, default_value_t = 300.0, value_parser = parse_number, allow_hyphen_values = true)]
+    train_duration: f64,
+    /// Paths, comma-separated: line, circle, figure8, zigzag (scaled to the robot: 4 s at
+    /// its top speed, at least 2 m), or a CSV file with the header x,y (placed at the
+    /// robot's start, leaving along its heading).
+    #[arg(long, value_delimiter = ',', default_value = "figure8,zigzag")]
+    path: Vec<String>,
+    /// Speeds along the path as fractions of the robot's top speed on this ground (measured
+    /// on the simulator), comma-separated, each in (0, 1].
+    #[arg(long, value_delimiter = ',', default_value = "0.5", value_parser = parse_number, allow_hyphen_values = true)]
+    speed: Vec<f64>,
+    /// Models, comma-separated (see drive list); the first is the one the others are
+    /// compared with.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "naive,slip-blr,slip-ipem"
+    )]
+    models: Vec<String>,
+    /// What the models' predictions start from (and are fitted for): encoders,
+    /// encoders+imu or encoders+imu+localization.
+    #[arg(long, default_value = "encoders+imu", value_parser = crate::traits::StartInfo::NAMES)]
+    start: String,
+    /// Number of seeds (seed, seed+1, ...): the simulator's noise and the simulated
+    /// training runs.
+    #[arg(long, default_value_t = 1)]
+    seeds: usize,
+    /// First seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// The controller (see drive list).
+    #[arg(long, default_value = "mppi")]
+    controller: String,
+    /// MPPI settings from a TOML file (any of samples, horizon, temperature, noise,
+    /// noise_correlation, position_weight, heading_weight, terminal_weight, effort_weight,
+    /// smoothness_weight, seed; see the README's "Closed loop"); the flags below override it.
+    #[arg(long)]
+    mppi_config: Option<PathBuf>,
+    /// MPPI: candidate input sequences per tick (default 1024).
+    #[arg(long)]
+    samples: Option<usize>,
+    /// MPPI: horizon in steps (default 40: 2 s at 20 Hz).
+    #[arg(long)]
+    horizon: Option<usize>,
+    /// MPPI: temperature, relative to the spread of a tick's costs (default 0.1).
+    #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
+    temperature: Option<f64>,
+    /// Time limit of a run (s); default: twice the path's length at its speed, plus 20 s.
+    #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
+    time_limit: Option<f64>,
+    /// Print one JSON object on stdout instead of the tables.
+    #[arg(long)]
+    json: bool,
+    /// Also write DIR/track.json, runs.csv, summary.csv, track.md and the paths figures
+    /// (paths_<training>.png and .svg).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let robot = registries.robot(&args.robot)?;
+    let terrain = registries.terrain(&args.terrain)?;
+    let start = crate::traits::StartInfo::parse(&args.start).map_err(anyhow::Error::msg)?;
+    let models: Vec<_> = registries
+        .models()
+        .resolve_list(&args.models)?
+        .into_iter()
+        .map(|s| {
+            let u = s.uncertainty;
+            s.with_uncertainty(u, start)
+        })
+        .collect();
+    if args.seeds == 0 {
+        bail!("--seeds must be at least 1");
+    }
+    limits::at_most("--seeds", args.seeds as f64, limits::MAX_SEEDS as f64, "")?;
+    let controller = controller(args, registries)?;
+    let mut inputs: Vec<(&'static str, PathBuf)> = Vec::new();
+    inputs.extend(super::common::robot_input(&args.robot));
+    inputs.extend(super::common::terrain_input("--terrain", &args.terrain));
+    if let Some(f) = &args.mppi_config {
+        inputs.push(("--mppi-config", f.clone()));
+    }
+    // The paths, presets or files.
+    let mut paths = Vec::new();
+    for p in &args.path {
+        match PathShape::parse(p) {
+            Ok(shape) => paths.push(PathChoice::Preset(shape)),
+            Err(unknown) => {
+                let file = Path::new(p);
+                if !(p.ends_with(".csv") || file.exists()) {
+                    bail!(unknown);
+                }
+                inputs.push(("--path", file.to_path_buf()));
+                let text = crate::traits::files::read_text(file, MAX_PATH_FILE_BYTES)
+                    .with_context(|| format!("reading --path {p}"))?;
+                paths.push(PathChoice::Given(ReferencePath::from_csv(p, &text)?));
+            }
+        }
+    }
+    // The training data.
+    let mut training = Vec::new();
+    for d in &args.train_data {
+        if crate::data::bundled::name_in(d).is_none() {
+            inputs.push(("--train-data", d.clone()));
+            inputs.push(("sidecar of --train-data", crate::data::sidecar_path(d)));
+        }
+        let dataset = crate::data::read_dataset(d, None)?;
+        training.push(Training::Data {
+            name: d.display().to_string(),
+            dataset: Arc::new(dataset),
+        });
+    }
+    let samplers: Vec<String> = if args.train_sampler.is_empty() && args.train_data.is_empty() {
+        vec!["uniform".into()]
+    } else {
+        args.train_sampler.clone()
+    };
+    for s in samplers {
+        registries.samplers.get(&s)?;
+        if !(args.train_duration.is_finite() && args.train_duration > 0.0) {
+            bail!(
+                "--train-duration must be positive seconds of driving, got {}",
+                limits::Short(args.train_duration)
+            );
+        }
+        training.push(Training::Protocol {
+            sampler: s,
+            driving_s: args.train_duration,
+        });
+    }
+    let files: Vec<PathBuf> = match &args.out {
+        Some(dir) => {
+            let mut f: Vec<PathBuf> = ["track.json", "runs.csv", "summary.csv", "track.md"]
+                .iter()
+                .map(|n| dir.join(n))
+                .collect();
+            for t in &training {
+                let stem = crate::report::track::figure_stem(&t.label());
+                f.push(dir.join(format!("{stem}.png")));
+                f.push(dir.join(format!("{stem}.svg")));
+            }
+            f
+        }
+        None => Vec::new(),
+    };
+    let mut planned: Vec<(&str, &Path)> = Vec::new();
+    if let Some(dir) = &args.out {
+        planned.push(("--out", dir.as_path()));
+        planned.extend(files.iter().map(|f| ("a file of --out", f.as_path())));
+    }
+    let mut outputs = outputs_for(&inputs, &planned)?;
+    let study = TrackStudy {
+        robot,
+        terrain,
+        training,
+        models,
+        paths,
+        speeds: args.speed.clone(),
+        seeds: (0..args.seeds as u64)
+            .map(|i| args.seed.wrapping_add(i))
+            .collect(),
+        controller_name: args.controller.clone(),
+        controller,
+        time_limit_s: args.time_limit,
+    };
+    let total = study.models.len()
+        * study.training.len()
+        * study.paths.len()
+        * study.speeds.len()
+        * study.seeds.len();
+    let progress = Progress::new("track");
+    let done = AtomicUsize::new(0);
+    let result = run_track(registries, &study, &|| {
+        progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, total)
+    })?;
+    progress.bar.finish_and_clear();
+    if let Some(dir) = &args.out {
+        crate::report::track::stage(&result, &mut outputs, dir)?;
+        outputs.publish()?;
+    }
+    for n in &result.notes {
+        super::common::note(format!("note: {n}"));
+    }
+    emit(args.json, &result, table)
+}
+
+/// The controller asked for, with the MPPI settings given.
+fn controller(args: &Args, registries: &Registries) -> Result<Arc<dyn MakeController>> {
+    let tuned = args.samples.is_some()
+        || args.horizon.is_some()
+        || args.temperature.is_some()
+        || args.mppi_config.is_some();
+    if args.controller != "mppi" {
+        if tuned {
+            bail!("--mppi-config, --samples, --horizon and --temperature set the built-in mppi controller; controller '{}' takes its own settings", args.controller);
+        }
+        return Ok(Arc::clone(
+            registries.controllers.get(&args.controller)?.part(),
+        ));
+    }
+    // The registered `mppi` (which a program may have registered with its own settings),
+    // unless settings are given on the command line.
+    if !tuned {
+        return Ok(Arc::clone(registries.controllers.get("mppi")?.part()));
+    }
+    let d = match &args.mppi_config {
+        Some(file) => {
+            let text = crate::traits::files::read_text(file, 1 << 20)
+                .with_context(|| format!("reading --mppi-config {}", file.display()))?;
+            Mppi::from_toml(&file.display().to_string(), &text)?
+        }
+        None => Mppi::default(),
+    };
+    let m = Mppi {
+        samples: args.samples.unwrap_or(d.samples),
+        horizon: args.horizon.unwrap_or(d.horizon),
+        temperature: args.temperature.unwrap_or(d.temperature),
+        ..d
+    };
+    m.check()
+        .map_err(|e| anyhow::anyhow!("{e}").context("--samples, --horizon or --temperature"))?;
+    Ok(Arc::new(m))
+}
+
+fn table(r: &TrackResult) -> String {
+    use std::fmt::Write as _;
+    let seeds = r
+        .runs
+        .iter()
+        .map(|x| x.seed)
+        .collect::<std::collections::BTreeSet<_>>();
+    let mut s = format!(
+        "Closed loop: {} on {} with the {} controller; top speed on this ground {:.3} m/s (measured on the simulator); preset paths at scale {:.2} m; {} seed{}\n",
+        r.robot,
+        r.terrain,
+        r.controller,
+        r.top_speed_m_s,
+        r.path_scale_m,
+        seeds.len(),
+        if seeds.len() == 1 { "" } else { "s, means over them" }
+    );
+    let mut last = None;
+    for x in &r.summary {
+        let key = (x.train.clone(), x.path.clone(), x.speed_fraction);
+        if last.as_ref() != Some(&key) {
+            let _ = writeln!(
+                s,
+                "\ntrained on {}, {} at {:.0}% ({:.2} m/s)",
+                x.train,
+                x.path,
+                100.0 * x.speed_fraction,
+                x.speed_fraction * r.top_speed_m_s
+            );
+            let _ = writeln!(
+                s,
+                "  {:<18} {:>16} {:>10} {:>12} {:>10} {:>9} {:>7} {:>10}",
+                "model",
+                "cross-track RMS",
+                "max [m]",
+                "heading RMS",
+                "completed",
+                "time [s]",
+                "effort",
+                format!("vs {}", r.models.first().map_or("", String::as_str))
+            );
+            last = Some(key);
+        }
+        let _ = writeln!(
+            s,
+            "  {:<18} {:>14.3} m {:>10.3} {:>8.3} rad {:>9.0}% {:>9} {:>7.2} {:>10}",
+            x.model,
+            x.cross_track_rms_m,
+            x.cross_track_max_m,
+            x.heading_rms_rad,
+            100.0 * x.completed_share,
+            x.duration_s.map_or("-".into(), |d| format!("{d:.1}")),
+            x.effort,
+            x.improvement_over_first_percent
+                .map_or("-".into(), |p| format!("{p:+.1}%"))
+        );
+    }
+    let ticks: Vec<f64> = {
+        let mut t: Vec<f64> = r.runs.iter().map(|x| x.tick_ms_median).collect();
+        t.sort_by(f64::total_cmp);
+        t
+    };
+    if let Some(m) = ticks.get(ticks.len() / 2) {
+        let _ = writeln!(
+            s,
+            "\ncontroller time per tick: median {m:.2} ms over the runs (runs in parallel; see BENCHMARKS.md for one core)"
+        );
+    }
+    s
+}

@@ -1,0 +1,218 @@
+//! `drive track`: the closed loop on the simulator, through the command line: the JSON the
+//! issue names, models fitted on data or on a simulated run, the outputs, and clear errors
+//! for hostile paths and settings.
+
+mod common;
+
+use common::{ok, user_error};
+
+fn f(v: &serde_json::Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+#[test]
+fn track_json_has_every_field_the_issue_names_and_its_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let text = ok(&[
+        "track",
+        "--robot",
+        "husky",
+        "--terrain",
+        "examples/husky_twin.toml",
+        "--train-data",
+        "bundled:husky_drive",
+        "--path",
+        "circle",
+        "--speed",
+        "0.5",
+        "--models",
+        "naive,slip-blr",
+        "--samples",
+        "256",
+        "--json",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let runs = v["runs"].as_array().unwrap();
+    assert_eq!(runs.len(), 2);
+    for r in runs {
+        for field in [
+            "cross_track_rms_m",
+            "cross_track_max_m",
+            "heading_rms_rad",
+            "duration_s",
+            "tick_ms_median",
+            "speed_fraction",
+        ] {
+            assert!(f(&r[field]) >= 0.0, "{field}: {}", r[field]);
+        }
+        assert!(r["completed"].is_boolean());
+        assert_eq!(r["path"], "circle");
+        assert_eq!(r["seed"], 1);
+        assert!(f(&r["cross_track_rms_m"]) <= f(&r["cross_track_max_m"]));
+    }
+    let summary = v["summary"].as_array().unwrap();
+    assert_eq!(summary.len(), 2);
+    for s in summary {
+        for field in ["cross_track_rms_m", "completed_share", "speed_fraction"] {
+            assert!(f(&s[field]) >= 0.0, "{field}");
+        }
+        assert!(s["model"].is_string() && s["path"].is_string());
+    }
+    // The top speed is the Husky twin's, measured: its controller caps it near 0.92 m/s.
+    let top = f(&v["top_speed_m_s"]);
+    assert!((0.7..1.0).contains(&top), "top speed {top}");
+    // Both models drive the whole circle (a radius of 4 s at the top speed, about 3.5 m)
+    // within a fraction of its radius.
+    for s in summary {
+        assert_eq!(f(&s["completed_share"]), 1.0, "{s}");
+        assert!(f(&s["cross_track_rms_m"]) < 0.5, "{s}");
+    }
+    for name in [
+        "track.json",
+        "runs.csv",
+        "summary.csv",
+        "track.md",
+        "paths_bundled_husky_drive.png",
+        "paths_bundled_husky_drive.svg",
+    ] {
+        assert!(out.join(name).is_file(), "{name}");
+    }
+    let csv = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3);
+    assert!(csv.starts_with("model,train,path,speed_fraction,"));
+}
+
+#[test]
+fn models_fitted_on_a_simulated_run_and_a_time_limit_that_ends_the_run() {
+    let out = common::drive(&[
+        "track",
+        "--robot",
+        "husky",
+        "--terrain",
+        "tile",
+        "--train-sampler",
+        "uniform",
+        "--train-duration",
+        "60",
+        "--path",
+        "line",
+        "--speed",
+        "0.8",
+        "--models",
+        "powertrain",
+        "--samples",
+        "128",
+        "--time-limit",
+        "3",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let run = &v["runs"][0];
+    assert_eq!(run["train"], "uniform");
+    // A 24 m line cannot be driven in 3 s: the time limit ends the run, and says so.
+    assert_eq!(run["completed"], false);
+    assert!(f(&run["duration_s"]) >= 3.0 && f(&run["duration_s"]) < 3.2);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("time limit"), "{stderr}");
+    assert_eq!(v["summary"][0]["completed_share"], 0.0);
+}
+
+#[test]
+fn a_path_file_that_crosses_itself_is_followed() {
+    let dir = tempfile::tempdir().unwrap();
+    // A bow tie: it crosses itself in its middle; where the robot is on it is searched
+    // near where it was, so the crossing is passed.
+    let path = dir.path().join("bow.csv");
+    std::fs::write(&path, "x,y\n0,0\n2,2\n2,0\n0,2\n0,0.5\n").unwrap();
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "track",
+        "--terrain",
+        "tile",
+        "--train-duration",
+        "60",
+        "--path",
+        path.to_str().unwrap(),
+        "--speed",
+        "0.4",
+        "--models",
+        "powertrain",
+        "--samples",
+        "128",
+        "--json",
+    ]))
+    .unwrap();
+    let run = &v["runs"][0];
+    assert_eq!(run["completed"], true, "{run}");
+    assert!(f(&run["length_m"]) > 8.0);
+    assert!(f(&run["cross_track_rms_m"]) < 0.3, "{run}");
+}
+
+#[test]
+fn hostile_paths_and_settings_get_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let empty = write("empty.csv", "");
+    let one = write("one.csv", "x,y\n1,1\n");
+    let same = write("same.csv", "x,y\n1,1\n1,1\n1,1\n");
+    let nan = write("nan.csv", "x,y\n0,0\nNaN,1\n");
+    let far = write("far.csv", "x,y\n0,0\n1e300,1\n");
+    let header = write("header.csv", "a,b\n0,0\n1,1\n");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["--path", &empty], "empty"),
+        (vec!["--path", &one], "1 distinct point"),
+        (vec!["--path", &same], "1 distinct point"),
+        (vec!["--path", &nan], "not a finite number"),
+        (vec!["--path", &far], "within 1e6 m"),
+        (vec!["--path", &header], "header 'x,y'"),
+        (vec!["--path", "spiral"], "unknown path 'spiral'"),
+        (vec!["--path", "/dev/zero"], "not a regular file"),
+        (vec!["--speed", "1.5"], "(0, 1]"),
+        (vec!["--speed", "0"], "(0, 1]"),
+        (vec!["--speed", "nan"], "not a finite number"),
+        (vec!["--time-limit", "-1"], "time limit"),
+        (vec!["--samples", "1"], "samples"),
+        (vec!["--horizon", "0"], "horizon"),
+        (vec!["--temperature", "0"], "temperature"),
+        (vec!["--seeds", "0"], "--seeds"),
+        (vec!["--models", "nope"], "nope"),
+        (vec!["--controller", "pid"], "unknown controller 'pid'"),
+        (vec!["--train-sampler", "spiral"], "spiral"),
+        (vec!["--train-duration", "3"], "shorter than one"),
+        (vec!["--terrain", "moon"], "moon"),
+    ];
+    for (extra, expected) in cases {
+        let mut args = vec!["track", "--path", "line"];
+        args.extend(extra.iter().copied());
+        let err = user_error(&args);
+        assert!(err.contains(expected), "{extra:?}: {err}");
+    }
+}
+
+#[test]
+fn track_outputs_never_replace_its_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("track.json");
+    std::fs::write(&path, "x,y\n0,0\n3,0\n").unwrap();
+    let before = std::fs::read(&path).unwrap();
+    let err = user_error(&[
+        "track",
+        "--path",
+        path.to_str().unwrap(),
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(err.contains("--path"), "{err}");
+    assert_eq!(std::fs::read(&path).unwrap(), before);
+}
