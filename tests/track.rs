@@ -169,6 +169,13 @@ fn hostile_paths_and_settings_get_clear_errors() {
     let nan = write("nan.csv", "x,y\n0,0\nNaN,1\n");
     let far = write("far.csv", "x,y\n0,0\n1e300,1\n");
     let header = write("header.csv", "a,b\n0,0\n1,1\n");
+    let long = write("long.csv", "x,y\n0,0\n100000,0\n");
+    let short = write("short.csv", "x,y\n0,0\n0.1,0\n");
+    let huge = write(
+        "huge.csv",
+        &format!("x,y\n0,0\n{},1\n", "9".repeat(100_000)),
+    );
+    let mppi = write("mppi.toml", "samples = 64\nbogus = 3\n");
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec!["--path", &empty], "empty"),
         (vec!["--path", &one], "1 distinct point"),
@@ -179,6 +186,42 @@ fn hostile_paths_and_settings_get_clear_errors() {
         (vec!["--path", "spiral"], "unknown path 'spiral'"),
         (vec!["--path", "/dev/zero"], "not a regular file"),
         (vec!["--speed", "1.5"], "(0, 1]"),
+        (vec!["--speed", "1.0000001"], "speed 1.0000001 is not"),
+        (vec!["--path", &long], "a run lasts at most 3600 s"),
+        (
+            vec!["--path", &short, "--train-duration", "6"],
+            "give a longer path",
+        ),
+        (vec!["--path", &huge], "(100000 characters)"),
+        (vec!["--mppi-config", &mppi], "unknown field `bogus`"),
+        (
+            vec!["--samples", "65536", "--horizon", "1000"],
+            "candidate steps per tick",
+        ),
+        (vec!["--speed", "0.5,0.5"], "twice"),
+        (vec!["--models", "naive,naive"], "twice"),
+        (vec!["--train-sampler", "uniform,uniform"], "twice"),
+        (
+            vec!["--controller", "MPPI", "--samples", "64"],
+            "unknown controller 'MPPI'",
+        ),
+        (vec!["--train-duration", "99999"], "longer than 7200 s"),
+        (
+            vec![
+                "--train-sampler",
+                "uniform,linear,angular",
+                "--train-duration",
+                "7000",
+                "--seeds",
+                "2",
+            ],
+            "at most 36000 s",
+        ),
+        (
+            vec!["--seed", "18446744073709551615", "--seeds", "3"],
+            "past the largest seed",
+        ),
+        (vec!["--time-limit", "86400"], "at most 3600"),
         (vec!["--speed", "0"], "(0, 1]"),
         (vec!["--speed", "nan"], "not a finite number"),
         (vec!["--time-limit", "-1"], "time limit"),

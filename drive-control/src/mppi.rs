@@ -36,6 +36,7 @@ use crate::controller::{
     ControlError, ControlSetup, ControlState, Controller, InputMap, MakeController,
 };
 use drive_samplers::{next_command, RobotSpec, SentCommand};
+use drive_traits::limits::Short;
 use drive_traits::{wrap_angle, BodyVelocity, Input, InputSpace, MotionModel, Pose, StartState};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;
@@ -47,6 +48,9 @@ use std::sync::Arc;
 pub const MAX_SAMPLES: usize = 1 << 16;
 /// Longest horizon (steps).
 pub const MAX_HORIZON: usize = 1000;
+/// Most candidate steps per tick (`samples x horizon`): about 60 bytes of buffers each,
+/// 250 MB at this limit.
+pub const MAX_SAMPLE_STEPS: usize = 1 << 22;
 
 /// MPPI's settings: the unfitted configuration that [`MakeController::make`]s a
 /// controller for a model and a robot.
@@ -117,7 +121,12 @@ impl Mppi {
     pub fn from_toml(file: &str, text: &str) -> Result<Self, ControlError> {
         let m: Mppi = toml::from_str(text).map_err(|e| ControlError::BadSetting {
             field: "file",
-            message: format!("{file}: {}", e.to_string().trim_end()),
+            message: format!(
+                "{file}: {}",
+                drive_traits::exact::parse_message(text, e.message(), e.span().map(|s| s.start))
+                    .trim()
+                    .replace('\n', " ")
+            ),
         })?;
         m.check()?;
         Ok(m)
@@ -139,16 +148,28 @@ impl Mppi {
                 format!("{} steps is not in 1..={MAX_HORIZON}", self.horizon),
             );
         }
+        if self.samples.saturating_mul(self.horizon) > MAX_SAMPLE_STEPS {
+            return bad(
+                "samples",
+                format!(
+                    "{} samples of {} steps is more than {MAX_SAMPLE_STEPS} candidate steps per tick",
+                    self.samples, self.horizon
+                ),
+            );
+        }
         let positive = [("temperature", self.temperature), ("noise", self.noise)];
         for (field, v) in positive {
             if !(v.is_finite() && v > 0.0 && v <= 1e6) {
-                return bad(field, format!("{v} is not a positive number (at most 1e6)"));
+                return bad(
+                    field,
+                    format!("{} is not a positive number (at most 1e6)", Short(v)),
+                );
             }
         }
         if !(self.noise_correlation.is_finite() && (0.0..1.0).contains(&self.noise_correlation)) {
             return bad(
                 "noise_correlation",
-                format!("{} is not in [0, 1)", self.noise_correlation),
+                format!("{} is not in [0, 1)", Short(self.noise_correlation)),
             );
         }
         let weights = [
@@ -160,8 +181,14 @@ impl Mppi {
         ];
         for (field, v) in weights {
             if !(v.is_finite() && (0.0..=1e6).contains(&v)) {
-                return bad(field, format!("{v} is not a weight in [0, 1e6]"));
+                return bad(field, format!("{} is not a weight in [0, 1e6]", Short(v)));
             }
+        }
+        if self.position_weight == 0.0 {
+            return bad(
+                "position_weight",
+                "0 leaves nothing to follow the path by: it must be positive".into(),
+            );
         }
         Ok(())
     }

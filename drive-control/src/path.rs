@@ -17,6 +17,10 @@ pub const MAX_PATH_POINTS: usize = 100_000;
 /// squared distances stay finite.
 pub const MAX_PATH_COORDINATE: f64 = 1e6;
 
+/// The weight of the arc length travelled in where a robot is on a path
+/// ([`ReferencePath::project_near`]): 0.01 per m^2.
+pub const CONTINUITY: f64 = 0.01;
+
 /// Two consecutive points closer than this (m) are one point.
 const SAME_POINT_M: f64 = 1e-9;
 
@@ -32,7 +36,7 @@ pub enum PathError {
         found: usize,
     },
     /// A coordinate is not a finite number within [`MAX_PATH_COORDINATE`].
-    #[error("path '{name}', point {index} (x = {x}, y = {y}): coordinates must be finite numbers within 1e6 m")]
+    #[error("path '{name}', point {index} (x = {}, y = {}): coordinates must be finite numbers within 1e6 m", drive_traits::limits::Short(*.x), drive_traits::limits::Short(*.y))]
     BadPoint {
         /// The path's name.
         name: String,
@@ -63,7 +67,7 @@ pub enum PathError {
     #[error("unknown path '{0}' (the preset paths are line, circle, figure8 and zigzag; or a CSV file of x,y)")]
     UnknownShape(String),
     /// A preset scale that is not a positive length.
-    #[error("a path's scale must be a positive length in m, got {0}")]
+    #[error("a path's scale must be a positive length in m, got {}", drive_traits::limits::Short(*.0))]
     BadScale(f64),
 }
 
@@ -176,6 +180,19 @@ impl PathShape {
             }
         };
         ReferencePath::new(self.as_str(), points)
+    }
+}
+
+/// `text` for a message: control characters escaped, cut after 40 characters.
+fn shown(text: &str) -> String {
+    let escaped: String = text.escape_debug().collect();
+    match escaped.char_indices().nth(40) {
+        Some((cut, _)) => format!(
+            "{}... ({} characters)",
+            &escaped[..cut],
+            text.chars().count()
+        ),
+        None => escaped,
     }
 }
 
@@ -309,7 +326,10 @@ impl ReferencePath {
         if cols != ["x", "y"] {
             return Err(csv(
                 1,
-                format!("expected the header 'x,y', found '{}'", header.trim()),
+                format!(
+                    "expected the header 'x,y', found '{}'",
+                    shown(header.trim())
+                ),
             ));
         }
         let mut points = Vec::new();
@@ -331,15 +351,16 @@ impl ReferencePath {
                 let x: f64 = f.parse().map_err(|_| {
                     csv(
                         i + 1,
-                        format!("column '{}': '{f}' is not a number", cols[j]),
+                        format!("column '{}': '{}' is not a number", cols[j], shown(f)),
                     )
                 })?;
                 if !(x.is_finite() && x.abs() <= MAX_PATH_COORDINATE) {
                     return Err(csv(
                         i + 1,
                         format!(
-                            "column '{}': '{f}' is not a finite number within 1e6 m",
-                            cols[j]
+                            "column '{}': '{}' is not a finite number within 1e6 m",
+                            cols[j],
+                            shown(f)
                         ),
                     ));
                 }
@@ -393,8 +414,42 @@ impl ReferencePath {
     /// The point nearest `position` among those with arc length in `[from, to]` (clamped
     /// to the path; `from > to` searches the single point at `from`).
     pub fn project(&self, position: [f64; 2], from: f64, to: f64) -> Projection {
+        self.project_near(position, from, to, 0.0, 0.0)
+    }
+
+    /// Where a robot at `position` that was at arc length `near` is on the path, among the
+    /// points with arc length in `[from, to]`: the point minimising the squared distance
+    /// plus `weight` times the squared arc length from `near`. Where two parts of the path
+    /// are about as near (a crossing, a path that doubles back, a zigzag finer than the
+    /// robot's noise), the one that continues from `near` wins; a small weight (0.01) moves
+    /// the point along the path by 1% of its distance from `near` elsewhere.
+    ///
+    /// ```
+    /// use drive_control::ReferencePath;
+    /// // Out along x and back: the same ground twice.
+    /// let p = ReferencePath::new("back", vec![[0.0, 0.0], [4.0, 0.0], [0.0, 0.0]]).unwrap();
+    /// // At x = 1 after 1 m: the way out, not the way back (s = 7).
+    /// let q = p.project_near([1.0, 0.0], 0.0, 8.0, 1.0, 0.01);
+    /// assert!((q.point.s - 1.0).abs() < 1e-9);
+    /// // At x = 1 having come back 6 m: the way back.
+    /// let q = p.project_near([1.0, 0.0], 0.0, 8.0, 6.9, 0.01);
+    /// assert!((q.point.s - 7.0).abs() < 0.01);
+    /// ```
+    pub fn project_near(
+        &self,
+        position: [f64; 2],
+        from: f64,
+        to: f64,
+        near: f64,
+        weight: f64,
+    ) -> Projection {
         let from = from.clamp(0.0, self.length());
         let to = to.clamp(from, self.length());
+        let weight = if weight.is_finite() {
+            weight.max(0.0)
+        } else {
+            0.0
+        };
         let [px, py] = position;
         let mut best: Option<(f64, PathPoint, f64)> = None;
         for i in self.segment(from)..=self.segment(to) {
@@ -402,10 +457,14 @@ impl ReferencePath {
             let (s0, s1) = (self.s[i], self.s[i + 1]);
             let len = s1 - s0;
             let (dx, dy) = ((bx - ax) / len, (by - ay) / len);
-            let along = ((px - ax) * dx + (py - ay) * dy).clamp(from.max(s0) - s0, to.min(s1) - s0);
+            // The minimum of (t - t_p)^2 + weight (t - (near - s0))^2 over the segment.
+            let t_p = (px - ax) * dx + (py - ay) * dy;
+            let along = ((t_p + weight * (near - s0)) / (1.0 + weight))
+                .clamp(from.max(s0) - s0, to.min(s1) - s0);
             let (qx, qy) = (ax + along * dx, ay + along * dy);
             let d2 = (px - qx).powi(2) + (py - qy).powi(2);
-            if best.as_ref().is_none_or(|b| d2 < b.0) {
+            let cost = d2 + weight * (s0 + along - near).powi(2);
+            if best.as_ref().is_none_or(|b| cost < b.0) {
                 let cross = dx * (py - ay) - dy * (px - ax);
                 let point = PathPoint {
                     x: qx,
@@ -413,7 +472,7 @@ impl ReferencePath {
                     heading: dy.atan2(dx),
                     s: s0 + along,
                 };
-                best = Some((d2, point, cross.signum() * d2.sqrt()));
+                best = Some((cost, point, cross.signum() * d2.sqrt()));
             }
         }
         // The loop visits at least one segment: `segment` returns a valid index.

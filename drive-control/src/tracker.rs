@@ -11,7 +11,7 @@
 use crate::controller::{
     ControlError, ControlSetup, ControlState, Controller, InputMap, MakeController,
 };
-use crate::path::ReferencePath;
+use crate::path::{ReferencePath, CONTINUITY};
 use drive_samplers::{next_command, RobotSpec, SentCommand};
 use drive_traits::{
     euler_step, wrap_angle, BodyVelocity, CommandModel, Input, Pose, StartInfo, StartState,
@@ -173,6 +173,17 @@ impl Tracker {
             Some(g) => g,
             None => (speed * 0.5).max(0.2),
         };
+        if path.length() <= goal_tolerance {
+            return Err(ControlError::BadSetting {
+                field: "path",
+                message: format!(
+                    "'{}' is {} m long, no longer than the distance within which its end counts as reached ({} m): give a longer path",
+                    path.name(),
+                    drive_traits::limits::Short(path.length()),
+                    drive_traits::limits::Short(goal_tolerance)
+                ),
+            });
+        }
         let dt = 1.0 / setup.robot.rate_hz;
         if !(config.history_s.is_finite() && (0.0..=10.0).contains(&config.history_s)) {
             return Err(ControlError::BadSetting {
@@ -286,10 +297,12 @@ impl Tracker {
             &BodyVelocity::new(vx, vy, yaw_rate),
             (obs.t - t_fix).clamp(0.0, 1.0),
         );
-        let near = self.path.project(
+        let near = self.path.project_near(
             [estimate.x, estimate.y],
             self.progress - self.window / 2.0,
             self.progress + self.window,
+            self.progress,
+            CONTINUITY,
         );
         self.progress = near.point.s;
         let heading_error = wrap_angle(estimate.z - near.point.heading);

@@ -99,3 +99,59 @@ fn a_perfect_model_follows_every_preset_closely() {
         assert!(worst < bound, "{shape:?}: worst cross-track {worst}");
     }
 }
+
+#[test]
+fn a_robot_that_does_not_move_never_reaches_the_end_of_a_path_through_its_start() {
+    // A small figure-eight and a path out and back both pass the start again: where the
+    // robot is on them is where it continues from, never the far part that also passes by.
+    let robot = husky();
+    let model: Arc<dyn MotionModel> = Arc::new(ComposedModel {
+        label: "naive".into(),
+        vehicle: robot.vehicle.clone(),
+        powertrain: Box::new(CommandedPowertrain),
+        slip: Box::new(NoSlipModel),
+        dt: 0.05,
+    });
+    let setup = ControlSetup {
+        model,
+        robot: robot.clone(),
+        to_vehicle: InputMap::identity(),
+        speed: 1.0,
+    };
+    let back = drive_control::ReferencePath::new("back", vec![[0.0, 0.0], [2.0, 0.0], [0.0, 0.0]])
+        .unwrap();
+    for path in [PathShape::FigureEight.at_scale(0.5).unwrap(), back] {
+        let config = TrackerConfig {
+            start: StartInfo::Encoders,
+            ..TrackerConfig::new(1.0)
+        };
+        let mut tracker = Tracker::new(
+            &Mppi {
+                samples: 32,
+                ..Mppi::default()
+            },
+            &setup,
+            path.clone(),
+            config,
+            robot.vehicle.clone(),
+        )
+        .unwrap();
+        for k in 0..100 {
+            let tick = tracker
+                .tick(&Observation {
+                    t: k as f64 * 0.05,
+                    input: Input::zeros(),
+                    pose: Some(Pose::new(0.0, if k % 2 == 0 { 3e-3 } else { -3e-3 }, 0.0)),
+                    imu_yaw_rate: None,
+                })
+                .unwrap();
+            assert!(!tick.done, "{}: done at tick {k}", path.name());
+            assert!(
+                tick.progress_m < 0.1,
+                "{}: progress {} at tick {k}",
+                path.name(),
+                tick.progress_m
+            );
+        }
+    }
+}

@@ -286,8 +286,14 @@ impl Outputs {
             None => Destination::File,
         };
         let direct = kind != Destination::File;
-        let name = destination
+        destination
             .file_name()
+            .ok_or_else(|| failed("not a file name".into()))?;
+        // The temporary keeps the target's name (and extension: a writer may choose its
+        // format by it), even when the target is a link to a file of another name.
+        let name = target
+            .file_name()
+            .or_else(|| destination.file_name())
             .ok_or_else(|| failed("not a file name".into()))?;
         let dir = if direct {
             std::env::temp_dir()

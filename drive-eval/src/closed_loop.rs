@@ -23,7 +23,7 @@ use drive_control::{
 use drive_models::{DifferentialDrive, ModelSpec};
 use drive_samplers::{next_command, RobotSpec, RunnerConfig, SentCommand};
 use drive_sim::{plant_for, scale_difference, Terrain};
-use drive_traits::limits::Short;
+use drive_traits::limits::{Exact, Short};
 use drive_traits::{
     vehicle_as, vehicle_tag, wrap_angle, Dataset, FitError, Input, MotionModel, Pose, WindowSet,
 };
@@ -40,14 +40,14 @@ pub enum TrackError {
     #[error(transparent)]
     Experiment(#[from] ExperimentError),
     /// The controller could not be built or gave no command.
-    #[error("{model} on {path}: {source}")]
+    #[error("{model} on {path}: {reason}")]
     Control {
         /// The model.
         model: String,
         /// The path.
         path: String,
         /// Why.
-        source: ControlError,
+        reason: ControlError,
     },
     /// A path is refused.
     #[error(transparent)]
@@ -136,7 +136,8 @@ pub struct TrackStudy {
     pub controller_name: String,
     /// The controller.
     pub controller: Arc<dyn MakeController>,
-    /// Time limit of a run (s); default: twice the path's length at its speed, plus 20 s.
+    /// Time limit of a run (s), at most [`MAX_RUN_S`]; default: twice the path's length at
+    /// its speed, plus 20 s (which must be within [`MAX_RUN_S`]).
     pub time_limit_s: Option<f64>,
 }
 
@@ -355,7 +356,7 @@ fn top_speed(
     let speed = (b.x - a.x).hypot(b.y - a.y) / PROBE_SPAN_S;
     if !(speed.is_finite() && speed > 1e-3) {
         return Err(TrackError::Invalid(format!(
-            "robot '{}' does not drive forward on terrain '{}' (top speed measured {} m/s): nothing to follow a path with",
+            "robot '{}' does not drive forward on terrain '{}' (top speed measured {} m/s driving its fastest straight input; check the robot's geometry and limits): nothing to follow a path with",
             d.plant.name,
             terrain.name,
             Short(speed)
@@ -384,10 +385,10 @@ fn drive(
     d: &Driven,
     plan: &RunPlan<'_>,
 ) -> Result<TrackRun, TrackError> {
-    let control = |source| TrackError::Control {
+    let control = |reason| TrackError::Control {
         model: plan.spec.name.clone(),
         path: plan.path_name.clone(),
-        source,
+        reason,
     };
     let mut plant = plant_for(&registries.simulators, &d.plant, &study.terrain, plan.seed)
         .map_err(|reason| TrackError::Invalid(format!("simulating {}: {reason}", d.plant.name)))?;
@@ -433,10 +434,12 @@ fn drive(
         ticks_ms.push(clock.elapsed().as_secs_f64() * 1e3);
         let truth: Pose = plant.true_pose().unwrap_or(m.pose);
         trajectory.push([truth.x, truth.y]);
-        let near = path.project(
+        let near = path.project_near(
             [truth.x, truth.y],
             progress - window / 2.0,
             progress + window,
+            progress,
+            drive_control::path::CONTINUITY,
         );
         progress = near.point.s;
         cross2 += near.cross_track * near.cross_track;
@@ -487,6 +490,15 @@ struct Fitted {
 
 /// Most runs of one study (models x trainings x paths x speeds x seeds).
 pub const MAX_TRACK_RUNS: usize = 10_000;
+/// Longest run (s of simulated time): an hour, 72,000 ticks at 20 Hz (a few minutes of
+/// computing).
+pub const MAX_RUN_S: f64 = 3600.0;
+/// Longest simulated training run (s of driving): two hours (a DRIVE run is 5 to 20
+/// minutes).
+pub const MAX_TRAINING_S: f64 = 7200.0;
+/// Most simulated training driving of one study, over its samplers and seeds (s): ten
+/// hours.
+pub const MAX_TRAINING_TOTAL_S: f64 = 36_000.0;
 
 /// Runs the closed-loop study: the top speed, the training data and the fits, then every
 /// run, in parallel (rayon); `progress` is called after each run.
@@ -531,17 +543,42 @@ pub fn run_track(
         if !(f.is_finite() && f > 0.0 && f <= 1.0) {
             return Err(TrackError::Invalid(format!(
                 "speed {} is not a fraction of the robot's top speed in (0, 1]",
-                Short(f)
+                Exact(f)
             )));
         }
     }
     if let Some(t) = study.time_limit_s {
-        if !(t.is_finite() && t > 0.0 && t <= 86_400.0) {
+        if !(t.is_finite() && t > 0.0 && t <= MAX_RUN_S) {
             return Err(TrackError::Invalid(format!(
-                "time limit {} s is not a positive number of seconds (at most a day)",
-                Short(t)
+                "time limit {} s is not a positive number of seconds of at most {MAX_RUN_S}",
+                Exact(t)
             )));
         }
+    }
+    let protocol_runs: Vec<f64> = study
+        .training
+        .iter()
+        .filter_map(|t| match t {
+            Training::Protocol { driving_s, .. } => Some(*driving_s),
+            Training::Data { .. } => None,
+        })
+        .collect();
+    if let Some(d) = protocol_runs
+        .iter()
+        .find(|d| !(d.is_finite() && **d <= MAX_TRAINING_S))
+    {
+        return Err(TrackError::Invalid(format!(
+            "a simulated training run of {} s is longer than {MAX_TRAINING_S} s",
+            Exact(*d)
+        )));
+    }
+    let total: f64 = protocol_runs.iter().sum::<f64>() * study.seeds.len() as f64;
+    if total > MAX_TRAINING_TOTAL_S {
+        return Err(TrackError::Invalid(format!(
+            "the study simulates {} s of training driving ({} runs: samplers x seeds); at most {MAX_TRAINING_TOTAL_S} s",
+            Short(total),
+            protocol_runs.len() * study.seeds.len()
+        )));
     }
     let runs_planned = study.models.len()
         * study.training.len()
@@ -630,7 +667,7 @@ pub fn run_track(
                 })
         })
         .collect::<Result<_, _>>()?;
-    // The paths.
+    // The paths, each within the longest run at every speed.
     let paths: Vec<(String, ReferencePath)> = study
         .paths
         .iter()
@@ -639,6 +676,22 @@ pub fn run_track(
             PathChoice::Given(path) => Ok((p.name(), path.clone())),
         })
         .collect::<Result<_, PathError>>()?;
+    if study.time_limit_s.is_none() {
+        for (name, path) in &paths {
+            for &fraction in &study.speeds {
+                let limit = default_time_limit(path.length(), fraction * top);
+                if limit.is_nan() || limit > MAX_RUN_S {
+                    return Err(TrackError::Invalid(format!(
+                        "path '{name}' ({} m) at {}% of the top speed ({} m/s) would take up to {} s (twice its length at that speed, plus 20 s); a run lasts at most {MAX_RUN_S} s: give a shorter path, a higher speed or --time-limit",
+                        Short(path.length()),
+                        Short(100.0 * fraction),
+                        Short(fraction * top),
+                        Short(limit)
+                    )));
+                }
+            }
+        }
+    }
     // Every run.
     let mut plans = Vec::new();
     for (i, t) in study.training.iter().enumerate() {
@@ -667,7 +720,7 @@ pub fn run_track(
                             seed,
                             time_limit_s: study
                                 .time_limit_s
-                                .unwrap_or(2.0 * path.length() / speed + 20.0),
+                                .unwrap_or(default_time_limit(path.length(), speed)),
                         });
                     }
                 }
@@ -684,13 +737,13 @@ pub fn run_track(
         .collect::<Result<_, _>>()?;
     for r in runs.iter().filter(|r| !r.completed) {
         notes.push(format!(
-            "{} ({}) on {} at {:.0}% seed {}: the time limit ({:.0} s) ended the run before the end of the path",
+            "{} ({}) on {} at {}% seed {}: the time limit ({} s) ended the run before the end of the path",
             r.model,
             r.train,
             r.path,
-            100.0 * r.speed_fraction,
+            Short(100.0 * r.speed_fraction),
             r.seed,
-            r.duration_s
+            Short(r.duration_s)
         ));
     }
     let summary = summarise(study, &runs);
@@ -714,6 +767,11 @@ pub fn run_track(
             .collect(),
         notes,
     })
+}
+
+/// A run's default time limit (s): twice the path's length at its speed, plus 20 s.
+fn default_time_limit(length_m: f64, speed: f64) -> f64 {
+    2.0 * length_m / speed + 20.0
 }
 
 /// A dataset the models are fitted on must be of the plant's robot: its rate and vehicle.

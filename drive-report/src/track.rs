@@ -89,7 +89,7 @@ fn figure_size(result: &TrackResult) -> (u32, u32) {
     let n = panels(result).len().max(1) as u32;
     let cols = n.min(3);
     let rows = n.div_ceil(cols);
-    (460 * cols + 40, 440 * rows + 110)
+    ((460 * cols + 40).max(1000), 440 * rows + 110)
 }
 
 /// The reference path and each model's first-seed path, one panel per path and speed.
@@ -107,7 +107,7 @@ where
         keys.push((m.clone(), Key::Line(COLOURS[i % COLOURS.len()], 2)));
     }
     let title = format!(
-        "Closed loop: {} on {}, models fitted on {train} ({} controller; first seed)",
+        "{} on {}, models fitted on {train} ({}; first seed)",
         result.robot, result.terrain, result.controller
     );
     let body = header(root, &title, &keys)?;

@@ -89,6 +89,31 @@ pub fn at_most(what: &str, value: f64, limit: f64, hint: &str) -> Result<(), Too
     })
 }
 
+/// A number at the precision it has (the shortest text that reads back to it), in
+/// scientific notation when tiny or huge: for a value refused at a bound, where rounding
+/// would hide why (`1.0000001` is not `1`).
+///
+/// ```
+/// use drive_traits::limits::Exact;
+/// assert_eq!(Exact(1.0000001).to_string(), "1.0000001");
+/// assert_eq!(Exact(1e308).to_string(), "1e308");
+/// assert_eq!(Exact(3.5e-5).to_string(), "3.5e-5");
+/// assert_eq!(Exact(0.0).to_string(), "0");
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct Exact(pub f64);
+
+impl fmt::Display for Exact {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let v = self.0;
+        if v != 0.0 && v.is_finite() && (v.abs() < 1e-4 || v.abs() >= 1e16) {
+            write!(f, "{v:e}")
+        } else {
+            write!(f, "{v}")
+        }
+    }
+}
+
 /// A number for a message: at most six significant digits, in scientific notation when
 /// very large or very small (a mistyped `1e308` is not echoed as 309 digits).
 ///

@@ -2,6 +2,7 @@
 
 use super::common::{parse_number, parse_pair, parse_triplet};
 use crate::models::model_file::model_from_json;
+use crate::traits::limits::Exact as Num;
 use crate::traits::limits::Short;
 use crate::traits::{Input, MotionError, Pose, StartState};
 use anyhow::{bail, Context, Result};
@@ -36,22 +37,6 @@ pub struct Args {
     /// from it (default: none).
     #[arg(long, value_parser = parse_pair, allow_hyphen_values = true)]
     start_velocity: Option<[f64; 2]>,
-}
-
-/// A number at the precision it has (the shortest text that reads back to it), in
-/// scientific notation when it is tiny or huge: `3.5e-5` rather than `0.000035`, and a
-/// denormal in a few characters rather than 300.
-struct Num(f64);
-
-impl std::fmt::Display for Num {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let v = self.0;
-        if v != 0.0 && (v.abs() < 1e-4 || v.abs() >= 1e16) {
-            write!(f, "{v:e}")
-        } else {
-            write!(f, "{v}")
-        }
-    }
 }
 
 /// Longest line of a command file (bytes): a line is three numbers.

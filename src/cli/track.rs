@@ -27,6 +27,10 @@ pub struct Args {
     /// comma-separated; recorded with the robot.
     #[arg(long, value_delimiter = ',')]
     train_data: Vec<PathBuf>,
+    /// The sidecars of --train-data, comma-separated, one per file (default: each CSV's
+    /// path with a .json extension).
+    #[arg(long, value_delimiter = ',', requires = "train_data")]
+    train_sidecar: Vec<PathBuf>,
     /// Samplers of simulated DRIVE training runs on the same robot and ground (one run per
     /// seed each), comma-separated: uniform (DRIVE), linear, angular, ...; the closed-loop
     /// Table I with all three. Default: uniform, when no --train-data is given.
@@ -92,7 +96,46 @@ pub struct Args {
     out: Option<PathBuf>,
 }
 
+/// `Err` naming `flag` when `items` holds one twice (results are grouped by them).
+fn distinct<T: PartialEq + std::fmt::Display>(flag: &str, items: &[T]) -> Result<()> {
+    for (i, a) in items.iter().enumerate() {
+        if items[..i].contains(a) {
+            bail!("{flag} gives '{a}' twice (its results would be counted twice)");
+        }
+    }
+    Ok(())
+}
+
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    distinct("--path", &args.path)?;
+    distinct("--models", &args.models)?;
+    distinct("--train-sampler", &args.train_sampler)?;
+    let speeds: Vec<String> = args.speed.iter().map(|s| s.to_string()).collect();
+    distinct("--speed", &speeds)?;
+    let data: Vec<String> = args
+        .train_data
+        .iter()
+        .map(|d| d.display().to_string())
+        .collect();
+    distinct("--train-data", &data)?;
+    if !args.train_sidecar.is_empty() && args.train_sidecar.len() != args.train_data.len() {
+        bail!(
+            "--train-sidecar gives {} sidecars for {} --train-data files: one each",
+            args.train_sidecar.len(),
+            args.train_data.len()
+        );
+    }
+    if args
+        .seed
+        .checked_add(args.seeds.saturating_sub(1) as u64)
+        .is_none()
+    {
+        bail!(
+            "--seed {} with --seeds {} runs past the largest seed",
+            args.seed,
+            args.seeds
+        );
+    }
     let robot = registries.robot(&args.robot)?;
     let terrain = registries.terrain(&args.terrain)?;
     let start = crate::traits::StartInfo::parse(&args.start).map_err(anyhow::Error::msg)?;
@@ -135,12 +178,23 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     }
     // The training data.
     let mut training = Vec::new();
-    for d in &args.train_data {
+    for (i, d) in args.train_data.iter().enumerate() {
+        let sidecar = args.train_sidecar.get(i);
         if crate::data::bundled::name_in(d).is_none() {
+            let s = sidecar
+                .cloned()
+                .unwrap_or_else(|| crate::data::sidecar_path(d));
+            if sidecar.is_none() && d.is_file() && !s.exists() {
+                bail!(
+                    "the sidecar JSON of --train-data {} was not found (expected at {}; give it with --train-sidecar)",
+                    d.display(),
+                    s.display()
+                );
+            }
             inputs.push(("--train-data", d.clone()));
-            inputs.push(("sidecar of --train-data", crate::data::sidecar_path(d)));
+            inputs.push(("sidecar of --train-data", s));
         }
-        let dataset = crate::data::read_dataset(d, None)?;
+        let dataset = crate::data::read_dataset(d, sidecar.map(PathBuf::as_path))?;
         training.push(Training::Data {
             name: d.display().to_string(),
             dataset: Arc::new(dataset),
@@ -222,6 +276,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
 
 /// The controller asked for, with the MPPI settings given.
 fn controller(args: &Args, registries: &Registries) -> Result<Arc<dyn MakeController>> {
+    // An unknown controller is said as such first.
+    let registered = Arc::clone(registries.controllers.get(&args.controller)?.part());
     let tuned = args.samples.is_some()
         || args.horizon.is_some()
         || args.temperature.is_some()
@@ -230,14 +286,12 @@ fn controller(args: &Args, registries: &Registries) -> Result<Arc<dyn MakeContro
         if tuned {
             bail!("--mppi-config, --samples, --horizon and --temperature set the built-in mppi controller; controller '{}' takes its own settings", args.controller);
         }
-        return Ok(Arc::clone(
-            registries.controllers.get(&args.controller)?.part(),
-        ));
+        return Ok(registered);
     }
     // The registered `mppi` (which a program may have registered with its own settings),
     // unless settings are given on the command line.
     if !tuned {
-        return Ok(Arc::clone(registries.controllers.get("mppi")?.part()));
+        return Ok(registered);
     }
     let d = match &args.mppi_config {
         Some(file) => {
@@ -281,10 +335,10 @@ fn table(r: &TrackResult) -> String {
         if last.as_ref() != Some(&key) {
             let _ = writeln!(
                 s,
-                "\ntrained on {}, {} at {:.0}% ({:.2} m/s)",
+                "\ntrained on {}, {} at {}% ({:.2} m/s)",
                 x.train,
                 x.path,
-                100.0 * x.speed_fraction,
+                limits::Short(100.0 * x.speed_fraction),
                 x.speed_fraction * r.top_speed_m_s
             );
             let _ = writeln!(
