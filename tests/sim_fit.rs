@@ -299,14 +299,67 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let (a, b) = (path("a.toml"), path("b.toml"));
-    let out = ok(&["sim-fit", "--robot", "husky", "--out", &a]);
-    assert!(
-        out.contains("controller:") && out.contains("variability:"),
-        "{out}"
-    );
-    ok(&["sim-fit", "--robot", "husky", "--out", &b, "--json"]);
+    // The twin check decides whether the twin is written: a twin whose medians are more
+    // than 30% from the real run's is refused, saying which, unless allowed.
+    let first = common::drive(&["sim-fit", "--robot", "husky", "--out", &a]);
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "sim-fit",
+        "--robot",
+        "husky",
+        "--out",
+        &b,
+        "--json",
+        "--allow-poor-twin",
+    ]))
+    .unwrap();
+    for p in v["parameters"].as_array().unwrap() {
+        assert!(p["name"].is_string() && p["value"].is_number() && p["at_bound"].is_boolean());
+    }
+    let check = v["check"].as_array().unwrap();
+    let models: Vec<&str> = check.iter().map(|c| c["model"].as_str().unwrap()).collect();
+    assert_eq!(models, ["naive", "powertrain", "slip-blr", "slip-ipem"]);
+    let mut outside = 0;
+    for c in check {
+        for (real, twin) in [
+            ("real_translational_m", "twin_translational_m"),
+            ("real_rotational_rad", "twin_rotational_rad"),
+        ] {
+            let (r, t) = (c[real].as_f64().unwrap(), c[twin].as_f64().unwrap());
+            assert!(r > 0.0 && t > 0.0, "{c}");
+            outside += usize::from(((t - r) / r).abs() > 0.3);
+        }
+    }
+    // The real run's medians are `drive eval`'s (the paper's anchors for the naive model).
+    assert!((check[0]["real_translational_m"].as_f64().unwrap() - 0.3306).abs() < 1e-4);
+    let poor = v["poor"].as_array().unwrap();
+    assert_eq!(poor.len(), outside, "{v}");
+    if poor.is_empty() {
+        assert!(first.status.success());
+        let out = String::from_utf8_lossy(&first.stdout);
+        assert!(
+            out.contains("controller:") && out.contains("twin check"),
+            "{out}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(&a).unwrap(),
+            std::fs::read_to_string(&b).unwrap()
+        );
+    } else {
+        let err = String::from_utf8_lossy(&first.stderr);
+        assert!(
+            !first.status.success() && err.contains("--allow-poor-twin"),
+            "{err}"
+        );
+        for p in poor {
+            assert!(err.contains(p.as_str().unwrap()), "{err}");
+        }
+        assert!(
+            !std::path::Path::new(&a).exists(),
+            "a poor twin was written"
+        );
+        std::fs::copy(&b, &a).unwrap();
+    }
     let text = std::fs::read_to_string(&a).unwrap();
-    assert_eq!(text, std::fs::read_to_string(&b).unwrap());
     // The README's twin is this command's output.
     let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/husky_twin.toml");
     assert_eq!(
@@ -422,4 +475,55 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
     assert!(err.contains("turn more than they drive"), "{err}");
     let err = user_error(&["sim-fit", "--robot", "husky", "--out", &a, "--name", ""]);
     assert!(err.contains("--name"), "{err}");
+}
+
+#[test]
+fn table_one_across_twins_pairs_each_twin_with_its_robot() {
+    let husky = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/husky_twin.toml");
+    let warthog = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/twins/warthog_asphalt_a.toml"
+    );
+    let robot = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/warthog_1080.toml");
+    let twins = format!("husky={husky},{robot}={warthog}");
+    let out = ok(&["compare-protocols", "--twins", &twins, "--duration", "60"]);
+    assert!(out.contains("husky on husky-drive twin, 60 s:"), "{out}");
+    assert!(
+        out.contains("warthog on warthog-asphalt-a twin, 60 s:"),
+        "{out}"
+    );
+    assert!(out.contains("wins over the 2 twins"), "{out}");
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "compare-protocols",
+        "--twins",
+        &twins,
+        "--duration",
+        "60",
+        "--json",
+    ]))
+    .unwrap();
+    let terrains: std::collections::BTreeSet<&str> = v["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["terrain"].as_str().unwrap())
+        .collect();
+    assert_eq!(terrains.len(), 2);
+    // A twin with another robot's geometry, a preset terrain and a malformed pair are
+    // refused.
+    let err = user_error(&["compare-protocols", "--twins", &format!("husky={warthog}")]);
+    assert!(
+        err.contains("twin of a robot with wheel radius 0.3"),
+        "{err}"
+    );
+    let err = user_error(&["compare-protocols", "--twins", "husky=gravel"]);
+    assert!(err.contains("not a twin"), "{err}");
+    let err = user_error(&["compare-protocols", "--twins", husky]);
+    assert!(err.contains("ROBOT=TWIN"), "{err}");
+    let err = user_error(&[
+        "compare-protocols",
+        "--twins",
+        &format!("husky={husky},husky={husky}"),
+    ]);
+    assert!(err.contains("twice"), "{err}");
 }

@@ -87,6 +87,18 @@ impl InputMap {
     }
 }
 
+/// The input that stops `robot` (its zero body velocity; the input space's centre for a
+/// vehicle without an exact input for it), within its input space.
+pub(crate) fn stop_input(robot: &RobotSpec) -> Input {
+    let space = robot.input_space();
+    space.clamp(
+        &robot
+            .vehicle
+            .input_for(&drive_traits::BodyVelocity::zeros())
+            .unwrap_or_else(|| space.center()),
+    )
+}
+
 /// What a controller is built for.
 #[derive(Clone)]
 pub struct ControlSetup {

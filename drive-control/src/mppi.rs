@@ -33,11 +33,11 @@
 //! costs take its place.
 
 use crate::controller::{
-    ControlError, ControlSetup, ControlState, Controller, InputMap, MakeController,
+    stop_input, ControlError, ControlSetup, ControlState, Controller, InputMap, MakeController,
 };
 use drive_samplers::{next_command, RobotSpec, SentCommand};
 use drive_traits::limits::Short;
-use drive_traits::{wrap_angle, BodyVelocity, Input, InputSpace, MotionModel, Pose, StartState};
+use drive_traits::{wrap_angle, Input, InputSpace, MotionModel, Pose, StartState};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -257,13 +257,7 @@ impl MppiController {
                 ),
             });
         }
-        let stop = space.clamp(
-            &setup
-                .robot
-                .vehicle
-                .input_for(&BodyVelocity::zeros())
-                .unwrap_or_else(|| space.center()),
-        );
+        let stop = stop_input(&setup.robot);
         let (k, h) = (config.samples, config.horizon);
         Ok(MppiController {
             config,

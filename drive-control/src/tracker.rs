@@ -9,7 +9,7 @@
 //! from them ([`StartInfo`]), as `drive eval --start` gives them.
 
 use crate::controller::{
-    ControlError, ControlSetup, ControlState, Controller, InputMap, MakeController,
+    stop_input, ControlError, ControlSetup, ControlState, Controller, InputMap, MakeController,
 };
 use crate::path::{ReferencePath, CONTINUITY};
 use drive_samplers::{next_command, RobotSpec, SentCommand};
@@ -193,14 +193,7 @@ impl Tracker {
         }
         let history = (config.history_s / dt).round() as usize;
         let controller = make.make(setup)?;
-        let space = setup.robot.input_space();
-        let stop = space.clamp(
-            &setup
-                .robot
-                .vehicle
-                .input_for(&BodyVelocity::zeros())
-                .unwrap_or_else(|| space.center()),
-        );
+        let stop = stop_input(&setup.robot);
         Ok(Tracker {
             reference: Vec::with_capacity(controller.horizon()),
             controller,

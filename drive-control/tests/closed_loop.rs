@@ -17,17 +17,22 @@ fn husky() -> drive_samplers::RobotSpec {
         .clone()
 }
 
-/// Runs the tracker on a plant that moves exactly as the naive model predicts; returns
-/// the poses and whether it finished.
-fn follow(shape: PathShape, speed: f64, seconds: f64) -> (Vec<Pose>, bool, f64) {
-    let robot = husky();
-    let model: Arc<dyn MotionModel> = Arc::new(ComposedModel {
+/// The naive model of `robot`: eq. 4 on the commands.
+fn naive(robot: &drive_samplers::RobotSpec) -> Arc<dyn MotionModel> {
+    Arc::new(ComposedModel {
         label: "naive".into(),
         vehicle: robot.vehicle.clone(),
         powertrain: Box::new(CommandedPowertrain),
         slip: Box::new(NoSlipModel),
         dt: 0.05,
-    });
+    })
+}
+
+/// Runs the tracker on a plant that moves exactly as the naive model predicts; returns
+/// the poses and whether it finished.
+fn follow(shape: PathShape, speed: f64, seconds: f64) -> (Vec<Pose>, bool, f64) {
+    let robot = husky();
+    let model = naive(&robot);
     let setup = ControlSetup {
         model: model.clone(),
         robot: robot.clone(),
@@ -105,13 +110,7 @@ fn a_robot_that_does_not_move_never_reaches_the_end_of_a_path_through_its_start(
     // A small figure-eight and a path out and back both pass the start again: where the
     // robot is on them is where it continues from, never the far part that also passes by.
     let robot = husky();
-    let model: Arc<dyn MotionModel> = Arc::new(ComposedModel {
-        label: "naive".into(),
-        vehicle: robot.vehicle.clone(),
-        powertrain: Box::new(CommandedPowertrain),
-        slip: Box::new(NoSlipModel),
-        dt: 0.05,
-    });
+    let model = naive(&robot);
     let setup = ControlSetup {
         model,
         robot: robot.clone(),

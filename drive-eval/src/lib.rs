@@ -14,6 +14,7 @@
 //! | `protocols.rs`, `regions.rs` | data-gathering protocols (Table I) on the simulator and on recorded data |
 //! | `matrix/` | the evaluation matrix: sweep file, run, statistics, outputs |
 //! | `bench.rs` | the benchmark: datasets x models, transfer between runs, leaderboard |
+//! | `twin_check.rs` | a twin's runs against its real run: medians of four models, scatter |
 //! | `closed_loop.rs` | a controller with a fitted model driving the simulator along paths (`drive track`) |
 //!
 //! ```
@@ -42,6 +43,7 @@ mod registries;
 mod split;
 mod stats;
 mod terrain;
+mod twin_check;
 mod uncertainty;
 
 pub use bench::{
@@ -83,6 +85,9 @@ pub use stats::{
 pub use terrain::{
     energy_unpredictability, unpredictability, Unpredictability, UnpredictabilityConfig,
     UnpredictabilitySummary, WindowUnpredictability,
+};
+pub use twin_check::{
+    poor_twin, twin_check, ScatterCheck, TwinCheck, TwinCheckRow, TWIN_CHECK_MODELS, TWIN_TOLERANCE,
 };
 pub use uncertainty::{
     score_uncertainty, GroupCoverage, ReliabilityPoint, UncertaintyReport, COVERAGE_HORIZONS_S,

@@ -18,6 +18,10 @@
 //! 5. **Protocol**: the input space the real run sampled and whether its commands stepped
 //!    or ramped ([`TwinProtocol`]).
 
+use crate::parameters::{
+    CORRELATION_WINDOWS, MAX_DEAD_TIME_S, MAX_ROLLING, MAX_VARIABILITY, MIN_ICP_RATE_HZ,
+    MOUNT_RANGE, RIGHT_GAIN_RANGE, SLIP_MODULUS_RANGE, TRACTION_RANGE,
+};
 use crate::vehicle::{step_body, VehicleParams, VehicleState};
 use crate::{
     builtin_plants, scale_difference, simulate, ControllerParams, PowertrainParams, Sensors,
@@ -430,11 +434,13 @@ impl TerrainProblem<'_> {
     fn terrain(p: &[f64]) -> Terrain {
         Terrain {
             name: "fit".into(),
-            traction: p[0].exp().clamp(1e-3, 5.0),
-            lateral: p[1].exp().clamp(1e-3, 5.0),
-            slip_modulus: p[2].exp().clamp(1e-3, 10.0),
-            lateral_slip_modulus: Some(p[4].exp().clamp(1e-3, 10.0)),
-            rolling: p[3].exp().clamp(0.0, 0.9),
+            traction: p[0].exp().clamp(TRACTION_RANGE.0, TRACTION_RANGE.1),
+            lateral: p[1].exp().clamp(TRACTION_RANGE.0, TRACTION_RANGE.1),
+            slip_modulus: p[2].exp().clamp(SLIP_MODULUS_RANGE.0, SLIP_MODULUS_RANGE.1),
+            lateral_slip_modulus: Some(
+                p[4].exp().clamp(SLIP_MODULUS_RANGE.0, SLIP_MODULUS_RANGE.1),
+            ),
+            rolling: p[3].exp().clamp(0.0, MAX_ROLLING),
             powertrain: None,
             controller: None,
             sensors: None,
@@ -649,9 +655,11 @@ fn localization_mount(data: &Dataset) -> [f64; 3] {
     let x = DMatrix::from_fn(rows.len(), 3, |i, j| rows[i][j]);
     let y = DVector::from_iterator(rows.len(), rows.iter().map(|r| r[3]));
     match x.svd(true, true).solve(&y, 1e-10) {
-        Ok(c) if c.iter().all(|v| v.is_finite()) => {
-            [c[0].clamp(-10.0, 10.0), 0.0, (-c[1]).clamp(-1.0, 1.0)]
-        }
+        Ok(c) if c.iter().all(|v| v.is_finite()) => [
+            c[0].clamp(-MOUNT_RANGE.0, MOUNT_RANGE.0),
+            0.0,
+            (-c[1]).clamp(-MOUNT_RANGE.1, MOUNT_RANGE.1),
+        ],
         _ => [0.0; 3],
     }
 }
@@ -967,10 +975,10 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     let controller = pp.controller(&q);
     let mut powertrain = PowertrainParams::for_robot(robot, g.wheel_radius);
     powertrain.time_constant = [q[0].exp(), q[1].exp()];
-    powertrain.dead_time = q[2].clamp(0.0, 2.0);
+    powertrain.dead_time = q[2].clamp(0.0, MAX_DEAD_TIME_S);
     powertrain.right_lag = 1.0;
     // The right side's gain and the wheel limit are the controller stage's.
-    powertrain.right_gain = right.clamp(0.5, 2.0);
+    powertrain.right_gain = right.clamp(RIGHT_GAIN_RANGE.0, RIGHT_GAIN_RANGE.1);
     powertrain.wheel_limit = limit;
     // 3. Terrain, on at most 60 steady and 60 transient windows spread over the data.
     let stride = steady.len().div_ceil(60).max(1);
@@ -1060,7 +1068,8 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     let sensors = Sensors {
         icp_mount: localization_mount(data),
         encoder_noise: median(enc),
-        icp_rate_hz: (data.robot.rate_hz * (1.0 - median(held))).clamp(0.5, data.robot.rate_hz),
+        icp_rate_hz: (data.robot.rate_hz * (1.0 - median(held)))
+            .clamp(MIN_ICP_RATE_HZ, data.robot.rate_hz),
         icp_noise: [median(pos), median(yaw)],
         icp_latency: 0.0,
         icp_jitter: 0.0,
@@ -1094,7 +1103,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
             )));
         }
     }
-    let at_bounds = at_bounds(&terrain);
+    let at_bounds = at_bounds(&terrain, data.robot.window_len as f64 / data.robot.rate_hz);
     Ok(SimFit {
         terrain,
         report: SimFitReport {
@@ -1154,38 +1163,13 @@ fn steady_motion(data: &Dataset) -> [f64; 2] {
     [0, 1].map(|a| mean(motions.iter().map(|m| m[a].abs())))
 }
 
-/// The fitted values at a bound of their range (the ground's clamps, the variability's cap).
-fn at_bounds(t: &Terrain) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut near = |name: &str, v: f64, lo: f64, hi: f64| {
-        if v <= lo * 1.001 || v >= hi * 0.999 {
-            out.push(format!("{name} = {}", drive_traits::limits::Short(v)));
-        }
-    };
-    near("traction", t.traction, 1e-3, 5.0);
-    near("lateral", t.lateral, 1e-3, 5.0);
-    near("slip_modulus", t.slip_modulus, 1e-3, 10.0);
-    if let Some(k) = t.lateral_slip_modulus {
-        near("lateral_slip_modulus", k, 1e-3, 10.0);
-    }
-    if t.rolling >= 0.9 * 0.999 {
-        out.push(format!(
-            "rolling = {}",
-            drive_traits::limits::Short(t.rolling)
-        ));
-    }
-    if let Some(v) = t.variability {
-        for (name, sd) in [
-            ("variability.traction", v.traction),
-            ("variability.lateral", v.lateral),
-            ("variability.rolling", v.rolling),
-        ] {
-            if sd >= 3.0 * 0.999 {
-                out.push(format!("{name} = {}", drive_traits::limits::Short(sd)));
-            }
-        }
-    }
-    out
+/// The fitted values at a bound of their range (`name = value`).
+fn at_bounds(t: &Terrain, window_s: f64) -> Vec<String> {
+    crate::fitted_parameters(t, window_s)
+        .into_iter()
+        .filter(|p| p.at_bound)
+        .map(|p| format!("{} = {}", p.name, drive_traits::limits::Short(p.value)))
+        .collect()
 }
 
 /// How the steady windows' body velocity scatters around a smooth function of the measured
@@ -1447,7 +1431,7 @@ fn fit_variability(
     } else {
         0.5
     };
-    let (mut lo, mut hi) = (window / 50.0, window * 50.0);
+    let (mut lo, mut hi) = (window / CORRELATION_WINDOWS, window * CORRELATION_WINDOWS);
     for _ in 0..60 {
         let mid = (lo * hi).sqrt();
         // The correlation grows with the correlation time.
@@ -1493,7 +1477,7 @@ fn fit_variability(
     } else {
         1.0
     };
-    let sd = variances.map(|v| (k * v).sqrt().min(3.0));
+    let sd = variances.map(|v| (k * v).sqrt().min(MAX_VARIABILITY));
     let variability = Variability {
         traction: sd[0],
         lateral: sd[1],

@@ -22,6 +22,7 @@
 
 pub mod car;
 mod fit;
+mod parameters;
 mod plant;
 mod run;
 mod sensors;
@@ -32,6 +33,7 @@ mod vehicle;
 
 pub use car::{step_car, Actuator, CarParams, CarSimulator, CarState};
 pub use fit::{scatter, sim_fit, Scatter, ScatterFit, SimFit, SimFitError, SimFitReport};
+pub use parameters::{fitted_parameters, FittedParameter};
 pub use plant::{builtin_plants, plant_for, KinematicPlant, MakePlant, Plant};
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
 pub use sensors::{Instruments, Sensors};

@@ -131,21 +131,26 @@ def init(args):
         rclpy.init(args=args)
 
 
-def main(args=None):
-    init(args)
-    node = DriveProtocolNode()
+def spin_then_stop(node, finished=lambda: False):
+    """Spins `node` until `finished()` or Ctrl-C, then publishes a last zero Twist on its
+    `cmd_pub`, whatever stopped it (when the context still allows it), and shuts down."""
     try:
-        while rclpy.ok() and not node.logic.finished:
+        while rclpy.ok() and not finished():
             rclpy.spin_once(node, timeout_sec=0.1)
     except KeyboardInterrupt:
         node.get_logger().info("interrupted: stopping the robot")
     finally:
-        # A last zero command, whatever stopped the node (when the context still allows it).
         if rclpy.ok():
             node.cmd_pub.publish(Twist())
         node.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()
+
+
+def main(args=None):
+    init(args)
+    node = DriveProtocolNode()
+    spin_then_stop(node, lambda: node.logic.finished)
 
 
 if __name__ == "__main__":

@@ -127,21 +127,10 @@ class DriveTrackNode(Node):
 
 
 def main(args=None):
-    from drive_protocol_node import init
+    from drive_protocol_node import init, spin_then_stop
 
     init(args)
-    node = DriveTrackNode()
-    try:
-        while rclpy.ok():
-            rclpy.spin_once(node, timeout_sec=0.1)
-    except KeyboardInterrupt:
-        node.get_logger().info("interrupted: stopping the robot")
-    finally:
-        if rclpy.ok():
-            node.cmd_pub.publish(Twist())
-        node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
+    spin_then_stop(DriveTrackNode())
 
 
 if __name__ == "__main__":

@@ -18,6 +18,12 @@ pub struct Args {
     /// Terrains, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "tile,gravel,snow,ice")]
     terrain: Vec<String>,
+    /// Twins of real runs instead of robots x terrains, comma-separated, each as
+    /// ROBOT=TWIN.toml (the robot the twin was fitted for, a registered name or a robot
+    /// file, and its terrain file from `drive sim-fit`): Table I on each, and which
+    /// protocol wins where, across them.
+    #[arg(long, value_delimiter = ',', conflicts_with_all = ["robot", "terrain", "real", "data"])]
+    twins: Vec<String>,
     /// Driving time of each training run (s, characterization excluded), comma-separated.
     #[arg(
         long,
@@ -83,6 +89,9 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
 /// Table I on the simulator.
 fn simulated(args: &Args, registries: &Registries) -> Result<()> {
     registries.model(&args.model)?;
+    if !args.twins.is_empty() {
+        return twins(args, registries);
+    }
     let robots = names(&args.robot)
         .into_iter()
         .map(|r| registries.robot(r))
@@ -110,6 +119,23 @@ fn simulated(args: &Args, registries: &Registries) -> Result<()> {
             );
         }
     }
+    let table = compare_protocols(registries, &study(args, registries, robots, terrains)?)?;
+    if args.json {
+        outln!("{}", serde_json::to_string(&table)?);
+    } else {
+        out!("{}", simulated_table(&table));
+    }
+    Ok(())
+}
+
+/// The study of the command line's samplers, durations, seeds and model over `robots` x
+/// `terrains`.
+fn study(
+    args: &Args,
+    registries: &Registries,
+    robots: Vec<crate::samplers::RobotSpec>,
+    terrains: Vec<crate::sim::Terrain>,
+) -> Result<ProtocolStudy> {
     let samplers = names(&args.samplers);
     let test_samplers = names(&args.test_samplers);
     for s in samplers.iter().chain(&test_samplers) {
@@ -129,7 +155,7 @@ fn simulated(args: &Args, registries: &Registries) -> Result<()> {
         );
     }
     let longest = args.duration.iter().copied().fold(0.0, f64::max);
-    let study = ProtocolStudy {
+    Ok(ProtocolStudy {
         robots,
         terrains,
         samplers: samplers.iter().map(|s| s.to_string()).collect(),
@@ -141,14 +167,114 @@ fn simulated(args: &Args, registries: &Registries) -> Result<()> {
         mixed_test: true,
         test_driving_s: args.test_duration.unwrap_or(longest.max(300.0)),
         model: args.model.to_string(),
-    };
-    let table = compare_protocols(registries, &study)?;
+    })
+}
+
+/// Table I on each twin of `--twins` (each with its own robot), then which training
+/// sampler wins on each test set across them.
+fn twins(args: &Args, registries: &Registries) -> Result<()> {
+    let mut pairs = Vec::new();
+    for pair in &args.twins {
+        let Some((robot, twin)) = pair.split_once('=') else {
+            bail!("--twins takes ROBOT=TWIN.toml pairs; '{pair}' has no '='");
+        };
+        let twin = registries.terrain(twin)?;
+        if twin.protocol.is_none() {
+            bail!(
+                "--twins: terrain '{}' is not a twin of a real run (it has no protocol); give a file written by drive sim-fit",
+                twin.name
+            );
+        }
+        pairs.push((registries.robot(robot)?, twin));
+    }
+    let mut names: Vec<&str> = pairs.iter().map(|(_, t)| t.name.as_str()).collect();
+    names.sort_unstable();
+    if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+        bail!(
+            "--twins names '{}' twice (a file's name is the one inside it): give each its own (drive sim-fit --name)",
+            w[0]
+        );
+    }
+    let mut table: Option<ProtocolComparison> = None;
+    for (robot, twin) in pairs {
+        let one = compare_protocols(
+            registries,
+            &study(args, registries, vec![robot], vec![twin])?,
+        )?;
+        match &mut table {
+            None => table = Some(one),
+            Some(t) => {
+                t.rows.extend(one.rows);
+                t.cells.extend(one.cells);
+            }
+        }
+    }
+    // At least one pair: clap gave --twins a value.
+    let table = table.ok_or_else(|| anyhow::anyhow!("--twins is empty"))?;
     if args.json {
         outln!("{}", serde_json::to_string(&table)?);
     } else {
         out!("{}", simulated_table(&table));
+        out!("{}", winners(&table));
     }
     Ok(())
+}
+
+/// Per robot, terrain (twin) and driving time: which training sampler has the lowest
+/// median error on each test set, and how often each wins across them.
+fn winners(t: &ProtocolComparison) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::from(
+        "\nwhich protocol trains the best model, per twin (lowest median error on each test set; translation / rotation):\n",
+    );
+    let mut blocks: Vec<(&str, &str, f64)> = Vec::new();
+    for r in &t.rows {
+        let key = (r.robot.as_str(), r.terrain.as_str(), r.driving_s);
+        if !blocks.contains(&key) {
+            blocks.push(key);
+        }
+    }
+    let mut wins: std::collections::BTreeMap<(String, &str), [usize; 2]> = Default::default();
+    for &(robot, terrain, d) in &blocks {
+        let _ = write!(out, "  {robot} on {terrain}, {d:.0} s:");
+        for test in &t.test_sets {
+            let rows: Vec<&crate::eval::ProtocolRow> = t
+                .rows
+                .iter()
+                .filter(|r| {
+                    (r.robot.as_str(), r.terrain.as_str(), r.driving_s) == (robot, terrain, d)
+                        && &r.test_sampler == test
+                })
+                .collect();
+            let best = |f: fn(&crate::eval::ProtocolRow) -> f64| {
+                rows.iter()
+                    .min_by(|a, b| f(a).total_cmp(&f(b)))
+                    .map_or("-", |r| r.train_sampler.as_str())
+            };
+            let (bt, br) = (
+                best(|r| r.translational_median_m),
+                best(|r| r.rotational_median_rad),
+            );
+            wins.entry((test.clone(), bt)).or_default()[0] += 1;
+            wins.entry((test.clone(), br)).or_default()[1] += 1;
+            let _ = write!(out, " on {test} {bt} / {br};");
+        }
+        out.push('\n');
+    }
+    let _ = writeln!(
+        out,
+        "wins over the {} twins (translation, rotation):",
+        blocks.len()
+    );
+    for test in &t.test_sets {
+        let line: Vec<String> = wins
+            .iter()
+            .filter(|((set, _), _)| set == test)
+            .map(|((_, s), [a, b])| format!("{s} {a}/{b}"))
+            .collect();
+        let _ = writeln!(out, "  tested on {test}: {}", line.join(", "));
+    }
+    out
 }
 
 fn simulated_table(t: &ProtocolComparison) -> String {

@@ -19,9 +19,34 @@ pub struct Args {
     /// The twin's name (default: the dataset's name and "twin").
     #[arg(long)]
     name: Option<String>,
-    /// Print the fit as JSON on stdout.
+    /// Print the fit as JSON on stdout: `parameters` (each fitted parameter with `name`,
+    /// `value`, its range and `at_bound`), `check` (per model: `real_translational_m`,
+    /// `twin_translational_m`, `real_rotational_rad`, `twin_rotational_rad`), `scatter`,
+    /// `poor`, and the twin (`terrain`) and the fit's `report`.
     #[arg(long)]
     json: bool,
+    /// Write the twin even when the check finds a median (naive, powertrain, slip-blr,
+    /// slip-ipem; translational or rotational) more than 30% from the real run's.
+    #[arg(long)]
+    allow_poor_twin: bool,
+    /// Seeds of the twin's runs in the check (1, 2, ...): each as long as the real run.
+    #[arg(long, default_value_t = 3)]
+    check_seeds: usize,
+}
+
+/// What `drive sim-fit --json` prints.
+#[derive(serde::Serialize)]
+struct Output<'a> {
+    parameters: Vec<crate::sim::FittedParameter>,
+    check: &'a [crate::eval::TwinCheckRow],
+    scatter: Option<crate::eval::ScatterCheck>,
+    check_seeds: &'a [u64],
+    tolerance: f64,
+    poor: &'a [String],
+    scatter_off: &'a [String],
+    written: bool,
+    terrain: &'a crate::sim::Terrain,
+    report: &'a crate::sim::SimFitReport,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
@@ -47,12 +72,55 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .name
         .clone()
         .unwrap_or_else(|| format!("{} twin", data.robot.name));
+    if args.check_seeds == 0 {
+        anyhow::bail!("--check-seeds must be at least 1");
+    }
+    crate::traits::limits::at_most(
+        "--check-seeds",
+        args.check_seeds as f64,
+        crate::traits::limits::MAX_SEEDS as f64,
+        "",
+    )?;
     let fit = crate::sim::sim_fit(&data, &spec, &name)?;
+    // The twin check: the twin's runs against the real one.
+    let models = registries
+        .models()
+        .resolve_list(&crate::eval::TWIN_CHECK_MODELS)?;
+    let seeds: Vec<u64> = (1..=args.check_seeds as u64).collect();
+    let check = crate::eval::twin_check(registries, &data, &spec, &fit.terrain, &seeds, &models)?;
+    let window_s = data.robot.window_len as f64 / data.robot.rate_hz;
+    let parameters = crate::sim::fitted_parameters(&fit.terrain, window_s);
+    let poor = !check.poor.is_empty();
+    if poor && !args.allow_poor_twin {
+        anyhow::bail!(
+            "the twin was not written: it does not drive like the real run within {:.0}%: {}; write it anyway with --allow-poor-twin",
+            100.0 * check.tolerance,
+            check.poor.join("; ")
+        );
+    }
     outputs.write(&args.out, fit.terrain.to_toml())?;
     outputs.publish()?;
-    emit(args.json, &fit, |f| {
-        let t = &f.terrain;
-        let r = &f.report;
+    if poor {
+        super::common::note(format!(
+            "note: a poor twin, written with --allow-poor-twin: {}",
+            check.poor.join("; ")
+        ));
+    }
+    let output = Output {
+        parameters,
+        check: &check.check,
+        scatter: check.scatter,
+        check_seeds: &check.seeds,
+        tolerance: check.tolerance,
+        poor: &check.poor,
+        scatter_off: &check.scatter_off,
+        written: true,
+        terrain: &fit.terrain,
+        report: &fit.report,
+    };
+    emit(args.json, &output, |o| {
+        let t = o.terrain;
+        let r = o.report;
         let c = t.controller.unwrap_or_default();
         // sim_fit always fits the powertrain.
         let p = t.powertrain.expect("a fitted twin has a powertrain");
@@ -115,6 +183,63 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                 r.at_bounds.join(", ")
             );
         }
+        text += &format!(
+            "twin check ({} runs of the twin as long as the real run, seeds {}; each split in halves, eq. 8 medians over the evaluation halves, {} real and {} twin windows):\n",
+            o.check_seeds.len(),
+            o.check_seeds
+                .iter()
+                .map(u64::to_string)
+                .collect::<Vec<_>>()
+                .join(", "),
+            check.windows[0],
+            check.windows[1]
+        );
+        text += &format!(
+            "  {:<11} {:>10} {:>10} {:>8}   {:>10} {:>10} {:>8}\n",
+            "model", "real [m]", "twin [m]", "off", "real [rad]", "twin [rad]", "off"
+        );
+        for c in o.check {
+            text += &format!(
+                "  {:<11} {:>10.4} {:>10.4} {:>+7.0}%   {:>10.4} {:>10.4} {:>+7.0}%\n",
+                c.model,
+                c.real_translational_m,
+                c.twin_translational_m,
+                c.translational_off_percent,
+                c.real_rotational_rad,
+                c.twin_rotational_rad,
+                c.rotational_off_percent
+            );
+        }
+        if let Some(s) = o.scatter {
+            text += &format!(
+                "  steady scatter: real {:.3} m/s and {:.3} rad/s, twin {:.3} and {:.3}{}\n",
+                s.real[0],
+                s.real[1],
+                s.twin[0],
+                s.twin[1],
+                if o.scatter_off.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        " (outside {:.0}%: {})",
+                        100.0 * o.tolerance,
+                        o.scatter_off.join("; ")
+                    )
+                }
+            );
+        }
+        text += &if o.poor.is_empty() {
+            format!(
+                "  every median within {:.0}% of the real run's\n",
+                100.0 * o.tolerance
+            )
+        } else {
+            format!(
+                "  outside {:.0}% (written with --allow-poor-twin): {}\n",
+                100.0 * o.tolerance,
+                o.poor.join("; ")
+            )
+        };
         if let Some(q) = &t.protocol {
             let [[l0, l1], [r0, r1]] = q.input_limits;
             text += &format!(

@@ -1,0 +1,275 @@
+//! The twin check: does a twin (`drive sim-fit`) drive like the real run it was fitted on?
+//! The real run and runs of the twin (as long as the real one, with its protocol, one per
+//! seed) are each split in halves, the same models fitted on the first and scored with
+//! eq. 8 on the second; the medians of the real run against those of the twin's runs
+//! pooled, and the steady windows' scatter of both.
+
+use crate::{quantile, split_by_interval, ExperimentError, Registries, SimRun};
+use drive_models::{DifferentialDrive, ModelSpec};
+use drive_samplers::{RobotSpec, RunnerConfig};
+use drive_sim::Terrain;
+use drive_traits::{vehicle_as, Dataset, FitError, WindowSet};
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// The models of the twin check: the manufacturer's, the powertrain's, the paper's and the
+/// nonlinear slip.
+pub const TWIN_CHECK_MODELS: [&str; 4] = ["naive", "powertrain", "slip-blr", "slip-ipem"];
+
+/// How far a twin's median may be from the real one (30%).
+pub const TWIN_TOLERANCE: f64 = 0.30;
+
+/// One model's medians on the real run and on the twin's runs (pooled).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TwinCheckRow {
+    /// The model.
+    pub model: String,
+    /// Median translational error (eq. 8) over the real run's evaluation windows (m).
+    pub real_translational_m: f64,
+    /// The same over the twin's runs' evaluation windows, pooled (m).
+    pub twin_translational_m: f64,
+    /// Median rotational error over the real run's evaluation windows (rad).
+    pub real_rotational_rad: f64,
+    /// The same over the twin's runs (rad).
+    pub twin_rotational_rad: f64,
+    /// `100 (twin - real) / real`, translational.
+    pub translational_off_percent: f64,
+    /// `100 (twin - real) / real`, rotational.
+    pub rotational_off_percent: f64,
+}
+
+/// The steady windows' scatter of the body velocity around a smooth function of the wheel
+/// speeds (`drive_sim::scatter`): forward speed (m/s) and yaw rate (rad/s).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ScatterCheck {
+    /// The real run's.
+    pub real: [f64; 2],
+    /// The twin's runs', pooled (their mean).
+    pub twin: [f64; 2],
+}
+
+/// What the twin check found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TwinCheck {
+    /// Seeds of the twin's runs.
+    pub seeds: Vec<u64>,
+    /// Evaluation windows of the real run and of the twin's runs together.
+    pub windows: [usize; 2],
+    /// Per model.
+    pub check: Vec<TwinCheckRow>,
+    /// The steady scatter, when both have at least 30 steady windows.
+    pub scatter: Option<ScatterCheck>,
+    /// The tolerance of `poor` (a fraction: 0.3 is 30%).
+    pub tolerance: f64,
+    /// Every median further than the tolerance from the real one, in words: what makes a
+    /// poor twin.
+    pub poor: Vec<String>,
+    /// The steady scatter where it is further than the tolerance from the real one, in
+    /// words (reported; it does not make a poor twin alone).
+    pub scatter_off: Vec<String>,
+}
+
+/// Runs the twin check of `twin`, fitted on `data` for `robot`, with `seeds` twin runs and
+/// the models `models` (each fitted with its own uncertainty: medians do not depend on the
+/// calibration).
+///
+/// ```no_run
+/// use drive_eval::{twin_check, Registries, TWIN_CHECK_MODELS};
+/// let r = Registries::builtin();
+/// let data = drive_data::read_dataset("run.csv".as_ref(), None).unwrap();
+/// let robot = r.robot("husky").unwrap();
+/// let twin = r.terrain("twin.toml").unwrap();
+/// let models = r.models().resolve_list(&TWIN_CHECK_MODELS).unwrap();
+/// let check = twin_check(&r, &data, &robot, &twin, &[1, 2, 3], &models).unwrap();
+/// for p in &check.poor { println!("{p}"); }
+/// ```
+pub fn twin_check(
+    registries: &Registries,
+    data: &Dataset,
+    robot: &RobotSpec,
+    twin: &Terrain,
+    seeds: &[u64],
+    models: &[ModelSpec],
+) -> Result<TwinCheck, ExperimentError> {
+    if seeds.is_empty() {
+        return Err(ExperimentError::Empty("seeds"));
+    }
+    if models.is_empty() {
+        return Err(ExperimentError::Empty("models"));
+    }
+    let intervals = data.interval_count();
+    let runs: Vec<SimRun> = seeds
+        .iter()
+        .map(|&seed| SimRun {
+            robot: robot.clone(),
+            terrain: twin.clone(),
+            // The twin draws what its real run drew (its protocol wraps the sampler).
+            sampler: "uniform".into(),
+            runner: RunnerConfig {
+                max_intervals: Some(intervals.max(2)),
+                ..RunnerConfig::default()
+            },
+            seed,
+        })
+        .collect();
+    let simulated: Vec<Dataset> = runs
+        .par_iter()
+        .map(|run| crate::simulate_run(registries, run).map(|s| s.dataset))
+        .collect::<Result<_, _>>()?;
+    // Every (dataset, model) cell: the real run first.
+    let sets: Vec<&Dataset> = std::iter::once(data).chain(simulated.iter()).collect();
+    let cells: Vec<(usize, usize)> = (0..sets.len())
+        .flat_map(|d| (0..models.len()).map(move |m| (d, m)))
+        .collect();
+    let errors: Vec<Vec<[f64; 2]>> = cells
+        .par_iter()
+        .map(|&(d, m)| window_errors(sets[d], &models[m]))
+        .collect::<Result<_, _>>()?;
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        quantile(v, 0.5).unwrap_or(f64::NAN)
+    };
+    let mut check = Vec::new();
+    let mut windows = [0, 0];
+    for (m, spec) in models.iter().enumerate() {
+        let of = |d: usize| &errors[d * models.len() + m];
+        let (mut rt, mut rr): (Vec<f64>, Vec<f64>) = of(0).iter().map(|e| (e[0], e[1])).unzip();
+        let (mut tt, mut tr): (Vec<f64>, Vec<f64>) = (1..sets.len())
+            .flat_map(|d| of(d).iter().map(|e| (e[0], e[1])))
+            .unzip();
+        windows = [rt.len(), tt.len()];
+        let (real_t, real_r, twin_t, twin_r) = (
+            median(&mut rt),
+            median(&mut rr),
+            median(&mut tt),
+            median(&mut tr),
+        );
+        let off = |twin: f64, real: f64| 100.0 * (twin - real) / real;
+        check.push(TwinCheckRow {
+            model: spec.name.clone(),
+            real_translational_m: real_t,
+            twin_translational_m: twin_t,
+            real_rotational_rad: real_r,
+            twin_rotational_rad: twin_r,
+            translational_off_percent: off(twin_t, real_t),
+            rotational_off_percent: off(twin_r, real_r),
+        });
+    }
+    let scatter = vehicle_as::<DifferentialDrive>(data.robot.vehicle.as_ref()).and_then(|g| {
+        let real = drive_sim::scatter(data, &g)?;
+        let twins: Vec<[f64; 2]> = simulated
+            .iter()
+            .filter_map(|s| drive_sim::scatter(s, &g))
+            .map(|s| s.rms)
+            .collect();
+        if twins.is_empty() {
+            return None;
+        }
+        let n = twins.len() as f64;
+        Some(ScatterCheck {
+            real: real.rms,
+            twin: [
+                twins.iter().map(|t| t[0]).sum::<f64>() / n,
+                twins.iter().map(|t| t[1]).sum::<f64>() / n,
+            ],
+        })
+    });
+    let poor = poor_twin(&check, TWIN_TOLERANCE);
+    let scatter_off = scatter.map_or_else(Vec::new, |s| scatter_off(&s, TWIN_TOLERANCE));
+    Ok(TwinCheck {
+        seeds: seeds.to_vec(),
+        windows,
+        check,
+        scatter,
+        tolerance: TWIN_TOLERANCE,
+        poor,
+        scatter_off,
+    })
+}
+
+/// The translational and rotational errors (eq. 8) of `spec`, fitted on the first half of
+/// `data`'s intervals, over the windows of the second half.
+fn window_errors(data: &Dataset, spec: &ModelSpec) -> Result<Vec<[f64; 2]>, ExperimentError> {
+    let (train, eval) = split_by_interval(data, 0.5).map_err(|e| {
+        ExperimentError::NotEnoughData(format!("the twin check on {}: {e}", data.robot.name))
+    })?;
+    let fit = |train: &WindowSet<'_>| -> Result<_, FitError> { spec.fit_uncalibrated(train) };
+    let model = fit(&train).map_err(|reason| ExperimentError::Fit {
+        model: spec.name.clone(),
+        data: data.robot.name.clone(),
+        reason,
+    })?;
+    let report = crate::evaluate_errors(model.as_ref(), &eval, spec.start);
+    Ok(report
+        .windows
+        .iter()
+        .map(|w| [w.error.translational, w.error.rotational])
+        .collect())
+}
+
+/// The medians further than `tolerance` (a fraction) from the real ones, in words.
+///
+/// ```
+/// use drive_eval::{poor_twin, TwinCheckRow};
+/// let row = TwinCheckRow { model: "slip-blr".into(), real_translational_m: 0.10,
+///     twin_translational_m: 0.12, real_rotational_rad: 0.10, twin_rotational_rad: 0.21,
+///     translational_off_percent: 20.0, rotational_off_percent: 110.0 };
+/// let poor = poor_twin(&[row], 0.3);
+/// assert_eq!(poor, ["slip-blr rotational median +110% (twin 0.2100 rad against the real run's 0.1000)"]);
+/// ```
+pub fn poor_twin(check: &[TwinCheckRow], tolerance: f64) -> Vec<String> {
+    let mut out = Vec::new();
+    for r in check {
+        off_by(
+            &mut out,
+            format!("{} translational median", r.model),
+            r.twin_translational_m,
+            r.real_translational_m,
+            "m",
+            tolerance,
+        );
+        off_by(
+            &mut out,
+            format!("{} rotational median", r.model),
+            r.twin_rotational_rad,
+            r.real_rotational_rad,
+            "rad",
+            tolerance,
+        );
+    }
+    out
+}
+
+/// The steady scatters further than `tolerance` from the real ones, in words.
+fn scatter_off(s: &ScatterCheck, tolerance: f64) -> Vec<String> {
+    let mut out = Vec::new();
+    off_by(
+        &mut out,
+        "steady forward-speed scatter".into(),
+        s.twin[0],
+        s.real[0],
+        "m/s",
+        tolerance,
+    );
+    off_by(
+        &mut out,
+        "steady yaw-rate scatter".into(),
+        s.twin[1],
+        s.real[1],
+        "rad/s",
+        tolerance,
+    );
+    out
+}
+
+/// Adds `what` to `out` when `twin` is further than `tolerance` (a fraction) from `real`
+/// (or not a number).
+fn off_by(out: &mut Vec<String>, what: String, twin: f64, real: f64, unit: &str, tolerance: f64) {
+    let off = (twin - real) / real;
+    if off.is_nan() || off.abs() > tolerance {
+        out.push(format!(
+            "{what} {:+.0}% (twin {twin:.4} {unit} against the real run's {real:.4})",
+            100.0 * off
+        ));
+    }
+}

@@ -1,0 +1,223 @@
+//! A twin's fitted parameters, each with the range its fit searched and whether it ended at
+//! a bound of that range: what the data did not pin down (`drive sim-fit` reports them).
+
+use crate::Terrain;
+use serde::Serialize;
+
+/// One fitted parameter of a twin.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FittedParameter {
+    /// Its name as the twin's TOML file has it (`traction`, `powertrain.dead_time`, ...).
+    pub name: String,
+    /// The fitted value.
+    pub value: f64,
+    /// The lower bound of the range the fit searched; `None` when there is none, or when it
+    /// is the quantity's own zero (a noise, a dead time, a variability of zero means "none",
+    /// not "the fit wanted less").
+    pub min: Option<f64>,
+    /// The upper bound of the range the fit searched; `None` when there is none.
+    pub max: Option<f64>,
+    /// The value sits at one of the bounds (within 0.1%): the fit would have gone further,
+    /// so the data does not pin it down, or the simulator cannot express what it shows.
+    pub at_bound: bool,
+}
+
+impl FittedParameter {
+    fn new(name: &str, value: f64, min: Option<f64>, max: Option<f64>) -> Self {
+        let at_min = min.is_some_and(|lo| {
+            if lo > 0.0 {
+                value <= lo * 1.001
+            } else {
+                value <= lo + 1e-3 * lo.abs().max(1e-9)
+            }
+        });
+        let at_max = max.is_some_and(|hi| {
+            if hi > 0.0 {
+                value >= hi * 0.999
+            } else {
+                value >= hi - 1e-3 * hi.abs().max(1e-9)
+            }
+        });
+        FittedParameter {
+            name: name.to_string(),
+            value,
+            min,
+            max,
+            at_bound: at_min || at_max,
+        }
+    }
+}
+
+/// The ground's ranges in the fit (its parameters are searched in log space, then clamped).
+pub(crate) const TRACTION_RANGE: (f64, f64) = (1e-3, 5.0);
+/// The range of the slip moduli.
+pub(crate) const SLIP_MODULUS_RANGE: (f64, f64) = (1e-3, 10.0);
+/// The largest rolling resistance.
+pub(crate) const MAX_ROLLING: f64 = 0.9;
+/// The largest dead time (s).
+pub(crate) const MAX_DEAD_TIME_S: f64 = 2.0;
+/// The right side's gain range.
+pub(crate) const RIGHT_GAIN_RANGE: (f64, f64) = (0.5, 2.0);
+/// The largest log standard deviation of a grip process.
+pub(crate) const MAX_VARIABILITY: f64 = 3.0;
+/// The localization mount's range: offsets (m) and yaw (rad).
+pub(crate) const MOUNT_RANGE: (f64, f64) = (10.0, 1.0);
+/// The slowest localization rate (Hz).
+pub(crate) const MIN_ICP_RATE_HZ: f64 = 0.5;
+/// The correlation time's range, in windows: from 1/50 of a window to 50 windows.
+pub(crate) const CORRELATION_WINDOWS: f64 = 50.0;
+
+/// Every fitted parameter of the twin `t` (as `drive sim-fit` writes it) with its range;
+/// `window_s` is the data's window length (s), which the correlation time's range follows.
+///
+/// ```
+/// let twin = drive_sim::Terrain::from_toml("twin.toml",
+///     &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/husky_twin.toml")).unwrap()).unwrap();
+/// let p = drive_sim::fitted_parameters(&twin, 2.0);
+/// let traction = p.iter().find(|p| p.name == "traction").unwrap();
+/// assert_eq!((traction.min, traction.max, traction.at_bound), (Some(1e-3), Some(5.0), false));
+/// assert!(p.iter().any(|p| p.name == "powertrain.dead_time"));
+/// ```
+pub fn fitted_parameters(t: &Terrain, window_s: f64) -> Vec<FittedParameter> {
+    let mut out = Vec::new();
+    let mut push = |name: &str, value: f64, min: Option<f64>, max: Option<f64>| {
+        out.push(FittedParameter::new(name, value, min, max))
+    };
+    let (lo, hi) = TRACTION_RANGE;
+    push("traction", t.traction, Some(lo), Some(hi));
+    push("lateral", t.lateral, Some(lo), Some(hi));
+    let (lo, hi) = SLIP_MODULUS_RANGE;
+    push("slip_modulus", t.slip_modulus, Some(lo), Some(hi));
+    if let Some(k) = t.lateral_slip_modulus {
+        push("lateral_slip_modulus", k, Some(lo), Some(hi));
+    }
+    push("rolling", t.rolling, None, Some(MAX_ROLLING));
+    if let Some(c) = &t.controller {
+        push("controller.linear_gain", c.linear_gain, None, None);
+        push("controller.angular_gain", c.angular_gain, None, None);
+        for (name, v) in [
+            ("controller.max_linear", c.max_linear),
+            ("controller.max_angular", c.max_angular),
+            (
+                "controller.max_linear_acceleration",
+                c.max_linear_acceleration,
+            ),
+            (
+                "controller.max_angular_acceleration",
+                c.max_angular_acceleration,
+            ),
+        ] {
+            if let Some(v) = v {
+                push(name, v, None, None);
+            }
+        }
+    }
+    if let Some(p) = &t.powertrain {
+        push(
+            "powertrain.time_constant.rising",
+            p.time_constant[0],
+            None,
+            None,
+        );
+        push(
+            "powertrain.time_constant.falling",
+            p.time_constant[1],
+            None,
+            None,
+        );
+        push(
+            "powertrain.dead_time",
+            p.dead_time,
+            None,
+            Some(MAX_DEAD_TIME_S),
+        );
+        let (lo, hi) = RIGHT_GAIN_RANGE;
+        push("powertrain.right_gain", p.right_gain, Some(lo), Some(hi));
+        push("powertrain.wheel_limit", p.wheel_limit, None, None);
+    }
+    if let Some(s) = &t.sensors {
+        push(
+            "sensors.icp_rate_hz",
+            s.icp_rate_hz,
+            Some(MIN_ICP_RATE_HZ),
+            None,
+        );
+        push("sensors.icp_noise.position", s.icp_noise[0], None, None);
+        push("sensors.icp_noise.yaw", s.icp_noise[1], None, None);
+        let (offset, yaw) = MOUNT_RANGE;
+        push(
+            "sensors.icp_mount.forward",
+            s.icp_mount[0],
+            Some(-offset),
+            Some(offset),
+        );
+        push(
+            "sensors.icp_mount.yaw",
+            s.icp_mount[2],
+            Some(-yaw),
+            Some(yaw),
+        );
+        push("sensors.encoder_noise", s.encoder_noise, None, None);
+        push("sensors.imu_noise", s.imu_noise, None, None);
+        push("sensors.imu_bias", s.imu_bias, None, None);
+    }
+    if let Some(v) = &t.variability {
+        for (name, sd) in [
+            ("variability.traction", v.traction),
+            ("variability.lateral", v.lateral),
+            ("variability.rolling", v.rolling),
+        ] {
+            push(name, sd, None, Some(MAX_VARIABILITY));
+        }
+        push(
+            "variability.correlation_time",
+            v.correlation_time,
+            Some(window_s / CORRELATION_WINDOWS),
+            Some(window_s * CORRELATION_WINDOWS),
+        );
+    }
+    if let Some(p) = &t.protocol {
+        push("protocol.baseline", p.baseline, None, None);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_are_flagged_within_a_thousandth() {
+        let p = FittedParameter::new("x", 4.999, Some(1e-3), Some(5.0));
+        assert!(p.at_bound);
+        let p = FittedParameter::new("x", 4.9, Some(1e-3), Some(5.0));
+        assert!(!p.at_bound);
+        let p = FittedParameter::new("x", 1.0005e-3, Some(1e-3), Some(5.0));
+        assert!(p.at_bound);
+        let p = FittedParameter::new("mount", -10.0, Some(-10.0), Some(10.0));
+        assert!(p.at_bound);
+        let p = FittedParameter::new("mount", -9.0, Some(-10.0), Some(10.0));
+        assert!(!p.at_bound);
+        let p = FittedParameter::new("noise", 0.0, None, None);
+        assert!(!p.at_bound);
+    }
+
+    #[test]
+    fn a_twin_at_its_caps_says_so() {
+        let mut t = Terrain::preset("gravel").unwrap();
+        t.traction = 5.0;
+        t.variability = Some(crate::Variability {
+            traction: 0.0,
+            lateral: 0.2,
+            rolling: 3.0,
+            correlation_time: 1.0,
+        });
+        let p = fitted_parameters(&t, 2.0);
+        let bound: Vec<&str> = p
+            .iter()
+            .filter(|p| p.at_bound)
+            .map(|p| p.name.as_str())
+            .collect();
+        assert_eq!(bound, ["traction", "variability.rolling"]);
+    }
+}
