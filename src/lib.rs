@@ -16,8 +16,7 @@
 //! - [`report`] (drive-report): the paper's figures and a Markdown report for one dataset;
 //! - [`cli`]: the command line, runnable with a researcher's own [`Registries`].
 //!
-//! [`serde`], [`typetag`] and [`nalgebra`] are re-exported for plug-ins (see README,
-//! "Writing a plug-in").
+//! [`serde`], [`typetag`] and [`nalgebra`] are re-exported for plug-ins (see docs/plugins.md).
 //!
 //! ```
 //! use drive::traits::Learner;

@@ -37,6 +37,9 @@ pub enum ControlError {
         "no candidate has a finite cost: the model's predictions are not finite from this state"
     )]
     NoFiniteCost,
+    /// A plug-in controller's own reason.
+    #[error("{0}")]
+    Controller(String),
 }
 
 /// How the controller's inputs become the vehicle's (what the plant and the model take):
@@ -89,7 +92,12 @@ impl InputMap {
 
 /// The input that stops `robot` (its zero body velocity; the input space's centre for a
 /// vehicle without an exact input for it), within its input space.
-pub(crate) fn stop_input(robot: &RobotSpec) -> Input {
+///
+/// ```
+/// let husky = drive_samplers::builtin_robots().get("husky").unwrap().part().as_ref().clone();
+/// assert_eq!(drive_control::stop_input(&husky), drive_traits::Input::zeros());
+/// ```
+pub fn stop_input(robot: &RobotSpec) -> Input {
     let space = robot.input_space();
     space.clamp(
         &robot
@@ -155,6 +163,25 @@ impl ControlState<'_> {
 }
 
 /// A controller, ticked at the robot's command rate.
+///
+/// What it is given, precisely:
+/// - **Coordinates.** Its commands are in the coordinates of [`ControlSetup::robot`]: its
+///   input space, its vehicle. For a twin whose real run drew its commands in another
+///   geometry (`drive_sim::TwinProtocol`), that robot has the protocol's geometry and box,
+///   and [`ControlSetup::to_vehicle`] maps the commands to the vehicle's (the plant's and
+///   the model's); use `setup.robot.vehicle` to turn a body velocity into an input
+///   (`input_for`), [`stop_input`] to stop.
+/// - **Limits.** The caller ([`crate::Tracker`]) clamps the command to the input space and
+///   holds it to the robot's acceleration (or input-rate) limits from
+///   [`ControlState::sent`] before sending it.
+/// - **The state.** [`ControlState::now`]`.pose` is the last localization fix carried
+///   forward to the tick (noisy as the localization is; its yaw is not wrapped: compare
+///   angles with `drive_traits::wrap_angle`).
+/// - **The reference.** `reference[k]` is the point of the path at the arc length where the
+///   robot's estimate projects onto it, plus `speed x (k + 1)` ticks of travel (clamped at
+///   the path's end), its heading the path's direction there: where the robot should be
+///   after `k + 1` ticks if it drove the path at the asked speed from where it is. There
+///   are [`Controller::horizon`] of them, a tick being `1 / setup.robot.rate_hz` s.
 ///
 /// ```
 /// use drive_control::{ControlError, ControlState, Controller};

@@ -15,8 +15,8 @@ pub mod path;
 mod tracker;
 
 pub use controller::{
-    builtin_controllers, ControlError, ControlSetup, ControlState, Controller, InputMap,
-    MakeController,
+    builtin_controllers, stop_input, ControlError, ControlSetup, ControlState, Controller,
+    InputMap, MakeController,
 };
 pub use mppi::{Mppi, MppiController};
 pub use path::{PathError, PathPoint, PathShape, Projection, ReferencePath};

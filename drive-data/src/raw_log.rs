@@ -1,5 +1,5 @@
 //! The DRIVE logger's raw CSV: one row per command tick, as the paper's ROS 2 logger node
-//! exports it (format: "Data format" in the README).
+//! exports it (format: docs/data-format.md).
 
 use crate::error::{parse_measurement, parse_number};
 use crate::{DataError, DataErrorKind, Location};

@@ -403,7 +403,7 @@ impl Report {
         let _ = writeln!(s, "\n## The terrain's unpredictability\n");
         let _ = writeln!(
             s,
-            "How far the motion the robot made is from the motion it was commanded, as kinetic energy (the T-FR 2025 follow-up's metric: 0 when the robot moves as commanded, 1 when it does not move; median over the {} windows' samples; see the README's \"Benchmark\").\n",
+            "How far the motion the robot made is from the motion it was commanded, as kinetic energy (the T-FR 2025 follow-up's metric: 0 when the robot moves as commanded, 1 when it does not move; median over the {} windows' samples; see docs/benchmark.md).\n",
             u.pooled
         );
         let cell = |v: Option<drive_eval::UnpredictabilitySummary>| {

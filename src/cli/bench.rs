@@ -16,7 +16,7 @@ pub const DEFAULT_MODELS: &str = "naive,powertrain,slip-blr,acc-blr,slip-ipem";
 #[derive(clap::Args)]
 pub struct Args {
     /// The suite (TOML, one [[dataset]] table per dataset: path, raw or bag; robot, terrain,
-    /// name; see the README's "Benchmark"); every bundled dataset when absent.
+    /// name; see docs/benchmark.md); every bundled dataset when absent.
     #[arg(long)]
     suite: Option<PathBuf>,
     /// Models, comma-separated (as drive eval --models).

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 /// A dataset to work on.
 #[derive(clap::Args)]
 pub struct DataArgs {
-    /// Window CSV (format: "Data format" in the README), or a bundled dataset as
+    /// Window CSV (format: docs/data-format.md), or a bundled dataset as
     /// bundled:NAME (see drive list); the bundled Husky dataset when absent.
     #[arg(long)]
     pub data: Option<PathBuf>,

@@ -72,7 +72,7 @@ pub struct Args {
     controller: String,
     /// MPPI settings from a TOML file (any of samples, horizon, temperature, noise,
     /// noise_correlation, position_weight, heading_weight, terminal_weight, effort_weight,
-    /// smoothness_weight, seed; see the README's "Closed loop"); the flags below override it.
+    /// smoothness_weight, seed; see docs/closed-loop.md); the flags below override it.
     #[arg(long)]
     mppi_config: Option<PathBuf>,
     /// MPPI: candidate input sequences per tick (default 1024).
@@ -377,7 +377,8 @@ fn table(r: &TrackResult) -> String {
     if let Some(m) = ticks.get(ticks.len() / 2) {
         let _ = writeln!(
             s,
-            "\ncontroller time per tick: median {m:.2} ms over the runs (runs in parallel; see BENCHMARKS.md for one core)"
+            "\ncontroller time per tick: median {} ms over the runs (runs in parallel; see BENCHMARKS.md for one core)",
+            limits::Short(*m)
         );
     }
     s

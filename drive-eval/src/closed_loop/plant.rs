@@ -1,0 +1,230 @@
+//! The plant side of a run: the robot as the controller commands it (a twin's protocol
+//! geometry), its top speed on the ground, and one run driven to its end or its time limit.
+
+use super::*;
+
+/// The robot as the controller commands it, and how its commands reach the plant.
+pub(super) struct Driven {
+    /// The robot the plant simulates.
+    pub(super) plant: RobotSpec,
+    /// The robot as the controller sees it (a twin's protocol geometry and input box).
+    pub(super) controller: RobotSpec,
+    pub(super) to_vehicle: InputMap,
+}
+
+/// For a twin whose real run drew its commands in another geometry than the robot's
+/// (`drive_sim::TwinProtocol`), the controller commands in that geometry and its box, as
+/// the real run's node did, and its commands reach the robot with their wheel-speed
+/// difference scaled; otherwise the robot itself.
+pub(super) fn driven(robot: &RobotSpec, terrain: &Terrain) -> Result<Driven, TrackError> {
+    let Some(p) = terrain.protocol else {
+        return Ok(Driven {
+            plant: robot.clone(),
+            controller: robot.clone(),
+            to_vehicle: InputMap::identity(),
+        });
+    };
+    let nominal: DifferentialDrive = vehicle_as(robot.vehicle.as_ref()).ok_or_else(|| {
+        TrackError::Invalid(format!(
+            "terrain '{}' is a twin of a differential drive; robot '{}' is not one",
+            terrain.name, robot.name
+        ))
+    })?;
+    if let Some(why) = p.refuses(nominal.wheel_radius, nominal.baseline) {
+        return Err(TrackError::Invalid(format!(
+            "terrain '{}' cannot drive robot '{}': {why}",
+            terrain.name, robot.name
+        )));
+    }
+    let space = p.space().ok_or_else(|| {
+        TrackError::Invalid(format!(
+            "terrain '{}': its protocol's input limits are not a box",
+            terrain.name
+        ))
+    })?;
+    let gain = p.difference_gain(nominal.baseline);
+    let mut controller = robot.clone();
+    controller.vehicle = Arc::new(DifferentialDrive::new(nominal.wheel_radius, p.baseline));
+    controller.input_limits = Some(space);
+    controller.input_rate_limits = None;
+    Ok(Driven {
+        plant: robot.clone(),
+        controller,
+        to_vehicle: InputMap::new(move |u: &Input| scale_difference(*u, gain)),
+    })
+}
+
+/// The input of the controller's space that drives fastest straight ahead: among the
+/// corners, edge midpoints and centre of the box, the largest forward speed, then the
+/// smallest yaw rate.
+pub(super) fn fastest_straight(robot: &RobotSpec) -> Input {
+    let j = robot.input_space();
+    let (lo, mid, hi) = (j.min, j.center(), j.max);
+    let mut best = mid;
+    let mut key = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for a in [lo.x, mid.x, hi.x] {
+        for b in [lo.y, mid.y, hi.y] {
+            let u = Input::new(a, b);
+            let v = robot.vehicle.body_velocity(&u);
+            let k = (v.x, -v.z.abs());
+            if k.0 > key.0 + 1e-9 || ((k.0 - key.0).abs() <= 1e-9 && k.1 > key.1) {
+                key = k;
+                best = u;
+            }
+        }
+    }
+    best
+}
+
+/// Seconds the top-speed probe holds its input, and the span it measures over.
+pub(super) const PROBE_S: f64 = 6.0;
+pub(super) const PROBE_SPAN_S: f64 = 2.0;
+
+/// The robot's top speed on this terrain (m/s): the straightest fastest input held for 6 s
+/// within its acceleration limits, the true speed over the last 2 s.
+pub(super) fn top_speed(
+    registries: &Registries,
+    d: &Driven,
+    terrain: &Terrain,
+    seed: u64,
+) -> Result<f64, TrackError> {
+    let mut plant = plant_for(&registries.simulators, &d.plant, terrain, seed)
+        .map_err(|reason| TrackError::Invalid(format!("simulating {}: {reason}", d.plant.name)))?;
+    let target = fastest_straight(&d.controller);
+    let mut sent = SentCommand::default();
+    let ticks = (PROBE_S * d.plant.rate_hz).round() as usize;
+    let span = (PROBE_SPAN_S * d.plant.rate_hz).round() as usize;
+    let mut poses = Vec::with_capacity(ticks + 1);
+    for _ in 0..=ticks {
+        let m = plant.measure();
+        poses.push(plant.true_pose().unwrap_or(m.pose));
+        let u = next_command(&d.controller, &mut sent, &target);
+        plant.advance(d.to_vehicle.apply(&u));
+    }
+    let (a, b) = (poses[ticks - span], poses[ticks]);
+    let speed = (b.x - a.x).hypot(b.y - a.y) / PROBE_SPAN_S;
+    if !(speed.is_finite() && speed > 1e-3) {
+        return Err(TrackError::Invalid(format!(
+            "robot '{}' does not drive forward on terrain '{}' (top speed measured {} m/s driving its fastest straight input; check the robot's geometry and limits): nothing to follow a path with",
+            d.plant.name,
+            terrain.name,
+            Short(speed)
+        )));
+    }
+    Ok(speed)
+}
+
+/// One run's settings.
+pub(super) struct RunPlan<'a> {
+    pub(super) model: &'a Arc<dyn MotionModel>,
+    pub(super) spec: &'a ModelSpec,
+    pub(super) train: String,
+    pub(super) path: &'a ReferencePath,
+    pub(super) path_name: String,
+    pub(super) fraction: f64,
+    pub(super) speed: f64,
+    pub(super) seed: u64,
+    pub(super) time_limit_s: f64,
+}
+
+/// Drives one run.
+pub(super) fn drive(
+    registries: &Registries,
+    study: &TrackStudy,
+    d: &Driven,
+    plan: &RunPlan<'_>,
+) -> Result<TrackRun, TrackError> {
+    let control = |reason| TrackError::Control {
+        model: plan.spec.name.clone(),
+        path: plan.path_name.clone(),
+        reason,
+    };
+    let mut plant = plant_for(&registries.simulators, &d.plant, &study.terrain, plan.seed)
+        .map_err(|reason| TrackError::Invalid(format!("simulating {}: {reason}", d.plant.name)))?;
+    let first = plant.measure();
+    let start = plant.true_pose().unwrap_or(first.pose);
+    let path = plan.path.placed_at(&start);
+    let setup = ControlSetup {
+        model: Arc::clone(plan.model),
+        robot: d.controller.clone(),
+        to_vehicle: d.to_vehicle.clone(),
+        speed: plan.speed,
+    };
+    let config = TrackerConfig {
+        start: plan.spec.start,
+        ..TrackerConfig::new(plan.speed)
+    };
+    let mut tracker = Tracker::new(
+        study.controller.as_ref(),
+        &setup,
+        path.clone(),
+        config,
+        Arc::clone(&d.plant.vehicle),
+    )
+    .map_err(control)?;
+    let space = d.controller.input_space();
+    let half = (space.max - space.min) * 0.5;
+    let centre = space.center();
+    let window = (2.0 * plan.speed).max(1.0);
+    let (mut progress, mut cross2, mut cross_max, mut head2, mut effort2) =
+        (0.0, 0.0, 0.0f64, 0.0, 0.0);
+    let mut ticks_ms = Vec::new();
+    let mut trajectory = Vec::new();
+    let mut m = first;
+    let (completed, duration) = loop {
+        let obs = Observation {
+            t: m.t,
+            input: m.input,
+            pose: m.fresh_pose.then_some(m.pose),
+            imu_yaw_rate: Some(m.imu_yaw_rate),
+        };
+        let clock = Instant::now();
+        let tick = tracker.tick(&obs).map_err(control)?;
+        ticks_ms.push(clock.elapsed().as_secs_f64() * 1e3);
+        let truth: Pose = plant.true_pose().unwrap_or(m.pose);
+        trajectory.push([truth.x, truth.y]);
+        let near = path.project_near(
+            [truth.x, truth.y],
+            progress - window / 2.0,
+            progress + window,
+            progress,
+            drive_control::path::CONTINUITY,
+        );
+        progress = near.point.s;
+        cross2 += near.cross_track * near.cross_track;
+        cross_max = cross_max.max(near.cross_track.abs());
+        let yaw = wrap_angle(truth.z - near.point.heading);
+        head2 += yaw * yaw;
+        effort2 += (tick.controller_input - centre)
+            .component_div(&half)
+            .norm_squared()
+            / 2.0;
+        if tick.done {
+            break (true, m.t);
+        }
+        if m.t >= plan.time_limit_s {
+            break (false, m.t);
+        }
+        plant.advance(tick.command);
+        m = plant.measure();
+    };
+    let n = ticks_ms.len() as f64;
+    ticks_ms.sort_by(f64::total_cmp);
+    Ok(TrackRun {
+        model: plan.spec.name.clone(),
+        train: plan.train.clone(),
+        path: plan.path_name.clone(),
+        speed_fraction: plan.fraction,
+        speed_m_s: plan.speed,
+        seed: plan.seed,
+        cross_track_rms_m: (cross2 / n).sqrt(),
+        cross_track_max_m: cross_max,
+        heading_rms_rad: (head2 / n).sqrt(),
+        completed,
+        duration_s: duration,
+        effort: (effort2 / n).sqrt(),
+        tick_ms_median: ticks_ms[ticks_ms.len() / 2],
+        length_m: path.length(),
+        trajectory,
+    })
+}

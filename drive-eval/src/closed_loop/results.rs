@@ -1,0 +1,114 @@
+//! The training data's checks and the runs' summary per model, training, path and speed.
+
+use super::*;
+
+/// A dataset the models are fitted on must be of the plant's robot: its rate and vehicle.
+pub(super) fn check_data(
+    name: &str,
+    data: &Dataset,
+    robot: &RobotSpec,
+    notes: &mut Vec<String>,
+) -> Result<(), TrackError> {
+    if data.windows.is_empty() {
+        return Err(TrackError::Invalid(format!("{name}: no windows to fit on")));
+    }
+    if (data.robot.rate_hz - robot.rate_hz).abs() > 1e-9 * robot.rate_hz {
+        return Err(TrackError::Invalid(format!(
+            "{name} is recorded at {} Hz; robot '{}' is commanded at {} Hz",
+            Short(data.robot.rate_hz),
+            robot.name,
+            Short(robot.rate_hz)
+        )));
+    }
+    let (a, b) = (
+        vehicle_tag(data.robot.vehicle.as_ref()),
+        vehicle_tag(robot.vehicle.as_ref()),
+    );
+    if a != b {
+        return Err(TrackError::Invalid(format!(
+            "{name} is of a '{}' vehicle; robot '{}' is a '{}'",
+            a.unwrap_or_default(),
+            robot.name,
+            b.unwrap_or_default()
+        )));
+    }
+    let (ga, gb) = (data.robot.vehicle.geometry(), robot.vehicle.geometry());
+    let differs = ga.len() != gb.len()
+        || ga
+            .iter()
+            .zip(&gb)
+            .any(|(x, y)| (x.1 - y.1).abs() > 0.01 * y.1.abs().max(1e-9));
+    if differs {
+        notes.push(format!(
+            "{name}: its vehicle geometry {ga:?} is not robot '{}''s {gb:?}; the models keep the data's",
+            robot.name
+        ));
+    }
+    Ok(())
+}
+
+/// Per model, training, path and speed: the runs' means, and the improvement over the
+/// first model.
+pub(super) fn summarise(study: &TrackStudy, runs: &[TrackRun]) -> Vec<TrackSummary> {
+    let mut out: Vec<TrackSummary> = Vec::new();
+    for t in &study.training {
+        for p in &study.paths {
+            for &f in &study.speeds {
+                let mut block: Vec<TrackSummary> = Vec::new();
+                for spec in &study.models {
+                    let these: Vec<&TrackRun> = runs
+                        .iter()
+                        .filter(|r| {
+                            r.train == t.label()
+                                && r.path == p.name()
+                                && r.speed_fraction == f
+                                && r.model == spec.name
+                        })
+                        .collect();
+                    if these.is_empty() {
+                        continue;
+                    }
+                    let n = these.len() as f64;
+                    let mean =
+                        |g: fn(&TrackRun) -> f64| these.iter().map(|r| g(r)).sum::<f64>() / n;
+                    let done: Vec<f64> = these
+                        .iter()
+                        .filter(|r| r.completed)
+                        .map(|r| r.duration_s)
+                        .collect();
+                    block.push(TrackSummary {
+                        model: spec.name.clone(),
+                        train: t.label(),
+                        path: p.name(),
+                        speed_fraction: f,
+                        runs: these.len(),
+                        cross_track_rms_m: mean(|r| r.cross_track_rms_m),
+                        cross_track_max_m: these
+                            .iter()
+                            .map(|r| r.cross_track_max_m)
+                            .fold(0.0, f64::max),
+                        heading_rms_rad: mean(|r| r.heading_rms_rad),
+                        completed_share: done.len() as f64 / n,
+                        duration_s: (!done.is_empty())
+                            .then(|| done.iter().sum::<f64>() / done.len() as f64),
+                        effort: mean(|r| r.effort),
+                        improvement_over_first_percent: None,
+                    });
+                }
+                // Against the first model of the study, when it ran here.
+                let base = block
+                    .first()
+                    .filter(|s| s.model == study.models[0].name)
+                    .map(|s| s.cross_track_rms_m);
+                if let Some(base) = base.filter(|b| *b > 0.0) {
+                    for s in block.iter_mut().skip(1) {
+                        s.improvement_over_first_percent =
+                            Some(100.0 * (base - s.cross_track_rms_m) / base);
+                    }
+                }
+                out.extend(block);
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,667 @@
+//! `sim-fit`: identifies the simulator's controller, powertrain, terrain and sensor noise
+//! from a real DRIVE dataset of a differential-drive robot, so that the simulator becomes a
+//! twin of that robot on that ground.
+//!
+//! Each stage fits a statistic a user cares about, with argmin's Nelder-Mead:
+//! 1. **Controller** (steady windows): the mean encoder velocities against the mean
+//!    commands, through the controller's body-velocity gains and limits, the right side's
+//!    gain and the wheel limit.
+//! 2. **Powertrain** (transient windows): the encoder trajectories after a command change,
+//!    a first-order response to the controller's targets with rising and falling time
+//!    constants and a dead time.
+//! 3. **Terrain** (steady windows): the body velocity the localization measured against the
+//!    one the simulated ground gives for the same wheel speeds (forward speed and yaw rate:
+//!    the steady-state slip in every input region the data covers).
+//! 4. **Sensors**: the localization's update rate and noise, the encoders' and the IMU's
+//!    noise and the IMU's bias, from the windows' residuals.
+//!
+//! 5. **Protocol**: the input space the real run sampled and whether its commands stepped
+//!    or ramped ([`TwinProtocol`]).
+
+use crate::parameters::{
+    CORRELATION_WINDOWS, MAX_DEAD_TIME_S, MAX_ROLLING, MAX_VARIABILITY, MIN_ICP_RATE_HZ,
+    MOUNT_RANGE, RIGHT_GAIN_RANGE, SLIP_MODULUS_RANGE, TRACTION_RANGE,
+};
+use crate::vehicle::{step_body, VehicleParams, VehicleState};
+use crate::{
+    builtin_plants, scale_difference, simulate, ControllerParams, PowertrainParams, Sensors,
+    SimError, Simulation, SimulationConfig, Terrain, TwinProtocol, Variability,
+};
+use argmin::core::{CostFunction, Executor, State};
+use argmin::solver::neldermead::NelderMead;
+use drive_models::DifferentialDrive;
+use drive_samplers::RobotSpec;
+use drive_samplers::{RunnerConfig, UniformSampler};
+use drive_traits::InputSampler;
+use drive_traits::{vehicle_as, Dataset, Input, Phase, Pose};
+use serde::Serialize;
+use thiserror::Error;
+
+mod controller;
+mod ground;
+mod protocol;
+mod sensors;
+mod variability;
+
+use controller::*;
+use ground::*;
+use protocol::*;
+use sensors::*;
+use variability::*;
+pub use variability::{scatter, Scatter, ScatterFit};
+
+/// Why a twin cannot be fitted.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SimFitError {
+    /// The data's or the robot's vehicle is not a differential drive (the skid-steer
+    /// plant's).
+    #[error("sim-fit needs a differential-drive dataset and robot (the skid-steer simulator's); this vehicle is another")]
+    NotDifferential,
+    /// The robot's geometry is not the data's (the twin would run with the robot's).
+    #[error("the robot '{robot}' has wheel radius {robot_radius} m and baseline {robot_baseline} m, the data {data_radius} m and {data_baseline} m: give a robot (file) with the data's geometry")]
+    Geometry {
+        /// robot name
+        robot: String,
+        /// robot's wheel radius
+        robot_radius: f64,
+        /// robot's baseline
+        robot_baseline: f64,
+        /// data's wheel radius
+        data_radius: f64,
+        /// data's baseline
+        data_baseline: f64,
+    },
+    /// Too few usable windows of a kind.
+    #[error("too few {what} to fit the {stage}: {found}, at least {needed}")]
+    TooFew {
+        /// windows of which kind
+        what: &'static str,
+        /// stage
+        stage: &'static str,
+        /// found
+        found: usize,
+        /// needed
+        needed: usize,
+    },
+    /// The data cannot tell a twin: what a stage found, and what to look at.
+    #[error("the data cannot tell a twin: {0}")]
+    Unfit(String),
+    /// The optimizer failed or gave a non-finite result.
+    #[error("fitting the {stage}: {reason}")]
+    Optimizer {
+        /// stage
+        stage: &'static str,
+        /// cause
+        reason: String,
+    },
+}
+
+/// How well each stage fits, and the statistics it was fitted on.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SimFitReport {
+    /// Steady windows used (controller, terrain, sensors).
+    pub steady_windows: usize,
+    /// Transient windows used (powertrain).
+    pub transient_windows: usize,
+    /// RMS error of the steady encoder velocities (rad/s).
+    pub controller_rms: f64,
+    /// RMS error of the transient encoder trajectories (rad/s).
+    pub powertrain_rms: f64,
+    /// RMS error of the forward speed (m/s) and yaw rate (rad/s) over the steady windows,
+    /// then over the transient windows replayed with their measured wheel speeds.
+    pub terrain_rms: [[f64; 2]; 2],
+    /// The same before the terrain was fitted (the starting terrain).
+    pub terrain_rms_start: [[f64; 2]; 2],
+    /// The steady windows' scatter: real, twin without and with the fitted variability
+    /// (none with fewer than 30 steady windows).
+    pub scatter: Option<ScatterFit>,
+    /// The mean absolute forward speed (m/s) and yaw rate (rad/s) of the steady windows:
+    /// the data's, then the fitted twin's on its own runs.
+    pub motion: [[f64; 2]; 2],
+    /// Fitted values that ended at a bound of their range: what the data does not pin
+    /// down (`name = value`).
+    pub at_bounds: Vec<String>,
+}
+
+/// The twin and how it fits.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SimFit {
+    /// The twin: ground, controller, powertrain, sensors, input space.
+    pub terrain: Terrain,
+    /// The fit's report.
+    pub report: SimFitReport,
+}
+
+/// One steady window's statistics.
+#[derive(Debug, Clone, Copy)]
+struct Steady {
+    command: Input,
+    encoders: Input,
+    /// Forward speed (m/s) and yaw rate (rad/s) from localization.
+    body: [f64; 2],
+}
+
+/// One transient window: the command held before it, its commands and encoders, the body
+/// velocity the previous window measured and its own (forward speed, yaw rate).
+#[derive(Debug, Clone)]
+struct Transient {
+    before: Input,
+    command: Vec<Input>,
+    encoders: Vec<Input>,
+    start_body: [f64; 2],
+    body: [f64; 2],
+}
+
+/// A window's mean lateral speed (its displacement across the heading at mid-window), from
+/// poses `dt` apart.
+fn window_lateral(pose: &[Pose], dt: f64) -> f64 {
+    let n = pose.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let mut yaw = 0.0;
+    for k in 1..n {
+        yaw += drive_traits::wrap_angle(pose[k].z - pose[k - 1].z);
+    }
+    let heading = pose[0].z + yaw / 2.0;
+    let (dx, dy) = (pose[n - 1].x - pose[0].x, pose[n - 1].y - pose[0].y);
+    (-heading.sin() * dx + heading.cos() * dy) / ((n - 1) as f64 * dt)
+}
+
+/// A window's mean forward speed (its displacement along the heading at mid-window) and
+/// yaw rate (its yaw change, unwrapped), from poses `dt` apart.
+fn window_motion(pose: &[Pose], dt: f64) -> [f64; 2] {
+    let n = pose.len();
+    if n < 2 {
+        return [0.0; 2];
+    }
+    let duration = (n - 1) as f64 * dt;
+    let mut yaw = 0.0;
+    for k in 1..n {
+        yaw += drive_traits::wrap_angle(pose[k].z - pose[k - 1].z);
+    }
+    let (first, last) = (pose[0], pose[n - 1]);
+    let heading = first.z + yaw / 2.0;
+    let (dx, dy) = (last.x - first.x, last.y - first.y);
+    [
+        (heading.cos() * dx + heading.sin() * dy) / duration,
+        yaw / duration,
+    ]
+}
+
+fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    if n == 0 {
+        0.0
+    } else {
+        s / n as f64
+    }
+}
+
+/// The median of `v`, 0 when it has none.
+fn median(mut v: Vec<f64>) -> f64 {
+    let m = drive_traits::median(&mut v);
+    if m.is_finite() {
+        m
+    } else {
+        0.0
+    }
+}
+
+/// Standard deviation of `y` around its least-squares polynomial of `degree` (1 or 2) in
+/// the sample index.
+fn detrended_sd(y: &[f64], degree: usize) -> f64 {
+    let n = y.len();
+    if n <= degree + 1 {
+        return 0.0;
+    }
+    let cols = degree + 1;
+    let x = |i: usize, j: usize| (i as f64 / n as f64).powi(j as i32);
+    let a = drive_traits::nalgebra::DMatrix::from_fn(n, cols, x);
+    let b = drive_traits::nalgebra::DVector::from_column_slice(y);
+    let Ok(sol) = a.clone().svd(true, true).solve(&b, 1e-12) else {
+        return 0.0;
+    };
+    let r = b - a * sol;
+    (r.norm_squared() / (n - cols) as f64).sqrt()
+}
+
+/// Nelder-Mead from `start` with initial steps `steps`, restarted once from its best point.
+fn minimize<P: CostFunction<Param = Vec<f64>, Output = f64> + Clone>(
+    problem: P,
+    start: Vec<f64>,
+    steps: &[f64],
+    iters: u64,
+    stage: &'static str,
+) -> Result<Vec<f64>, SimFitError> {
+    let mut p = start;
+    for scale in [1.0, 0.3] {
+        let mut simplex = vec![p.clone()];
+        for (i, s) in steps.iter().enumerate() {
+            let mut q = p.clone();
+            q[i] += s * scale;
+            simplex.push(q);
+        }
+        let fail = |e: argmin::core::Error| SimFitError::Optimizer {
+            stage,
+            reason: e.to_string(),
+        };
+        let solver = NelderMead::new(simplex)
+            .with_sd_tolerance(1e-10)
+            .map_err(fail)?;
+        let result = Executor::new(problem.clone(), solver)
+            .configure(|s| s.max_iters(iters))
+            .run()
+            .map_err(fail)?;
+        if let Some(best) = result.state().get_best_param() {
+            p = best.clone();
+        }
+    }
+    if p.iter().all(|v| v.is_finite()) {
+        Ok(p)
+    } else {
+        Err(SimFitError::Optimizer {
+            stage,
+            reason: "a parameter is not finite".into(),
+        })
+    }
+}
+
+/// The steady windows' statistics, and the transient windows with the command before them.
+fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
+    let dt = 1.0 / data.robot.rate_hz;
+    let mut steady = Vec::new();
+    let mut transients = Vec::new();
+    for (i, w) in data.windows.iter().enumerate() {
+        let n = w.len();
+        if n < 3 {
+            continue;
+        }
+        match w.phase {
+            Phase::Steady => {
+                steady.push(Steady {
+                    command: Input::new(
+                        mean(w.command.iter().map(|c| c.x)),
+                        mean(w.command.iter().map(|c| c.y)),
+                    ),
+                    encoders: Input::new(
+                        mean(w.measured.iter().map(|c| c.x)),
+                        mean(w.measured.iter().map(|c| c.y)),
+                    ),
+                    body: window_motion(&w.pose, dt),
+                });
+            }
+            Phase::Transient => {
+                // The command held before: the previous window's (at its middle: the new
+                // command may start in its last sample), when it is the previous interval's.
+                let (before, start_body) = match i.checked_sub(1).map(|j| &data.windows[j]) {
+                    Some(p) if p.interval + 1 == w.interval && !p.command.is_empty() => {
+                        (p.command[p.command.len() / 2], window_motion(&p.pose, dt))
+                    }
+                    _ => continue,
+                };
+                transients.push(Transient {
+                    before,
+                    command: w.command.clone(),
+                    encoders: w.measured.clone(),
+                    start_body,
+                    body: window_motion(&w.pose, dt),
+                });
+            }
+        }
+    }
+    (steady, transients)
+}
+
+/// Fits a twin of the robot `robot` (its mass and build; its geometry must be the data's)
+/// from `data`, named `name`: the stages of this module, each on a statistic of the data.
+/// Deterministic (the variability stage's runs are seeded).
+///
+/// ```
+/// use drive_sim::{sim_fit, SimFitError};
+/// let robot = drive_samplers::RobotSpec::load(&drive_samplers::builtin_robots(), "husky").unwrap();
+/// // A dataset without a window says why no twin can be fitted.
+/// let empty = drive_traits::Dataset {
+///     robot: drive_traits::RobotDescription {
+///         name: "empty".into(),
+///         robot: "husky".into(),
+///         rate_hz: 20.0,
+///         window_len: 40,
+///         vehicle: robot.vehicle.clone(),
+///         position_frame: Default::default(),
+///         terrain: String::new(),
+///     },
+///     windows: Vec::new(),
+/// };
+/// assert!(matches!(sim_fit(&empty, &robot, "twin"), Err(SimFitError::TooFew { .. })));
+/// ```
+pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, SimFitError> {
+    let g: DifferentialDrive =
+        vehicle_as(data.robot.vehicle.as_ref()).ok_or(SimFitError::NotDifferential)?;
+    let own: DifferentialDrive =
+        vehicle_as(robot.vehicle.as_ref()).ok_or(SimFitError::NotDifferential)?;
+    let off = |a: f64, b: f64| (a - b).abs() > 0.01 * b.abs();
+    if off(own.wheel_radius, g.wheel_radius) || off(own.baseline, g.baseline) {
+        return Err(SimFitError::Geometry {
+            robot: robot.name.clone(),
+            robot_radius: own.wheel_radius,
+            robot_baseline: own.baseline,
+            data_radius: g.wheel_radius,
+            data_baseline: g.baseline,
+        });
+    }
+    let dt = 1.0 / data.robot.rate_hz;
+    let (steady, transients) = extract(data);
+    for (what, stage, found, needed) in [
+        ("steady windows", "controller and terrain", steady.len(), 12),
+        (
+            "transient windows after a previous interval",
+            "powertrain",
+            transients.len(),
+            6,
+        ),
+    ] {
+        if found < needed {
+            return Err(SimFitError::TooFew {
+                what,
+                stage,
+                found,
+                needed,
+            });
+        }
+    }
+    // Data a twin cannot come from: the quality checks' fatal findings, and encoders and
+    // localization in different units (positions in millimetres: the fit would run minutes
+    // before finding that the speeds do not follow the wheels).
+    if let Some(f) = drive_data::quality::check(data, None)
+        .into_iter()
+        .find(|f| f.severity == drive_data::quality::Severity::Fatal || f.check == "encoder-units")
+    {
+        return Err(SimFitError::Unfit(format!("{} ({})", f.message, f.check)));
+    }
+    check_coverage(&steady, &g)?;
+    // 1. Controller, from regression slopes and the largest speeds measured.
+    let body = |u: Input| {
+        [
+            g.wheel_radius * (u.x + u.y) / 2.0,
+            g.wheel_radius * (u.y - u.x) / g.baseline,
+        ]
+    };
+    let slope = |i: usize| {
+        let (mut xy, mut xx) = (0.0, 0.0);
+        for s in &steady {
+            let (c, e) = (body(s.command)[i], body(s.encoders)[i]);
+            xy += c * e;
+            xx += c * c;
+        }
+        (xy / xx.max(1e-12)).clamp(0.05, 20.0)
+    };
+    let top = |i: usize| {
+        steady
+            .iter()
+            .map(|s| body(s.encoders)[i].abs())
+            .fold(1e-3, f64::max)
+    };
+    let wheel_top = steady
+        .iter()
+        .map(|s| s.encoders.x.abs().max(s.encoders.y.abs()))
+        .fold(1e-3, f64::max);
+    let start = vec![
+        slope(0).ln(),
+        slope(1).ln(),
+        (1.05 * top(0)).ln(),
+        (1.05 * top(1)).ln(),
+        (1.02 * wheel_top).ln(),
+        1.0,
+    ];
+    let cp = ControllerProblem {
+        steady: &steady,
+        geometry: g.clone(),
+    };
+    let p = minimize(
+        cp.clone(),
+        start,
+        &[0.1, 0.1, 0.1, 0.1, 0.05, 0.03],
+        2000,
+        "controller",
+    )?;
+    let controller_rms = cp.cost(&p).map_or(f64::NAN, f64::sqrt);
+    let encoder_spread = spread_of(steady.iter().flat_map(|s| [s.encoders.x, s.encoders.y]));
+    // NaN counts as a miss.
+    if controller_rms.is_nan() || controller_rms > 0.5 * encoder_spread {
+        return Err(SimFitError::Unfit(format!(
+            "the steady encoder speeds do not follow the commands (the controller's fit misses by {:.3} rad/s RMS, of a spread of {:.3} rad/s): are the encoder columns swapped, or in other units?",
+            controller_rms, encoder_spread
+        )));
+    }
+    let (controller, limit, right) = controller_of(&p);
+    // 2. Powertrain: a coarse grid, then Nelder-Mead.
+    let pp = PowertrainProblem {
+        transients: &transients,
+        geometry: g.clone(),
+        controller,
+        limit,
+        right,
+        dt,
+    };
+    let mut best = (f64::INFINITY, vec![0.0; 5]);
+    for tau in [0.05f64, 0.2, 0.5, 1.0] {
+        for delay in [0.0, 0.1, 0.2, 0.35, 0.5] {
+            for linear in [0.5f64, 2.0, 1e4] {
+                for angular in [0.5f64, 2.0, 1e4] {
+                    let q = vec![tau.ln(), tau.ln(), delay, linear.ln(), angular.ln()];
+                    let c = pp.error(&q);
+                    if c < best.0 {
+                        best = (c, q);
+                    }
+                }
+            }
+        }
+    }
+    let q = minimize(
+        pp.clone(),
+        best.1,
+        &[0.2, 0.2, 0.05, 0.3, 0.3],
+        1500,
+        "powertrain",
+    )?;
+    let powertrain_rms = pp.error(&q).sqrt();
+    let controller = pp.controller(&q);
+    let mut powertrain = PowertrainParams::for_robot(robot, g.wheel_radius);
+    powertrain.time_constant = [q[0].exp(), q[1].exp()];
+    powertrain.dead_time = q[2].clamp(0.0, MAX_DEAD_TIME_S);
+    powertrain.right_lag = 1.0;
+    // The right side's gain and the wheel limit are the controller stage's.
+    powertrain.right_gain = right.clamp(RIGHT_GAIN_RANGE.0, RIGHT_GAIN_RANGE.1);
+    powertrain.wheel_limit = limit;
+    // 3. Terrain, on at most 60 steady and 60 transient windows spread over the data.
+    let stride = steady.len().div_ceil(60).max(1);
+    let sample: Vec<Steady> = steady.iter().step_by(stride).copied().collect();
+    let stride = transients.len().div_ceil(60).max(1);
+    let replayed: Vec<Transient> = transients.iter().step_by(stride).cloned().collect();
+    let spread = |i: usize| {
+        let m = mean(sample.iter().map(|s| s.body[i]));
+        mean(sample.iter().map(|s| (s.body[i] - m).powi(2)))
+            .sqrt()
+            .max(1e-3)
+    };
+    let mut spec = robot.clone();
+    spec.max_speed = limit * g.wheel_radius;
+    let mut params = VehicleParams::from_spec(&spec, &g);
+    params.powertrain = powertrain;
+    let wheels: Vec<[f64; 2]> = sample
+        .iter()
+        .map(|s| {
+            let u = s.encoders;
+            [
+                g.wheel_radius * (u.x + u.y) / 2.0,
+                g.wheel_radius * (u.y - u.x) / g.baseline,
+            ]
+        })
+        .collect();
+    let moved: Vec<[f64; 2]> = sample.iter().map(|s| s.body).collect();
+    let tp = TerrainProblem {
+        steady: &sample,
+        transients: &replayed,
+        params,
+        dt,
+        scale: [spread(0), spread(1)],
+        slips: region_slips(&wheels, &moved, g.baseline),
+    };
+    let start = Terrain::preset("gravel").unwrap_or_else(|| TerrainProblem::terrain(&[0.0; 5]));
+    let t0 = vec![
+        start.traction.ln(),
+        start.lateral.ln(),
+        start.slip_modulus.ln(),
+        start.rolling.ln(),
+        start.slip_modulus.ln(),
+    ];
+    let terrain_rms_start = tp.errors(&TerrainProblem::terrain(&t0));
+    let t = minimize(tp.clone(), t0, &[0.4, 0.4, 0.4, 0.4, 0.4], 400, "terrain")?;
+    let fitted = TerrainProblem::terrain(&t);
+    let terrain_rms = tp.errors(&fitted);
+    for (axis, what, unit) in [(0, "forward speed", "m/s"), (1, "yaw rate", "rad/s")] {
+        let miss = terrain_rms[0][axis];
+        if miss.is_nan() || miss > 0.7 * tp.scale[axis] {
+            return Err(SimFitError::Unfit(format!(
+                "the measured {what} does not follow the wheel speeds (the ground's fit misses by {miss:.3} {unit} RMS, of a spread of {:.3} {unit}): is the localization mirrored, in other units, or another robot's?",
+                tp.scale[axis]
+            )));
+        }
+    }
+    // 4. Sensors.
+    let mut held = Vec::new();
+    let (mut pos, mut yaw, mut enc, mut imu_sd, mut imu_bias) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for w in data
+        .windows
+        .iter()
+        .filter(|w| w.phase == Phase::Steady && w.len() > 4)
+    {
+        let n = w.len();
+        let same = (1..n).filter(|&k| w.pose[k] == w.pose[k - 1]).count();
+        held.push(same as f64 / (n - 1) as f64);
+        let xs: Vec<f64> = w.pose.iter().map(|p| p.x).collect();
+        let ys: Vec<f64> = w.pose.iter().map(|p| p.y).collect();
+        let mut unwrapped = vec![w.pose[0].z];
+        for k in 1..n {
+            let last = unwrapped[k - 1];
+            unwrapped.push(last + drive_traits::wrap_angle(w.pose[k].z - w.pose[k - 1].z));
+        }
+        pos.push(detrended_sd(&xs, 2));
+        pos.push(detrended_sd(&ys, 2));
+        yaw.push(detrended_sd(&unwrapped, 2));
+        let l: Vec<f64> = w.measured.iter().map(|m| m.x).collect();
+        let r: Vec<f64> = w.measured.iter().map(|m| m.y).collect();
+        enc.push(detrended_sd(&l, 1));
+        enc.push(detrended_sd(&r, 1));
+        imu_sd.push(detrended_sd(&w.imu_yaw_rate, 1));
+        let rate = (unwrapped[n - 1] - unwrapped[0]) / ((n - 1) as f64 * dt);
+        imu_bias.push(mean(w.imu_yaw_rate.iter().copied()) - rate);
+    }
+    let sensors = Sensors {
+        icp_mount: localization_mount(data),
+        encoder_noise: median(enc),
+        icp_rate_hz: (data.robot.rate_hz * (1.0 - median(held)))
+            .clamp(MIN_ICP_RATE_HZ, data.robot.rate_hz),
+        icp_noise: [median(pos), median(yaw)],
+        icp_latency: 0.0,
+        icp_jitter: 0.0,
+        imu_noise: median(imu_sd),
+        imu_bias: median(imu_bias),
+    };
+    let protocol = fit_protocol(data, &g);
+    let mut terrain = Terrain {
+        name: name.to_string(),
+        powertrain: Some(powertrain),
+        controller: Some(controller),
+        sensors: Some(sensors),
+        protocol: Some(protocol),
+        ..fitted
+    };
+    // 6. Variability, by simulating the twin.
+    let (variability, scatter, twin_motion) = fit_variability(data, &g, robot, &terrain)?;
+    terrain.variability = variability;
+    // The twin as a file: within the simulator's ranges, and driving like the data.
+    Terrain::from_toml(name, &terrain.to_toml()).map_err(|e| {
+        SimFitError::Unfit(format!(
+            "the fitted twin is outside the simulator's ranges ({e})"
+        ))
+    })?;
+    let motion = [steady_motion(data), twin_motion];
+    for (axis, what, unit) in [(0, "forward speed", "m/s"), (1, "yaw rate", "rad/s")] {
+        let (real, twin) = (motion[0][axis], motion[1][axis]);
+        if !(twin >= 0.5 * real && twin <= 2.0 * real) {
+            return Err(SimFitError::Unfit(format!(
+                "the fitted twin does not drive like the data: its steady windows' mean absolute {what} is {twin:.3} {unit}, the data's {real:.3} {unit}"
+            )));
+        }
+    }
+    let at_bounds = at_bounds(&terrain, data.robot.window_len as f64 / data.robot.rate_hz);
+    Ok(SimFit {
+        terrain,
+        report: SimFitReport {
+            steady_windows: steady.len(),
+            transient_windows: transients.len(),
+            controller_rms,
+            powertrain_rms,
+            terrain_rms,
+            terrain_rms_start,
+            scatter,
+            motion,
+            at_bounds,
+        },
+    })
+}
+
+/// The spread (standard deviation) of `values`.
+fn spread_of(values: impl Iterator<Item = f64>) -> f64 {
+    let v: Vec<f64> = values.collect();
+    let m = mean(v.iter().copied());
+    mean(v.iter().map(|x| (x - m).powi(2))).sqrt()
+}
+
+/// A twin needs the run to have both driven and turned: at least a tenth of the steady
+/// windows on each side of the turn share one half (see [`REGIONS`]).
+fn check_coverage(steady: &[Steady], g: &DifferentialDrive) -> Result<(), SimFitError> {
+    let turning = steady
+        .iter()
+        .filter(|s| {
+            let (v, w) = (
+                g.wheel_radius * (s.encoders.x + s.encoders.y) / 2.0,
+                g.wheel_radius * (s.encoders.y - s.encoders.x) / g.baseline,
+            );
+            let turn = w.abs() * g.baseline / 2.0;
+            turn > v.abs()
+        })
+        .count();
+    let share = turning as f64 / steady.len().max(1) as f64;
+    if !(0.1..=0.9).contains(&share) {
+        return Err(SimFitError::Unfit(format!(
+            "{:.0}% of the steady windows turn more than they drive (their wheel speeds): a twin needs both, at least 10% of each (a DRIVE run over the whole input space)",
+            100.0 * share
+        )));
+    }
+    Ok(())
+}
+
+/// The mean absolute forward speed and yaw rate of the steady windows (localization).
+fn steady_motion(data: &Dataset) -> [f64; 2] {
+    let dt = 1.0 / data.robot.rate_hz;
+    let motions: Vec<[f64; 2]> = data
+        .windows
+        .iter()
+        .filter(|w| w.phase == Phase::Steady && w.len() >= 3)
+        .map(|w| window_motion(&w.pose, dt))
+        .collect();
+    [0, 1].map(|a| mean(motions.iter().map(|m| m[a].abs())))
+}
+
+/// The fitted values at a bound of their range (`name = value`).
+fn at_bounds(t: &Terrain, window_s: f64) -> Vec<String> {
+    crate::fitted_parameters(t, window_s)
+        .into_iter()
+        .filter(|p| p.at_bound)
+        .map(|p| format!("{} = {}", p.name, drive_traits::limits::Short(p.value)))
+        .collect()
+}
