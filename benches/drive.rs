@@ -141,6 +141,18 @@ fn ipem(c: &mut Criterion) {
     group.bench_function("train, husky training half", |b| {
         b.iter(|| learner.fit(black_box(&train)).unwrap())
     });
+    // What `drive train --model slip-ipem` fits by default (--start encoders+imu): the
+    // windows without their start velocity (ModelSpec::fit drops it), so no start-velocity
+    // trust is fitted; the figure BENCHMARKS.md compared before the start velocity existed.
+    let mut without = data.clone();
+    for w in &mut without.windows {
+        w.start_velocity = None;
+    }
+    let (train_default, _) = split_by_interval(&without, 0.5).unwrap();
+    group.bench_function(
+        "train, husky training half, default start (no start velocity)",
+        |b| b.iter(|| learner.fit(black_box(&train_default)).unwrap()),
+    );
     group.finish();
     let model = learner.fit(&train).unwrap();
     let w = eval.windows[0];

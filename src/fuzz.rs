@@ -1,5 +1,5 @@
 //! The entry points the fuzz targets in `fuzz/` exercise, shared with the test that replays
-//! their corpus (`tests/fuzz_corpus.rs`): each takes arbitrary bytes, must never panic, and
+//! their corpus (`tests/integration/fuzz_corpus.rs`): each takes arbitrary bytes, must never panic, and
 //! returns whether the input was accepted.
 //!
 //! ```

@@ -374,6 +374,13 @@ fn decode(ty: &str, bytes: &[u8], joint: Option<&str>) -> Result<Value, String> 
     Ok(match ty {
         "std_msgs/msg/Int32" => Value::Step(read::<Data<i32>>(body, little)?.data),
         "std_msgs/msg/Bool" => Value::Bool(read::<Data<bool>>(body, little)?.data),
+        // A calib_state is a word: a long text is no DRIVE message (and is not held).
+        "std_msgs/msg/String" if body.len() > MAX_BAG_NAME_BYTES + 8 => {
+            return Err(format!(
+                "a text of {} bytes, more than the {MAX_BAG_NAME_BYTES} read",
+                body.len()
+            ))
+        }
         "std_msgs/msg/String" => Value::Text(read::<Data<String>>(body, little)?.data),
         "std_msgs/msg/Float64" => Value::Number(read::<Data<f64>>(body, little)?.data),
         "nav_msgs/msg/Odometry" => pose(read::<Odometry>(body, little)?.pose),
@@ -469,94 +476,208 @@ struct Collected {
 
 impl Collected {
     /// Reads one MCAP stream (`fname`: its name in messages, empty for the bag itself):
-    /// streamed (the magic bytes are checked first; memory is bounded by the largest record),
-    /// every length checked against MAX_BAG_RECORD_BYTES before it is read, each chunk's CRC
-    /// and the data section's checked where the bag carries them.
+    /// streamed record by record with mcap's sans-io reader (the magic bytes are checked
+    /// first; memory is bounded by the largest record), every length checked against
+    /// [`MAX_BAG_RECORD_BYTES`] before it is read, each chunk's CRC and the data section's
+    /// checked where the bag carries them. Of schemas and channels only the names are kept
+    /// (at most [`MAX_BAG_NAME_BYTES`] each, [`MAX_BAG_CHANNELS`] channels), never a schema's
+    /// text.
     fn read(
         &mut self,
-        source: impl std::io::Read,
+        mut source: impl std::io::Read,
         fname: &str,
         topics: &BagTopics,
         fail: &dyn Fn(DataErrorKind) -> DataError,
     ) -> Result<(), DataError> {
-        let options = mcap::sans_io::LinearReaderOptions::default()
+        use mcap::records::{op, Record};
+        use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+        let options = LinearReaderOptions::default()
             .with_record_length_limit(MAX_BAG_RECORD_BYTES)
             .with_prevalidate_chunk_crcs(true)
             .with_validate_data_section_crc(true);
-        let stream =
-            mcap::io::MessageReader::new_with_options(std::io::BufReader::new(source), options);
-        for (n, message) in stream.enumerate() {
-            self.count += 1;
-            if self.count > MAX_BAG_MESSAGES {
-                return Err(fail(DataErrorKind::Implausible(format!(
-                    "{fname}more than {MAX_BAG_MESSAGES} messages on all its topics: ros2 bag filter the DRIVE topics out first"
-                ))));
+        let mut reader = LinearReader::new_with_options(options);
+        // schema id -> name; channel id -> (topic, schema name, encoding).
+        let mut schemas: std::collections::HashMap<u16, String> = Default::default();
+        let mut channels: std::collections::HashMap<u16, (String, String, String)> =
+            Default::default();
+        let mut past_data_end = false;
+        let mut n = 0usize;
+        let damaged = |n: usize, e: &mcap::McapError| {
+            let why = match e {
+                mcap::McapError::BadMagic => {
+                    "not an MCAP file (rosbag2's sqlite3 .db3 files: ros2 bag convert them to MCAP first)".to_string()
+                }
+                mcap::McapError::BadChunkCrc { .. } | mcap::McapError::BadDataCrc { .. } => {
+                    format!("damaged after its first {n} messages: {e}")
+                }
+                _ => format!(
+                    "cannot read record {} ({e}; a truncated or damaged file, or a record beyond the {} MB read?)",
+                    n + 1,
+                    MAX_BAG_RECORD_BYTES >> 20
+                ),
+            };
+            fail(DataErrorKind::Inconsistent(format!("{fname}{why}")))
+        };
+        let name_of = |what: &str, text: &str| {
+            if text.len() > MAX_BAG_NAME_BYTES {
+                Err(fail(DataErrorKind::Implausible(format!(
+                    "{fname}a {what} of {} bytes, more than the {MAX_BAG_NAME_BYTES} read",
+                    text.len()
+                ))))
+            } else {
+                Ok(text.to_string())
             }
-            let message = message.map_err(|e| {
-                let why = match &e {
-                    mcap::McapError::BadMagic => {
-                        "not an MCAP file (rosbag2's sqlite3 .db3 files: ros2 bag convert them to MCAP first)".to_string()
-                    }
-                    mcap::McapError::BadChunkCrc { .. } | mcap::McapError::BadDataCrc { .. } => {
-                        format!("damaged after its first {n} messages: {e}")
-                    }
-                    _ => format!(
-                        "cannot read record {} ({e}; a truncated or damaged file, or a record beyond the {} MB read?)",
-                        n + 1,
-                        MAX_BAG_RECORD_BYTES >> 20
-                    ),
-                };
-                fail(DataErrorKind::Inconsistent(format!("{fname}{why}")))
-            })?;
-            let channel = &message.channel;
-            let ty = channel
-                .schema
-                .as_ref()
-                .map_or(String::new(), |s| s.name.clone());
-            self.seen
-                .entry(channel.topic.clone())
-                .or_insert_with(|| (ty.clone(), channel.message_encoding.clone()));
-            for (i, (key, signal, topic, joint)) in topics.entries.iter().enumerate() {
-                if *topic != channel.topic {
+        };
+        while let Some(event) = reader.next_event() {
+            let (opcode, data) = match event.map_err(|e| damaged(n, &e))? {
+                LinearReadEvent::ReadRequest(need) => {
+                    let read = source
+                        .read(reader.insert(need))
+                        .map_err(|e| fail(DataErrorKind::Io(format!("{fname}{e}"))))?;
+                    reader.notify_read(read);
                     continue;
                 }
-                if channel.message_encoding != "cdr" {
-                    return Err(fail(DataErrorKind::Inconsistent(format!(
-                        "topic {topic} ({key}) is encoded as {:?}, only ROS 2 cdr is read",
-                        channel.message_encoding
-                    ))));
-                }
-                if !signal.types().contains(&ty.as_str()) {
-                    return Err(fail(DataErrorKind::Inconsistent(format!(
-                        "topic {topic} ({key}) is {}, expected {}",
-                        if ty.is_empty() {
-                            "without a schema"
-                        } else {
-                            &ty
-                        },
-                        signal.types().join(" or ")
-                    ))));
-                }
-                if ty != "sensor_msgs/msg/JointState" && joint.is_some() {
-                    return Err(fail(DataErrorKind::Inconsistent(format!(
-                        "topic {topic} ({key}) is {ty}: a joint name (:JOINT) is only for a sensor_msgs/JointState topic"
-                    ))));
-                }
-                if ty == "sensor_msgs/msg/JointState" && joint.is_none() {
-                    return Err(fail(DataErrorKind::Inconsistent(format!(
-                        "topic {topic} ({key}) is a JointState: name its joint with --topic {key}={topic}:JOINT"
-                    ))));
-                }
-                let value = decode(&ty, &message.data, joint.as_deref())
-                    .and_then(plausible)
-                    .map_err(|e| {
-                        fail(DataErrorKind::Inconsistent(format!(
-                            "{fname}message {} on {topic} ({key}, {ty}): {e}",
-                            n + 1
-                        )))
-                    })?;
-                self.messages.push((message.log_time, i, value));
+                LinearReadEvent::Record { opcode, data } => (opcode, data),
+            };
+            // The summary after the data section repeats schemas and channels: read to the
+            // end magic without keeping them.
+            if past_data_end {
+                continue;
             }
+            if !matches!(
+                opcode,
+                op::SCHEMA | op::CHANNEL | op::MESSAGE | op::DATA_END
+            ) {
+                continue;
+            }
+            let record = mcap::parse_record(opcode, data).map_err(|e| damaged(n, &e))?;
+            match record {
+                Record::DataEnd(_) => past_data_end = true,
+                Record::Schema { header, .. } => {
+                    let name = name_of("schema name", &header.name)?;
+                    schemas.insert(header.id, name);
+                }
+                Record::Channel(channel) => {
+                    if channels.len() >= MAX_BAG_CHANNELS && !channels.contains_key(&channel.id) {
+                        return Err(fail(DataErrorKind::Implausible(format!(
+                            "{fname}more than {MAX_BAG_CHANNELS} channels"
+                        ))));
+                    }
+                    let ty = if channel.schema_id == 0 {
+                        String::new()
+                    } else {
+                        schemas.get(&channel.schema_id).cloned().ok_or_else(|| {
+                            fail(DataErrorKind::Inconsistent(format!(
+                                "{fname}channel {} names schema {}, which the bag does not hold before it",
+                                channel.id, channel.schema_id
+                            )))
+                        })?
+                    };
+                    let entry = (
+                        name_of("topic name", &channel.topic)?,
+                        ty,
+                        name_of("message encoding", &channel.message_encoding)?,
+                    );
+                    if let Some(before) = channels.get(&channel.id) {
+                        if *before != entry {
+                            return Err(fail(DataErrorKind::Inconsistent(format!(
+                                "{fname}channel {} is defined twice, as {} and as {}",
+                                channel.id, before.0, entry.0
+                            ))));
+                        }
+                    }
+                    channels.insert(channel.id, entry);
+                }
+                Record::Message { header, data } => {
+                    n += 1;
+                    self.count += 1;
+                    if self.count > MAX_BAG_MESSAGES {
+                        return Err(fail(DataErrorKind::Implausible(format!(
+                            "{fname}more than {MAX_BAG_MESSAGES} messages on all its topics: ros2 bag filter the DRIVE topics out first"
+                        ))));
+                    }
+                    let (topic, ty, encoding) =
+                        channels.get(&header.channel_id).ok_or_else(|| {
+                            fail(DataErrorKind::Inconsistent(format!(
+                                "{fname}message {n} is on channel {}, which the bag does not define before it",
+                                header.channel_id
+                            )))
+                        })?;
+                    if !self.seen.contains_key(topic) {
+                        self.seen
+                            .insert(topic.clone(), (ty.clone(), encoding.clone()));
+                    }
+                    self.message(
+                        n,
+                        header.log_time,
+                        &data,
+                        topic,
+                        ty,
+                        encoding,
+                        fname,
+                        topics,
+                        fail,
+                    )?;
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// Decodes message `n` (received at `log_time`, on `topic` of type `ty`) when one of
+    /// `topics` selects it.
+    #[allow(clippy::too_many_arguments)]
+    fn message(
+        &mut self,
+        n: usize,
+        log_time: u64,
+        data: &[u8],
+        topic: &str,
+        ty: &str,
+        encoding: &str,
+        fname: &str,
+        topics: &BagTopics,
+        fail: &dyn Fn(DataErrorKind) -> DataError,
+    ) -> Result<(), DataError> {
+        for (i, (key, signal, wanted, joint)) in topics.entries.iter().enumerate() {
+            if wanted != topic {
+                continue;
+            }
+            if encoding != "cdr" {
+                return Err(fail(DataErrorKind::Inconsistent(format!(
+                    "topic {topic} ({key}) is encoded as {encoding:?}, only ROS 2 cdr is read"
+                ))));
+            }
+            if !signal.types().contains(&ty) {
+                return Err(fail(DataErrorKind::Inconsistent(format!(
+                    "topic {topic} ({key}) is {}, expected {}",
+                    if ty.is_empty() {
+                        "without a schema"
+                    } else {
+                        ty
+                    },
+                    signal.types().join(" or ")
+                ))));
+            }
+            if ty != "sensor_msgs/msg/JointState" && joint.is_some() {
+                return Err(fail(DataErrorKind::Inconsistent(format!(
+                    "topic {topic} ({key}) is {ty}: a joint name (:JOINT) is only for a sensor_msgs/JointState topic"
+                ))));
+            }
+            if ty == "sensor_msgs/msg/JointState" && joint.is_none() {
+                return Err(fail(DataErrorKind::Inconsistent(format!(
+                    "topic {topic} ({key}) is a JointState: name its joint with --topic {key}={topic}:JOINT"
+                ))));
+            }
+            let value = decode(ty, data, joint.as_deref())
+                .and_then(plausible)
+                .map_err(|e| {
+                    fail(DataErrorKind::Inconsistent(format!(
+                        "{fname}message {n} on {topic} ({key}, {ty}): {e}"
+                    )))
+                })?;
+            self.messages.push((log_time, i, value));
         }
         Ok(())
     }
@@ -570,11 +691,19 @@ pub const MAX_BAG_BYTES: u64 = 4 << 30;
 /// The largest record of a bag (bytes), a chunk's compressed and its decompressed size
 /// included: a length beyond it (a corrupt or crafted file) is refused before anything is
 /// allocated for it.
-pub const MAX_BAG_RECORD_BYTES: usize = 256 << 20;
+pub const MAX_BAG_RECORD_BYTES: usize = 64 << 20;
 
 /// The most messages a bag may hold, on every topic (a 20-minute DRIVE run with its IMU at
-/// 200 Hz holds a few hundred thousand).
-pub const MAX_BAG_MESSAGES: usize = 5_000_000;
+/// 200 Hz holds a few hundred thousand): two million selected messages stay well under 1 GB
+/// of memory.
+pub const MAX_BAG_MESSAGES: usize = 2_000_000;
+
+/// The longest schema name, topic name, message encoding or decoded text (a `calib_state`
+/// string) read from a bag, in bytes.
+pub const MAX_BAG_NAME_BYTES: usize = 1024;
+
+/// The most channels a bag may define.
+pub const MAX_BAG_CHANNELS: usize = 4096;
 
 /// Reads a rosbag2 recording (a `.mcap` file or a bag directory) into the DRIVE logger's
 /// rows: one row per message on the `cmd` topic, every other topic's latest message held

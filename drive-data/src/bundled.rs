@@ -57,7 +57,7 @@ macro_rules! bundled {
             terrain: $terrain,
             description: $description,
             csv_gz: include_bytes!(concat!("../../data/", $name, ".csv.gz")),
-            sidecar: include_str!(concat!("../../data/", $name, ".json")),
+            sidecar: include_str!(concat!("../../data/", $name, ".meta.json")),
         }
     };
 }
@@ -186,7 +186,7 @@ impl Bundled {
         parse_dataset(
             &csv_name,
             &text,
-            &format!("{PREFIX}{}.json", self.name),
+            &format!("{PREFIX}{}.meta.json", self.name),
             self.sidecar,
         )
     }

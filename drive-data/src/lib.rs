@@ -98,21 +98,58 @@ fn check_pair(
     Ok(())
 }
 
-/// The sidecar path that goes with a window CSV: the same path with a `.json` extension.
+/// The sidecar path a window CSV's description is written to: the same path with a
+/// `.meta.json` extension, a name no one redirects a command's JSON output to (`drive eval
+/// --data run.csv --json > run.json` leaves `run.meta.json` alone).
 ///
 /// ```
 /// use std::path::Path;
-/// assert_eq!(drive_data::sidecar_path(Path::new("runs/husky.csv")), Path::new("runs/husky.json"));
+/// assert_eq!(drive_data::sidecar_path(Path::new("runs/husky.csv")), Path::new("runs/husky.meta.json"));
 /// ```
 pub fn sidecar_path(csv: &Path) -> PathBuf {
+    csv.with_extension("meta.json")
+}
+
+/// The sidecar name of earlier releases: the CSV's path with a `.json` extension. It is still
+/// read when the [`sidecar_path`] does not exist (see [`sidecar_to_read`]).
+///
+/// ```
+/// use std::path::Path;
+/// assert_eq!(drive_data::legacy_sidecar_path(Path::new("runs/husky.csv")), Path::new("runs/husky.json"));
+/// ```
+pub fn legacy_sidecar_path(csv: &Path) -> PathBuf {
     csv.with_extension("json")
 }
 
-/// The largest raw logger CSV read (bytes): its text is held whole.
-pub const MAX_RAW_LOG_BYTES: u64 = 1 << 30;
+/// The sidecar read with a window CSV when none is given: [`sidecar_path`] (`run.meta.json`),
+/// or the earlier releases' `run.json` ([`legacy_sidecar_path`]) when only that one exists.
+///
+/// ```
+/// use std::path::Path;
+/// // Neither exists: the current name, which the "not found" error then names.
+/// assert_eq!(
+///     drive_data::sidecar_to_read(Path::new("/nonexistent/run.csv")),
+///     Path::new("/nonexistent/run.meta.json")
+/// );
+/// ```
+pub fn sidecar_to_read(csv: &Path) -> PathBuf {
+    let current = sidecar_path(csv);
+    let legacy = legacy_sidecar_path(csv);
+    // symlink_metadata: a dangling link at the current name is still the current sidecar.
+    if current.symlink_metadata().is_err() && legacy != csv && legacy.is_file() {
+        legacy
+    } else {
+        current
+    }
+}
+
+/// The largest raw logger CSV read (bytes), 256 MiB: its text is held whole, then its rows
+/// (about 1.7 times the text at the peak), so that an import stays well under 1 GB of
+/// memory. A DRIVE logger writes about 15 MB an hour at 20 Hz: 17 hours fit.
+pub const MAX_RAW_LOG_BYTES: u64 = 1 << 28;
 
 /// Reads a dataset from a window CSV file and its sidecar (by default beside the CSV, see
-/// [`sidecar_path`]); `bundled:NAME` is the bundled dataset of that name (see [`bundled`]),
+/// [`sidecar_to_read`]); `bundled:NAME` is the bundled dataset of that name (see [`bundled`]),
 /// which carries its own sidecar.
 pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataError> {
     if let Some(name) = bundled::name_in(csv) {
@@ -129,7 +166,7 @@ pub fn read_dataset(csv: &Path, sidecar: Option<&Path>) -> Result<Dataset, DataE
     }
     let sidecar = sidecar
         .map(Path::to_path_buf)
-        .unwrap_or_else(|| sidecar_path(csv));
+        .unwrap_or_else(|| sidecar_to_read(csv));
     let csv_name = csv.display().to_string();
     let sidecar_name = sidecar.display().to_string();
     let opened = drive_traits::files::regular(csv)
@@ -245,7 +282,7 @@ fn read_text(path: &Path) -> Result<String, DataError> {
         return Err(DataError::new(
             Location::file(&name),
             DataErrorKind::Implausible(format!(
-                "{size} bytes, more than the {MAX_RAW_LOG_BYTES} a raw log is read to (about a day at 20 Hz)"
+                "{size} bytes, more than the {MAX_RAW_LOG_BYTES} a raw log is read to (about 17 hours at 20 Hz; cut it into runs)"
             )),
         ));
     }

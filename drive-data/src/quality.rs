@@ -51,7 +51,7 @@ pub struct Finding {
 }
 
 /// The checks, their keys and what they look for.
-pub const CHECKS: [(&str, &str); 6] = [
+pub const CHECKS: [(&str, &str); 7] = [
     (
         "not-moving",
         "localization still while the encoders turn (wheels off the ground, localization frozen)",
@@ -71,6 +71,10 @@ pub const CHECKS: [(&str, &str); 6] = [
     (
         "encoder-units",
         "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius)",
+    ),
+    (
+        "encoder-command",
+        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 4 or under 0.1: commands or encoders in another unit)",
     ),
     (
         "outside-limits",
@@ -259,8 +263,9 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
                 stuck,
                 "encoders-stuck",
                 format!(
-                    "stay under a millionth of the largest command ({})",
-                    Short(1e-6 * largest)
+                    "stay under {} (a millionth of the largest command, {})",
+                    Short(1e-6 * largest),
+                    Short(largest)
                 ),
             ),
         ] {
@@ -281,6 +286,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
             }
         }
     }
+    out.extend(encoder_command(data, &windows));
     // encoder-units: over the windows where localization saw at least 0.2 m, the median ratio
     // of the distance the encoders imply to the one localization saw (0.8-1.05 on the
     // bundled runs, slip included).
@@ -343,6 +349,111 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         }
     }
     out
+}
+
+/// The `encoder-command` findings: per input axis, over the samples commanded at a tenth of
+/// that axis's largest command or more, a measured input near zero (under a thousandth of
+/// the largest command on nine samples in ten: that encoder dead while the other turns),
+/// against its commands (a negative least-squares gain through zero, or following the other
+/// axis's commands better than its own: sign flipped, sides swapped), or a fixed factor
+/// away (a gain over 4 or under 0.1; the bundled runs: 0.42-0.82, the Husky commanded far beyond its limits). At least 100 such samples per axis.
+fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
+    let axes = data.robot.vehicle.axes();
+    let samples = || {
+        windows
+            .iter()
+            .flat_map(|w| w.command.iter().zip(w.measured.iter()))
+    };
+    let correlation = |i: usize, j: usize, on: &dyn Fn(&drive_traits::Input) -> bool| {
+        let (mut n, mut sc, mut sm, mut scc, mut smm, mut scm) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for (c, m) in samples().filter(|(c, _)| on(c)) {
+            let (c, m) = (c[j], m[i]);
+            n += 1.0;
+            sc += c;
+            sm += m;
+            scc += c * c;
+            smm += m * m;
+            scm += c * m;
+        }
+        let cov = scm - sc * sm / n;
+        let (vc, vm) = (scc - sc * sc / n, smm - sm * sm / n);
+        if vc > 0.0 && vm > 0.0 {
+            cov / (vc * vm).sqrt()
+        } else {
+            0.0
+        }
+    };
+    let mut out = Vec::new();
+    for (i, axis) in axes.iter().enumerate() {
+        let largest = samples().map(|(c, _)| c[i].abs()).fold(0.0, f64::max);
+        if largest <= 0.0 || !largest.is_finite() {
+            continue;
+        }
+        let on = |c: &drive_traits::Input| c[i].abs() >= 0.1 * largest;
+        let (mut n, mut dead, mut cc, mut cm) = (0usize, 0usize, 0.0, 0.0);
+        for (c, m) in samples().filter(|(c, _)| on(c)) {
+            n += 1;
+            dead += usize::from(m[i].abs() <= 1e-3 * largest);
+            cc += c[i] * c[i];
+            cm += c[i] * m[i];
+        }
+        if n < 100 {
+            continue;
+        }
+        let gain = cm / cc;
+        let other = 1 - i;
+        let (own, cross) = (correlation(i, i, &on), correlation(i, other, &on));
+        // Dead: near zero and not following the commands (a proportional encoder in
+        // another unit is the gain's case below).
+        let message = if dead * 10 >= n * 9 && own < 0.5 {
+            format!(
+                "'{}' stays under a thousandth of its largest command ({} {}) on {dead} of {n} commanded samples: that encoder dead, or not recorded?",
+                axis.measured_column,
+                Short(largest),
+                axis.unit
+            )
+        } else if gain < 0.0 {
+            format!(
+                "'{}' moves against its commands '{}' (least-squares gain {} over {n} commanded samples): sign flipped, or sides swapped?",
+                axis.measured_column,
+                axis.command_column,
+                Short(three_digits(gain))
+            )
+        } else if cross > own + 0.3 {
+            format!(
+                "'{}' follows '{}' (correlation {}) better than its own command '{}' ({}): sides swapped?",
+                axis.measured_column,
+                axes[other].command_column,
+                Short((cross * 100.0).round() / 100.0),
+                axis.command_column,
+                Short((own * 100.0).round() / 100.0)
+            )
+        } else if !(0.1..=4.0).contains(&gain) {
+            format!(
+                "'{}' follows its commands '{}' with a gain of {} (over {n} commanded samples): commands or encoders in another unit?",
+                axis.measured_column,
+                axis.command_column,
+                Short(three_digits(gain))
+            )
+        } else {
+            continue;
+        };
+        out.push(Finding {
+            check: "encoder-command",
+            severity: Severity::Warning,
+            message,
+        });
+    }
+    out
+}
+
+/// `x` rounded to three significant digits (a gain of 0.000812, not 0.001).
+fn three_digits(x: f64) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let unit = 10f64.powf(x.abs().log10().floor() - 2.0);
+    (x / unit).round() * unit
 }
 
 /// An `outside-limits` warning when the dataset's vehicle is not the robot description's:

@@ -354,7 +354,10 @@ fn sidecar_missing_on_disk() {
         matches!(err.kind, DataErrorKind::MissingSidecar(_)),
         "{err}"
     );
-    assert!(err.to_string().contains("run.json"), "{err}");
+    assert!(err.to_string().contains("run.meta.json"), "{err}");
+    // The earlier releases' name, read when it is the only one.
+    std::fs::write(dir.path().join("run.json"), SIDECAR).unwrap();
+    assert_eq!(read_dataset(&csv, None).unwrap().windows.len(), 3);
     // Given explicitly, it is found.
     let side = dir.path().join("robot.json");
     std::fs::write(&side, SIDECAR).unwrap();
@@ -393,7 +396,7 @@ fn a_csv_beside_another_runs_sidecar_is_refused() {
         "{err}"
     );
     // Without the digest (an edit on purpose), the pair is read.
-    let side = dir.path().join("rt.json");
+    let side = dir.path().join("rt.meta.json");
     let mut v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&side).unwrap()).unwrap();
     assert_eq!(v["csv"]["rows"], lines.len() - 1);

@@ -1,12 +1,20 @@
 //! Bayesian linear regression with a normal-inverse-gamma posterior (paper eq. 6) and a
 //! Student-t predictive (paper eq. 7), after Murphy (2012), Sec. 7.6.3.
 
-use drive_traits::limits::Short;
+use drive_traits::limits::{Short, MAX_ABS_MEASUREMENT};
 use drive_traits::FitError;
 use faer::linalg::solvers::SolveLstsq;
 use faer::Mat;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
+
+/// The largest noise shape `a` a posterior read from a file may hold: a fit writes `a0 + n /
+/// 2` for `n` samples, far below this.
+pub const MAX_NOISE_SHAPE: f64 = 1e12;
+
+/// The largest noise variance `b / a` and covariance entry a posterior read from a file
+/// may hold (the square of the largest measurement, [`MAX_ABS_MEASUREMENT`]).
+pub const MAX_VARIANCE: f64 = MAX_ABS_MEASUREMENT * MAX_ABS_MEASUREMENT;
 
 /// The prior of a BLR fit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -321,6 +329,36 @@ impl BlrPosterior {
                 "{what}: the noise parameters a = {} and b = {} must be positive",
                 Short(self.a),
                 Short(self.b)
+            ));
+        }
+        // What a fit writes: a = a0 + n / 2 for n samples, a noise variance b / a of a
+        // slip (m/s or rad/s, squared) and weights of the size of a measurement.
+        if self.a > MAX_NOISE_SHAPE {
+            return Err(format!(
+                "{what}: the noise shape a = {} is beyond {} (a fit writes a0 + n / 2 for n samples)",
+                Short(self.a),
+                Short(MAX_NOISE_SHAPE)
+            ));
+        }
+        if self.b / self.a > MAX_VARIANCE {
+            return Err(format!(
+                "{what}: the noise variance b / a = {} is beyond {}",
+                Short(self.b / self.a),
+                Short(MAX_VARIANCE)
+            ));
+        }
+        if let Some(m) = self.mean.iter().find(|m| m.abs() > MAX_ABS_MEASUREMENT) {
+            return Err(format!(
+                "{what}: weight {} is beyond +-{}",
+                Short(*m),
+                Short(MAX_ABS_MEASUREMENT)
+            ));
+        }
+        if let Some(c) = self.covariance.iter().find(|c| c.abs() > MAX_VARIANCE) {
+            return Err(format!(
+                "{what}: covariance entry {} is beyond +-{}",
+                Short(*c),
+                Short(MAX_VARIANCE)
             ));
         }
         let c = DMatrix::from_row_slice(k, k, &self.covariance);
@@ -655,6 +693,31 @@ mod tests {
         assert_eq!(post.a, 1.0);
         // b = 1/2 (RSS + |X gamma_ls|^2 / 2) = 1/2 (0.2 + 1.4^2 * 5 / 2)
         assert!((post.b - 0.5 * (0.2 + 1.96 * 5.0 / 2.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_posterior_read_from_a_file_holds_what_a_fit_writes() {
+        let fitted = BlrPosterior::fit(
+            &[1.0, 2.0],
+            1,
+            &[1.0, 3.0],
+            &Prior::Uninformative { phi: 1.0 },
+            "t",
+        )
+        .unwrap();
+        assert!(fitted.check(1, "slip_x").is_ok());
+        let refused = |edit: &dyn Fn(&mut BlrPosterior), says: &str| {
+            let mut p = fitted.clone();
+            edit(&mut p);
+            let e = p.check(1, "slip_x").unwrap_err();
+            assert!(e.contains("slip_x") && e.contains(says), "{e}");
+        };
+        refused(&|p| p.a = 1e300, "noise shape a = 1e300");
+        refused(&|p| p.b = 1e300, "noise variance");
+        refused(&|p| p.a = 1e-300, "noise variance");
+        refused(&|p| p.mean[0] = 1e300, "weight 1e300");
+        refused(&|p| p.covariance[0] = 1e300, "covariance entry 1e300");
+        refused(&|p| p.covariance[0] = -1.0, "not positive definite");
     }
 
     #[test]

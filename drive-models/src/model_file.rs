@@ -88,6 +88,81 @@ pub fn model_to_json(
     Ok(serde_json::to_string_pretty(&file)? + "\n")
 }
 
+/// A parse error inside the file's `root` field (whose JSON is `value`), with the path to
+/// the value it concerns (`model.model.powertrain.dt: invalid type: ...`). Inside a plug-in
+/// part (typetag's internally tagged objects, read through a buffer) serde loses the path:
+/// the value the error names (a string, number or boolean) is then looked up in `value`,
+/// and its path given when exactly one leaf holds it.
+fn at_path(root: &str, value: &Value, e: &serde_path_to_error::Error<serde_json::Error>) -> String {
+    let path = e.path().to_string();
+    let message = e.inner().to_string();
+    let path = if path == "." {
+        located(value, &message).unwrap_or_default()
+    } else {
+        path
+    };
+    if path.is_empty() || path == "." {
+        format!("{root}: {message}")
+    } else {
+        format!("{root}.{path}: {message}")
+    }
+}
+
+/// The path inside `value` of the one leaf equal to the value a serde `message` names
+/// (`invalid type: string "fast", expected f64`), if exactly one leaf is.
+fn located(value: &Value, message: &str) -> Option<String> {
+    let between = |start: &str, end: &str| {
+        let rest = message.split_once(start)?.1;
+        Some(rest.split_once(end)?.0.to_string())
+    };
+    let target = if let Some(text) = between("string \"", "\"") {
+        Value::String(text)
+    } else if let Some(number) =
+        between("integer `", "`").or_else(|| between("floating point `", "`"))
+    {
+        serde_json::from_str::<Value>(&number).ok()?
+    } else if let Some(flag) = between("boolean `", "`") {
+        Value::Bool(flag == "true")
+    } else {
+        return None;
+    };
+    fn walk(v: &Value, path: String, target: &Value, found: &mut Vec<String>) {
+        match v {
+            Value::Object(map) => {
+                for (k, x) in map {
+                    let p = if path.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{path}.{k}")
+                    };
+                    walk(x, p, target, found);
+                }
+            }
+            Value::Array(items) => {
+                for (i, x) in items.iter().enumerate() {
+                    walk(x, format!("{path}[{i}]"), target, found);
+                }
+            }
+            // Numbers compared as numbers (1 and 1.0 alike).
+            Value::Number(a) => {
+                if let Value::Number(b) = target {
+                    if a.as_f64() == b.as_f64() {
+                        found.push(path);
+                    }
+                }
+            }
+            leaf => {
+                if leaf == target {
+                    found.push(path);
+                }
+            }
+        }
+    }
+    let mut found = Vec::new();
+    walk(value, String::new(), &target, &mut found);
+    (found.len() == 1).then(|| found.remove(0))
+}
+
 /// Loads a model file's text (`file` names it in errors): the model and the robot it was
 /// fitted for.
 pub fn model_from_json(
@@ -136,9 +211,9 @@ pub fn model_from_json(
         field: "robot",
     })?;
     let robot: RobotDescription =
-        serde_json::from_value(robot).map_err(|e| ModelFileError::Model {
+        serde_path_to_error::deserialize(&robot).map_err(|e| ModelFileError::Model {
             file: file.into(),
-            message: format!("robot: {e}"),
+            message: at_path("robot", &robot, &e),
         })?;
     let model = obj.remove("model").ok_or(ModelFileError::MissingField {
         file: file.into(),
@@ -180,9 +255,9 @@ pub fn model_from_json(
         }
     }
     let model: Box<dyn MotionModel> =
-        serde_json::from_value(model).map_err(|e| ModelFileError::Model {
+        serde_path_to_error::deserialize(&model).map_err(|e| ModelFileError::Model {
             file: file.into(),
-            message: e.to_string(),
+            message: at_path("model", &model, &e),
         })?;
     model.check().map_err(|message| ModelFileError::Model {
         file: file.into(),

@@ -79,7 +79,7 @@ def test_bench_equals_drive_bench_json(tmp_path):
 def test_from_pandas_equals_the_files(husky, tmp_path):
     pd = pytest.importorskip("pandas")
     df = pd.read_csv(ROOT / "data" / "husky_drive.csv.gz")
-    meta = json.loads((ROOT / "data" / "husky_drive.json").read_text())
+    meta = json.loads((ROOT / "data" / "husky_drive.meta.json").read_text())
     data = drive.Dataset.from_pandas(df, meta)
     assert len(data) == len(husky) == 603 and data.intervals == 201
     close(drive.evaluate(data, models=["slip-blr"]), drive.evaluate(husky, models=["slip-blr"]))

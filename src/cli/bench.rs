@@ -70,7 +70,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                         "a sidecar of --suite",
                         sidecar
                             .clone()
-                            .unwrap_or_else(|| crate::data::sidecar_path(csv)),
+                            .unwrap_or_else(|| crate::data::sidecar_to_read(csv)),
                     ));
                 }
             }
@@ -126,7 +126,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let transfer = config.transfer;
     emit(args.json, &bench, |b| text(b, transfer))?;
     if let Some(dir) = &args.out {
-        eprintln!(
+        say!(
             "{} datasets x {} models in {:.1} s; written to {}/ ({})",
             bench.datasets.len(),
             bench.model_names.len(),

@@ -104,7 +104,7 @@ impl DataArgs {
                     },
                     self.sidecar
                         .clone()
-                        .unwrap_or_else(|| crate::data::sidecar_path(csv)),
+                        .unwrap_or_else(|| crate::data::sidecar_to_read(csv)),
                 ),
             ],
         }
@@ -176,19 +176,24 @@ pub fn check_max_samples(max_samples: usize) -> Result<()> {
     Ok(())
 }
 
-/// `Err` when the standard output is one of `inputs` (`drive eval --data run.csv --json >
-/// run.json`): the shell emptied that file before the command started, and its reader would
+/// `Err` when the standard output or error is one of `inputs` (`drive eval --data run.csv
+/// --json > run.meta.json`): the shell emptied that file before the command started, and its reader would
 /// only say it is empty. Compared by device and inode, so a link or another path to the
 /// same file counts.
 pub fn stdout_not_an_input(inputs: &[(&'static str, PathBuf)]) -> Result<()> {
     #[cfg(unix)]
-    {
+    // The standard error too (`2> run.json`): the message then lands in that file, which
+    // at least says what happened to it.
+    for (stream, device) in [
+        ("standard output", "/dev/stdout"),
+        ("standard error", "/dev/stderr"),
+    ] {
         use std::os::unix::fs::MetadataExt as _;
-        let Ok(out) = std::fs::metadata("/dev/stdout") else {
-            return Ok(());
+        let Ok(out) = std::fs::metadata(device) else {
+            continue;
         };
         if !out.is_file() {
-            return Ok(());
+            continue;
         }
         for (role, path) in inputs {
             let same =
@@ -201,7 +206,7 @@ pub fn stdout_not_an_input(inputs: &[(&'static str, PathBuf)]) -> Result<()> {
                     "the output would be written onto its end"
                 };
                 anyhow::bail!(
-                    "the standard output is {}, the input {role}: {what}; redirect the output to another file",
+                    "the {stream} is {}, the input {role}: {what}; redirect the output to another file",
                     path.display()
                 );
             }
@@ -231,7 +236,11 @@ pub fn outputs_for(
 /// noted (one line on stderr, see [`note`]).
 pub fn load(args: &DataArgs) -> Result<Dataset, DataError> {
     let mut data = match &args.data {
-        Some(csv) => read_dataset(csv, args.sidecar.as_deref())?,
+        Some(csv) => {
+            let data = read_dataset(csv, args.sidecar.as_deref())?;
+            note_legacy_sidecar(csv, args.sidecar.as_deref());
+            data
+        }
         None => crate::bundled::husky()?,
     };
     if data.robot.position_frame == crate::traits::PositionFrame::PaperMean5 {
@@ -247,6 +256,23 @@ pub fn load(args: &DataArgs) -> Result<Dataset, DataError> {
         }
     }
     Ok(data)
+}
+
+/// Notes that the sidecar of `csv` was read from the earlier releases' name (`run.json`, see
+/// `drive_data::legacy_sidecar_path`) when none was given.
+pub fn note_legacy_sidecar(csv: &Path, given: Option<&Path>) {
+    if given.is_none()
+        && crate::data::bundled::name_in(csv).is_none()
+        && crate::data::sidecar_to_read(csv) == crate::data::legacy_sidecar_path(csv)
+    {
+        note(format!(
+            "note: read the sidecar of {} from {}, its name in earlier releases; it is now written as {} (rename it so that a command's JSON output redirected to {} cannot replace it)",
+            csv.display(),
+            crate::data::legacy_sidecar_path(csv).display(),
+            crate::data::sidecar_path(csv).display(),
+            crate::data::legacy_sidecar_path(csv).display(),
+        ));
+    }
 }
 
 /// Notes of the running command, printed on stderr when it succeeds (a failed command's
@@ -300,7 +326,7 @@ where
             .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
             .filter(|l| !l.is_empty())
             .collect();
-        eprintln!("{} (see drive --help)", message.join(" "));
+        say!("{} (see drive --help)", message.join(" "));
         ExitCode::from(2)
     })
 }

@@ -71,10 +71,10 @@ pub fn run_with(
     let plan = sweep.plan(registries, &|s| {
         if let Some(file) = &s.file {
             let csv = base.join(file);
-            let sidecar = s
-                .sidecar
-                .as_ref()
-                .map_or_else(|| crate::data::sidecar_path(&csv), |side| base.join(side));
+            let sidecar = s.sidecar.as_ref().map_or_else(
+                || crate::data::sidecar_to_read(&csv),
+                |side| base.join(side),
+            );
             let mut read = read.lock().unwrap_or_else(|p| p.into_inner());
             read.extend([
                 ("a dataset of --config", csv),
@@ -107,7 +107,7 @@ pub fn run_with(
         out!("{markdown}");
     }
     let failed = result.cells.iter().filter(|c| c.failure.is_some()).count();
-    eprintln!(
+    say!(
         "{} combinations in {:.1} s{}; written to {}/matrix.csv, matrix.json, summary.md",
         result.cells.len(),
         progress.start.elapsed().as_secs_f64(),

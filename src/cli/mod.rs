@@ -21,6 +21,15 @@ macro_rules! out {
     };
 }
 
+/// `eprintln!` that never panics: a standard error that cannot be written (closed,
+/// `/dev/full`, a file over `ulimit -f`) is ignored, the exit code still says what happened.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
 /// `println!` with the behaviour of [`out!`].
 macro_rules! outln {
     ($($t:tt)*) => {
@@ -177,14 +186,14 @@ where
     match result {
         Ok(()) => {
             for line in notes {
-                eprintln!("{line}");
+                say!("{line}");
             }
             ExitCode::SUCCESS
         }
         // The reader of our output has gone: nothing more to say.
         Err(e) if e.downcast_ref::<common::ClosedPipe>().is_some() => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            say!("error: {e:#}");
             ExitCode::FAILURE
         }
     }

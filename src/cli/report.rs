@@ -91,9 +91,9 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let files = report.stage(&mut outputs, &args.out)?;
     outputs.publish()?;
     if let Err(reason) = &report.protocols {
-        eprintln!("note: no protocol figure: {reason}");
+        say!("note: no protocol figure: {reason}");
     }
-    eprintln!(
+    say!(
         "report on {}: {} files written to {} (open report.md)",
         dataset.robot.name,
         files.len(),

@@ -139,7 +139,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             text
         }
     };
-    eprintln!(
+    say!(
         "{} windows ({} intervals) of {} on {}; input space {space}; saved to {}",
         run.dataset.windows.len(),
         run.dataset.windows.len() / 3,

@@ -183,7 +183,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         if crate::data::bundled::name_in(d).is_none() {
             let s = sidecar
                 .cloned()
-                .unwrap_or_else(|| crate::data::sidecar_path(d));
+                .unwrap_or_else(|| crate::data::sidecar_to_read(d));
             if sidecar.is_none() && d.is_file() && !s.exists() {
                 bail!(
                     "the sidecar JSON of --train-data {} was not found (expected at {}; give it with --train-sidecar)",

@@ -55,7 +55,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         && has_covariance
         && !calibrated
     {
-        eprintln!(
+        say!(
             "note: {}'s uncertainty is not calibrated (the calibration holds out blocks of training intervals, and the training windows span {} interval(s), or a fold's refit failed); its covariance is the model's own",
             args.model,
             train
@@ -70,7 +70,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .with_context(|| format!("saving {}", args.model))?;
     outputs.write(&args.out, text)?;
     outputs.publish()?;
-    eprintln!(
+    say!(
         "fitted {} ({}) on {} windows of {}; saved to {}",
         args.model,
         spec.canonical(),

@@ -16,7 +16,7 @@ geometry_msgs/TwistStamped on /cmd_vel and the encoders as one sensor_msgs/Joint
 /joint_states (joints left_wheel_joint, right_wheel_joint), as many robots do.
 
 `drive import --bag OUT_BAG_DIR` must then cut the same windows as `drive import --raw
-RAW.csv` (tests/bags.rs, python/tests).
+RAW.csv` (tests/integration/bags.rs, python/tests).
 """
 
 import argparse

@@ -23,5 +23,20 @@ pub(crate) fn check_step_and_limits(
     if drive_traits::InputSpace::new(limits.min, limits.max).is_none() {
         return Err("powertrain limits are not a valid box (finite, min <= max)".into());
     }
+    // The limits are measured inputs (wheel velocities, speeds): no fit writes one beyond
+    // what the data readers accept.
+    let bound = drive_traits::limits::MAX_ABS_MEASUREMENT;
+    if let Some(v) = limits
+        .min
+        .iter()
+        .chain(limits.max.iter())
+        .find(|v| v.abs() > bound)
+    {
+        return Err(format!(
+            "powertrain limit {} is beyond +-{} (an input the data readers would refuse)",
+            drive_traits::limits::Short(*v),
+            drive_traits::limits::Short(bound)
+        ));
+    }
     Ok(())
 }

@@ -70,7 +70,6 @@ use drive_traits::{
     unwrap_angles, wrap_angle, BodyVelocity, FitError, Pose, PoseCovariance, SlipData, SlipLearner,
     SlipModel, StartState, Tagged,
 };
-use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 use nalgebra::{Const, DMatrix, DVector, SMatrix, SVector, U1};
 use num_dual::{Derivative, DualNum, DualSVec64};

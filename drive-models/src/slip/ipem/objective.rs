@@ -3,6 +3,7 @@
 //! Gauss-Newton model, iterated to convergence.
 
 use super::*;
+use faer::linalg::matmul::triangular::{self, BlockStructure};
 
 /// One training window as the fit uses it.
 pub(super) struct Track {
@@ -309,14 +310,19 @@ impl<'a> Ipem<'a> {
                 return l.clone();
             }
         }
+        // J^T J is symmetric: only its lower triangle is accumulated (half the work of
+        // the full product), then read for both halves.
         let mut jtj = Mat::<f64>::zeros(PARAMETERS, PARAMETERS);
         let mut jtr = vec![0.0; PARAMETERS];
         self.jacobians(u.as_slice(), |_, jt, r| {
-            matmul(
+            triangular::matmul(
                 jtj.as_mut(),
+                BlockStructure::TriangularLower,
                 Accum::Add,
                 jt.as_ref(),
+                BlockStructure::Rectangular,
                 jt.transpose(),
+                BlockStructure::Rectangular,
                 1.0,
                 Par::Seq,
             );
@@ -330,7 +336,7 @@ impl<'a> Ipem<'a> {
         let gradient =
             DVector::from_fn(PARAMETERS, |j, _| jtr[j] / n + self.penalty_gradient(u, j));
         let hessian = DMatrix::from_fn(PARAMETERS, PARAMETERS, |i, j| {
-            jtj[(i, j)] / n
+            jtj[(i.max(j), i.min(j))] / n
                 + if i == j {
                     self.penalty_curvature(j)
                 } else {

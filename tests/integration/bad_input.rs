@@ -100,19 +100,19 @@ fn cases() -> Vec<Case> {
             args: &["eval", "--data", "{data}"], says: &["line 4, column 'k'", "not a non-negative integer"] },
         // Sidecar.
         Case { name: "sidecar negative radius", file: ds(keep, |s| s.replace("\"wheel_radius\": 0.3", "\"wheel_radius\": -0.3")),
-            args: &["eval", "--data", "{data}"], says: &["data.json, field 'vehicle'", "wheel_radius = -0.3"] },
+            args: &["eval", "--data", "{data}"], says: &["data.meta.json, field 'vehicle'", "wheel_radius = -0.3"] },
         Case { name: "sidecar unknown vehicle", file: ds(keep, |s| s.replace("\"differential\"", "\"hovercraft\"")),
-            args: &["eval", "--data", "{data}"], says: &["data.json, field 'vehicle'", "hovercraft"] },
+            args: &["eval", "--data", "{data}"], says: &["data.meta.json, field 'vehicle'", "hovercraft"] },
         Case { name: "sidecar zero rate", file: ds(keep, |s| s.replace("\"rate_hz\": 20", "\"rate_hz\": 0")),
-            args: &["eval", "--data", "{data}"], says: &["data.json, field 'rate_hz'"] },
+            args: &["eval", "--data", "{data}"], says: &["data.meta.json, field 'rate_hz'"] },
         Case { name: "sidecar window count", file: ds(keep, |s| s.replace("\"windows\": 12", "\"windows\": 13")),
             args: &["eval", "--data", "{data}"], says: &["field 'windows'", "announces 13 windows"] },
         Case { name: "sidecar unknown position frame", file: ds(keep, |s| s.replace("\"position_frame\": \"first-sample\"", "\"position_frame\": \"map\"")),
-            args: &["eval", "--data", "{data}"], says: &["data.json, field 'position_frame'", "\"map\"", "paper-mean5"] },
+            args: &["eval", "--data", "{data}"], says: &["data.meta.json, field 'position_frame'", "\"map\"", "paper-mean5"] },
         Case { name: "sidecar position frame not a string", file: ds(keep, |s| s.replace("\"position_frame\": \"first-sample\"", "\"position_frame\": 5")),
             args: &["eval", "--data", "{data}"], says: &["field 'position_frame'", "found 5"] },
         Case { name: "sidecar not JSON", file: ds(keep, |_| "rate_hz = 20".into()),
-            args: &["eval", "--data", "{data}"], says: &["data.json"] },
+            args: &["eval", "--data", "{data}"], says: &["data.meta.json"] },
         Case { name: "sidecar missing", file: File::None,
             args: &["eval", "--data", "{data}"], says: &["the sidecar JSON of", "was not found"] },
         // Raw log.
@@ -222,6 +222,15 @@ fn cases() -> Vec<Case> {
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "not a number in [1e-30, 1e30]"] },
         Case { name: "model dead time of years", file: File::Model(|m| edit_model(&m, |v| composed(v)["powertrain"]["axes"][0]["delay"] = 1e9.into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "delay 1e9 is not a number of seconds in [0, 60]"] },
+        Case { name: "model noise shape no fit writes", file: File::Model(|m| edit_model(&m, |v| composed(v)["slip"]["slip_x"]["a"] = 1e300.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "slip_x", "noise shape a = 1e300"] },
+        Case { name: "model slip weight no fit writes", file: File::Model(|m| edit_model(&m, |v| composed(v)["slip"]["slip_y"]["mean"][0] = 1e300.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "weight 1e300"] },
+        Case { name: "model powertrain limits no fit writes", file: File::Model(|m| edit_model(&m, |v| composed(v)["powertrain"]["limits"]["max"][0] = 1e300.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "powertrain limit 1e300"] },
+        // Issue 35: a parse error names the path inside the model.
+        Case { name: "model field of the wrong type", file: File::Model(|m| edit_model(&m, |v| composed(v)["powertrain"]["dt"] = "fast".into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "model.model.powertrain.dt", "invalid type"] },
         Case { name: "model geometry not the robot's", file: File::Model(|m| edit_model(&m, |v| composed(v)["vehicle"]["baseline"] = 9.0.into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "is not the robot's"] },
         Case { name: "model duplicated key", file: File::Model(|m| m.replacen("\"format_version\": 2,", "\"format_version\": 2, \"format_version\": 1,", 1)),
@@ -273,7 +282,7 @@ fn fixtures(dir: &Path) -> (String, String, String, String) {
     let read = |p: &Path| std::fs::read_to_string(p).unwrap();
     (
         read(&csv),
-        read(&dir.join("data.json")),
+        read(&dir.join("data.meta.json")),
         read(&model),
         read(&commands),
     )
@@ -292,7 +301,7 @@ fn every_bad_input_is_refused_clearly() {
         match &case.file {
             File::Dataset { csv: c, sidecar: s } => {
                 std::fs::write(at("data.csv"), c(csv.clone())).unwrap();
-                std::fs::write(at("data.json"), s(sidecar.clone())).unwrap();
+                std::fs::write(at("data.meta.json"), s(sidecar.clone())).unwrap();
             }
             File::Raw(f) => std::fs::write(at("raw.csv"), f(RAW_HEADER.to_string())).unwrap(),
             File::Robot(text) => std::fs::write(at("robot.toml"), text).unwrap(),

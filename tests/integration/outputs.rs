@@ -1,9 +1,9 @@
 //! Outputs never replace inputs, and appear all together or not at all: through the real
 //! command line.
 
-mod common;
+use crate::common;
 
-use common::{ok, user_error};
+use common::{drive, ok, user_error};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -82,7 +82,13 @@ fn an_output_that_would_replace_an_input_is_refused_before_anything_is_written()
     fixtures(dir.path());
     let at = |n: &str| s(&dir.path().join(n));
     #[cfg(unix)]
-    std::os::unix::fs::symlink(dir.path().join("data.json"), dir.path().join("link.json")).unwrap();
+    std::os::unix::fs::symlink(
+        dir.path().join("data.meta.json"),
+        dir.path().join("link.json"),
+    )
+    .unwrap();
+    // A raw log named like the sidecar of an import's output.
+    std::fs::copy(dir.path().join("raw.csv"), dir.path().join("imp.meta.json")).unwrap();
     let before = snapshot(dir.path());
     let cases: Vec<(Vec<String>, &str)> = vec![
         (
@@ -101,11 +107,11 @@ fn an_output_that_would_replace_an_input_is_refused_before_anything_is_written()
             vec![
                 "import".into(),
                 "--raw".into(),
-                at("raw.csv"),
+                at("imp.meta.json"),
                 "--robot".into(),
                 "warthog".into(),
                 "--out".into(),
-                at("raw.json"),
+                at("imp.csv"),
             ],
             "sidecar of --out",
         ),
@@ -129,7 +135,7 @@ fn an_output_that_would_replace_an_input_is_refused_before_anything_is_written()
                 "--model".into(),
                 "naive".into(),
                 "--out".into(),
-                at("data.json"),
+                at("data.meta.json"),
             ],
             "sidecar of --data",
         ),
@@ -142,7 +148,7 @@ fn an_output_that_would_replace_an_input_is_refused_before_anything_is_written()
                 "naive".into(),
                 "--out".into(),
                 format!(
-                    "{}/../{}/data.json",
+                    "{}/../{}/data.meta.json",
                     at("."),
                     dir.path().file_name().unwrap().to_string_lossy()
                 ),
@@ -169,9 +175,11 @@ fn an_output_that_would_replace_an_input_is_refused_before_anything_is_written()
                 "--duration".into(),
                 "40".into(),
                 "--out".into(),
-                at("new.json"),
+                at("new.csv"),
+                "--raw-out".into(),
+                at("new.meta.json"),
             ],
-            "is also the output --out",
+            "sidecar of --out",
         ),
         (
             vec![
@@ -185,7 +193,7 @@ fn an_output_that_would_replace_an_input_is_refused_before_anything_is_written()
                 "--out".into(),
                 at("new.csv"),
                 "--raw-out".into(),
-                at("new.json"),
+                at("new.meta.json"),
             ],
             "--raw-out",
         ),
@@ -381,7 +389,7 @@ fn a_csv_beside_another_runs_sidecar_is_refused() {
     std::fs::copy(dir.path().join("b.csv"), dir.path().join("a.csv")).unwrap();
     let err = user_error(&["eval", "--data", &at("a.csv")]);
     assert!(
-        err.contains("a.json, field 'csv'")
+        err.contains("a.meta.json, field 'csv'")
             && err.contains("not the CSV this sidecar was written with"),
         "{err}"
     );
@@ -412,7 +420,7 @@ fn two_runs_writing_one_output_leave_a_pair_that_is_one_runs_or_is_refused() {
         .map(|r| {
             (
                 std::fs::read(dir.path().join(format!("{r}.csv"))).unwrap(),
-                std::fs::read(dir.path().join(format!("{r}.json"))).unwrap(),
+                std::fs::read(dir.path().join(format!("{r}.meta.json"))).unwrap(),
             )
         })
         .collect();
@@ -443,7 +451,7 @@ fn two_runs_writing_one_output_leave_a_pair_that_is_one_runs_or_is_refused() {
             assert!(c.wait().unwrap().success());
         }
         let csv = std::fs::read(dir.path().join("same.csv")).unwrap();
-        let side = std::fs::read(dir.path().join("same.json")).unwrap();
+        let side = std::fs::read(dir.path().join("same.meta.json")).unwrap();
         // Every file is whole: one run's or the other's.
         assert!(
             reference.iter().any(|(c, _)| *c == csv),
@@ -519,11 +527,11 @@ fn standard_streams_and_pipes_are_written_into_not_replaced() {
             &s(&pipe),
         ]);
         assert!(err.contains("not a regular file"), "{err}");
-        assert!(!dir.path().join("pipe.json").exists());
+        assert!(!dir.path().join("pipe.meta.json").exists());
     }
 }
 
-/// Issue 35: `drive eval --data run.csv --json > run.json` (the shell empties the sidecar
+/// Issue 35: `drive eval --data run.csv --json > run.meta.json` (the shell empties the sidecar
 /// before drive starts) says what happened, rather than that the sidecar is empty.
 #[cfg(unix)]
 #[test]
@@ -534,7 +542,7 @@ fn a_redirect_onto_an_input_is_named() {
     for (command, target, says) in [
         (
             format!("eval --data '{}' --json", at("data.csv")),
-            at("data.json"),
+            at("data.meta.json"),
             "the input sidecar of --data",
         ),
         (
@@ -571,6 +579,38 @@ fn a_redirect_onto_an_input_is_named() {
             "{err}"
         );
     }
+    // The standard error onto an input (`2> data.meta.json`): the message lands in that
+    // file, and says what happened to it.
+    ok(&[
+        "simulate",
+        "--robot",
+        "warthog",
+        "--terrain",
+        "gravel",
+        "--duration",
+        "60",
+        "--seed",
+        "1",
+        "--out",
+        &at("data.csv"),
+    ]);
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "exec '{}' eval --data '{}' 2> '{}'",
+            env!("CARGO_BIN_EXE_drive"),
+            at("data.csv"),
+            at("data.meta.json")
+        ))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let written = std::fs::read_to_string(dir.path().join("data.meta.json")).unwrap();
+    assert!(
+        written.contains("the standard error is")
+            && written.contains("the input sidecar of --data"),
+        "{written}"
+    );
     // Appended (`>>`): refused too, and the file kept as it was.
     let commands = dir.path().join("commands.csv");
     std::fs::write(&commands, "t,cmd_left,cmd_right\n0,1,1\n").unwrap();
@@ -595,4 +635,74 @@ fn a_redirect_onto_an_input_is_named() {
         "{err}"
     );
     assert_eq!(std::fs::read(&commands).unwrap(), before);
+}
+
+/// Issue 35: a dataset's sidecar is `run.meta.json`, so the JSON of `drive eval --data run.csv
+/// --json > run.json` replaces nothing; a sidecar of earlier releases (`run.json`) is still
+/// read, with a note naming the new name.
+#[cfg(unix)]
+#[test]
+fn json_redirected_to_the_csvs_name_replaces_no_sidecar() {
+    let dir = tempfile::tempdir().unwrap();
+    fixtures(dir.path());
+    let at = |n: &str| s(&dir.path().join(n));
+    let sidecar = std::fs::read(dir.path().join("data.meta.json")).unwrap();
+    assert!(!dir.path().join("data.json").exists());
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "exec '{}' eval --data '{}' --json > '{}'",
+            env!("CARGO_BIN_EXE_drive"),
+            at("data.csv"),
+            at("data.json")
+        ))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("data.json")).unwrap()).unwrap();
+    assert!(json["models"].is_array(), "{json}");
+    assert_eq!(
+        std::fs::read(dir.path().join("data.meta.json")).unwrap(),
+        sidecar
+    );
+    // The earlier name: read when it is the only sidecar, with a note.
+    std::fs::copy(dir.path().join("data.csv"), dir.path().join("old.csv")).unwrap();
+    std::fs::write(dir.path().join("old.json"), &sidecar).unwrap();
+    let out = drive(&["eval", "--data", &at("old.csv"), "--json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("old.json, its name in earlier releases") && err.contains("old.meta.json"),
+        "{err}"
+    );
+    // Both present: the current name is read, silently.
+    std::fs::write(dir.path().join("old.meta.json"), &sidecar).unwrap();
+    let out = drive(&["eval", "--data", &at("old.csv"), "--json"]);
+    assert!(out.status.success());
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("earlier releases"));
+}
+
+/// An error that cannot be written (standard error on /dev/full) still exits 1, and a
+/// full standard output is an error, never a panic (exit 101).
+#[cfg(target_os = "linux")]
+#[test]
+fn a_standard_error_that_cannot_be_written_is_no_panic() {
+    for (command, code) in [
+        ("eval --split 1.5 2>/dev/full", 1),
+        ("protocol --intervals 0 2>/dev/full", 2), // an argument error
+        ("eval >/dev/full 2>/dev/full", 1),
+        ("list >/dev/full", 1),
+    ] {
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg(format!("exec '{}' {command}", env!("CARGO_BIN_EXE_drive")))
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(code), "{command}");
+    }
 }

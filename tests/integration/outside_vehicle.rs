@@ -125,9 +125,10 @@ fn an_outside_vehicle_is_simulated_characterized_trained_evaluated_and_saved() {
     let text = std::fs::read_to_string(&csv).unwrap();
     assert!(text
         .starts_with("window,phase,k,t,cmd_v,cmd_omega,meas_v,meas_omega,x,y,yaw,imu_yaw_rate\n"));
-    let sidecar: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("cmdvel.json")).unwrap())
-            .unwrap();
+    let sidecar: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("cmdvel.meta.json")).unwrap(),
+    )
+    .unwrap();
     assert_eq!(sidecar["vehicle"]["type"], "unicycle");
     let back = drive::data::read_dataset(&csv, None).unwrap();
     assert_eq!(back, data);

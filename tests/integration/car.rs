@@ -2,7 +2,7 @@
 //! evaluated, trained, predicted, reported, swept, compared, imported from its raw log; and
 //! the clear errors where car and skid-steer parts do not fit together.
 
-mod common;
+use crate::common;
 
 use common::{drive, ok, user_error};
 use std::path::Path;
@@ -56,7 +56,7 @@ fn the_car_preset_runs_through_every_command() {
     assert!(header
         .starts_with("window,phase,k,t,cmd_speed,cmd_steering,meas_speed,meas_steering,x,y,yaw"));
     let sidecar: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("car.json")).unwrap())
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("car.meta.json")).unwrap())
             .unwrap();
     assert_eq!(sidecar["vehicle"]["type"], "ackermann");
     assert_eq!(sidecar["vehicle"]["wheelbase"], 0.57);
@@ -267,7 +267,7 @@ fn car_and_skid_steer_parts_that_do_not_fit_are_refused_clearly() {
         "--out",
         &csv.display().to_string(),
     ]);
-    let husky_sidecar = dir.path().join("husky.json");
+    let husky_sidecar = dir.path().join("husky.meta.json");
     std::fs::write(
         &husky_sidecar,
         "{\"name\": \"h\", \"robot\": \"husky\", \"rate_hz\": 20, \"window_len\": 40, \

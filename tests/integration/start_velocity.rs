@@ -2,7 +2,7 @@
 //! preceding window, used by the models whose state is a velocity, and fitted only when the
 //! predictions will have it.
 
-mod common;
+use crate::common;
 use common::ok;
 
 fn translational(json: &str, name: &str) -> f64 {

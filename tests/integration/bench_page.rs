@@ -8,7 +8,7 @@
 //! the PATH (`.ci/run` installs Debian's `chromium`). Without one the test says so and
 //! passes, unless `DRIVE_REQUIRE_BROWSER` is set (as `.ci/run` sets it).
 
-mod common;
+use crate::common;
 use common::ok;
 use std::io::{Read, Write};
 use std::net::TcpListener;

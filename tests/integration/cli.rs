@@ -1,6 +1,6 @@
 //! End-to-end tests of the `drive` command line on the bundled Husky data.
 
-mod common;
+use crate::common;
 
 use common::{drive, ok, user_error};
 use std::path::Path;
@@ -310,7 +310,7 @@ fn frame_corrected_rotates_the_bundled_positions_and_leaves_yaw_and_first_sample
         csv.to_str().unwrap(),
     ]);
     let side: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(csv.with_extension("json")).unwrap())
+        serde_json::from_str(&std::fs::read_to_string(csv.with_extension("meta.json")).unwrap())
             .unwrap();
     assert_eq!(side["position_frame"], "first-sample");
     let data = ["--data", csv.to_str().unwrap()];
@@ -427,9 +427,9 @@ fn bad_data_is_a_one_line_error_naming_file_line_and_column() {
             && err.contains("not a finite number"),
         "{err}"
     );
-    std::fs::remove_file(dir.path().join("small.json")).unwrap();
+    std::fs::remove_file(dir.path().join("small.meta.json")).unwrap();
     let err = user_error(&["eval", "--data", csv.to_str().unwrap()]);
-    assert!(err.contains("small.json"), "{err}");
+    assert!(err.contains("small.meta.json"), "{err}");
 }
 
 #[test]

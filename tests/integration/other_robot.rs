@@ -52,7 +52,7 @@ fn check(robot: &str, name: &str, rate_hz: f64) {
     ];
     drive(&[&args[..], &["--seed", "3", "--out", csv_arg]].concat());
     let sidecar: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(csv.with_extension("json")).unwrap())
+        serde_json::from_str(&std::fs::read_to_string(csv.with_extension("meta.json")).unwrap())
             .unwrap();
     assert_eq!(sidecar["rate_hz"], rate_hz);
     assert_eq!(sidecar["window_len"], (2.0 * rate_hz) as u64);

@@ -2,7 +2,7 @@
 //! issue names, models fitted on data or on a simulated run, the outputs, and clear errors
 //! for hostile paths and settings.
 
-mod common;
+use crate::common;
 
 use common::{ok, user_error};
 

@@ -2,7 +2,7 @@
 //! library (Python `rosbags`, tests/bags/make_bag.py) from a DRIVE logger CSV gives the same
 //! windows as `drive import --raw` on that CSV, and bad bags fail in one line.
 
-mod common;
+use crate::common;
 use common::{ok, user_error};
 use std::path::{Path, PathBuf};
 
@@ -213,7 +213,7 @@ fn damaged_and_crafted_bags_are_refused_before_anything_is_allocated_for_them() 
     let p = write("with_crc.mcap", &with_crc);
     ok(&import("--bag", &p, &out, &[]));
     std::fs::remove_file(&out).unwrap();
-    std::fs::remove_file(out.with_extension("json")).unwrap();
+    std::fs::remove_file(out.with_extension("meta.json")).unwrap();
     let mut flipped = with_crc;
     flipped[records.start + records_len / 2] ^= 0x55;
     let p = write("flipped.mcap", &flipped);

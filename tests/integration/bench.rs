@@ -2,7 +2,7 @@
 //! medians of `drive eval` on the same file; transfer, leaderboard and unpredictability are
 //! in the JSON; outputs never replace inputs; bad suites fail in one line.
 
-mod common;
+use crate::common;
 use common::{ok, user_error};
 use serde_json::Value;
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! The data-quality checks of `drive import` and `drive check`, through the command line, on
 //! a simulated DRIVE log edited the way real logs go wrong.
 
-mod common;
+use crate::common;
 
 use common::{drive, ok};
 use std::path::Path;
@@ -219,11 +219,18 @@ fn a_robot_that_never_moved_and_encoders_in_another_unit_are_flagged() {
     });
     let (code, json, err) = import(&milli, "husky", &dir.path().join("m.csv"), &[]);
     assert_eq!(code, Some(0), "{err}");
+    // Both the distance (encoder-units) and the gain on each side's commands
+    // (encoder-command) say so.
     assert_eq!(
         checks(&json),
-        vec![("encoder-units".into(), "warning".into())],
+        vec![
+            ("encoder-command".into(), "warning".into()),
+            ("encoder-command".into(), "warning".into()),
+            ("encoder-units".into(), "warning".into())
+        ],
         "{json}"
     );
+    assert!(json.contains("with a gain of 0.000"), "{json}");
     assert!(
         json.contains("0.001x the distance localization saw"),
         "{json}"
