@@ -295,8 +295,7 @@ impl Report {
                 let path = dir.join(format!("{name}.{ext}"));
                 outputs.write_with(&path, |temp| {
                     if ext == "png" {
-                        let root = BitMapBackend::new(temp, self.options.size).into_drawing_area();
-                        self.draw(name, &root)
+                        write_png(temp, self.options.size, |root| self.draw(name, root))
                     } else {
                         let root = SVGBackend::new(temp, self.options.size).into_drawing_area();
                         self.draw(name, &root)
@@ -716,6 +715,30 @@ impl Report {
         }
         s
     }
+}
+
+/// Writes a PNG figure of `size` (pixels) at `path`: drawn by `draw` into an RGB buffer,
+/// then encoded with the `png` crate.
+pub(crate) fn write_png(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> figures::DrawResult,
+) -> figures::DrawResult {
+    let (w, h) = size;
+    let mut pixels = vec![0u8; w as usize * h as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, size).into_drawing_area();
+        draw(&root)?;
+        root.present()?;
+    }
+    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let mut encoder = png::Encoder::new(file, w, h);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header()?;
+    writer.write_image_data(&pixels)?;
+    writer.finish()?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -58,8 +58,7 @@ pub fn stage(
             let path = dir.join(format!("{stem}.{ext}"));
             outputs.write_with(&path, |temp| {
                 if ext == "png" {
-                    let root = BitMapBackend::new(temp, size).into_drawing_area();
-                    paths_figure(&root, result, train)
+                    crate::write_png(temp, size, |root| paths_figure(root, result, train))
                 } else {
                     let root = SVGBackend::new(temp, size).into_drawing_area();
                     paths_figure(&root, result, train)
