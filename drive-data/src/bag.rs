@@ -381,7 +381,16 @@ fn decode(ty: &str, bytes: &[u8], joint: Option<&str>) -> Result<Value, String> 
                 body.len()
             ))
         }
-        "std_msgs/msg/String" => Value::Text(read::<Data<String>>(body, little)?.data),
+        "std_msgs/msg/String" => {
+            let text = read::<Data<String>>(body, little)?.data;
+            if text.len() > MAX_BAG_NAME_BYTES {
+                return Err(format!(
+                    "a text of {} bytes, more than the {MAX_BAG_NAME_BYTES} read",
+                    text.len()
+                ));
+            }
+            Value::Text(text)
+        }
         "std_msgs/msg/Float64" => Value::Number(read::<Data<f64>>(body, little)?.data),
         "nav_msgs/msg/Odometry" => pose(read::<Odometry>(body, little)?.pose),
         // A PoseWithCovarianceStamped starts like a PoseStamped (the covariance follows).
@@ -500,7 +509,6 @@ impl Collected {
         let mut schemas: std::collections::HashMap<u16, String> = Default::default();
         let mut channels: std::collections::HashMap<u16, (String, String, String)> =
             Default::default();
-        let mut past_data_end = false;
         let mut n = 0usize;
         let damaged = |n: usize, e: &mcap::McapError| {
             let why = match e {
@@ -511,8 +519,7 @@ impl Collected {
                     format!("damaged after its first {n} messages: {e}")
                 }
                 _ => format!(
-                    "cannot read record {} ({e}; a truncated or damaged file, or a record beyond the {} MB read?)",
-                    n + 1,
+                    "cannot read on after its first {n} messages ({e}; a truncated or damaged file, or a record beyond the {} MB read?)",
                     MAX_BAG_RECORD_BYTES >> 20
                 ),
             };
@@ -539,22 +546,24 @@ impl Collected {
                 }
                 LinearReadEvent::Record { opcode, data } => (opcode, data),
             };
-            // The summary after the data section repeats schemas and channels: read to the
-            // end magic without keeping them.
-            if past_data_end {
-                continue;
-            }
-            if !matches!(
-                opcode,
-                op::SCHEMA | op::CHANNEL | op::MESSAGE | op::DATA_END
-            ) {
+            // Every record to the end magic is read: the summary after the data section
+            // repeats schemas and channels (the same, or refused below), and a data end
+            // record does not end the messages (one inside a chunk, or partway, is no end).
+            if !matches!(opcode, op::SCHEMA | op::CHANNEL | op::MESSAGE) {
                 continue;
             }
             let record = mcap::parse_record(opcode, data).map_err(|e| damaged(n, &e))?;
             match record {
-                Record::DataEnd(_) => past_data_end = true,
                 Record::Schema { header, .. } => {
                     let name = name_of("schema name", &header.name)?;
+                    if let Some(before) = schemas.get(&header.id) {
+                        if *before != name {
+                            return Err(fail(DataErrorKind::Inconsistent(format!(
+                                "{fname}schema {} is defined twice, as {before} and as {name}",
+                                header.id
+                            ))));
+                        }
+                    }
                     schemas.insert(header.id, name);
                 }
                 Record::Channel(channel) => {
@@ -621,6 +630,13 @@ impl Collected {
                 }
                 _ => {}
             }
+        }
+        // Nothing after the end magic (two bags joined would import as the first one).
+        let mut probe = [0u8; 1];
+        if source.read(&mut probe).is_ok_and(|read| read > 0) {
+            return Err(fail(DataErrorKind::Inconsistent(format!(
+                "{fname}bytes after the MCAP file's end (two files joined?), after its first {n} messages"
+            ))));
         }
         Ok(())
     }

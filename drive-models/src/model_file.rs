@@ -91,7 +91,7 @@ pub fn model_to_json(
 /// A parse error inside the file's `root` field (whose JSON is `value`), with the path to
 /// the value it concerns (`model.model.powertrain.dt: invalid type: ...`). Inside a plug-in
 /// part (typetag's internally tagged objects, read through a buffer) serde loses the path:
-/// the value the error names (a string, number or boolean) is then looked up in `value`,
+/// the value the error names (a string, number, boolean or null) is then looked up in `value`,
 /// and its path given when exactly one leaf holds it.
 fn at_path(root: &str, value: &Value, e: &serde_path_to_error::Error<serde_json::Error>) -> String {
     let path = e.path().to_string();
@@ -123,6 +123,9 @@ fn located(value: &Value, message: &str) -> Option<String> {
         serde_json::from_str::<Value>(&number).ok()?
     } else if let Some(flag) = between("boolean `", "`") {
         Value::Bool(flag == "true")
+    } else if message.contains("invalid type: null") || message.contains("invalid type: unit value")
+    {
+        Value::Null
     } else {
         return None;
     };

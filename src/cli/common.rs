@@ -312,7 +312,10 @@ where
                 | ErrorKind::DisplayVersion
                 | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
         ) {
-            let _ = e.print();
+            // Help that could not be written (`--help > /dev/full`) is a failure.
+            if e.print().is_err() {
+                return ExitCode::FAILURE;
+            }
             return if e.exit_code() == 0 {
                 ExitCode::SUCCESS
             } else {

@@ -194,8 +194,15 @@ fn damaged_and_crafted_bags_are_refused_before_anything_is_allocated_for_them() 
         crafted[9..17].copy_from_slice(&length.to_le_bytes());
         let p = write("crafted.mcap", &crafted);
         let err = user_error(&import("--bag", &p, &out, &[]));
-        assert!(err.contains("cannot read record 1"), "{err}");
+        assert!(
+            err.contains("cannot read on after its first 0 messages"),
+            "{err}"
+        );
     }
+    // Two bags joined end to end: refused, rather than read as the first one.
+    let joined = write("joined.mcap", &[bytes.clone(), bytes.clone()].concat());
+    let err = user_error(&import("--bag", &joined, &out, &[]));
+    assert!(err.contains("two files joined"), "{err}");
     // The fixture's chunks carry no CRC (0: rosbags writes none). Given the first chunk its
     // CRC, the bag reads; a byte flipped inside the chunk's records is then refused.
     let chunk = 8 + 9 + 26; // after the magic and the 26-byte header record

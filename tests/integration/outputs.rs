@@ -697,6 +697,7 @@ fn a_standard_error_that_cannot_be_written_is_no_panic() {
         ("protocol --intervals 0 2>/dev/full", 2), // an argument error
         ("eval >/dev/full 2>/dev/full", 1),
         ("list >/dev/full", 1),
+        ("--help >/dev/full", 1),
     ] {
         let out = Command::new("sh")
             .arg("-c")
