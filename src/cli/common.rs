@@ -225,10 +225,42 @@ pub fn outputs_for(
     planned: &[(&str, &Path)],
 ) -> Result<Outputs> {
     stdout_not_an_input(inputs)?;
+    stdout_not_an_output(planned)?;
     let inputs: Vec<(&str, &Path)> = inputs.iter().map(|(r, p)| (*r, p.as_path())).collect();
     let outputs = Outputs::new(&inputs);
     outputs.check(planned)?;
     Ok(outputs)
+}
+
+/// `Err` when the standard output is a file the command is about to replace (`drive import
+/// ... --out run.csv --json > run.csv`): the output would be renamed over it and the
+/// printed report lost without a word.
+fn stdout_not_an_output(planned: &[(&str, &Path)]) -> Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        let Ok(out) = std::fs::metadata("/dev/stdout") else {
+            return Ok(());
+        };
+        if !out.is_file() {
+            return Ok(());
+        }
+        for (role, path) in planned {
+            // `--per-window /dev/stdout` is written into, never renamed over: no loss.
+            if path.starts_with("/dev") || path.starts_with("/proc") {
+                continue;
+            }
+            if std::fs::metadata(path).is_ok_and(|m| m.dev() == out.dev() && m.ino() == out.ino()) {
+                anyhow::bail!(
+                    "the standard output is {}, the output {role}: what is printed would be replaced by that file; redirect the output to another file",
+                    path.display()
+                );
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = planned;
+    Ok(())
 }
 
 /// Loads the dataset the arguments name (the bundled Husky data by default), with its

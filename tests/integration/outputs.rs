@@ -579,6 +579,25 @@ fn a_redirect_onto_an_input_is_named() {
             "{err}"
         );
     }
+    // The standard output onto the command's own output: refused, before anything is
+    // written.
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "exec '{}' import --raw '{}' --robot warthog --out '{}' --json > '{}'",
+            env!("CARGO_BIN_EXE_drive"),
+            at("raw.csv"),
+            at("own.csv"),
+            at("own.csv")
+        ))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("the standard output is") && err.contains("the output --out"),
+        "{err}"
+    );
     // The standard error onto an input (`2> data.meta.json`): the message lands in that
     // file, and says what happened to it.
     ok(&[
