@@ -128,21 +128,12 @@ fn measured<R>(f: impl FnOnce() -> R) -> R {
     r
 }
 
-/// The fit a rollout workload needs first (not counted).
-#[inline(never)]
-fn setup_fit(learner: &Composed, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, String> {
+fn fit(learner: &Composed, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, String> {
     let model = learner.fit(train).map_err(|e| e.to_string())?;
     Ok(Box::new(model))
 }
 
-#[inline(never)]
-fn measured_fit(learner: &Composed, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, String> {
-    let model = learner.fit(train).map_err(|e| e.to_string())?;
-    Ok(Box::new(model))
-}
-
-#[inline(never)]
-fn measured_rollouts(model: &dyn MotionModel, starts: &[StartState], commands: &[Input]) {
+fn rollouts(model: &dyn MotionModel, starts: &[StartState], commands: &[Input]) {
     let mut poses = Vec::with_capacity(40);
     for (start, c) in starts.iter().zip(commands.chunks(40)) {
         model.predict_into(black_box(start), black_box(c), &mut poses);
@@ -150,8 +141,7 @@ fn measured_rollouts(model: &dyn MotionModel, starts: &[StartState], commands: &
     }
 }
 
-#[inline(never)]
-fn measured_covariances(
+fn covariances(
     model: &dyn MotionModel,
     starts: &[StartState],
     commands: &[Input],
@@ -166,8 +156,7 @@ fn measured_covariances(
     Ok(())
 }
 
-#[inline(never)]
-fn measured_batch(
+fn batch(
     model: &dyn MotionModel,
     starts: &[StartState],
     commands: &[Input],
@@ -204,30 +193,30 @@ fn run(name: &str) -> Result<(), String> {
     );
     match name {
         "train/slip-blr" => {
-            black_box(measured(|| measured_fit(&blr, &full))?);
+            black_box(measured(|| fit(&blr, &full))?);
         }
         "train/slip-ipem" => {
-            black_box(measured(|| measured_fit(&ipem_guard, &short))?);
+            black_box(measured(|| fit(&ipem_guard, &short))?);
         }
         "rollout/slip-blr" | "rollout/slip-ipem" => {
             let model = if name == "rollout/slip-blr" {
-                setup_fit(&blr, &full)?
+                fit(&blr, &full)?
             } else {
-                setup_fit(&ipem_setup, &tiny)?
+                fit(&ipem_setup, &tiny)?
             };
             let (starts, commands) = sequences(&data, 2_000)?;
-            measured(|| measured_rollouts(model.as_ref(), &starts, &commands));
+            measured(|| rollouts(model.as_ref(), &starts, &commands));
         }
         "covariance/slip-ipem" => {
-            let model = setup_fit(&ipem_setup, &tiny)?;
+            let model = fit(&ipem_setup, &tiny)?;
             let (starts, commands) = sequences(&data, 20)?;
-            measured(|| measured_covariances(model.as_ref(), &starts, &commands))?;
+            measured(|| covariances(model.as_ref(), &starts, &commands))?;
         }
         "batch/slip-blr" => {
-            let model = setup_fit(&blr, &full)?;
+            let model = fit(&blr, &full)?;
             let (starts, commands) = sequences(&data, 10_000)?;
             let mut poses = vec![Pose::zeros(); commands.len()];
-            measured(|| measured_batch(model.as_ref(), &starts, &commands, black_box(&mut poses)))?;
+            measured(|| batch(model.as_ref(), &starts, &commands, black_box(&mut poses)))?;
             black_box(&poses);
         }
         other => {

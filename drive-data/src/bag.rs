@@ -473,6 +473,15 @@ fn joint_index(names: &[String], joint: Option<&str>) -> Result<usize, String> {
 }
 
 /// What the messages of a bag's files give: every selected message, and what the bag holds.
+/// What the reader keeps of a bag's channel: its topic, its schema's name (the message type,
+/// empty without a schema) and its message encoding.
+#[derive(PartialEq)]
+struct Channel {
+    topic: String,
+    ty: String,
+    encoding: String,
+}
+
 #[derive(Default)]
 struct Collected {
     /// (log_time, entry, value) of every selected message.
@@ -507,8 +516,7 @@ impl Collected {
         let mut reader = LinearReader::new_with_options(options);
         // schema id -> name; channel id -> (topic, schema name, encoding).
         let mut schemas: std::collections::HashMap<u16, String> = Default::default();
-        let mut channels: std::collections::HashMap<u16, (String, String, String)> =
-            Default::default();
+        let mut channels: std::collections::HashMap<u16, Channel> = Default::default();
         let mut n = 0usize;
         let damaged = |n: usize, e: &mcap::McapError| {
             let why = match e {
@@ -582,16 +590,16 @@ impl Collected {
                             )))
                         })?
                     };
-                    let entry = (
-                        name_of("topic name", &channel.topic)?,
+                    let entry = Channel {
+                        topic: name_of("topic name", &channel.topic)?,
                         ty,
-                        name_of("message encoding", &channel.message_encoding)?,
-                    );
+                        encoding: name_of("message encoding", &channel.message_encoding)?,
+                    };
                     if let Some(before) = channels.get(&channel.id) {
                         if *before != entry {
                             return Err(fail(DataErrorKind::Inconsistent(format!(
                                 "{fname}channel {} is defined twice, as {} and as {}",
-                                channel.id, before.0, entry.0
+                                channel.id, before.topic, entry.topic
                             ))));
                         }
                     }
@@ -605,28 +613,19 @@ impl Collected {
                             "{fname}more than {MAX_BAG_MESSAGES} messages on all its topics: ros2 bag filter the DRIVE topics out first"
                         ))));
                     }
-                    let (topic, ty, encoding) =
-                        channels.get(&header.channel_id).ok_or_else(|| {
+                    let channel = channels.get(&header.channel_id).ok_or_else(|| {
                             fail(DataErrorKind::Inconsistent(format!(
                                 "{fname}message {n} is on channel {}, which the bag does not define before it",
                                 header.channel_id
                             )))
                         })?;
-                    if !self.seen.contains_key(topic) {
-                        self.seen
-                            .insert(topic.clone(), (ty.clone(), encoding.clone()));
+                    if !self.seen.contains_key(&channel.topic) {
+                        self.seen.insert(
+                            channel.topic.clone(),
+                            (channel.ty.clone(), channel.encoding.clone()),
+                        );
                     }
-                    self.message(
-                        n,
-                        header.log_time,
-                        &data,
-                        topic,
-                        ty,
-                        encoding,
-                        fname,
-                        topics,
-                        fail,
-                    )?;
+                    self.message(n, header.log_time, &data, channel, fname, topics, fail)?;
                 }
                 _ => {}
             }
@@ -641,21 +640,25 @@ impl Collected {
         Ok(())
     }
 
-    /// Decodes message `n` (received at `log_time`, on `topic` of type `ty`) when one of
-    /// `topics` selects it.
+    /// Decodes message `n` (received at `log_time` on `channel`) when one of `topics`
+    /// selects it.
     #[allow(clippy::too_many_arguments)]
     fn message(
         &mut self,
         n: usize,
         log_time: u64,
         data: &[u8],
-        topic: &str,
-        ty: &str,
-        encoding: &str,
+        channel: &Channel,
         fname: &str,
         topics: &BagTopics,
         fail: &dyn Fn(DataErrorKind) -> DataError,
     ) -> Result<(), DataError> {
+        let Channel {
+            topic,
+            ty,
+            encoding,
+        } = channel;
+        let ty = ty.as_str();
         for (i, (key, signal, wanted, joint)) in topics.entries.iter().enumerate() {
             if wanted != topic {
                 continue;

@@ -176,40 +176,46 @@ pub fn check_max_samples(max_samples: usize) -> Result<()> {
     Ok(())
 }
 
-/// `Err` when the standard output or error is one of `inputs` (`drive eval --data run.csv
-/// --json > run.meta.json`): the shell emptied that file before the command started, and its reader would
-/// only say it is empty. Compared by device and inode, so a link or another path to the
-/// same file counts.
-pub fn stdout_not_an_input(inputs: &[(&'static str, PathBuf)]) -> Result<()> {
-    #[cfg(unix)]
-    // The standard error too (`2> run.json`): the message then lands in that file, which
-    // at least says what happened to it.
-    for (stream, device) in [
+/// The standard streams the shell redirected to a regular file (`> file`, `2> file`): the
+/// stream's name and the file's metadata.
+#[cfg(unix)]
+fn streams_in_files() -> Vec<(&'static str, std::fs::Metadata)> {
+    [
         ("standard output", "/dev/stdout"),
         ("standard error", "/dev/stderr"),
-    ] {
-        use std::os::unix::fs::MetadataExt as _;
-        let Ok(out) = std::fs::metadata(device) else {
-            continue;
-        };
-        if !out.is_file() {
-            continue;
-        }
-        for (role, path) in inputs {
-            let same =
-                std::fs::metadata(path).is_ok_and(|m| m.dev() == out.dev() && m.ino() == out.ino());
-            if same {
-                // `>` empties the file before drive starts; `>>` would write onto its end.
-                let what = if out.len() == 0 {
-                    "the shell emptied it before drive started (its content is gone: restore it, or re-create it with the command that wrote it)"
-                } else {
-                    "the output would be written onto its end"
-                };
-                anyhow::bail!(
-                    "the {stream} is {}, the input {role}: {what}; redirect the output to another file",
-                    path.display()
-                );
-            }
+    ]
+    .into_iter()
+    .filter_map(|(stream, device)| Some((stream, std::fs::metadata(device).ok()?)))
+    .filter(|(_, m)| m.is_file())
+    .collect()
+}
+
+/// Whether `path` is the file `stream` writes to (by device and inode, so that a link or
+/// another path to the same file counts).
+#[cfg(unix)]
+fn is_stream_file(stream: &std::fs::Metadata, path: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt as _;
+    std::fs::metadata(path).is_ok_and(|m| m.dev() == stream.dev() && m.ino() == stream.ino())
+}
+
+/// `Err` when the standard output or error is one of `inputs` (`drive eval --data run.csv
+/// --json > run.meta.json`): the shell emptied that file before the command started, and
+/// its reader would only say it is empty. The standard error too (`2> run.meta.json`): the
+/// message then lands in that file, which at least says what happened to it.
+pub fn stdout_not_an_input(inputs: &[(&'static str, PathBuf)]) -> Result<()> {
+    #[cfg(unix)]
+    for (stream, out) in streams_in_files() {
+        if let Some((role, path)) = inputs.iter().find(|(_, p)| is_stream_file(&out, p)) {
+            // `>` empties the file before drive starts; `>>` would write onto its end.
+            let what = if out.len() == 0 {
+                "the shell emptied it before drive started (its content is gone: restore it, or re-create it with the command that wrote it)"
+            } else {
+                "the output would be written onto its end"
+            };
+            anyhow::bail!(
+                "the {stream} is {}, the input {role}: {what}; redirect the output to another file",
+                path.display()
+            );
         }
     }
     #[cfg(not(unix))]
@@ -237,25 +243,19 @@ pub fn outputs_for(
 /// printed report lost without a word.
 fn stdout_not_an_output(planned: &[(&str, &Path)]) -> Result<()> {
     #[cfg(unix)]
+    for (_, out) in streams_in_files()
+        .into_iter()
+        .filter(|(stream, _)| *stream == "standard output")
     {
-        use std::os::unix::fs::MetadataExt as _;
-        let Ok(out) = std::fs::metadata("/dev/stdout") else {
-            return Ok(());
-        };
-        if !out.is_file() {
-            return Ok(());
-        }
-        for (role, path) in planned {
-            // `--per-window /dev/stdout` is written into, never renamed over: no loss.
-            if path.starts_with("/dev") || path.starts_with("/proc") {
-                continue;
-            }
-            if std::fs::metadata(path).is_ok_and(|m| m.dev() == out.dev() && m.ino() == out.ino()) {
-                anyhow::bail!(
-                    "the standard output is {}, the output {role}: what is printed would be replaced by that file; redirect the output to another file",
-                    path.display()
-                );
-            }
+        // `--per-window /dev/stdout` is written into, never renamed over: no loss.
+        let replaced = planned.iter().find(|(_, p)| {
+            !(p.starts_with("/dev") || p.starts_with("/proc")) && is_stream_file(&out, p)
+        });
+        if let Some((role, path)) = replaced {
+            anyhow::bail!(
+                "the standard output is {}, the output {role}: what is printed would be replaced by that file; redirect the output to another file",
+                path.display()
+            );
         }
     }
     #[cfg(not(unix))]

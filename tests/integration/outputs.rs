@@ -531,6 +531,16 @@ fn standard_streams_and_pipes_are_written_into_not_replaced() {
     }
 }
 
+/// Runs `drive COMMAND` through the shell, which applies the redirections written in
+/// `command` (`> file`, `2> file`, `>> file`) before drive starts.
+fn drive_in_shell(command: &str) -> std::process::Output {
+    Command::new("sh")
+        .arg("-c")
+        .arg(format!("exec '{}' {command}", env!("CARGO_BIN_EXE_drive")))
+        .output()
+        .expect("sh runs")
+}
+
 /// Issue 35: `drive eval --data run.csv --json > run.meta.json` (the shell empties the sidecar
 /// before drive starts) says what happened, rather than that the sidecar is empty.
 #[cfg(unix)]
@@ -539,6 +549,10 @@ fn a_redirect_onto_an_input_is_named() {
     let dir = tempfile::tempdir().unwrap();
     fixtures(dir.path());
     let at = |n: &str| s(&dir.path().join(n));
+    let dataset = (
+        std::fs::read(dir.path().join("data.csv")).unwrap(),
+        std::fs::read(dir.path().join("data.meta.json")).unwrap(),
+    );
     for (command, target, says) in [
         (
             format!("eval --data '{}' --json", at("data.csv")),
@@ -560,14 +574,7 @@ fn a_redirect_onto_an_input_is_named() {
             "the input --model",
         ),
     ] {
-        let out = Command::new("sh")
-            .arg("-c")
-            .arg(format!(
-                "exec '{}' {command} > '{target}'",
-                env!("CARGO_BIN_EXE_drive")
-            ))
-            .output()
-            .unwrap();
+        let out = drive_in_shell(&format!("{command} > '{target}'"));
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{command}: {err}");
         assert!(
@@ -581,17 +588,12 @@ fn a_redirect_onto_an_input_is_named() {
     }
     // The standard output onto the command's own output: refused, before anything is
     // written.
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg(format!(
-            "exec '{}' import --raw '{}' --robot warthog --out '{}' --json > '{}'",
-            env!("CARGO_BIN_EXE_drive"),
-            at("raw.csv"),
-            at("own.csv"),
-            at("own.csv")
-        ))
-        .output()
-        .unwrap();
+    let out = drive_in_shell(&format!(
+        "import --raw '{}' --robot warthog --out '{}' --json > '{}'",
+        at("raw.csv"),
+        at("own.csv"),
+        at("own.csv")
+    ));
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
@@ -600,29 +602,14 @@ fn a_redirect_onto_an_input_is_named() {
     );
     // The standard error onto an input (`2> data.meta.json`): the message lands in that
     // file, and says what happened to it.
-    ok(&[
-        "simulate",
-        "--robot",
-        "warthog",
-        "--terrain",
-        "gravel",
-        "--duration",
-        "60",
-        "--seed",
-        "1",
-        "--out",
-        &at("data.csv"),
-    ]);
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg(format!(
-            "exec '{}' eval --data '{}' 2> '{}'",
-            env!("CARGO_BIN_EXE_drive"),
-            at("data.csv"),
-            at("data.meta.json")
-        ))
-        .output()
-        .unwrap();
+    // (The dataset as the fixtures wrote it: the redirections above emptied it.)
+    std::fs::write(dir.path().join("data.csv"), &dataset.0).unwrap();
+    std::fs::write(dir.path().join("data.meta.json"), &dataset.1).unwrap();
+    let out = drive_in_shell(&format!(
+        "eval --data '{}' 2> '{}'",
+        at("data.csv"),
+        at("data.meta.json")
+    ));
     assert_eq!(out.status.code(), Some(1));
     let written = std::fs::read_to_string(dir.path().join("data.meta.json")).unwrap();
     assert!(
@@ -636,17 +623,12 @@ fn a_redirect_onto_an_input_is_named() {
     let before = std::fs::read(&commands).unwrap();
     let model = dir.path().join("model2.json");
     ok(&["train", "--model", "naive", "--out", &s(&model)]);
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg(format!(
-            "exec '{}' predict --model '{}' --commands '{}' >> '{}'",
-            env!("CARGO_BIN_EXE_drive"),
-            s(&model),
-            s(&commands),
-            s(&commands)
-        ))
-        .output()
-        .unwrap();
+    let out = drive_in_shell(&format!(
+        "predict --model '{}' --commands '{}' >> '{}'",
+        s(&model),
+        s(&commands),
+        s(&commands)
+    ));
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
@@ -667,16 +649,11 @@ fn json_redirected_to_the_csvs_name_replaces_no_sidecar() {
     let at = |n: &str| s(&dir.path().join(n));
     let sidecar = std::fs::read(dir.path().join("data.meta.json")).unwrap();
     assert!(!dir.path().join("data.json").exists());
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg(format!(
-            "exec '{}' eval --data '{}' --json > '{}'",
-            env!("CARGO_BIN_EXE_drive"),
-            at("data.csv"),
-            at("data.json")
-        ))
-        .output()
-        .unwrap();
+    let out = drive_in_shell(&format!(
+        "eval --data '{}' --json > '{}'",
+        at("data.csv"),
+        at("data.json")
+    ));
     assert!(
         out.status.success(),
         "{}",
@@ -718,11 +695,7 @@ fn a_standard_error_that_cannot_be_written_is_no_panic() {
         ("list >/dev/full", 1),
         ("--help >/dev/full", 1),
     ] {
-        let out = Command::new("sh")
-            .arg("-c")
-            .arg(format!("exec '{}' {command}", env!("CARGO_BIN_EXE_drive")))
-            .output()
-            .unwrap();
+        let out = drive_in_shell(command);
         assert_eq!(out.status.code(), Some(code), "{command}");
     }
 }
