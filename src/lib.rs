@@ -48,4 +48,5 @@ pub mod bundled;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod fuzz;
+pub mod import;
 pub mod suite;

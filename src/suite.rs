@@ -11,16 +11,13 @@
 //! ```
 
 use crate::data::suite::{SuiteEntry, SuiteError, SuiteSource};
-use crate::data::{
-    import_raw, raw_columns, read_bag, read_dataset, read_raw_log, BagTopics, DataError,
-    ImportConfig,
-};
+use crate::data::{read_dataset, DataError};
 use crate::eval::BenchInput;
-use crate::samplers::{window_len, BodySize, RobotError, RobotSpec};
-use crate::traits::{Dataset, PositionFrame, RobotDescription};
+use crate::import::{import_recording, ImportError, ImportOptions, Imported, Recording};
+use crate::samplers::{BodySize, RobotError, RobotSpec};
+use crate::traits::Dataset;
 use crate::Registries;
 use rayon::prelude::*;
-use std::sync::Arc;
 use thiserror::Error;
 
 /// Why a dataset of a suite could not be loaded.
@@ -223,35 +220,26 @@ fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput,
         SuiteSource::Raw(path) | SuiteSource::Bag { path, .. } => {
             // The suite's parser requires a robot for a raw log or a bag.
             let robot = entry.robot.as_deref().unwrap_or_default();
-            let spec = registries.robot(robot).map_err(|e| robot_error(e.into()))?;
-            let log = match &entry.source {
-                SuiteSource::Bag { topics, .. } => {
-                    let mut t = BagTopics::drive_logger(spec.vehicle.as_ref());
-                    for a in topics {
-                        t.set(a).map_err(|message| SuiteLoadError::Import {
-                            name: name.clone(),
-                            message,
-                        })?;
-                    }
-                    read_bag(path, &t)
-                }
-                _ => read_raw_log(path, &raw_columns(spec.vehicle.as_ref())),
-            }
-            .map_err(data_error)?;
-            let description = RobotDescription {
-                name: name.clone(),
-                robot: spec.name.clone(),
-                rate_hz: spec.rate_hz,
-                window_len: window_len(&spec),
-                vehicle: Arc::clone(&spec.vehicle),
-                position_frame: PositionFrame::FirstSample,
+            let recording = match &entry.source {
+                SuiteSource::Bag { topics, .. } => Recording::Bag { path, topics },
+                _ => Recording::Raw(path),
+            };
+            let options = ImportOptions {
+                name: Some(name.clone()),
                 terrain: entry.terrain.clone().unwrap_or_default(),
+                ..ImportOptions::default()
             };
-            let config = ImportConfig {
-                input_limits: Some(spec.input_space()),
-                ..ImportConfig::default()
-            };
-            let (data, report) = import_raw(&log, &description, &config).map_err(data_error)?;
+            let Imported {
+                dataset: data,
+                report,
+            } = import_recording(registries, &recording, robot, &options).map_err(|e| match e {
+                ImportError::Robot(e) => robot_error(e.into()),
+                ImportError::Topic(message) => SuiteLoadError::Import {
+                    name: name.clone(),
+                    message,
+                },
+                ImportError::Data(e) => data_error(e),
+            })?;
             notes.extend(
                 report
                     .checks

@@ -1,7 +1,8 @@
 //! The DRIVE protocol runner for a Python driver (a ROS 2 node): built from a robot, a
 //! sampler name and a seed; `tick` takes what the robot measured and returns the command.
 
-use crate::{err, Dataset};
+use crate::dataset::Dataset;
+use crate::err;
 use drive::samplers::{
     build_sampler, PauseReason, ProtocolRunner as RustRunner, RobotSpec, RunnerConfig, RunnerInput,
     RunnerState, SamplerContext, SamplerError, StopReason,
@@ -245,10 +246,10 @@ impl ProtocolRunner {
             }
         }
         if let Some(e) = encoder {
-            crate::finite("encoder", &e)?;
+            crate::args::finite("encoder", &e)?;
         }
         if let Some(p) = pose {
-            crate::finite("pose", &p)?;
+            crate::args::finite("pose", &p)?;
         }
         self.last_t = Some(t);
         let out = self.runner.tick(&RunnerInput {

@@ -1,7 +1,10 @@
 //! The closed loop's online path follower for a Python driver (a ROS 2 node): a fitted
 //! model inside the MPPI controller, ticked with what the robot measured.
 
-use crate::{err, number_of, start_info_of, type_name, Model};
+use crate::args::{number_of, type_name};
+use crate::err;
+use crate::evaluate::start_info_of;
+use crate::model::Model;
 use drive::control::{
     ControlSetup, InputMap, MakeController, Mppi, PathShape, ReferencePath, Tracker as RustTracker,
     TrackerConfig,
@@ -29,7 +32,7 @@ fn path_of(py: Python<'_>, obj: &Bound<'_, PyAny>, scale: f64) -> PyResult<Refer
         let shape = PathShape::parse(&name).map_err(err)?;
         return shape.at_scale(scale).map_err(err);
     }
-    let a = crate::float_array(py, "path", "(N, 2)", obj, 2)?;
+    let a = crate::args::float_array(py, "path", "(N, 2)", obj, 2)?;
     let a: PyReadonlyArray2<'_, f64> = a.extract()?;
     if a.shape()[1] != 2 {
         return Err(err(format!(
@@ -156,16 +159,16 @@ impl Tracker {
     ) -> PyResult<Bound<'py, PyDict>> {
         let t = number_of("t", "a time in s", t)?;
         if let Some(last) = self.last_t {
-            if !(t > last) {
+            if t.partial_cmp(&last) != Some(std::cmp::Ordering::Greater) {
                 return Err(err(format!(
                     "t = {t} does not come after the last tick's {last}"
                 )));
             }
         }
-        let inputs: [f64; 2] = crate::numbers_of("inputs", Some(inputs))?;
+        let inputs: [f64; 2] = crate::args::numbers_of("inputs", Some(inputs))?;
         let pose: Option<[f64; 3]> = pose
             .filter(|p| !p.is_none())
-            .map(|p| crate::numbers_of("pose", Some(p)))
+            .map(|p| crate::args::numbers_of("pose", Some(p)))
             .transpose()?;
         let imu = imu_yaw_rate
             .filter(|w| !w.is_none())

@@ -1,8 +1,8 @@
 """The closed loop from Python: `drive.Tracker` (a fitted model inside the MPPI controller of
 `drive track`) on a small simulated robot, its errors, and the ROS 2 path-following node
-(examples/ros2/drive_track_*.py) with fake messages and a fake rclpy."""
+(examples/ros2/drive_ros/track_*.py) with fake messages and a fake rclpy."""
 
-import importlib.util
+import importlib
 import math
 import sys
 import types
@@ -17,12 +17,15 @@ import drive
 ROS2 = FsPath(__file__).resolve().parents[2] / "examples" / "ros2"
 
 
+sys.path.insert(0, str(ROS2))
+
+
 def load(name):
-    spec = importlib.util.spec_from_file_location(name, ROS2 / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
+    """The module drive_ros.NAME of the ROS 2 package, executed afresh (with the fake ROS
+    modules of the test that asks, if any)."""
+    for module in [m for m in sys.modules if m.startswith("drive_ros.")]:
+        del sys.modules[module]
+    return importlib.import_module(f"drive_ros.{name}")
 
 
 @pytest.fixture(scope="module")
@@ -145,8 +148,8 @@ def joint_state(left, right):
 
 @pytest.fixture
 def logic_module():
-    load("drive_protocol_logic")
-    return load("drive_track_logic")
+    load("protocol_logic")
+    return load("track_logic")
 
 
 def drive_node_logic(logic, robot, seconds, pressed=True, odom=True):
@@ -226,7 +229,7 @@ def fake_ros(monkeypatch, logic_module):
     FakeNode.clock = [0.0]
     FakeNode.overrides = {}
     FakeNode.made = []
-    return load("drive_track_node"), FakeNode
+    return load("track_node"), FakeNode
 
 
 def test_the_track_node_wires_topics_and_needs_a_model(fake_ros, model_file):
@@ -254,5 +257,5 @@ def test_the_track_node_wires_topics_and_needs_a_model(fake_ros, model_file):
 
 
 def test_the_ros2_package_files_are_valid():
-    for name in ("drive_track_node.py", "drive_track_logic.py"):
-        compile((ROS2 / name).read_text(), name, "exec")
+    for path in [*(ROS2 / "drive_ros").glob("*.py"), *(ROS2 / "launch").glob("*.py"), ROS2 / "setup.py"]:
+        compile(path.read_text(), path.name, "exec")

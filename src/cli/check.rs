@@ -1,7 +1,8 @@
 //! `drive check`: the data-quality checks of `drive import` on a window CSV.
 
 use super::common::{load, DataArgs};
-use crate::data::quality::{check, to_text, Finding, Severity, CHECKS};
+use crate::data::quality::{check, to_text, CHECKS};
+use crate::import::stopping;
 use crate::Registries;
 use anyhow::{bail, Result};
 
@@ -33,13 +34,6 @@ pub fn known_checks(names: &[String]) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// The first fatal finding not allowed.
-pub fn stopping<'a>(findings: &'a [Finding], allow: &[String]) -> Option<&'a Finding> {
-    findings
-        .iter()
-        .find(|f| f.severity == Severity::Fatal && !allow.iter().any(|a| a == f.check))
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {

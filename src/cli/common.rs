@@ -9,7 +9,6 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::ffi::OsString;
 use std::io::IsTerminal as _;
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -330,7 +329,7 @@ pub fn take_notes() -> Vec<String> {
 
 /// Parses the command line; an argument error is reported on one line (clap's own message
 /// without the usage block), help and version are printed as usual.
-pub fn parse<C, I, T>(args: I) -> Result<C, ExitCode>
+pub fn parse<C, I, T>(args: I) -> Result<C, u8>
 where
     C: clap::Parser,
     I: IntoIterator<Item = T>,
@@ -346,13 +345,9 @@ where
         ) {
             // Help that could not be written (`--help > /dev/full`) is a failure.
             if e.print().is_err() {
-                return ExitCode::FAILURE;
+                return 1;
             }
-            return if e.exit_code() == 0 {
-                ExitCode::SUCCESS
-            } else {
-                ExitCode::from(2)
-            };
+            return if e.exit_code() == 0 { 0 } else { 2 };
         }
         let text = e.render().to_string();
         let message: Vec<&str> = text
@@ -362,7 +357,7 @@ where
             .filter(|l| !l.is_empty())
             .collect();
         say!("{} (see drive --help)", message.join(" "));
-        ExitCode::from(2)
+        2
     })
 }
 

@@ -2,15 +2,11 @@
 //! CSV and sidecar. The keep/drop report goes to stdout (text, or JSON with `--json`);
 //! errors to stderr.
 
-use crate::data::{
-    import_raw, raw_columns, read_bag, read_raw_log, stage_dataset, BagTopics, ImportConfig,
-};
-use crate::samplers::window_len;
-use crate::traits::RobotDescription;
+use crate::data::stage_dataset;
+use crate::import::{import_recording, stopping, ImportOptions, Imported, Recording};
 use crate::Registries;
 use anyhow::{bail, Result};
 use std::path::PathBuf;
-use std::sync::Arc;
 
 #[derive(clap::Args)]
 #[command(group(clap::ArgGroup::new("source").required(true).args(["raw", "bag"])))]
@@ -82,37 +78,25 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &inputs,
         &[("--out", &args.out), ("sidecar of --out", &sidecar)],
     )?;
-    let spec = registries.robot(&args.robot)?;
-    let config = ImportConfig {
+    let recording = match &args.bag {
+        Some(path) => Recording::Bag {
+            path,
+            topics: &args.topic,
+        },
+        None => Recording::Raw(&source),
+    };
+    let options = ImportOptions {
         max_gap_s: args.max_gap,
         localization_timeout_s: args.localization_timeout,
-        input_limits: Some(spec.input_space()),
+        terrain: args.terrain.clone(),
+        name: None,
     };
-    let log = if args.bag.is_some() {
-        let mut topics = BagTopics::drive_logger(spec.vehicle.as_ref());
-        for t in &args.topic {
-            topics.set(t).map_err(anyhow::Error::msg)?;
-        }
-        read_bag(&source, &topics)?
-    } else {
-        read_raw_log(&source, &raw_columns(spec.vehicle.as_ref()))?
-    };
-    let stem = source
-        .file_stem()
-        .map_or("raw".into(), |s| s.to_string_lossy().into_owned());
-    let description = RobotDescription {
-        name: stem,
-        robot: spec.name.clone(),
-        rate_hz: spec.rate_hz,
-        window_len: window_len(&spec),
-        vehicle: Arc::clone(&spec.vehicle),
-        // Poses are re-based on the first sample of each window (position and yaw).
-        position_frame: crate::traits::PositionFrame::FirstSample,
-        terrain: args.terrain.trim().to_string(),
-    };
-    let (data, report) = import_raw(&log, &description, &config)?;
+    let Imported {
+        dataset: data,
+        report,
+    } = import_recording(registries, &recording, &args.robot, &options)?;
     let failure = report.nothing_usable().or_else(|| {
-        super::check::stopping(&report.checks, &args.allow).map(|f| {
+        stopping(&report.checks, &args.allow).map(|f| {
             format!(
                 "{}: check {}: {} (--allow {} to import anyway)",
                 source.display(),

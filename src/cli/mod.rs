@@ -157,6 +157,23 @@ where
     I: IntoIterator<Item = T>,
     T: Into<OsString> + Clone,
 {
+    ExitCode::from(run_status(args, registries))
+}
+
+/// [`run`] with the exit status as a number: 0 on success, 1 on an error (reported on
+/// standard error), 2 on a command-line usage error. What a host that runs the command line
+/// in its own process (the Python package's `drive` console command) returns.
+///
+/// ```
+/// let registries = drive::Registries::builtin();
+/// assert_eq!(drive::cli::run_status(["drive", "list"], &registries), 0);
+/// assert_eq!(drive::cli::run_status(["drive", "no-such-command"], &registries), 2);
+/// ```
+pub fn run_status<I, T>(args: I, registries: &Registries) -> u8
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
     let cli = match common::parse::<Cli, _, _>(args) {
         Ok(cli) => cli,
         Err(code) => return code,
@@ -188,13 +205,13 @@ where
             for line in notes {
                 say!("{line}");
             }
-            ExitCode::SUCCESS
+            0
         }
         // The reader of our output has gone: nothing more to say.
-        Err(e) if e.downcast_ref::<common::ClosedPipe>().is_some() => ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<common::ClosedPipe>().is_some() => 0,
         Err(e) => {
             say!("error: {e:#}");
-            ExitCode::FAILURE
+            1
         }
     }
 }

@@ -1,8 +1,15 @@
 """DRIVE from Python: datasets, the paper's evaluation, fitted models with numpy predictions,
-and the protocol runner a ROS 2 node drives a robot with.
+and the protocol runner a ROS 2 node drives a robot with. `pip install drive-ugv` (or
+`pip install ./python`) also installs the `drive` console command: the whole command line.
 
     >>> import drive
     >>> data = drive.load_dataset()                 # the bundled Husky data
+    >>> data = drive.import_raw("raw_log.csv", "husky")  # or drive.import_bag("bag_dir", "husky")
+    >>> df, meta = data.to_pandas(), data.meta      # a DataFrame of the window CSV, the sidecar
+    >>> data = drive.Dataset.from_pandas(df, meta)
+    >>> errors = drive.per_window(data, ["naive", "slip-blr"])  # drive eval --per-window
+    >>> score = model.score(other_run)              # errors of a fitted model on any dataset
+    >>> poses, cov = model.predict(commands, return_cov=True)   # (H, 3), (H, 3, 3)
     >>> result = drive.evaluate(data)               # the dict of `drive eval --json`
     >>> model = drive.fit(data, "slip-blr", split=0.5)
     >>> poses = model.predict(commands)             # (H, 2) -> (H, 3): x, y, yaw
@@ -13,9 +20,12 @@ and the protocol runner a ROS 2 node drives a robot with.
     >>> tick = tracker.tick(0.0, (0.0, 0.0), pose=(0.0, 0.0, 0.0), imu_yaw_rate=0.0)
     >>> tick["command"], tick["done"]               # the wheel velocities to send
 
-Every user error raises `drive.DriveError` (a ValueError) with the command line's message.
+Every user error raises `drive.DriveError` (a ValueError) with the command line's message;
+a file that does not exist raises `drive.DriveFileNotFoundError`, both a `DriveError` and a
+`FileNotFoundError`.
 """
 
+import errno as _errno
 import json as _json
 import numbers as _numbers
 import os as _os
@@ -25,14 +35,148 @@ import numpy as _np
 from collections.abc import Mapping as _Mapping
 
 from . import _native
-from ._native import Command, Dataset, DriveError, Model, Tracker, fit, load_dataset, load_model
+from ._native import Command, Dataset, DriveError, Model, Tracker, fit
 from ._native import bench_json as _bench_json
 from ._native import evaluate_json as _evaluate_json
+
+
+class DriveFileNotFoundError(DriveError, FileNotFoundError):
+    """A file the call reads does not exist: a `FileNotFoundError` (errno ENOENT, the
+    `filename`) with the command line's message, and a `DriveError`."""
+
+    def __init__(self, message, filename=None):
+        super().__init__(message)
+        self.errno = _errno.ENOENT
+        self.strerror = _os.strerror(_errno.ENOENT)
+        self.filename = filename
+
+    def __str__(self):
+        return self.args[0]
+
+
+def _missing(*paths):
+    """The first of `paths` (str, os.PathLike or None) that names no file or directory."""
+    for path in paths:
+        if isinstance(path, _os.PathLike):
+            path = _os.fspath(path)
+        if isinstance(path, (str, bytes)) and not str(path).startswith("bundled:") and not _os.path.exists(path):
+            return path
+    return None
+
+
+def _reading(call, *paths):
+    """`call()`, its error a `DriveFileNotFoundError` when one of `paths` does not exist."""
+    try:
+        return call()
+    except DriveError as e:
+        missing = _missing(*paths)
+        if missing is not None:
+            raise DriveFileNotFoundError(str(e), missing) from None
+        raise
+
+
+def load_dataset(path=None, sidecar=None):
+    """The bundled Husky dataset (`path` None), a bundled dataset by name
+    ("bundled:warthog_grass_2024-08-08", see `drive list`), or a window CSV with its sidecar
+    beside it (`run.csv` -> `run.meta.json`) or at `sidecar`."""
+    return _reading(lambda: _native.load_dataset(path, sidecar), path, sidecar)
+
+
+def load_model(path):
+    """A model file written by `drive train` or `Model.save`."""
+    return _reading(lambda: _native.load_model(path), path)
+
+
+def _import(path, robot, bag, topics, max_gap, localization_timeout, terrain, allow):
+    if isinstance(robot, _os.PathLike):
+        robot = _os.fspath(robot)
+    if not isinstance(robot, str):
+        raise DriveError(f"robot must be a registered robot name or a robot TOML file, got {robot!r}")
+    for name, value in (("max_gap", max_gap), ("localization_timeout", localization_timeout)):
+        if not _is_number(value):
+            raise DriveError(f"{name} must be a number of seconds, got {value!r}")
+    if not isinstance(terrain, str):
+        raise DriveError(f"terrain must be a str, got {terrain!r}")
+    if isinstance(allow, str):
+        allow = [a.strip() for a in allow.split(",") if a.strip()]
+    allow = list(allow or [])
+    dataset, failure = _reading(
+        lambda: _native.import_recording(
+            path, robot, bag, list(topics), float(max_gap), float(localization_timeout), terrain, allow
+        ),
+        path,
+    )
+    if failure is not None:
+        raise DriveError(f"{failure}; nothing imported")
+    return dataset
+
+
+def import_raw(path, robot, *, max_gap=0.25, localization_timeout=0.5, terrain="", allow=()):
+    """A raw DRIVE logger CSV imported for `robot` (a registered robot such as "husky", or
+    a robot TOML file), as `drive import --raw PATH --robot ROBOT`: the same windows and
+    sidecar. The keep/drop report (`drive import --json`) is `dataset.import_report`; a
+    log with no usable window, or with a fatal data check not named in `allow`
+    ("not-moving", "encoders-zero", ...), raises `DriveError`. `dataset.save("run.csv")`
+    writes the command line's files."""
+    return _import(path, robot, False, [], max_gap, localization_timeout, terrain, allow)
+
+
+def import_bag(path, robot, topics=None, *, max_gap=0.25, localization_timeout=0.5, terrain="", allow=()):
+    """A rosbag2 recording in MCAP storage (its directory or a .mcap file) imported for
+    `robot`, as `drive import --bag PATH --robot ROBOT`. `topics` maps the logger's keys to
+    the bag's topics where they differ, e.g. {"odometry": "/odom", "meas_left_vel":
+    "/joint_states:left_wheel_joint"} (a dict, or a list of "KEY=/topic"; see
+    `drive import --help`). Otherwise as `import_raw`."""
+    if topics is None:
+        topics = []
+    elif isinstance(topics, _Mapping):
+        topics = [f"{k}={v}" for k, v in topics.items()]
+    elif isinstance(topics, str):
+        topics = [topics]
+    topics = list(topics)
+    if not all(isinstance(t, str) for t in topics):
+        raise DriveError(f"topics must be a dict of key -> topic, or a list of 'KEY=/topic', got {topics!r}")
+    return _import(path, robot, True, topics, max_gap, localization_timeout, terrain, allow)
+
+
+def per_window(dataset, models=None, split=0.5, start=None):
+    """The errors of each evaluation window, as `drive eval --per-window` writes them: a
+    dict of equal-length columns model, window, interval, phase, translational_m,
+    rotational_rad (`pandas.DataFrame(drive.per_window(...))`). The models (default:
+    naive, powertrain, slip-blr, acc-blr) are fitted on the first `split` of the intervals
+    and scored on the rest, predicting from `start`, as `drive.evaluate`."""
+    models = _model_names(models, split)
+    return dict(_native.per_window_columns(dataset, models, float(split), start))
+
+
+def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None):
+    """`drive report` on `dataset`: report.md and the paper's figures (PNG) in the directory
+    `out`, for the models (default: every model of `drive report`) with `model`'s
+    uncertainty figures; `robot` (a registered robot or TOML file) for the naive input
+    space's figure. Returns the path of report.md."""
+    import tempfile
+
+    models = _model_names(models, split)
+    out = _os.fspath(out)
+    with tempfile.TemporaryDirectory() as tmp:
+        csv = _os.path.join(tmp, f"{dataset.name or 'data'}.csv")
+        dataset.save(csv)
+        args = ["drive", "report", "--data", csv, "--out", out, "--split", repr(float(split)), "--model", model]
+        if models is not None:
+            args += ["--models", ",".join(models)]
+        if robot is not None:
+            args += ["--robot", _os.fspath(robot)]
+        status = _native.run_cli(args)
+    if status != 0:
+        raise DriveError(f"drive report failed (exit status {status}; its message is on standard error)")
+    return _os.path.join(out, "report.md")
+
 
 __all__ = [
     "Command",
     "Dataset",
     "DriveError",
+    "DriveFileNotFoundError",
     "Measurements",
     "Model",
     "ProtocolRunner",
@@ -40,8 +184,12 @@ __all__ = [
     "bench",
     "evaluate",
     "fit",
+    "import_bag",
+    "import_raw",
     "load_dataset",
     "load_model",
+    "per_window",
+    "report",
 ]
 
 

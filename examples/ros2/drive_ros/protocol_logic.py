@@ -1,9 +1,10 @@
-"""The logic of the DRIVE protocol node, without ROS: what `drive_protocol_node.py` wires
-to topics and a timer. Kept free of rclpy so that it can be tested with fake messages and
-a fake clock (python/tests/test_ros2_logic.py).
+"""The logic of the DRIVE protocol node, without ROS: what `protocol_node.py` wires to
+topics and a timer. Kept free of rclpy so that it can be tested with fake messages and a
+fake clock (python/tests/test_ros2.py).
 
 Messages are read by attribute, as the ROS 2 message classes lay them out:
   Joy (sensor_msgs)      .buttons, .axes          the dead-man switch
+  JointState (sensor_msgs) .name, .velocity       the wheels' measured velocities (rad/s)
   Float64 (std_msgs)     .data                    one wheel's measured velocity (rad/s)
   Odometry (nav_msgs)    .pose.pose.position.{x,y}, .pose.pose.orientation.{x,y,z,w}
 
@@ -33,6 +34,19 @@ class Output:
     state: str  # the runner's state: characterizing, driving, paused, done, error
 
 
+def joint_velocities(msg, left_joint, right_joint):
+    """(left, right) velocities of the two joints named in a JointState, or None when one
+    is missing from it."""
+    names = list(msg.name)
+    velocity = list(msg.velocity)
+    values = []
+    for joint in (left_joint, right_joint):
+        if joint not in names or names.index(joint) >= len(velocity):
+            return None
+        values.append(velocity[names.index(joint)])
+    return values[0], values[1]
+
+
 def yaw_of(q):
     """Yaw (rad) of a quaternion with attributes x, y, z, w."""
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
@@ -56,6 +70,8 @@ class ProtocolLogic:
         deadman_button=0,
         deadman_threshold=0.5,
         joy_timeout=0.5,
+        left_joint="left_wheel",
+        right_joint="right_wheel",
         **options,
     ):
         if not (joy_timeout > 0 and math.isfinite(joy_timeout)):
@@ -67,6 +83,7 @@ class ProtocolLogic:
         self.deadman_button = int(deadman_button)
         self.deadman_threshold = float(deadman_threshold)
         self.joy_timeout = float(joy_timeout)
+        self.left_joint, self.right_joint = str(left_joint), str(right_joint)
         self.error = None
         self.dropped = 0
         self._pressed = False
@@ -88,6 +105,14 @@ class ProtocolLogic:
             and buttons[self.deadman_button] >= self.deadman_threshold
         )
         self._joy_time = now
+
+    def on_joint_state(self, msg):
+        """Both wheels' measured velocities from a JointState, by joint name (`left_joint`,
+        `right_joint`); a message without them is ignored."""
+        values = joint_velocities(msg, self.left_joint, self.right_joint)
+        if values is not None and self._finite(*values):
+            self._left, self._right = float(values[0]), float(values[1])
+            self._wheels_new = True
 
     def on_left_wheel(self, msg):
         """The left wheel's measured velocity (Float64, rad/s)."""

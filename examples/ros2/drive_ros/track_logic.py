@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import drive
 
-from drive_protocol_logic import yaw_of
+from drive_ros.protocol_logic import joint_velocities, yaw_of
 
 
 @dataclass(frozen=True)
@@ -120,15 +120,9 @@ class TrackLogic:
 
     def on_joint_state(self, msg, now):
         """Wheel velocities from a JointState, by joint name."""
-        names = list(msg.name)
-        velocity = list(msg.velocity)
-        values = {}
-        for joint in (self.left_joint, self.right_joint):
-            if joint in names and names.index(joint) < len(velocity):
-                values[joint] = velocity[names.index(joint)]
-        if len(values) == 2 and self._finite(*values.values()):
-            self._left = float(values[self.left_joint])
-            self._right = float(values[self.right_joint])
+        values = joint_velocities(msg, self.left_joint, self.right_joint)
+        if values is not None and self._finite(*values):
+            self._left, self._right = float(values[0]), float(values[1])
             self._wheel_time = now
 
     def on_left_wheel(self, msg, now):

@@ -2,10 +2,10 @@
 """A ROS 2 node that follows a nav_msgs/Path with a fitted motion model inside the MPPI
 controller of `drive track`.
 
-    pip install ./python          # from the repository root, in the ROS 2 Python env
+    pip install drive-ugv         # or ./python from the repository root, in ROS 2's Python
     drive train --data run.csv --model slip-blr --out model.json
-    python3 examples/ros2/drive_track_node.py --ros-args -p model_file:=model.json \
-        -p robot:=husky -p speed:=0.5
+    ros2 run drive_ros track --ros-args -p model_file:=model.json -p robot:=husky -p speed:=0.5
+    ros2 launch drive_ros drive_track.launch.py model_file:=model.json
 
 Subscribes (relative names; remap them to your robot's):
   path_in (nav_msgs/Path)                       the path to follow (a new one replaces it)
@@ -18,13 +18,10 @@ Publishes:
   cmd_vel (geometry_msgs/Twist)                 the command, at the model's rate (20 Hz)
   track/cross_track (std_msgs/Float64)          distance from the path (m, positive left)
 
-All the logic is in drive_track_logic.TrackLogic (tested without ROS); this file only
+All the logic is in drive_ros.track_logic.TrackLogic (tested without ROS); this file only
 wires it to topics, parameters and a timer. Spin it with the single-threaded executor (as
 main() does): the tracker belongs to the thread that made it.
 """
-
-import os
-import sys
 
 import rclpy
 from geometry_msgs.msg import Twist
@@ -33,8 +30,8 @@ from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState, Joy
 from std_msgs.msg import Float64
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from drive_track_logic import TrackLogic  # noqa: E402
+from drive_ros.protocol_node import init, spin_then_stop
+from drive_ros.track_logic import TrackLogic
 
 # Parameters: name -> default.
 PARAMETERS = {
@@ -127,8 +124,6 @@ class DriveTrackNode(Node):
 
 
 def main(args=None):
-    from drive_protocol_node import init, spin_then_stop
-
     init(args)
     spin_then_stop(DriveTrackNode())
 

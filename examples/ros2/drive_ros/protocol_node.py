@@ -1,19 +1,22 @@
 #!/usr/bin/env python3
 """A ROS 2 node that runs the DRIVE protocol on a robot with the `drive` Python package.
 
-    pip install ./python          # from the repository root, in the ROS 2 Python env
-    ros2 launch examples/ros2/drive_protocol.launch.py robot:=husky geofence:=20.0
+    pip install drive-ugv         # or ./python from the repository root, in ROS 2's Python
+    ros2 launch drive_ros drive_protocol.launch.py robot:=husky geofence:=20.0
+    ros2 run drive_ros protocol --ros-args --params-file config/drive_protocol.yaml
 
 Subscribes (relative names; remap them to your robot's):
   joy_in (sensor_msgs/Joy)                      dead-man button
   wheel_vel_left_measured (std_msgs/Float64)    left wheel velocity (rad/s)
   wheel_vel_right_measured (std_msgs/Float64)   right wheel velocity (rad/s)
+  joint_states (sensor_msgs/JointState)         instead, with use_joint_states:=true
+                                                (joints left_joint, right_joint)
   odometry_in (nav_msgs/Odometry)               localization (ICP)
 Publishes what the DRIVE logger records (drive/pose_cmds_logger_node.py):
   doughnut_cmd_vel (geometry_msgs/Twist)        the command, at the robot's rate
   calib_step (std_msgs/Int32), calib_state (std_msgs/String), drive/joy_switch (std_msgs/Bool)
 
-All the logic is in drive_protocol_logic.ProtocolLogic (tested without ROS); this file
+All the logic is in drive_ros.protocol_logic.ProtocolLogic (tested without ROS); this file
 only wires it to topics, parameters and a timer. Spin it with the single-threaded executor
 (as main() does): the protocol runner belongs to the thread that made it.
 
@@ -24,18 +27,14 @@ top speed x 8 s from its start, so a geofence must be larger than that (a Husky:
 characterize:=false.
 """
 
-import os
-import sys
-
 import rclpy
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
-from sensor_msgs.msg import Joy
+from sensor_msgs.msg import JointState, Joy
 from std_msgs.msg import Bool, Float64, Int32, String
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from drive_protocol_logic import ProtocolLogic  # noqa: E402
+from drive_ros.protocol_logic import ProtocolLogic
 
 # Parameters: name -> default (0 / 0.0 for an optional limit means none).
 PARAMETERS = {
@@ -50,6 +49,9 @@ PARAMETERS = {
     "deadman_button": 0,
     "deadman_threshold": 0.5,
     "joy_timeout": 0.5,
+    "use_joint_states": False,
+    "left_joint": "left_wheel",
+    "right_joint": "right_wheel",
 }
 
 
@@ -74,11 +76,16 @@ class DriveProtocolNode(Node):
             deadman_button=p["deadman_button"],
             deadman_threshold=p["deadman_threshold"],
             joy_timeout=p["joy_timeout"],
+            left_joint=p["left_joint"],
+            right_joint=p["right_joint"],
             **options,
         )
         self.create_subscription(Joy, "joy_in", self.on_joy, 10)
-        self.create_subscription(Float64, "wheel_vel_left_measured", self.logic.on_left_wheel, 100)
-        self.create_subscription(Float64, "wheel_vel_right_measured", self.logic.on_right_wheel, 100)
+        if p["use_joint_states"]:
+            self.create_subscription(JointState, "joint_states", self.logic.on_joint_state, 100)
+        else:
+            self.create_subscription(Float64, "wheel_vel_left_measured", self.logic.on_left_wheel, 100)
+            self.create_subscription(Float64, "wheel_vel_right_measured", self.logic.on_right_wheel, 100)
         self.create_subscription(Odometry, "odometry_in", self.logic.on_odometry, 100)
         self.cmd_pub = self.create_publisher(Twist, "doughnut_cmd_vel", 10)
         self.step_pub = self.create_publisher(Int32, "calib_step", 10)

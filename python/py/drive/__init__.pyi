@@ -1,0 +1,183 @@
+# Type hints of the drive package (the extension module `drive._native` and its Python layer).
+import os
+from collections.abc import Mapping, Sequence
+from typing import Any, Literal, Optional, Union, overload
+
+import numpy as np
+import numpy.typing as npt
+
+_Path = Union[str, os.PathLike[str]]
+_Start = Literal["encoders", "encoders+imu", "encoders+imu+localization"]
+_Models = Union[None, str, Sequence[str]]
+_Array = npt.ArrayLike
+
+class DriveError(ValueError): ...
+
+class DriveFileNotFoundError(DriveError, FileNotFoundError):
+    def __init__(self, message: str, filename: Optional[str] = ...) -> None: ...
+
+class Dataset:
+    @staticmethod
+    def from_text(csv: str, sidecar: str) -> Dataset: ...
+    @staticmethod
+    def from_pandas(df: Any, meta: Mapping[str, Any]) -> Dataset: ...
+    def to_pandas(self) -> Any: ...
+    @property
+    def meta(self) -> dict[str, Any]: ...
+    @property
+    def import_report(self) -> Optional[dict[str, Any]]: ...
+    def sidecar_json(self) -> str: ...
+    def save(self, path: _Path) -> None: ...
+    def __len__(self) -> int: ...
+    @property
+    def intervals(self) -> int: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def rate_hz(self) -> float: ...
+
+class Model:
+    @property
+    def name(self) -> str: ...
+    @property
+    def dt(self) -> float: ...
+    @property
+    def start(self) -> _Start: ...
+    @overload
+    def predict(
+        self,
+        commands: _Array,
+        start: Optional[_Array] = ...,
+        start_wheels: Optional[_Array] = ...,
+        start_yaw_rate: Optional[float] = ...,
+        start_velocity: Optional[_Array] = ...,
+        return_cov: Literal[False] = ...,
+    ) -> npt.NDArray[np.float64]: ...
+    @overload
+    def predict(
+        self,
+        commands: _Array,
+        start: Optional[_Array] = ...,
+        start_wheels: Optional[_Array] = ...,
+        start_yaw_rate: Optional[float] = ...,
+        start_velocity: Optional[_Array] = ...,
+        *,
+        return_cov: Literal[True],
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def predict_batch(
+        self,
+        commands: _Array,
+        starts: Optional[_Array] = ...,
+        start_wheels: Optional[_Array] = ...,
+        start_yaw_rates: Optional[_Array] = ...,
+        start_velocities: Optional[_Array] = ...,
+    ) -> npt.NDArray[np.float64]: ...
+    def score(self, dataset: Dataset, start: Optional[_Start] = ...) -> dict[str, Any]: ...
+    def parameters(self) -> dict[str, Any]: ...
+    def to_json(self) -> str: ...
+    def save(self, path: _Path) -> None: ...
+
+class Command:
+    @property
+    def inputs(self) -> tuple[float, float]: ...
+    @property
+    def linear(self) -> float: ...
+    @property
+    def angular(self) -> float: ...
+    @property
+    def recording(self) -> bool: ...
+    @property
+    def interval(self) -> Optional[int]: ...
+    @property
+    def window(self) -> Optional[int]: ...
+    @property
+    def phase(self) -> Optional[Literal["transient", "steady"]]: ...
+
+class Measurements:
+    t: float
+    encoder: Optional[tuple[float, float]]
+    pose: Optional[tuple[float, float, float]]
+    deadman: bool
+    def __init__(
+        self,
+        t: float,
+        encoder: Optional[Sequence[float]] = ...,
+        pose: Optional[Sequence[float]] = ...,
+        *,
+        deadman: bool,
+    ) -> None: ...
+
+class ProtocolRunner:
+    def __init__(self, robot: _Path, sampler: str = ..., seed: int = ..., **options: Any) -> None: ...
+    def tick(self, measurements: Any = ..., **fields: Any) -> Command: ...
+    def observe(self, interval: Dataset) -> None: ...
+    state: str
+    done: bool
+    pause_reason: Optional[str]
+    stop_reason: Optional[str]
+    completed_intervals: int
+    input_space: Optional[tuple[tuple[float, float], tuple[float, float]]]
+    geometry: dict[str, float]
+    robot: str
+    rate_hz: float
+    inputs: tuple[str, str]
+
+class Tracker:
+    def __init__(
+        self,
+        model: Model,
+        robot: _Path,
+        path: Union[str, _Array],
+        speed: float,
+        *,
+        scale: float = ...,
+        start: Optional[_Start] = ...,
+        samples: Optional[int] = ...,
+        horizon: Optional[int] = ...,
+        temperature: Optional[float] = ...,
+        history: float = ...,
+    ) -> None: ...
+    def tick(
+        self,
+        t: float,
+        inputs: Sequence[float],
+        pose: Optional[Sequence[float]] = ...,
+        imu_yaw_rate: Optional[float] = ...,
+    ) -> dict[str, Any]: ...
+    def reset(self) -> None: ...
+    @property
+    def length(self) -> float: ...
+
+def load_dataset(path: Optional[_Path] = ..., sidecar: Optional[_Path] = ...) -> Dataset: ...
+def load_model(path: _Path) -> Model: ...
+def fit(dataset: Dataset, model: str, split: Optional[float] = ..., start: Optional[_Start] = ...) -> Model: ...
+def evaluate(dataset: Dataset, models: _Models = ..., split: float = ..., start: Optional[_Start] = ...) -> dict[str, Any]: ...
+def per_window(dataset: Dataset, models: _Models = ..., split: float = ..., start: Optional[_Start] = ...) -> dict[str, Any]: ...
+def bench(suite: Optional[_Path] = ..., models: _Models = ..., split: float = ..., transfer: bool = ...) -> dict[str, Any]: ...
+def import_raw(
+    path: _Path,
+    robot: _Path,
+    *,
+    max_gap: float = ...,
+    localization_timeout: float = ...,
+    terrain: str = ...,
+    allow: Union[str, Sequence[str]] = ...,
+) -> Dataset: ...
+def import_bag(
+    path: _Path,
+    robot: _Path,
+    topics: Union[None, Mapping[str, str], Sequence[str]] = ...,
+    *,
+    max_gap: float = ...,
+    localization_timeout: float = ...,
+    terrain: str = ...,
+    allow: Union[str, Sequence[str]] = ...,
+) -> Dataset: ...
+def report(
+    dataset: Dataset,
+    out: _Path,
+    models: _Models = ...,
+    split: float = ...,
+    model: str = ...,
+    robot: Optional[_Path] = ...,
+) -> str: ...

@@ -1,0 +1,195 @@
+//! The command line's evaluations as JSON texts or columns: `drive eval`, its per-window
+//! errors, `drive bench`.
+
+use crate::args::{dataset_of, path_of, short_repr, type_name};
+use crate::err;
+use drive::eval::compare_specs;
+use drive::traits::StartInfo;
+use drive::Registries;
+use numpy::IntoPyArray;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// What the predictions start from, by its command-line name (`drive eval --start`; the
+/// default when None).
+pub(crate) fn start_info_of(obj: Option<&Bound<'_, PyAny>>) -> PyResult<StartInfo> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(StartInfo::default());
+    };
+    let name: String = obj.extract().map_err(|_| {
+        err(format!(
+            "start must be one of {}, got {}",
+            StartInfo::NAMES.join(", "),
+            short_repr(obj)
+        ))
+    })?;
+    StartInfo::parse(&name).map_err(err)
+}
+
+/// The model names of `models` (a list of str), `None` for the default.
+pub(crate) fn model_names(models: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<String>>> {
+    models
+        .filter(|m| !m.is_none())
+        .map(|m| {
+            m.extract().map_err(|_| {
+                err(format!(
+                    "models must be model names (a list of str, or one str with commas), got {}",
+                    type_name(m)
+                ))
+            })
+        })
+        .transpose()
+}
+
+/// `drive eval --json` as a JSON text: the models (default: the paper's four) fitted on the
+/// first `split` of the intervals and scored on the rest, their predictions starting from
+/// `start` (`drive eval --start`).
+#[pyfunction]
+#[pyo3(signature = (dataset, models=None, split=0.5, start=None))]
+pub(crate) fn evaluate_json(
+    py: Python<'_>,
+    dataset: &Bound<'_, PyAny>,
+    models: Option<&Bound<'_, PyAny>>,
+    split: f64,
+    start: Option<&Bound<'_, PyAny>>,
+) -> PyResult<String> {
+    let dataset = dataset_of(dataset)?;
+    let start = start_info_of(start)?;
+    let names = model_names(models)?.unwrap_or_else(|| {
+        ["naive", "powertrain", "slip-blr", "acc-blr"]
+            .map(String::from)
+            .to_vec()
+    });
+    if names.is_empty() {
+        return Err(err("models is empty"));
+    }
+    let data = &dataset.inner;
+    let result = py.detach(|| {
+        let registries = Registries::builtin();
+        let specs: Vec<_> = registries
+            .models()
+            .resolve_list(&names)
+            .map_err(|e| e.to_string())?
+            .into_iter()
+            .map(|s| s.clone().with_uncertainty(s.uncertainty, start))
+            .collect();
+        compare_specs(data, split, &specs).map_err(|e| e.to_string())
+    });
+    let cmp = result.map_err(err)?;
+    serde_json::to_string(&cmp).map_err(err)
+}
+
+/// Per-window errors as `drive eval --per-window` writes them: columns model, window,
+/// interval, phase, translational_m, rotational_rad.
+#[pyfunction]
+#[pyo3(signature = (dataset, models=None, split=0.5, start=None))]
+pub(crate) fn per_window_columns<'py>(
+    py: Python<'py>,
+    dataset: &Bound<'py, PyAny>,
+    models: Option<&Bound<'py, PyAny>>,
+    split: f64,
+    start: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let dataset = dataset_of(dataset)?;
+    let start = start_info_of(start)?;
+    let names = model_names(models)?.unwrap_or_else(|| {
+        ["naive", "powertrain", "slip-blr", "acc-blr"]
+            .map(String::from)
+            .to_vec()
+    });
+    if names.is_empty() {
+        return Err(err("models is empty"));
+    }
+    let data = &dataset.inner;
+    let cmp = py
+        .detach(|| {
+            let registries = Registries::builtin();
+            let specs: Vec<_> = registries
+                .models()
+                .resolve_list(&names)
+                .map_err(|e| e.to_string())?
+                .into_iter()
+                .map(|s| s.clone().with_uncertainty(s.uncertainty, start))
+                .collect();
+            compare_specs(data, split, &specs).map_err(|e| e.to_string())
+        })
+        .map_err(err)?;
+    let rows = cmp
+        .models
+        .iter()
+        .flat_map(|m| m.report.windows.iter().map(move |w| (m.name.as_str(), w)));
+    let (mut model, mut window, mut interval, mut phase, mut trans, mut rot) =
+        (vec![], vec![], vec![], vec![], vec![], vec![]);
+    for (name, w) in rows {
+        model.push(name);
+        window.push(w.window as i64);
+        interval.push(w.interval as i64);
+        phase.push(w.phase.as_str());
+        trans.push(w.error.translational);
+        rot.push(w.error.rotational);
+    }
+    let out = PyDict::new(py);
+    out.set_item("model", model)?;
+    out.set_item("window", window.into_pyarray(py))?;
+    out.set_item("interval", interval.into_pyarray(py))?;
+    out.set_item("phase", phase)?;
+    out.set_item("translational_m", trans.into_pyarray(py))?;
+    out.set_item("rotational_rad", rot.into_pyarray(py))?;
+    Ok(out)
+}
+
+/// `drive bench --json` as a JSON text: the models (default: naive, powertrain, slip-blr,
+/// acc-blr, slip-ipem) on every dataset of the suite file `suite` (every bundled dataset when
+/// None), each split at `split`, with the transfer between runs of one robot unless
+/// `transfer` is false.
+#[pyfunction]
+#[pyo3(signature = (suite=None, models=None, split=0.5, transfer=true))]
+pub(crate) fn bench_json(
+    py: Python<'_>,
+    suite: Option<&Bound<'_, PyAny>>,
+    models: Option<&Bound<'_, PyAny>>,
+    split: f64,
+    transfer: bool,
+) -> PyResult<String> {
+    let suite = suite
+        .filter(|p| !p.is_none())
+        .map(|p| path_of("suite", p))
+        .transpose()?;
+    let names = model_names(models)?.unwrap_or_else(|| {
+        ["naive", "powertrain", "slip-blr", "acc-blr", "slip-ipem"]
+            .map(String::from)
+            .to_vec()
+    });
+    if names.is_empty() {
+        return Err(err("models is empty"));
+    }
+    if !(split > 0.0 && split < 1.0) {
+        return Err(err(format!(
+            "split {split} must lie strictly between 0 and 1"
+        )));
+    }
+    let result = py.detach(|| -> Result<String, String> {
+        let registries = Registries::builtin();
+        let specs = registries
+            .models()
+            .resolve_list(&names)
+            .map_err(|e| e.to_string())?;
+        let inputs = match &suite {
+            Some(path) => {
+                let entries = drive::data::suite::read_suite(path).map_err(|e| e.to_string())?;
+                drive::suite::load(&registries, &entries)
+            }
+            None => drive::suite::bundled(&registries),
+        }
+        .map_err(|e| e.to_string())?;
+        let config = drive::eval::BenchConfig {
+            split,
+            transfer,
+            ..Default::default()
+        };
+        let bench =
+            drive::eval::run_bench(&inputs, &specs, &config, &|| {}).map_err(|e| e.to_string())?;
+        serde_json::to_string(&bench).map_err(|e| e.to_string())
+    });
+    result.map_err(err)
+}

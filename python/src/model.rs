@@ -1,0 +1,519 @@
+//! `drive.Model`: a fitted motion model, its predictions (one sequence, or a batch in
+//! numpy's buffers), its scores on any dataset, its model file and its pickling.
+
+use crate::args::{
+    all_finite, all_finite_parallel, dataset_of, finite, float_array, number_of, numbers_of,
+    path_of, type_name,
+};
+use crate::err;
+use crate::evaluate::start_info_of;
+use drive::eval::split_by_interval;
+use drive::models::model_file::{model_from_json, model_to_json};
+use drive::traits::{
+    Input, MotionError, MotionModel, Pose, RobotDescription, StartInfo, StartState,
+};
+use drive::Registries;
+use numpy::{
+    IntoPyArray, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+    PyUntypedArrayMethods,
+};
+use pyo3::prelude::*;
+
+/// A fitted motion model: predictions from commands, saved as the command line's model file.
+#[pyclass(module = "drive._native", frozen)]
+pub(crate) struct Model {
+    pub(crate) model: std::sync::Arc<dyn MotionModel>,
+    pub(crate) robot: RobotDescription,
+    /// What the model was fitted to start from (`fit(..., start=)`; the default for a
+    /// loaded model file): what `score` gives it.
+    pub(crate) start: StartInfo,
+}
+
+impl Model {
+    fn start(
+        &self,
+        pose: [f64; 3],
+        wheels: [f64; 2],
+        yaw_rate: Option<f64>,
+        velocity: Option<[f64; 2]>,
+    ) -> StartState {
+        let start = StartState::measured(
+            Pose::new(pose[0], pose[1], pose[2]),
+            Input::new(wheels[0], wheels[1]),
+            self.robot.vehicle.as_ref(),
+        );
+        let start = yaw_rate.map_or(start, |w| start.with_yaw_rate(w));
+        velocity.map_or(start, |v| start.with_velocity(v))
+    }
+}
+
+#[pymethods]
+impl Model {
+    /// The model's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.model.name()
+    }
+
+    /// The prediction step (s).
+    #[getter]
+    fn dt(&self) -> f64 {
+        self.model.dt()
+    }
+
+    /// Predicted poses (H, 3) for the (H, 2) commands (the vehicle's inputs, one per step of
+    /// `dt` s): row k is the pose (x, y, yaw) at time k * dt, so row 0 is the start pose
+    /// itself and row k the pose after commands 0..k-1; the last command never changes the
+    /// output (for the pose after all H commands, append one more command). The same rows as
+    /// the windows' poses in a dataset and as `drive predict`.
+    ///
+    /// The start: `start` (x, y, yaw; the origin by default), the measured inputs
+    /// `start_wheels` (zero by default), the yaw rate the IMU measured, `start_yaw_rate`
+    /// (none by default), and the body velocity (x, y; m/s) the localization measured just
+    /// before, `start_velocity` (none by default).
+    ///
+    /// With `return_cov=True`, a pair (poses, covariances): covariances (H, 3, 3) of x, y,
+    /// yaw at each row (zero at row 0), for a model with an uncertainty (slip-BLR,
+    /// acc-BLR, slip-ipem, calibrated by default); a `DriveError` for one without.
+    #[pyo3(signature = (commands, start=None, start_wheels=None, start_yaw_rate=None, start_velocity=None, return_cov=false))]
+    #[allow(clippy::too_many_arguments)]
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        commands: &Bound<'py, PyAny>,
+        start: Option<&Bound<'py, PyAny>>,
+        start_wheels: Option<&Bound<'py, PyAny>>,
+        start_yaw_rate: Option<&Bound<'py, PyAny>>,
+        start_velocity: Option<&Bound<'py, PyAny>>,
+        return_cov: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let velocity: Option<[f64; 2]> = start_velocity
+            .filter(|v| !v.is_none())
+            .map(|v| numbers_of("start_velocity", Some(v)))
+            .transpose()?;
+        if let Some(v) = velocity {
+            finite("start_velocity", &v)?;
+        }
+        let start: [f64; 3] = numbers_of("start", start)?;
+        let start_wheels: [f64; 2] = numbers_of("start_wheels", start_wheels)?;
+        let yaw_rate = start_yaw_rate
+            .filter(|w| !w.is_none())
+            .map(|w| number_of("start_yaw_rate", "a number (rad/s)", w))
+            .transpose()?;
+        let commands = float_array(py, "commands", "(H, 2)", commands, 2)?;
+        let commands: PyReadonlyArray2<'py, f64> = commands.extract()?;
+        let shape = commands.shape();
+        if shape.len() != 2 || shape[1] != 2 {
+            return Err(err(format!(
+                "commands must be an (H, 2) array, got shape {shape:?}"
+            )));
+        }
+        let flat: Vec<f64> = commands.as_array().iter().copied().collect();
+        finite("commands", &flat)?;
+        finite("start", &start)?;
+        finite("start_wheels", &start_wheels)?;
+        if let Some(w) = yaw_rate {
+            finite("start_yaw_rate", &[w])?;
+        }
+        let start = self.start(start, start_wheels, yaw_rate, velocity);
+        let cmds: Vec<Input> = flat
+            .chunks_exact(2)
+            .map(|c| Input::new(c[0], c[1]))
+            .collect();
+        let mut poses = Vec::with_capacity(cmds.len());
+        let mut covariances = Vec::new();
+        if return_cov {
+            self.model
+                .predict_with_covariance_into(&start, &cmds, &mut poses, &mut covariances)
+                .map_err(err)?;
+        } else {
+            self.model.predict_into(&start, &cmds, &mut poses);
+        }
+        // Never a non-finite pose or covariance: the command line's refusal.
+        if let Some(e) =
+            MotionError::not_finite(&self.model.name(), self.model.dt(), &poses, &covariances)
+        {
+            return Err(err(e));
+        }
+        let out: Vec<f64> = poses.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+        let poses_array = numpy::ndarray::Array2::from_shape_vec((poses.len(), 3), out)
+            .map(|a| a.into_pyarray(py))
+            .map_err(err)?;
+        if !return_cov {
+            return Ok(poses_array.into_any());
+        }
+        // Row-major 3 x 3 per step (nalgebra stores columns: transpose on the way out).
+        let cov: Vec<f64> = covariances
+            .iter()
+            .flat_map(|c| (0..3).flat_map(move |i| (0..3).map(move |j| c[(i, j)])))
+            .collect();
+        let cov_array = numpy::ndarray::Array3::from_shape_vec((covariances.len(), 3, 3), cov)
+            .map(|a| a.into_pyarray(py))
+            .map_err(err)?;
+        Ok((poses_array, cov_array).into_pyobject(py)?.into_any())
+    }
+
+    /// Poses (B, H, 3) of B command sequences (B, H, 2), each from its row of `starts`
+    /// (B, 3; the origin by default), `start_wheels` (B, 2; zero by default) and
+    /// `start_yaw_rates` (B,; none by default) and `start_velocities` (B, 2; none by
+    /// default); computed in parallel without the GIL, read from and written into numpy's
+    /// buffers without copies. Row b equals `predict(commands[b], starts[b], ...)`: its
+    /// pose k is at time k * dt, pose 0 the start, and each sequence's last command changes
+    /// nothing.
+    #[pyo3(signature = (commands, starts=None, start_wheels=None, start_yaw_rates=None, start_velocities=None))]
+    fn predict_batch<'py>(
+        &self,
+        py: Python<'py>,
+        commands: &Bound<'py, PyAny>,
+        starts: Option<&Bound<'py, PyAny>>,
+        start_wheels: Option<&Bound<'py, PyAny>>,
+        start_yaw_rates: Option<&Bound<'py, PyAny>>,
+        start_velocities: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let commands = float_array(py, "commands", "(B, H, 2)", commands, 3)?;
+        let commands: PyReadonlyArray3<'py, f64> = commands.extract()?;
+        let starts = match starts {
+            Some(a) => Some(float_array(py, "starts", "(B, 3)", a, 2)?.extract()?),
+            None => None,
+        };
+        let start_wheels = match start_wheels {
+            Some(a) => Some(float_array(py, "start_wheels", "(B, 2)", a, 2)?.extract()?),
+            None => None,
+        };
+        let start_velocities = match start_velocities.filter(|a| !a.is_none()) {
+            Some(a) => Some(float_array(py, "start_velocities", "(B, 2)", a, 2)?.extract()?),
+            None => None,
+        };
+        let shape = commands.shape().to_vec();
+        if shape[2] != 2 {
+            return Err(err(format!(
+                "commands must be a (B, H, 2) array, got shape {shape:?}"
+            )));
+        }
+        let (b, h) = (shape[0], shape[1]);
+        // The commands in numpy's own buffer (C-contiguous float64, made so by float_array),
+        // seen as inputs without a copy: a copy of a large batch costs more in page faults
+        // than the rollouts themselves.
+        let flat: &[f64] = commands.as_slice().map_err(err)?;
+        if !py.detach(|| all_finite_parallel(flat)) {
+            finite("commands", flat)?;
+        }
+        let rows = |a: Option<PyReadonlyArray2<'py, f64>>,
+                    width: usize,
+                    what: &str|
+         -> PyResult<Vec<f64>> {
+            match a {
+                None => Ok(vec![0.0; b * width]),
+                Some(a) => {
+                    if a.shape() != [b, width] {
+                        return Err(err(format!(
+                            "{what} must be a ({b}, {width}) array, got shape {:?}",
+                            a.shape()
+                        )));
+                    }
+                    let v: Vec<f64> = a.as_array().iter().copied().collect();
+                    finite(what, &v)?;
+                    Ok(v)
+                }
+            }
+        };
+        let poses0 = rows(starts, 3, "starts")?;
+        let wheels = rows(start_wheels, 2, "start_wheels")?;
+        let velocities = start_velocities
+            .is_some()
+            .then(|| rows(start_velocities, 2, "start_velocities"))
+            .transpose()?;
+        let yaw_rates: Option<Vec<f64>> = match start_yaw_rates.filter(|w| !w.is_none()) {
+            None => None,
+            Some(a) => {
+                let a: PyReadonlyArray1<'py, f64> =
+                    float_array(py, "start_yaw_rates", "(B,)", a, 1)?.extract()?;
+                if a.shape() != [b] {
+                    return Err(err(format!(
+                        "start_yaw_rates must be a ({b},) array, got shape {:?}",
+                        a.shape()
+                    )));
+                }
+                let v: Vec<f64> = a.as_array().iter().copied().collect();
+                finite("start_yaw_rates", &v)?;
+                Some(v)
+            }
+        };
+        // `Input` is nalgebra's Vector2<f64>: two f64 side by side (bytemuck checks it).
+        let cmds: &[Input] = bytemuck::try_cast_slice(flat).map_err(err)?;
+        // The poses are written straight into the returned array, allocated without numpy's
+        // zeroing (a fresh zeroed block of this size is mapped page by page as it is first
+        // written, which costs more than the rollouts): each parallel task zeroes its own
+        // rows, builds their starts, rolls them out and checks them.
+        let out = unsafe { PyArray3::<f64>::new(py, [b, h, 3], false) };
+        let base = out.data() as usize;
+        let model = self.model.as_ref();
+        let start_of = |i: usize| {
+            self.start(
+                [poses0[3 * i], poses0[3 * i + 1], poses0[3 * i + 2]],
+                [wheels[2 * i], wheels[2 * i + 1]],
+                yaw_rates.as_ref().map(|w| w[i]),
+                velocities.as_ref().map(|v| [v[2 * i], v[2 * i + 1]]),
+            )
+        };
+        const CHUNK: usize = 256;
+        let all = py
+            .detach(|| {
+                use rayon::prelude::*;
+                (0..b.div_ceil(CHUNK))
+                    .into_par_iter()
+                    .map(|c| {
+                        let rows = c * CHUNK..((c + 1) * CHUNK).min(b);
+                        let values = rows.len() * h * 3;
+                        // SAFETY: rows `rows` of the new (B, H, 3) float64 array, disjoint from
+                        // every other task's, zeroed through a raw pointer before the slice
+                        // over them is made; the array is not reachable from Python yet.
+                        let buffer: &mut [f64] = unsafe {
+                            let ptr = (base as *mut f64).add(rows.start * h * 3);
+                            std::ptr::write_bytes(ptr, 0, values);
+                            std::slice::from_raw_parts_mut(ptr, values)
+                        };
+                        let poses: &mut [Pose] =
+                            bytemuck::try_cast_slice_mut(buffer).map_err(|e| e.to_string())?;
+                        let starts: Vec<StartState> = rows.clone().map(start_of).collect();
+                        if h > 0 {
+                            model
+                                .predict_batch_into(
+                                    &starts,
+                                    &cmds[rows.start * h..rows.end * h],
+                                    h,
+                                    poses,
+                                )
+                                .map_err(|e| e.to_string())?;
+                        }
+                        Ok(all_finite(bytemuck::cast_slice(poses)))
+                    })
+                    .try_reduce(|| true, |x, y| Ok(x && y))
+            })
+            .map_err(|e: String| err(e))?;
+        if !all {
+            // Never a non-finite pose: the command line's refusal, naming the sequence.
+            let view = out.try_readonly().map_err(err)?;
+            let poses: &[Pose] =
+                bytemuck::try_cast_slice(view.as_slice().map_err(err)?).map_err(err)?;
+            if let Some(i) = poses.iter().position(|p| !p.iter().all(|v| v.is_finite())) {
+                let row = &poses[(i / h) * h..(i / h + 1) * h];
+                if let Some(e) = MotionError::not_finite(&model.name(), model.dt(), row, &[]) {
+                    return Err(err(format!("sequence {}: {e}", i / h)));
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Saves the model as the command line's model file (`drive predict --model`).
+    fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        let path = path_of("path", path)?;
+        let text = self.to_json()?;
+        std::fs::write(&path, text)
+            .map_err(|e| err(format!("{}: cannot write: {e}", path.display())))
+    }
+
+    /// The vehicle's inputs (a differential drive's left and right wheel velocities, rad/s)
+    /// that command the body velocity `linear` (m/s, forward) and `angular` (rad/s): what a
+    /// Twist on cmd_vel asks of the robot, in the model's inputs. A `DriveError` when the
+    /// vehicle has no input for it.
+    fn input_for(&self, linear: f64, angular: f64) -> PyResult<(f64, f64)> {
+        finite("linear, angular", &[linear, angular])?;
+        let v = drive::traits::BodyVelocity::new(linear, 0.0, angular);
+        match self.robot.vehicle.input_for(&v) {
+            Some(u) => Ok((u[0], u[1])),
+            None => Err(err(format!(
+                "the vehicle has no input for the body velocity ({linear} m/s, {angular} rad/s)"
+            ))),
+        }
+    }
+
+    /// The model file's JSON text (what `save` writes).
+    fn to_json(&self) -> PyResult<String> {
+        model_to_json(self.model.as_ref(), &self.robot).map_err(err)
+    }
+
+    /// The start information the model was fitted for ("encoders", "encoders+imu" or
+    /// "encoders+imu+localization"): what `score` predicts from.
+    #[getter(start)]
+    fn fitted_start(&self) -> &'static str {
+        self.start.as_str()
+    }
+
+    /// Pickling (multiprocessing, joblib, copy.deepcopy) through the model file's text.
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (String, &'static str))> {
+        let rebuild = py.import("drive._native")?.getattr("_model_from_json")?;
+        Ok((rebuild, (self.to_json()?, self.start.as_str())))
+    }
+
+    /// The fitted model's parameters as a dict: the `model` part of its model file (the
+    /// powertrain's, the slip learner's posterior, the calibration's scales, ...).
+    fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        py.import("json")?
+            .call_method1("loads", (self.to_json()?,))?
+            .get_item("model")
+    }
+
+    /// The model's eq. 8 errors on every window of `dataset` (transfer: another run,
+    /// another terrain of the same vehicle), predicting from `start` (the start it was
+    /// fitted for when None), as a dict: `translational_m` and `rotational_rad`
+    /// ({"all", "transient", "steady"}: windows, median, iqr), `per_window` (window,
+    /// interval, phase, error) and `uncertainty` (the 95% regions' calibration, for a
+    /// model with a covariance).
+    #[pyo3(signature = (dataset, start=None))]
+    fn score<'py>(
+        &self,
+        py: Python<'py>,
+        dataset: &Bound<'py, PyAny>,
+        start: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let text = self.score_json(py, dataset, start)?;
+        py.import("json")?.call_method1("loads", (text,))
+    }
+
+    /// The model's eq. 8 errors on every window of `dataset` (any dataset of the same
+    /// vehicle: another run, another terrain), predicting from `start` (the start it was
+    /// fitted for when None), as JSON text: the medians and quartiles (all windows and per
+    /// phase), the per-window errors, and the 95% regions' calibration for a model with a
+    /// covariance.
+    #[pyo3(signature = (dataset, start=None))]
+    fn score_json(
+        &self,
+        py: Python<'_>,
+        dataset: &Bound<'_, PyAny>,
+        start: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<String> {
+        let dataset = dataset_of(dataset)?;
+        let start = match start.filter(|s| !s.is_none()) {
+            Some(s) => start_info_of(Some(s))?,
+            None => self.start,
+        };
+        let data = &dataset.inner;
+        let (ours, theirs) = (
+            drive::traits::vehicle_tag(self.robot.vehicle.as_ref()),
+            drive::traits::vehicle_tag(data.robot.vehicle.as_ref()),
+        );
+        if ours != theirs {
+            return Err(err(format!(
+                "the model is of a {} vehicle and the dataset's is {}: its inputs are other axes",
+                ours.unwrap_or_default(),
+                theirs.unwrap_or_default()
+            )));
+        }
+        if (self.model.dt() - data.robot.dt()).abs() > 1e-9 * data.robot.dt() {
+            return Err(err(format!(
+                "the model predicts in steps of {} s and the dataset is sampled every {} s",
+                self.model.dt(),
+                data.robot.dt()
+            )));
+        }
+        let model = self.model.as_ref();
+        let report = py.detach(|| drive::eval::evaluate_model_from(model, &data.all(), start));
+        let summary = |s: Option<drive::eval::Summary>| {
+            s.map(|s| serde_json::json!({"windows": s.count, "median": s.median, "iqr": [s.q1, s.q3]}))
+        };
+        let phases = |f: &dyn Fn(Option<drive::traits::Phase>) -> Option<drive::eval::Summary>| {
+            serde_json::json!({
+                "all": summary(f(None)),
+                "transient": summary(f(Some(drive::traits::Phase::Transient))),
+                "steady": summary(f(Some(drive::traits::Phase::Steady))),
+            })
+        };
+        let value = serde_json::json!({
+            "model": report.name,
+            "dataset": data.robot.name,
+            "start": start.as_str(),
+            "windows": report.windows.len(),
+            "translational_m": phases(&|p| report.translational(p)),
+            "rotational_rad": phases(&|p| report.rotational(p)),
+            "per_window": report.windows,
+            "uncertainty": report.uncertainty,
+        });
+        Ok(value.to_string())
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Model({:?}, dt={} s)", self.model.name(), self.model.dt())
+    }
+}
+
+/// Fits `model` (a model name, as `drive train --model`) on the dataset's first `split` of
+/// the intervals (all of them when None), for predictions that start from `start`
+/// (`drive train --start`).
+#[pyfunction]
+#[pyo3(signature = (dataset, model, split=None, start=None))]
+pub(crate) fn fit(
+    py: Python<'_>,
+    dataset: &Bound<'_, PyAny>,
+    model: &Bound<'_, PyAny>,
+    split: Option<&Bound<'_, PyAny>>,
+    start: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Model> {
+    let dataset = dataset_of(dataset)?;
+    let start = start_info_of(start)?;
+    let model: String = model.extract().map_err(|_| {
+        err(format!(
+            "model must be a model name such as 'slip-blr' (see drive list), got {}",
+            type_name(model)
+        ))
+    })?;
+    let model = model.as_str();
+    let split = split
+        .filter(|s| !s.is_none())
+        .map(|s| number_of("split", "a number between 0 and 1", s))
+        .transpose()?;
+    let registries = Registries::builtin();
+    let spec = registries.model(model).map_err(err)?.clone();
+    let spec = spec.clone().with_uncertainty(spec.uncertainty, start);
+    let data = &dataset.inner;
+    let fitted = py.detach(|| -> Result<Box<dyn MotionModel>, String> {
+        let train = match split {
+            Some(f) => split_by_interval(data, f).map_err(|e| e.to_string())?.0,
+            None => data.all(),
+        };
+        spec.fit(&train)
+            .map_err(|e| format!("fitting {model}: {e}"))
+    });
+    Ok(Model {
+        model: fitted.map_err(err)?.into(),
+        robot: data.robot.clone(),
+        start,
+    })
+}
+
+/// Loads a model file written by `drive train` or `Model.save`.
+#[pyfunction]
+pub(crate) fn load_model(path: &Bound<'_, PyAny>) -> PyResult<Model> {
+    let path = path_of("path", path)?;
+    let name = path.display().to_string();
+    // The command line's words (drive predict --model).
+    let text =
+        drive::traits::files::read_text(&path, drive::models::model_file::MAX_MODEL_FILE_BYTES)
+            .map_err(|e| err(format!("reading {name}: {e}")))?;
+    model_of_text(&name, &text, None)
+}
+
+/// A model from a model file's text; `start` the start information it was fitted for (the
+/// default when None).
+pub(crate) fn model_of_text(name: &str, text: &str, start: Option<&str>) -> PyResult<Model> {
+    let (model, robot) = model_from_json(name, text).map_err(err)?;
+    let start = match start {
+        Some(s) => StartInfo::parse(s).map_err(err)?,
+        None => StartInfo::default(),
+    };
+    Ok(Model {
+        model: model.into(),
+        robot,
+        start,
+    })
+}
+
+/// A model from its model file's text and its start's name: what unpickling calls.
+#[pyfunction]
+pub(crate) fn _model_from_json(text: &str, start: &str) -> PyResult<Model> {
+    model_of_text("pickled model", text, Some(start))
+}
