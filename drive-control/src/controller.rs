@@ -102,7 +102,7 @@ pub fn stop_input(robot: &RobotSpec) -> Input {
     space.clamp(
         &robot
             .vehicle
-            .input_for(&drive_traits::BodyVelocity::zeros())
+            .input_for_twist(0.0, 0.0)
             .unwrap_or_else(|| space.center()),
     )
 }

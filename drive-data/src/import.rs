@@ -5,8 +5,7 @@
 use crate::quality::Finding;
 use crate::{CalibState, DataError, DataErrorKind, Location, RawLog, RawRow};
 use drive_traits::{
-    relative_pose, BodyVelocity, Dataset, Phase, Pose, RobotDescription, Window,
-    WINDOWS_PER_INTERVAL,
+    relative_pose, Dataset, Phase, Pose, RobotDescription, Window, WINDOWS_PER_INTERVAL,
 };
 use std::fmt;
 
@@ -72,6 +71,10 @@ pub enum DropReason {
     CommandNotAnInput {
         /// line
         line: usize,
+        /// The command's forward speed (m/s).
+        linear: f64,
+        /// The command's yaw rate (rad/s).
+        angular: f64,
     },
 }
 
@@ -110,9 +113,13 @@ impl fmt::Display for DropReason {
             DropReason::LocalizationFrozen { for_s, line } => {
                 write!(f, "localization frozen for {for_s:.2} s from line {line}")
             }
-            DropReason::CommandNotAnInput { line } => write!(
+            DropReason::CommandNotAnInput {
+                line,
+                linear,
+                angular,
+            } => write!(
                 f,
-                "the body command on line {line} is not one the vehicle can be given as inputs"
+                "the body command on line {line} ({linear} m/s forward, {angular} rad/s yaw rate) has no input of the vehicle (CommandModel::input_for_twist)"
             ),
         }
     }
@@ -549,9 +556,15 @@ fn cut_interval(
     let mut commands = Vec::with_capacity(picked.len());
     for row in &picked {
         let [v, w] = row.body_command;
-        match robot.vehicle.input_for(&BodyVelocity::new(v, 0.0, w)) {
+        match robot.vehicle.input_for_twist(v, w) {
             Some(u) => commands.push(u),
-            None => return Err(DropReason::CommandNotAnInput { line: row.line }),
+            None => {
+                return Err(DropReason::CommandNotAnInput {
+                    line: row.line,
+                    linear: v,
+                    angular: w,
+                })
+            }
         }
     }
     let len = robot.window_len;

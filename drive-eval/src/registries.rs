@@ -118,8 +118,80 @@ impl Registries {
 
     /// Asks typetag about the saved tag of every registered part: an error for a tag that
     /// another linked type also uses (neither could be loaded from a file) or that no type
-    /// is saved under. The command line checks this before it runs.
+    /// is saved under, for a vehicle, powertrain or slip learner registered under another
+    /// name than its (fitted model's) tag, and for a simulator registered for a vehicle that
+    /// is not. The command line checks this before
+    /// it runs.
+    ///
+    /// ```
+    /// use drive_eval::Registries;
+    /// use std::sync::Arc;
+    /// let mut r = Registries::builtin();
+    /// assert!(r.check_tags().is_ok());
+    /// // The differential drive once more, under a name that is not its tag.
+    /// let husky = r.robot("husky").unwrap();
+    /// r.vehicles.register("skid", "the same vehicle", Arc::from(husky.vehicle.clone_box())).unwrap();
+    /// let e = r.check_tags().unwrap_err().to_string();
+    /// assert!(e.contains("registered as 'skid'") && e.contains("'differential'"), "{e}");
+    /// // A simulator for a vehicle that is not registered.
+    /// let mut r = Registries::builtin();
+    /// let plant = r.simulators.find("differential").unwrap().part().clone();
+    /// r.simulators.register("tank", "a simulator of nothing registered", plant).unwrap();
+    /// let e = r.check_tags().unwrap_err().to_string();
+    /// assert!(e.contains("simulator is registered for the vehicle 'tank'"), "{e}");
+    /// ```
     pub fn check_tags(&self) -> Result<(), RegistryError> {
+        // One identity per vehicle: the name it is registered and looked up under is the
+        // tag its files are saved with, and a simulator is for a registered vehicle.
+        for e in self.vehicles.entries() {
+            if let Some(tag) = drive_traits::vehicle_tag(e.part().as_ref()) {
+                if tag != e.name() {
+                    return Err(RegistryError::NameIsNotTag {
+                        kind: "vehicle",
+                        name: e.name().to_string(),
+                        tag,
+                    });
+                }
+            }
+        }
+        // A learner's name is its fitted model's tag, so that a model is called the same
+        // (`slip+powertrain`) by the command line, by `Composed::new` and in its files.
+        let learners = self
+            .powertrains
+            .entries()
+            .iter()
+            .map(|e| ("powertrain", e.name(), e.tag()))
+            .chain(
+                self.slip_learners
+                    .entries()
+                    .iter()
+                    .map(|e| ("slip learner", e.name(), e.tag())),
+            );
+        for (kind, name, tag) in learners {
+            if let Some(tag) = tag.filter(|t| t.tag != name) {
+                return Err(RegistryError::NameIsNotTag {
+                    kind,
+                    name: name.to_string(),
+                    tag: tag.tag.clone(),
+                });
+            }
+        }
+        for e in self.simulators.entries() {
+            if self.vehicles.find(e.name()).is_none() {
+                return Err(RegistryError::Orphan {
+                    kind: "simulator",
+                    of: "vehicle",
+                    name: e.name().to_string(),
+                    known: self
+                        .vehicles
+                        .entries()
+                        .iter()
+                        .map(|v| v.name())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                });
+            }
+        }
         self.vehicles.check_tags()?;
         self.powertrains.check_tags()?;
         self.slip_learners.check_tags()?;

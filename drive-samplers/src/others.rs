@@ -89,13 +89,36 @@ impl BodyToInput {
             }
             None => v,
         };
-        // A differential drive inverts any (v_x, 0, w); a vehicle that cannot command `v`
-        // gets the centre of J (never reached by the samplers below).
+        // The input of the forward speed and yaw rate (a Twist): exact for a differential
+        // drive, solved for a vehicle whose lateral velocity follows from them. A vehicle
+        // with no input for them is refused when the sampler is made (`BodyToInput::new`),
+        // so this fallback (the centre of J) is never reached.
         let u = self
             .vehicle
-            .input_for(&v)
+            .input_for_twist(v.x, v.z)
             .unwrap_or((self.space.min + self.space.max) * 0.5);
         self.space.clamp(&u)
+    }
+
+    /// `Err` when the vehicle has no input for the body velocities the sampler draws:
+    /// `draws`, each a (forward speed, yaw rate) as fractions of [`BodyToInput::reach`],
+    /// the corners of what the sampler draws. Instead of a schedule of inputs that never
+    /// move the robot.
+    fn check(&self, sampler: &'static str, draws: &[(f64, f64)]) -> Result<(), SamplerError> {
+        let (v, w) = self.reach();
+        for &(fv, fw) in draws {
+            let (linear, angular) = (fv * v, fw * w);
+            if self.vehicle.input_for_twist(linear, angular).is_none() {
+                return Err(SamplerError::NoInputForTwist {
+                    sampler,
+                    vehicle: drive_traits::vehicle_tag(self.vehicle.as_ref())
+                        .unwrap_or_else(|| format!("{:?}", self.vehicle)),
+                    linear,
+                    angular,
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Top forward speed (all inputs at their maximum, within the controller's linear
@@ -146,6 +169,16 @@ impl LinearSampler {
         self.map.limits = limits;
         self
     }
+
+    /// `Err` when the vehicle has no input for the body velocities this sampler draws (the
+    /// registry's sampler is checked so when it is made).
+    pub fn check(&self) -> Result<(), SamplerError> {
+        // The corners of what `next_input` draws.
+        let draws = [1.0, 0.3, -0.1, -0.5]
+            .into_iter()
+            .flat_map(|v| [(v, 0.0), (v, 0.15), (v, -0.15)]);
+        self.map.check("linear", &draws.collect::<Vec<_>>())
+    }
 }
 
 impl InputSampler for LinearSampler {
@@ -190,6 +223,14 @@ impl AngularSampler {
         self.map.limits = limits;
         self
     }
+
+    /// `Err` when the vehicle has no input for the body velocities this sampler draws (the
+    /// registry's sampler is checked so when it is made).
+    pub fn check(&self) -> Result<(), SamplerError> {
+        // The corners of what `next_input` draws.
+        self.map
+            .check("angular", &[(0.5, 0.0), (0.5, 0.5), (0.5, -0.5)])
+    }
 }
 
 impl InputSampler for AngularSampler {
@@ -199,5 +240,116 @@ impl InputSampler for AngularSampler {
         // At half speed, half of the wheel headroom is left for turning.
         let w = self.rng.random_range(-0.5..=0.5) * w_max;
         self.map.input(BodyVelocity::new(speed, 0.0, w))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{builtin_robots, schedule, RobotSpec};
+    use drive_traits::InputAxis;
+
+    /// A unicycle whose reference point is 0.4 m ahead of its axle: its lateral velocity is
+    /// 0.4 times its yaw rate, so `input_for((v, 0, w))` has no input for any turn.
+    #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+    struct Offset;
+
+    #[typetag::serde(name = "offset-unicycle-test")]
+    impl CommandModel for Offset {
+        fn body_velocity(&self, u: &Input) -> BodyVelocity {
+            BodyVelocity::new(u.x, 0.4 * u.y, u.y)
+        }
+        fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
+            (v.y == 0.4 * v.z).then(|| Input::new(v.x, v.z))
+        }
+        fn axes(&self) -> [InputAxis; 2] {
+            [
+                InputAxis {
+                    name: "v",
+                    unit: "m/s",
+                    command_column: "cmd_v",
+                    measured_column: "meas_v",
+                },
+                InputAxis {
+                    name: "w",
+                    unit: "rad/s",
+                    command_column: "cmd_w",
+                    measured_column: "meas_w",
+                },
+            ]
+        }
+        fn clone_box(&self) -> Box<dyn CommandModel> {
+            Box::new(Offset)
+        }
+    }
+
+    /// A vehicle that turns as fast as it drives (its yaw rate is its speed; the second
+    /// input does nothing): no input drives it straight.
+    #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+    struct Coupled;
+
+    #[typetag::serde(name = "coupled-test")]
+    impl CommandModel for Coupled {
+        fn body_velocity(&self, u: &Input) -> BodyVelocity {
+            BodyVelocity::new(u.x, 0.0, u.x)
+        }
+        fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
+            (v.y == 0.0 && v.z == v.x).then(|| Input::new(v.x, 0.0))
+        }
+        fn axes(&self) -> [InputAxis; 2] {
+            Offset.axes()
+        }
+        fn clone_box(&self) -> Box<dyn CommandModel> {
+            Box::new(Coupled)
+        }
+    }
+
+    fn robot(vehicle: Arc<dyn CommandModel>) -> RobotSpec {
+        let mut robot = builtin_robots()
+            .get("husky")
+            .expect("the husky preset is registered")
+            .part()
+            .as_ref()
+            .clone();
+        robot.vehicle = vehicle;
+        robot
+    }
+
+    #[test]
+    fn a_vehicle_whose_lateral_velocity_follows_its_yaw_rate_gets_moving_schedules() {
+        let space = InputSpace::new(Input::new(-1.0, -1.5), Input::new(1.0, 1.5)).unwrap();
+        let robot = robot(Arc::new(Offset));
+        for make in [
+            |s, v, seed| Box::new(LinearSampler::new(s, v, seed)) as Box<dyn InputSampler>,
+            |s, v, seed| Box::new(AngularSampler::new(s, v, seed)) as Box<dyn InputSampler>,
+        ] {
+            let mut sampler = make(space, Arc::clone(&robot.vehicle), 3);
+            let targets: Vec<Input> = (0..50).map(|_| sampler.next_input()).collect();
+            // Every target moves the robot (no all-zero schedule), turns within J, and its
+            // forward speed and yaw rate are the ones drawn.
+            assert!(targets.iter().all(|u| u.x.abs() > 0.05), "{targets:?}");
+            assert!(targets.iter().any(|u| u.y.abs() > 0.01));
+            let mut sampler = make(space, Arc::clone(&robot.vehicle), 3);
+            let rows = schedule(&robot, sampler.as_mut(), 3);
+            // The acceleration ramps are kept: the first command is a small step from rest,
+            // not the target.
+            assert!(rows[0].command.norm() < 0.5 * rows[0].target.norm());
+            assert!(rows.iter().any(|r| r.command.norm() > 0.1));
+        }
+    }
+
+    #[test]
+    fn a_vehicle_with_no_input_for_the_drawn_body_velocities_is_refused_by_name() {
+        let space = InputSpace::new(Input::new(-1.0, -1.0), Input::new(1.0, 1.0)).unwrap();
+        let sampler = LinearSampler::new(space, Arc::new(Coupled), 0);
+        let e = sampler.check().unwrap_err().to_string();
+        assert!(
+            e.contains("coupled-test") && e.contains("linear sampler"),
+            "{e}"
+        );
+        assert!(e.contains("(1 m/s forward, 0 rad/s yaw rate)"), "{e}");
+        assert!(AngularSampler::new(space, Arc::new(Offset), 0)
+            .check()
+            .is_ok());
     }
 }

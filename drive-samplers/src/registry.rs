@@ -115,20 +115,20 @@ pub fn builtin_samplers() -> Registry<dyn MakeSampler> {
             "linear",
             "human-like, linear-focused: mostly forward at 30-100% of the top speed, small turns",
             Arc::new(|c: &SamplerContext<'_>| {
-                Ok(Box::new(
-                    LinearSampler::new(c.space, Arc::clone(&c.robot.vehicle), c.seed)
-                        .with_body_limits(c.robot.body_limits()),
-                ) as Box<dyn InputSampler>)
+                let sampler = LinearSampler::new(c.space, Arc::clone(&c.robot.vehicle), c.seed)
+                    .with_body_limits(c.robot.body_limits());
+                sampler.check()?;
+                Ok(Box::new(sampler) as Box<dyn InputSampler>)
             }),
         ),
         (
             "angular",
             "human-like, angular-focused: half the top speed with a varying curvature",
             Arc::new(|c: &SamplerContext<'_>| {
-                Ok(Box::new(
-                    AngularSampler::new(c.space, Arc::clone(&c.robot.vehicle), c.seed)
-                        .with_body_limits(c.robot.body_limits()),
-                ) as Box<dyn InputSampler>)
+                let sampler = AngularSampler::new(c.space, Arc::clone(&c.robot.vehicle), c.seed)
+                    .with_body_limits(c.robot.body_limits());
+                sampler.check()?;
+                Ok(Box::new(sampler) as Box<dyn InputSampler>)
             }),
         ),
         (

@@ -54,7 +54,11 @@ pub fn limit_acceleration(
 /// each input steps towards the target's within its rate and as far as the controller's
 /// body limits allow ([`RobotSpec::body_limits`]); otherwise the body velocity steps
 /// towards the target's within the body acceleration limits and is sent as the vehicle's
-/// input (the target itself when the vehicle cannot be given that body velocity).
+/// input for its forward speed and yaw rate ([`CommandModel::input_for_twist`]; where the
+/// vehicle has none, the input steps towards the target by the share of the body ramp the
+/// step covers).
+///
+/// [`CommandModel::input_for_twist`]: drive_traits::CommandModel::input_for_twist
 ///
 /// ```
 /// use drive_samplers::{builtin_robots, next_command, SentCommand};
@@ -103,8 +107,24 @@ pub fn next_command(robot: &RobotSpec, sent: &mut SentCommand, target: &Input) -
         return u;
     }
     let target_body = robot.vehicle.body_velocity(target);
-    sent.body = limit_acceleration(&sent.body, &target_body, robot);
-    let u = robot.vehicle.input_for(&sent.body).unwrap_or(*target);
+    let previous = sent.body;
+    sent.body = limit_acceleration(&previous, &target_body, robot);
+    // The input of the ramped forward speed and yaw rate (a Twist: exact for a differential
+    // drive, solved for a vehicle whose lateral velocity follows from them). Where the
+    // vehicle has none, the input moves from the last one towards the target by the share
+    // of the body ramp this step covers: the ramp is kept in the inputs, never skipped.
+    let u = robot
+        .vehicle
+        .input_for_twist(sent.body.x, sent.body.z)
+        .unwrap_or_else(|| {
+            let whole = (target_body - previous).norm();
+            let share = if whole > 0.0 {
+                ((sent.body - previous).norm() / whole).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            sent.input + (target - sent.input) * share
+        });
     sent.input = u;
     u
 }

@@ -38,6 +38,19 @@ pub enum SamplerError {
         /// what is expected
         expected: &'static str,
     },
+    /// The vehicle has no input for a body velocity the sampler draws (a forward speed and
+    /// a yaw rate, see `CommandModel::input_for_twist`).
+    #[error("the vehicle {vehicle} has no input for the body velocity ({linear} m/s forward, {angular} rad/s yaw rate) the {sampler} sampler draws: sample its input space instead (uniform, grid)")]
+    NoInputForTwist {
+        /// The sampler.
+        sampler: &'static str,
+        /// The vehicle's tag.
+        vehicle: String,
+        /// Forward speed (m/s).
+        linear: f64,
+        /// Yaw rate (rad/s).
+        angular: f64,
+    },
     /// No sampler of that name.
     #[error(transparent)]
     Registry(#[from] RegistryError),

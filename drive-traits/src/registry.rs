@@ -52,6 +52,29 @@ pub enum RegistryError {
         /// What is wrong with it.
         reason: String,
     },
+    /// A part registered under another name than the tag its files are saved with (a
+    /// vehicle: sidecars, robot files and model files name it by its tag).
+    #[error("the {kind} registered as '{name}' is saved in files as '{tag}': register it under '{tag}' (one name per part)")]
+    NameIsNotTag {
+        /// Kind of part.
+        kind: &'static str,
+        /// The name it was registered under.
+        name: String,
+        /// The tag its type is saved with.
+        tag: String,
+    },
+    /// A part registered for another that is not registered (a simulator for a vehicle).
+    #[error("a {kind} is registered for the {of} '{name}', which is not a registered {of} (the {of}s are: {known})")]
+    Orphan {
+        /// Kind of part.
+        kind: &'static str,
+        /// What it is registered for.
+        of: &'static str,
+        /// The name it was registered under.
+        name: String,
+        /// The registered names of `of`, comma-separated.
+        known: String,
+    },
     /// Two registered parts of different types are saved under the same tag.
     #[error("{0}")]
     TagCollision(Box<TagCollision>),

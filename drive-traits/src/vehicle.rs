@@ -197,6 +197,42 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
     /// command a lateral velocity: `v.y` must be zero).
     fn input_for(&self, v: &BodyVelocity) -> Option<Input>;
 
+    /// The input that commands the forward speed `linear` (m/s) and the yaw rate `angular`
+    /// (rad/s): what a Twist (linear.x, angular.z) asks of the robot, what the protocol's
+    /// samplers and acceleration limits, the logger's commands on import and the
+    /// controllers work in. `None` where no input gives them.
+    ///
+    /// The default is [`input_for`](Self::input_for) of `(linear, 0, angular)` where that
+    /// exists; otherwise (a vehicle whose lateral velocity follows from the other two, such
+    /// as a body whose reference point is off its turning axis) the input whose commanded
+    /// forward speed and yaw rate are these, whatever lateral velocity the vehicle then
+    /// has, found by Newton's method from the zero input.
+    ///
+    /// ```
+    /// use drive_traits::{BodyVelocity, CommandModel, Input, InputAxis};
+    /// // A unicycle whose reference point is 0.3 m ahead of its axle: v_y = 0.3 w.
+    /// #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+    /// struct Offset;
+    /// #[typetag::serde(name = "offset-doc")]
+    /// impl CommandModel for Offset {
+    ///     fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.3 * u.y, u.y) }
+    ///     fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
+    ///         (v.y == 0.3 * v.z).then(|| Input::new(v.x, v.z))
+    ///     }
+    ///     fn axes(&self) -> [InputAxis; 2] { unimplemented!() }
+    ///     fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(Offset) }
+    /// }
+    /// assert_eq!(Offset.input_for(&BodyVelocity::new(1.0, 0.0, 0.5)), None);
+    /// let u = Offset.input_for_twist(1.0, 0.5).unwrap();
+    /// assert!((u - Input::new(1.0, 0.5)).norm() < 1e-9);
+    /// ```
+    fn input_for_twist(&self, linear: f64, angular: f64) -> Option<Input> {
+        if let Some(u) = self.input_for(&BodyVelocity::new(linear, 0.0, angular)) {
+            return Some(u);
+        }
+        twist_by_newton(self, linear, angular)
+    }
+
     /// The two input axes.
     fn axes(&self) -> [InputAxis; 2];
 
@@ -218,7 +254,7 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
             1 => ("backward", -1.0),
             _ => return None,
         };
-        let command = self.input_for(&BodyVelocity::new(sign * 2.0 * top_speed, 0.0, 0.0))?;
+        let command = self.input_for_twist(sign * 2.0 * top_speed, 0.0)?;
         Some(Probe {
             name,
             command,
@@ -383,4 +419,43 @@ pub fn vehicle_as<T: serde::de::DeserializeOwned + crate::Tagged>(
         return None;
     }
     serde_json::from_value(value).ok()
+}
+
+/// The input whose commanded forward speed and yaw rate are `(linear, angular)`: Newton's
+/// method on those two components of `f(u)`, with a central-difference Jacobian, from the
+/// zero input (exact in one step for the linear kinematics of every built-in vehicle).
+fn twist_by_newton<V: CommandModel + ?Sized>(
+    vehicle: &V,
+    linear: f64,
+    angular: f64,
+) -> Option<Input> {
+    if !(linear.is_finite() && angular.is_finite()) {
+        return None;
+    }
+    let target = nalgebra::Vector2::new(linear, angular);
+    let twist = |u: &Input| {
+        let v = vehicle.body_velocity(u);
+        nalgebra::Vector2::new(v.x, v.z)
+    };
+    let scale = 1.0 + target.amax();
+    let mut u = Input::zeros();
+    for _ in 0..50 {
+        let residual = twist(&u) - target;
+        if !residual.iter().all(|r| r.is_finite()) {
+            return None;
+        }
+        if residual.amax() <= 1e-12 * scale {
+            return Some(u);
+        }
+        let h = 1e-6 * (1.0 + u.amax());
+        let mut jacobian = nalgebra::Matrix2::zeros();
+        for j in 0..2 {
+            let mut step = Input::zeros();
+            step[j] = h;
+            jacobian.set_column(j, &((twist(&(u + step)) - twist(&(u - step))) / (2.0 * h)));
+        }
+        u -= jacobian.lu().solve(&residual)?;
+    }
+    let residual = twist(&u) - target;
+    (residual.amax() <= 1e-9 * scale).then_some(u)
 }

@@ -19,7 +19,8 @@ pub struct DataArgs {
     /// bundled:NAME (see drive list); the bundled Husky dataset when absent.
     #[arg(long)]
     pub data: Option<PathBuf>,
-    /// Sidecar JSON of the window CSV; by default the CSV's path with a .json extension.
+    /// Sidecar JSON of the window CSV; by default beside it, `run.csv` -> `run.meta.json`
+    /// (or the older `run.json`).
     #[arg(long, requires = "data")]
     pub sidecar: Option<PathBuf>,
     /// Positions as the data has them (as-published), or, when the sidecar declares the

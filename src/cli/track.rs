@@ -27,8 +27,8 @@ pub struct Args {
     /// comma-separated; recorded with the robot.
     #[arg(long, value_delimiter = ',')]
     train_data: Vec<PathBuf>,
-    /// The sidecars of --train-data, comma-separated, one per file (default: each CSV's
-    /// path with a .json extension).
+    /// The sidecars of --train-data, comma-separated, one per file (default: beside each
+    /// CSV, `run.csv` -> `run.meta.json`, or the older `run.json`).
     #[arg(long, value_delimiter = ',', requires = "train_data")]
     train_sidecar: Vec<PathBuf>,
     /// Samplers of simulated DRIVE training runs on the same robot and ground (one run per

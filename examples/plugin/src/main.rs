@@ -1,8 +1,10 @@
 //! A researcher's crate with its own parts, and the whole `drive` command line with them:
 //! `cargo run --release -- list`, `-- eval --models all`, `-- simulate --robot
-//! cmd-vel-robot ...`. Each part is one file and one `register` call.
+//! cmd-vel-robot ...`, `-- simulate --robot offset-robot ...`. Each part is one file and one
+//! `register` call.
 
 mod halton;
+mod offset_unicycle;
 mod ridge_slip;
 mod second_order;
 mod unicycle;
@@ -42,6 +44,32 @@ fn registries() -> Result<Registries, drive::traits::RegistryError> {
     r.robots.register(
         "cmd-vel-robot",
         "a 75 kg robot commanded in body velocity, 1 m/s, 1.5 rad/s",
+        Arc::new(robot),
+    )?;
+    // A vehicle whose lateral velocity follows its yaw rate (its reference point 0.3 m
+    // ahead of the axle), and a robot with it.
+    let offset = offset_unicycle::OffsetUnicycle {
+        unicycle: unicycle::Unicycle { max_yaw_rate: 1.5 },
+        offset: 0.3,
+    };
+    r.vehicles.register(
+        "offset-unicycle",
+        "a unicycle seen from a point ahead of its axle: v_y = offset * omega",
+        Arc::new(offset.clone()),
+    )?;
+    let mut robot = r.robot("husky").expect("the husky preset is registered");
+    robot.name = "offset-robot".into();
+    robot.nominal_input_space = {
+        use drive::traits::CommandModel;
+        // Positive limits (the literals above): the box is valid.
+        offset
+            .nominal_input_space(robot.max_speed)
+            .expect("positive limits")
+    };
+    robot.vehicle = Arc::new(offset);
+    r.robots.register(
+        "offset-robot",
+        "a 75 kg unicycle localized 0.3 m ahead of its axle, 1 m/s, 1.5 rad/s",
         Arc::new(robot),
     )?;
     Ok(r)
