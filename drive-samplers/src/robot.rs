@@ -306,6 +306,117 @@ pub fn autorally() -> RobotSpec {
 }
 
 impl RobotSpec {
+    /// A robot of `name` with `vehicle`, `mass_kg`, the manufacturer's top speed
+    /// `max_speed` (m/s) and the acceleration limits applied to the sent commands
+    /// (`max_linear_acceleration` m/s^2, `max_angular_acceleration` rad/s^2): the fields a
+    /// robot file requires, with its defaults for the rest (the DRIVE command rate, 20 Hz;
+    /// no controller limits; wheels; no body size; the vehicle's nominal input space at
+    /// that speed as its input space), changed with the `with_*` methods. `Err` names a
+    /// value out of range, or a vehicle that gives no nominal input space.
+    ///
+    /// ```
+    /// use drive_samplers::RobotSpec;
+    /// use std::sync::Arc;
+    /// let wheels = || Arc::new(drive_models::DifferentialDrive::new(0.1, 0.4));
+    /// let robot = RobotSpec::new("mine", wheels(), 30.0, 1.5, 1.0, 3.0)
+    ///     .unwrap()
+    ///     .with_rate(10.0)
+    ///     .unwrap();
+    /// assert_eq!(robot.input_space().max.x, 15.0); // 1.5 m/s on 0.1 m wheels
+    /// assert_eq!((robot.rate_hz, robot.max_angular_acceleration), (10.0, 3.0));
+    /// let e = RobotSpec::new("bad", wheels(), 30.0, -1.0, 1.0, 3.0).unwrap_err();
+    /// assert!(e.to_string().contains("max_speed"));
+    /// ```
+    pub fn new(
+        name: impl Into<String>,
+        vehicle: Arc<dyn CommandModel>,
+        mass_kg: f64,
+        max_speed: f64,
+        max_linear_acceleration: f64,
+        max_angular_acceleration: f64,
+    ) -> Result<RobotSpec, RobotError> {
+        let name = name.into();
+        let invalid = |field: &'static str, message: String| RobotError::Invalid {
+            file: name.clone(),
+            field,
+            message,
+        };
+        positive(mass_kg).map_err(|m| invalid("mass_kg", m))?;
+        positive(max_speed).map_err(|m| invalid("max_speed", m))?;
+        vehicle.check().map_err(|m| invalid("vehicle", m))?;
+        let nominal_input_space = vehicle.nominal_input_space(max_speed).ok_or_else(|| {
+            invalid(
+                "vehicle",
+                "the vehicle gives no nominal input space: describe the robot in a TOML file with its input limits".into(),
+            )
+        })?;
+        RobotSpec {
+            name: name.clone(),
+            mass_kg,
+            vehicle,
+            max_speed,
+            controller_max_linear: None,
+            controller_max_angular: None,
+            max_lateral_acceleration: None,
+            rate_hz: 20.0,
+            max_linear_acceleration: 1.0,
+            max_angular_acceleration: 1.0,
+            input_rate_limits: None,
+            input_limits: None,
+            nominal_input_space,
+            tracked: false,
+            body: None,
+        }
+        .with_accelerations(max_linear_acceleration, max_angular_acceleration)
+    }
+
+    /// The same robot with the acceleration limits applied to the sent commands:
+    /// `linear` (m/s^2) and `angular` (rad/s^2), both positive.
+    pub fn with_accelerations(mut self, linear: f64, angular: f64) -> Result<Self, RobotError> {
+        for (field, v) in [
+            ("max_linear_acceleration", linear),
+            ("max_angular_acceleration", angular),
+        ] {
+            positive(v).map_err(|message| RobotError::Invalid {
+                file: self.name.clone(),
+                field,
+                message,
+            })?;
+        }
+        self.max_linear_acceleration = linear;
+        self.max_angular_acceleration = angular;
+        Ok(self)
+    }
+
+    /// The same robot commanded at `rate_hz` (Hz, positive).
+    pub fn with_rate(mut self, rate_hz: f64) -> Result<Self, RobotError> {
+        positive(rate_hz).map_err(|message| RobotError::Invalid {
+            file: self.name.clone(),
+            field: "rate_hz",
+            message,
+        })?;
+        self.rate_hz = rate_hz;
+        Ok(self)
+    }
+
+    /// The same robot with its true input limits (from a characterization, or given).
+    pub fn with_input_limits(mut self, limits: InputSpace) -> Self {
+        self.input_limits = Some(limits);
+        self
+    }
+
+    /// The same robot with its body's footprint (for its moment of inertia).
+    pub fn with_body(mut self, body: BodySize) -> Self {
+        self.body = Some(body);
+        self
+    }
+
+    /// The same robot on tracks rather than wheels.
+    pub fn tracked(mut self) -> Self {
+        self.tracked = true;
+        self
+    }
+
     /// Parses and validates a TOML description (`file` names it in errors).
     pub fn from_toml(file: &str, text: &str) -> Result<RobotSpec, RobotError> {
         let parse = |message: String| RobotError::Parse {
@@ -693,5 +804,14 @@ fn non_finite(value: &toml::Value, path: &str) -> Option<(String, f64)> {
             .enumerate()
             .find_map(|(i, v)| non_finite(v, &format!("{path}[{i}]"))),
         _ => None,
+    }
+}
+
+/// `Err` unless `v` is a finite positive number.
+fn positive(v: f64) -> Result<(), String> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("{v} is not a positive number"))
     }
 }

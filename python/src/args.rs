@@ -168,3 +168,21 @@ pub(crate) fn all_finite_parallel(v: &[f64]) -> bool {
     use rayon::prelude::*;
     v.par_chunks(1 << 15).all(all_finite)
 }
+
+/// The error of reading `path`: `drive.DriveFileNotFoundError` (a `FileNotFoundError` and a
+/// `DriveError`) when `path` names a file (a `.toml` name or a path that looks like one)
+/// that does not exist, a `DriveError` otherwise; the message is `e`'s either way.
+pub(crate) fn read_error(py: Python<'_>, path: &str, e: impl std::fmt::Display) -> PyErr {
+    let missing = path.ends_with(".toml") && !std::path::Path::new(path).exists();
+    if missing {
+        if let Ok(class) = py
+            .import("drive")
+            .and_then(|m| m.getattr("DriveFileNotFoundError"))
+        {
+            if let Ok(value) = class.call1((e.to_string(), path)) {
+                return PyErr::from_value(value);
+            }
+        }
+    }
+    err(e)
+}

@@ -75,7 +75,7 @@ impl Model {
     /// With `return_cov=True`, a pair (poses, covariances): covariances (H, 3, 3) of x, y,
     /// yaw at each row (zero at row 0), for a model with an uncertainty (slip-BLR,
     /// acc-BLR, slip-ipem, calibrated by default); a `DriveError` for one without.
-    #[pyo3(signature = (commands, start=None, start_wheels=None, start_yaw_rate=None, start_velocity=None, return_cov=false))]
+    #[pyo3(signature = (commands, start=None, start_wheels=None, start_yaw_rate=None, start_velocity=None, return_cov=None))]
     #[allow(clippy::too_many_arguments)]
     fn predict<'py>(
         &self,
@@ -85,8 +85,19 @@ impl Model {
         start_wheels: Option<&Bound<'py, PyAny>>,
         start_yaw_rate: Option<&Bound<'py, PyAny>>,
         start_velocity: Option<&Bound<'py, PyAny>>,
-        return_cov: bool,
+        return_cov: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
+        let return_cov = match return_cov.filter(|r| !r.is_none()) {
+            None => false,
+            // Python's and numpy's booleans.
+            Some(r) if matches!(type_name(r).as_str(), "bool" | "bool_") => r.is_truthy()?,
+            Some(r) => {
+                return Err(err(format!(
+                    "return_cov must be True or False, got {}",
+                    crate::args::short_repr(r)
+                )))
+            }
+        };
         let velocity: Option<[f64; 2]> = start_velocity
             .filter(|v| !v.is_none())
             .map(|v| numbers_of("start_velocity", Some(v)))
@@ -402,6 +413,17 @@ impl Model {
                 "the model is of a {} vehicle and the dataset's is {}: its inputs are other axes",
                 ours.unwrap_or_default(),
                 theirs.unwrap_or_default()
+            )));
+        }
+        // The same type with another geometry (another robot's wheels): the model's inputs
+        // would command other body velocities.
+        let (a, b) = (
+            serde_json::to_value(self.robot.vehicle.as_ref()).map_err(err)?,
+            serde_json::to_value(data.robot.vehicle.as_ref()).map_err(err)?,
+        );
+        if a != b {
+            return Err(err(format!(
+                "the model was fitted for the vehicle {a} and the dataset's is {b}: another robot's inputs command other body velocities (fit a model on that robot's data)"
             )));
         }
         if (self.model.dt() - data.robot.dt()).abs() > 1e-9 * data.robot.dt() {

@@ -87,7 +87,9 @@ impl Tracker {
                 type_name(robot)
             ))
         })?;
-        let robot = Registries::builtin().robot(&robot_name).map_err(err)?;
+        let robot = Registries::builtin()
+            .robot(&robot_name)
+            .map_err(|e| crate::args::read_error(py, &robot_name, e))?;
         let (a, b) = (
             vehicle_tag(model.robot.vehicle.as_ref()),
             vehicle_tag(robot.vehicle.as_ref()),

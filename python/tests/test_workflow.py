@@ -128,7 +128,12 @@ def test_to_pandas_and_from_pandas_round_trip(husky, raw_log, tmp_path):
         drive.Dataset.from_pandas(broken, husky.meta)
     broken = df.copy()
     broken.loc[7, "phase"] = "cruise"
-    with pytest.raises(drive.DriveError, match=r"DataFrame row 7 \(index 7\)"):
+    with pytest.raises(drive.DriveError, match=r"column 'phase', row 7 \(index 7\): 'cruise'"):
+        drive.Dataset.from_pandas(broken, husky.meta)
+    # What the parser finds (a window out of order) is reported at the DataFrame's row too.
+    broken = df.copy()
+    broken.loc[100, "window"] = 0
+    with pytest.raises(drive.DriveError, match=r"DataFrame row 100 \(index 100\)"):
         drive.Dataset.from_pandas(broken, husky.meta)
     with pytest.raises(drive.DriveError, match="missing column 'yaw'"):
         drive.Dataset.from_pandas(df.drop(columns=["yaw"]), husky.meta)
@@ -172,11 +177,12 @@ def test_score_on_another_dataset_and_the_evaluation_half(husky, tmp_path):
     transfer = model.score(snow)
     assert transfer["windows"] == len(snow) and transfer["dataset"] == snow.name
     assert transfer["translational_m"]["all"]["median"] > 0.0
-    # Another vehicle's data is refused, not scored.
-    car = drive.load_dataset("bundled:warthog_grass_2024-08-08")
-    if car.meta["vehicle"]["type"] != husky.meta["vehicle"]["type"]:
-        with pytest.raises(drive.DriveError, match="vehicle"):
-            model.score(car)
+    # Another robot's data is refused, not scored: the Warthog is a differential drive
+    # too, with other wheels.
+    warthog = drive.load_dataset("bundled:warthog_grass_2024-08-08")
+    assert warthog.meta["vehicle"]["type"] == husky.meta["vehicle"]["type"]
+    with pytest.raises(drive.DriveError, match="fitted for the vehicle"):
+        model.score(warthog)
 
 
 def test_predict_rows_and_covariances(husky):
@@ -232,3 +238,73 @@ def test_report_writes_the_command_lines_report(husky, tmp_path):
     assert Path(md).name == "report.md" and Path(md).exists()
     assert "slip-blr" in Path(md).read_text()
     assert any(p.suffix == ".png" for p in (tmp_path / "report").iterdir())
+
+
+def test_missing_files_of_every_kind_are_file_not_found_errors(husky, raw_log, tmp_path):
+    # A CSV without its sidecar, a robot file, a suite file.
+    lonely = tmp_path / "lonely.csv"
+    lonely.write_text(raw_log.read_text()[:100])
+    missing_robot = str(tmp_path / "missing_robot.toml")
+    model = drive.fit(husky, "naive")
+    for call in (
+        lambda: drive.load_dataset(lonely),
+        lambda: drive.import_raw(raw_log, missing_robot),
+        lambda: drive.bench(suite=tmp_path / "missing_suite.toml"),
+        lambda: drive.ProtocolRunner(missing_robot),
+        lambda: drive.Tracker(model, missing_robot, "line", 0.5),
+        lambda: drive.report(husky, tmp_path / "r", robot=missing_robot),
+    ):
+        with pytest.raises(drive.DriveFileNotFoundError) as e:
+            call()
+        assert e.value.errno == 2 and e.value.filename, str(e.value)
+
+
+def test_wrong_types_are_drive_errors(husky, raw_log, tmp_path):
+    model = drive.fit(husky, "slip-blr", split=0.5)
+    for call, words in (
+        (lambda: drive.import_raw(raw_log, "husky", allow=3), "allow must be"),
+        (lambda: drive.import_raw(raw_log, "husky", allow=[3]), "allow must be"),
+        (lambda: drive.import_bag(raw_log, "husky", topics=3), "topics must be"),
+        (lambda: model.predict(np.zeros((4, 2)), return_cov="yes"), "return_cov must be"),
+        (lambda: drive.report("run.csv", tmp_path / "r"), "dataset must be"),
+        (lambda: drive.report(husky, None), "out must be"),
+        (lambda: drive.report(husky, tmp_path / "r", model=3), "model must be"),
+    ):
+        with pytest.raises(drive.DriveError, match=words):
+            call()
+    # numpy's booleans are booleans.
+    assert len(model.predict(np.zeros((4, 2)), return_cov=np.True_)) == 2
+
+
+def test_from_pandas_names_what_is_wrong_in_meta_and_columns(husky):
+    pd = pytest.importorskip("pandas")
+    df = husky.to_pandas()
+    small = df[df["window"] < 120]
+    # numpy integers in meta are numbers.
+    data = drive.Dataset.from_pandas(small, {**husky.meta, "windows": small["window"].max() + 1})
+    assert len(data) == 120
+    with pytest.raises(drive.DriveError, match="'yaw' more than once"):
+        drive.Dataset.from_pandas(pd.concat([small, small[["yaw"]]], axis=1), {**husky.meta, "windows": 120})
+    with pytest.raises(drive.DriveError, match="field 'rate_hz'"):
+        drive.Dataset.from_pandas(small, {**husky.meta, "windows": 120, "rate_hz": float("nan")})
+    broken = small.copy()
+    broken.loc[41, "phase"] = "steady,1"
+    with pytest.raises(drive.DriveError, match=r"column 'phase', row 41 \(index 41\)"):
+        drive.Dataset.from_pandas(broken, {**husky.meta, "windows": 120})
+
+
+def test_report_errors_carry_the_command_lines_message(husky, tmp_path):
+    small = drive.Dataset.from_pandas(husky.to_pandas().query("window < 120"), {**husky.meta, "windows": 120})
+    with pytest.raises(drive.DriveError, match="unknown model 'nope'"):
+        drive.report(small, tmp_path / "r", model="nope")
+    # The dataset's name is no path: nothing is written beside the temporary directory.
+    renamed = drive.Dataset.from_pandas(small.to_pandas(), {**small.meta, "name": "../escape"})
+    drive.report(renamed, tmp_path / "r2", models=["naive"])
+    assert (tmp_path / "r2" / "report.md").exists()
+
+
+def test_the_console_command_with_closed_streams():
+    out = subprocess.run(f"'{BIN}' list >&-", shell=True, capture_output=True, text=True)
+    assert "Traceback" not in out.stderr
+    out = subprocess.run(f"'{BIN}' no-such-command 2>&-", shell=True, capture_output=True, text=True)
+    assert out.returncode == 2

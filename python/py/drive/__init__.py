@@ -64,6 +64,28 @@ def _missing(*paths):
     return None
 
 
+def _robot_file(robot):
+    """`robot` when it names a robot file (a `.toml` name), else None: a registered name
+    such as "husky" is no file."""
+    if isinstance(robot, _os.PathLike):
+        robot = _os.fspath(robot)
+    return robot if isinstance(robot, str) and robot.endswith(".toml") else None
+
+
+def _sidecars(path, sidecar):
+    """The sidecar files a window CSV at `path` may be read with: `sidecar`, or beside it
+    (`run.csv` -> `run.meta.json`, the older `run.json`) when the CSV exists."""
+    if sidecar is not None or path is None:
+        return [sidecar]
+    if isinstance(path, _os.PathLike):
+        path = _os.fspath(path)
+    if not isinstance(path, str) or path.startswith("bundled:") or not _os.path.exists(path):
+        return []
+    stem = _os.path.splitext(path)[0]
+    meta, legacy = stem + ".meta.json", stem + ".json"
+    return [] if _os.path.exists(meta) or _os.path.exists(legacy) else [meta]
+
+
 def _reading(call, *paths):
     """`call()`, its error a `DriveFileNotFoundError` when one of `paths` does not exist."""
     try:
@@ -79,7 +101,7 @@ def load_dataset(path=None, sidecar=None):
     """The bundled Husky dataset (`path` None), a bundled dataset by name
     ("bundled:warthog_grass_2024-08-08", see `drive list`), or a window CSV with its sidecar
     beside it (`run.csv` -> `run.meta.json`) or at `sidecar`."""
-    return _reading(lambda: _native.load_dataset(path, sidecar), path, sidecar)
+    return _reading(lambda: _native.load_dataset(path, sidecar), path, *_sidecars(path, sidecar))
 
 
 def load_model(path):
@@ -99,12 +121,17 @@ def _import(path, robot, bag, topics, max_gap, localization_timeout, terrain, al
         raise DriveError(f"terrain must be a str, got {terrain!r}")
     if isinstance(allow, str):
         allow = [a.strip() for a in allow.split(",") if a.strip()]
-    allow = list(allow or [])
+    if allow is None:
+        allow = []
+    if not isinstance(allow, (list, tuple)) or not all(isinstance(a, str) for a in allow):
+        raise DriveError(f"allow must be check names (a list of str, or one str with commas), got {allow!r}")
+    allow = list(allow)
     dataset, failure = _reading(
         lambda: _native.import_recording(
             path, robot, bag, list(topics), float(max_gap), float(localization_timeout), terrain, allow
         ),
         path,
+        _robot_file(robot),
     )
     if failure is not None:
         raise DriveError(f"{failure}; nothing imported")
@@ -133,6 +160,8 @@ def import_bag(path, robot, topics=None, *, max_gap=0.25, localization_timeout=0
         topics = [f"{k}={v}" for k, v in topics.items()]
     elif isinstance(topics, str):
         topics = [topics]
+    elif not isinstance(topics, (list, tuple)):
+        raise DriveError(f"topics must be a dict of key -> topic, or a list of 'KEY=/topic', got {topics!r}")
     topics = list(topics)
     if not all(isinstance(t, str) for t in topics):
         raise DriveError(f"topics must be a dict of key -> topic, or a list of 'KEY=/topic', got {topics!r}")
@@ -153,23 +182,62 @@ def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None):
     """`drive report` on `dataset`: report.md and the paper's figures (PNG) in the directory
     `out`, for the models (default: every model of `drive report`) with `model`'s
     uncertainty figures; `robot` (a registered robot or TOML file) for the naive input
-    space's figure. Returns the path of report.md."""
+    space's figure. Returns the path of report.md; a `DriveError` carries the command
+    line's message."""
     import tempfile
 
+    if not isinstance(dataset, Dataset):
+        raise DriveError(f"dataset must be a drive.Dataset, got {type(dataset).__name__}")
+    if not isinstance(out, (str, _os.PathLike)):
+        raise DriveError(f"out must be a directory path (str or os.PathLike), got {out!r}")
+    if not isinstance(model, str):
+        raise DriveError(f"model must be a model name such as 'slip-blr', got {model!r}")
+    if robot is not None and not isinstance(robot, (str, _os.PathLike)):
+        raise DriveError(f"robot must be a robot name or a robot TOML file, got {robot!r}")
     models = _model_names(models, split)
     out = _os.fspath(out)
+    missing = _missing(_robot_file(robot))
+    if missing is not None:
+        raise DriveFileNotFoundError(f"{missing}: no such robot file", missing)
     with tempfile.TemporaryDirectory() as tmp:
-        csv = _os.path.join(tmp, f"{dataset.name or 'data'}.csv")
+        csv = _os.path.join(tmp, "data.csv")
         dataset.save(csv)
         args = ["drive", "report", "--data", csv, "--out", out, "--split", repr(float(split)), "--model", model]
         if models is not None:
             args += ["--models", ",".join(models)]
         if robot is not None:
             args += ["--robot", _os.fspath(robot)]
-        status = _native.run_cli(args)
+        status, said = _run_capturing_stderr(args, tmp)
     if status != 0:
-        raise DriveError(f"drive report failed (exit status {status}; its message is on standard error)")
+        errors = [line[len("error: "):] for line in said.splitlines() if line.startswith("error: ")]
+        raise DriveError(errors[-1] if errors else f"drive report failed: {said.strip()}")
     return _os.path.join(out, "report.md")
+
+
+def _run_capturing_stderr(args, tmp):
+    """The command line run in-process with its standard error (file descriptor 2) read
+    back: (exit status, what it said). What it said is passed on to `sys.stderr` on
+    success (its notes)."""
+    import sys
+
+    path = _os.path.join(tmp, "stderr.txt")
+    if sys.stderr is not None:
+        sys.stderr.flush()
+    saved = _os.dup(2)
+    try:
+        with open(path, "wb") as captured:
+            _os.dup2(captured.fileno(), 2)
+            try:
+                status = _native.run_cli(args)
+            finally:
+                _os.dup2(saved, 2)
+    finally:
+        _os.close(saved)
+    with open(path, encoding="utf-8", errors="replace") as f:
+        said = f.read()
+    if status == 0 and said and sys.stderr is not None:
+        sys.stderr.write(said)
+    return status, said
 
 
 __all__ = [
@@ -225,7 +293,7 @@ def bench(suite=None, models=None, split=0.5, transfer=True):
     models = _model_names(models, split)
     if not isinstance(transfer, bool):
         raise DriveError(f"transfer must be True or False, got {transfer!r}")
-    return _json.loads(_bench_json(suite, models, float(split), transfer))
+    return _json.loads(_reading(lambda: _bench_json(suite, models, float(split), transfer), suite))
 
 
 class Measurements:
@@ -331,7 +399,10 @@ class ProtocolRunner:
             raise DriveError(f"sampler must be a sampler name (see drive list), got {sampler!r}")
         if isinstance(seed, bool) or not isinstance(seed, _numbers.Integral) or not 0 <= seed < 2**64:
             raise DriveError(f"seed must be an integer from 0 to 2^64 - 1, got {seed!r}")
-        self._native = _native.ProtocolRunner(robot, sampler, int(seed), **_check_options(options))
+        options = _check_options(options)
+        self._native = _reading(
+            lambda: _native.ProtocolRunner(robot, sampler, int(seed), **options), _robot_file(robot)
+        )
         self._thread = _threading.get_ident()
 
     def _own_thread(self):

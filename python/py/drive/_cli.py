@@ -15,8 +15,14 @@ def main(argv=None):
     # Ctrl-C ends the command as it ends the binary (Python's handler would wait for the
     # Rust code to return first).
     signal.signal(signal.SIGINT, signal.SIG_DFL)
-    sys.stdout.flush()
-    sys.stderr.flush()
+    # A stream closed at start is None in Python (`drive list >&-`): the command line
+    # reports a write it cannot make itself.
+    for stream in (sys.stdout, sys.stderr):
+        if stream is not None:
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
     # Strings as Python decoded them; the extension encodes them back with the file
     # system's encoding (a path that is not UTF-8 stays the same path).
     status = _native.run_cli(["drive", *(os.fspath(a) for a in args)])

@@ -31,9 +31,25 @@ def dataset_from_pandas(df, meta):
     if not isinstance(meta, _Mapping):
         raise DriveError(f"meta must be a dict (the sidecar JSON's fields), got {type(meta).__name__}")
     meta = {k: v for k, v in meta.items() if k != "csv"}
-    sidecar = _json.dumps(meta)
+    for key, value in meta.items():
+        if isinstance(value, float) and not _np.isfinite(value):
+            raise DriveError(f"meta, field {key!r}: {value!r} is not a finite number")
+
+    def plain(o):
+        # numpy scalars (meta["windows"] = df["window"].max() + 1) as Python numbers.
+        if isinstance(o, _np.generic):
+            return o.item()
+        raise TypeError(f"{type(o).__name__} is not a JSON value")
+
+    try:
+        sidecar = _json.dumps(meta, default=plain, allow_nan=False)
+    except (TypeError, ValueError) as e:
+        raise DriveError(f"meta cannot be a sidecar: {e}") from None
     required = columns_for_sidecar(sidecar)
     columns = [str(c) for c in df.columns]
+    duplicated = sorted({c for c in columns if columns.count(c) > 1})
+    if duplicated:
+        raise DriveError(f"df has the column {duplicated[0]!r} more than once")
     missing = [c for c in required if c not in columns]
     if missing:
         raise DriveError(f"df: missing column {missing[0]!r} (required: {', '.join(required)})")
@@ -45,6 +61,14 @@ def dataset_from_pandas(df, meta):
 
     for name in required:
         if name == "phase":
+            phases = frame[name].astype(str)
+            bad = ~phases.isin(["transient", "steady"]).to_numpy()
+            if bad.any():
+                position = int(_np.argmax(bad))
+                raise DriveError(
+                    f"DataFrame column 'phase', row {position} (index {frame.index[position]!r}): "
+                    f"{frame[name].iloc[position]!r} is neither 'transient' nor 'steady'"
+                )
             continue
         values = frame[name]
         if values.dtype == bool:
