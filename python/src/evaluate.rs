@@ -41,6 +41,40 @@ pub(crate) fn model_names(models: Option<&Bound<'_, PyAny>>) -> PyResult<Option<
         .transpose()
 }
 
+/// The models (default: the paper's four) fitted on the first `split` of the dataset's
+/// intervals and scored on the rest, predicting from `start`: `drive eval`'s comparison.
+fn comparison(
+    py: Python<'_>,
+    dataset: &Bound<'_, PyAny>,
+    models: Option<&Bound<'_, PyAny>>,
+    split: f64,
+    start: Option<&Bound<'_, PyAny>>,
+) -> PyResult<drive::eval::Comparison> {
+    let dataset = dataset_of(dataset)?;
+    let start = start_info_of(start)?;
+    let names = model_names(models)?.unwrap_or_else(|| {
+        ["naive", "powertrain", "slip-blr", "acc-blr"]
+            .map(String::from)
+            .to_vec()
+    });
+    if names.is_empty() {
+        return Err(err("models is empty"));
+    }
+    let data = &dataset.inner;
+    py.detach(|| {
+        let registries = Registries::builtin();
+        let specs: Vec<_> = registries
+            .models()
+            .resolve_list(&names)
+            .map_err(|e| e.to_string())?
+            .into_iter()
+            .map(|s| s.clone().with_uncertainty(s.uncertainty, start))
+            .collect();
+        compare_specs(data, split, &specs).map_err(|e| e.to_string())
+    })
+    .map_err(err)
+}
+
 /// `drive eval --json` as a JSON text: the models (default: the paper's four) fitted on the
 /// first `split` of the intervals and scored on the rest, their predictions starting from
 /// `start` (`drive eval --start`).
@@ -53,29 +87,7 @@ pub(crate) fn evaluate_json(
     split: f64,
     start: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<String> {
-    let dataset = dataset_of(dataset)?;
-    let start = start_info_of(start)?;
-    let names = model_names(models)?.unwrap_or_else(|| {
-        ["naive", "powertrain", "slip-blr", "acc-blr"]
-            .map(String::from)
-            .to_vec()
-    });
-    if names.is_empty() {
-        return Err(err("models is empty"));
-    }
-    let data = &dataset.inner;
-    let result = py.detach(|| {
-        let registries = Registries::builtin();
-        let specs: Vec<_> = registries
-            .models()
-            .resolve_list(&names)
-            .map_err(|e| e.to_string())?
-            .into_iter()
-            .map(|s| s.clone().with_uncertainty(s.uncertainty, start))
-            .collect();
-        compare_specs(data, split, &specs).map_err(|e| e.to_string())
-    });
-    let cmp = result.map_err(err)?;
+    let cmp = comparison(py, dataset, models, split, start)?;
     serde_json::to_string(&cmp).map_err(err)
 }
 
@@ -90,30 +102,7 @@ pub(crate) fn per_window_columns<'py>(
     split: f64,
     start: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let dataset = dataset_of(dataset)?;
-    let start = start_info_of(start)?;
-    let names = model_names(models)?.unwrap_or_else(|| {
-        ["naive", "powertrain", "slip-blr", "acc-blr"]
-            .map(String::from)
-            .to_vec()
-    });
-    if names.is_empty() {
-        return Err(err("models is empty"));
-    }
-    let data = &dataset.inner;
-    let cmp = py
-        .detach(|| {
-            let registries = Registries::builtin();
-            let specs: Vec<_> = registries
-                .models()
-                .resolve_list(&names)
-                .map_err(|e| e.to_string())?
-                .into_iter()
-                .map(|s| s.clone().with_uncertainty(s.uncertainty, start))
-                .collect();
-            compare_specs(data, split, &specs).map_err(|e| e.to_string())
-        })
-        .map_err(err)?;
+    let cmp = comparison(py, dataset, models, split, start)?;
     let rows = cmp
         .models
         .iter()
