@@ -578,23 +578,22 @@ fn cut_interval(
                 Pose::new(row.position[0], row.position[1], row.yaw().unwrap_or(0.0))
             };
             let p0 = pose(chunk[0]);
-            Window {
-                index: 0,
-                interval: 0,
-                phase: if i == 0 {
+            Window::new(
+                0,
+                0,
+                if i == 0 {
                     Phase::Transient
                 } else {
                     Phase::Steady
                 },
-                command: command.to_vec(),
-                measured: chunk.iter().map(|row| row.measured).collect(),
-                pose: chunk
+                command.to_vec(),
+                chunk.iter().map(|row| row.measured).collect(),
+                chunk
                     .iter()
                     .map(|row| relative_pose(&p0, &pose(row)))
                     .collect(),
-                imu_yaw_rate: chunk.iter().map(|row| row.imu_rate[2]).collect(),
-                start_velocity: None,
-            }
+                chunk.iter().map(|row| row.imu_rate[2]).collect(),
+            )
         })
         .collect())
 }

@@ -500,13 +500,10 @@ pub fn vehicle_mismatch(
 /// ```
 /// # use drive_traits::{Input, Phase, Pose, Window};
 /// use drive_models::DifferentialDrive;
-/// let w = Window {
-///     index: 0, interval: 0, phase: Phase::Steady,
-///     command: vec![Input::zeros(); 5], measured: vec![Input::new(-1.0, 1.0); 5],
-///     // Turning at 1 rad/s through +-pi, localized every other sample.
-///     pose: [3.0, 3.0, 3.1, 3.1, -3.083185307179586].iter().map(|&z| Pose::new(0.0, 0.0, z)).collect(),
-///     imu_yaw_rate: vec![0.0; 5], start_velocity: None,
-/// };
+/// // Turning at 1 rad/s through +-pi, localized every other sample.
+/// let pose = [3.0, 3.0, 3.1, 3.1, -3.083185307179586].iter().map(|&z| Pose::new(0.0, 0.0, z)).collect();
+/// let w = Window::new(0, 0, Phase::Steady, vec![Input::zeros(); 5], vec![Input::new(-1.0, 1.0); 5],
+///     pose, vec![0.0; 5]);
 /// let vehicle = DifferentialDrive::new(0.25, 1.0); // the wheels say 0.5 rad/s
 /// let r = drive_data::quality::yaw_rate_from_localization(&w, None, &vehicle, 0.05);
 /// assert_eq!(&r[..2], &[0.5, 0.5]);
@@ -574,16 +571,15 @@ mod tests {
         let u = Input::new(-wheel, wheel);
         Dataset {
             robot,
-            windows: vec![Window {
-                index: 0,
-                interval: 0,
-                phase: Phase::Steady,
-                command: vec![u; 40],
-                measured: vec![u; 40],
+            windows: vec![Window::new(
+                0,
+                0,
+                Phase::Steady,
+                vec![u; 40],
+                vec![u; 40],
                 pose,
-                imu_yaw_rate: vec![rate; 40],
-                start_velocity: None,
-            }],
+                vec![rate; 40],
+            )],
         }
     }
 

@@ -215,16 +215,9 @@ fn parse_lines<S: AsRef<str>>(
             ));
         }
         phases.push(p.phase);
-        windows.push(Window {
-            index: p.index,
-            interval: 0,
-            phase: p.phase,
-            command: p.command,
-            measured: p.measured,
-            pose: p.pose,
-            imu_yaw_rate: p.imu,
-            start_velocity: None,
-        });
+        windows.push(Window::new(
+            p.index, 0, p.phase, p.command, p.measured, p.pose, p.imu,
+        ));
         Ok(())
     };
 

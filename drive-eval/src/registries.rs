@@ -198,6 +198,28 @@ impl Registries {
         self.baselines.check_tags()
     }
 
+    /// `Err` when `vehicle` (read from a data sidecar or a model file) is not a registered
+    /// vehicle: a part is looked up under its tag, never used unregistered (its simulator,
+    /// its listing and its name would be another part's or none).
+    ///
+    /// ```
+    /// use drive_eval::Registries;
+    /// let r = Registries::builtin();
+    /// let husky = r.robot("husky").unwrap();
+    /// assert!(r.check_vehicle(husky.vehicle.as_ref()).is_ok());
+    /// let mut without = Registries::builtin();
+    /// without.vehicles = drive_traits::Registry::new("vehicle");
+    /// without.simulators = drive_traits::Registry::new("simulator");
+    /// let e = without.check_vehicle(husky.vehicle.as_ref()).unwrap_err().to_string();
+    /// assert!(e.contains("unknown vehicle 'differential'"), "{e}");
+    /// ```
+    pub fn check_vehicle(&self, vehicle: &dyn CommandModel) -> Result<(), RegistryError> {
+        match drive_traits::vehicle_tag(vehicle) {
+            Some(tag) => self.vehicles.get(&tag).map(|_| ()),
+            None => Ok(()),
+        }
+    }
+
     /// Every registered part, for listing (`drive list`).
     pub fn catalog(&self) -> Catalog {
         let plain = |names: Vec<(&str, &str)>| -> Vec<Listed> {

@@ -436,23 +436,24 @@ mod tests {
         let windows: Vec<Window> = distances
             .iter()
             .enumerate()
-            .map(|(i, d)| Window {
-                index: i,
-                interval: i,
-                phase: Phase::Steady,
-                command: vec![Input::zeros(); 40],
-                measured: vec![Input::zeros(); 40],
-                pose: (0..40)
-                    .map(|k| {
-                        if k == 0 {
-                            Pose::zeros()
-                        } else {
-                            Pose::new(*d, 0.0, 0.0)
-                        }
-                    })
-                    .collect(),
-                imu_yaw_rate: vec![0.0; 40],
-                start_velocity: None,
+            .map(|(i, d)| {
+                Window::new(
+                    i,
+                    i,
+                    Phase::Steady,
+                    vec![Input::zeros(); 40],
+                    vec![Input::zeros(); 40],
+                    (0..40)
+                        .map(|k| {
+                            if k == 0 {
+                                Pose::zeros()
+                            } else {
+                                Pose::new(*d, 0.0, 0.0)
+                            }
+                        })
+                        .collect(),
+                    vec![0.0; 40],
+                )
             })
             .collect();
         let set = WindowSet::new(&robot, &windows);
@@ -481,27 +482,28 @@ mod tests {
         [0.5, 1.0, 2.0, 3.0]
             .iter()
             .enumerate()
-            .map(|(i, d)| Window {
-                index: i,
-                interval: i,
-                phase: if i < 2 {
-                    Phase::Transient
-                } else {
-                    Phase::Steady
-                },
-                command: vec![Input::repeat(10.0 * d); 40],
-                measured: vec![Input::new(*d, 0.0); 40],
-                pose: (0..40)
-                    .map(|k| {
-                        if k == 0 {
-                            Pose::zeros()
-                        } else {
-                            Pose::new(*d, 0.0, 0.0)
-                        }
-                    })
-                    .collect(),
-                imu_yaw_rate: vec![0.0; 40],
-                start_velocity: None,
+            .map(|(i, d)| {
+                Window::new(
+                    i,
+                    i,
+                    if i < 2 {
+                        Phase::Transient
+                    } else {
+                        Phase::Steady
+                    },
+                    vec![Input::repeat(10.0 * d); 40],
+                    vec![Input::new(*d, 0.0); 40],
+                    (0..40)
+                        .map(|k| {
+                            if k == 0 {
+                                Pose::zeros()
+                            } else {
+                                Pose::new(*d, 0.0, 0.0)
+                            }
+                        })
+                        .collect(),
+                    vec![0.0; 40],
+                )
             })
             .collect()
     }

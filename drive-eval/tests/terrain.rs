@@ -44,20 +44,19 @@ fn dataset(commands: &[Input], motion: impl Fn(&Input) -> [f64; 3]) -> Dataset {
                     q.z + w * DT,
                 ));
             }
-            Window {
-                index: i,
-                interval: i / 3,
-                phase: if i % 3 == 0 {
+            Window::new(
+                i,
+                i / 3,
+                if i % 3 == 0 {
                     Phase::Transient
                 } else {
                     Phase::Steady
                 },
-                command: vec![*u; 40],
-                measured: vec![*u; 40],
+                vec![*u; 40],
+                vec![*u; 40],
                 pose,
-                imu_yaw_rate: vec![w; 40],
-                start_velocity: None,
-            }
+                vec![w; 40],
+            )
         })
         .collect();
     Dataset {

@@ -29,8 +29,7 @@ use std::sync::Arc;
 /// let naive = Composed::new(Commanded, NoSlip);
 /// assert_eq!(naive.label(), "no-slip+commanded");
 /// let robot = RobotDescription::new("toy", "", 10.0, 3, DifferentialDrive::new(0.1, 0.5));
-/// let w = Window { index: 0, interval: 0, phase: Phase::Transient, command: vec![Input::new(10.0, 10.0); 3],
-///     measured: vec![Input::zeros(); 3], pose: vec![Pose::zeros(); 3], imu_yaw_rate: vec![0.0; 3], start_velocity: None };
+/// let w = Window::new(0, 0, Phase::Transient, vec![Input::new(10.0, 10.0); 3], vec![Input::zeros(); 3], vec![Pose::zeros(); 3], vec![0.0; 3]);
 /// let windows = [w];
 /// let model = naive.fit(&WindowSet::new(&robot, &windows)).unwrap();
 /// let poses = model.predict(&StartState::at_rest(Pose::zeros()), &[Input::new(10.0, 10.0); 3]);
@@ -99,8 +98,7 @@ impl Composed {
     /// use drive_models::slip::NoSlip;
     /// use drive_traits::{Input, Learner, MotionModel, Phase, Pose, RobotDescription, StartState, Window, WindowSet};
     /// let robot = RobotDescription::new("toy", "", 10.0, 3, DifferentialDrive::new(0.1, 0.5));
-    /// let w = |i| Window { index: i, interval: i, phase: Phase::Transient, command: vec![Input::new(10.0, 10.0); 3],
-    ///     measured: vec![Input::zeros(); 3], pose: vec![Pose::zeros(); 3], imu_yaw_rate: vec![0.0; 3], start_velocity: None };
+    /// let w = |i| Window::new(i, i, Phase::Transient, vec![Input::new(10.0, 10.0); 3], vec![Input::zeros(); 3], vec![Pose::zeros(); 3], vec![0.0; 3]);
     /// let windows = [w(0), w(1)];
     /// let learner = Composed::new(Commanded, NoSlip);
     /// let mut fit = learner.growing(&robot).expect("no-slip fits online");
@@ -299,6 +297,17 @@ impl MotionModel for ComposedModel {
         crate::check_same_step("slip model", self.slip.step(), self.dt)
     }
 
+    /// The powertrain's parameters (`powertrain: ...`), then the slip model's.
+    fn parameters(&self) -> Vec<(String, f64)> {
+        prefixed_parameters(self.powertrain.as_ref())
+            .chain(self.slip.parameters())
+            .collect()
+    }
+
+    fn powertrain(&self) -> Option<&dyn Powertrain> {
+        Some(self.powertrain.as_ref())
+    }
+
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
         with_scratch(|s| {
             self.velocities(start, commands, s);
@@ -360,4 +369,15 @@ impl MotionModel for ComposedModel {
             Ok(())
         })
     }
+}
+
+/// A powertrain's parameters named `powertrain: <name>`, as a model lists them beside its
+/// other parts'.
+pub(crate) fn prefixed_parameters(
+    powertrain: &dyn Powertrain,
+) -> impl Iterator<Item = (String, f64)> {
+    powertrain
+        .parameters()
+        .into_iter()
+        .map(|(name, v)| (format!("powertrain: {name}"), v))
 }

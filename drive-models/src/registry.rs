@@ -246,18 +246,15 @@ impl ModelSpec {
         let owned: Vec<Window> = train
             .windows
             .iter()
-            .map(|w| Window {
-                start_velocity: if drop_velocity {
-                    None
-                } else {
-                    w.start_velocity
-                },
-                imu_yaw_rate: if drop_imu {
-                    vec![f64::NAN; w.imu_yaw_rate.len()]
-                } else {
-                    w.imu_yaw_rate.clone()
-                },
-                ..(*w).clone()
+            .map(|&w| {
+                let mut w = w.clone();
+                if drop_velocity {
+                    w.start_velocity = None;
+                }
+                if drop_imu {
+                    w.imu_yaw_rate.fill(f64::NAN);
+                }
+                w
             })
             .collect();
         fit(&WindowSet {

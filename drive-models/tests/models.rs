@@ -48,16 +48,15 @@ fn window(
     pose: Vec<Pose>,
 ) -> Window {
     let n = pose.len();
-    Window {
+    Window::new(
         index,
-        interval: index / 3,
+        index / 3,
         phase,
         command,
         measured,
         pose,
-        imu_yaw_rate: vec![0.0; n],
-        start_velocity: None,
-    }
+        vec![0.0; n],
+    )
 }
 
 /// Exact poses of a constant body velocity (closed-form arc), sampled every dt.

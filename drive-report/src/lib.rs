@@ -34,12 +34,8 @@ use drive_eval::{
     compare_regions, compare_specs, convergence, split_by_interval, Comparison, Convergence, Mrmse,
     RegionComparison, RegionStudy, Registries,
 };
-use drive_models::baselines::{AccBlr, AccBlrModel};
-use drive_models::powertrain::{CommandedPowertrain, Fopdt, FopdtPowertrain};
-use drive_models::slip::{SlipBlr, SlipBlrModel};
-use drive_traits::{
-    CommandModel, Dataset, InputSpace, MotionModel, PowertrainLearner, SlipData, SlipLearner,
-};
+use drive_models::powertrain::CommandedPowertrain;
+use drive_traits::{CommandModel, Dataset, InputSpace, MotionModel, Powertrain};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -63,7 +59,7 @@ pub enum ReportError {
     #[error("fitting {model}: {reason}")]
     Fit {
         /// Model.
-        model: &'static str,
+        model: String,
         /// Why.
         reason: drive_traits::FitError,
     },
@@ -132,15 +128,14 @@ impl Default for ReportOptions {
     }
 }
 
-/// The fitted parameters of the paper's models reported.
-#[derive(Debug, Clone)]
+/// One compared model's fitted parameters, as its parts give them
+/// ([`MotionModel::parameters`]: a plug-in part reports its own).
+#[derive(Debug, Clone, PartialEq)]
 pub struct FittedParameters {
-    /// The FOPDT powertrain (eq. 3).
-    pub fopdt: FopdtPowertrain,
-    /// Slip-BLR on the FOPDT (eq. 5-7).
-    pub slip_blr: SlipBlrModel,
-    /// Acceleration BLR on the commands.
-    pub acc_blr: AccBlrModel,
+    /// The model's name in the comparison.
+    pub model: String,
+    /// Its parameters by name, in the order the model lists them.
+    pub parameters: Vec<(String, f64)>,
 }
 
 /// Everything a report holds, computed once and then written.
@@ -155,8 +150,8 @@ pub struct Report {
     pub convergence: Convergence,
     /// The protocol comparison on the recorded data, or why it could not run.
     pub protocols: Result<RegionComparison, String>,
-    /// Fitted parameters.
-    pub fitted: FittedParameters,
+    /// Each compared model's fitted parameters, in the comparison's order.
+    pub fitted: Vec<FittedParameters>,
     /// Fig. 1 data.
     pub input_space: InputSpaceFigure,
     /// Fig. 3 data.
@@ -180,6 +175,16 @@ pub fn nll_text(nll: f64) -> String {
         format!("{nll:.2}")
     } else {
         format!("{nll:.2e}")
+    }
+}
+
+/// A fitted parameter for reading: four decimals, scientific notation for values under
+/// 10^-3 or from 10^5 on.
+fn parameter_text(v: f64) -> String {
+    if v == 0.0 || (1e-3..1e5).contains(&v.abs()) {
+        format!("{v:.4}")
+    } else {
+        format!("{v:.3e}")
     }
 }
 
@@ -226,25 +231,52 @@ impl Report {
             },
         )
         .map_err(|e| e.to_string());
-        let fit_error = |model| move |reason| ReportError::Fit { model, reason };
-        let fopdt = Fopdt::default().fit(&train).map_err(fit_error("fopdt"))?;
-        let fitted = FittedParameters {
-            slip_blr: SlipBlr::default()
-                .fit(&SlipData::new(&train, &fopdt))
-                .map_err(fit_error("slip-blr"))?,
-            acc_blr: AccBlr::default()
-                .fit_on(
-                    &train,
-                    Box::new(CommandedPowertrain),
-                    "acc-blr+commanded".into(),
-                )
-                .map_err(fit_error("acc-blr"))?,
-            fopdt,
-        };
+        let fitted = comparison
+            .models
+            .iter()
+            .filter_map(|m| {
+                m.fitted.as_deref().map(|f| FittedParameters {
+                    model: m.name.clone(),
+                    parameters: f.parameters(),
+                })
+            })
+            .collect();
         let input_space = analysis::input_space(&data.all(), options.naive_input_space.clone())
             .ok_or(ReportError::Empty)?;
+        // The powertrain figure draws the analysed model's own powertrain (a plug-in's
+        // included), from the comparison's fit when the model is compared.
+        let compared = comparison
+            .models
+            .iter()
+            .find(|m| m.name == options.model)
+            .and_then(|m| m.fitted.as_deref());
+        let own;
+        let analysed: &dyn MotionModel = match compared {
+            Some(m) => m,
+            None => {
+                own = model.fit(&train).map_err(|reason| ReportError::Fit {
+                    model: options.model.clone(),
+                    reason,
+                })?;
+                own.as_ref()
+            }
+        };
+        let (label, modeled): (String, &dyn Powertrain) = match analysed.powertrain() {
+            Some(p) => (
+                format!(
+                    "{} ({})",
+                    model.powertrain.as_deref().unwrap_or("its powertrain"),
+                    options.model
+                ),
+                p,
+            ),
+            None => (
+                format!("commanded ({} has no powertrain)", options.model),
+                &CommandedPowertrain,
+            ),
+        };
         let powertrain =
-            analysis::powertrain_trace(&eval, "FOPDT", &fitted.fopdt, options.powertrain_intervals);
+            analysis::powertrain_trace(&eval, &label, modeled, options.powertrain_intervals);
         let models: Vec<(&str, &dyn MotionModel)> = comparison
             .models
             .iter()
@@ -549,53 +581,31 @@ impl Report {
             }
         );
         let _ = writeln!(s, "\n## Fitted parameters (training part)\n");
-        let f = &self.fitted;
         let _ = writeln!(
             s,
-            "| powertrain (eq. 3), input axis | time constant [s] | dead time [s] | limits |"
-        );
-        let _ = writeln!(s, "|---|---:|---:|---|");
-        for (i, axis) in self.vehicle.axes().iter().enumerate() {
-            let r = f.fopdt.axes[i];
-            let (lo, hi) = (f.fopdt.limits.min[i], f.fopdt.limits.max[i]);
-            let _ = writeln!(
-                s,
-                "| {} | {:.3} | {:.3} | [{lo:.2}, {hi:.2}] {} |",
-                axis.name, r.time_constant, r.delay, axis.unit
-            );
-        }
-        let w = |v: &[f64]| {
-            v.iter()
-                .map(|x| format!("{x:.4}"))
+            "The vehicle's geometry and each compared model's parameters, as its parts list them (a plug-in part lists its own). Input axes: {}.\n",
+            self.vehicle
+                .axes()
+                .iter()
+                .enumerate()
+                .map(|(i, a)| format!("axis {i} = {} [{}]", a.name, a.unit))
                 .collect::<Vec<_>>()
                 .join(", ")
-        };
-        let _ = writeln!(s, "\n| regression | inputs | posterior mean weights |");
-        let _ = writeln!(s, "|---|---|---|");
-        let sb = &f.slip_blr;
-        let ab = &f.acc_blr;
-        let [x, y, yaw] = sb.basis.inputs().map(|names| names.join(", "));
-        let basis = format!(" ({} basis)", sb.basis.as_str());
-        for (name, inputs, mean) in [
-            (
-                format!("slip-BLR longitudinal slip (eq. 5){basis}"),
-                x,
-                &sb.slip_x.mean,
-            ),
-            ("slip-BLR lateral slip".into(), y, &sb.slip_y.mean),
-            ("slip-BLR angular slip".into(), yaw, &sb.slip_yaw.mean),
-            (
-                "acc-BLR forward velocity change".into(),
-                "f_x, v_x".into(),
-                &ab.accel_x.mean,
-            ),
-            (
-                "acc-BLR yaw-rate change".into(),
-                "f_w, v_w".into(),
-                &ab.accel_yaw.mean,
-            ),
-        ] {
-            let _ = writeln!(s, "| {name} | {inputs} | {} |", w(mean));
+        );
+        let _ = writeln!(s, "| vehicle geometry | value |\n|---|---:|");
+        for (name, v) in self.vehicle.geometry() {
+            let _ = writeln!(s, "| {name} | {} |", parameter_text(v));
+        }
+        for f in &self.fitted {
+            let _ = writeln!(s, "\n**{}**\n", f.model);
+            if f.parameters.is_empty() {
+                let _ = writeln!(s, "No fitted parameter (the vehicle's geometry only).");
+                continue;
+            }
+            let _ = writeln!(s, "| parameter | value |\n|---|---:|");
+            for (name, v) in &f.parameters {
+                let _ = writeln!(s, "| {name} | {} |", parameter_text(*v));
+            }
         }
         let _ = writeln!(s, "\n## Uncertainty calibration\n");
         if self.calibration.is_empty() {

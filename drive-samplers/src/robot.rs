@@ -70,6 +70,7 @@ pub enum RobotError {
 /// assert_eq!(mine.input_space().max.x, 15.0); // 1.5 m/s on 0.1 m wheels
 /// ```
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct RobotSpec {
     /// Robot name.
     pub name: String,
@@ -415,6 +416,74 @@ impl RobotSpec {
     pub fn tracked(mut self) -> Self {
         self.tracked = true;
         self
+    }
+
+    /// The same robot behind a low-level controller that caps the body velocity at
+    /// `linear` (m/s) and `angular` (rad/s), each positive when given.
+    pub fn with_controller_limits(
+        mut self,
+        linear: Option<f64>,
+        angular: Option<f64>,
+    ) -> Result<Self, RobotError> {
+        for (field, v) in [
+            ("controller_max_linear", linear),
+            ("controller_max_angular", angular),
+        ] {
+            if let Some(v) = v {
+                positive(v).map_err(|message| RobotError::Invalid {
+                    file: self.name.clone(),
+                    field,
+                    message,
+                })?;
+            }
+        }
+        self.controller_max_linear = linear;
+        self.controller_max_angular = angular;
+        Ok(self)
+    }
+
+    /// The same robot with the protocol's lateral acceleration limit `|v w|` (m/s^2,
+    /// positive): what keeps a fast car from spinning out.
+    pub fn with_lateral_acceleration(mut self, limit: f64) -> Result<Self, RobotError> {
+        positive(limit).map_err(|message| RobotError::Invalid {
+            file: self.name.clone(),
+            field: "max_lateral_acceleration",
+            message,
+        })?;
+        self.max_lateral_acceleration = Some(limit);
+        Ok(self)
+    }
+
+    /// The same robot with rate limits on its sent commands per input axis (input units per
+    /// second, each positive) instead of body acceleration limits, which no longer apply
+    /// (they become infinite): what a car needs for its speed and steering.
+    ///
+    /// ```
+    /// use drive_samplers::RobotSpec;
+    /// use drive_traits::Input;
+    /// use std::sync::Arc;
+    /// let car = Arc::new(drive_models::Ackermann::new(0.33, 0.42));
+    /// let robot = RobotSpec::new("small", car, 3.5, 3.0, 3.0, 6.0).unwrap()
+    ///     .with_input_rate_limits(Input::new(3.0, 6.0)).unwrap()
+    ///     .with_lateral_acceleration(2.5).unwrap();
+    /// assert_eq!(robot.input_rate_limits, Some(Input::new(3.0, 6.0)));
+    /// assert!(robot.max_linear_acceleration.is_infinite());
+    /// ```
+    pub fn with_input_rate_limits(mut self, rates: Input) -> Result<Self, RobotError> {
+        if !rates.iter().all(|v| v.is_finite() && *v > 0.0) {
+            return Err(RobotError::Invalid {
+                file: self.name.clone(),
+                field: "input_rate_limits",
+                message: format!(
+                    "expected positive rates per input axis, found {:?}",
+                    rates.as_slice()
+                ),
+            });
+        }
+        self.input_rate_limits = Some(rates);
+        self.max_linear_acceleration = f64::INFINITY;
+        self.max_angular_acceleration = f64::INFINITY;
+        Ok(self)
     }
 
     /// Parses and validates a TOML description (`file` names it in errors).

@@ -344,21 +344,20 @@ pub fn simulate(
 fn window_from(samples: &[Recorded], index: usize) -> Window {
     let p0 = samples[0].pose;
     let tag = samples[0].tag;
-    Window {
+    Window::new(
         index,
-        interval: tag.interval,
-        phase: if tag.window == 0 {
+        tag.interval,
+        if tag.window == 0 {
             Phase::Transient
         } else {
             Phase::Steady
         },
-        command: samples.iter().map(|r| r.command).collect(),
-        measured: samples.iter().map(|r| r.input).collect(),
-        pose: samples
+        samples.iter().map(|r| r.command).collect(),
+        samples.iter().map(|r| r.input).collect(),
+        samples
             .iter()
             .map(|r| relative_pose(&p0, &r.pose))
             .collect(),
-        imu_yaw_rate: samples.iter().map(|r| r.imu).collect(),
-        start_velocity: None,
-    }
+        samples.iter().map(|r| r.imu).collect(),
+    )
 }

@@ -144,18 +144,12 @@ impl InputSampler for ProtocolSampler {
         let back = 1.0 / self.gain;
         let mapped: Vec<Window> = interval
             .iter()
-            .map(|w| Window {
-                command: w
-                    .command
-                    .iter()
-                    .map(|&u| scale_difference(u, back))
-                    .collect(),
-                measured: w
-                    .measured
-                    .iter()
-                    .map(|&u| scale_difference(u, back))
-                    .collect(),
-                ..w.clone()
+            .map(|w| {
+                let mut w = w.clone();
+                for u in w.command.iter_mut().chain(w.measured.iter_mut()) {
+                    *u = scale_difference(*u, back);
+                }
+                w
             })
             .collect();
         let described = self.robot.get_or_insert_with(|| RobotDescription {

@@ -113,7 +113,20 @@ impl PartialEq for RobotDescription {
 ///
 /// Poses are relative to the window's start pose, expressed in the robot's body frame at
 /// the window start (x forward, y left).
+///
+/// Built with [`Window::new`] outside this crate (the type is `#[non_exhaustive]`: a field
+/// added later is not a breaking change); its fields stay public to read and to set.
+///
+/// ```
+/// use drive_traits::{Input, Phase, Pose, Window};
+/// let w = Window::new(3, 1, Phase::Steady, vec![Input::new(1.0, 1.0); 4], vec![Input::new(0.9, 1.1); 4],
+///     (0..4).map(|k| Pose::new(0.05 * k as f64, 0.0, 0.0)).collect(), vec![0.0; 4])
+///     .with_start_velocity(Some([1.0, 0.0]));
+/// assert_eq!((w.index, w.interval, w.len()), (3, 1, 4));
+/// assert_eq!(w.start_velocity, Some([1.0, 0.0]));
+/// ```
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Window {
     /// Window index in recording order.
     pub index: usize,
@@ -139,6 +152,37 @@ pub struct Window {
 }
 
 impl Window {
+    /// A window of `phase`, the `index`-th of its recording and in its DRIVE `interval`, from
+    /// its samples (one entry per sample in each vector; [`Dataset`] readers check that
+    /// they agree), with no start velocity ([`Window::with_start_velocity`] sets one).
+    pub fn new(
+        index: usize,
+        interval: usize,
+        phase: Phase,
+        command: Vec<Input>,
+        measured: Vec<Input>,
+        pose: Vec<Pose>,
+        imu_yaw_rate: Vec<f64>,
+    ) -> Self {
+        Window {
+            index,
+            interval,
+            phase,
+            command,
+            measured,
+            pose,
+            imu_yaw_rate,
+            start_velocity: None,
+        }
+    }
+
+    /// The same window with the body-frame velocity at its start (x forward, y left; m/s)
+    /// as the localization measured it before the window, `None` when unknown.
+    pub fn with_start_velocity(mut self, velocity: Option<[f64; 2]>) -> Self {
+        self.start_velocity = velocity;
+        self
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.pose.len()
@@ -161,12 +205,7 @@ impl Window {
     /// ```
     /// use drive_traits::{Phase, Pose, Window};
     /// let yaws = [0.0, 0.01, -6.27, -6.26, -6.25]; // the heading crosses pi after sample 1
-    /// let w = Window {
-    ///     index: 0, interval: 0, phase: Phase::Transient,
-    ///     command: vec![Default::default(); 5], measured: vec![Default::default(); 5],
-    ///     pose: yaws.iter().map(|y| Pose::new(0.0, 0.0, *y)).collect(),
-    ///     imu_yaw_rate: vec![0.0; 5], start_velocity: None,
-    /// };
+    /// let w = Window::new(0, 0, Phase::Transient, vec![Default::default(); 5], vec![Default::default(); 5], yaws.iter().map(|y| Pose::new(0.0, 0.0, *y)).collect(), vec![0.0; 5]);
     /// assert!((w.paper_frame_angle() - (-18.77 / 5.0)).abs() < 1e-12);
     /// ```
     pub fn paper_frame_angle(&self) -> f64 {
@@ -194,9 +233,7 @@ impl Window {
     ///         Pose::new(d * a.cos(), -d * a.sin(), if k == 0 { 0.0 } else { 0.125 })
     ///     })
     ///     .collect();
-    /// let mut w = Window { index: 0, interval: 0, phase: Phase::Transient,
-    ///     command: vec![Input::zeros(); 6], measured: vec![Input::zeros(); 6],
-    ///     pose, imu_yaw_rate: vec![0.0; 6], start_velocity: None };
+    /// let mut w = Window::new(0, 0, Phase::Transient, vec![Input::zeros(); 6], vec![Input::zeros(); 6], pose, vec![0.0; 6]);
     /// assert!((w.paper_frame_angle() - a).abs() < 1e-12);
     /// w.to_first_sample_frame();
     /// assert!((w.pose[5].x - 0.5).abs() < 1e-12 && w.pose[5].y.abs() < 1e-12);
@@ -231,8 +268,7 @@ impl Window {
     /// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
     /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
     /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
-    /// let w = Window { index: 0, interval: 0, phase: Phase::Steady, command: vec![Input::zeros(); 2],
-    ///     measured: vec![Input::new(1.0, 0.5); 2], pose: vec![Pose::zeros(); 2], imu_yaw_rate: vec![0.3; 2], start_velocity: None };
+    /// let w = Window::new(0, 0, Phase::Steady, vec![Input::zeros(); 2], vec![Input::new(1.0, 0.5); 2], vec![Pose::zeros(); 2], vec![0.3; 2]);
     /// assert_eq!(w.start_state_with(&V, StartInfo::Encoders).body_velocity.z, 0.5);
     /// assert_eq!(w.start_state_with(&V, StartInfo::EncodersImu).body_velocity.z, 0.3);
     /// assert_eq!(w.start_state_with(&V, StartInfo::EncodersImu).yaw_rate, Some(0.3));
@@ -264,8 +300,7 @@ impl Window {
     /// // Driving at 2 m/s along the world's y axis while heading along it (yaw pi/2).
     /// let h = std::f64::consts::FRAC_PI_2;
     /// let pose = (0..6).map(|k| Pose::new(0.0, 0.1 * k as f64, if k == 0 { 0.0 } else { h })).collect();
-    /// let w = Window { index: 0, interval: 0, phase: Phase::Steady, command: vec![Input::zeros(); 6],
-    ///     measured: vec![Input::zeros(); 6], pose, imu_yaw_rate: vec![0.0; 6], start_velocity: None };
+    /// let w = Window::new(0, 0, Phase::Steady, vec![Input::zeros(); 6], vec![Input::zeros(); 6], pose, vec![0.0; 6]);
     /// let [vx, vy] = w.end_velocity(4, 0.05, PositionFrame::FirstSample).unwrap();
     /// assert!((vx - 2.0).abs() < 1e-12 && vy.abs() < 1e-12);
     /// assert!(w.end_velocity(6, 0.05, PositionFrame::FirstSample).is_none());
@@ -297,9 +332,7 @@ impl Window {
     ///
     /// ```
     /// use drive_traits::{Input, Phase, Pose, Window};
-    /// let w = |index, wheel: [f64; 3]| Window { index, interval: 0, phase: Phase::Steady,
-    ///     command: vec![Input::zeros(); 3], measured: wheel.iter().map(|&u| Input::new(u, u)).collect(),
-    ///     pose: vec![Pose::zeros(); 3], imu_yaw_rate: vec![0.0; 3], start_velocity: None };
+    /// let w = |index, wheel: [f64; 3]| Window::new(index, 0, Phase::Steady, vec![Input::zeros(); 3], wheel.iter().map(|&u| Input::new(u, u)).collect(), vec![Pose::zeros(); 3], vec![0.0; 3]);
     /// assert!(w(0, [1.0, 1.1, 1.2]).continued_by(&w(1, [1.3, 1.4, 1.5])));
     /// assert!(!w(0, [1.0, 1.1, 1.2]).continued_by(&w(1, [3.0, 3.1, 3.2]))); // a jump of 1.8
     /// assert!(!w(0, [1.0, 1.1, 1.2]).continued_by(&w(2, [1.3, 1.4, 1.5]))); // a window missing
@@ -494,7 +527,7 @@ impl<'a> WindowSet<'a> {
     /// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
     /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
     /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
-    /// let window = |index, interval| Window { index, interval, phase: Phase::Steady, command: vec![], measured: vec![], pose: vec![], imu_yaw_rate: vec![], start_velocity: None };
+    /// let window = |index, interval| Window::new(index, interval, Phase::Steady, vec![], vec![], vec![], vec![]);
     /// let data = Dataset { robot: RobotDescription::new("toy", "", 20.0, 40, V),
     ///     windows: (0..10).map(|i| window(i, i / 2)).collect() };
     /// let folds = data.all().interval_folds(2).unwrap(); // 5 intervals: 2 and 3
@@ -577,10 +610,7 @@ impl Dataset {
     /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
     /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
     /// // Two windows of 40 samples at 20 Hz, driving straight at 1 m/s.
-    /// let window = |index| Window { index, interval: 0, phase: Phase::Steady,
-    ///     command: vec![Input::new(1.0, 0.0); 40], measured: vec![Input::new(1.0, 0.0); 40],
-    ///     pose: (0..40).map(|k| Pose::new(0.05 * k as f64, 0.0, 0.0)).collect(),
-    ///     imu_yaw_rate: vec![0.0; 40], start_velocity: None };
+    /// let window = |index| Window::new(index, 0, Phase::Steady, vec![Input::new(1.0, 0.0); 40], vec![Input::new(1.0, 0.0); 40], (0..40).map(|k| Pose::new(0.05 * k as f64, 0.0, 0.0)).collect(), vec![0.0; 40]);
     /// let mut data = Dataset { robot: RobotDescription::new("toy", "", 20.0, 40, V),
     ///     windows: vec![window(0), window(1)] };
     /// data.link_start_velocities();

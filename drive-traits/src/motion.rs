@@ -1,6 +1,6 @@
 //! Fitted motion models: poses over a horizon from a start state and an input sequence.
 
-use crate::{BodyVelocity, Input, MotionError, Pose, PoseCovariance};
+use crate::{BodyVelocity, Input, MotionError, Pose, PoseCovariance, Powertrain};
 
 /// Checks a prediction step read from a file: a positive number of seconds.
 ///
@@ -199,5 +199,18 @@ pub trait MotionModel: std::fmt::Debug + Send + Sync {
     ) -> Result<(), MotionError> {
         let _ = (start, commands, poses, covariances);
         Err(MotionError::NoUncertainty { model: self.name() })
+    }
+
+    /// The fitted parameters by name, for reports: a composed model's are its powertrain's
+    /// ([`Powertrain::parameters`]) then its slip model's
+    /// ([`crate::SlipModel::parameters`]). None by default.
+    fn parameters(&self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+
+    /// The fitted powertrain (eq. 3) the model runs its commands through, when it has one:
+    /// what a report draws the powertrain's response with. `None` by default.
+    fn powertrain(&self) -> Option<&dyn Powertrain> {
+        None
     }
 }

@@ -133,6 +133,12 @@ pub trait SlipModel: std::fmt::Debug + Send + Sync {
         None
     }
 
+    /// The fitted parameters by name, for reports (`longitudinal slip: w[omega_l]`, ...).
+    /// None by default.
+    fn parameters(&self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+
     /// Boxed clone.
     fn clone_box(&self) -> Box<dyn SlipModel>;
 }

@@ -65,6 +65,10 @@ pub struct InputAxis {
 
 /// How a vehicle turns: what a slip model may assume about where its slip comes from.
 ///
+/// `#[non_exhaustive]`: a kind of steering added later (holonomic wheels, frame steering)
+/// is not a breaking change; code outside this crate that matches on it keeps an arm for
+/// the kinds it does not know.
+///
 /// ```
 /// use drive_traits::Steering;
 /// assert_eq!(Steering::default(), Steering::Skid);
@@ -72,6 +76,7 @@ pub struct InputAxis {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 #[serde(rename_all = "kebab-case")]
+#[non_exhaustive]
 pub enum Steering {
     /// By driving its sides at different speeds (skid-steer, differential drive, a body
     /// velocity command): every turn skids or scrubs (paper Sec. III-B.2).

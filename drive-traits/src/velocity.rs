@@ -49,8 +49,7 @@ impl BodyVelocityEstimator {
     /// use drive_traits::{BodyVelocityEstimator, Input, Phase, Pose, Window};
     /// // Straight line at 1 m/s, 20 Hz, poses held in pairs as a 10 Hz ICP gives them.
     /// let pose: Vec<Pose> = (0..40).map(|k| Pose::new(0.05 * (k / 2 * 2) as f64, 0.0, 0.0)).collect();
-    /// let w = Window { index: 0, interval: 0, phase: Phase::Steady, command: vec![Input::zeros(); 40],
-    ///     measured: vec![Input::zeros(); 40], pose, imu_yaw_rate: vec![0.0; 40], start_velocity: None };
+    /// let w = Window::new(0, 0, Phase::Steady, vec![Input::zeros(); 40], vec![Input::zeros(); 40], pose, vec![0.0; 40]);
     /// let mut v = Vec::new();
     /// BodyVelocityEstimator::default().estimate(&w, 0.05, &mut v);
     /// assert!(v[0].is_none() && v[1].is_none());

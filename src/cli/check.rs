@@ -39,7 +39,7 @@ pub fn known_checks(names: &[String]) -> Result<()> {
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     known_checks(&args.allow)?;
     super::common::stdout_not_an_input(&args.data.inputs())?;
-    let data = load(&args.data)?;
+    let data = load(registries, &args.data)?;
     let robot = match &args.robot {
         Some(r) => Some(registries.robot(r)?),
         None => None,

@@ -265,8 +265,27 @@ fn stdout_not_an_output(planned: &[(&str, &Path)]) -> Result<()> {
 
 /// Loads the dataset the arguments name (the bundled Husky data by default), with its
 /// positions in the frame `--frame` asks for; a dataset in the paper parser's frame is
-/// noted (one line on stderr, see [`note`]).
-pub fn load(args: &DataArgs) -> Result<Dataset, DataError> {
+/// noted (one line on stderr, see [`note`]). `Err` also for data of a vehicle that is not
+/// registered in `registries` (no part is used unregistered).
+pub fn load(registries: &crate::Registries, args: &DataArgs) -> Result<Dataset> {
+    let data = load_unchecked(args)?;
+    registries
+        .check_vehicle(data.robot.vehicle.as_ref())
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "{}: the data's vehicle: {e}",
+                args.data
+                    .as_ref()
+                    .map_or(crate::bundled::HUSKY_CSV_NAME.to_string(), |p| p
+                        .display()
+                        .to_string())
+            )
+        })?;
+    Ok(data)
+}
+
+/// [`load`] without the registry check.
+fn load_unchecked(args: &DataArgs) -> Result<Dataset, DataError> {
     let mut data = match &args.data {
         Some(csv) => {
             let data = read_dataset(csv, args.sidecar.as_deref())?;

@@ -79,7 +79,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             seed: args.seed,
             ..Default::default()
         };
-        let data = load(&args.data)?;
+        let data = load(registries, &args.data)?;
         recorded(registries, &data, &study, args.json)
     } else {
         simulated(args, registries)

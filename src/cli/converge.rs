@@ -55,7 +55,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             crate::traits::limits::Short(thresholds[1])
         );
     }
-    let dataset = load(&args.data)?;
+    let dataset = load(registries, &args.data)?;
     let config = crate::eval::ConvergenceConfig {
         split: args.split,
         thresholds,

@@ -81,7 +81,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &args.models.models,
         args.powertrain.as_deref(),
     )?)?;
-    let dataset = load(&args.data)?;
+    let dataset = load(registries, &args.data)?;
     let cmp = compare_specs(&dataset, args.split, &specs)?;
     if let Some(path) = &args.per_window {
         if let Some((m, w)) = cmp.models.iter().find_map(|m| {

@@ -196,7 +196,7 @@ where
             Command::Report(a) => report::run(&a, registries),
             Command::Bench(a) => bench::run(&a, registries),
             Command::Track(a) => track::run(&a, registries),
-            Command::Predict(a) => predict::run(&a),
+            Command::Predict(a) => predict::run(&a, registries),
             Command::List(a) => list::run(&a, registries),
         });
     let notes = common::take_notes();

@@ -160,7 +160,7 @@ fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>>
     Ok(out)
 }
 
-pub fn run(args: &Args) -> Result<()> {
+pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
     super::common::stdout_not_an_input(&[
         ("--model", args.model.clone()),
         ("--commands", args.commands.clone()),
@@ -172,6 +172,9 @@ pub fn run(args: &Args) -> Result<()> {
     )
     .with_context(|| format!("reading {name}"))?;
     let (model, robot) = model_from_json(&name, &text)?;
+    registries
+        .check_vehicle(robot.vehicle.as_ref())
+        .with_context(|| format!("{name}: the model's vehicle"))?;
     let [a, b] = robot.vehicle.axes();
     let cmds = read_commands(
         &args.commands,

@@ -46,7 +46,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     )?;
     registries.models().resolve_list(&models)?;
     registries.model(&args.model)?;
-    let dataset = load(&args.data)?;
+    let dataset = load(registries, &args.data)?;
     let robot = args
         .robot
         .as_deref()

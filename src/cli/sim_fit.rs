@@ -67,7 +67,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     inputs.extend(robot_input(&args.robot));
     let mut outputs = outputs_for(&inputs, &[("--out", &args.out)])?;
     let spec = registries.robot(&args.robot)?;
-    let data = load(&args.data)?;
+    let data = load(registries, &args.data)?;
     let name = args
         .name
         .clone()

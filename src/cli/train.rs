@@ -30,7 +30,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .prediction
         .apply(vec![registries.model(&args.model)?])?
         .remove(0);
-    let dataset = load(&args.data)?;
+    let dataset = load(registries, &args.data)?;
     let train = match args.split {
         Some(f) => crate::eval::split_by_interval(&dataset, f)?.0,
         None => WindowSet::new(&dataset.robot, &dataset.windows),

@@ -137,8 +137,13 @@ fn the_car_preset_runs_through_every_command() {
         &out.display().to_string(),
     ]);
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
-    assert!(report.contains("(car basis)"), "{report}");
-    assert!(report.contains("| speed |") && report.contains("| steering |"));
+    // slip-BLR's parameters in the car's basis, the car's axes and geometry.
+    assert!(
+        report.contains("| longitudinal slip: w[f_x f_w^2] |"),
+        "{report}"
+    );
+    assert!(report.contains("axis 0 = speed [m/s], axis 1 = steering [rad]"));
+    assert!(report.contains("| wheelbase |"), "{report}");
     let svg = std::fs::read_to_string(out.join("powertrain.svg")).unwrap();
     assert!(svg.contains("steering [rad]") && svg.contains("speed [m/s]"));
     let real = ok(&["compare-protocols", "--real", "--data", &csv]);

@@ -18,6 +18,7 @@ mod outputs;
 mod outside_vehicle;
 mod properties;
 mod report_and_matrix;
+mod report_parts;
 mod sim_fit;
 mod start_information;
 mod start_velocity;

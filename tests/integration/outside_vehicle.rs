@@ -133,6 +133,24 @@ fn an_outside_vehicle_is_simulated_characterized_trained_evaluated_and_saved() {
     let back = drive::data::read_dataset(&csv, None).unwrap();
     assert_eq!(back, data);
 
+    // The command line evaluates it with the vehicle registered, and refuses it without
+    // (a part is never used unregistered, issue 32).
+    let eval = |registries: &Registries| {
+        drive::cli::run_status(
+            [
+                "drive",
+                "eval",
+                "--models",
+                "naive",
+                "--data",
+                csv.to_str().unwrap(),
+            ],
+            registries,
+        )
+    };
+    assert_eq!(eval(&Registries::builtin()), 1);
+    assert_eq!(eval(&r), 0);
+
     // Every combination trains and evaluates on it; learning the slip pays.
     let cmp = compare(&r, &back, 0.5, &["all"]).unwrap();
     assert_eq!(cmp.models.len(), r.models().all().len());

@@ -78,8 +78,12 @@ fn report_on_the_bundled_data_writes_every_figure_as_png_and_svg() {
     // `drive converge` give them.
     assert!(md.contains("| slip-blr | fopdt | 0.1357 |"), "{md}");
     assert!(md.contains("converges after **12.0 s**"), "{md}");
+    // The FOPDT's left time constant (the paper's 1.02 s) and slip-BLR's yaw-rate weight,
+    // as the models list them, under the vehicle's axes.
     assert!(
-        md.contains("| left |") && md.contains("slip-BLR angular slip"),
+        md.contains("| powertrain: axis 0 time constant [s] | 1.0188 |")
+            && md.contains("| angular slip: w[f_w] | 0.7428 |")
+            && md.contains("axis 0 = left [rad/s]"),
         "{md}"
     );
     assert!(md.contains("inside the predicted 95% regions"), "{md}");

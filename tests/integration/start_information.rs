@@ -74,21 +74,20 @@ fn every_model_is_fitted_with_exactly_the_start_information_it_is_given() {
     // The same training windows with other IMU readings, and with other start velocities.
     let other_imu: Vec<Window> = train
         .iter()
-        .map(|w| Window {
-            imu_yaw_rate: w
-                .imu_yaw_rate
-                .iter()
-                .enumerate()
-                .map(|(k, v)| v + (k as f64 + w.index as f64).sin())
-                .collect(),
-            ..w.clone()
+        .map(|w| {
+            let mut w = w.clone();
+            let index = w.index as f64;
+            for (k, v) in w.imu_yaw_rate.iter_mut().enumerate() {
+                *v += (k as f64 + index).sin();
+            }
+            w
         })
         .collect();
     let other_velocity: Vec<Window> = train
         .iter()
-        .map(|w| Window {
-            start_velocity: w.start_velocity.map(|[x, y]| [0.5 - x, y + 0.2]),
-            ..w.clone()
+        .map(|w| {
+            let velocity = w.start_velocity.map(|[x, y]| [0.5 - x, y + 0.2]);
+            w.clone().with_start_velocity(velocity)
         })
         .collect();
     let registries = Registries::builtin();

@@ -189,6 +189,24 @@ impl MotionModel for AccBlrModel {
         self.accel_x.check(2, "accel_x")?;
         self.accel_yaw.check(2, "accel_yaw")
     }
+    /// The powertrain's parameters (`powertrain: ...`), then the two regressions' posterior
+    /// mean weights.
+    fn parameters(&self) -> Vec<(String, f64)> {
+        let mut out: Vec<_> =
+            crate::composed::prefixed_parameters(self.powertrain.as_ref()).collect();
+        for (change, inputs, posterior) in [
+            ("forward velocity change", ["f_x", "v_x"], &self.accel_x),
+            ("yaw-rate change", ["f_w", "v_w"], &self.accel_yaw),
+        ] {
+            for (input, w) in inputs.iter().zip(posterior.mean.iter()) {
+                out.push((format!("{change}: w[{input}]"), *w));
+            }
+        }
+        out
+    }
+    fn powertrain(&self) -> Option<&dyn Powertrain> {
+        Some(self.powertrain.as_ref())
+    }
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
         let v = self.body_velocities(start, commands, None);
         integrate(&start.pose, &v, self.dt, poses);

@@ -198,6 +198,14 @@ impl MotionModel for CalibratedModel {
         self.calibration.check()
     }
 
+    fn parameters(&self) -> Vec<(String, f64)> {
+        self.model.parameters()
+    }
+
+    fn powertrain(&self) -> Option<&dyn drive_traits::Powertrain> {
+        self.model.powertrain()
+    }
+
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
         self.model.predict_into(start, commands, poses)
     }

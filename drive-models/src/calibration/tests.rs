@@ -58,28 +58,29 @@ fn normals(count: usize, seed: u64) -> Vec<f64> {
 fn windows(count: usize, sd: f64, sd_yaw: f64, seed: u64) -> Vec<Window> {
     let z = normals(count * 3, seed);
     (0..count)
-        .map(|i| Window {
-            index: i,
-            interval: i / 3,
-            phase: if i % 3 == 0 {
-                Phase::Transient
-            } else {
-                Phase::Steady
-            },
-            command: vec![Input::zeros(); 40],
-            measured: vec![Input::zeros(); 40],
-            pose: (0..40)
-                .map(|k| {
-                    let g = k as f64 / 39.0;
-                    Pose::new(
-                        g * sd * z[3 * i],
-                        g * sd * z[3 * i + 1],
-                        g * sd_yaw * z[3 * i + 2],
-                    )
-                })
-                .collect(),
-            imu_yaw_rate: vec![0.0; 40],
-            start_velocity: None,
+        .map(|i| {
+            Window::new(
+                i,
+                i / 3,
+                if i % 3 == 0 {
+                    Phase::Transient
+                } else {
+                    Phase::Steady
+                },
+                vec![Input::zeros(); 40],
+                vec![Input::zeros(); 40],
+                (0..40)
+                    .map(|k| {
+                        let g = k as f64 / 39.0;
+                        Pose::new(
+                            g * sd * z[3 * i],
+                            g * sd * z[3 * i + 1],
+                            g * sd_yaw * z[3 * i + 2],
+                        )
+                    })
+                    .collect(),
+                vec![0.0; 40],
+            )
         })
         .collect()
 }
@@ -177,13 +178,13 @@ fn speed_windows(count: usize, seed: u64) -> Vec<Window> {
         .map(|i| {
             let v = if (i / 3) % 2 == 0 { 0.2 } else { 2.0 };
             let sd = 0.1 + 0.5 * v;
-            Window {
-                index: i,
-                interval: i / 3,
-                phase: Phase::Steady,
-                command: vec![Input::new(v, v); 40],
-                measured: vec![Input::new(v, v); 40],
-                pose: (0..40)
+            Window::new(
+                i,
+                i / 3,
+                Phase::Steady,
+                vec![Input::new(v, v); 40],
+                vec![Input::new(v, v); 40],
+                (0..40)
                     .map(|k| {
                         let g = k as f64 / 39.0;
                         Pose::new(
@@ -193,9 +194,8 @@ fn speed_windows(count: usize, seed: u64) -> Vec<Window> {
                         )
                     })
                     .collect(),
-                imu_yaw_rate: vec![0.0; 40],
-                start_velocity: None,
-            }
+                vec![0.0; 40],
+            )
         })
         .collect()
 }
@@ -272,13 +272,13 @@ fn heading_windows(count: usize, seed: u64) -> Vec<Window> {
             let heading = (i as f64 * 2.399_963) % std::f64::consts::TAU - std::f64::consts::PI;
             let (s, c) = heading.sin_cos();
             let (along, across) = (3.0 * z[3 * i], 0.5 * z[3 * i + 1]);
-            Window {
-                index: i,
-                interval: i / 3,
-                phase: Phase::Steady,
-                command: vec![Input::zeros(); 40],
-                measured: vec![Input::zeros(); 40],
-                pose: (0..40)
+            Window::new(
+                i,
+                i / 3,
+                Phase::Steady,
+                vec![Input::zeros(); 40],
+                vec![Input::zeros(); 40],
+                (0..40)
                     .map(|k| {
                         let g = k as f64 / 39.0;
                         Pose::new(
@@ -288,9 +288,8 @@ fn heading_windows(count: usize, seed: u64) -> Vec<Window> {
                         )
                     })
                     .collect(),
-                imu_yaw_rate: vec![0.0; 40],
-                start_velocity: None,
-            }
+                vec![0.0; 40],
+            )
         })
         .collect()
 }

@@ -116,11 +116,13 @@ pub enum SlipBasis {
 }
 
 impl SlipBasis {
-    /// The basis for a vehicle that turns by `steering`.
+    /// The basis for a vehicle that turns by `steering`: the car's for steered wheels, the
+    /// paper's skid-steer basis otherwise (a slip in every component of the body velocity,
+    /// as eq. 5 learns it for any vehicle that turns by skidding).
     pub fn for_steering(steering: Steering) -> Self {
         match steering {
-            Steering::Skid => SlipBasis::SkidSteer,
             Steering::Wheels => SlipBasis::Car,
+            _ => SlipBasis::SkidSteer,
         }
     }
 
@@ -463,6 +465,26 @@ impl SlipModel for SlipBlrModel {
         self.slip_x.check(kx, "slip_x")?;
         self.slip_y.check(ky, "slip_y")?;
         self.slip_yaw.check(kw, "slip_yaw")
+    }
+
+    /// The posterior mean weights (eq. 6) per slip dimension and basis input
+    /// (`longitudinal slip: w[f_x]`, ...).
+    fn parameters(&self) -> Vec<(String, f64)> {
+        let names = self.basis.inputs();
+        let mut out = Vec::new();
+        for ((dimension, posterior), inputs) in [
+            ("longitudinal", &self.slip_x),
+            ("lateral", &self.slip_y),
+            ("angular", &self.slip_yaw),
+        ]
+        .into_iter()
+        .zip(names)
+        {
+            for (input, w) in inputs.iter().zip(posterior.mean.iter()) {
+                out.push((format!("{dimension} slip: w[{input}]"), *w));
+            }
+        }
+        out
     }
 
     fn clone_box(&self) -> Box<dyn SlipModel> {

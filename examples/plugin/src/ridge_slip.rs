@@ -67,6 +67,21 @@ impl SlipModel for RidgeSlipModel {
         Ok(())
     }
 
+    /// What `drive report` lists for this slip model.
+    fn parameters(&self) -> Vec<(String, f64)> {
+        let mut out = Vec::new();
+        for (d, (weights, variance)) in ["x", "y", "yaw"]
+            .iter()
+            .zip(self.weights.iter().zip(self.variance))
+        {
+            for (j, w) in weights.iter().enumerate() {
+                out.push((format!("ridge {d} slip: w[{j}]"), *w));
+            }
+            out.push((format!("ridge {d} slip: noise variance"), variance));
+        }
+        out
+    }
+
     fn clone_box(&self) -> Box<dyn SlipModel> {
         Box::new(self.clone())
     }

@@ -90,6 +90,22 @@ impl Powertrain for SecondOrderPowertrain {
         }
     }
 
+    /// What `drive report` lists for this powertrain (and its figure draws its response).
+    fn parameters(&self) -> Vec<(String, f64)> {
+        let mut out = Vec::new();
+        for (i, a) in self.axes.iter().enumerate() {
+            out.push((
+                format!("axis {i} second-order time constant [s]"),
+                a.time_constant,
+            ));
+            out.push((
+                format!("axis {i} second-order dead time [s]"),
+                a.delay_samples as f64 * self.dt,
+            ));
+        }
+        out
+    }
+
     fn clone_box(&self) -> Box<dyn Powertrain> {
         Box::new(self.clone())
     }

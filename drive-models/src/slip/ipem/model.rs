@@ -477,6 +477,39 @@ impl SlipModel for SlipIpemModel {
         true
     }
 
+    /// The slip weights per dimension and slip function, the body-velocity lag shares per
+    /// step, the yaw disturbance's trust and persistence and the start velocity's trust
+    /// (as the shares they are, not their logits), and the ridge strength.
+    fn parameters(&self) -> Vec<(String, f64)> {
+        let mut out = Vec::new();
+        for (dimension, weights) in ["longitudinal", "lateral", "angular"]
+            .into_iter()
+            .zip(&self.weights)
+        {
+            for (name, w) in FEATURE_NAMES.iter().zip(weights) {
+                out.push((format!("{dimension} slip: w[{name}]"), *w));
+            }
+        }
+        for (axis, logit) in ["x", "y", "yaw"].into_iter().zip(self.lag_logit) {
+            out.push((
+                format!("{axis} velocity lag share per step"),
+                sigmoid(logit),
+            ));
+        }
+        if let Some([trust, persistence]) = self.disturbance_logit {
+            out.push(("yaw disturbance trust".into(), sigmoid(trust)));
+            out.push((
+                "yaw disturbance persistence per step".into(),
+                sigmoid(persistence),
+            ));
+        }
+        if let Some(v) = self.velocity_logit {
+            out.push(("start velocity trust".into(), sigmoid(v)));
+        }
+        out.push(("ridge strength".into(), self.ridge));
+        out
+    }
+
     fn check(&self) -> Result<(), String> {
         if !self
             .scale

@@ -64,20 +64,19 @@ fn windows(n: usize, seed: u64) -> (RobotDescription, Vec<Window>) {
         integrate(&start, &v, 0.05, &mut pose);
         // An IMU that measures the yaw rate.
         let imu_yaw_rate = v.iter().map(|v| v.z).collect();
-        out.push(Window {
-            index: i,
-            interval: i / 3,
-            phase: if i % 3 == 0 {
+        out.push(Window::new(
+            i,
+            i / 3,
+            if i % 3 == 0 {
                 Phase::Transient
             } else {
                 Phase::Steady
             },
-            command: command.clone(),
-            measured: command,
+            command.clone(),
+            command,
             pose,
             imu_yaw_rate,
-            start_velocity: None,
-        });
+        ));
     }
     (robot, out)
 }
