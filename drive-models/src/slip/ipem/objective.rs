@@ -4,6 +4,7 @@
 
 use super::*;
 use faer::linalg::matmul::triangular::{self, BlockStructure};
+use rayon::prelude::*;
 
 /// One training window as the fit uses it.
 pub(super) struct Track {
@@ -116,6 +117,10 @@ pub(super) struct Ipem<'a> {
     pub(super) cache: RefCell<Option<Linearization>>,
 }
 
+/// Tracks per parallel task of [`Ipem::linearize`]: fixed, so that the sums do not depend
+/// on the number of threads.
+pub(super) const LINEARIZE_CHUNK: usize = 16;
+
 /// The gradient and Gauss-Newton Hessian of the cost at `u`.
 #[derive(Clone)]
 pub(super) struct Linearization {
@@ -212,11 +217,112 @@ impl<'a> Ipem<'a> {
 
     /// Runs the rollouts with dual numbers at `u`: `visit(window, jt, r)` with each
     /// window's transposed residual Jacobian (`PARAMETERS` x residuals) and residuals.
-    pub(super) fn jacobians(&self, u: &[f64], mut visit: impl FnMut(usize, &Mat<f64>, &[f64])) {
+    pub(super) fn jacobians(&self, u: &[f64], visit: impl FnMut(usize, &Mat<f64>, &[f64])) {
+        self.residuals().jacobians(&self.tracks, u, visit)
+    }
+
+    /// What the residuals of a track depend on besides the track (shared by the threads of
+    /// [`Ipem::linearize`]).
+    fn residuals(&self) -> Residuals {
+        Residuals {
+            weights: self.weights,
+            scale: self.scale,
+            dt: self.dt,
+            limits: self.limits(),
+        }
+    }
+
+    /// The gradient and Gauss-Newton Hessian at `u` (cached for the last `u`).
+    pub(super) fn linearize(&self, u: &DVector<f64>) -> Linearization {
+        if let Some(l) = self.cache.borrow().as_ref() {
+            if &l.u == u {
+                return l.clone();
+            }
+        }
+        // J^T J is symmetric: only its lower triangle is accumulated (half the work of
+        // the full product), then read for both halves. The tracks in fixed chunks on
+        // rayon's threads, the chunks' sums added in the chunks' order: the same numbers
+        // on any number of threads.
+        let residuals = self.residuals();
+        let parts: Vec<(Mat<f64>, Vec<f64>)> = self
+            .tracks
+            .par_chunks(LINEARIZE_CHUNK)
+            .map(|tracks| {
+                let mut jtj = Mat::<f64>::zeros(PARAMETERS, PARAMETERS);
+                let mut jtr = vec![0.0; PARAMETERS];
+                residuals.jacobians(tracks, u.as_slice(), |_, jt, r| {
+                    triangular::matmul(
+                        jtj.as_mut(),
+                        BlockStructure::TriangularLower,
+                        Accum::Add,
+                        jt.as_ref(),
+                        BlockStructure::Rectangular,
+                        jt.transpose(),
+                        BlockStructure::Rectangular,
+                        1.0,
+                        Par::Seq,
+                    );
+                    for (c, rc) in r.iter().enumerate() {
+                        for (acc, g) in jtr.iter_mut().zip(jt.col_as_slice(c)) {
+                            *acc += g * rc;
+                        }
+                    }
+                });
+                (jtj, jtr)
+            })
+            .collect();
+        let mut jtj = Mat::<f64>::zeros(PARAMETERS, PARAMETERS);
+        let mut jtr = vec![0.0; PARAMETERS];
+        for (part_jtj, part_jtr) in &parts {
+            jtj += part_jtj;
+            for (acc, g) in jtr.iter_mut().zip(part_jtr) {
+                *acc += g;
+            }
+        }
+        let n = self.count;
+        let gradient =
+            DVector::from_fn(PARAMETERS, |j, _| jtr[j] / n + self.penalty_gradient(u, j));
+        let hessian = DMatrix::from_fn(PARAMETERS, PARAMETERS, |i, j| {
+            jtj[(i.max(j), i.min(j))] / n
+                + if i == j {
+                    self.penalty_curvature(j)
+                } else {
+                    0.0
+                }
+        });
+        let l = Linearization {
+            u: u.clone(),
+            gradient,
+            hessian,
+        };
+        *self.cache.borrow_mut() = Some(l.clone());
+        l
+    }
+}
+
+/// What a track's residuals depend on besides the track: the residual weights, the unit of
+/// the variables, the step and the bounds of the start velocity and disturbance. Plain
+/// numbers, shared by the threads of [`Ipem::linearize`].
+#[derive(Clone, Copy)]
+pub(super) struct Residuals {
+    weights: [f64; 2],
+    scale: [f64; 3],
+    dt: f64,
+    limits: [f64; 2],
+}
+
+impl Residuals {
+    /// [`Ipem::jacobians`] over `tracks` (`visit`'s window index counts in `tracks`).
+    pub(super) fn jacobians(
+        &self,
+        tracks: &[&Track],
+        u: &[f64],
+        mut visit: impl FnMut(usize, &Mat<f64>, &[f64]),
+    ) {
         let theta = theta_of(u, &self.scale);
         let weights = |d: usize| &theta[d * FEATURES..(d + 1) * FEATURES];
         let logit = |j: usize| theta[WEIGHTS + j];
-        let fixed = dynamics_of(&theta, self.limits());
+        let fixed = dynamics_of(&theta, self.limits);
         // The Jacobian in two groups of columns, each by forward-mode differentiation of the
         // rollout: the yaw path's variables (the yaw weights, the yaw lag, the disturbance's
         // trust and persistence), on which every residual depends; then the position path's
@@ -247,7 +353,7 @@ impl<'a> Ipem<'a> {
         };
         let mut jt = Mat::<f64>::zeros(PARAMETERS, 0);
         let (mut r, mut row_weights) = (Vec::new(), Vec::new());
-        for (i, t) in self.tracks.iter().enumerate() {
+        for (i, t) in tracks.iter().enumerate() {
             // Every entry zero: the groups write their own rows only.
             jt.resize_with(PARAMETERS, 0, |_, _| 0.0);
             jt.resize_with(PARAMETERS, 3 * t.f.len().saturating_sub(1), |_, _| 0.0);
@@ -301,55 +407,6 @@ impl<'a> Ipem<'a> {
             });
             visit(i, &jt, &r);
         }
-    }
-
-    /// The gradient and Gauss-Newton Hessian at `u` (cached for the last `u`).
-    pub(super) fn linearize(&self, u: &DVector<f64>) -> Linearization {
-        if let Some(l) = self.cache.borrow().as_ref() {
-            if &l.u == u {
-                return l.clone();
-            }
-        }
-        // J^T J is symmetric: only its lower triangle is accumulated (half the work of
-        // the full product), then read for both halves.
-        let mut jtj = Mat::<f64>::zeros(PARAMETERS, PARAMETERS);
-        let mut jtr = vec![0.0; PARAMETERS];
-        self.jacobians(u.as_slice(), |_, jt, r| {
-            triangular::matmul(
-                jtj.as_mut(),
-                BlockStructure::TriangularLower,
-                Accum::Add,
-                jt.as_ref(),
-                BlockStructure::Rectangular,
-                jt.transpose(),
-                BlockStructure::Rectangular,
-                1.0,
-                Par::Seq,
-            );
-            for (c, rc) in r.iter().enumerate() {
-                for (acc, g) in jtr.iter_mut().zip(jt.col_as_slice(c)) {
-                    *acc += g * rc;
-                }
-            }
-        });
-        let n = self.count;
-        let gradient =
-            DVector::from_fn(PARAMETERS, |j, _| jtr[j] / n + self.penalty_gradient(u, j));
-        let hessian = DMatrix::from_fn(PARAMETERS, PARAMETERS, |i, j| {
-            jtj[(i.max(j), i.min(j))] / n
-                + if i == j {
-                    self.penalty_curvature(j)
-                } else {
-                    0.0
-                }
-        });
-        let l = Linearization {
-            u: u.clone(),
-            gradient,
-            hessian,
-        };
-        *self.cache.borrow_mut() = Some(l.clone());
-        l
     }
 }
 

@@ -641,3 +641,52 @@ fn a_faulty_imu_does_not_wreck_the_fit() {
         "slip-ipem {fitted} m vs no slip {reference} m"
     );
 }
+
+#[test]
+fn the_linearization_is_the_same_on_any_number_of_threads_and_sums_every_window() {
+    // More windows than one parallel chunk, so that the chunks' sums are added.
+    let (robot, ws) = windows(40, 9);
+    let set = WindowSet::new(&robot, &ws);
+    let data = SlipData::new(&set, &CommandedPowertrain);
+    let Prepared {
+        tracks,
+        weights,
+        unit,
+        dt,
+        ..
+    } = SlipIpem::default().prepare(&data).unwrap();
+    let all: Vec<&Track> = tracks.iter().collect();
+    assert!(all.len() > 2 * LINEARIZE_CHUNK);
+    let u = DVector::from_fn(PARAMETERS, |j, _| 0.05 * ((j * 7 % 11) as f64 - 5.0));
+    let on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| Ipem::new(all.clone(), weights, unit, 0.01, dt).linearize(&u))
+    };
+    let one = on(1);
+    for threads in [2, 3] {
+        let other = on(threads);
+        assert_eq!(one.gradient, other.gradient, "{threads} threads");
+        assert_eq!(one.hessian, other.hessian, "{threads} threads");
+    }
+    // The gradient is J^T r over every window, plus the penalty's.
+    let problem = Ipem::new(all.clone(), weights, unit, 0.01, dt);
+    let mut jtr = vec![0.0; PARAMETERS];
+    problem.jacobians(u.as_slice(), |_, jt, r| {
+        for (c, rc) in r.iter().enumerate() {
+            for (acc, g) in jtr.iter_mut().zip(jt.col_as_slice(c)) {
+                *acc += g * rc;
+            }
+        }
+    });
+    for (j, sum) in jtr.iter().enumerate() {
+        let want = sum / problem.count + problem.penalty_gradient(&u, j);
+        assert!(
+            (one.gradient[j] - want).abs() <= 1e-12 * (1.0 + want.abs()),
+            "{j}: {} vs {want}",
+            one.gradient[j]
+        );
+    }
+}
