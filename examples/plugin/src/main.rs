@@ -1,8 +1,9 @@
 //! A researcher's crate with its own parts, and the whole `drive` command line with them:
 //! `cargo run --release -- list`, `-- eval --models all`, `-- simulate --robot
-//! cmd-vel-robot ...`, `-- simulate --robot offset-robot ...`. Each part is one file and one
-//! `register` call.
+//! cmd-vel-robot ...`, `-- simulate --robot offset-robot ...`, `-- simulate --robot
+//! loader-robot ...`. Each part is one file and one `register` call.
 
+mod articulated;
 mod halton;
 mod offset_unicycle;
 mod ridge_slip;
@@ -70,6 +71,30 @@ fn registries() -> Result<Registries, drive::traits::RegistryError> {
     r.robots.register(
         "offset-robot",
         "a 75 kg unicycle localized 0.3 m ahead of its axle, 1 m/s, 1.5 rad/s",
+        Arc::new(robot),
+    )?;
+    // A frame-steered vehicle (the hinge 0.7 m behind the front axle and 0.5 m ahead of
+    // the rear one, 40 degrees each way), and a small loader with it: 2 m/s, its speed and
+    // articulation rate-limited as a steered vehicle's are.
+    let loader = articulated::Articulated {
+        front: 0.7,
+        rear: 0.5,
+        max_articulation: 40f64.to_radians(),
+    };
+    r.vehicles.register(
+        "articulated",
+        "frame-steered: front axle speed and articulation angle",
+        Arc::new(loader.clone()),
+    )?;
+    // Positive literals and an articulation within 90 degrees: every value is valid.
+    let robot =
+        drive::samplers::RobotSpec::new("loader-robot", Arc::new(loader), 900.0, 2.0, 2.0, 1.0)
+            .and_then(|r| r.with_input_rate_limits(drive::traits::Input::new(2.0, 0.5)))
+            .and_then(|r| r.with_lateral_acceleration(1.5))
+            .expect("valid loader literals");
+    r.robots.register(
+        "loader-robot",
+        "a 900 kg articulated loader, 2 m/s, 40 degrees of articulation",
         Arc::new(robot),
     )?;
     Ok(r)
