@@ -462,7 +462,7 @@ impl RobotSpec {
     /// use drive_samplers::RobotSpec;
     /// use drive_traits::Input;
     /// use std::sync::Arc;
-    /// let car = Arc::new(drive_models::Ackermann::new(0.33, 0.42));
+    /// let car = Arc::new(drive_models::vehicles::Ackermann::new(0.33, 0.42));
     /// let robot = RobotSpec::new("small", car, 3.5, 3.0, 3.0, 6.0).unwrap()
     ///     .with_input_rate_limits(Input::new(3.0, 6.0)).unwrap()
     ///     .with_lateral_acceleration(2.5).unwrap();

@@ -556,6 +556,14 @@ fn the_ridge_path_starts_in_the_middle_and_walks_both_ways() {
     assert!(path.iter().all(|p| p.losses.len() == 2));
 }
 
+/// The training windows `ws` as slip-ipem's fit prepares them (on the commanded powertrain).
+fn prepared(robot: &RobotDescription, ws: &[Window]) -> Prepared {
+    let set = WindowSet::new(robot, ws);
+    SlipIpem::default()
+        .prepare(&SlipData::new(&set, &CommandedPowertrain))
+        .unwrap()
+}
+
 #[test]
 fn jacobian_in_two_groups_equals_the_forward_mode_jacobian_of_every_parameter() {
     let (robot, mut ws) = windows(6, 8);
@@ -564,15 +572,13 @@ fn jacobian_in_two_groups_equals_the_forward_mode_jacobian_of_every_parameter() 
     for (i, w) in ws.iter_mut().enumerate().filter(|(i, _)| i % 3 != 2) {
         w.start_velocity = Some([0.3 * i as f64 - 0.4, 0.1 - 0.5 * i as f64]);
     }
-    let set = WindowSet::new(&robot, &ws);
-    let data = SlipData::new(&set, &CommandedPowertrain);
     let Prepared {
         tracks,
         weights,
         unit,
         dt,
         ..
-    } = SlipIpem::default().prepare(&data).unwrap();
+    } = prepared(&robot, &ws);
     let all: Vec<&Track> = tracks.iter().collect();
     let problem = Ipem::new(all.clone(), weights, unit, 0.01, dt);
     let u: Vec<f64> = (0..PARAMETERS)
@@ -646,15 +652,13 @@ fn a_faulty_imu_does_not_wreck_the_fit() {
 fn the_linearization_is_the_same_on_any_number_of_threads_and_sums_every_window() {
     // More windows than one parallel chunk, so that the chunks' sums are added.
     let (robot, ws) = windows(40, 9);
-    let set = WindowSet::new(&robot, &ws);
-    let data = SlipData::new(&set, &CommandedPowertrain);
     let Prepared {
         tracks,
         weights,
         unit,
         dt,
         ..
-    } = SlipIpem::default().prepare(&data).unwrap();
+    } = prepared(&robot, &ws);
     let all: Vec<&Track> = tracks.iter().collect();
     assert!(all.len() > 2 * LINEARIZE_CHUNK);
     let u = DVector::from_fn(PARAMETERS, |j, _| 0.05 * ((j * 7 % 11) as f64 - 5.0));
