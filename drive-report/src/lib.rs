@@ -5,7 +5,7 @@
 //! | file | shows | paper |
 //! |---|---|---|
 //! | `input_space` | naive and true input spaces, commands sent, measured body velocities | Fig. 1 |
-//! | `powertrain` | commanded, encoder-measured and FOPDT-modeled wheel velocities | Fig. 3 |
+//! | `powertrain` | commanded, encoder-measured and modeled inputs (the analysed model's own powertrain: the FOPDT for slip-BLR) | Fig. 3 |
 //! | `errors_per_model` | MRMSE box plots per model | Fig. 6 |
 //! | `errors_per_protocol` | MRMSE box plots per data-gathering protocol (regions vs uniform) | Fig. 5 |
 //! | `convergence` | error against training time (log-log), convergence time marked | Fig. 7 |
