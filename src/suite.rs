@@ -50,6 +50,14 @@ pub enum SuiteLoadError {
         /// Why.
         message: String,
     },
+    /// The data's vehicle is not a registered vehicle.
+    #[error("dataset '{name}': the data's vehicle: {reason}")]
+    Vehicle {
+        /// The dataset's name in the suite.
+        name: String,
+        /// Why.
+        reason: crate::traits::RegistryError,
+    },
 }
 
 /// Why a dataset's robot could not be taken.
@@ -213,10 +221,16 @@ fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput,
     };
     let mut notes = Vec::new();
     let (mut data, source) = match &entry.source {
-        SuiteSource::Windows { csv, sidecar } => (
-            read_dataset(csv, sidecar.as_deref()).map_err(data_error)?,
-            csv.display().to_string(),
-        ),
+        SuiteSource::Windows { csv, sidecar } => {
+            let data = read_dataset(csv, sidecar.as_deref()).map_err(data_error)?;
+            registries
+                .check_vehicle(data.robot.vehicle.as_ref())
+                .map_err(|reason| SuiteLoadError::Vehicle {
+                    name: name.clone(),
+                    reason,
+                })?;
+            (data, csv.display().to_string())
+        }
         SuiteSource::Raw(path) | SuiteSource::Bag { path, .. } => {
             // The suite's parser requires a robot for a raw log or a bag.
             let robot = entry.robot.as_deref().unwrap_or_default();

@@ -81,7 +81,11 @@ pub fn run_with(
                 ("a sidecar of --config", sidecar),
             ]);
         }
-        load_source(base, s)
+        let data = load_source(base, s)?;
+        registries
+            .check_vehicle(data.robot.vehicle.as_ref())
+            .map_err(|e| format!("the data's vehicle: {e}"))?;
+        Ok(data)
     })?;
     let files = ["matrix.csv", "matrix.json", "summary.md"].map(|f| out.join(f));
     let mut outputs = super::common::outputs_for(

@@ -195,6 +195,9 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             inputs.push(("sidecar of --train-data", s));
         }
         let dataset = crate::data::read_dataset(d, sidecar.map(PathBuf::as_path))?;
+        registries
+            .check_vehicle(dataset.robot.vehicle.as_ref())
+            .with_context(|| format!("{}: the data's vehicle", d.display()))?;
         training.push(Training::Data {
             name: d.display().to_string(),
             dataset: Arc::new(dataset),

@@ -150,6 +150,24 @@ fn an_outside_vehicle_is_simulated_characterized_trained_evaluated_and_saved() {
     };
     assert_eq!(eval(&Registries::builtin()), 1);
     assert_eq!(eval(&r), 0);
+    // The same in a benchmark suite.
+    let suite = dir.path().join("suite.toml");
+    std::fs::write(&suite, "[[dataset]]\npath = \"cmdvel.csv\"\n").unwrap();
+    let bench = |registries: &Registries| {
+        drive::cli::run_status(
+            [
+                "drive",
+                "bench",
+                "--suite",
+                suite.to_str().unwrap(),
+                "--models",
+                "naive,slip-blr",
+            ],
+            registries,
+        )
+    };
+    assert_eq!(bench(&Registries::builtin()), 1);
+    assert_eq!(bench(&r), 0);
 
     // Every combination trains and evaluates on it; learning the slip pays.
     let cmp = compare(&r, &back, 0.5, &["all"]).unwrap();
