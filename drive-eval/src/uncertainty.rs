@@ -443,15 +443,7 @@ mod tests {
                     Phase::Steady,
                     vec![Input::zeros(); 40],
                     vec![Input::zeros(); 40],
-                    (0..40)
-                        .map(|k| {
-                            if k == 0 {
-                                Pose::zeros()
-                            } else {
-                                Pose::new(*d, 0.0, 0.0)
-                            }
-                        })
-                        .collect(),
+                    jumped(*d),
                     vec![0.0; 40],
                 )
             })
@@ -478,6 +470,19 @@ mod tests {
     /// Windows `i` whose measured position is `d_i` (m) from the start at every step, of
     /// phase transient for the first two, their measured start input `(d_i, 0)` and
     /// commands of body speed `d_i` (wheel velocities 10 d_i on 0.1 m wheels).
+    /// 40 poses: the start, then `d` m straight ahead for the rest of the window.
+    fn jumped(d: f64) -> Vec<Pose> {
+        (0..40)
+            .map(|k| {
+                if k == 0 {
+                    Pose::zeros()
+                } else {
+                    Pose::new(d, 0.0, 0.0)
+                }
+            })
+            .collect()
+    }
+
     fn spread_windows() -> Vec<Window> {
         [0.5, 1.0, 2.0, 3.0]
             .iter()
@@ -493,15 +498,7 @@ mod tests {
                     },
                     vec![Input::repeat(10.0 * d); 40],
                     vec![Input::new(*d, 0.0); 40],
-                    (0..40)
-                        .map(|k| {
-                            if k == 0 {
-                                Pose::zeros()
-                            } else {
-                                Pose::new(*d, 0.0, 0.0)
-                            }
-                        })
-                        .collect(),
+                    jumped(*d),
                     vec![0.0; 40],
                 )
             })

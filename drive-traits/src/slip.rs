@@ -133,7 +133,7 @@ pub trait SlipModel: std::fmt::Debug + Send + Sync {
         None
     }
 
-    /// The fitted parameters by name, for reports (`longitudinal slip: w[omega_l]`, ...).
+    /// The fitted parameters by name, for reports (slip-BLR's `longitudinal slip: w[f_x]`, ...).
     /// None by default.
     fn parameters(&self) -> Vec<(String, f64)> {
         Vec::new()
