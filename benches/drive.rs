@@ -68,7 +68,7 @@ fn fixture(n: usize) -> (Box<dyn MotionModel>, Vec<StartState>, Vec<Input>) {
         starts.push(w.start_state(vehicle));
         // Perturb so that no two sequences are the same.
         let e = (i as f64 * 0.618).fract() - 0.5;
-        commands.extend(w.command.iter().map(|u| u + Input::new(e, -e)));
+        commands.extend(w.command.iter().map(|u| u + Input::new(e, -e, 0.0)));
     }
     (Box::new(model), starts, commands)
 }

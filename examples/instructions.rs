@@ -85,7 +85,7 @@ fn sequences(data: &Dataset, n: usize) -> Result<(Vec<StartState>, Vec<Input>), 
         let w = eval.windows[i % eval.len()];
         starts.push(w.start_state(vehicle));
         let e = (i as f64 * 0.618).fract() - 0.5;
-        commands.extend(w.command.iter().map(|u| u + Input::new(e, -e)));
+        commands.extend(w.command.iter().map(|u| u + Input::new(e, -e, 0.0)));
     }
     Ok((starts, commands))
 }

@@ -115,11 +115,11 @@ pub fn model_file(bytes: &[u8]) -> bool {
         return false;
     };
     let start = StartState {
-        input: Input::new(1.0, -1.0),
+        input: Input::new(1.0, -1.0, 0.0),
         ..StartState::at_rest(Pose::zeros())
     }
     .with_yaw_rate(0.5);
-    let commands = [Input::new(2.0, 1.0); 8];
+    let commands = [Input::new(2.0, 1.0, 0.0); 8];
     let _ = model.predict(&start, &commands);
     let mut poses = Vec::new();
     let mut covariances = Vec::new();

@@ -85,6 +85,9 @@ pub enum ImportError {
     /// The robot is not registered and is no robot file.
     #[error(transparent)]
     Robot(#[from] RobotError),
+    /// The robot's vehicle has inputs the logger's format does not hold.
+    #[error("robot's vehicle: {0}")]
+    Vehicle(String),
     /// A `KEY=/topic` setting is not understood.
     #[error("topic {0}")]
     Topic(String),
@@ -135,6 +138,7 @@ pub fn import_recording(
     options: &ImportOptions,
 ) -> Result<Imported, ImportError> {
     let spec = registries.robot(robot)?;
+    crate::data::check_raw_vehicle(spec.vehicle.as_ref()).map_err(ImportError::Vehicle)?;
     let log = match recording {
         Recording::Bag { path, topics } => {
             let mut t = BagTopics::drive_logger(spec.vehicle.as_ref());

@@ -248,10 +248,12 @@ fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput,
                 report,
             } = import_recording(registries, &recording, robot, &options).map_err(|e| match e {
                 ImportError::Robot(e) => robot_error(e.into()),
-                ImportError::Topic(message) => SuiteLoadError::Import {
-                    name: name.clone(),
-                    message,
-                },
+                ImportError::Topic(message) | ImportError::Vehicle(message) => {
+                    SuiteLoadError::Import {
+                        name: name.clone(),
+                        message,
+                    }
+                }
                 ImportError::Data(e) => data_error(e),
             })?;
             notes.extend(

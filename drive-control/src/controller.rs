@@ -50,8 +50,8 @@ pub enum ControlError {
 /// use drive_control::InputMap;
 /// use drive_traits::Input;
 /// let double = InputMap::new(|u: &Input| 2.0 * u);
-/// assert_eq!(double.apply(&Input::new(1.0, -1.0)), Input::new(2.0, -2.0));
-/// assert_eq!(InputMap::identity().apply(&Input::new(1.0, 3.0)), Input::new(1.0, 3.0));
+/// assert_eq!(double.apply(&Input::new(1.0, -1.0, 0.0)), Input::new(2.0, -2.0, 0.0));
+/// assert_eq!(InputMap::identity().apply(&Input::new(1.0, 3.0, 0.0)), Input::new(1.0, 3.0, 0.0));
 /// ```
 #[derive(Clone, Default)]
 pub struct InputMap(Option<Arc<MapFn>>);
@@ -196,9 +196,9 @@ impl ControlState<'_> {
 ///         Ok(self.0)
 ///     }
 /// }
-/// let mut c = Straight(Input::new(1.0, 1.0));
+/// let mut c = Straight(Input::new(1.0, 1.0, 0.0));
 /// let u = c.command(&ControlState::at(StartState::at_rest(Pose::zeros())), &[Pose::zeros()]);
-/// assert_eq!(u.unwrap(), Input::new(1.0, 1.0));
+/// assert_eq!(u.unwrap(), Input::new(1.0, 1.0, 0.0));
 /// ```
 pub trait Controller: Send {
     /// The controller's name (`mppi`).

@@ -207,6 +207,8 @@ pub struct MppiController {
     robot: RobotSpec,
     to_vehicle: InputMap,
     space: InputSpace,
+    /// The vehicle's number of input axes.
+    dim: usize,
     center: Input,
     half_range: Input,
     stop: Input,
@@ -247,20 +249,38 @@ impl MppiController {
             });
         }
         let space = setup.robot.input_space();
-        let half_range = (space.max - space.min) * 0.5;
-        if half_range.iter().any(|h| !(h.is_finite() && *h > 0.0)) {
+        let dim = setup
+            .robot
+            .vehicle
+            .input_dim()
+            .min(drive_traits::MAX_INPUTS);
+        let mut half_range = (space.max - space.min) * 0.5;
+        if half_range
+            .iter()
+            .take(dim)
+            .any(|h| !(h.is_finite() && *h > 0.0))
+        {
+            let axes: Vec<String> = (0..dim)
+                .map(|i| format!("[{}, {}]", space.min[i], space.max[i]))
+                .collect();
             return Err(ControlError::BadSetting {
                 field: "input space",
                 message: format!(
-                    "the robot's input space [{}, {}] x [{}, {}] is not a box of positive size",
-                    space.min.x, space.max.x, space.min.y, space.max.y
+                    "the robot's input space {} is not a box of positive size",
+                    axes.join(" x ")
                 ),
             });
+        }
+        // The axes beyond the vehicle's are zero: a unit scale keeps their normalized
+        // effort at zero.
+        for h in half_range.iter_mut().skip(dim) {
+            *h = 1.0;
         }
         let stop = stop_input(&setup.robot);
         let (k, h) = (config.samples, config.horizon);
         Ok(MppiController {
             config,
+            dim,
             model: Arc::clone(&setup.model),
             robot: setup.robot.clone(),
             to_vehicle: setup.to_vehicle.clone(),
@@ -308,7 +328,7 @@ impl MppiController {
                     0 => self.plan[t],
                     1 => self.stop,
                     _ => {
-                        for i in 0..2 {
+                        for i in 0..self.dim {
                             let n: f64 = StandardNormal.sample(&mut self.rng);
                             e[i] = if t == 0 {
                                 sd[i] * n

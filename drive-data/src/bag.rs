@@ -81,7 +81,10 @@ pub struct BagTopics {
 impl BagTopics {
     /// The DRIVE logger's topics, with the vehicle's measured-input keys.
     pub fn drive_logger(vehicle: &dyn CommandModel) -> Self {
-        let [m0, m1] = vehicle.logger_measured_columns();
+        let measured = vehicle.logger_measured_columns();
+        // A vehicle has at least two axes (checked at registration); the names are only keys.
+        let m0 = measured.first().copied().unwrap_or("measured_0");
+        let m1 = measured.get(1).copied().unwrap_or("measured_1");
         let entries = [
             ("calib_step", Signal::CalibStep, "/calib_step"),
             ("joy_switch", Signal::JoySwitch, "/drive/joy_switch"),

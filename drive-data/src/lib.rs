@@ -37,7 +37,8 @@ pub use bag::{
 pub use error::{DataError, DataErrorKind, Location};
 pub use import::{import_raw, DropReason, ImportConfig, ImportReport, StepOutcome};
 pub use raw_log::{
-    parse_raw_log, raw_columns, write_raw_log, CalibState, RawLog, RawRow, RAW_COLUMNS,
+    check_raw_vehicle, parse_raw_log, raw_columns, write_raw_log, CalibState, RawLog, RawRow,
+    RAW_COLUMNS,
 };
 pub use sidecar::{parse_sidecar, sidecar_json, Announced, CsvDigest};
 pub use window_csv::{columns, parse_windows, write_windows_csv, OPTIONAL_COLUMNS};

@@ -502,7 +502,7 @@ pub fn vehicle_mismatch(
 /// use drive_models::DifferentialDrive;
 /// // Turning at 1 rad/s through +-pi, localized every other sample.
 /// let pose = [3.0, 3.0, 3.1, 3.1, -3.083185307179586].iter().map(|&z| Pose::new(0.0, 0.0, z)).collect();
-/// let w = Window::new(0, 0, Phase::Steady, vec![Input::zeros(); 5], vec![Input::new(-1.0, 1.0); 5],
+/// let w = Window::new(0, 0, Phase::Steady, vec![Input::zeros(); 5], vec![Input::new(-1.0, 1.0, 0.0); 5],
 ///     pose, vec![0.0; 5]);
 /// let vehicle = DifferentialDrive::new(0.25, 1.0); // the wheels say 0.5 rad/s
 /// let r = drive_data::quality::yaw_rate_from_localization(&w, None, &vehicle, 0.05);
@@ -568,7 +568,7 @@ mod tests {
                 Pose::new(0.0, 0.0, yaw.sin().atan2(yaw.cos()))
             })
             .collect();
-        let u = Input::new(-wheel, wheel);
+        let u = Input::new(-wheel, wheel, 0.0);
         Dataset {
             robot,
             windows: vec![Window::new(
@@ -610,7 +610,7 @@ mod tests {
                 q.z = (j as f64 * 1.7).sin() * 3.0;
             }
             for m in altered.measured.iter_mut().skip(k + 1) {
-                *m = Input::new(9.0, -9.0);
+                *m = Input::new(9.0, -9.0, 0.0);
             }
             let a = yaw_rate_from_localization(&altered, Some(before), vehicle, 0.05);
             assert_eq!(&a[..=k], &r[..=k], "k = {k}");
@@ -618,7 +618,7 @@ mod tests {
         // The window before gives the start; without it, the encoders do (here they say
         // 1 rad/s while the localization turns at 4).
         let mut slipping = w.clone();
-        slipping.measured = vec![Input::new(-1.0, 1.0); 40];
+        slipping.measured = vec![Input::new(-1.0, 1.0, 0.0); 40];
         let r = yaw_rate_from_localization(&slipping, Some(before), vehicle, 0.05);
         assert!(
             (r[0] - 4.0).abs() < 1e-9 && (r[1] - 4.0).abs() < 1e-9,

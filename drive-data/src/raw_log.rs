@@ -40,10 +40,33 @@ pub const RAW_COLUMNS: [&str; 19] = [
 /// let husky = drive_models::DifferentialDrive::new(0.165, 0.55);
 /// assert_eq!(raw_columns(&husky), RAW_COLUMNS);
 /// ```
+///
+/// The logger records two measured inputs and a twist command (`cmd_vel_x`,
+/// `cmd_vel_omega`): a vehicle of more input axes has no raw log (its first two measured
+/// columns are named here; [`check_raw_vehicle`] says so before import or export).
 pub fn raw_columns(vehicle: &dyn CommandModel) -> [&'static str; 19] {
     let mut c = RAW_COLUMNS;
-    [c[5], c[6]] = vehicle.logger_measured_columns();
+    for (slot, name) in [5, 6].into_iter().zip(vehicle.logger_measured_columns()) {
+        c[slot] = name;
+    }
     c
+}
+
+/// `Ok` when the DRIVE logger's raw format can hold `vehicle`'s inputs (two axes, a twist
+/// command); else an error that says why.
+///
+/// ```
+/// let husky = drive_models::DifferentialDrive::new(0.165, 0.55);
+/// assert!(drive_data::check_raw_vehicle(&husky).is_ok());
+/// ```
+pub fn check_raw_vehicle(vehicle: &dyn CommandModel) -> Result<(), String> {
+    let dim = vehicle.input_dim();
+    if dim == 2 {
+        return Ok(());
+    }
+    Err(format!(
+        "the DRIVE logger's raw log holds two measured inputs and a twist command (cmd_vel_x, cmd_vel_omega); this vehicle has {dim} input axes: record it as a window CSV (drive simulate --out run.csv) or a bag with its own topics"
+    ))
 }
 
 /// The protocol's state as the logger writes it.
@@ -320,7 +343,7 @@ pub fn parse_raw_log(
             icp_index: parse_count(field(2), at(2))?,
             calib_state,
             calib_step: parse_count(field(4), at(4))?,
-            measured: Input::new(num(5)?, num(6)?),
+            measured: Input::new(num(5)?, num(6)?, 0.0),
             body_command: [num(7)?, num(8)?],
             position: [num(9)?, num(10)?, num(11)?],
             quaternion: [num(12)?, num(13)?, num(14)?, num(15)?],

@@ -13,23 +13,15 @@ use std::fmt::Write as _;
 /// use drive_traits::RobotDescription;
 /// let robot = RobotDescription::new("r", "", 20.0, 40, drive_models::DifferentialDrive::new(0.1, 0.5));
 /// assert_eq!(drive_data::columns(&robot)[4..8], ["cmd_left", "cmd_right", "enc_left", "enc_right"]);
+/// assert_eq!(drive_data::columns(&robot).len(), 12);
 /// ```
-pub fn columns(robot: &RobotDescription) -> [&'static str; 12] {
-    let [a, b] = robot.vehicle.axes();
-    [
-        "window",
-        "phase",
-        "k",
-        "t",
-        a.command_column,
-        b.command_column,
-        a.measured_column,
-        b.measured_column,
-        "x",
-        "y",
-        "yaw",
-        "imu_yaw_rate",
-    ]
+pub fn columns(robot: &RobotDescription) -> Vec<&'static str> {
+    let axes = robot.vehicle.axes();
+    let mut columns = vec!["window", "phase", "k", "t"];
+    columns.extend(axes.iter().map(|a| a.command_column));
+    columns.extend(axes.iter().map(|a| a.measured_column));
+    columns.extend(["x", "y", "yaw", "imu_yaw_rate"]);
+    columns
 }
 
 /// Columns that may be present and are ignored (`calib_step` is the logger's interval
@@ -141,6 +133,10 @@ fn parse_lines<S: AsRef<str>>(
     robot: &RobotDescription,
 ) -> Result<Vec<Window>, DataError> {
     let columns = columns(robot);
+    let dim = robot.vehicle.input_dim();
+    // The slots of the command, measured, pose and IMU values.
+    let (command, measured, pose) = (4, 4 + dim, 4 + 2 * dim);
+    let imu = pose + 3;
     let mut lines = lines;
     let header = loop {
         match lines.next() {
@@ -155,7 +151,7 @@ fn parse_lines<S: AsRef<str>>(
     let header_text = header_text.strip_suffix('\r').unwrap_or(header_text);
     // Position in the row of each required column; None for ignored optional columns.
     let mut slot_of_field: Vec<Option<usize>> = Vec::new();
-    let mut position_of = [usize::MAX; 12];
+    let mut position_of = vec![usize::MAX; columns.len()];
     let mut seen = std::collections::HashSet::new();
     for (pos, raw) in header_text.split(',').enumerate() {
         let name = raw.trim();
@@ -197,7 +193,7 @@ fn parse_lines<S: AsRef<str>>(
     let mut phases: Vec<Phase> = Vec::new();
     let mut pending: Option<Pending> = None;
     let mut last_line = header_line;
-    let mut values = [0.0f64; 12];
+    let mut values = vec![0.0f64; columns.len()];
 
     let finish = |p: Pending,
                   line: usize,
@@ -345,10 +341,16 @@ fn parse_lines<S: AsRef<str>>(
                 },
             ));
         }
-        p.command.push(Input::new(values[4], values[5]));
-        p.measured.push(Input::new(values[6], values[7]));
-        p.pose.push(Pose::new(values[8], values[9], values[10]));
-        p.imu.push(values[11]);
+        let (mut c, mut m) = (Input::zeros(), Input::zeros());
+        for i in 0..dim {
+            c[i] = values[command + i];
+            m[i] = values[measured + i];
+        }
+        p.command.push(c);
+        p.measured.push(m);
+        p.pose
+            .push(Pose::new(values[pose], values[pose + 1], values[pose + 2]));
+        p.imu.push(values[imu]);
         last_line = line_no;
     }
     match pending {
@@ -367,26 +369,25 @@ fn parse_lines<S: AsRef<str>>(
 pub fn write_windows_csv(windows: &[Window], robot: &RobotDescription, out: &mut String) {
     out.push_str(&columns(robot).join(","));
     out.push('\n');
+    let dim = robot.vehicle.input_dim();
     for w in windows {
         for k in 0..w.len() {
             let (c, e, p) = (w.command[k], w.measured[k], w.pose[k]);
             // Writing into a String cannot fail.
-            let _ = writeln!(
+            let _ = write!(
                 out,
-                "{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{}",
                 w.index,
                 w.phase.as_str(),
                 k,
-                k as f64 / robot.rate_hz,
-                c.x,
-                c.y,
-                e.x,
-                e.y,
-                p.x,
-                p.y,
-                p.z,
-                w.imu_yaw_rate[k]
+                k as f64 / robot.rate_hz
             );
+            for u in [c, e] {
+                for i in 0..dim {
+                    let _ = write!(out, ",{}", u[i]);
+                }
+            }
+            let _ = writeln!(out, ",{},{},{},{}", p.x, p.y, p.z, w.imu_yaw_rate[k]);
         }
     }
 }

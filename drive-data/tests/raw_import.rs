@@ -29,7 +29,7 @@ fn drive(rows: &mut Vec<RawRow>, step: u64, n: usize) {
         r.calib_state = CalibState::Calib;
         r.calib_step = step;
         r.body_command = [1.0, 0.0];
-        r.measured = drive_traits::Input::new(3.3, 3.3);
+        r.measured = drive_traits::Input::new(3.3, 3.3, 0.0);
         // The pose is held between 10 Hz updates.
         let update = rows.len() % 2 == 0;
         r.icp_index = icp + u64::from(update);

@@ -160,8 +160,14 @@ pub fn compare_regions(
         |(lo, hi), (_, u)| (lo.inf(u), hi.sup(u)),
     );
     let vehicle = data.robot.vehicle.as_ref();
+    // The fastest forward command, and the left turn of the corner (first axis low, the
+    // others high): a differential drive's turn in place, an omnidirectional base's
+    // largest yaw rate.
     let top_speed = vehicle.body_velocity(&max).x;
-    let turn_rate = vehicle.body_velocity(&Input::new(min.x, max.y)).z.abs();
+    let turn_rate = vehicle
+        .body_velocity(&Input::new(min.x, max.y, max.z))
+        .z
+        .abs();
     if !(top_speed > 0.0 && turn_rate > 0.0) {
         return Err(ExperimentError::NotEnoughData(format!(
             "the training commands span no forward speed or no turn (top speed {top_speed:.3} m/s, turn rate {turn_rate:.3} rad/s)"

@@ -266,6 +266,12 @@ impl Registries {
                 ..Listed::default()
             });
         }
+        let axes_of = |v: &dyn CommandModel| {
+            v.axes()
+                .iter()
+                .map(|a| format!("{} [{}]", a.name, a.unit))
+                .collect::<Vec<_>>()
+        };
         let robots = self
             .robots
             .entries()
@@ -274,11 +280,24 @@ impl Registries {
                 name: e.name().to_string(),
                 description: e.description().to_string(),
                 vehicle: drive_traits::vehicle_tag(e.part().vehicle.as_ref()),
+                inputs: Some(e.part().vehicle.input_dim()),
+                ..Listed::default()
+            })
+            .collect();
+        let vehicles = self
+            .vehicles
+            .entries()
+            .iter()
+            .map(|e| Listed {
+                name: e.name().to_string(),
+                description: e.description().to_string(),
+                inputs: Some(e.part().input_dim()),
+                axes: Some(axes_of(e.part().as_ref())),
                 ..Listed::default()
             })
             .collect();
         Catalog {
-            vehicles: plain(pairs(&self.vehicles)),
+            vehicles,
             powertrains: plain(pairs(&self.powertrains)),
             learners,
             samplers: plain(pairs(&self.samplers)),
@@ -315,6 +334,12 @@ pub struct Listed {
     /// For a robot: its vehicle type.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub vehicle: Option<String>,
+    /// For a vehicle or a robot: its number of input axes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inputs: Option<usize>,
+    /// For a vehicle: its input axes, `name [unit]`, in order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub axes: Option<Vec<String>>,
 }
 
 /// Every registered part, by kind (what `drive list --json` prints).

@@ -496,8 +496,8 @@ mod tests {
                     } else {
                         Phase::Steady
                     },
-                    vec![Input::repeat(10.0 * d); 40],
-                    vec![Input::new(*d, 0.0); 40],
+                    vec![Input::new(10.0 * d, 10.0 * d, 0.0); 40],
+                    vec![Input::new(*d, 0.0, 0.0); 40],
                     jumped(*d),
                     vec![0.0; 40],
                 )

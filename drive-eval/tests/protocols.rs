@@ -173,8 +173,8 @@ fn regions_hold_the_intervals_their_definition_selects() {
         held.iter().map(|u| u.y).fold(f64::NEG_INFINITY, f64::max)
     );
     assert_eq!(ly, held.iter().map(|u| u.y).fold(f64::INFINITY, f64::min));
-    let turn = vehicle.body_velocity(&Input::new(lx, hy)).z.abs();
-    let top = vehicle.body_velocity(&Input::new(hx, hy)).x;
+    let turn = vehicle.body_velocity(&Input::new(lx, hy, 0.0)).z.abs();
+    let top = vehicle.body_velocity(&Input::new(hx, hy, 0.0)).x;
     let linear = held
         .iter()
         .filter(|u| vehicle.body_velocity(u).z.abs() <= 0.15 * turn)
@@ -203,7 +203,7 @@ fn regions_refuse_a_dataset_without_turns() {
         .dataset;
     for w in &mut data.windows {
         for c in &mut w.command {
-            *c = Input::new(2.0, 2.0);
+            *c = Input::new(2.0, 2.0, 0.0);
         }
     }
     let err = compare_regions(&r, &data, &RegionStudy::default()).unwrap_err();

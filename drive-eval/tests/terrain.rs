@@ -71,13 +71,13 @@ fn commands() -> Vec<Input> {
     let mut c: Vec<Input> = (0..30)
         .map(|i| {
             let a = i as f64 * 0.7;
-            Input::new(5.0 * a.sin(), 5.0 * (1.3 * a + 0.4).cos())
+            Input::new(5.0 * a.sin(), 5.0 * (1.3 * a + 0.4).cos(), 0.0)
         })
         .collect();
     c.extend([
-        Input::new(-20.0, 20.0),
-        Input::new(10.0, 30.0),
-        Input::new(-20.0, 20.0),
+        Input::new(-20.0, 20.0, 0.0),
+        Input::new(10.0, 30.0, 0.0),
+        Input::new(-20.0, 20.0, 0.0),
     ]);
     c
 }
@@ -144,7 +144,9 @@ fn a_robot_that_does_not_move_while_commanded_is_fully_unpredictable() {
 fn the_total_weights_direction_and_turning_sense() {
     // Driving backward when commanded forward: the same translational energy (0), but the
     // total counts none of it.
-    let straight: Vec<Input> = (1..=12).map(|i| Input::repeat(0.4 * i as f64)).collect();
+    let straight: Vec<Input> = (1..=12)
+        .map(|i| Input::new(0.4 * i as f64, 0.4 * i as f64, 0.0))
+        .collect();
     let backward = dataset(&straight, |u| {
         let [vx, vy, w] = as_commanded(u);
         [-vx, vy, w]
@@ -158,7 +160,7 @@ fn the_total_weights_direction_and_turning_sense() {
     assert!(u.total.unwrap().median > 0.999);
     // Turning the other way: rotational energy as commanded, total of none.
     let spins: Vec<Input> = (1..=12)
-        .map(|i| Input::new(-0.4 * i as f64, 0.4 * i as f64))
+        .map(|i| Input::new(-0.4 * i as f64, 0.4 * i as f64, 0.0))
         .collect();
     let wrong_way = dataset(&spins, |u| {
         let [vx, vy, w] = as_commanded(u);

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 ///     powertrain: Box::new(CommandedPowertrain), slip: Box::new(NoSlipModel), dt: 0.05 };
 /// let (n, horizon) = (100, 40);
 /// let starts = vec![StartState::at_rest(Pose::zeros()); n];
-/// let commands: Vec<Input> = (0..n * horizon).map(|i| Input::new(1.0, (i % 7) as f64)).collect();
+/// let commands: Vec<Input> = (0..n * horizon).map(|i| Input::new(1.0, (i % 7) as f64, 0.0)).collect();
 /// let mut poses = vec![Pose::zeros(); n * horizon];
 /// predict_batch_parallel(&model, &starts, &commands, horizon, &mut poses, 16).unwrap();
 /// let one = model.predict(&starts[3], &commands[3 * horizon..4 * horizon]);

@@ -29,10 +29,10 @@ use std::sync::Arc;
 /// let naive = Composed::new(Commanded, NoSlip);
 /// assert_eq!(naive.label(), "no-slip+commanded");
 /// let robot = RobotDescription::new("toy", "", 10.0, 3, DifferentialDrive::new(0.1, 0.5));
-/// let w = Window::new(0, 0, Phase::Transient, vec![Input::new(10.0, 10.0); 3], vec![Input::zeros(); 3], vec![Pose::zeros(); 3], vec![0.0; 3]);
+/// let w = Window::new(0, 0, Phase::Transient, vec![Input::new(10.0, 10.0, 0.0); 3], vec![Input::zeros(); 3], vec![Pose::zeros(); 3], vec![0.0; 3]);
 /// let windows = [w];
 /// let model = naive.fit(&WindowSet::new(&robot, &windows)).unwrap();
-/// let poses = model.predict(&StartState::at_rest(Pose::zeros()), &[Input::new(10.0, 10.0); 3]);
+/// let poses = model.predict(&StartState::at_rest(Pose::zeros()), &[Input::new(10.0, 10.0, 0.0); 3]);
 /// assert!((poses[2].x - 0.2).abs() < 1e-12); // 1 m/s for two steps of 0.1 s
 /// ```
 #[derive(Clone)]
@@ -98,7 +98,7 @@ impl Composed {
     /// use drive_models::slip::NoSlip;
     /// use drive_traits::{Input, Learner, MotionModel, Phase, Pose, RobotDescription, StartState, Window, WindowSet};
     /// let robot = RobotDescription::new("toy", "", 10.0, 3, DifferentialDrive::new(0.1, 0.5));
-    /// let w = |i| Window::new(i, i, Phase::Transient, vec![Input::new(10.0, 10.0); 3], vec![Input::zeros(); 3], vec![Pose::zeros(); 3], vec![0.0; 3]);
+    /// let w = |i| Window::new(i, i, Phase::Transient, vec![Input::new(10.0, 10.0, 0.0); 3], vec![Input::zeros(); 3], vec![Pose::zeros(); 3], vec![0.0; 3]);
     /// let windows = [w(0), w(1)];
     /// let learner = Composed::new(Commanded, NoSlip);
     /// let mut fit = learner.growing(&robot).expect("no-slip fits online");
@@ -107,7 +107,7 @@ impl Composed {
     /// fit.grow(&WindowSet::new(&robot, &windows), 1).unwrap();
     /// let online = fit.model(&robot).unwrap();
     /// let batch = learner.fit(&WindowSet::new(&robot, &windows)).unwrap();
-    /// let (start, commands) = (StartState::at_rest(Pose::zeros()), [Input::new(10.0, 10.0); 3]);
+    /// let (start, commands) = (StartState::at_rest(Pose::zeros()), [Input::new(10.0, 10.0, 0.0); 3]);
     /// assert_eq!(online.predict(&start, &commands), batch.predict(&start, &commands));
     /// ```
     pub fn growing(&self, robot: &drive_traits::RobotDescription) -> Option<GrowingFit> {

@@ -15,7 +15,7 @@ use crate::baselines::AccBlr;
 use crate::calibration::{Calibrator, Uncertainty};
 use crate::powertrain::{Commanded, Fopdt, RateLimited};
 use crate::slip::{NoSlip, SlipBlr, SlipIpem};
-use crate::vehicles::Ackermann;
+use crate::vehicles::{Ackermann, Omnidirectional};
 use crate::{Composed, DifferentialDrive};
 use drive_traits::{
     Baseline, CommandModel, FitError, FitPowertrain, FitSlip, Learner, MotionModel, Registry,
@@ -36,10 +36,11 @@ pub struct ModelAlias {
 
 impl RegistryItem for ModelAlias {}
 
-/// The vehicles of this project: `differential` (eq. 4) and `ackermann` (a car).
+/// The vehicles of this project: `differential` (eq. 4), `ackermann` (a car) and
+/// `omnidirectional` (a mecanum base, three inputs).
 pub fn builtin_vehicles() -> Registry<dyn CommandModel> {
     let mut r: Registry<dyn CommandModel> = Registry::new("vehicle");
-    let parts: [(&str, &str, Arc<dyn CommandModel>); 2] = [
+    let parts: [(&str, &str, Arc<dyn CommandModel>); 3] = [
         (
             "differential",
             "ideal differential drive of a skid-steer robot (eq. 4); inputs: left and right wheel angular velocities [rad/s]; geometry: wheel_radius, baseline",
@@ -49,6 +50,11 @@ pub fn builtin_vehicles() -> Registry<dyn CommandModel> {
             "ackermann",
             "kinematic bicycle of a car-like robot, body frame at the rear axle; inputs: speed [m/s] and steering angle [rad]; geometry: wheelbase, max_steering",
             Arc::new(Ackermann::new(0.57, 0.3665)),
+        ),
+        (
+            "omnidirectional",
+            "omnidirectional (mecanum) base commanded in body velocity; inputs: v_x [m/s], v_y [m/s] and w [rad/s]; geometry: half_wheelbase, half_track",
+            Arc::new(Omnidirectional::new(0.319, 0.2775)),
         ),
     ];
     for (name, description, part) in parts {

@@ -84,7 +84,7 @@ fn naive_turning_hand_computed() {
     // Left 0, right 10 rad/s: v = 0.1 * 5 = 0.5 m/s, w = 0.1 * 10 / 0.5 = 2 rad/s.
     let p = m.predict(
         &StartState::at_rest(Pose::zeros()),
-        &[Input::new(0.0, 10.0); 3],
+        &[Input::new(0.0, 10.0, 0.0); 3],
     );
     assert_abs_diff_eq!(p[1], Pose::new(0.05, 0.0, 0.2), epsilon = 1e-12);
     assert_abs_diff_eq!(
@@ -101,9 +101,9 @@ fn powertrain_aware_hand_computed() {
         time_constant: dt / 2f64.ln(),
         delay: 0.0,
     };
-    let limits = InputSpace::new(Input::new(-4.0, -4.0), Input::new(4.0, 4.0)).unwrap();
+    let limits = InputSpace::new(Input::new(-4.0, -4.0, 0.0), Input::new(4.0, 4.0, 0.0)).unwrap();
     let pt = FopdtPowertrain {
-        axes: [side, side],
+        axes: vec![side, side],
         limits,
         dt,
     };
@@ -111,7 +111,7 @@ fn powertrain_aware_hand_computed() {
     // Command 8 saturates at 4: wheels 0 -> 2 -> 3; body speed 0, 0.2, 0.3 m/s.
     let p = m.predict(
         &StartState::at_rest(Pose::zeros()),
-        &[Input::new(8.0, 8.0); 3],
+        &[Input::new(8.0, 8.0, 0.0); 3],
     );
     assert_abs_diff_eq!(p[1].x, 0.0, epsilon = 1e-12);
     assert_abs_diff_eq!(p[2].x, 0.2 * dt, epsilon = 1e-12);
@@ -120,7 +120,7 @@ fn powertrain_aware_hand_computed() {
 #[test]
 fn fopdt_fit_recovers_known_responses() {
     let truth = FopdtPowertrain {
-        axes: [
+        axes: vec![
             SideResponse {
                 time_constant: 0.42,
                 delay: 0.17,
@@ -130,13 +130,17 @@ fn fopdt_fit_recovers_known_responses() {
                 delay: 0.06,
             },
         ],
-        limits: InputSpace::new(Input::new(-6.0, -5.5), Input::new(6.5, 6.0)).unwrap(),
+        limits: InputSpace::new(Input::new(-6.0, -5.5, 0.0), Input::new(6.5, 6.0, 0.0)).unwrap(),
         dt: 0.05,
     };
     let mut windows = Vec::new();
     let mut wheels = Input::zeros();
     for i in 0..30 {
-        let c = Input::new(((i * 37) % 23) as f64 - 11.0, ((i * 53) % 19) as f64 - 9.0);
+        let c = Input::new(
+            ((i * 37) % 23) as f64 - 11.0,
+            ((i * 53) % 19) as f64 - 9.0,
+            0.0,
+        );
         for w in 0..3 {
             let cmds = vec![c; 40];
             let enc = truth.predict(&wheels, &cmds);
@@ -162,8 +166,12 @@ fn fopdt_fit_recovers_known_responses() {
     assert_abs_diff_eq!(fitted.axes[1].time_constant, 0.55, epsilon = 1e-3);
     assert_abs_diff_eq!(fitted.axes[1].delay, 0.06, epsilon = 1e-3);
     // The limits are the extremes seen; with these time constants the wheels reach them.
-    assert_abs_diff_eq!(fitted.limits.max, Input::new(6.5, 6.0), epsilon = 1e-3);
-    assert_abs_diff_eq!(fitted.limits.min, Input::new(-6.0, -5.5), epsilon = 1e-3);
+    assert_abs_diff_eq!(fitted.limits.max, Input::new(6.5, 6.0, 0.0), epsilon = 1e-3);
+    assert_abs_diff_eq!(
+        fitted.limits.min,
+        Input::new(-6.0, -5.5, 0.0),
+        epsilon = 1e-3
+    );
 }
 
 /// Transient windows of 40 samples driven through `truth` from varied commands.
@@ -171,7 +179,11 @@ fn powertrain_windows(truth: &dyn Powertrain) -> Vec<Window> {
     let mut windows = Vec::new();
     let mut state = Input::zeros();
     for i in 0..30 {
-        let target = Input::new(((i * 37) % 17) as f64 - 8.0, ((i * 53) % 15) as f64 - 7.0);
+        let target = Input::new(
+            ((i * 37) % 17) as f64 - 8.0,
+            ((i * 53) % 15) as f64 - 7.0,
+            0.0,
+        );
         let cmds = vec![target; 40];
         let measured = truth.predict(&state, &cmds);
         state = measured[39];
@@ -189,7 +201,7 @@ fn powertrain_windows(truth: &dyn Powertrain) -> Vec<Window> {
 #[test]
 fn rate_limited_fit_recovers_a_binding_rate_limit() {
     let truth = RateLimitedPowertrain {
-        axes: [
+        axes: vec![
             RateLimitedResponse {
                 time_constant: 0.25,
                 delay: 0.1,
@@ -201,7 +213,7 @@ fn rate_limited_fit_recovers_a_binding_rate_limit() {
                 max_rate: 6.0,
             },
         ],
-        limits: InputSpace::new(Input::repeat(-8.0), Input::repeat(8.0)).unwrap(),
+        limits: InputSpace::new(Input::new(-8.0, -8.0, 0.0), Input::new(8.0, 8.0, 0.0)).unwrap(),
         dt: 0.05,
     };
     let windows = powertrain_windows(&truth);
@@ -242,11 +254,14 @@ fn rate_limited_fit_recovers_a_binding_rate_limit() {
 #[test]
 fn without_a_binding_limit_the_rate_limited_fit_is_the_fopdt() {
     let truth = FopdtPowertrain {
-        axes: [SideResponse {
-            time_constant: 0.3,
-            delay: 0.1,
-        }; 2],
-        limits: InputSpace::new(Input::repeat(-8.0), Input::repeat(8.0)).unwrap(),
+        axes: vec![
+            SideResponse {
+                time_constant: 0.3,
+                delay: 0.1,
+            };
+            2
+        ],
+        limits: InputSpace::new(Input::new(-8.0, -8.0, 0.0), Input::new(8.0, 8.0, 0.0)).unwrap(),
         dt: 0.05,
     };
     let windows = powertrain_windows(&truth);
@@ -276,8 +291,10 @@ fn fopdt_without_transient_window_is_refused() {
     let w = window(
         0,
         Phase::Steady,
-        vec![Input::new(1.0, 1.0); 40],
-        (0..40).map(|k| Input::repeat(k as f64 * 0.01)).collect(),
+        vec![Input::new(1.0, 1.0, 0.0); 40],
+        (0..40)
+            .map(|k| Input::new(k as f64 * 0.01, k as f64 * 0.01, 0.0))
+            .collect(),
         vec![Pose::zeros(); 40],
     );
     let err = Fopdt::default()
@@ -292,7 +309,11 @@ fn slip_windows(gx: f64, gy: f64, gw: [f64; 3]) -> Vec<Window> {
     let vehicle = vehicle();
     let mut out = Vec::new();
     for i in 0..40 {
-        let u = Input::new(((i * 7) % 13) as f64 - 6.0, ((i * 11) % 17) as f64 - 8.0);
+        let u = Input::new(
+            ((i * 7) % 13) as f64 - 6.0,
+            ((i * 11) % 17) as f64 - 8.0,
+            0.0,
+        );
         let f = vehicle.eq4(&u);
         let psi = f.x * f.z;
         let g = BodyVelocity::new(gx * f.x, gy * psi, gw[0] * psi + gw[1] * f.x + gw[2] * f.z);
@@ -328,6 +349,7 @@ fn car_slip_windows(gx: [f64; 2], gy: [f64; 2], gw: [f64; 3]) -> (RobotDescripti
         let u = Input::new(
             ((i * 7) % 13) as f64 * 0.5 - 3.0,
             ((i * 11) % 17) as f64 * 0.05 - 0.4,
+            0.0,
         );
         let f = car.body_velocity(&u);
         let s = car_slip_inputs(&f);
@@ -400,7 +422,7 @@ fn slip_blr_files_without_a_basis_are_the_papers() {
     let older = text.replace("\"basis\": \"skid-steer\",", "");
     assert!(!older.contains("basis"));
     let (back, _) = model_from_json("old.json", &older).unwrap();
-    let cmds = vec![Input::new(3.0, 5.0); 40];
+    let cmds = vec![Input::new(3.0, 5.0, 0.0); 40];
     let start = StartState::at_rest(Pose::zeros());
     assert_eq!(back.predict(&start, &cmds), m.predict(&start, &cmds));
     // A car file whose weights do not match its basis is refused.
@@ -449,20 +471,20 @@ fn slip_blr_prediction_hand_computed() {
     // Wheels 10, 10: f = (1, 0, 0); g = (0.1, 0, 0); v = 0.9 m/s.
     let p = m.predict(
         &StartState::at_rest(Pose::zeros()),
-        &[Input::new(10.0, 10.0); 3],
+        &[Input::new(10.0, 10.0, 0.0); 3],
     );
     assert_abs_diff_eq!(p[2], Pose::new(0.18, 0.0, 0.0), epsilon = 1e-12);
     // Wheels 0, 10: f = (0.5, 0, 2); g_w = 0.5 * 2 = 1; v = (0.45, 0, 1).
     let p = m.predict(
         &StartState::at_rest(Pose::zeros()),
-        &[Input::new(0.0, 10.0); 2],
+        &[Input::new(0.0, 10.0, 0.0); 2],
     );
     assert_abs_diff_eq!(p[1], Pose::new(0.045, 0.0, 0.1), epsilon = 1e-12);
     // Covariance: b/a (1 + 0) * nu/(nu-2) = 0.1 * 20/18 per velocity, times dt^2.
     let (mut poses, mut cov) = (Vec::new(), Vec::new());
     m.predict_with_covariance_into(
         &StartState::at_rest(Pose::zeros()),
-        &[Input::new(10.0, 10.0); 2],
+        &[Input::new(10.0, 10.0, 0.0); 2],
         &mut poses,
         &mut cov,
     )
@@ -496,7 +518,7 @@ fn acc_blr_prediction_hand_computed() {
         velocity: None,
     };
     // f = (1, 0, 0) from wheels 10, 10: v0 = 0.2 (lateral dropped), v1 = 0.6, v2 = 0.8.
-    let p = m.predict(&start, &[Input::new(10.0, 10.0); 4]);
+    let p = m.predict(&start, &[Input::new(10.0, 10.0, 0.0); 4]);
     assert_abs_diff_eq!(p[1], Pose::new(0.02, 0.0, 0.0), epsilon = 1e-12);
     assert_abs_diff_eq!(p[2], Pose::new(0.08, 0.0, 0.0), epsilon = 1e-12);
     assert_abs_diff_eq!(p[3], Pose::new(0.16, 0.0, 0.0), epsilon = 1e-12);
@@ -509,14 +531,17 @@ fn acc_blr_prediction_hand_computed() {
     };
     let on_fopdt = AccBlrModel {
         powertrain: Box::new(FopdtPowertrain {
-            axes: [frozen, frozen],
-            limits: drive_traits::InputSpace::new(Input::repeat(-20.0), Input::repeat(20.0))
-                .unwrap(),
+            axes: vec![frozen, frozen],
+            limits: drive_traits::InputSpace::new(
+                Input::new(-20.0, -20.0, 0.0),
+                Input::new(20.0, 20.0, 0.0),
+            )
+            .unwrap(),
             dt: 0.1,
         }),
         ..m.clone()
     };
-    let p = on_fopdt.predict(&start, &[Input::new(10.0, 10.0); 3]);
+    let p = on_fopdt.predict(&start, &[Input::new(10.0, 10.0, 0.0); 3]);
     assert_abs_diff_eq!(p[1], Pose::new(0.02, 0.0, 0.0), epsilon = 1e-9);
     assert_abs_diff_eq!(p[2], Pose::new(0.03, 0.0, 0.0), epsilon = 1e-9);
 }
@@ -530,7 +555,11 @@ fn acc_blr_recovers_first_order_body_dynamics() {
     let mut v = BodyVelocity::zeros();
     let mut pose = Pose::zeros();
     for i in 0..60 {
-        let u = Input::new(((i * 7) % 13) as f64 - 6.0, ((i * 11) % 17) as f64 - 8.0);
+        let u = Input::new(
+            ((i * 7) % 13) as f64 - 6.0,
+            ((i * 11) % 17) as f64 - 8.0,
+            0.0,
+        );
         let f = vehicle.eq4(&u);
         let mut poses = Vec::new();
         let start = pose;
@@ -578,7 +607,7 @@ fn straight_driving_only_gives_a_clear_error_not_a_nan_model() {
     let r = robot();
     let windows: Vec<Window> = (0..6)
         .map(|i| {
-            let u = Input::new(5.0 + i as f64, 5.0 + i as f64);
+            let u = Input::new(5.0 + i as f64, 5.0 + i as f64, 0.0);
             let f = vehicle().eq4(&u);
             window(
                 i,
@@ -614,13 +643,13 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
     ];
     let start = StartState {
         pose: Pose::new(1.0, -2.0, 0.3),
-        input: Input::new(1.0, 2.0),
+        input: Input::new(1.0, 2.0, 0.0),
         body_velocity: BodyVelocity::new(0.1, 0.0, 0.1),
         yaw_rate: None,
         velocity: None,
     };
     let cmds: Vec<Input> = (0..40)
-        .map(|k| Input::new(k as f64 * 0.1, 3.0 - k as f64 * 0.05))
+        .map(|k| Input::new(k as f64 * 0.1, 3.0 - k as f64 * 0.05, 0.0))
         .collect();
     for m in &models {
         let text = model_to_json(m.as_ref(), &r).unwrap();
@@ -661,11 +690,11 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
 /// 0.5,-1.0,0.3 --start-wheels 1,2`.
 fn fixture_commands_and_start(robot: &RobotDescription) -> (Vec<Input>, StartState) {
     let cmds = (0..40)
-        .map(|k| Input::new(2.0 + 0.1 * k as f64, 5.0))
+        .map(|k| Input::new(2.0 + 0.1 * k as f64, 5.0, 0.0))
         .collect();
     let start = StartState::measured(
         Pose::new(0.5, -1.0, 0.3),
-        Input::new(1.0, 2.0),
+        Input::new(1.0, 2.0, 0.0),
         &*robot.vehicle,
     );
     (cmds, start)
@@ -804,8 +833,8 @@ fn commanded_powertrain_learner_needs_nothing() {
         })
         .unwrap();
     assert_eq!(
-        pt.predict(&Input::zeros(), &[Input::new(1.0, 2.0)]),
-        vec![Input::new(1.0, 2.0)]
+        pt.predict(&Input::zeros(), &[Input::new(1.0, 2.0, 0.0)]),
+        vec![Input::new(1.0, 2.0, 0.0)]
     );
 }
 
@@ -813,12 +842,16 @@ fn commanded_powertrain_learner_needs_nothing() {
 fn a_composed_model_rolls_out_in_batch_as_one_by_one() {
     let m = composed(
         RateLimitedPowertrain {
-            axes: [RateLimitedResponse {
-                time_constant: 0.3,
-                delay: 0.07,
-                max_rate: 5.0,
-            }; 2],
-            limits: InputSpace::new(Input::repeat(-6.0), Input::repeat(6.0)).unwrap(),
+            axes: vec![
+                RateLimitedResponse {
+                    time_constant: 0.3,
+                    delay: 0.07,
+                    max_rate: 5.0,
+                };
+                2
+            ],
+            limits: InputSpace::new(Input::new(-6.0, -6.0, 0.0), Input::new(6.0, 6.0, 0.0))
+                .unwrap(),
             dt: 0.05,
         },
         NoSlipModel,
@@ -827,14 +860,14 @@ fn a_composed_model_rolls_out_in_batch_as_one_by_one() {
     let starts: Vec<StartState> = (0..5)
         .map(|i| StartState {
             pose: Pose::new(i as f64, 0.0, 0.1 * i as f64),
-            input: Input::new(0.5 * i as f64, 0.0),
+            input: Input::new(0.5 * i as f64, 0.0, 0.0),
             body_velocity: BodyVelocity::zeros(),
             yaw_rate: None,
             velocity: None,
         })
         .collect();
     let commands: Vec<Input> = (0..5 * 20)
-        .map(|k| Input::new((k % 7) as f64, 3.0 - (k % 5) as f64))
+        .map(|k| Input::new((k % 7) as f64, 3.0 - (k % 5) as f64, 0.0))
         .collect();
     let mut batch = vec![Pose::zeros(); commands.len()];
     m.predict_batch_into(&starts, &commands, 20, &mut batch)

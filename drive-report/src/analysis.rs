@@ -10,17 +10,67 @@ use serde::Serialize;
 /// a position error `e` is inside the predicted 95% ellipse when `e^T S^-1 e <= CHI2_2_95`.
 pub const CHI2_2_95: f64 = 5.991_464_547_107_979;
 
-/// The four corners of an input box mapped to body velocities by the vehicle (eq. 4 for a
+/// The corners of an input box mapped to body velocities by the vehicle (eq. 4 for a
 /// differential drive): the polygon a box of inputs spans in the (forward speed, yaw rate)
-/// plane.
-pub fn body_polygon(vehicle: &dyn CommandModel, space: &InputSpace) -> [BodyVelocity; 4] {
+/// plane. A two-input box's four corners in turn; for more axes, the convex hull of every
+/// corner's (forward speed, yaw rate), counter-clockwise.
+pub fn body_polygon(vehicle: &dyn CommandModel, space: &InputSpace) -> Vec<BodyVelocity> {
     let (lo, hi) = (space.min, space.max);
-    [
-        vehicle.body_velocity(&Input::new(lo.x, lo.y)),
-        vehicle.body_velocity(&Input::new(hi.x, lo.y)),
-        vehicle.body_velocity(&Input::new(hi.x, hi.y)),
-        vehicle.body_velocity(&Input::new(lo.x, hi.y)),
-    ]
+    let dim = space.dim();
+    if dim == 2 {
+        return vec![
+            vehicle.body_velocity(&Input::new(lo.x, lo.y, 0.0)),
+            vehicle.body_velocity(&Input::new(hi.x, lo.y, 0.0)),
+            vehicle.body_velocity(&Input::new(hi.x, hi.y, 0.0)),
+            vehicle.body_velocity(&Input::new(lo.x, hi.y, 0.0)),
+        ];
+    }
+    let corners: Vec<BodyVelocity> = (0..1usize << dim)
+        .map(|bits| {
+            let u = Input::from_fn(|i, _| {
+                if i >= dim {
+                    0.0
+                } else if bits >> i & 1 == 0 {
+                    lo[i]
+                } else {
+                    hi[i]
+                }
+            });
+            vehicle.body_velocity(&u)
+        })
+        .collect();
+    convex_hull(corners)
+}
+
+/// The convex hull of points in the (x, z) plane (monotone chain), counter-clockwise.
+fn convex_hull(mut points: Vec<BodyVelocity>) -> Vec<BodyVelocity> {
+    points.retain(|p| p.x.is_finite() && p.z.is_finite());
+    points.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.z.total_cmp(&b.z)));
+    if points.len() < 3 {
+        return points;
+    }
+    let cross = |o: &BodyVelocity, a: &BodyVelocity, b: &BodyVelocity| {
+        (a.x - o.x) * (b.z - o.z) - (a.z - o.z) * (b.x - o.x)
+    };
+    let mut hull: Vec<BodyVelocity> = Vec::with_capacity(2 * points.len());
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &BodyVelocity>> = if pass == 0 {
+            Box::new(points.iter())
+        } else {
+            Box::new(points.iter().rev())
+        };
+        for p in iter {
+            while hull.len() >= start + 2
+                && cross(&hull[hull.len() - 2], &hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(*p);
+        }
+        hull.pop();
+    }
+    hull
 }
 
 /// The box spanned by a set of inputs; `None` when there are none.
@@ -86,7 +136,7 @@ pub fn input_space(
 #[derive(Debug, Clone, Serialize)]
 pub struct PowertrainTrace {
     /// The vehicle's input axes.
-    pub axes: [InputAxis; 2],
+    pub axes: Vec<InputAxis>,
     /// The powertrain's name.
     pub powertrain: String,
     /// Time of each sample (s) from the first window's start.
@@ -312,11 +362,11 @@ mod tests {
 
     #[test]
     fn bounding_box_and_polygon() {
-        let inputs = [Input::new(-1.0, 2.0), Input::new(3.0, -4.0)];
+        let inputs = [Input::new(-1.0, 2.0, 0.0), Input::new(3.0, -4.0, 0.0)];
         let b = bounding_box(&inputs).unwrap();
         assert_eq!(
             (b.min, b.max),
-            (Input::new(-1.0, -4.0), Input::new(3.0, 2.0))
+            (Input::new(-1.0, -4.0, 0.0), Input::new(3.0, 2.0, 0.0))
         );
         let vehicle = drive_models::DifferentialDrive::new(0.5, 1.0);
         let p = body_polygon(&vehicle, &b);

@@ -218,6 +218,15 @@ where
     Ok(())
 }
 
+/// `a and b`, `a, b and c`: the axes' names.
+fn names(axes: &[drive_traits::InputAxis]) -> String {
+    let names: Vec<&str> = axes.iter().map(|a| a.name).collect();
+    match names.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+        _ => names.concat(),
+    }
+}
+
 /// Paper Fig. 3: commanded, measured and modeled inputs (wheel velocities for a skid-steer),
 /// one panel per input axis.
 pub fn powertrain<DB: DrawingBackend>(
@@ -246,15 +255,15 @@ where
     let body = header(
         root,
         &format!(
-            "Powertrain: {} and {} over three DRIVE intervals (eq. 3)",
-            trace.axes[0].name, trace.axes[1].name
+            "Powertrain: {} over three DRIVE intervals (eq. 3)",
+            names(&trace.axes)
         ),
         &keys,
     )?;
-    let panels = body.split_evenly((2, 1));
+    let panels = body.split_evenly((trace.axes.len().max(1), 1));
     let t1 = trace.windows.last().map_or(1.0, |w| w.1);
     for (side, area) in panels.iter().enumerate() {
-        let pick = |u: &drive_traits::Input| if side == 0 { u.x } else { u.y };
+        let pick = |u: &drive_traits::Input| u[side];
         let values = trace
             .commanded
             .iter()

@@ -14,7 +14,7 @@ mod uniform;
 
 pub use others::{AngularSampler, GridSampler, LinearSampler};
 pub use registry::{build_sampler, builtin_samplers, MakeSampler, SamplerContext};
-pub use robot::{autorally, builtin_robots, BodySize, RobotError, RobotSpec};
+pub use robot::{autorally, builtin_robots, ridgeback, BodySize, RobotError, RobotSpec};
 pub use runner::{
     PauseReason, ProtocolRunner, RunnerConfig, RunnerInput, RunnerOutput, RunnerState, SampleTag,
     StopReason,

@@ -7,18 +7,18 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use std::sync::Arc;
 
-/// A regular `n x n` grid over J, visited in a seeded random order, reshuffled at every
-/// pass.
+/// A regular grid of `n` points per axis over J (`n x n`, or `n x n x n` for a vehicle of
+/// three inputs), visited in a seeded random order, reshuffled at every pass.
 ///
 /// ```
 /// use drive_samplers::GridSampler;
 /// use drive_traits::{Input, InputSampler, InputSpace};
-/// let j = InputSpace::new(Input::new(-1.0, -1.0), Input::new(1.0, 1.0)).unwrap();
+/// let j = InputSpace::new(Input::new(-1.0, -1.0, 0.0), Input::new(1.0, 1.0, 0.0)).unwrap();
 /// let mut g = GridSampler::new(j, 3, 1).unwrap();
 /// let mut seen: Vec<Input> = (0..9).map(|_| g.next_input()).collect();
 /// seen.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
-/// assert_eq!(seen[0], Input::new(-1.0, -1.0));
-/// assert_eq!(seen[4], Input::new(0.0, 0.0));
+/// assert_eq!(seen[0], Input::new(-1.0, -1.0, 0.0));
+/// assert_eq!(seen[4], Input::new(0.0, 0.0, 0.0));
 /// ```
 #[derive(Debug, Clone)]
 pub struct GridSampler {
@@ -40,10 +40,17 @@ impl GridSampler {
         let at = |i: usize, axis: usize| {
             space.min[axis] + (space.max[axis] - space.min[axis]) * i as f64 / (n - 1) as f64
         };
-        let points = (0..n)
-            .flat_map(|i| (0..n).map(move |j| (i, j)))
-            .map(|(i, j)| Input::new(at(i, 0), at(j, 1)))
-            .collect();
+        let points = if space.dim() == 2 {
+            (0..n)
+                .flat_map(|i| (0..n).map(move |j| (i, j)))
+                .map(|(i, j)| Input::new(at(i, 0), at(j, 1), 0.0))
+                .collect()
+        } else {
+            (0..n)
+                .flat_map(|i| (0..n).flat_map(move |j| (0..n).map(move |k| (i, j, k))))
+                .map(|(i, j, k)| Input::new(at(i, 0), at(j, 1), at(k, 2)))
+                .collect()
+        };
         let mut g = GridSampler {
             points,
             next: 0,
@@ -133,7 +140,11 @@ impl BodyToInput {
             .min(self.limits.as_ref().map_or(f64::INFINITY, |l| l.max_linear));
         let turn = self
             .vehicle
-            .body_velocity(&Input::new(self.space.min.x, self.space.max.y))
+            .body_velocity(&Input::new(
+                self.space.min.x,
+                self.space.max.y,
+                self.space.max.z,
+            ))
             .z
             .abs();
         (fwd, turn)
@@ -260,10 +271,10 @@ mod tests {
             BodyVelocity::new(u.x, 0.4 * u.y, u.y)
         }
         fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
-            (v.y == 0.4 * v.z).then(|| Input::new(v.x, v.z))
+            (v.y == 0.4 * v.z).then(|| Input::new(v.x, v.z, 0.0))
         }
-        fn axes(&self) -> [InputAxis; 2] {
-            [
+        fn axes(&self) -> Vec<InputAxis> {
+            vec![
                 InputAxis {
                     name: "v",
                     unit: "m/s",
@@ -294,9 +305,9 @@ mod tests {
             BodyVelocity::new(u.x, 0.0, u.x)
         }
         fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
-            (v.y == 0.0 && v.z == v.x).then(|| Input::new(v.x, 0.0))
+            (v.y == 0.0 && v.z == v.x).then(|| Input::new(v.x, 0.0, 0.0))
         }
-        fn axes(&self) -> [InputAxis; 2] {
+        fn axes(&self) -> Vec<InputAxis> {
             Offset.axes()
         }
         fn clone_box(&self) -> Box<dyn CommandModel> {
@@ -317,7 +328,8 @@ mod tests {
 
     #[test]
     fn a_vehicle_whose_lateral_velocity_follows_its_yaw_rate_gets_moving_schedules() {
-        let space = InputSpace::new(Input::new(-1.0, -1.5), Input::new(1.0, 1.5)).unwrap();
+        let space =
+            InputSpace::new(Input::new(-1.0, -1.5, 0.0), Input::new(1.0, 1.5, 0.0)).unwrap();
         let robot = robot(Arc::new(Offset));
         for make in [
             |s, v, seed| Box::new(LinearSampler::new(s, v, seed)) as Box<dyn InputSampler>,
@@ -340,7 +352,8 @@ mod tests {
 
     #[test]
     fn a_vehicle_with_no_input_for_the_drawn_body_velocities_is_refused_by_name() {
-        let space = InputSpace::new(Input::new(-1.0, -1.0), Input::new(1.0, 1.0)).unwrap();
+        let space =
+            InputSpace::new(Input::new(-1.0, -1.0, 0.0), Input::new(1.0, 1.0, 0.0)).unwrap();
         let sampler = LinearSampler::new(space, Arc::new(Coupled), 0);
         let e = sampler.check().unwrap_err().to_string();
         assert!(

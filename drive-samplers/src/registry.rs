@@ -106,7 +106,7 @@ pub fn builtin_samplers() -> Registry<dyn MakeSampler> {
         ),
         (
             "grid",
-            "a regular 10 x 10 grid over J, visited in a seeded random order",
+            "a regular grid of 10 points per input axis over J, visited in a seeded random order",
             Arc::new(|c: &SamplerContext<'_>| {
                 Ok(Box::new(GridSampler::new(c.space, 10, c.seed)?) as Box<dyn InputSampler>)
             }),

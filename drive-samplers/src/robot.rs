@@ -2,7 +2,7 @@
 //! acceleration limits, from a TOML file or a registered preset (the paper's platforms).
 
 use crate::BodyLimits;
-use drive_models::vehicles::Ackermann;
+use drive_models::vehicles::{Ackermann, Omnidirectional};
 use drive_models::DifferentialDrive;
 use drive_traits::limits::{self, Short};
 use drive_traits::{
@@ -161,15 +161,15 @@ struct RobotFile {
     max_linear_acceleration: Option<f64>,
     #[serde(default)]
     max_angular_acceleration: Option<f64>,
-    #[serde(default, deserialize_with = "drive_traits::exact::option_array")]
-    input_rate_limits: Option<[f64; 2]>,
+    #[serde(default, deserialize_with = "drive_traits::exact::option_axes")]
+    input_rate_limits: Option<Vec<f64>>,
     #[serde(default, deserialize_with = "drive_traits::exact::option_array")]
     wheel_limits: Option<[f64; 2]>,
     #[serde(
         default,
         deserialize_with = "drive_traits::exact::option_min_max_pairs"
     )]
-    input_limits: Option<[[f64; 2]; 2]>,
+    input_limits: Option<Vec<[f64; 2]>>,
     #[serde(default)]
     tracked: bool,
     #[serde(default)]
@@ -241,8 +241,8 @@ pub fn builtin_robots() -> Registry<RobotSpec> {
             input_rate_limits: None,
             input_limits: None,
             nominal_input_space: InputSpace::new(
-                Input::repeat(-max_speed / wheel_radius),
-                Input::repeat(max_speed / wheel_radius),
+                Input::new(-max_speed / wheel_radius, -max_speed / wheel_radius, 0.0),
+                Input::new(max_speed / wheel_radius, max_speed / wheel_radius, 0.0),
             )
             .expect("positive presets"),
             vehicle: Arc::new(vehicle),
@@ -259,7 +259,46 @@ pub fn builtin_robots() -> Registry<RobotSpec> {
         Arc::new(autorally()),
     )
     .expect("distinct presets");
+    r.register_trusted(
+        "ridgeback",
+        "Clearpath Ridgeback: omnidirectional mecanum base (v_x, v_y, w), 135 kg, 1.1 m/s",
+        Arc::new(ridgeback()),
+    )
+    .expect("distinct presets");
     r
+}
+
+/// The Clearpath Ridgeback, an omnidirectional mecanum base commanded in body velocity
+/// (`v_x, v_y, w`, [`Omnidirectional`]): 135 kg, top speed 1.1 m/s, footprint 0.96 m x
+/// 0.793 m (Clearpath's published specifications). The wheel positions (`l_x` = 0.319 m,
+/// `l_y` = 0.2775 m) are this project's reading of the footprint, not published values;
+/// the acceleration limits follow the other presets' rule (about one top speed per second,
+/// the yaw rate's through the lever `l_x + l_y`).
+///
+/// ```
+/// let base = drive_samplers::ridgeback();
+/// assert_eq!(base.vehicle.input_dim(), 3);
+/// let j = base.input_space();
+/// assert_eq!((j.dim(), j.max.x, j.max.y), (3, 1.1, 1.1));
+/// ```
+pub fn ridgeback() -> RobotSpec {
+    let vehicle = Omnidirectional::new(0.319, 0.2775);
+    let max_speed = 1.1;
+    let angular = max_speed / (0.319 + 0.2775);
+    // Positive presets: the constructor's checks hold.
+    RobotSpec::new(
+        "ridgeback",
+        Arc::new(vehicle),
+        135.0,
+        max_speed,
+        max_speed,
+        angular,
+    )
+    .expect("a valid preset")
+    .with_body(BodySize {
+        length_m: 0.96,
+        width_m: 0.793,
+    })
 }
 
 /// The AutoRally platform (Goldfain et al., "AutoRally: An Open Platform for Aggressive
@@ -294,7 +333,7 @@ pub fn autorally() -> RobotSpec {
         rate_hz: 20.0,
         max_linear_acceleration: f64::INFINITY,
         max_angular_acceleration: f64::INFINITY,
-        input_rate_limits: Some(Input::new(max_speed, 8.05536578)),
+        input_rate_limits: Some(Input::new(max_speed, 8.05536578, 0.0)),
         input_limits: None,
         // Positive speed and steering limit.
         nominal_input_space: vehicle
@@ -464,18 +503,21 @@ impl RobotSpec {
     /// use std::sync::Arc;
     /// let car = Arc::new(drive_models::vehicles::Ackermann::new(0.33, 0.42));
     /// let robot = RobotSpec::new("small", car, 3.5, 3.0, 3.0, 6.0).unwrap()
-    ///     .with_input_rate_limits(Input::new(3.0, 6.0)).unwrap()
+    ///     .with_input_rate_limits(Input::new(3.0, 6.0, 0.0)).unwrap()
     ///     .with_lateral_acceleration(2.5).unwrap();
-    /// assert_eq!(robot.input_rate_limits, Some(Input::new(3.0, 6.0)));
+    /// assert_eq!(robot.input_rate_limits, Some(Input::new(3.0, 6.0, 0.0)));
     /// assert!(robot.max_linear_acceleration.is_infinite());
     /// ```
     pub fn with_input_rate_limits(mut self, rates: Input) -> Result<Self, RobotError> {
-        if !rates.iter().all(|v| v.is_finite() && *v > 0.0) {
+        let dim = self.vehicle.input_dim();
+        if !(rates.iter().take(dim).all(|v| v.is_finite() && *v > 0.0)
+            && rates.iter().skip(dim).all(|v| *v == 0.0))
+        {
             return Err(RobotError::Invalid {
                 file: self.name.clone(),
                 field: "input_rate_limits",
                 message: format!(
-                    "expected positive rates per input axis, found {:?}",
+                    "expected positive rates on each of the vehicle's {dim} input axes, found {:?}",
                     rates.as_slice()
                 ),
             });
@@ -554,43 +596,66 @@ impl RobotSpec {
             (Some(_), None)
                 if vehicle_tag(vehicle.as_ref()).as_deref() != Some(DifferentialDrive::TAG) =>
             {
-                let [a, b] = vehicle.axes();
+                let axes: Vec<String> = vehicle
+                    .axes()
+                    .iter()
+                    .map(|a| format!("{} [{}]", a.name, a.unit))
+                    .collect();
                 return Err(invalid(
                     "wheel_limits",
                     format!(
-                        "wheel_limits gives both wheels of a differential drive one range; this vehicle's axes are {} [{}] and {} [{}]: give input_limits = [[min, max], [min, max]]",
-                        a.name, a.unit, b.name, b.unit
+                        "wheel_limits gives both wheels of a differential drive one range; this vehicle's axes are {}: give input_limits = [{}]",
+                        axes.join(", "),
+                        vec!["[min, max]"; axes.len()].join(", ")
                     ),
                 ));
             }
-            (Some([lo, hi]), None) => Some(("wheel_limits", [[lo, hi], [lo, hi]])),
+            (Some([lo, hi]), None) => Some(("wheel_limits", vec![[lo, hi], [lo, hi]])),
             (None, Some(l)) => Some(("input_limits", l)),
             (None, None) => None,
         };
+        let dim = vehicle.input_dim();
         let mut input_limits = None;
-        if let Some((field, [[a0, a1], [b0, b1]])) = axis_limits {
-            let finite = [a0, a1, b0, b1].iter().all(|v| v.is_finite());
-            let [a0s, a1s, b0s, b1s] = [a0, a1, b0, b1].map(Short);
-            if finite && !((a1 - a0).is_finite() && (b1 - b0).is_finite()) {
+        if let Some((field, pairs)) = axis_limits {
+            let shown = pairs
+                .iter()
+                .map(|[a, b]| format!("[{}, {}]", Short(*a), Short(*b)))
+                .collect::<Vec<_>>()
+                .join(", ");
+            if pairs.len() != dim {
                 return Err(invalid(
                     field,
                     format!(
-                        "a range wider than the largest number: [[{a0s}, {a1s}], [{b0s}, {b1s}]]"
+                        "expected one [min, max] pair per input axis of the vehicle ({dim}), found {}: [{shown}]",
+                        pairs.len()
                     ),
                 ));
             }
-            let ok = finite && a0 < a1 && b0 < b1;
+            let finite = pairs.iter().flatten().all(|v| v.is_finite());
+            if finite && !pairs.iter().all(|[a, b]| (b - a).is_finite()) {
+                return Err(invalid(
+                    field,
+                    format!("a range wider than the largest number: [{shown}]"),
+                ));
+            }
+            let ok = finite && pairs.iter().all(|[a, b]| a < b);
             if !ok {
+                let [a0s, a1s] = pairs[0].map(Short);
                 return Err(invalid(
                     field,
                     if field == "wheel_limits" {
                         format!("expected [omega_min, omega_max] with omega_min < omega_max, found [{a0s}, {a1s}]")
                     } else {
-                        format!("expected [min, max] with min < max on each axis, found [[{a0s}, {a1s}], [{b0s}, {b1s}]]")
+                        format!("expected [min, max] with min < max on each axis, found [{shown}]")
                     },
                 ));
             }
-            input_limits = InputSpace::new(Input::new(a0, b0), Input::new(a1, b1));
+            let (mut lo, mut hi) = (Input::zeros(), Input::zeros());
+            for (i, [a, b]) in pairs.iter().enumerate() {
+                lo[i] = *a;
+                hi[i] = *b;
+            }
+            input_limits = InputSpace::new(lo, hi);
             if let Some(space) = &input_limits {
                 vehicle
                     .check_input_space(space)
@@ -619,19 +684,28 @@ impl RobotSpec {
             (None, None) => {
                 return Err(invalid(
                     "input_limits",
-                    "this vehicle has no nominal input space: give input_limits = [[min, max], [min, max]]".into(),
+                    format!(
+                        "this vehicle has no nominal input space: give input_limits = [{}]",
+                        vec!["[min, max]"; dim].join(", ")
+                    ),
                 ))
             }
         };
         let input_rate_limits = match f.input_rate_limits {
-            Some([a, b]) => {
-                if !([a, b].iter().all(|v| v.is_finite() && *v > 0.0)) {
+            Some(rates) => {
+                if !(rates.len() == dim && rates.iter().all(|v| v.is_finite() && *v > 0.0)) {
                     return Err(invalid(
                         "input_rate_limits",
-                        format!("expected two positive rates [a, b], found [{a}, {b}]"),
+                        format!(
+                            "expected one positive rate per input axis of the vehicle ({dim}), found {rates:?}"
+                        ),
                     ));
                 }
-                Some(Input::new(a, b))
+                let mut limits = Input::zeros();
+                for (i, r) in rates.iter().enumerate() {
+                    limits[i] = *r;
+                }
+                Some(limits)
             }
             None if vehicle.steering() == Steering::Wheels => {
                 return Err(invalid(
@@ -766,13 +840,17 @@ impl RobotSpec {
             }
         }
         if let Some(r) = self.input_rate_limits {
-            if !r.iter().all(|v| v.is_finite() && *v > 0.0) {
+            let dim = self.vehicle.input_dim();
+            if !(r.iter().take(dim).all(|v| v.is_finite() && *v > 0.0)
+                && r.iter().skip(dim).all(|v| *v == 0.0))
+            {
+                let shown: Vec<String> =
+                    r.iter().take(dim).map(|v| Short(*v).to_string()).collect();
                 return invalid(
                     "input_rate_limits",
                     &format!(
-                        "expected two positive rates, found [{}, {}]",
-                        Short(r.x),
-                        Short(r.y)
+                        "expected one positive rate per input axis ({dim}), found [{}]",
+                        shown.join(", ")
                     ),
                 );
             }

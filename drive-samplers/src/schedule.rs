@@ -66,7 +66,7 @@ pub fn limit_acceleration(
 /// let car = builtin_robots().get("autorally").unwrap().part().as_ref().clone();
 /// let rates = car.input_rate_limits.unwrap();
 /// let mut sent = SentCommand::default();
-/// let u = next_command(&car, &mut sent, &Input::new(5.0, 0.3));
+/// let u = next_command(&car, &mut sent, &Input::new(5.0, 0.3, 0.0));
 /// // One tick at 20 Hz: the speed and the steering move by their rates over 0.05 s at most.
 /// assert!((u.x - rates.x * 0.05).abs() < 1e-12);
 /// assert!((u.y - (rates.y * 0.05).min(0.3)).abs() < 1e-12);
@@ -78,7 +78,7 @@ pub fn next_command(robot: &RobotSpec, sent: &mut SentCommand, target: &Input) -
         let mut u = sent.input;
         // Axis by axis (a car's speed first, then its steering), each as far as its rate
         // and the controller's body limits allow.
-        for i in 0..2 {
+        for i in 0..robot.vehicle.input_dim().min(drive_traits::MAX_INPUTS) {
             let step = (target[i] - u[i]).clamp(-rates[i] * dt, rates[i] * dt);
             let moved = |fraction: f64| {
                 let mut c = u;
@@ -109,13 +109,18 @@ pub fn next_command(robot: &RobotSpec, sent: &mut SentCommand, target: &Input) -
     let target_body = robot.vehicle.body_velocity(target);
     let previous = sent.body;
     sent.body = limit_acceleration(&previous, &target_body, robot);
-    // The input of the ramped forward speed and yaw rate (a Twist: exact for a differential
-    // drive, solved for a vehicle whose lateral velocity follows from them). Where the
-    // vehicle has none, the input moves from the last one towards the target by the share
-    // of the body ramp this step covers: the ramp is kept in the inputs, never skipped.
-    let u = robot
-        .vehicle
-        .input_for_twist(sent.body.x, sent.body.z)
+    // The input of the ramped body velocity where the vehicle has one (an omnidirectional
+    // base's lateral speed ramps too), else of its forward speed and yaw rate (a Twist:
+    // solved for a vehicle whose lateral velocity follows from them). Where the vehicle has
+    // neither, the input moves from the last one towards the target by the share of the
+    // body ramp this step covers: the ramp is kept in the inputs, never skipped.
+    let exact = if sent.body.y != 0.0 {
+        robot.vehicle.input_for(&sent.body)
+    } else {
+        None
+    };
+    let u = exact
+        .or_else(|| robot.vehicle.input_for_twist(sent.body.x, sent.body.z))
         .unwrap_or_else(|| {
             let whole = (target_body - previous).norm();
             let share = if whole > 0.0 {
@@ -174,22 +179,20 @@ pub fn schedule(
 /// The schedule as CSV: `t,interval,phase` and the vehicle's command columns
 /// (`cmd_left,cmd_right` for a differential drive).
 pub fn schedule_csv(robot: &RobotSpec, rows: &[ScheduledCommand]) -> String {
-    let [a, b] = robot.vehicle.axes();
-    let mut s = format!(
-        "t,interval,phase,{},{}\n",
-        a.command_column, b.command_column
-    );
+    let axes = robot.vehicle.axes();
+    let mut s = String::from("t,interval,phase");
+    for a in &axes {
+        s.push(',');
+        s.push_str(a.command_column);
+    }
+    s.push('\n');
     for r in rows {
         // Writing into a String cannot fail.
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{}",
-            r.t,
-            r.interval,
-            r.phase.as_str(),
-            r.command.x,
-            r.command.y
-        );
+        let _ = write!(s, "{},{},{}", r.t, r.interval, r.phase.as_str());
+        for i in 0..axes.len() {
+            let _ = write!(s, ",{}", r.command[i]);
+        }
+        s.push('\n');
     }
     s
 }

@@ -31,7 +31,7 @@ pub enum Target {
 /// ```
 /// use drive_samplers::{Target, TargetedSampler, UniformSampler};
 /// use drive_traits::{Input, InputSampler, InputSpace};
-/// let j = InputSpace::new(Input::new(-1.0, -1.0), Input::new(1.0, 1.0)).unwrap();
+/// let j = InputSpace::new(Input::new(-1.0, -1.0, 0.0), Input::new(1.0, 1.0, 0.0)).unwrap();
 /// let base = Box::new(UniformSampler::new(j, 7).unwrap());
 /// let mut s = TargetedSampler::new(j, base, Target::Coverage);
 /// let inputs: Vec<Input> = (0..4).map(|_| s.next_input()).collect();
@@ -98,7 +98,7 @@ impl TargetedSampler {
 
     /// Distance in J scaled to the unit square from `u` to the nearest input held so far.
     fn gap(&self, u: &Input) -> f64 {
-        let extent = self.space.max - self.space.min;
+        let extent = self.space.scale();
         self.held
             .iter()
             .map(|h| (u - h).component_div(&extent).norm())

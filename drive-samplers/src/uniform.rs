@@ -70,8 +70,8 @@ pub enum SamplerError {
 ///     max_lateral_acceleration: 4.0,
 /// };
 /// // 2 m/s at 0.3 rad: 4 m^2/s^2 x tan(0.3) / 0.5 m = 2.5 m/s^2 of lateral acceleration.
-/// assert!(limits.allows(&Input::new(2.0, 0.3)));
-/// assert!(!limits.allows(&Input::new(4.0, 0.3))); // 10.1 m/s^2
+/// assert!(limits.allows(&Input::new(2.0, 0.3, 0.0)));
+/// assert!(!limits.allows(&Input::new(4.0, 0.3, 0.0))); // 10.1 m/s^2
 /// ```
 #[derive(Debug, Clone)]
 pub struct BodyLimits {
@@ -110,7 +110,7 @@ impl BodyLimits {
 /// ```
 /// use drive_samplers::UniformSampler;
 /// use drive_traits::{Input, InputSampler, InputSpace};
-/// let j = InputSpace::new(Input::new(-6.8, -6.8), Input::new(6.8, 6.8)).unwrap();
+/// let j = InputSpace::new(Input::new(-6.8, -6.8, 0.0), Input::new(6.8, 6.8, 0.0)).unwrap();
 /// let mut a = UniformSampler::new(j, 42).unwrap();
 /// let mut b = UniformSampler::new(j, 42).unwrap();
 /// let u = a.next_input();
@@ -120,7 +120,8 @@ impl BodyLimits {
 #[derive(Debug)]
 pub struct UniformSampler {
     rng: Xoshiro256PlusPlus,
-    axes: [Uniform<f64>; 2],
+    /// One distribution per axis of the space ([`InputSpace::dim`]).
+    axes: Vec<Uniform<f64>>,
     limits: Option<BodyLimits>,
 }
 
@@ -139,7 +140,7 @@ impl UniformSampler {
         };
         Ok(UniformSampler {
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
-            axes: [axis(0)?, axis(1)?],
+            axes: (0..space.dim()).map(axis).collect::<Result<_, _>>()?,
             limits: None,
         })
     }
@@ -150,12 +151,7 @@ impl UniformSampler {
     pub fn with_body_limits(mut self, limits: BodyLimits) -> Result<Self, SamplerError> {
         let mut probe = Xoshiro256PlusPlus::seed_from_u64(0x5eed);
         let inside = (0..10_000)
-            .filter(|_| {
-                limits.allows(&Input::new(
-                    self.axes[0].sample(&mut probe),
-                    self.axes[1].sample(&mut probe),
-                ))
-            })
+            .filter(|_| limits.allows(&draw(&self.axes, &mut probe)))
             .count();
         if inside < 10 {
             return Err(SamplerError::LimitsExcludeSpace {
@@ -169,11 +165,17 @@ impl UniformSampler {
     }
 
     fn draw(&mut self) -> Input {
-        Input::new(
-            self.axes[0].sample(&mut self.rng),
-            self.axes[1].sample(&mut self.rng),
-        )
+        draw(&self.axes, &mut self.rng)
     }
+}
+
+/// One input drawn axis by axis, in order (the axes beyond them zero).
+fn draw(axes: &[Uniform<f64>], rng: &mut Xoshiro256PlusPlus) -> Input {
+    let mut u = Input::zeros();
+    for (i, axis) in axes.iter().enumerate() {
+        u[i] = axis.sample(rng);
+    }
+    u
 }
 
 impl InputSampler for UniformSampler {
@@ -193,9 +195,27 @@ mod tests {
     use super::*;
 
     #[test]
+    fn draws_every_axis_of_a_three_input_space_and_none_beyond_two() {
+        let j = InputSpace::new(Input::new(-1.0, -0.5, -2.0), Input::new(1.0, 0.5, 2.0)).unwrap();
+        let mut s = UniformSampler::new(j, 3).unwrap();
+        let draws: Vec<Input> = (0..2000).map(|_| s.next_input()).collect();
+        for axis in 0..3 {
+            let mean = draws.iter().map(|u| u[axis]).sum::<f64>() / 2000.0;
+            let top = draws.iter().map(|u| u[axis]).fold(f64::MIN, f64::max);
+            assert!(mean.abs() < 0.1 * j.max[axis], "axis {axis}: mean {mean}");
+            assert!(top > 0.9 * j.max[axis], "axis {axis}: top {top}");
+        }
+        assert!(draws.iter().all(|u| j.contains(u)));
+        // A two-input space: the third axis stays zero.
+        let flat = InputSpace::new(Input::new(-1.0, -1.0, 0.0), Input::new(1.0, 1.0, 0.0)).unwrap();
+        let mut s = UniformSampler::new(flat, 3).unwrap();
+        assert!((0..100).all(|_| s.next_input().z == 0.0));
+    }
+
+    #[test]
     fn covers_the_box_uniformly() {
         // Pearson chi-square over a 5 x 5 grid: 24 degrees of freedom, the 0.999 quantile is 51.2.
-        let j = InputSpace::new(Input::new(-2.0, 1.0), Input::new(4.0, 3.0)).unwrap();
+        let j = InputSpace::new(Input::new(-2.0, 1.0, 0.0), Input::new(4.0, 3.0, 0.0)).unwrap();
         let mut s = UniformSampler::new(j, 7).unwrap();
         let n = 10_000;
         let mut counts = [0usize; 25];
@@ -220,7 +240,7 @@ mod tests {
 
     #[test]
     fn empty_space_is_refused() {
-        let j = InputSpace::new(Input::new(1.0, 0.0), Input::new(1.0, 2.0)).unwrap();
+        let j = InputSpace::new(Input::new(1.0, 0.0, 0.0), Input::new(1.0, 2.0, 0.0)).unwrap();
         assert!(matches!(
             UniformSampler::new(j, 0),
             Err(SamplerError::EmptySpace { axis: 0, .. })

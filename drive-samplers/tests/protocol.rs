@@ -240,7 +240,7 @@ fn car_robot_files_take_per_axis_rate_limits_and_a_lateral_acceleration_limit() 
                max_lateral_acceleration = 2.0\n[vehicle]\ntype = 'ackermann'\nwheelbase = 0.33\n\
                max_steering = 0.4\n";
     let r = RobotSpec::from_toml("car.toml", car).unwrap();
-    assert_eq!(r.input_rate_limits, Some(Input::new(3.0, 6.0)));
+    assert_eq!(r.input_rate_limits, Some(Input::new(3.0, 6.0, 0.0)));
     // Speed and steering: the nominal space has each axis's own units.
     let j = r.input_space();
     assert_eq!((j.min.x, j.max.x, j.min.y, j.max.y), (-3.0, 3.0, -0.4, 0.4));
@@ -258,7 +258,7 @@ fn car_robot_files_take_per_axis_rate_limits_and_a_lateral_acceleration_limit() 
     // And the schedule steers within it towards any target.
     let mut sent = SentCommand::default();
     for _ in 0..200 {
-        let u = next_command(&r, &mut sent, &Input::new(3.0, 0.4));
+        let u = next_command(&r, &mut sent, &Input::new(3.0, 0.4, 0.0));
         let f = r.vehicle.body_velocity(&u);
         assert!((f.x * f.z).abs() <= 2.0 + 1e-9, "{u:?}");
     }

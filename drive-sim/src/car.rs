@@ -100,6 +100,7 @@ impl CarParams {
         let rates = spec.input_rate_limits.unwrap_or(Input::new(
             spec.max_linear_acceleration,
             geometry.max_steering / 0.1,
+            0.0,
         ));
         CarParams {
             mass: spec.mass_kg,
@@ -247,10 +248,10 @@ impl CarSimulator {
 
 impl crate::Plant for CarSimulator {
     fn measure(&mut self) -> Measured {
-        let input = Input::new(self.state.wheel_speed, self.state.steering);
+        let input = Input::new(self.state.wheel_speed, self.state.steering, 0.0);
         let pose = self.state.rear_axle_pose(&self.params);
         self.instruments
-            .measure(input, INPUT_NOISE, pose, self.state.velocity[2])
+            .measure(input, &INPUT_NOISE, pose, self.state.velocity[2])
     }
 
     fn advance(&mut self, command: Input) {

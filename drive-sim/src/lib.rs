@@ -22,6 +22,7 @@
 
 pub mod car;
 mod fit;
+mod omni;
 mod parameters;
 mod plant;
 mod run;
@@ -33,6 +34,7 @@ mod vehicle;
 
 pub use car::{step_car, Actuator, CarParams, CarSimulator, CarState};
 pub use fit::{scatter, sim_fit, Scatter, ScatterFit, SimFit, SimFitError, SimFitReport};
+pub use omni::OmniPlant;
 pub use parameters::{fitted_parameters, FittedParameter};
 pub use plant::{builtin_plants, plant_for, KinematicPlant, MakePlant, Plant};
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};

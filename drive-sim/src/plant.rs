@@ -2,8 +2,8 @@
 //! rigid body of [`Simulator`]; a vehicle without a registered plant is simulated by the
 //! [`KinematicPlant`], so that any vehicle (a plug-in's) can run the protocol.
 
-use crate::{CarSimulator, Instruments, Measured, Simulator, Terrain};
-use drive_models::vehicles::Ackermann;
+use crate::{CarSimulator, Instruments, Measured, OmniPlant, Simulator, Terrain};
+use drive_models::vehicles::{Ackermann, Omnidirectional};
 use drive_models::DifferentialDrive;
 use drive_samplers::RobotSpec;
 use drive_traits::{
@@ -27,8 +27,8 @@ use std::sync::Arc;
 ///     fn advance(&mut self, command: Input) { self.last = command; self.t += 0.05; }
 /// }
 /// let mut p = OnAStand { t: 0.0, last: Input::zeros() };
-/// p.advance(Input::new(1.0, 2.0));
-/// assert_eq!(p.measure().input, Input::new(1.0, 2.0));
+/// p.advance(Input::new(1.0, 2.0, 0.0));
+/// assert_eq!(p.measure().input, Input::new(1.0, 2.0, 0.0));
 /// ```
 pub trait Plant: Send {
     /// What the robot's sensors report at the current tick.
@@ -58,7 +58,7 @@ pub trait Plant: Send {
 ///         Ok(Box::new(KinematicPlant::new(robot, terrain, seed)) as Box<dyn Plant>)
 ///     }))
 ///     .unwrap();
-/// assert_eq!(plants.names(), ["differential", "ackermann", "my-vehicle"]);
+/// assert_eq!(plants.names(), ["differential", "ackermann", "omnidirectional", "my-vehicle"]);
 /// ```
 pub trait MakePlant: Send + Sync {
     /// The plant; an error when the robot's vehicle is not the kind this plant simulates.
@@ -87,7 +87,8 @@ where
 impl RegistryItem for dyn MakePlant {}
 
 /// The plants of this project by vehicle type: `differential`, the skid-steer rigid body;
-/// `ackermann`, the car ([`CarSimulator`]).
+/// `ackermann`, the car ([`CarSimulator`]); `omnidirectional`, a mecanum base
+/// ([`OmniPlant`]).
 pub fn builtin_plants() -> Registry<dyn MakePlant> {
     let mut r: Registry<dyn MakePlant> = Registry::new("simulator");
     let skid_steer = |robot: &RobotSpec, terrain: &Terrain, seed: u64| {
@@ -100,7 +101,12 @@ pub fn builtin_plants() -> Registry<dyn MakePlant> {
             .ok_or("the car simulator needs an ackermann vehicle")?;
         Ok(Box::new(CarSimulator::new(robot, &geometry, terrain.clone(), seed)) as Box<dyn Plant>)
     };
-    let parts: [(&str, &str, Arc<dyn MakePlant>); 2] = [
+    let omni = |robot: &RobotSpec, terrain: &Terrain, seed: u64| {
+        let _: Omnidirectional = vehicle_as(robot.vehicle.as_ref())
+            .ok_or("the omnidirectional simulator needs an omnidirectional vehicle")?;
+        Ok(Box::new(OmniPlant::new(robot, terrain, seed)) as Box<dyn Plant>)
+    };
+    let parts: [(&str, &str, Arc<dyn MakePlant>); 3] = [
         (
             "differential",
             "planar rigid body with Janosi-Hanamoto traction per side, turning resistance, rolling resistance, a saturating asymmetric FOPDT powertrain, encoders, 10 Hz ICP, IMU",
@@ -110,6 +116,11 @@ pub fn builtin_plants() -> Registry<dyn MakePlant> {
             "ackermann",
             "dynamic bicycle: combined-slip tyres on a friction ellipse, rear-wheel drive behind a rate-limited speed loop, a steering servo with trim, wheel speed and steering sensors, 10 Hz ICP of the rear axle, IMU",
             Arc::new(car),
+        ),
+        (
+            "omnidirectional",
+            "kinematic mecanum base: a lag and dead time per body-velocity axis, the rollers' terrain slip (forward, a larger share sideways, in yaw), drifts in turns and a yaw when crabbing, wheel odometry, 10 Hz ICP, IMU",
+            Arc::new(omni),
         ),
     ];
     for (name, description, part) in parts {
@@ -181,7 +192,7 @@ impl Plant for KinematicPlant {
     fn measure(&mut self) -> Measured {
         let e = self.instruments.sensors.encoder_noise;
         self.instruments
-            .measure(self.inputs, [e, e], self.pose, self.velocity.z)
+            .measure(self.inputs, &[e, e], self.pose, self.velocity.z)
     }
 
     fn advance(&mut self, command: Input) {

@@ -58,15 +58,15 @@ impl Default for Sensors {
 /// use drive_sim::{Instruments, Sensors};
 /// use drive_traits::{Input, Pose};
 /// let mut i = Instruments::new(Sensors::default(), 20.0, 1);
-/// i.record(Input::new(1.0, 2.0));
+/// i.record(Input::new(1.0, 2.0, 0.0));
 /// // Commands reach the plant after their dead time; before the first, at rest.
-/// assert_eq!(i.delayed(0.01, 0.0), Input::new(1.0, 2.0));
+/// assert_eq!(i.delayed(0.01, 0.0), Input::new(1.0, 2.0, 0.0));
 /// assert_eq!(i.delayed(0.01, 0.1), Input::zeros());
 /// // The localization updates at 10 Hz: every other tick at 20 Hz.
-/// let m = i.measure(Input::zeros(), [0.0; 2], Pose::new(1.0, 0.0, 0.0), 0.0);
+/// let m = i.measure(Input::zeros(), &[0.0; 2], Pose::new(1.0, 0.0, 0.0), 0.0);
 /// assert!(m.fresh_pose && (m.pose.x - 1.0).abs() < 0.1);
 /// i.end_tick();
-/// let m = i.measure(Input::zeros(), [0.0; 2], Pose::new(5.0, 0.0, 0.0), 0.0);
+/// let m = i.measure(Input::zeros(), &[0.0; 2], Pose::new(5.0, 0.0, 0.0), 0.0);
 /// assert!(!m.fresh_pose && (m.pose.x - 1.0).abs() < 0.1);
 /// ```
 #[derive(Debug, Clone)]
@@ -168,7 +168,7 @@ impl Instruments {
     pub fn measure(
         &mut self,
         input: Input,
-        input_noise: [f64; 2],
+        input_noise: &[f64],
         pose: Pose,
         yaw_rate: f64,
     ) -> Measured {
@@ -201,10 +201,16 @@ impl Instruments {
                 pose.z + self.noise(sy),
             );
         }
-        let input = Input::new(
-            input.x + self.noise(input_noise[0]),
-            input.y + self.noise(input_noise[1]),
-        );
+        // Axis by axis, in order (a two-input plant draws exactly two noises).
+        let mut noisy = input;
+        for (i, sd) in input_noise
+            .iter()
+            .enumerate()
+            .take(drive_traits::MAX_INPUTS)
+        {
+            noisy[i] += self.noise(*sd);
+        }
+        let input = noisy;
         let imu_yaw_rate = yaw_rate + self.sensors.imu_bias + self.noise(self.sensors.imu_noise);
         Measured {
             t: now,

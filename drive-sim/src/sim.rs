@@ -113,7 +113,7 @@ impl Simulator {
         let e = self.instruments.sensors.encoder_noise;
         self.instruments.measure(
             self.state.wheels,
-            [e, e],
+            &[e, e],
             self.state.pose,
             self.state.velocity[2],
         )

@@ -56,7 +56,7 @@ impl TwinProtocol {
     /// ```
     pub fn space(&self) -> Option<InputSpace> {
         let [l, r] = self.input_limits;
-        InputSpace::new(Input::new(l[0], r[0]), Input::new(l[1], r[1]))
+        InputSpace::new(Input::new(l[0], r[0], 0.0), Input::new(l[1], r[1], 0.0))
     }
 
     /// Why this twin cannot drive `robot` (a differential drive of `wheel_radius` and
@@ -87,12 +87,12 @@ impl TwinProtocol {
 ///
 /// ```
 /// use drive_traits::Input;
-/// let u = drive_sim::scale_difference(Input::new(1.0, 3.0), 2.0);
-/// assert_eq!(u, Input::new(0.0, 4.0));
+/// let u = drive_sim::scale_difference(Input::new(1.0, 3.0, 0.0), 2.0);
+/// assert_eq!(u, Input::new(0.0, 4.0, 0.0));
 /// ```
 pub fn scale_difference(u: Input, gain: f64) -> Input {
     let (sum, diff) = ((u.x + u.y) / 2.0, (u.y - u.x) / 2.0 * gain);
-    Input::new(sum - diff, sum + diff)
+    Input::new(sum - diff, sum + diff, 0.0)
 }
 
 /// A sampler in the protocol's geometry, seen in the nominal one: its inputs are recorded
@@ -103,7 +103,7 @@ pub fn scale_difference(u: Input, gain: f64) -> Input {
 /// ```
 /// use drive_sim::ProtocolSampler;
 /// use drive_traits::{Input, InputSampler, InputSpace};
-/// let space = InputSpace::new(Input::repeat(-1.0), Input::repeat(1.0)).unwrap();
+/// let space = InputSpace::new(Input::new(-1.0, -1.0, 0.0), Input::new(1.0, 1.0, 0.0)).unwrap();
 /// let inner = drive_samplers::UniformSampler::new(space, 7).unwrap();
 /// let geometry = std::sync::Arc::new(drive_models::DifferentialDrive::new(0.165, 0.22));
 /// let mut s = ProtocolSampler::new(Box::new(inner), 2.5, geometry);

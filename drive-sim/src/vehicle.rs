@@ -147,6 +147,7 @@ impl ControllerParams {
         Input::new(
             (v - w * baseline / 2.0) / radius,
             (v + w * baseline / 2.0) / radius,
+            0.0,
         )
     }
 

@@ -140,7 +140,9 @@ fn the_rate_limited_powertrain_recovers_the_loaded_servo() {
             windows: sim.dataset.windows.iter().collect(),
         };
         let fitted = RateLimited::default().fit(&set).unwrap();
-        let [speed, steering] = fitted.axes;
+        let [speed, steering] = fitted.axes[..] else {
+            panic!("two axes")
+        };
         let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b;
         // The servo's limit binds only on large steering changes: found, if loosely.
         assert!(

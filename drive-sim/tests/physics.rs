@@ -56,7 +56,7 @@ fn turning_costs_more_slip_the_longer_the_contact() {
     let yaw_rate = |length: f64| {
         let mut sim = Simulator::new(&robot, &geometry, Terrain::preset("tile").unwrap(), 1);
         sim.params.contacts = vec![length * 0.555 / 2.0, -length * 0.555 / 2.0];
-        hold(&mut sim, Input::new(-3.0, 3.0), 8.0);
+        hold(&mut sim, Input::new(-3.0, 3.0, 0.0), 8.0);
         sim.state().velocity[2]
     };
     let (short, long) = (yaw_rate(0.9), yaw_rate(1.3));
@@ -71,7 +71,7 @@ fn turning_costs_more_slip_the_longer_the_contact() {
     tracked.tracked = true;
     let mut sim = Simulator::new(&tracked, &geometry, Terrain::preset("tile").unwrap(), 1);
     assert_eq!(sim.params.contacts.len(), 5);
-    hold(&mut sim, Input::new(-3.0, 3.0), 8.0);
+    hold(&mut sim, Input::new(-3.0, 3.0, 0.0), 8.0);
     assert!(sim.state().velocity[2] > short);
 }
 
@@ -85,7 +85,7 @@ fn a_torque_limit_takes_the_wheels_out_of_the_first_order_class() {
     // Turning in place on tile: the weak motors stall below the target, the default ones
     // reach it.
     for sim in [&mut free, &mut weak] {
-        hold(sim, Input::new(-5.0, 5.0), 6.0);
+        hold(sim, Input::new(-5.0, 5.0, 0.0), 6.0);
     }
     assert!(
         (free.state().wheels.x + 5.0).abs() < 0.1,
@@ -95,7 +95,7 @@ fn a_torque_limit_takes_the_wheels_out_of_the_first_order_class() {
     assert!(weak.state().wheels.x > -4.0, "{:?}", weak.state().wheels);
     // Straight ahead the weak motors reach the target too (the load is only rolling
     // resistance once moving): a limit that depends on the manoeuvre, not a gain.
-    hold(&mut weak, Input::new(5.0, 5.0), 8.0);
+    hold(&mut weak, Input::new(5.0, 5.0, 0.0), 8.0);
     assert!(
         (weak.state().wheels.x - 5.0).abs() < 0.2,
         "{:?}",
@@ -109,9 +109,9 @@ fn the_velocity_loop_slows_down_faster_than_it_speeds_up() {
     let mut sim = Simulator::new(&robot, &geometry, Terrain::preset("tile").unwrap(), 1);
     assert!(sim.params.powertrain.time_constant[1] < sim.params.powertrain.time_constant[0]);
     // 1 s after the dead time of a step up, and of a step down.
-    hold(&mut sim, Input::new(4.0, 4.0), 1.3);
+    hold(&mut sim, Input::new(4.0, 4.0, 0.0), 1.3);
     let up = sim.state().wheels.x / 4.0;
-    hold(&mut sim, Input::new(4.0, 4.0), 8.0);
+    hold(&mut sim, Input::new(4.0, 4.0, 0.0), 8.0);
     hold(&mut sim, Input::zeros(), 1.3);
     let down = 1.0 - sim.state().wheels.x / 4.0;
     assert!(down > up + 0.02, "{up} {down}");
@@ -131,8 +131,8 @@ fn localization_latency_delays_the_pose() {
     on_time.instruments.sensors.icp_noise = [0.0, 0.0];
     let (mut a, mut b) = (0.0, 0.0);
     for _ in 0..100 {
-        on_time.advance(Input::new(4.0, 4.0));
-        late.advance(Input::new(4.0, 4.0));
+        on_time.advance(Input::new(4.0, 4.0, 0.0));
+        late.advance(Input::new(4.0, 4.0, 0.0));
         a = on_time.measure().pose.x;
         b = late.measure().pose.x;
     }

@@ -59,7 +59,7 @@ fn effective_baseline(preset: &str, terrain: &str, wheel: f64) -> f64 {
     let mut sim = Simulator::new(&robot, &geometry, Terrain::preset(terrain).unwrap(), 1);
     let (mut diff, mut yaw) = (0.0, 0.0);
     for k in 0..160 {
-        sim.advance(drive_traits::Input::new(-wheel, wheel));
+        sim.advance(drive_traits::Input::new(-wheel, wheel, 0.0));
         if k >= 140 {
             let s = sim.state();
             diff += geometry.wheel_radius * (s.wheels.y - s.wheels.x);

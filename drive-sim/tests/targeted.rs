@@ -49,7 +49,7 @@ fn after_straight_driving_the_slip_variance_target_asks_for_a_turn() {
     let (_, vehicle) = husky();
     let space = straight.characterization.unwrap().space;
     let turn_in_place = vehicle
-        .body_velocity(&Input::new(space.min.x, space.max.y))
+        .body_velocity(&Input::new(space.min.x, space.max.y, 0.0))
         .z;
     let mut sampler = TargetedSampler::new(
         space,

@@ -39,8 +39,8 @@ impl Phase {
 /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct Unicycle;
 /// # #[typetag::serde(name = "unicycle-robot-doc")] impl CommandModel for Unicycle {
 /// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
-/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
-/// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "cmd_v", measured_column: "meas_v" },
+/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z, 0.0)) }
+/// #   fn axes(&self) -> Vec<InputAxis> { vec![InputAxis { name: "v", unit: "m/s", command_column: "cmd_v", measured_column: "meas_v" },
 /// #       InputAxis { name: "omega", unit: "rad/s", command_column: "cmd_omega", measured_column: "meas_omega" }] }
 /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(Unicycle) } }
 /// let robot = RobotDescription::new("run-1", "my robot", 20.0, 40, Unicycle);
@@ -119,7 +119,7 @@ impl PartialEq for RobotDescription {
 ///
 /// ```
 /// use drive_traits::{Input, Phase, Pose, Window};
-/// let w = Window::new(3, 1, Phase::Steady, vec![Input::new(1.0, 1.0); 4], vec![Input::new(0.9, 1.1); 4],
+/// let w = Window::new(3, 1, Phase::Steady, vec![Input::new(1.0, 1.0, 0.0); 4], vec![Input::new(0.9, 1.1, 0.0); 4],
 ///     (0..4).map(|k| Pose::new(0.05 * k as f64, 0.0, 0.0)).collect(), vec![0.0; 4])
 ///     .with_start_velocity(Some([1.0, 0.0]));
 /// assert_eq!((w.index, w.interval, w.len()), (3, 1, 4));
@@ -264,11 +264,11 @@ impl Window {
     /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
     /// # #[typetag::serde(name = "v-start-doc")] impl CommandModel for V {
     /// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
-    /// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
-    /// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+    /// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z, 0.0)) }
+    /// #   fn axes(&self) -> Vec<InputAxis> { vec![InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
     /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
     /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
-    /// let w = Window::new(0, 0, Phase::Steady, vec![Input::zeros(); 2], vec![Input::new(1.0, 0.5); 2], vec![Pose::zeros(); 2], vec![0.3; 2]);
+    /// let w = Window::new(0, 0, Phase::Steady, vec![Input::zeros(); 2], vec![Input::new(1.0, 0.5, 0.0); 2], vec![Pose::zeros(); 2], vec![0.3; 2]);
     /// assert_eq!(w.start_state_with(&V, StartInfo::Encoders).body_velocity.z, 0.5);
     /// assert_eq!(w.start_state_with(&V, StartInfo::EncodersImu).body_velocity.z, 0.3);
     /// assert_eq!(w.start_state_with(&V, StartInfo::EncodersImu).yaw_rate, Some(0.3));
@@ -332,7 +332,7 @@ impl Window {
     ///
     /// ```
     /// use drive_traits::{Input, Phase, Pose, Window};
-    /// let w = |index, wheel: [f64; 3]| Window::new(index, 0, Phase::Steady, vec![Input::zeros(); 3], wheel.iter().map(|&u| Input::new(u, u)).collect(), vec![Pose::zeros(); 3], vec![0.0; 3]);
+    /// let w = |index, wheel: [f64; 3]| Window::new(index, 0, Phase::Steady, vec![Input::zeros(); 3], wheel.iter().map(|&u| Input::new(u, u, 0.0)).collect(), vec![Pose::zeros(); 3], vec![0.0; 3]);
     /// assert!(w(0, [1.0, 1.1, 1.2]).continued_by(&w(1, [1.3, 1.4, 1.5])));
     /// assert!(!w(0, [1.0, 1.1, 1.2]).continued_by(&w(1, [3.0, 3.1, 3.2]))); // a jump of 1.8
     /// assert!(!w(0, [1.0, 1.1, 1.2]).continued_by(&w(2, [1.3, 1.4, 1.5]))); // a window missing
@@ -523,8 +523,8 @@ impl<'a> WindowSet<'a> {
     /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
     /// # #[typetag::serde(name = "v-folds-doc")] impl CommandModel for V {
     /// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
-    /// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
-    /// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+    /// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z, 0.0)) }
+    /// #   fn axes(&self) -> Vec<InputAxis> { vec![InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
     /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
     /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
     /// let window = |index, interval| Window::new(index, interval, Phase::Steady, vec![], vec![], vec![], vec![]);
@@ -605,12 +605,12 @@ impl Dataset {
     /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
     /// # #[typetag::serde(name = "v-link-doc")] impl CommandModel for V {
     /// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
-    /// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
-    /// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+    /// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z, 0.0)) }
+    /// #   fn axes(&self) -> Vec<InputAxis> { vec![InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
     /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
     /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
     /// // Two windows of 40 samples at 20 Hz, driving straight at 1 m/s.
-    /// let window = |index| Window::new(index, 0, Phase::Steady, vec![Input::new(1.0, 0.0); 40], vec![Input::new(1.0, 0.0); 40], (0..40).map(|k| Pose::new(0.05 * k as f64, 0.0, 0.0)).collect(), vec![0.0; 40]);
+    /// let window = |index| Window::new(index, 0, Phase::Steady, vec![Input::new(1.0, 0.0, 0.0); 40], vec![Input::new(1.0, 0.0, 0.0); 40], (0..40).map(|k| Pose::new(0.05 * k as f64, 0.0, 0.0)).collect(), vec![0.0; 40]);
     /// let mut data = Dataset { robot: RobotDescription::new("toy", "", 20.0, 40, V),
     ///     windows: vec![window(0), window(1)] };
     /// data.link_start_velocities();

@@ -27,7 +27,7 @@ struct Pairs;
 
 impl serde::de::Expected for Pairs {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "two [min, max] pairs")
+        write!(f, "one [min, max] pair per input axis (2 or 3)")
     }
 }
 
@@ -36,10 +36,27 @@ fn exact<E: Error, const N: usize>(v: Vec<f64>) -> Result<[f64; N], E> {
     <[f64; N]>::try_from(v).map_err(|_| E::invalid_length(n, &Count(N)))
 }
 
-fn pairs<E: Error>(v: Vec<Vec<f64>>) -> Result<[[f64; 2]; 2], E> {
+fn pairs<E: Error>(v: Vec<Vec<f64>>) -> Result<Vec<[f64; 2]>, E> {
     let n = v.len();
-    let rows: Vec<[f64; 2]> = v.into_iter().map(exact::<E, 2>).collect::<Result<_, _>>()?;
-    <[[f64; 2]; 2]>::try_from(rows).map_err(|_| E::invalid_length(n, &Pairs))
+    if !(2..=crate::MAX_INPUTS).contains(&n) {
+        return Err(E::invalid_length(n, &Pairs));
+    }
+    v.into_iter().map(exact::<E, 2>).collect()
+}
+
+struct Axes;
+
+impl serde::de::Expected for Axes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "one number per input axis (2 or 3)")
+    }
+}
+
+fn axes<E: Error>(v: Vec<f64>) -> Result<Vec<f64>, E> {
+    if !(2..=crate::MAX_INPUTS).contains(&v.len()) {
+        return Err(E::invalid_length(v.len(), &Axes));
+    }
+    Ok(v)
 }
 
 /// Exactly `N` numbers.
@@ -54,19 +71,36 @@ pub fn option_array<'de, D: Deserializer<'de>, const N: usize>(
     Option::<Vec<f64>>::deserialize(d)?.map(exact).transpose()
 }
 
-/// Exactly two `[min, max]` pairs.
-pub fn min_max_pairs<'de, D: Deserializer<'de>>(d: D) -> Result<[[f64; 2]; 2], D::Error> {
+/// One `[min, max]` pair per input axis: two or three ([`MAX_INPUTS`](crate::MAX_INPUTS)).
+///
+/// ```
+/// #[derive(serde::Deserialize)]
+/// struct Limits {
+///     #[serde(deserialize_with = "drive_traits::exact::min_max_pairs")]
+///     input_limits: Vec<[f64; 2]>,
+/// }
+/// assert!(serde_json::from_str::<Limits>(r#"{"input_limits": [[-1, 1], [-2, 2], [-3, 3]]}"#).is_ok());
+/// assert!(serde_json::from_str::<Limits>(r#"{"input_limits": [[-1, 1]]}"#).is_err());
+/// assert!(serde_json::from_str::<Limits>(r#"{"input_limits": [[-1, 1, 0], [-2, 2]]}"#).is_err());
+/// ```
+pub fn min_max_pairs<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<[f64; 2]>, D::Error> {
     pairs(Vec::<Vec<f64>>::deserialize(d)?)
 }
 
-/// Exactly two `[min, max]` pairs, for an optional field (give it `#[serde(default)]`
-/// too).
+/// One `[min, max]` pair per input axis, for an optional field (give it
+/// `#[serde(default)]` too).
 pub fn option_min_max_pairs<'de, D: Deserializer<'de>>(
     d: D,
-) -> Result<Option<[[f64; 2]; 2]>, D::Error> {
+) -> Result<Option<Vec<[f64; 2]>>, D::Error> {
     Option::<Vec<Vec<f64>>>::deserialize(d)?
         .map(pairs)
         .transpose()
+}
+
+/// One number per input axis (two or three), for an optional field (give it
+/// `#[serde(default)]` too).
+pub fn option_axes<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Vec<f64>>, D::Error> {
+    Option::<Vec<f64>>::deserialize(d)?.map(axes).transpose()
 }
 
 /// A parser's `message` about `text` as one line, with the line of the byte `offset` it

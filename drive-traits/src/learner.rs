@@ -35,8 +35,8 @@ use crate::{FitError, FitPowertrain, MotionModel, PartTag, RegistryItem, Tagged,
 /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
 /// # #[typetag::serde(name = "v-learner-doc")] impl CommandModel for V {
 /// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
-/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
-/// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z, 0.0)) }
+/// #   fn axes(&self) -> Vec<InputAxis> { vec![InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
 /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
 /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
 /// let robot = RobotDescription::new("none", "", 20.0, 40, V);

@@ -49,7 +49,8 @@ pub use error::{FitError, MotionError};
 pub use learner::{Baseline, Learner};
 pub use motion::{check_step, MotionModel, StartState};
 pub use pose::{
-    euler_step, relative_pose, unwrap_angles, wrap_angle, BodyVelocity, Input, Pose, PoseCovariance,
+    euler_step, input_serde, relative_pose, unwrap_angles, wrap_angle, BodyVelocity, Input, Pose,
+    PoseCovariance, MAX_INPUTS,
 };
 pub use powertrain::{FitPowertrain, Powertrain, PowertrainLearner};
 pub use registry::{

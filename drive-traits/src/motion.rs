@@ -90,8 +90,8 @@ impl StartState {
     /// ```
     /// use drive_traits::{CommandModel, Input, Pose, StartState};
     /// # fn demo(vehicle: &dyn CommandModel) {
-    /// let s = StartState::measured(Pose::zeros(), Input::new(2.0, 3.0), vehicle);
-    /// assert_eq!(s.body_velocity, vehicle.body_velocity(&Input::new(2.0, 3.0)));
+    /// let s = StartState::measured(Pose::zeros(), Input::new(2.0, 3.0, 0.0), vehicle);
+    /// assert_eq!(s.body_velocity, vehicle.body_velocity(&Input::new(2.0, 3.0, 0.0)));
     /// # }
     /// ```
     pub fn measured(pose: Pose, input: Input, vehicle: &dyn crate::CommandModel) -> Self {

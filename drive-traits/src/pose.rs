@@ -1,6 +1,6 @@
 //! Planar poses, body velocities and the state propagation of paper eq. 1.
 
-use nalgebra::{Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
 /// Planar pose `[x, y, yaw]` in metres and radians.
 pub type Pose = Vector3<f64>;
@@ -8,9 +8,55 @@ pub type Pose = Vector3<f64>;
 /// Body velocity `[v_x, v_y, omega]` in the robot frame, in m/s and rad/s.
 pub type BodyVelocity = Vector3<f64>;
 
-/// A vehicle input vector: `[omega_left, omega_right]` wheel angular velocities (rad/s) for a
-/// skid-steer robot, `[speed, steering angle]` for an Ackermann vehicle.
-pub type Input = Vector2<f64>;
+/// A vehicle input vector, of up to [`MAX_INPUTS`] axes: `[omega_left, omega_right, 0]` wheel
+/// angular velocities (rad/s) for a skid-steer robot, `[speed, steering angle, 0]` for an
+/// Ackermann vehicle, `[v_x, v_y, omega]` for an omnidirectional base.
+///
+/// The vehicle says how many axes it has ([`CommandModel::input_dim`](crate::CommandModel::input_dim),
+/// the length of its [`axes`](crate::CommandModel::axes)); the axes beyond them are zero.
+/// Files write only a vehicle's own axes (see [`input_serde`]).
+pub type Input = Vector3<f64>;
+
+/// The most input axes a vehicle may have (an omnidirectional base's three).
+pub const MAX_INPUTS: usize = 3;
+
+/// The serialized form of an [`Input`]: its first two axes, and the third only when it is
+/// not zero, so that a two-input vehicle's files read `[left, right]` as they always have;
+/// reads two or three numbers (a missing third axis is zero).
+///
+/// ```
+/// use drive_traits::{input_serde, Input};
+/// #[derive(serde::Serialize, serde::Deserialize)]
+/// struct S { #[serde(with = "input_serde")] u: Input }
+/// assert_eq!(serde_json::to_string(&S { u: Input::new(1.0, 2.0, 0.0) }).unwrap(), r#"{"u":[1.0,2.0]}"#);
+/// assert_eq!(serde_json::to_string(&S { u: Input::new(1.0, 2.0, 3.0) }).unwrap(), r#"{"u":[1.0,2.0,3.0]}"#);
+/// assert_eq!(serde_json::from_str::<S>(r#"{"u":[1.0,2.0]}"#).unwrap().u, Input::new(1.0, 2.0, 0.0));
+/// assert!(serde_json::from_str::<S>(r#"{"u":[1.0]}"#).is_err());
+/// ```
+pub mod input_serde {
+    use super::Input;
+    use serde::de::Error as _;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// Writes the axes as a sequence (two, or three when the third is not zero).
+    pub fn serialize<S: Serializer>(u: &Input, s: S) -> Result<S::Ok, S::Error> {
+        if u.z == 0.0 {
+            [u.x, u.y].serialize(s)
+        } else {
+            [u.x, u.y, u.z].serialize(s)
+        }
+    }
+
+    /// Reads two or three numbers.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Input, D::Error> {
+        let v = Vec::<f64>::deserialize(d)?;
+        match v.as_slice() {
+            [a, b] => Ok(Input::new(*a, *b, 0.0)),
+            [a, b, c] => Ok(Input::new(*a, *b, *c)),
+            _ => Err(D::Error::invalid_length(v.len(), &"2 or 3 input axes")),
+        }
+    }
+}
 
 /// 3x3 covariance of a pose `[x, y, yaw]`.
 pub type PoseCovariance = Matrix3<f64>;

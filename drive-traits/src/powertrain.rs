@@ -28,8 +28,8 @@ use crate::{FitError, Input, PartTag, RegistryItem, Tagged, WindowSet};
 /// }
 /// impl Tagged for Efficiency { const TAG: &'static str = "efficiency-doc"; }
 ///
-/// let w = Efficiency { gain: 0.5 }.predict(&Input::zeros(), &[Input::new(2.0, 4.0)]);
-/// assert_eq!(w, vec![Input::new(1.0, 2.0)]);
+/// let w = Efficiency { gain: 0.5 }.predict(&Input::zeros(), &[Input::new(2.0, 4.0, 0.0)]);
+/// assert_eq!(w, vec![Input::new(1.0, 2.0, 0.0)]);
 /// ```
 #[typetag::serde(tag = "type")]
 pub trait Powertrain: std::fmt::Debug + Send + Sync {
@@ -112,8 +112,8 @@ impl Clone for Box<dyn Powertrain> {
 /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
 /// # #[typetag::serde(name = "v-pt-doc")] impl CommandModel for V {
 /// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
-/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
-/// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z, 0.0)) }
+/// #   fn axes(&self) -> Vec<InputAxis> { vec![InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
 /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
 /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
 /// let robot = RobotDescription::new("none", "", 20.0, 40, V);

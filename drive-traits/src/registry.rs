@@ -63,6 +63,16 @@ pub enum RegistryError {
         /// The tag its type is saved with.
         tag: String,
     },
+    /// A part that breaks a rule of its kind (a vehicle of four input axes).
+    #[error("the {kind} '{name}' cannot be registered: {reason}")]
+    BadPart {
+        /// Kind of part.
+        kind: &'static str,
+        /// The name given.
+        name: String,
+        /// What is wrong with it.
+        reason: String,
+    },
     /// A part registered for another that is not registered (a simulator for a vehicle).
     #[error("a {kind} is registered for the {of} '{name}', which is not a registered {of} (the {of}s are: {known})")]
     Orphan {
@@ -136,6 +146,12 @@ pub trait RegistryItem {
     /// The tag of the type this part saves into files (a fitted model, a vehicle), if any.
     fn part_tag(&self) -> Option<PartTag> {
         None
+    }
+
+    /// Checks what every part of this kind must satisfy (a vehicle's number of input axes);
+    /// `Err` says what is wrong. Nothing by default.
+    fn check_part(&self) -> Result<(), String> {
+        Ok(())
     }
 }
 
@@ -267,6 +283,11 @@ impl<T: ?Sized + RegistryItem> Registry<T> {
         description: &str,
         part: Arc<T>,
     ) -> Result<&mut Self, RegistryError> {
+        part.check_part().map_err(|reason| RegistryError::BadPart {
+            kind: self.kind,
+            name: name.to_string(),
+            reason,
+        })?;
         let tag = part.part_tag();
         if let Some(t) = &tag {
             if t.probe() == crate::TagProbe::Missing {

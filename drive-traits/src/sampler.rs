@@ -14,12 +14,12 @@ use crate::{Input, RobotDescription, Window};
 /// impl InputSampler for BackAndForth {
 ///     fn next_input(&mut self) -> Input {
 ///         self.0 = !self.0;
-///         if self.0 { Input::new(5.0, 5.0) } else { Input::new(-5.0, -5.0) }
+///         if self.0 { Input::new(5.0, 5.0, 0.0) } else { Input::new(-5.0, -5.0, 0.0) }
 ///     }
 /// }
 /// let mut s = BackAndForth(false);
-/// assert_eq!(s.next_input(), Input::new(5.0, 5.0));
-/// assert_eq!(s.next_input(), Input::new(-5.0, -5.0));
+/// assert_eq!(s.next_input(), Input::new(5.0, 5.0, 0.0));
+/// assert_eq!(s.next_input(), Input::new(-5.0, -5.0, 0.0));
 /// ```
 pub trait InputSampler {
     /// The next input to hold.

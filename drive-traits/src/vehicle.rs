@@ -8,39 +8,77 @@ use serde::{Deserialize, Serialize};
 /// The input space J of a vehicle: a box of inputs `min <= u <= max`, with limits per axis
 /// (Sec. III-A; the axes may have different units, as speed and steering angle).
 ///
+/// The box has the vehicle's number of axes ([`dim`](Self::dim)): the axes beyond them are
+/// the interval `[0, 0]` (a two-input vehicle's third axis), which inputs of the vehicle
+/// always satisfy and samplers never draw. Written to files as `{"min": [..], "max": [..]}`
+/// with only the vehicle's axes.
+///
 /// ```
 /// use drive_traits::{Input, InputSpace};
-/// let j = InputSpace::new(Input::new(-6.8, -6.8), Input::new(6.8, 6.8)).unwrap();
-/// assert!(j.contains(&Input::new(1.0, -2.0)));
-/// assert!(!j.contains(&Input::new(7.0, 0.0)));
+/// let j = InputSpace::new(Input::new(-6.8, -6.8, 0.0), Input::new(6.8, 6.8, 0.0)).unwrap();
+/// assert!(j.contains(&Input::new(1.0, -2.0, 0.0)));
+/// assert!(!j.contains(&Input::new(7.0, 0.0, 0.0)));
+/// assert_eq!(j.dim(), 2);
+/// let omni = InputSpace::new(Input::new(-1.0, -0.5, -2.0), Input::new(1.0, 0.5, 2.0)).unwrap();
+/// assert_eq!(omni.dim(), 3);
+/// assert_eq!(serde_json::to_string(&j).unwrap(), r#"{"min":[-6.8,-6.8],"max":[6.8,6.8]}"#);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct InputSpace {
     /// Lower corner.
+    #[serde(with = "crate::input_serde")]
     pub min: Input,
     /// Upper corner.
+    #[serde(with = "crate::input_serde")]
     pub max: Input,
 }
 
 impl InputSpace {
     /// A box; `None` if a bound is not finite or `min > max` on some axis.
     pub fn new(min: Input, max: Input) -> Option<Self> {
-        let ok =
-            min.iter().chain(max.iter()).all(|v| v.is_finite()) && min.x <= max.x && min.y <= max.y;
+        let ok = min.iter().chain(max.iter()).all(|v| v.is_finite())
+            && min.iter().zip(max.iter()).all(|(a, b)| a <= b);
         ok.then_some(InputSpace { min, max })
+    }
+
+    /// The number of axes of the box: [`MAX_INPUTS`](crate::MAX_INPUTS) unless its last
+    /// axes are the interval `[0, 0]` (at least two).
+    pub fn dim(&self) -> usize {
+        let mut dim = crate::MAX_INPUTS;
+        while dim > 2 && self.min[dim - 1] == 0.0 && self.max[dim - 1] == 0.0 {
+            dim -= 1;
+        }
+        dim
+    }
+
+    /// The size of each axis, `max - min`, and 1 for the axes beyond [`dim`](Self::dim): what
+    /// a difference of inputs is divided by to compare axes of different units (the axes
+    /// the vehicle does not have stay at zero instead of 0 / 0).
+    ///
+    /// ```
+    /// use drive_traits::{Input, InputSpace};
+    /// let j = InputSpace::new(Input::new(-2.0, -1.0, 0.0), Input::new(2.0, 1.0, 0.0)).unwrap();
+    /// assert_eq!(j.scale(), Input::new(4.0, 2.0, 1.0));
+    /// ```
+    pub fn scale(&self) -> Input {
+        let dim = self.dim();
+        Input::from_fn(|i, _| {
+            if i < dim {
+                self.max[i] - self.min[i]
+            } else {
+                1.0
+            }
+        })
     }
 
     /// True if `u` lies inside the box (bounds included).
     pub fn contains(&self, u: &Input) -> bool {
-        (0..2).all(|i| u[i] >= self.min[i] && u[i] <= self.max[i])
+        (0..crate::MAX_INPUTS).all(|i| u[i] >= self.min[i] && u[i] <= self.max[i])
     }
 
     /// `u` clamped into the box, per axis.
     pub fn clamp(&self, u: &Input) -> Input {
-        Input::new(
-            u.x.clamp(self.min.x, self.max.x),
-            u.y.clamp(self.min.y, self.max.y),
-        )
+        Input::from_fn(|i, _| u[i].clamp(self.min[i], self.max[i]))
     }
 
     /// The centre of the box.
@@ -85,6 +123,9 @@ pub enum Steering {
     /// By steered wheels rolling along the turn (car-like, Ackermann): the tyres slip
     /// sideways with the lateral acceleration, the driven wheels lengthwise.
     Wheels,
+    /// Without turning to move: an omnidirectional base (mecanum or omni wheels) drives
+    /// sideways and turns at once, its rollers slipping most across.
+    Holonomic,
 }
 
 impl Steering {
@@ -93,6 +134,7 @@ impl Steering {
         match self {
             Steering::Skid => "skid",
             Steering::Wheels => "steered wheels",
+            Steering::Holonomic => "holonomic",
         }
     }
 }
@@ -173,19 +215,19 @@ impl Characterization {
 /// impl CommandModel for Unicycle {
 ///     fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
 ///     fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
-///         (v.y == 0.0).then(|| Input::new(v.x, v.z))
+///         (v.y == 0.0).then(|| Input::new(v.x, v.z, 0.0))
 ///     }
-///     fn axes(&self) -> [InputAxis; 2] {
-///         [InputAxis { name: "v", unit: "m/s", command_column: "cmd_v", measured_column: "meas_v" },
+///     fn axes(&self) -> Vec<InputAxis> {
+///         vec![InputAxis { name: "v", unit: "m/s", command_column: "cmd_v", measured_column: "meas_v" },
 ///          InputAxis { name: "omega", unit: "rad/s", command_column: "cmd_omega", measured_column: "meas_omega" }]
 ///     }
 ///     fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(self.clone()) }
 /// }
 ///
-/// let v = Unicycle.body_velocity(&Input::new(1.0, 0.5));
+/// let v = Unicycle.body_velocity(&Input::new(1.0, 0.5, 0.0));
 /// assert_eq!(v, BodyVelocity::new(1.0, 0.0, 0.5));
 /// // The default characterization drives forward and backward at twice the top speed.
-/// assert_eq!(Unicycle.probe(0, 1.0, &[]).unwrap().command, Input::new(2.0, 0.0));
+/// assert_eq!(Unicycle.probe(0, 1.0, &[]).unwrap().command, Input::new(2.0, 0.0, 0.0));
 /// ```
 #[typetag::serde(tag = "type")]
 pub trait CommandModel: std::fmt::Debug + Send + Sync {
@@ -222,14 +264,14 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
     /// impl CommandModel for Offset {
     ///     fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.3 * u.y, u.y) }
     ///     fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
-    ///         (v.y == 0.3 * v.z).then(|| Input::new(v.x, v.z))
+    ///         (v.y == 0.3 * v.z).then(|| Input::new(v.x, v.z, 0.0))
     ///     }
-    ///     fn axes(&self) -> [InputAxis; 2] { unimplemented!() }
+    ///     fn axes(&self) -> Vec<InputAxis> { unimplemented!() }
     ///     fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(Offset) }
     /// }
     /// assert_eq!(Offset.input_for(&BodyVelocity::new(1.0, 0.0, 0.5)), None);
     /// let u = Offset.input_for_twist(1.0, 0.5).unwrap();
-    /// assert!((u - Input::new(1.0, 0.5)).norm() < 1e-9);
+    /// assert!((u - Input::new(1.0, 0.5, 0.0)).norm() < 1e-9);
     /// ```
     fn input_for_twist(&self, linear: f64, angular: f64) -> Option<Input> {
         if let Some(u) = self.input_for(&BodyVelocity::new(linear, 0.0, angular)) {
@@ -238,8 +280,14 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
         twist_by_newton(self, linear, angular)
     }
 
-    /// The two input axes.
-    fn axes(&self) -> [InputAxis; 2];
+    /// The input axes, in the order of the input vector (two or three: at most
+    /// [`MAX_INPUTS`](crate::MAX_INPUTS)).
+    fn axes(&self) -> Vec<InputAxis>;
+
+    /// The number of input axes (the length of [`axes`](Self::axes)).
+    fn input_dim(&self) -> usize {
+        self.axes().len()
+    }
 
     /// The manufacturer's (naive) input space for a top speed (m/s), when the geometry
     /// gives one.
@@ -302,9 +350,8 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
 
     /// The columns of the measured inputs in the DRIVE logger's raw CSV; by default the
     /// window CSV's (the axes' `measured_column`).
-    fn logger_measured_columns(&self) -> [&'static str; 2] {
-        let [a, b] = self.axes();
-        [a.measured_column, b.measured_column]
+    fn logger_measured_columns(&self) -> Vec<&'static str> {
+        self.axes().iter().map(|a| a.measured_column).collect()
     }
 
     /// Boxed clone.
@@ -322,17 +369,17 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
 /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
 /// # #[typetag::serde(name = "spanned-doc")] impl CommandModel for V {
 /// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
-/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
-/// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z, 0.0)) }
+/// #   fn axes(&self) -> Vec<InputAxis> { vec![InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
 /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
 /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
 /// let probe = |c: Input, m: Input| ProbeResult { probe: Probe { name: "p", command: c, needs_localization: false }, measured: m, motion: None };
 /// // Commanded +-4 on both axes, reached +-2 and +-1.
-/// let moved = [probe(Input::new(4.0, 4.0), Input::new(2.0, 1.0)), probe(Input::new(-4.0, -4.0), Input::new(-2.0, -1.0))];
+/// let moved = [probe(Input::new(4.0, 4.0, 0.0), Input::new(2.0, 1.0, 0.0)), probe(Input::new(-4.0, -4.0, 0.0), Input::new(-2.0, -1.0, 0.0))];
 /// let j = spanned_space(&V, &moved).unwrap();
-/// assert_eq!((j.min, j.max), (Input::new(-2.0, -1.0), Input::new(2.0, 1.0)));
+/// assert_eq!((j.min, j.max), (Input::new(-2.0, -1.0, 0.0), Input::new(2.0, 1.0, 0.0)));
 /// // The second axis never commanded: its noise is no range.
-/// let straight = [probe(Input::new(4.0, 0.0), Input::new(2.0, 0.01)), probe(Input::new(-4.0, 0.0), Input::new(-2.0, -0.01))];
+/// let straight = [probe(Input::new(4.0, 0.0, 0.0), Input::new(2.0, 0.01, 0.0)), probe(Input::new(-4.0, 0.0, 0.0), Input::new(-2.0, -0.01, 0.0))];
 /// assert!(spanned_space(&V, &straight).unwrap_err().contains("'w'"));
 /// ```
 pub fn spanned_space<V: CommandModel + ?Sized>(
@@ -375,6 +422,24 @@ impl Clone for Box<dyn CommandModel> {
 }
 
 impl RegistryItem for dyn CommandModel {
+    /// Two or three input axes ([`MAX_INPUTS`](crate::MAX_INPUTS)), as many as
+    /// [`CommandModel::input_dim`] says.
+    fn check_part(&self) -> Result<(), String> {
+        let (axes, dim) = (self.axes().len(), self.input_dim());
+        if axes != dim {
+            return Err(format!(
+                "its axes() lists {axes} input axes and its input_dim() says {dim}"
+            ));
+        }
+        if !(2..=crate::MAX_INPUTS).contains(&dim) {
+            return Err(format!(
+                "it has {dim} input axes; a vehicle has 2 or 3 (at most MAX_INPUTS = {})",
+                crate::MAX_INPUTS
+            ));
+        }
+        Ok(())
+    }
+
     fn part_tag(&self) -> Option<PartTag> {
         let tag = vehicle_tag(self)?;
         // The type's name as its derived Debug output starts with it.
@@ -399,8 +464,8 @@ impl RegistryItem for dyn CommandModel {
 /// # #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)] struct V;
 /// # #[typetag::serde(name = "tag-doc")] impl CommandModel for V {
 /// #   fn body_velocity(&self, u: &Input) -> BodyVelocity { BodyVelocity::new(u.x, 0.0, u.y) }
-/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z)) }
-/// #   fn axes(&self) -> [InputAxis; 2] { [InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
+/// #   fn input_for(&self, v: &BodyVelocity) -> Option<Input> { Some(Input::new(v.x, v.z, 0.0)) }
+/// #   fn axes(&self) -> Vec<InputAxis> { vec![InputAxis { name: "v", unit: "m/s", command_column: "a", measured_column: "b" },
 /// #       InputAxis { name: "w", unit: "rad/s", command_column: "c", measured_column: "d" }] }
 /// #   fn clone_box(&self) -> Box<dyn CommandModel> { Box::new(V) } }
 /// assert_eq!(drive_traits::vehicle_tag(&V).as_deref(), Some("tag-doc"));
@@ -427,8 +492,8 @@ pub fn vehicle_as<T: serde::de::DeserializeOwned + crate::Tagged>(
 }
 
 /// The input whose commanded forward speed and yaw rate are `(linear, angular)`: Newton's
-/// method on those two components of `f(u)`, with a central-difference Jacobian, from the
-/// zero input (exact in one step for the linear kinematics of every built-in vehicle).
+/// method on those two components of `f(u)` over the first two input axes (the others
+/// held at zero), with a central-difference Jacobian, from the zero input (exact in one step for the linear kinematics of every built-in vehicle).
 fn twist_by_newton<V: CommandModel + ?Sized>(
     vehicle: &V,
     linear: f64,
@@ -459,7 +524,9 @@ fn twist_by_newton<V: CommandModel + ?Sized>(
             step[j] = h;
             jacobian.set_column(j, &((twist(&(u + step)) - twist(&(u - step))) / (2.0 * h)));
         }
-        u -= jacobian.lu().solve(&residual)?;
+        let step = jacobian.lu().solve(&residual)?;
+        u.x -= step.x;
+        u.y -= step.y;
     }
     let residual = twist(&u) - target;
     (residual.amax() <= 1e-9 * scale).then_some(u)

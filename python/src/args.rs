@@ -93,6 +93,53 @@ pub(crate) fn numbers_of<const N: usize>(
     Ok(out)
 }
 
+/// `obj` as one number per input axis of a vehicle of `dim` axes (zero when None); a
+/// `DriveError` naming `what` otherwise.
+pub(crate) fn input_of(
+    what: &str,
+    obj: Option<&Bound<'_, PyAny>>,
+    dim: usize,
+) -> PyResult<drive::traits::Input> {
+    let mut u = drive::traits::Input::zeros();
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(u);
+    };
+    let bad = || {
+        err(format!(
+            "{what} must be {dim} numbers (one per input axis of the vehicle), got {}",
+            short_repr(obj)
+        ))
+    };
+    if obj.is_instance_of::<pyo3::types::PyString>() {
+        return Err(bad());
+    }
+    let items: Vec<Bound<'_, PyAny>> = obj
+        .try_iter()
+        .map_err(|_| bad())?
+        .collect::<PyResult<_>>()
+        .map_err(|_| bad())?;
+    if items.len() != dim || dim > drive::traits::MAX_INPUTS {
+        return Err(bad());
+    }
+    for (i, item) in items.iter().enumerate() {
+        if item.is_instance_of::<pyo3::types::PyBool>() {
+            return Err(bad());
+        }
+        u[i] = item.extract::<f64>().map_err(|_| bad())?;
+    }
+    finite(what, u.as_slice())?;
+    Ok(u)
+}
+
+/// The first `dim` axes of `u` as a Python tuple.
+pub(crate) fn input_tuple<'py>(
+    py: Python<'py>,
+    u: &drive::traits::Input,
+    dim: usize,
+) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+    pyo3::types::PyTuple::new(py, u.iter().take(dim))
+}
+
 /// `obj` as a C-contiguous float64 numpy array of `ndim` dimensions (lists, integer and
 /// float32 arrays converted); a `DriveError` naming `what` and `shape` otherwise.
 pub(crate) fn float_array<'py>(

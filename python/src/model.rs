@@ -33,13 +33,13 @@ impl Model {
     fn start(
         &self,
         pose: [f64; 3],
-        wheels: [f64; 2],
+        wheels: Input,
         yaw_rate: Option<f64>,
         velocity: Option<[f64; 2]>,
     ) -> StartState {
         let start = StartState::measured(
             Pose::new(pose[0], pose[1], pose[2]),
-            Input::new(wheels[0], wheels[1]),
+            wheels,
             self.robot.vehicle.as_ref(),
         );
         let start = yaw_rate.map_or(start, |w| start.with_yaw_rate(w));
@@ -61,8 +61,9 @@ impl Model {
         self.model.dt()
     }
 
-    /// Predicted poses (H, 3) for the (H, 2) commands (the vehicle's inputs, one per step of
-    /// `dt` s): row k is the pose (x, y, yaw) at time k * dt, so row 0 is the start pose
+    /// Predicted poses (H, 3) for the (H, D) commands (the vehicle's D inputs, one row per
+    /// step of `dt` s; D = 2 for a differential drive or a car, 3 for an omnidirectional
+    /// base): row k is the pose (x, y, yaw) at time k * dt, so row 0 is the start pose
     /// itself and row k the pose after commands 0..k-1; the last command never changes the
     /// output (for the pose after all H commands, append one more command). The same rows as
     /// the windows' poses in a dataset and as `drive predict`.
@@ -106,31 +107,28 @@ impl Model {
             finite("start_velocity", &v)?;
         }
         let start: [f64; 3] = numbers_of("start", start)?;
-        let start_wheels: [f64; 2] = numbers_of("start_wheels", start_wheels)?;
+        let dim = self.robot.vehicle.input_dim();
+        let start_wheels = crate::args::input_of("start_wheels", start_wheels, dim)?;
         let yaw_rate = start_yaw_rate
             .filter(|w| !w.is_none())
             .map(|w| number_of("start_yaw_rate", "a number (rad/s)", w))
             .transpose()?;
-        let commands = float_array(py, "commands", "(H, 2)", commands, 2)?;
+        let commands = float_array(py, "commands", &format!("(H, {dim})"), commands, 2)?;
         let commands: PyReadonlyArray2<'py, f64> = commands.extract()?;
         let shape = commands.shape();
-        if shape.len() != 2 || shape[1] != 2 {
+        if shape.len() != 2 || shape[1] != dim {
             return Err(err(format!(
-                "commands must be an (H, 2) array, got shape {shape:?}"
+                "commands must be an (H, {dim}) array (one column per input axis), got shape {shape:?}"
             )));
         }
         let flat: Vec<f64> = commands.as_array().iter().copied().collect();
         finite("commands", &flat)?;
         finite("start", &start)?;
-        finite("start_wheels", &start_wheels)?;
         if let Some(w) = yaw_rate {
             finite("start_yaw_rate", &[w])?;
         }
         let start = self.start(start, start_wheels, yaw_rate, velocity);
-        let cmds: Vec<Input> = flat
-            .chunks_exact(2)
-            .map(|c| Input::new(c[0], c[1]))
-            .collect();
+        let cmds: Vec<Input> = flat.chunks_exact(dim).map(input_of_row).collect();
         let mut poses = Vec::with_capacity(cmds.len());
         let mut covariances = Vec::new();
         if return_cov {
@@ -164,8 +162,8 @@ impl Model {
         Ok((poses_array, cov_array).into_pyobject(py)?.into_any())
     }
 
-    /// Poses (B, H, 3) of B command sequences (B, H, 2), each from its row of `starts`
-    /// (B, 3; the origin by default), `start_wheels` (B, 2; zero by default) and
+    /// Poses (B, H, 3) of B command sequences (B, H, D; D inputs per command), each from its
+    /// row of `starts` (B, 3; the origin by default), `start_wheels` (B, D; zero by default) and
     /// `start_yaw_rates` (B,; none by default) and `start_velocities` (B, 2; none by
     /// default); computed in parallel without the GIL, read from and written into numpy's
     /// buffers without copies. Row b equals `predict(commands[b], starts[b], ...)`: its
@@ -181,14 +179,17 @@ impl Model {
         start_yaw_rates: Option<&Bound<'py, PyAny>>,
         start_velocities: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
-        let commands = float_array(py, "commands", "(B, H, 2)", commands, 3)?;
+        let dim = self.robot.vehicle.input_dim();
+        let commands = float_array(py, "commands", &format!("(B, H, {dim})"), commands, 3)?;
         let commands: PyReadonlyArray3<'py, f64> = commands.extract()?;
         let starts = match starts {
             Some(a) => Some(float_array(py, "starts", "(B, 3)", a, 2)?.extract()?),
             None => None,
         };
         let start_wheels = match start_wheels {
-            Some(a) => Some(float_array(py, "start_wheels", "(B, 2)", a, 2)?.extract()?),
+            Some(a) => {
+                Some(float_array(py, "start_wheels", &format!("(B, {dim})"), a, 2)?.extract()?)
+            }
             None => None,
         };
         let start_velocities = match start_velocities.filter(|a| !a.is_none()) {
@@ -196,9 +197,9 @@ impl Model {
             None => None,
         };
         let shape = commands.shape().to_vec();
-        if shape[2] != 2 {
+        if shape[2] != dim {
             return Err(err(format!(
-                "commands must be a (B, H, 2) array, got shape {shape:?}"
+                "commands must be a (B, H, {dim}) array (one column per input axis), got shape {shape:?}"
             )));
         }
         let (b, h) = (shape[0], shape[1]);
@@ -229,7 +230,7 @@ impl Model {
             }
         };
         let poses0 = rows(starts, 3, "starts")?;
-        let wheels = rows(start_wheels, 2, "start_wheels")?;
+        let wheels = rows(start_wheels, dim, "start_wheels")?;
         let velocities = start_velocities
             .is_some()
             .then(|| rows(start_velocities, 2, "start_velocities"))
@@ -250,8 +251,14 @@ impl Model {
                 Some(v)
             }
         };
-        // `Input` is nalgebra's Vector2<f64>: two f64 side by side (bytemuck checks it).
-        let cmds: &[Input] = bytemuck::try_cast_slice(flat).map_err(err)?;
+        // `Input` is nalgebra's Vector3<f64>: three f64 side by side (bytemuck checks it).
+        // A vehicle of three inputs reads numpy's buffer as inputs without a copy; one of
+        // two copies each task's rows into inputs (a third axis of zero).
+        let whole: Option<&[Input]> = if dim == drive::traits::MAX_INPUTS {
+            Some(bytemuck::try_cast_slice(flat).map_err(err)?)
+        } else {
+            None
+        };
         // The poses are written straight into the returned array, allocated without numpy's
         // zeroing (a fresh zeroed block of this size is mapped page by page as it is first
         // written, which costs more than the rollouts): each parallel task zeroes its own
@@ -262,7 +269,7 @@ impl Model {
         let start_of = |i: usize| {
             self.start(
                 [poses0[3 * i], poses0[3 * i + 1], poses0[3 * i + 2]],
-                [wheels[2 * i], wheels[2 * i + 1]],
+                input_of_row(&wheels[dim * i..dim * (i + 1)]),
                 yaw_rates.as_ref().map(|w| w[i]),
                 velocities.as_ref().map(|v| [v[2 * i], v[2 * i + 1]]),
             )
@@ -288,13 +295,19 @@ impl Model {
                             bytemuck::try_cast_slice_mut(buffer).map_err(|e| e.to_string())?;
                         let starts: Vec<StartState> = rows.clone().map(start_of).collect();
                         if h > 0 {
+                            let copied: Vec<Input>;
+                            let cmds = match whole {
+                                Some(all) => &all[rows.start * h..rows.end * h],
+                                None => {
+                                    copied = flat[rows.start * h * dim..rows.end * h * dim]
+                                        .chunks_exact(dim)
+                                        .map(input_of_row)
+                                        .collect();
+                                    &copied
+                                }
+                            };
                             model
-                                .predict_batch_into(
-                                    &starts,
-                                    &cmds[rows.start * h..rows.end * h],
-                                    h,
-                                    poses,
-                                )
+                                .predict_batch_into(&starts, cmds, h, poses)
                                 .map_err(|e| e.to_string())?;
                         }
                         Ok(all_finite(bytemuck::cast_slice(poses)))
@@ -329,11 +342,16 @@ impl Model {
     /// that command the body velocity `linear` (m/s, forward) and `angular` (rad/s): what a
     /// Twist on cmd_vel asks of the robot, in the model's inputs. A `DriveError` when the
     /// vehicle has no input for it.
-    fn input_for(&self, linear: f64, angular: f64) -> PyResult<(f64, f64)> {
+    fn input_for<'py>(
+        &self,
+        py: Python<'py>,
+        linear: f64,
+        angular: f64,
+    ) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
         finite("linear, angular", &[linear, angular])?;
         let v = drive::traits::BodyVelocity::new(linear, 0.0, angular);
         match self.robot.vehicle.input_for(&v) {
-            Some(u) => Ok((u[0], u[1])),
+            Some(u) => crate::args::input_tuple(py, &u, self.robot.vehicle.input_dim()),
             None => Err(err(format!(
                 "the vehicle has no input for the body velocity ({linear} m/s, {angular} rad/s)"
             ))),
@@ -538,4 +556,13 @@ pub(crate) fn model_of_text(name: &str, text: &str, start: Option<&str>) -> PyRe
 #[pyfunction]
 pub(crate) fn _model_from_json(text: &str, start: &str) -> PyResult<Model> {
     model_of_text("pickled model", text, Some(start))
+}
+
+/// One row of numbers (one per input axis) as an input, the axes beyond it zero.
+fn input_of_row(row: &[f64]) -> Input {
+    let mut u = Input::zeros();
+    for (i, v) in row.iter().enumerate().take(drive::traits::MAX_INPUTS) {
+        u[i] = *v;
+    }
+    u
 }

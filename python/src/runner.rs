@@ -17,7 +17,8 @@ use std::sync::{Arc, Mutex};
 /// differential drive), the body velocity they command, and the sample being recorded.
 #[pyclass(module = "drive._native", frozen)]
 struct Command {
-    inputs: [f64; 2],
+    /// One per input axis of the vehicle.
+    inputs: Vec<f64>,
     linear: f64,
     angular: f64,
     interval: Option<usize>,
@@ -27,11 +28,12 @@ struct Command {
 
 #[pymethods]
 impl Command {
-    /// The vehicle's two inputs (left, right wheel velocity in rad/s for a differential
-    /// drive; speed and steering for a car).
+    /// The vehicle's inputs, one per axis (left, right wheel velocity in rad/s for a
+    /// differential drive; speed and steering for a car; v_x, v_y, w for an omnidirectional
+    /// base).
     #[getter]
-    fn inputs(&self) -> (f64, f64) {
-        (self.inputs[0], self.inputs[1])
+    fn inputs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+        pyo3::types::PyTuple::new(py, &self.inputs)
     }
 
     /// The commanded linear body velocity (m/s): a Twist's linear.x.
@@ -71,25 +73,30 @@ impl Command {
     }
 
     fn __len__(&self) -> usize {
-        2
+        self.inputs.len()
     }
 
     fn __getitem__(&self, i: isize) -> PyResult<f64> {
-        match i {
-            0 | -2 => Ok(self.inputs[0]),
-            1 | -1 => Ok(self.inputs[1]),
-            _ => Err(pyo3::exceptions::PyIndexError::new_err(
-                "a command has two inputs",
-            )),
+        let n = self.inputs.len() as isize;
+        let at = if i < 0 { i + n } else { i };
+        if (0..n).contains(&at) {
+            Ok(self.inputs[at as usize])
+        } else {
+            Err(pyo3::exceptions::PyIndexError::new_err(format!(
+                "a command has {n} inputs"
+            )))
         }
     }
 
     fn __repr__(&self) -> String {
         let interval = self.interval.map_or("None".into(), |i| i.to_string());
         let phase = self.phase.map_or("None".into(), |p| format!("'{p}'"));
+        let inputs: Vec<String> = self.inputs.iter().map(|v| v.to_string()).collect();
         format!(
-            "Command(inputs=({}, {}), linear={}, angular={}, interval={interval}, phase={phase})",
-            self.inputs[0], self.inputs[1], self.linear, self.angular
+            "Command(inputs=({}), linear={}, angular={}, interval={interval}, phase={phase})",
+            inputs.join(", "),
+            self.linear,
+            self.angular
         )
     }
 }
@@ -231,7 +238,7 @@ impl ProtocolRunner {
     fn tick(
         &mut self,
         t: f64,
-        encoder: Option<[f64; 2]>,
+        encoder: Option<&Bound<'_, PyAny>>,
         pose: Option<[f64; 3]>,
         deadman: bool,
     ) -> PyResult<Command> {
@@ -245,16 +252,18 @@ impl ProtocolRunner {
                 )));
             }
         }
-        if let Some(e) = encoder {
-            crate::args::finite("encoder", &e)?;
-        }
+        let dim = self.robot.vehicle.input_dim();
+        let encoder = encoder
+            .filter(|e| !e.is_none())
+            .map(|e| crate::args::input_of("encoder", Some(e), dim))
+            .transpose()?;
         if let Some(p) = pose {
             crate::args::finite("pose", &p)?;
         }
         self.last_t = Some(t);
         let out = self.runner.tick(&RunnerInput {
             t,
-            encoder: encoder.map(|e| Input::new(e[0], e[1])),
+            encoder,
             pose: pose.map(|p| Pose::new(p[0], p[1], p[2])),
             deadman,
         });
@@ -268,7 +277,7 @@ impl ProtocolRunner {
         }
         let body = self.robot.vehicle.body_velocity(&out.command);
         Ok(Command {
-            inputs: [out.command.x, out.command.y],
+            inputs: out.command.iter().take(dim).copied().collect(),
             linear: body.x,
             angular: body.z,
             interval: out.sample.map(|s| s.interval),
@@ -373,11 +382,11 @@ impl ProtocolRunner {
         self.robot.rate_hz
     }
 
-    /// The names of the vehicle's two inputs (`("left", "right")` for a differential drive).
+    /// The names of the vehicle's inputs (`("left", "right")` for a differential drive,
+    /// `("v_x", "v_y", "w")` for an omnidirectional base).
     #[getter]
-    fn inputs(&self) -> (&'static str, &'static str) {
-        let [a, b] = self.robot.vehicle.axes();
-        (a.name, b.name)
+    fn inputs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+        pyo3::types::PyTuple::new(py, self.robot.vehicle.axes().iter().map(|a| a.name))
     }
 
     fn __repr__(&self) -> String {

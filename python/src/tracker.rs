@@ -9,7 +9,7 @@ use drive::control::{
     ControlSetup, InputMap, MakeController, Mppi, PathShape, ReferencePath, Tracker as RustTracker,
     TrackerConfig,
 };
-use drive::traits::{vehicle_tag, Input, Pose};
+use drive::traits::{vehicle_tag, Pose};
 use drive::Registries;
 use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -167,7 +167,8 @@ impl Tracker {
                 )));
             }
         }
-        let inputs: [f64; 2] = crate::args::numbers_of("inputs", Some(inputs))?;
+        let dim = self.vehicle.input_dim();
+        let input = crate::args::input_of("inputs", Some(inputs), dim)?;
         let pose: Option<[f64; 3]> = pose
             .filter(|p| !p.is_none())
             .map(|p| crate::args::numbers_of("pose", Some(p)))
@@ -178,7 +179,7 @@ impl Tracker {
             .transpose()?;
         let obs = drive::control::Observation {
             t,
-            input: Input::new(inputs[0], inputs[1]),
+            input,
             pose: pose.map(|p| Pose::new(p[0], p[1], p[2])),
             imu_yaw_rate: imu,
         };
@@ -186,7 +187,7 @@ impl Tracker {
         self.last_t = Some(t);
         let d = PyDict::new(py);
         let body = self.vehicle.body_velocity(&tick.command);
-        d.set_item("command", (tick.command.x, tick.command.y))?;
+        d.set_item("command", crate::args::input_tuple(py, &tick.command, dim)?)?;
         d.set_item("linear", body.x)?;
         d.set_item("angular", body.z)?;
         d.set_item("done", tick.done)?;

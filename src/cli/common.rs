@@ -413,6 +413,42 @@ pub fn parse_pair(s: &str) -> Result<[f64; 2], String> {
     parse_numbers::<2>(s)
 }
 
+/// One number per input axis, as given on the command line (the vehicle checks how many).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisValues(pub Vec<f64>);
+
+impl AxisValues {
+    /// The input, when there is one number per axis of a vehicle of `dim` axes.
+    pub fn input(&self, flag: &str, dim: usize) -> anyhow::Result<crate::traits::Input> {
+        if self.0.len() != dim {
+            anyhow::bail!(
+                "{flag} gives {} numbers; the vehicle has {dim} input axes",
+                self.0.len()
+            );
+        }
+        let mut u = crate::traits::Input::zeros();
+        for (i, v) in self.0.iter().enumerate() {
+            u[i] = *v;
+        }
+        Ok(u)
+    }
+}
+
+/// Two or three comma-separated numbers: one per input axis.
+pub fn parse_axes(s: &str) -> Result<AxisValues, String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if !(2..=crate::traits::MAX_INPUTS).contains(&parts.len()) {
+        return Err(format!(
+            "expected one number per input axis (2 or 3, comma-separated), got '{s}'"
+        ));
+    }
+    parts
+        .iter()
+        .map(|p| parse_number(p))
+        .collect::<Result<_, _>>()
+        .map(AxisValues)
+}
+
 /// Three comma-separated numbers.
 pub fn parse_triplet(s: &str) -> Result<[f64; 3], String> {
     parse_numbers::<3>(s)

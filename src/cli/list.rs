@@ -72,6 +72,9 @@ fn text(l: &Listing) -> String {
             if let Some(v) = &i.vehicle {
                 extra.push(format!("vehicle {v}"));
             }
+            if let Some(axes) = &i.axes {
+                extra.push(format!("{} inputs: {}", axes.len(), axes.join(", ")));
+            }
             let extra = if extra.is_empty() {
                 String::new()
             } else {

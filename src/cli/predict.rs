@@ -24,8 +24,9 @@ pub struct Args {
     start: Option<[f64; 3]>,
     /// Measured inputs at the start, e.g. left,right wheel velocities (rad/s) (default: at
     /// rest).
-    #[arg(long, alias = "start-input", value_parser = parse_pair, allow_hyphen_values = true)]
-    start_wheels: Option<[f64; 2]>,
+    /// One number per input axis of the model's vehicle.
+    #[arg(long, alias = "start-input", value_parser = super::common::parse_axes, allow_hyphen_values = true)]
+    start_wheels: Option<super::common::AxisValues>,
     /// The yaw rate the IMU measured at the start (rad/s), as `drive eval` starts by
     /// default (`--start encoders+imu`): models that read it (slip-ipem's yaw disturbance,
     /// acc-BLR's velocity state) start from it (default: none, the encoders only).
@@ -46,7 +47,7 @@ const MAX_COMMAND_LINE_BYTES: u64 = 4096;
 const MAX_COMMANDS: usize = 1_000_000;
 
 /// Reads a command file with the header `t,<columns>` sampled at period `dt`.
-fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>> {
+fn read_commands(path: &Path, columns: &[&str], dt: f64) -> Result<Vec<Input>> {
     use std::io::BufRead as _;
     use std::io::Read as _;
     let name = path.display().to_string();
@@ -88,7 +89,9 @@ fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>>
     };
     let (_, header) = first?;
     let header = header.trim_start_matches('\u{feff}');
-    let expected = ["t", columns[0], columns[1]];
+    let expected: Vec<&str> = std::iter::once("t")
+        .chain(columns.iter().copied())
+        .collect();
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
     if cols != expected {
         bail!(
@@ -101,14 +104,15 @@ fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>>
     for line in lines {
         let (i, line) = line?;
         let fields: Vec<&str> = line.split(',').collect();
-        if fields.len() != 3 {
+        if fields.len() != expected.len() {
             bail!(
-                "{name}, line {}: {} fields where the header has 3",
+                "{name}, line {}: {} fields where the header has {}",
                 i + 1,
-                fields.len()
+                fields.len(),
+                expected.len()
             );
         }
-        let mut v = [0.0; 3];
+        let mut v = [0.0; 1 + crate::traits::MAX_INPUTS];
         for (j, f) in fields.iter().enumerate() {
             let x: f64 = f.trim().parse().map_err(|_| {
                 anyhow::anyhow!(
@@ -152,7 +156,7 @@ fn read_commands(path: &Path, columns: [&str; 2], dt: f64) -> Result<Vec<Input>>
                 i + 1
             );
         }
-        out.push(Input::new(v[1], v[2]));
+        out.push(Input::new(v[1], v[2], v[3]));
     }
     if out.is_empty() {
         bail!("{name}: no command rows");
@@ -175,18 +179,16 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
     registries
         .check_vehicle(robot.vehicle.as_ref())
         .with_context(|| format!("{name}: the model's vehicle"))?;
-    let [a, b] = robot.vehicle.axes();
-    let cmds = read_commands(
-        &args.commands,
-        [a.command_column, b.command_column],
-        model.dt(),
-    )?;
+    let axes = robot.vehicle.axes();
+    let columns: Vec<&str> = axes.iter().map(|a| a.command_column).collect();
+    let cmds = read_commands(&args.commands, &columns, model.dt())?;
     let pose = args
         .start
         .map_or(Pose::zeros(), |[x, y, yaw]| Pose::new(x, y, yaw));
-    let measured = args
-        .start_wheels
-        .map_or(Input::zeros(), |[l, r]| Input::new(l, r));
+    let measured = match &args.start_wheels {
+        Some(values) => values.input("--start-wheels", axes.len())?,
+        None => Input::zeros(),
+    };
     let start = StartState::measured(pose, measured, robot.vehicle.as_ref());
     let start = args
         .start_yaw_rate

@@ -56,6 +56,10 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let mut outputs = super::common::outputs_for(&inputs, &planned)?;
     super::common::check_max_samples(args.max_samples)?;
     let spec = registries.robot(&args.robot)?;
+    if args.raw_out.is_some() {
+        crate::data::check_raw_vehicle(spec.vehicle.as_ref())
+            .map_err(|e| anyhow::anyhow!("--raw-out: {e}"))?;
+    }
     let ground = registries.terrain(&args.terrain)?;
     let run = simulate_run(
         registries,
@@ -116,17 +120,20 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                     crate::traits::limits::Short(v).to_string()
                 }
             };
-            let mut text = format!(
-                "{} [{}, {}] {}, {} [{}, {}] {}",
-                axes[0].name,
-                n(c.space.min.x),
-                n(c.space.max.x),
-                axes[0].unit,
-                axes[1].name,
-                n(c.space.min.y),
-                n(c.space.max.y),
-                axes[1].unit
-            );
+            let mut text = axes
+                .iter()
+                .enumerate()
+                .map(|(i, a)| {
+                    format!(
+                        "{} [{}, {}] {}",
+                        a.name,
+                        n(c.space.min[i]),
+                        n(c.space.max[i]),
+                        a.unit
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(", ");
             for (name, value) in &c.geometry {
                 text += &format!(", effective {name} {value:.3}");
             }

@@ -24,7 +24,11 @@ fn batch_and_parallel_batch_equal_single_rollouts_for_every_model() {
         );
         starts.push(s);
         let e = (i as f64 * 0.618).fract() - 0.5;
-        commands.extend(w.command.iter().map(|u| u + Input::new(3.0 * e, -2.0 * e)));
+        commands.extend(
+            w.command
+                .iter()
+                .map(|u| u + Input::new(3.0 * e, -2.0 * e, 0.0)),
+        );
     }
     // Every registered combination of slip learner (or baseline) and powertrain.
     for spec in Registries::builtin().models().all() {

@@ -378,14 +378,14 @@ fn train_then_predict_matches_the_library() {
             &std::fs::read_to_string(&file).unwrap(),
         )
         .unwrap();
-        let wheels = drive::traits::Input::new(2.0, 5.0);
+        let wheels = drive::traits::Input::new(2.0, 5.0, 0.0);
         let start = drive::traits::StartState::measured(
             drive::traits::Pose::new(1.0, -1.0, 0.5),
             wheels,
             &*robot.vehicle,
         );
         let cmds: Vec<_> = (0..40)
-            .map(|k| drive::traits::Input::new(2.0 + 0.1 * k as f64, 5.0))
+            .map(|k| drive::traits::Input::new(2.0 + 0.1 * k as f64, 5.0, 0.0))
             .collect();
         let poses = m.predict(&start, &cmds);
         let last: Vec<f64> = lines[40]
@@ -896,7 +896,10 @@ fn list_names_every_registered_part() {
             })
             .collect()
     };
-    assert_eq!(names("vehicles"), ["differential", "ackermann"]);
+    assert_eq!(
+        names("vehicles"),
+        ["differential", "ackermann", "omnidirectional"]
+    );
     assert_eq!(names("powertrains"), ["commanded", "fopdt", "rate-limited"]);
     let learners = names("learners");
     for paper in ["naive", "powertrain", "slip-blr", "acc-blr"] {
@@ -904,16 +907,26 @@ fn list_names_every_registered_part() {
     }
     assert!(names("samplers").len() >= 6);
     assert_eq!(names("terrains"), ["tile", "gravel", "snow", "ice"]);
-    assert_eq!(names("robots"), ["husky", "hd2", "warthog", "autorally"]);
+    assert_eq!(
+        names("robots"),
+        ["husky", "hd2", "warthog", "autorally", "ridgeback"]
+    );
     for r in v["robots"].as_array().unwrap() {
-        let car = r["name"] == "autorally";
+        let (vehicle, inputs) = match r["name"].as_str() {
+            Some("autorally") => ("ackermann", 2),
+            Some("ridgeback") => ("omnidirectional", 3),
+            _ => ("differential", 2),
+        };
         assert_eq!(
-            r["vehicle"],
-            if car { "ackermann" } else { "differential" },
+            (&r["vehicle"], &r["inputs"]),
+            (&vehicle.into(), &inputs.into()),
             "{r}"
         );
     }
-    assert_eq!(names("simulators"), ["differential", "ackermann"]);
+    assert_eq!(
+        names("simulators"),
+        ["differential", "ackermann", "omnidirectional"]
+    );
     // The text form lists the same.
     let text = ok(&["list"]);
     assert!(text.contains("rate-limited") && text.contains("= no-slip+commanded"));

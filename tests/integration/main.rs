@@ -13,6 +13,7 @@ mod car;
 mod cli;
 mod data_checks;
 mod fuzz_corpus;
+mod omnidirectional;
 mod other_robot;
 mod outputs;
 mod outside_vehicle;

@@ -31,10 +31,10 @@ impl CommandModel for Unicycle {
         BodyVelocity::new(u.x, 0.0, u.y)
     }
     fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
-        (v.y == 0.0).then(|| Input::new(v.x, v.z))
+        (v.y == 0.0).then(|| Input::new(v.x, v.z, 0.0))
     }
-    fn axes(&self) -> [InputAxis; 2] {
-        [
+    fn axes(&self) -> Vec<InputAxis> {
+        vec![
             InputAxis {
                 name: "v",
                 unit: "m/s",
@@ -51,18 +51,18 @@ impl CommandModel for Unicycle {
     }
     fn nominal_input_space(&self, top_speed: f64) -> Option<InputSpace> {
         InputSpace::new(
-            Input::new(-top_speed, -self.max_yaw_rate),
-            Input::new(top_speed, self.max_yaw_rate),
+            Input::new(-top_speed, -self.max_yaw_rate, 0.0),
+            Input::new(top_speed, self.max_yaw_rate, 0.0),
         )
     }
     /// Forward and backward at twice the top speed, then turning both ways at twice the
     /// top yaw rate.
     fn probe(&self, index: usize, top_speed: f64, _done: &[ProbeResult]) -> Option<Probe> {
         let (name, command) = match index {
-            0 => ("forward", Input::new(2.0 * top_speed, 0.0)),
-            1 => ("backward", Input::new(-2.0 * top_speed, 0.0)),
-            2 => ("left", Input::new(0.0, 2.0 * self.max_yaw_rate)),
-            3 => ("right", Input::new(0.0, -2.0 * self.max_yaw_rate)),
+            0 => ("forward", Input::new(2.0 * top_speed, 0.0, 0.0)),
+            1 => ("backward", Input::new(-2.0 * top_speed, 0.0, 0.0)),
+            2 => ("left", Input::new(0.0, 2.0 * self.max_yaw_rate, 0.0)),
+            3 => ("right", Input::new(0.0, -2.0 * self.max_yaw_rate, 0.0)),
             _ => return None,
         };
         Some(Probe {
@@ -215,7 +215,7 @@ fn a_vehicle_whose_characterization_cannot_move_an_axis_stops_with_the_reason() 
         fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
             self.0.input_for(v)
         }
-        fn axes(&self) -> [InputAxis; 2] {
+        fn axes(&self) -> Vec<InputAxis> {
             self.0.axes()
         }
         fn nominal_input_space(&self, top_speed: f64) -> Option<InputSpace> {
@@ -238,4 +238,65 @@ fn a_vehicle_whose_characterization_cannot_move_an_axis_stops_with_the_reason() 
         other => panic!("{other:?}"),
     }
     assert!(sim.dataset.windows.is_empty());
+}
+
+#[test]
+fn a_vehicle_of_an_unsupported_number_of_inputs_is_refused_at_registration() {
+    // Four axes (beyond MAX_INPUTS), and axes that disagree with input_dim().
+    #[derive(Debug, Clone, Serialize, Deserialize)]
+    struct Axes(usize, usize);
+    #[typetag::serde(name = "many-axes")]
+    impl CommandModel for Axes {
+        fn body_velocity(&self, u: &Input) -> BodyVelocity {
+            *u
+        }
+        fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
+            Some(*v)
+        }
+        fn axes(&self) -> Vec<InputAxis> {
+            let axis = Unicycle { max_yaw_rate: 1.0 }.axes()[0];
+            vec![axis; self.0]
+        }
+        fn input_dim(&self) -> usize {
+            self.1
+        }
+        fn clone_box(&self) -> Box<dyn CommandModel> {
+            Box::new(self.clone())
+        }
+    }
+    impl Tagged for Axes {
+        const TAG: &'static str = "many-axes";
+    }
+    let mut r = Registries::builtin();
+    let e = r
+        .vehicles
+        .register("many-axes", "", Arc::new(Axes(4, 4)))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("has 4 input axes") && e.contains("2 or 3"),
+        "{e}"
+    );
+    let e = r
+        .vehicles
+        .register("many-axes", "", Arc::new(Axes(3, 2)))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("lists 3 input axes") && e.contains("says 2"),
+        "{e}"
+    );
+    let e = r
+        .vehicles
+        .register("many-axes", "", Arc::new(Axes(1, 1)))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("has 1 input axes"), "{e}");
+    // Three, consistent: registered.
+    r.vehicles
+        .register("many-axes", "", Arc::new(Axes(3, 3)))
+        .unwrap();
 }

@@ -129,12 +129,12 @@ proptest! {
         imu in proptest::option::of(-2.0..2.0f64),
         commands in proptest::collection::vec((-8.0..8.0f64, -8.0..8.0f64), 1..60),
     ) {
-        let commands: Vec<Input> = commands.into_iter().map(|(l, r)| Input::new(l, r)).collect();
+        let commands: Vec<Input> = commands.into_iter().map(|(l, r)| Input::new(l, r, 0.0)).collect();
         let (s, c) = start.z.sin_cos();
         for model in models() {
             // With the IMU's yaw rate or without: what slip-ipem's disturbance reads.
             let at = |pose| {
-                let s = StartState { input: Input::new(wheels.0, wheels.1), ..StartState::at_rest(pose) };
+                let s = StartState { input: Input::new(wheels.0, wheels.1, 0.0), ..StartState::at_rest(pose) };
                 imu.map_or(s, |w| s.with_yaw_rate(w))
             };
             let local = model.predict(&at(Pose::zeros()), &commands);

@@ -240,7 +240,7 @@ fn data_that_cannot_tell_a_twin_is_refused_with_what_to_look_at() {
     let mut swapped = good.clone();
     for w in &mut swapped.windows {
         for u in &mut w.measured {
-            *u = drive::traits::Input::new(u.y, u.x);
+            *u = drive::traits::Input::new(u.y, u.x, 0.0);
         }
     }
     let err = sim_fit(&swapped, &husky(), "twin").unwrap_err().to_string();

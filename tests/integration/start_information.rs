@@ -20,8 +20,8 @@ fn a_start_state_reads_no_sample_after_the_start() {
         let mut future = w.clone();
         for k in 1..future.len() {
             future.pose[k] = Pose::new(9.0, -9.0, 3.0);
-            future.measured[k] = Input::new(99.0, -99.0);
-            future.command[k] = Input::new(-50.0, 50.0);
+            future.measured[k] = Input::new(99.0, -99.0, 0.0);
+            future.command[k] = Input::new(-50.0, 50.0, 0.0);
             future.imu_yaw_rate[k] = 42.0;
         }
         for info in [

@@ -64,7 +64,7 @@ pub(super) fn fastest_straight(robot: &RobotSpec) -> Input {
     let mut key = (f64::NEG_INFINITY, f64::NEG_INFINITY);
     for a in [lo.x, mid.x, hi.x] {
         for b in [lo.y, mid.y, hi.y] {
-            let u = Input::new(a, b);
+            let u = Input::new(a, b, 0.0);
             let v = robot.vehicle.body_velocity(&u);
             let k = (v.x, -v.z.abs());
             if k.0 > key.0 + 1e-9 || ((k.0 - key.0).abs() <= 1e-9 && k.1 > key.1) {
@@ -163,7 +163,8 @@ pub(super) fn drive(
     )
     .map_err(control)?;
     let space = d.controller.input_space();
-    let half = (space.max - space.min) * 0.5;
+    let half = space.scale() * 0.5;
+    let axes = space.dim() as f64;
     let centre = space.center();
     let window = (2.0 * plan.speed).max(1.0);
     let (mut progress, mut cross2, mut cross_max, mut head2, mut effort2) =
@@ -198,7 +199,7 @@ pub(super) fn drive(
         effort2 += (tick.controller_input - centre)
             .component_div(&half)
             .norm_squared()
-            / 2.0;
+            / axes;
         if tick.done {
             break (true, m.t);
         }

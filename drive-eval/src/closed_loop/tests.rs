@@ -25,12 +25,12 @@ fn a_twin_is_commanded_in_its_protocol_geometry() {
     assert_eq!(d.controller.input_space(), p.space().unwrap());
     // A pure turn in the protocol's geometry reaches the robot with its wheel-speed
     // difference stretched by nominal / protocol baseline.
-    let u = d.to_vehicle.apply(&Input::new(-1.0, 1.0));
+    let u = d.to_vehicle.apply(&Input::new(-1.0, 1.0, 0.0));
     assert!((u.y - 0.55 / p.baseline).abs() < 1e-12 && (u.x + u.y).abs() < 1e-12);
     // The preset terrains drive the robot itself.
     let d = driven(&husky, &r.terrain("gravel").unwrap()).unwrap();
     assert_eq!(
-        d.to_vehicle.apply(&Input::new(-1.0, 1.0)),
-        Input::new(-1.0, 1.0)
+        d.to_vehicle.apply(&Input::new(-1.0, 1.0, 0.0)),
+        Input::new(-1.0, 1.0, 0.0)
     );
 }

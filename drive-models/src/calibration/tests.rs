@@ -182,8 +182,8 @@ fn speed_windows(count: usize, seed: u64) -> Vec<Window> {
                 i,
                 i / 3,
                 Phase::Steady,
-                vec![Input::new(v, v); 40],
-                vec![Input::new(v, v); 40],
+                vec![Input::new(v, v, 0.0); 40],
+                vec![Input::new(v, v, 0.0); 40],
                 (0..40)
                     .map(|k| {
                         let g = k as f64 / 39.0;

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 /// ```
 /// use drive_models::powertrain::CommandedPowertrain;
 /// use drive_traits::{Input, Powertrain};
-/// let cmds = [Input::new(1.0, 2.0), Input::new(3.0, 4.0)];
+/// let cmds = [Input::new(1.0, 2.0, 0.0), Input::new(3.0, 4.0, 0.0)];
 /// assert_eq!(CommandedPowertrain.predict(&Input::zeros(), &cmds), cmds.to_vec());
 /// ```
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]

@@ -113,9 +113,9 @@ fn run_lanes<const L: usize>(
 /// use drive_models::powertrain::{FopdtPowertrain, SideResponse};
 /// use drive_traits::{Input, InputSpace, Powertrain};
 /// let side = SideResponse { time_constant: 0.5, delay: 0.1 };
-/// let limits = InputSpace::new(Input::new(-5.0, -5.0), Input::new(5.0, 5.0)).unwrap();
-/// let pt = FopdtPowertrain { axes: [side, side], limits, dt: 0.05 };
-/// let w = pt.predict(&Input::zeros(), &vec![Input::new(4.0, 8.0); 40]);
+/// let limits = InputSpace::new(Input::new(-5.0, -5.0, 0.0), Input::new(5.0, 5.0, 0.0)).unwrap();
+/// let pt = FopdtPowertrain { axes: vec![side, side], limits, dt: 0.05 };
+/// let w = pt.predict(&Input::zeros(), &vec![Input::new(4.0, 8.0, 0.0); 40]);
 /// assert_eq!(w[2], Input::zeros());                                  // dead time: 0.1 s
 /// let expected = 4.0 * (1.0 - (-(1.0f64 - 0.1) / 0.5).exp());         // eq. 3 at t = 1 s
 /// assert!((w[20].x - expected).abs() < 1e-12);
@@ -123,8 +123,9 @@ fn run_lanes<const L: usize>(
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FopdtPowertrain {
-    /// The response of each input axis (left and right side for a skid-steer).
-    pub axes: [SideResponse; 2],
+    /// The response of each input axis (left and right side for a skid-steer), one per axis
+    /// of the vehicle.
+    pub axes: Vec<SideResponse>,
     /// Input limits (the commands are saturated to them).
     pub limits: InputSpace,
     /// Sample period (s).
@@ -146,10 +147,10 @@ impl Powertrain for FopdtPowertrain {
             return;
         }
         let (lo, hi) = (self.limits.min, self.limits.max);
-        let (l, r) = (
-            self.axes[0].discrete(self.dt),
-            self.axes[1].discrete(self.dt),
-        );
+        let (l, r) = match self.axes.as_slice() {
+            [l, r] => (l.discrete(self.dt), r.discrete(self.dt)),
+            axes => return predict_axes(axes, &self.limits, self.dt, initial, commands, predicted),
+        };
         let mut w = *initial;
         let mut older = *initial;
         predicted.push(w);
@@ -166,7 +167,7 @@ impl Powertrain for FopdtPowertrain {
             };
             w.x = l.own * w.x + (l.older * older.x + l.newer * newer_l);
             w.y = r.own * w.y + (r.older * older.y + r.newer * newer_r);
-            older = Input::new(newer_l, newer_r);
+            older = Input::new(newer_l, newer_r, 0.0);
             predicted.push(w);
         }
     }
@@ -176,6 +177,15 @@ impl Powertrain for FopdtPowertrain {
     }
 
     fn check(&self) -> Result<(), String> {
+        if !(2..=drive_traits::MAX_INPUTS).contains(&self.axes.len())
+            || self.limits.dim() > self.axes.len()
+        {
+            return Err(format!(
+                "the powertrain has {} axis responses for limits of {} axes (2 or 3 expected, one per input axis)",
+                self.axes.len(),
+                self.limits.dim()
+            ));
+        }
         for (i, r) in self.axes.iter().enumerate() {
             if !(r.time_constant.is_finite()
                 && r.time_constant > 0.0
@@ -209,6 +219,34 @@ impl Powertrain for FopdtPowertrain {
 
     fn clone_box(&self) -> Box<dyn Powertrain> {
         Box::new(self.clone())
+    }
+}
+
+/// [`FopdtPowertrain::predict_into`] for any number of axes (the two-axis case is written
+/// out there): each axis's eq. 3 recursion in turn.
+fn predict_axes(
+    axes: &[SideResponse],
+    limits: &InputSpace,
+    dt: f64,
+    initial: &Input,
+    commands: &[Input],
+    predicted: &mut Vec<Input>,
+) {
+    predicted.resize(commands.len(), *initial);
+    for (i, axis) in axes.iter().enumerate().take(drive_traits::MAX_INPUTS) {
+        let d = axis.discrete(dt);
+        let (lo, hi) = (limits.min[i], limits.max[i]);
+        let (mut w, mut older) = (initial[i], initial[i]);
+        for j in 0..commands.len() - 1 {
+            let newer = if j >= d.m {
+                commands[j - d.m][i].clamp(lo, hi)
+            } else {
+                initial[i]
+            };
+            w = d.own * w + (d.older * older + d.newer * newer);
+            older = newer;
+            predicted[j + 1][i] = w;
+        }
     }
 }
 
@@ -463,10 +501,15 @@ impl PowertrainLearner for Fopdt {
         self.validate()?;
         let limits = measured_limits(train)?;
         let (min, max) = (limits.min, limits.max);
-        let left = self.fit_side(train, 0, min.x, max.x)?;
-        let right = self.fit_side(train, 1, min.y, max.y)?;
+        let axes = (0..train
+            .robot
+            .vehicle
+            .input_dim()
+            .min(drive_traits::MAX_INPUTS))
+            .map(|i| self.fit_side(train, i, min[i], max[i]))
+            .collect::<Result<Vec<_>, _>>()?;
         Ok(FopdtPowertrain {
-            axes: [left, right],
+            axes,
             limits,
             dt: train.robot.dt(),
         })
@@ -508,6 +551,72 @@ mod tests {
     use super::*;
 
     #[test]
+    fn three_axes_each_follow_their_own_response_as_the_two_axis_recursion_does() {
+        let axes = vec![
+            SideResponse {
+                time_constant: 0.3,
+                delay: 0.12,
+            },
+            SideResponse {
+                time_constant: 0.7,
+                delay: 0.0,
+            },
+            SideResponse {
+                time_constant: 0.2,
+                delay: 0.31,
+            },
+        ];
+        let limits =
+            InputSpace::new(Input::new(-2.0, -1.0, -3.0), Input::new(2.0, 1.0, 3.0)).unwrap();
+        let commands: Vec<Input> = (0..40)
+            .map(|k| {
+                let t = k as f64 * 0.05;
+                Input::new(3.0 * t.sin(), -0.5 + t, 4.0 * (2.0 * t).cos())
+            })
+            .collect();
+        let start = Input::new(0.5, -0.2, 1.0);
+        let three = FopdtPowertrain {
+            axes: axes.clone(),
+            limits,
+            dt: 0.05,
+        }
+        .predict(&start, &commands);
+        // Axes (0, 1) through the written-out two-axis recursion, axes (2, 0) likewise.
+        let pair = |a: usize, b: usize| {
+            let limits = InputSpace::new(
+                Input::new(limits.min[a], limits.min[b], 0.0),
+                Input::new(limits.max[a], limits.max[b], 0.0),
+            )
+            .unwrap();
+            let cmd: Vec<Input> = commands
+                .iter()
+                .map(|u| Input::new(u[a], u[b], 0.0))
+                .collect();
+            FopdtPowertrain {
+                axes: vec![axes[a], axes[b]],
+                limits,
+                dt: 0.05,
+            }
+            .predict(&Input::new(start[a], start[b], 0.0), &cmd)
+        };
+        let (first, last) = (pair(0, 1), pair(2, 0));
+        for k in 0..40 {
+            assert!((three[k].x - first[k].x).abs() < 1e-12, "{k}");
+            assert!((three[k].y - first[k].y).abs() < 1e-12, "{k}");
+            assert!((three[k].z - last[k].x).abs() < 1e-12, "{k}");
+        }
+        // The third axis moved, saturated at its limit.
+        assert!(three[39].z.abs() <= 3.0 && three.iter().any(|u| u.z != start.z));
+        // A file's powertrain of two responses for a box of three axes is refused.
+        let short = FopdtPowertrain {
+            axes: axes[..2].to_vec(),
+            limits,
+            dt: 0.05,
+        };
+        assert!(short.check().unwrap_err().contains("2 axis responses"));
+    }
+
+    #[test]
     fn matches_eq3_for_a_step_with_fractional_delay() {
         let r = SideResponse {
             time_constant: 0.37,
@@ -536,7 +645,7 @@ mod tests {
     #[test]
     fn two_side_prediction_equals_the_lane_recursion() {
         let pt = FopdtPowertrain {
-            axes: [
+            axes: vec![
                 SideResponse {
                     time_constant: 0.3,
                     delay: 0.17,
@@ -546,13 +655,20 @@ mod tests {
                     delay: 0.0,
                 },
             ],
-            limits: InputSpace::new(Input::new(-3.0, -2.0), Input::new(3.0, 2.5)).unwrap(),
+            limits: InputSpace::new(Input::new(-3.0, -2.0, 0.0), Input::new(3.0, 2.5, 0.0))
+                .unwrap(),
             dt: 0.05,
         };
         let cmds: Vec<Input> = (0..40)
-            .map(|k| Input::new((k as f64 * 0.7).sin() * 5.0, (k as f64 * 0.3).cos() * 4.0))
+            .map(|k| {
+                Input::new(
+                    (k as f64 * 0.7).sin() * 5.0,
+                    (k as f64 * 0.3).cos() * 4.0,
+                    0.0,
+                )
+            })
             .collect();
-        let start = Input::new(0.4, -0.2);
+        let start = Input::new(0.4, -0.2, 0.0);
         let got = pt.predict(&start, &cmds);
         let mut want = vec![Input::zeros(); 40];
         let d = [pt.axes[0].discrete(pt.dt), pt.axes[1].discrete(pt.dt)];

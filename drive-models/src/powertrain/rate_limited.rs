@@ -96,16 +96,16 @@ impl RateLimitedResponse {
 /// use drive_models::powertrain::{RateLimitedPowertrain, RateLimitedResponse};
 /// use drive_traits::{Input, InputSpace, Powertrain};
 /// let axis = RateLimitedResponse { time_constant: 0.2, delay: 0.1, max_rate: 4.0 };
-/// let limits = InputSpace::new(Input::new(-5.0, -5.0), Input::new(5.0, 5.0)).unwrap();
-/// let pt = RateLimitedPowertrain { axes: [axis, axis], limits, dt: 0.05 };
-/// let w = pt.predict(&Input::zeros(), &vec![Input::new(4.0, 4.0); 40]);
+/// let limits = InputSpace::new(Input::new(-5.0, -5.0, 0.0), Input::new(5.0, 5.0, 0.0)).unwrap();
+/// let pt = RateLimitedPowertrain { axes: vec![axis, axis], limits, dt: 0.05 };
+/// let w = pt.predict(&Input::zeros(), &vec![Input::new(4.0, 4.0, 0.0); 40]);
 /// assert_eq!(w[2], Input::zeros());                 // dead time: 0.1 s
 /// assert!((w[12].x - 4.0 * 0.5).abs() < 1e-12);      // 0.5 s of ramp at 4 rad/s^2
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RateLimitedPowertrain {
-    /// The response of each input axis.
-    pub axes: [RateLimitedResponse; 2],
+    /// The response of each input axis, one per axis of the vehicle.
+    pub axes: Vec<RateLimitedResponse>,
     /// Input limits (the commands are saturated to them).
     pub limits: InputSpace,
     /// Sample period (s).
@@ -121,7 +121,7 @@ impl Powertrain for RateLimitedPowertrain {
     fn predict_into(&self, initial: &Input, commands: &[Input], predicted: &mut Vec<Input>) {
         predicted.clear();
         predicted.resize(commands.len(), Input::zeros());
-        for (i, axis) in self.axes.iter().enumerate() {
+        for (i, axis) in self.axes.iter().enumerate().take(drive_traits::MAX_INPUTS) {
             let (lo, hi) = (self.limits.min[i], self.limits.max[i]);
             axis.run(
                 self.dt,
@@ -138,6 +138,15 @@ impl Powertrain for RateLimitedPowertrain {
     }
 
     fn check(&self) -> Result<(), String> {
+        if !(2..=drive_traits::MAX_INPUTS).contains(&self.axes.len())
+            || self.limits.dim() > self.axes.len()
+        {
+            return Err(format!(
+                "the powertrain has {} axis responses for limits of {} axes (2 or 3 expected, one per input axis)",
+                self.axes.len(),
+                self.limits.dim()
+            ));
+        }
         for (i, r) in self.axes.iter().enumerate() {
             for (name, v, min) in [
                 ("time constant", r.time_constant, f64::MIN_POSITIVE),
@@ -382,10 +391,15 @@ impl PowertrainLearner for RateLimited {
     fn fit(&self, train: &WindowSet<'_>) -> Result<RateLimitedPowertrain, FitError> {
         self.fopdt.validate()?;
         let limits = measured_limits(train)?;
-        let a = self.fit_axis(train, 0, limits.min.x, limits.max.x)?;
-        let b = self.fit_axis(train, 1, limits.min.y, limits.max.y)?;
+        let axes = (0..train
+            .robot
+            .vehicle
+            .input_dim()
+            .min(drive_traits::MAX_INPUTS))
+            .map(|i| self.fit_axis(train, i, limits.min[i], limits.max[i]))
+            .collect::<Result<Vec<_>, _>>()?;
         Ok(RateLimitedPowertrain {
-            axes: [a, b],
+            axes,
             limits,
             dt: train.robot.dt(),
         })

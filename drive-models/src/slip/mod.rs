@@ -14,6 +14,6 @@ mod slip_blr;
 pub use ipem::{slip_features, SlipIpem, SlipIpemModel};
 pub use none::{NoSlip, NoSlipModel};
 pub use slip_blr::{
-    car_slip_inputs, slip_inputs, CarSlipInputs, SlipBasis, SlipBlr, SlipBlrModel, SlipBlrOnline,
-    SlipInputs,
+    car_slip_inputs, omni_slip_inputs, slip_inputs, CarSlipInputs, SlipBasis, SlipBlr,
+    SlipBlrModel, SlipBlrOnline, SlipInputs,
 };

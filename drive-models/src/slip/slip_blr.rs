@@ -66,7 +66,29 @@ pub fn car_slip_inputs(f: &BodyVelocity) -> CarSlipInputs {
     }
 }
 
-/// The slip inputs of [`SlipBasis::Car`], per slip dimension.
+/// The slip inputs of an omnidirectional base for a commanded body velocity `f = [v_x, v_y,
+/// w]` ([`SlipBasis::Omnidirectional`]): longitudinal `[f_x, f_y f_w]`, lateral `[f_y, f_x
+/// f_w]`, angular `[f_w, f_y, f_x]`.
+///
+/// ```
+/// use drive_models::slip::omni_slip_inputs;
+/// use drive_traits::BodyVelocity;
+/// let s = omni_slip_inputs(&BodyVelocity::new(2.0, -1.0, 0.5));
+/// assert_eq!(s.x, [2.0, -0.5]);        // f_x, f_y f_w
+/// assert_eq!(s.y, [-1.0, 1.0]);        // f_y, f_x f_w
+/// assert_eq!(s.yaw, [0.5, -1.0, 2.0]); // f_w, f_y, f_x
+/// ```
+#[inline]
+pub fn omni_slip_inputs(f: &BodyVelocity) -> CarSlipInputs {
+    CarSlipInputs {
+        x: [f.x, f.y * f.z],
+        y: [f.y, f.x * f.z],
+        yaw: [f.z, f.y, f.x],
+    }
+}
+
+/// The slip inputs of [`SlipBasis::Car`] (and of [`SlipBasis::Omnidirectional`]: two, two
+/// and three per slip dimension), per slip dimension.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CarSlipInputs {
     /// x_x
@@ -97,6 +119,12 @@ pub struct CarSlipInputs {
 ///   (L + K v |v|)` with `K = m (l_r / C_f - l_f / C_r) / L`, which loses `K |f_x| f_x f_w
 ///   / L` to first order), and a steering trim. A car does not skid to turn: its yaw-rate
 ///   slip is not proportional to the yaw rate alone.
+/// - [`SlipBasis::Omnidirectional`], for a base that drives sideways (mecanum or omni
+///   wheels, [`Steering::Holonomic`]): each translation loses a share of itself (rolling
+///   resistance forward, the rollers' slip sideways), and the body's rotation carries the
+///   other translation into it, `f_y f_w` and `f_x f_w` (the centrifugal drift of eq. 5's
+///   lateral input, in both directions); angular `[f_w, f_y, f_x]`: the scrub of turning,
+///   and a yaw drift when the base crabs or drives with its weight off centre.
 ///
 /// ```
 /// use drive_models::slip::SlipBasis;
@@ -113,6 +141,8 @@ pub enum SlipBasis {
     SkidSteer,
     /// A basis for a car-like vehicle with steered wheels.
     Car,
+    /// A basis for an omnidirectional base (three inputs, lateral motion commanded).
+    Omnidirectional,
 }
 
 impl SlipBasis {
@@ -122,6 +152,7 @@ impl SlipBasis {
     pub fn for_steering(steering: Steering) -> Self {
         match steering {
             Steering::Wheels => SlipBasis::Car,
+            Steering::Holonomic => SlipBasis::Omnidirectional,
             _ => SlipBasis::SkidSteer,
         }
     }
@@ -130,7 +161,7 @@ impl SlipBasis {
     pub fn dimensions(self) -> [usize; 3] {
         match self {
             SlipBasis::SkidSteer => [1, 1, 3],
-            SlipBasis::Car => [2, 2, 3],
+            SlipBasis::Car | SlipBasis::Omnidirectional => [2, 2, 3],
         }
     }
 
@@ -143,6 +174,11 @@ impl SlipBasis {
                 &["f_w", "|f_x| f_x f_w"],
                 &["f_w", "|f_x| f_x f_w", "f_x"],
             ],
+            SlipBasis::Omnidirectional => [
+                &["f_x", "f_y f_w"],
+                &["f_y", "f_x f_w"],
+                &["f_w", "f_y", "f_x"],
+            ],
         }
     }
 
@@ -151,6 +187,7 @@ impl SlipBasis {
         match self {
             SlipBasis::SkidSteer => "skid-steer",
             SlipBasis::Car => "car",
+            SlipBasis::Omnidirectional => "omnidirectional",
         }
     }
 
@@ -182,12 +219,21 @@ impl SlipBasis {
                 xs[1].extend_from_slice(&s.y);
                 xs[2].extend_from_slice(&s.yaw);
             }
-            SlipBasis::Car => {
-                let s = car_slip_inputs(f);
+            SlipBasis::Car | SlipBasis::Omnidirectional => {
+                let s = self.pair_inputs(f);
                 xs[0].extend_from_slice(&s.x);
                 xs[1].extend_from_slice(&s.y);
                 xs[2].extend_from_slice(&s.yaw);
             }
+        }
+    }
+
+    /// The slip inputs of the bases of two, two and three inputs (car, omnidirectional).
+    #[inline]
+    fn pair_inputs(self, f: &BodyVelocity) -> CarSlipInputs {
+        match self {
+            SlipBasis::Omnidirectional => omni_slip_inputs(f),
+            _ => car_slip_inputs(f),
         }
     }
 }
@@ -358,7 +404,7 @@ impl SlipWeights {
         )
     }
 
-    /// The slip at the car slip inputs `s`.
+    /// The slip at the car (or omnidirectional) slip inputs `s`.
     #[inline]
     fn car(&self, s: &CarSlipInputs) -> BodyVelocity {
         BodyVelocity::new(
@@ -385,8 +431,8 @@ impl SlipBlrModel {
                 let s = slip_inputs(f);
                 [s.x.to_vec(), s.y.to_vec(), s.yaw.to_vec()]
             }
-            SlipBasis::Car => {
-                let s = car_slip_inputs(f);
+            SlipBasis::Car | SlipBasis::Omnidirectional => {
+                let s = self.basis.pair_inputs(f);
                 [s.x.to_vec(), s.y.to_vec(), s.yaw.to_vec()]
             }
         }
@@ -424,6 +470,7 @@ impl SlipModel for SlipBlrModel {
         match self.basis {
             SlipBasis::SkidSteer => w.skid_steer(&slip_inputs(f)),
             SlipBasis::Car => w.car(&car_slip_inputs(f)),
+            SlipBasis::Omnidirectional => w.car(&omni_slip_inputs(f)),
         }
     }
 
@@ -434,6 +481,9 @@ impl SlipModel for SlipBlrModel {
         match self.basis {
             SlipBasis::SkidSteer => out.extend(f.iter().map(|f| f - w.skid_steer(&slip_inputs(f)))),
             SlipBasis::Car => out.extend(f.iter().map(|f| f - w.car(&car_slip_inputs(f)))),
+            SlipBasis::Omnidirectional => {
+                out.extend(f.iter().map(|f| f - w.car(&omni_slip_inputs(f))))
+            }
         }
     }
 
@@ -449,8 +499,8 @@ impl SlipModel for SlipBlrModel {
                     v(&self.slip_yaw, &s.yaw),
                 )
             }
-            SlipBasis::Car => {
-                let s = car_slip_inputs(f);
+            SlipBasis::Car | SlipBasis::Omnidirectional => {
+                let s = self.basis.pair_inputs(f);
                 BodyVelocity::new(
                     v(&self.slip_x, &s.x),
                     v(&self.slip_y, &s.y),

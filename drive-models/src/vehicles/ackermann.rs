@@ -18,12 +18,12 @@ use serde::{Deserialize, Serialize};
 /// use drive_models::vehicles::Ackermann;
 /// use drive_traits::{BodyVelocity, CommandModel, Input};
 /// let car = Ackermann::new(0.57, 0.3665);
-/// let f = car.body_velocity(&Input::new(2.0, 0.2));
+/// let f = car.body_velocity(&Input::new(2.0, 0.2, 0.0));
 /// assert!((f.z - 2.0 * 0.2f64.tan() / 0.57).abs() < 1e-12);
 /// assert_eq!((f.x, f.y), (2.0, 0.0));
 /// // The inverse: the steering angle of a curvature.
 /// let u = car.input_for(&f).unwrap();
-/// assert!((u - Input::new(2.0, 0.2)).norm() < 1e-12);
+/// assert!((u - Input::new(2.0, 0.2, 0.0)).norm() < 1e-12);
 /// // A car cannot turn in place, nor slide sideways on command.
 /// assert!(car.input_for(&BodyVelocity::new(0.0, 0.0, 1.0)).is_none());
 /// assert!(car.input_for(&BodyVelocity::new(1.0, 0.1, 0.0)).is_none());
@@ -89,18 +89,18 @@ impl CommandModel for Ackermann {
         if v.x == 0.0 {
             return (v.z == 0.0).then(Input::zeros);
         }
-        Some(Input::new(v.x, (self.wheelbase * v.z / v.x).atan()))
+        Some(Input::new(v.x, (self.wheelbase * v.z / v.x).atan(), 0.0))
     }
 
-    fn axes(&self) -> [InputAxis; 2] {
-        AXES
+    fn axes(&self) -> Vec<InputAxis> {
+        AXES.to_vec()
     }
 
     /// `+-top_speed` by `+-max_steering`.
     fn nominal_input_space(&self, top_speed: f64) -> Option<InputSpace> {
         InputSpace::new(
-            Input::new(-top_speed, -self.max_steering),
-            Input::new(top_speed, self.max_steering),
+            Input::new(-top_speed, -self.max_steering, 0.0),
+            Input::new(top_speed, self.max_steering, 0.0),
         )
     }
 
@@ -110,15 +110,23 @@ impl CommandModel for Ackermann {
     fn probe(&self, index: usize, top_speed: f64, done: &[ProbeResult]) -> Option<Probe> {
         let _ = done;
         let (name, command) = match index {
-            0 => ("forward", Input::new(2.0 * top_speed, 0.0)),
-            1 => ("backward", Input::new(-2.0 * top_speed, 0.0)),
+            0 => ("forward", Input::new(2.0 * top_speed, 0.0, 0.0)),
+            1 => ("backward", Input::new(-2.0 * top_speed, 0.0, 0.0)),
             2 => (
                 "left",
-                Input::new(STEERING_PROBE_SPEED * top_speed, 2.0 * self.max_steering),
+                Input::new(
+                    STEERING_PROBE_SPEED * top_speed,
+                    2.0 * self.max_steering,
+                    0.0,
+                ),
             ),
             3 => (
                 "right",
-                Input::new(STEERING_PROBE_SPEED * top_speed, -2.0 * self.max_steering),
+                Input::new(
+                    STEERING_PROBE_SPEED * top_speed,
+                    -2.0 * self.max_steering,
+                    0.0,
+                ),
             ),
             _ => return None,
         };
@@ -231,24 +239,29 @@ mod tests {
         // A car of true wheelbase 0.6 m reaching 4 m/s and +-0.3 rad.
         let yaw = |v: f64, d: f64| v * f64::tan(d) / 0.6;
         let results = [
-            result("forward", probes[0].command, Input::new(4.0, 0.0), 0.0),
-            result("backward", probes[1].command, Input::new(-4.0, 0.0), 0.0),
+            result("forward", probes[0].command, Input::new(4.0, 0.0, 0.0), 0.0),
+            result(
+                "backward",
+                probes[1].command,
+                Input::new(-4.0, 0.0, 0.0),
+                0.0,
+            ),
             result(
                 "left",
                 probes[2].command,
-                Input::new(1.0, 0.3),
+                Input::new(1.0, 0.3, 0.0),
                 yaw(1.0, 0.3),
             ),
             result(
                 "right",
                 probes[3].command,
-                Input::new(1.0, -0.3),
+                Input::new(1.0, -0.3, 0.0),
                 yaw(1.0, -0.3),
             ),
         ];
         let c = car.characterize(&results).unwrap();
-        assert_eq!(c.space.min, Input::new(-4.0, -0.3));
-        assert_eq!(c.space.max, Input::new(4.0, 0.3));
+        assert_eq!(c.space.min, Input::new(-4.0, -0.3, 0.0));
+        assert_eq!(c.space.max, Input::new(4.0, 0.3, 0.0));
         assert!((c.geometry("wheelbase").unwrap() - 0.6).abs() < 1e-12);
     }
 
@@ -257,10 +270,10 @@ mod tests {
         let car = Ackermann::new(0.5, 0.4);
         let p = |i| car.probe(i, 5.0, &[]).unwrap().command;
         let results = [
-            result("forward", p(0), Input::new(4.0, 0.0), 0.0),
-            result("backward", p(1), Input::new(-4.0, 0.0), 0.0),
-            result("left", p(2), Input::new(1.0, 0.001), 0.0),
-            result("right", p(3), Input::new(1.0, -0.001), 0.0),
+            result("forward", p(0), Input::new(4.0, 0.0, 0.0), 0.0),
+            result("backward", p(1), Input::new(-4.0, 0.0, 0.0), 0.0),
+            result("left", p(2), Input::new(1.0, 0.001, 0.0), 0.0),
+            result("right", p(3), Input::new(1.0, -0.001, 0.0), 0.0),
         ];
         let e = car.characterize(&results).unwrap_err();
         assert!(e.contains("'steering' did not move"), "{e}");

@@ -12,12 +12,12 @@ use serde::{Deserialize, Serialize};
 /// use drive_models::DifferentialDrive;
 /// use drive_traits::{CommandModel, Input};
 /// let husky = DifferentialDrive::new(0.165, 0.55);
-/// let f = husky.body_velocity(&Input::new(2.0, 4.0));
+/// let f = husky.body_velocity(&Input::new(2.0, 4.0, 0.0));
 /// assert!((f.x - 0.495).abs() < 1e-12);    // 0.165 * 3
 /// assert!(f.y == 0.0);
 /// assert!((f.z - 0.6).abs() < 1e-12);      // 0.165 * 2 / 0.55
 /// let u = husky.input_for(&f).unwrap();
-/// assert!((u - Input::new(2.0, 4.0)).norm() < 1e-12);
+/// assert!((u - Input::new(2.0, 4.0, 0.0)).norm() < 1e-12);
 /// assert_eq!(husky.axes()[0].command_column, "cmd_left");
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -79,17 +79,17 @@ impl CommandModel for DifferentialDrive {
         }
         let r = self.wheel_radius;
         let half = 0.5 * v.z * self.baseline;
-        Some(Input::new((v.x - half) / r, (v.x + half) / r))
+        Some(Input::new((v.x - half) / r, (v.x + half) / r, 0.0))
     }
 
-    fn axes(&self) -> [InputAxis; 2] {
-        AXES
+    fn axes(&self) -> Vec<InputAxis> {
+        AXES.to_vec()
     }
 
     /// The manufacturer's input space: `+-top_speed / r` on both wheels.
     fn nominal_input_space(&self, top_speed: f64) -> Option<InputSpace> {
         let w = top_speed / self.wheel_radius;
-        InputSpace::new(Input::repeat(-w), Input::repeat(w))
+        InputSpace::new(Input::new(-w, -w, 0.0), Input::new(w, w, 0.0))
     }
 
     /// Forward and backward at twice the top speed (the wheel limits), then, with
@@ -111,7 +111,7 @@ impl CommandModel for DifferentialDrive {
                 let w = 0.5 * reached.x.abs().min(reached.y.abs());
                 Some(Probe {
                     name: "turn",
-                    command: Input::new(-w, w),
+                    command: Input::new(-w, w, 0.0),
                     needs_localization: true,
                 })
             }
@@ -177,8 +177,8 @@ impl CommandModel for DifferentialDrive {
     }
 
     /// The DRIVE logger's encoder columns.
-    fn logger_measured_columns(&self) -> [&'static str; 2] {
-        ["meas_left_vel", "meas_right_vel"]
+    fn logger_measured_columns(&self) -> Vec<&'static str> {
+        vec!["meas_left_vel", "meas_right_vel"]
     }
 
     fn clone_box(&self) -> Box<dyn CommandModel> {

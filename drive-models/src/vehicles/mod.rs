@@ -3,6 +3,8 @@
 
 mod ackermann;
 mod differential;
+mod omni;
 
 pub use ackermann::Ackermann;
 pub use differential::DifferentialDrive;
+pub use omni::Omnidirectional;

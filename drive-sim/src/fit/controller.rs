@@ -30,7 +30,11 @@ pub(super) fn targets(
     g: &DifferentialDrive,
 ) -> Input {
     let t = c.targets(u, g.wheel_radius, g.baseline);
-    Input::new(t.x.clamp(-limit, limit), (right * t.y).clamp(-limit, limit))
+    Input::new(
+        t.x.clamp(-limit, limit),
+        (right * t.y).clamp(-limit, limit),
+        0.0,
+    )
 }
 
 #[derive(Clone)]
@@ -94,7 +98,7 @@ impl PowertrainProblem<'_> {
         for w in self.transients {
             let mut e = w.encoders[0];
             // The controller's output where the wheels are (a run may resume from rest).
-            let e0 = Input::new(w.encoders[0].x, w.encoders[0].y / self.right);
+            let e0 = Input::new(w.encoders[0].x, w.encoders[0].y / self.right, 0.0);
             let mut out = [r * (e0.x + e0.y) / 2.0, r * (e0.y - e0.x) / b];
             for k in 1..w.command.len() {
                 for j in 0..REPLAY_SUBSTEPS {
@@ -108,6 +112,7 @@ impl PowertrainProblem<'_> {
                     let t = Input::new(
                         t.x.clamp(-self.limit, self.limit),
                         (self.right * t.y).clamp(-self.limit, self.limit),
+                        0.0,
                     );
                     for side in 0..2 {
                         let keep = if (t[side] - e[side]) * e[side] >= 0.0 {

@@ -283,10 +283,12 @@ fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
                     command: Input::new(
                         mean(w.command.iter().map(|c| c.x)),
                         mean(w.command.iter().map(|c| c.y)),
+                        0.0,
                     ),
                     encoders: Input::new(
                         mean(w.measured.iter().map(|c| c.x)),
                         mean(w.measured.iter().map(|c| c.y)),
+                        0.0,
                     ),
                     body: window_motion(&w.pose, dt),
                 });

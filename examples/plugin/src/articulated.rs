@@ -71,11 +71,11 @@ impl CommandModel for Articulated {
         }
         let gamma = (c / r).asin() - b.atan2(a);
         let exact = (self.curvature(gamma) - k).abs() <= 1e-9 * (1.0 + k.abs());
-        (gamma.abs() < std::f64::consts::FRAC_PI_2 && exact).then(|| Input::new(v.x, gamma))
+        (gamma.abs() < std::f64::consts::FRAC_PI_2 && exact).then(|| Input::new(v.x, gamma, 0.0))
     }
 
-    fn axes(&self) -> [InputAxis; 2] {
-        [
+    fn axes(&self) -> Vec<InputAxis> {
+        vec![
             InputAxis {
                 name: "speed",
                 unit: "m/s",
@@ -94,8 +94,8 @@ impl CommandModel for Articulated {
     /// `+-top_speed` by `+-max_articulation`.
     fn nominal_input_space(&self, top_speed: f64) -> Option<InputSpace> {
         InputSpace::new(
-            Input::new(-top_speed, -self.max_articulation),
-            Input::new(top_speed, self.max_articulation),
+            Input::new(-top_speed, -self.max_articulation, 0.0),
+            Input::new(top_speed, self.max_articulation, 0.0),
         )
     }
 
@@ -104,10 +104,10 @@ impl CommandModel for Articulated {
     fn probe(&self, index: usize, top_speed: f64, _done: &[ProbeResult]) -> Option<Probe> {
         let slow = ARTICULATION_PROBE_SPEED * top_speed;
         let (name, command) = match index {
-            0 => ("forward", Input::new(2.0 * top_speed, 0.0)),
-            1 => ("backward", Input::new(-2.0 * top_speed, 0.0)),
-            2 => ("left", Input::new(slow, 2.0 * self.max_articulation)),
-            3 => ("right", Input::new(slow, -2.0 * self.max_articulation)),
+            0 => ("forward", Input::new(2.0 * top_speed, 0.0, 0.0)),
+            1 => ("backward", Input::new(-2.0 * top_speed, 0.0, 0.0)),
+            2 => ("left", Input::new(slow, 2.0 * self.max_articulation, 0.0)),
+            3 => ("right", Input::new(slow, -2.0 * self.max_articulation, 0.0)),
             _ => return None,
         };
         Some(Probe {
@@ -175,10 +175,10 @@ mod tests {
             max_articulation: 0.7,
         };
         // A small articulation: w ~ v gamma / (front + rear).
-        let f = v.body_velocity(&Input::new(1.0, 0.01));
+        let f = v.body_velocity(&Input::new(1.0, 0.01, 0.0));
         assert!((f.z - 0.01 / 1.2).abs() < 1e-5, "{f:?}");
         for (speed, gamma) in [(1.0, 0.3), (-0.8, 0.5), (2.0, -0.6), (0.5, 0.0)] {
-            let u = Input::new(speed, gamma);
+            let u = Input::new(speed, gamma, 0.0);
             let back = v.input_for(&v.body_velocity(&u)).unwrap();
             assert!((back - u).norm() < 1e-9, "{u:?} -> {back:?}");
         }

@@ -29,7 +29,7 @@ impl InputSampler for Halton {
             radical_inverse(self.index, 2),
             radical_inverse(self.index, 3),
         );
-        self.space.min + (self.space.max - self.space.min).component_mul(&Input::new(a, b))
+        self.space.min + (self.space.max - self.space.min).component_mul(&Input::new(a, b, 0.0))
     }
 }
 

@@ -89,7 +89,7 @@ fn registries() -> Result<Registries, drive::traits::RegistryError> {
     // Positive literals and an articulation within 90 degrees: every value is valid.
     let robot =
         drive::samplers::RobotSpec::new("loader-robot", Arc::new(loader), 900.0, 2.0, 2.0, 1.0)
-            .and_then(|r| r.with_input_rate_limits(drive::traits::Input::new(2.0, 0.5)))
+            .and_then(|r| r.with_input_rate_limits(drive::traits::Input::new(2.0, 0.5, 0.0)))
             .and_then(|r| r.with_lateral_acceleration(1.5))
             .expect("valid loader literals");
     r.robots.register(

@@ -119,6 +119,14 @@ impl PowertrainLearner for SecondOrder {
     type Fitted = SecondOrderPowertrain;
 
     fn fit(&self, train: &WindowSet<'_>) -> Result<SecondOrderPowertrain, FitError> {
+        // This example models two axes; a vehicle of three is refused, not half-fitted.
+        let dim = train.robot.vehicle.input_dim();
+        if dim != 2 {
+            return Err(FitError::DegenerateInputs {
+                what: "second-order powertrain".into(),
+                detail: format!("it models two input axes; this vehicle has {dim}"),
+            });
+        }
         let transient: Vec<_> = train.of_phase(Phase::Transient).collect();
         if transient.is_empty() {
             return Err(FitError::NoTransientWindow);

@@ -27,11 +27,11 @@ impl CommandModel for Unicycle {
     }
 
     fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
-        (v.y == 0.0).then(|| Input::new(v.x, v.z))
+        (v.y == 0.0).then(|| Input::new(v.x, v.z, 0.0))
     }
 
-    fn axes(&self) -> [InputAxis; 2] {
-        [
+    fn axes(&self) -> Vec<InputAxis> {
+        vec![
             InputAxis {
                 name: "v",
                 unit: "m/s",
@@ -49,8 +49,8 @@ impl CommandModel for Unicycle {
 
     fn nominal_input_space(&self, top_speed: f64) -> Option<InputSpace> {
         InputSpace::new(
-            Input::new(-top_speed, -self.max_yaw_rate),
-            Input::new(top_speed, self.max_yaw_rate),
+            Input::new(-top_speed, -self.max_yaw_rate, 0.0),
+            Input::new(top_speed, self.max_yaw_rate, 0.0),
         )
     }
 
@@ -58,10 +58,10 @@ impl CommandModel for Unicycle {
     /// yaw rate: both axes get their range.
     fn probe(&self, index: usize, top_speed: f64, _done: &[ProbeResult]) -> Option<Probe> {
         let (name, command) = match index {
-            0 => ("forward", Input::new(2.0 * top_speed, 0.0)),
-            1 => ("backward", Input::new(-2.0 * top_speed, 0.0)),
-            2 => ("left", Input::new(0.0, 2.0 * self.max_yaw_rate)),
-            3 => ("right", Input::new(0.0, -2.0 * self.max_yaw_rate)),
+            0 => ("forward", Input::new(2.0 * top_speed, 0.0, 0.0)),
+            1 => ("backward", Input::new(-2.0 * top_speed, 0.0, 0.0)),
+            2 => ("left", Input::new(0.0, 2.0 * self.max_yaw_rate, 0.0)),
+            3 => ("right", Input::new(0.0, -2.0 * self.max_yaw_rate, 0.0)),
             _ => return None,
         };
         Some(Probe {

@@ -53,7 +53,7 @@ fn windows(n: usize, seed: u64) -> (RobotDescription, Vec<Window>) {
     };
     let mut out = Vec::new();
     for i in 0..n {
-        let u = Input::new(10.0 * draw(), 10.0 * draw());
+        let u = Input::new(10.0 * draw(), 10.0 * draw(), 0.0);
         let command = vec![u; 40];
         let mut f = Vec::new();
         vehicle.body_velocities_into(&command, &mut f);
