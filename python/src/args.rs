@@ -94,7 +94,7 @@ pub(crate) fn numbers_of<const N: usize>(
 }
 
 /// `obj` as one number per input axis of a vehicle of `dim` axes (zero when None); a
-/// `DriveError` naming `what` otherwise.
+/// `DriveError` naming `what` otherwise. Finiteness is the caller's to check.
 pub(crate) fn input_of(
     what: &str,
     obj: Option<&Bound<'_, PyAny>>,
@@ -127,7 +127,6 @@ pub(crate) fn input_of(
         }
         u[i] = item.extract::<f64>().map_err(|_| bad())?;
     }
-    finite(what, u.as_slice())?;
     Ok(u)
 }
 

@@ -109,6 +109,7 @@ impl Model {
         let start: [f64; 3] = numbers_of("start", start)?;
         let dim = self.robot.vehicle.input_dim();
         let start_wheels = crate::args::input_of("start_wheels", start_wheels, dim)?;
+        finite("start_wheels", &start_wheels.as_slice()[..dim])?;
         let yaw_rate = start_yaw_rate
             .filter(|w| !w.is_none())
             .map(|w| number_of("start_yaw_rate", "a number (rad/s)", w))

@@ -257,6 +257,9 @@ impl ProtocolRunner {
             .filter(|e| !e.is_none())
             .map(|e| crate::args::input_of("encoder", Some(e), dim))
             .transpose()?;
+        if let Some(e) = &encoder {
+            crate::args::finite("encoder", &e.as_slice()[..dim])?;
+        }
         if let Some(p) = pose {
             crate::args::finite("pose", &p)?;
         }

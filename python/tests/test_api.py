@@ -450,3 +450,46 @@ def test_a_protocol_runner_used_from_another_thread_raises_a_drive_error():
     assert "thread" in str(caught[0])
     # Still usable from its own thread.
     runner.tick(t=0.05, encoder=(0.0, 0.0), pose=(0.0, 0.0, 0.0), deadman=True)
+
+
+def test_a_three_input_base_predicts_as_the_command_line_in_single_and_batch(tmp_path):
+    """The omnidirectional base (v_x, v_y, w): a model fitted on its simulated run takes
+    (H, 3) commands and three start inputs, as `drive predict` does; a batch equals its rows;
+    two columns are refused with the vehicle's count."""
+    data = tmp_path / "omni.csv"
+    cli("simulate", "--robot", "ridgeback", "--terrain", "gravel", "--duration", "240", "--seed", "5", "--out", data)
+    omni = drive.load_dataset(data)
+    model = drive.fit(omni, "slip-blr", split=0.5)
+    saved = tmp_path / "omni.json"
+    model.save(saved)
+    rng = np.random.default_rng(11)
+    commands = rng.uniform(-1, 1, size=(40, 3))
+    cmds = tmp_path / "cmds.csv"
+    with open(cmds, "w") as f:
+        f.write("t,cmd_vx,cmd_vy,cmd_w\n")
+        for k, (a, b, c) in enumerate(commands):
+            f.write(f"{k * model.dt!r},{float(a)!r},{float(b)!r},{float(c)!r}\n")
+    out = cli("predict", "--model", saved, "--commands", cmds, "--start-wheels", "0.2,-0.1,0.3").stdout
+    lines = out.strip().splitlines()
+    header = lines[0].split(",")
+    table = np.array([[float(v) for v in l.split(",")] for l in lines[1:]])
+    expected = table[:, [header.index(c) for c in ("x", "y", "yaw")]]
+    got = model.predict(commands, start_wheels=(0.2, -0.1, 0.3))
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9)
+    # It drives sideways: the lateral commands move it.
+    assert np.abs(got[:, 1]).max() > 0.05
+    batch = model.predict_batch(np.stack([commands, commands[::-1]]), start_wheels=np.array([[0.2, -0.1, 0.3], [0.0, 0.0, 0.0]]))
+    np.testing.assert_array_equal(batch[0], got)
+    np.testing.assert_array_equal(batch[1], model.predict(commands[::-1]))
+    assert model.input_for(0.5, 0.2) == (0.5, 0.0, 0.2)
+    with pytest.raises(drive.DriveError, match=r"\(H, 3\)"):
+        model.predict(commands[:, :2])
+    with pytest.raises(drive.DriveError, match="3 numbers"):
+        model.predict(commands, start_wheels=(0.2, 0.1))
+    runner = drive.ProtocolRunner("ridgeback", "uniform", 1, characterize=False, max_intervals=1)
+    assert runner.inputs == ("v_x", "v_y", "w")
+    command = runner.tick(t=0.0, encoder=(0.0, 0.0, 0.0), pose=(0.0, 0.0, 0.0), deadman=True)
+    assert tuple(command) == command.inputs
+    with pytest.raises(drive.DriveError, match="3 numbers"):
+        runner.tick(t=0.05, encoder=(0.0, 0.0), pose=None, deadman=True)
+    assert len(command) == 3 and len(command.inputs) == 3

@@ -22,9 +22,9 @@ pub struct Args {
     /// Start pose x,y,yaw (m, m, rad) (default: origin).
     #[arg(long, value_parser = parse_triplet, allow_hyphen_values = true)]
     start: Option<[f64; 3]>,
-    /// Measured inputs at the start, e.g. left,right wheel velocities (rad/s) (default: at
-    /// rest).
-    /// One number per input axis of the model's vehicle.
+    /// Measured inputs at the start, one per input axis of the model's vehicle, e.g.
+    /// left,right wheel velocities (rad/s), or v_x,v_y,w of an omnidirectional base
+    /// (default: at rest).
     #[arg(long, alias = "start-input", value_parser = super::common::parse_axes, allow_hyphen_values = true)]
     start_wheels: Option<super::common::AxisValues>,
     /// The yaw rate the IMU measured at the start (rad/s), as `drive eval` starts by

@@ -151,9 +151,10 @@ impl Powertrain for FopdtPowertrain {
             [l, r] => (l.discrete(self.dt), r.discrete(self.dt)),
             axes => return predict_axes(axes, &self.limits, self.dt, initial, commands, predicted),
         };
-        let mut w = *initial;
-        let mut older = *initial;
-        predicted.push(w);
+        // The two sides' states as scalars; the third axis (absent) stays at its start.
+        let (mut wl, mut wr, rest) = (initial.x, initial.y, initial.z);
+        let (mut older_l, mut older_r) = (initial.x, initial.y);
+        predicted.push(*initial);
         for j in 0..commands.len() - 1 {
             let newer_l = if j >= l.m {
                 commands[j - l.m].x.clamp(lo.x, hi.x)
@@ -165,10 +166,10 @@ impl Powertrain for FopdtPowertrain {
             } else {
                 initial.y
             };
-            w.x = l.own * w.x + (l.older * older.x + l.newer * newer_l);
-            w.y = r.own * w.y + (r.older * older.y + r.newer * newer_r);
-            older = Input::new(newer_l, newer_r, 0.0);
-            predicted.push(w);
+            wl = l.own * wl + (l.older * older_l + l.newer * newer_l);
+            wr = r.own * wr + (r.older * older_r + r.newer * newer_r);
+            (older_l, older_r) = (newer_l, newer_r);
+            predicted.push(Input::new(wl, wr, rest));
         }
     }
 

@@ -299,8 +299,9 @@ def bench(suite=None, models=None, split=0.5, transfer=True):
 class Measurements:
     """What the robot measured since the last tick.
 
-    `t` the time (s); `encoder` the (left, right) wheel velocities (rad/s; the vehicle's
-    two measured inputs) when new ones arrived, else None; `pose` the localization
+    `t` the time (s); `encoder` the vehicle's measured inputs, one per input axis (the
+    (left, right) wheel velocities in rad/s of a differential drive; (v_x, v_y, w) of an
+    omnidirectional base) when new ones arrived, else None; `pose` the localization
     (x, y, yaw) when a new one arrived, else None; `deadman` True while the operator holds
     the dead-man switch (required: the robot never moves without it).
     """
@@ -446,7 +447,7 @@ class ProtocolRunner:
             raise DriveError(f"t must be a time in seconds, got {t!r}")
         return self._native.tick(
             float(t),
-            _values("encoder", get("encoder"), 2),
+            _values("encoder", get("encoder"), len(self._native.inputs)),
             _values("pose", get("pose"), 3),
             bool(deadman),
         )
