@@ -36,7 +36,8 @@ impl CommandModel for OffsetUnicycle {
 
     /// Exact only for the body velocities the vehicle has: v_y = offset * omega.
     fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
-        ((v.y - self.offset * v.z).abs() <= 1e-12 * (1.0 + v.y.abs())).then(|| Input::new(v.x, v.z, 0.0))
+        ((v.y - self.offset * v.z).abs() <= 1e-12 * (1.0 + v.y.abs()))
+            .then(|| Input::new(v.x, v.z, 0.0))
     }
 
     fn axes(&self) -> Vec<InputAxis> {
