@@ -384,6 +384,7 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         }
     };
     let mut out = Vec::new();
+    let axes = &axes[..axes.len().min(drive_traits::MAX_INPUTS)];
     for (i, axis) in axes.iter().enumerate() {
         let largest = samples().map(|(c, _)| c[i].abs()).fold(0.0, f64::max);
         if largest <= 0.0 || !largest.is_finite() {
@@ -401,8 +402,15 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
             continue;
         }
         let gain = cm / cc;
-        let other = 1 - i;
-        let (own, cross) = (correlation(i, i, &on), correlation(i, other, &on));
+        // The other axis this measurement follows best (a two-input vehicle's other side).
+        let own = correlation(i, i, &on);
+        let (other, cross) = (0..axes.len())
+            .filter(|&j| j != i)
+            .map(|j| (j, correlation(i, j, &on)))
+            .fold(
+                (i, f64::NEG_INFINITY),
+                |best, c| if c.1 > best.1 { c } else { best },
+            );
         // Dead: near zero and not following the commands (a proportional encoder in
         // another unit is the gain's case below).
         let message = if dead * 10 >= n * 9 && own < 0.5 {

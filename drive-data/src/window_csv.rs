@@ -134,6 +134,15 @@ fn parse_lines<S: AsRef<str>>(
 ) -> Result<Vec<Window>, DataError> {
     let columns = columns(robot);
     let dim = robot.vehicle.input_dim();
+    if !(2..=drive_traits::MAX_INPUTS).contains(&dim) || columns.len() != 8 + 2 * dim {
+        return Err(DataError::new(
+            Location::file(file),
+            DataErrorKind::Implausible(format!(
+                "the vehicle has {dim} input axes (and {} columns); a vehicle has 2 or 3",
+                columns.len()
+            )),
+        ));
+    }
     // The slots of the command, measured, pose and IMU values.
     let (command, measured, pose) = (4, 4 + dim, 4 + 2 * dim);
     let imu = pose + 3;
@@ -369,7 +378,7 @@ fn parse_lines<S: AsRef<str>>(
 pub fn write_windows_csv(windows: &[Window], robot: &RobotDescription, out: &mut String) {
     out.push_str(&columns(robot).join(","));
     out.push('\n');
-    let dim = robot.vehicle.input_dim();
+    let dim = robot.vehicle.input_dim().min(drive_traits::MAX_INPUTS);
     for w in windows {
         for k in 0..w.len() {
             let (c, e, p) = (w.command[k], w.measured[k], w.pose[k]);

@@ -167,11 +167,11 @@ pub fn energy_unpredictability(measured: f64, commanded: f64) -> f64 {
 /// commanded (a stuck motor, or one never driven) is not clipped: `None` for the whole box
 /// when neither axis gives a range, else the commanded range stands in for such an axis.
 fn reached_space(data: &Dataset, q: [f64; 2]) -> Option<InputSpace> {
-    let axis = |pick: fn(&Input) -> f64, of: fn(&Window) -> &Vec<Input>| -> Vec<f64> {
+    let axis = |i: usize, of: fn(&Window) -> &Vec<Input>| -> Vec<f64> {
         let mut v: Vec<f64> = data
             .windows
             .iter()
-            .flat_map(|w| of(w).iter().map(pick))
+            .flat_map(|w| of(w).iter().map(move |u| u[i]))
             .filter(|x| x.is_finite())
             .collect();
         v.sort_by(f64::total_cmp);
@@ -185,12 +185,10 @@ fn reached_space(data: &Dataset, q: [f64; 2]) -> Option<InputSpace> {
     };
     let mut lo = Input::zeros();
     let mut hi = Input::zeros();
-    for (i, pick) in [(|u: &Input| u.x) as fn(&Input) -> f64, |u: &Input| u.y]
-        .into_iter()
-        .enumerate()
-    {
-        let measured = range(&axis(pick, |w| &w.measured))?;
-        let commanded = axis(pick, |w| &w.command);
+    // Each of the vehicle's axes.
+    for i in 0..data.robot.vehicle.input_dim().min(drive_traits::MAX_INPUTS) {
+        let measured = range(&axis(i, |w| &w.measured))?;
+        let commanded = axis(i, |w| &w.command);
         let span = |r: [f64; 2]| r[1] - r[0];
         let commanded = [
             commanded.first().copied()?.min(0.0),

@@ -19,7 +19,7 @@ use crate::vehicles::{Ackermann, Omnidirectional};
 use crate::{Composed, DifferentialDrive};
 use drive_traits::{
     Baseline, CommandModel, FitError, FitPowertrain, FitSlip, Learner, MotionModel, Registry,
-    RegistryError, RegistryItem, StartInfo, Window, WindowSet,
+    RegistryError, RegistryItem, StartInfo, Tagged, Window, WindowSet,
 };
 use serde::Serialize;
 use std::sync::Arc;
@@ -235,8 +235,32 @@ impl ModelSpec {
     /// ([`StartInfo::EncodersImuLocalization`]), and the IMU ([`Window::imu_yaw_rate`]) only
     /// when it gives it (not with [`StartInfo::Encoders`]: the column is then NaN, "not
     /// measured"), so that no model is fitted for a start it will not have.
+    ///
+    /// A model that learns anything is refused on windows whose commands never drive one
+    /// of the vehicle's input axes ([`undriven_axis`]): it would extrapolate to every
+    /// command of that axis (an omnidirectional base trained by a protocol that never
+    /// commands a lateral speed: slip weights of thousands on noise).
     pub fn fit(&self, train: &WindowSet<'_>) -> Result<Box<dyn MotionModel>, FitError> {
+        self.check_driven(train)?;
         self.as_predicted(train, |train| self.fit_as_predicted(train))
+    }
+
+    /// `Err` when the model learns from the data and `train` never drives an input axis.
+    fn check_driven(&self, train: &WindowSet<'_>) -> Result<(), FitError> {
+        let learns = match &self.parts {
+            Parts::Composed(powertrain, slip) => {
+                powertrain.fitted_tag().tag != crate::powertrain::CommandedPowertrain::TAG
+                    || slip.fitted_tag().tag != crate::slip::NoSlipModel::TAG
+            }
+            Parts::Baseline(..) => true,
+        };
+        match undriven_axis(train) {
+            Some(detail) if learns => Err(FitError::DegenerateInputs {
+                what: self.canonical(),
+                detail,
+            }),
+            _ => Ok(()),
+        }
     }
 
     /// Runs `fit` on the training windows as the predictions will see them: without their
@@ -304,6 +328,7 @@ impl ModelSpec {
         &self,
         train: &WindowSet<'_>,
     ) -> Result<Box<dyn MotionModel>, FitError> {
+        self.check_driven(train)?;
         self.as_predicted(train, |train| self.fit_parts(train))
     }
 
@@ -521,6 +546,54 @@ impl<'a> Models<'a> {
         }
         Ok(out)
     }
+}
+
+/// Why `train` cannot identify a model over the vehicle's whole input space, if it cannot:
+/// an input axis that is never commanded (its commands never leave zero by more than 1% of
+/// the largest value measured on it: the measurements' noise). `None` for windows that
+/// command every axis (a single held command does), and for an empty set (the fit says so
+/// itself).
+///
+/// ```
+/// use drive_models::registry::undriven_axis;
+/// use drive_traits::{Input, Phase, Pose, RobotDescription, Window, WindowSet};
+/// let robot = RobotDescription::new("omni", "", 20.0, 2, drive_models::vehicles::Omnidirectional::new(0.3, 0.25));
+/// let window = |command: Input, measured: Input| {
+///     Window::new(0, 0, Phase::Steady, vec![command; 2], vec![measured; 2], vec![Pose::zeros(); 2], vec![0.0; 2])
+/// };
+/// // Forward and turning, never sideways; the lateral odometry reads noise.
+/// let straight = [window(Input::new(1.0, 0.0, 0.5), Input::new(0.9, 0.01, 0.4)),
+///                 window(Input::new(-1.0, 0.0, -0.5), Input::new(-0.9, -0.02, -0.4))];
+/// let set = WindowSet { robot: &robot, windows: straight.iter().collect() };
+/// assert!(undriven_axis(&set).unwrap().contains("'v_y'"));
+/// let sideways = window(Input::new(0.0, 0.5, 0.0), Input::new(0.0, 0.45, 0.0));
+/// let set = WindowSet { robot: &robot, windows: straight.iter().chain([&sideways]).collect() };
+/// assert_eq!(undriven_axis(&set), None);
+/// ```
+pub fn undriven_axis(train: &WindowSet<'_>) -> Option<String> {
+    let axes = train.robot.vehicle.axes();
+    for (i, axis) in axes.iter().enumerate().take(drive_traits::MAX_INPUTS) {
+        let largest = |of: fn(&Window) -> &Vec<drive_traits::Input>| {
+            train
+                .windows
+                .iter()
+                .flat_map(|w| of(w).iter().map(|u| u[i].abs()))
+                .fold(0.0f64, f64::max)
+        };
+        let (commanded, measured) = (largest(|w| &w.command), largest(|w| &w.measured));
+        if train.windows.is_empty() || commanded > 0.01 * measured {
+            continue;
+        }
+        return Some(format!(
+            "the training commands never drive the input axis '{}' (they reach {} {} where {} {} is measured): a model fitted on them would extrapolate to every command of that axis; train on data that drives every axis (the uniform protocol does)",
+            axis.name,
+            drive_traits::limits::Short(commanded),
+            axis.unit,
+            drive_traits::limits::Short(measured),
+            axis.unit
+        ));
+    }
+    None
 }
 
 #[cfg(test)]

@@ -189,7 +189,7 @@ pub fn schedule_csv(robot: &RobotSpec, rows: &[ScheduledCommand]) -> String {
     for r in rows {
         // Writing into a String cannot fail.
         let _ = write!(s, "{},{},{}", r.t, r.interval, r.phase.as_str());
-        for i in 0..axes.len() {
+        for i in 0..axes.len().min(drive_traits::MAX_INPUTS) {
             let _ = write!(s, ",{}", r.command[i]);
         }
         s.push('\n');

@@ -396,7 +396,7 @@ pub fn spanned_space<V: CommandModel + ?Sized>(
         cmd_min = cmd_min.inf(&r.probe.command);
         cmd_max = cmd_max.sup(&r.probe.command);
     }
-    for (i, axis) in vehicle.axes().iter().enumerate() {
+    for (i, axis) in vehicle.axes().iter().enumerate().take(crate::MAX_INPUTS) {
         let commanded = cmd_max[i] - cmd_min[i];
         if !(commanded.is_finite() && commanded > 0.0) {
             return Err(format!(

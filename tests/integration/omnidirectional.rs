@@ -82,6 +82,12 @@ fn a_three_input_base_runs_the_whole_protocol_and_slip_blr_beats_naive() {
         .fold(0.0f64, |m, v| m.max(v.abs()));
     assert!(lateral > 0.5, "largest lateral command {lateral}");
 
+    // The data checks run on three axes (each measured axis against every command).
+    let checked = ok(&["check", "--data", csv]);
+    assert!(
+        checked.contains("passed") || checked.contains("check"),
+        "{checked}"
+    );
     let eval = ok(&["eval", "--data", csv, "--models", "all"]);
     let (naive_t, naive_r) = median(&eval, "no-slip+commanded");
     let (blr_t, blr_r) = median(&eval, "slip-blr+fopdt");
@@ -153,6 +159,30 @@ fn a_three_input_base_runs_the_whole_protocol_and_slip_blr_beats_naive() {
     assert!(report.contains("axis 2 = w [rad/s]"), "{report}");
     assert!(report.contains("| half_track |"));
     assert!(report.contains("powertrain: axis 2 time constant [s]"));
+
+    // A protocol that never commands a lateral speed cannot train a model of the base's
+    // lateral motion: refused with the axis named (it fitted slip weights in the thousands
+    // on odometry noise, 1e14 m errors), while the naive model, which learns nothing, runs.
+    let linear = dir.path().join("linear.csv");
+    let linear = linear.to_str().unwrap();
+    ok(&[
+        "simulate",
+        "--robot",
+        "ridgeback",
+        "--terrain",
+        "gravel",
+        "--duration",
+        "120",
+        "--seed",
+        "2",
+        "--sampler",
+        "linear",
+        "--out",
+        linear,
+    ]);
+    let e = user_error(&["eval", "--data", linear, "--models", "naive,slip-blr"]);
+    assert!(e.contains("never drive the input axis 'v_y'"), "{e}");
+    ok(&["eval", "--data", linear, "--models", "naive"]);
 
     // The logger's raw format holds a twist command: no raw log of a three-input base.
     let e = user_error(&[

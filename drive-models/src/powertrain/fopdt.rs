@@ -400,7 +400,8 @@ impl Fopdt {
         lo: f64,
         hi: f64,
     ) -> Result<SideResponse, FitError> {
-        let axis = train.robot.vehicle.axes()[side].name;
+        let axes = train.robot.vehicle.axes();
+        let axis = axes.get(side).map_or("?", |a| a.name);
         let what = format!("powertrain (axis '{axis}')");
         let dt = train.robot.dt();
         let windows: Vec<_> = train
@@ -531,7 +532,8 @@ pub(crate) fn measured_limits(train: &WindowSet<'_>) -> Result<InputSpace, FitEr
             max = max.sup(e);
         }
     }
-    for (side, axis) in train.robot.vehicle.axes().iter().enumerate() {
+    let axes = train.robot.vehicle.axes();
+    for (side, axis) in axes.iter().enumerate().take(drive_traits::MAX_INPUTS) {
         if min[side] >= max[side] || min[side].is_nan() || max[side].is_nan() {
             return Err(FitError::DegenerateInputs {
                 what: "powertrain".into(),

@@ -263,7 +263,8 @@ impl RateLimited {
         hi: f64,
     ) -> Result<RateLimitedResponse, FitError> {
         let seed = self.fopdt.fit_side(train, side, lo, hi)?;
-        let axis = train.robot.vehicle.axes()[side].name;
+        let axes = train.robot.vehicle.axes();
+        let axis = axes.get(side).map_or("?", |a| a.name);
         let what = format!("rate-limited powertrain (axis '{axis}')");
         let dt = train.robot.dt();
         let windows: Vec<(f64, Vec<f64>, Vec<f64>)> = train
