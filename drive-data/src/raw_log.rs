@@ -65,7 +65,7 @@ pub fn check_raw_vehicle(vehicle: &dyn CommandModel) -> Result<(), String> {
         return Ok(());
     }
     Err(format!(
-        "the DRIVE logger's raw log holds two measured inputs and a twist command (cmd_vel_x, cmd_vel_omega); this vehicle has {dim} input axes: record it as a window CSV (drive simulate --out run.csv) or a bag with its own topics"
+        "the DRIVE logger's recordings (its raw CSV and its bag topics) hold two measured inputs and a twist command (cmd_vel_x, cmd_vel_omega); this vehicle has {dim} input axes: write its windows as a window CSV with one command and one measured column per axis (the format drive simulate --out writes; see docs/data-format.md)"
     ))
 }
 

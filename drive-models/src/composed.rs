@@ -292,6 +292,7 @@ impl MotionModel for ComposedModel {
         drive_traits::check_step(self.dt)?;
         self.vehicle.check()?;
         self.powertrain.check()?;
+        crate::powertrain::check_vehicle_axes(self.powertrain.as_ref(), self.vehicle.as_ref())?;
         crate::check_same_step("powertrain", self.powertrain.step(), self.dt)?;
         self.slip.check()?;
         crate::check_same_step("slip model", self.slip.step(), self.dt)

@@ -58,6 +58,13 @@ pub trait Powertrain: std::fmt::Debug + Send + Sync {
         Ok(())
     }
 
+    /// The number of input axes the powertrain models (one response per axis), when it
+    /// has a fixed number: a model checks that it is its vehicle's. `None` by default (a
+    /// powertrain that passes every axis through).
+    fn input_dim(&self) -> Option<usize> {
+        None
+    }
+
     /// The fitted parameters by name, for reports (`left time constant [s]`, ...).
     fn parameters(&self) -> Vec<(String, f64)> {
         Vec::new()

@@ -115,6 +115,39 @@ fn a_three_input_base_runs_the_whole_protocol_and_slip_blr_beats_naive() {
             .map(Vec::len),
         Some(3)
     );
+    // A hand-edited file whose powertrain models two of the three axes is refused on load,
+    // whichever way its limits are cut.
+    let mut cut = saved.clone();
+    let powertrain = &mut cut["model"]["model"]["powertrain"];
+    powertrain["axes"].as_array_mut().unwrap().truncate(2);
+    let edited = dir.path().join("cut.json");
+    std::fs::write(&edited, cut.to_string()).unwrap();
+    let e = user_error(&[
+        "predict",
+        "--model",
+        edited.to_str().unwrap(),
+        "--commands",
+        "x.csv",
+    ]);
+    assert!(e.contains("2 axis responses for limits of 3 axes"), "{e}");
+    for limit in ["min", "max"] {
+        cut["model"]["model"]["powertrain"]["limits"][limit]
+            .as_array_mut()
+            .unwrap()
+            .truncate(2);
+    }
+    std::fs::write(&edited, cut.to_string()).unwrap();
+    let e = user_error(&[
+        "predict",
+        "--model",
+        edited.to_str().unwrap(),
+        "--commands",
+        "x.csv",
+    ]);
+    assert!(
+        e.contains("the powertrain models 2 input axes; the vehicle has 3"),
+        "{e}"
+    );
     let commands = dir.path().join("c.csv");
     let rows: String = (0..40)
         .map(|k| format!("{},0,0.5,0\n", k as f64 * 0.05))

@@ -185,6 +185,7 @@ impl MotionModel for AccBlrModel {
         drive_traits::check_step(self.dt)?;
         self.vehicle.check()?;
         self.powertrain.check()?;
+        crate::powertrain::check_vehicle_axes(self.powertrain.as_ref(), self.vehicle.as_ref())?;
         crate::check_same_step("powertrain", self.powertrain.step(), self.dt)?;
         self.accel_x.check(2, "accel_x")?;
         self.accel_yaw.check(2, "accel_yaw")

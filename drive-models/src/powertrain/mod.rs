@@ -15,6 +15,20 @@ pub use commanded::{Commanded, CommandedPowertrain};
 pub use fopdt::{Fopdt, FopdtPowertrain, SideResponse};
 pub use rate_limited::{RateLimited, RateLimitedPowertrain, RateLimitedResponse};
 
+/// `Err` when a powertrain of `axes` responses does not fit a vehicle of `dim` input axes.
+pub(crate) fn check_vehicle_axes(
+    powertrain: &dyn drive_traits::Powertrain,
+    vehicle: &dyn drive_traits::CommandModel,
+) -> Result<(), String> {
+    match powertrain.input_dim() {
+        Some(axes) if axes != vehicle.input_dim() => Err(format!(
+            "the powertrain models {axes} input axes; the vehicle has {}",
+            vehicle.input_dim()
+        )),
+        _ => Ok(()),
+    }
+}
+
 pub(crate) fn check_step_and_limits(
     dt: f64,
     limits: &drive_traits::InputSpace,

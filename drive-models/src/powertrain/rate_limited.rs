@@ -137,9 +137,13 @@ impl Powertrain for RateLimitedPowertrain {
         Some(self.dt)
     }
 
+    fn input_dim(&self) -> Option<usize> {
+        Some(self.axes.len())
+    }
+
     fn check(&self) -> Result<(), String> {
         if !(2..=drive_traits::MAX_INPUTS).contains(&self.axes.len())
-            || self.limits.dim() > self.axes.len()
+            || self.limits.dim() != self.axes.len()
         {
             return Err(format!(
                 "the powertrain has {} axis responses for limits of {} axes (2 or 3 expected, one per input axis)",
