@@ -182,15 +182,7 @@ impl Powertrain for FopdtPowertrain {
     }
 
     fn check(&self) -> Result<(), String> {
-        if !(2..=drive_traits::MAX_INPUTS).contains(&self.axes.len())
-            || self.limits.dim() != self.axes.len()
-        {
-            return Err(format!(
-                "the powertrain has {} axis responses for limits of {} axes (2 or 3 expected, one per input axis)",
-                self.axes.len(),
-                self.limits.dim()
-            ));
-        }
+        super::check_axes(self.axes.len(), &self.limits)?;
         for (i, r) in self.axes.iter().enumerate() {
             if !(r.time_constant.is_finite()
                 && r.time_constant > 0.0

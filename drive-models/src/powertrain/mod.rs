@@ -15,7 +15,20 @@ pub use commanded::{Commanded, CommandedPowertrain};
 pub use fopdt::{Fopdt, FopdtPowertrain, SideResponse};
 pub use rate_limited::{RateLimited, RateLimitedPowertrain, RateLimitedResponse};
 
-/// `Err` when a powertrain of `axes` responses does not fit a vehicle of `dim` input axes.
+/// `Err` unless a powertrain of `axes` responses (one per input axis, 2 or 3) has limits of
+/// as many axes.
+pub(crate) fn check_axes(axes: usize, limits: &drive_traits::InputSpace) -> Result<(), String> {
+    if !(2..=drive_traits::MAX_INPUTS).contains(&axes) || limits.dim() != axes {
+        return Err(format!(
+            "the powertrain has {axes} axis responses for limits of {} axes (2 or 3 expected, one per input axis)",
+            limits.dim()
+        ));
+    }
+    Ok(())
+}
+
+/// `Err` when a powertrain's number of axis responses is not its vehicle's number of input
+/// axes.
 pub(crate) fn check_vehicle_axes(
     powertrain: &dyn drive_traits::Powertrain,
     vehicle: &dyn drive_traits::CommandModel,

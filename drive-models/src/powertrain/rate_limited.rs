@@ -142,15 +142,7 @@ impl Powertrain for RateLimitedPowertrain {
     }
 
     fn check(&self) -> Result<(), String> {
-        if !(2..=drive_traits::MAX_INPUTS).contains(&self.axes.len())
-            || self.limits.dim() != self.axes.len()
-        {
-            return Err(format!(
-                "the powertrain has {} axis responses for limits of {} axes (2 or 3 expected, one per input axis)",
-                self.axes.len(),
-                self.limits.dim()
-            ));
-        }
+        super::check_axes(self.axes.len(), &self.limits)?;
         for (i, r) in self.axes.iter().enumerate() {
             for (name, v, min) in [
                 ("time constant", r.time_constant, f64::MIN_POSITIVE),

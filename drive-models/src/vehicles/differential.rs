@@ -155,18 +155,7 @@ impl CommandModel for DifferentialDrive {
     }
 
     fn check(&self) -> Result<(), String> {
-        for (name, v) in [
-            ("wheel_radius", self.wheel_radius),
-            ("baseline", self.baseline),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(format!(
-                    "vehicle {name} = {} is not a positive length",
-                    drive_traits::limits::Short(v)
-                ));
-            }
-        }
-        Ok(())
+        super::positive_lengths(&self.geometry())
     }
 
     fn geometry(&self) -> Vec<(&'static str, f64)> {

@@ -129,18 +129,7 @@ impl CommandModel for Omnidirectional {
     }
 
     fn check(&self) -> Result<(), String> {
-        for (name, v) in [
-            ("half_wheelbase", self.half_wheelbase),
-            ("half_track", self.half_track),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(format!(
-                    "vehicle {name} = {} is not a positive length",
-                    drive_traits::limits::Short(v)
-                ));
-            }
-        }
-        Ok(())
+        super::positive_lengths(&self.geometry())
     }
 
     fn geometry(&self) -> Vec<(&'static str, f64)> {
