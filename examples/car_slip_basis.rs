@@ -2,7 +2,7 @@
 //! vehicle) against the paper's skid-steer basis forced on the same data, on the simulated
 //! AutoRally over three terrains and five seeds (44 DRIVE intervals each, half to train).
 //!
-//! `cargo run --release --example car_slip_basis`; docs/car.md quotes it.
+//! `cargo run --release --features examples --example car_slip_basis`; docs/car.md quotes it.
 
 use drive::eval::{evaluate_model, simulate_protocol, split_by_interval};
 use drive::models::powertrain::Fopdt;

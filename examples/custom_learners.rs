@@ -1,6 +1,6 @@
 //! Configure learners beyond the registry's defaults and compare them on the bundled data.
 //!
-//! Run with `cargo run --release --example custom_learners`.
+//! Run with `cargo run --release --features examples --example custom_learners`.
 
 use drive::eval::{evaluate_model, split_by_interval};
 use drive::models::baselines::AccBlr;

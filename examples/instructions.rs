@@ -4,7 +4,7 @@
 //! the checked-in baseline `.ci/instructions-baseline.txt`.
 //!
 //! ```sh
-//! cargo build --release --example instructions
+//! cargo build --release --features examples --example instructions
 //! target/release/examples/instructions train/slip-ipem   # one workload
 //! target/release/examples/instructions --list            # their names
 //! ```

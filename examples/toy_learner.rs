@@ -3,7 +3,7 @@
 //! combination of the sweep includes them. (`examples/plugin/` does the same for a slip
 //! learner, a powertrain, a sampler and a vehicle, and runs the whole command line.)
 //!
-//! Run with `cargo run --release --example toy_learner`.
+//! Run with `cargo run --release --features examples --example toy_learner`.
 //!
 //! The toy learner, `scaled-drive`, is the vehicle's command model on the commands with one
 //! least-squares gain per body dimension (forward speed and yaw rate) from the measured

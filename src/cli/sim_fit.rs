@@ -22,7 +22,8 @@ pub struct Args {
     /// Print the fit as JSON on stdout: `parameters` (each fitted parameter with `name`,
     /// `value`, its range and `at_bound`), `check` (per model: `real_translational_m`,
     /// `twin_translational_m`, `real_rotational_rad`, `twin_rotational_rad`), `scatter`,
-    /// `poor`, and the twin (`terrain`) and the fit's `report`.
+    /// `poor`, `written`, and the twin (`terrain`) and the fit's `report`. A twin refused
+    /// by the check is printed too, with `"written": false`, and the command fails.
     #[arg(long)]
     json: bool,
     /// Write the twin even when the check finds a median (naive, powertrain, slip-blr,
@@ -91,7 +92,25 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let window_s = data.robot.window_len as f64 / data.robot.rate_hz;
     let parameters = crate::sim::fitted_parameters(&fit.terrain, window_s);
     let poor = !check.poor.is_empty();
-    if poor && !args.allow_poor_twin {
+    let written = !poor || args.allow_poor_twin;
+    let output = Output {
+        parameters,
+        check: &check.check,
+        scatter: check.scatter,
+        check_seeds: &check.seeds,
+        tolerance: check.tolerance,
+        poor: &check.poor,
+        scatter_off: &check.scatter_off,
+        written,
+        terrain: &fit.terrain,
+        report: &fit.report,
+    };
+    if !written {
+        // A refused twin's fit and check are still printed with --json (`"written": false`):
+        // what to look at before deciding on --allow-poor-twin.
+        if args.json {
+            outln!("{}", serde_json::to_string(&output)?);
+        }
         anyhow::bail!(
             "the twin was not written: it does not drive like the real run within {:.0}%: {}; write it anyway with --allow-poor-twin",
             100.0 * check.tolerance,
@@ -106,18 +125,6 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             check.poor.join("; ")
         ));
     }
-    let output = Output {
-        parameters,
-        check: &check.check,
-        scatter: check.scatter,
-        check_seeds: &check.seeds,
-        tolerance: check.tolerance,
-        poor: &check.poor,
-        scatter_off: &check.scatter_off,
-        written: true,
-        terrain: &fit.terrain,
-        report: &fit.report,
-    };
     emit(args.json, &output, |o| {
         let t = o.terrain;
         let r = o.report;

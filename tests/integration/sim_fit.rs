@@ -300,7 +300,8 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let (a, b) = (path("a.toml"), path("b.toml"));
     // The twin check decides whether the twin is written: a twin whose medians are more
-    // than 30% from the real run's is refused, saying which, unless allowed.
+    // than 30% from the real run's is refused, saying which, unless allowed. With --json the
+    // fit and its check are printed either way.
     // One seed of the check (its default is three): the same check, a third of the time.
     let first = common::drive(&[
         "sim-fit",
@@ -308,21 +309,11 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
         "husky",
         "--out",
         &a,
+        "--json",
         "--check-seeds",
         "1",
     ]);
-    let v: serde_json::Value = serde_json::from_str(&ok(&[
-        "sim-fit",
-        "--robot",
-        "husky",
-        "--out",
-        &b,
-        "--json",
-        "--allow-poor-twin",
-        "--check-seeds",
-        "1",
-    ]))
-    .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&first.stdout).unwrap();
     for p in v["parameters"].as_array().unwrap() {
         assert!(p["name"].is_string() && p["value"].is_number() && p["at_bound"].is_boolean());
     }
@@ -344,17 +335,34 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
     assert!((check[0]["real_translational_m"].as_f64().unwrap() - 0.3306).abs() < 1e-4);
     let poor = v["poor"].as_array().unwrap();
     assert_eq!(poor.len(), outside, "{v}");
+    assert_eq!(v["written"], poor.is_empty());
+    // The second run writes the twin whatever its check, and prints the table.
+    let second = common::drive(&[
+        "sim-fit",
+        "--robot",
+        "husky",
+        "--out",
+        &b,
+        "--allow-poor-twin",
+        "--check-seeds",
+        "1",
+    ]);
+    assert!(second.status.success());
+    let out = String::from_utf8_lossy(&second.stdout);
+    assert!(
+        out.contains("controller:") && out.contains("twin check"),
+        "{out}"
+    );
+    let printed: Terrain = serde_json::from_value(v["terrain"].clone()).unwrap();
+    let written = std::fs::read_to_string(&b).unwrap();
+    assert_eq!(
+        printed.to_toml(),
+        written,
+        "the printed twin is the written one"
+    );
     if poor.is_empty() {
         assert!(first.status.success());
-        let out = String::from_utf8_lossy(&first.stdout);
-        assert!(
-            out.contains("controller:") && out.contains("twin check"),
-            "{out}"
-        );
-        assert_eq!(
-            std::fs::read_to_string(&a).unwrap(),
-            std::fs::read_to_string(&b).unwrap()
-        );
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), written);
     } else {
         let err = String::from_utf8_lossy(&first.stderr);
         assert!(
@@ -367,6 +375,11 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
         assert!(
             !std::path::Path::new(&a).exists(),
             "a poor twin was written"
+        );
+        let note = String::from_utf8_lossy(&second.stderr);
+        assert!(
+            note.contains("a poor twin, written with --allow-poor-twin"),
+            "{note}"
         );
         std::fs::copy(&b, &a).unwrap();
     }

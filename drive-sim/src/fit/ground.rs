@@ -4,6 +4,7 @@
 //! space.
 
 use super::*;
+use rayon::prelude::*;
 
 #[derive(Clone)]
 pub(super) struct TerrainProblem<'a> {
@@ -129,6 +130,25 @@ impl TerrainProblem<'_> {
         window_motion(&poses, self.dt)
     }
 
+    /// [`steady_body`](Self::steady_body) of every steady window, in their order. The
+    /// windows are simulated on rayon's threads (each alone: the result is the same on any
+    /// number of threads); this stage is most of `sim-fit`'s time.
+    pub(super) fn steady_bodies(&self, terrain: &Terrain) -> Vec<[f64; 2]> {
+        self.steady
+            .par_iter()
+            .map(|s| self.steady_body(terrain, s.encoders))
+            .collect()
+    }
+
+    /// [`transient_body`](Self::transient_body) of every transient window, in their order,
+    /// on rayon's threads like [`steady_bodies`](Self::steady_bodies).
+    pub(super) fn transient_bodies(&self, terrain: &Terrain) -> Vec<[f64; 2]> {
+        self.transients
+            .par_iter()
+            .map(|t| self.transient_body(terrain, t))
+            .collect()
+    }
+
     /// The body velocity (forward speed, yaw rate) the wheel speeds `u` give.
     pub(super) fn wheel_body(&self, u: Input) -> [f64; 2] {
         let p = &self.params;
@@ -142,11 +162,7 @@ impl TerrainProblem<'_> {
     /// units of the measured spread, and the region slips' errors (weighted by
     /// [`REGION_WEIGHT`]).
     pub(super) fn cost_of(&self, terrain: &Terrain) -> f64 {
-        let sims: Vec<[f64; 2]> = self
-            .steady
-            .iter()
-            .map(|s| self.steady_body(terrain, s.encoders))
-            .collect();
+        let sims = self.steady_bodies(terrain);
         // Squared error in units of the spread.
         let error = |sim: [f64; 2], real: [f64; 2]| {
             (0..2)
@@ -160,9 +176,10 @@ impl TerrainProblem<'_> {
             .sum::<f64>()
             / self.steady.len().max(1) as f64;
         c += self
-            .transients
-            .iter()
-            .map(|tr| error(self.transient_body(terrain, tr), tr.body))
+            .transient_bodies(terrain)
+            .into_iter()
+            .zip(self.transients)
+            .map(|(sim, tr)| error(sim, tr.body))
             .sum::<f64>()
             / self.transients.len().max(1) as f64;
         let wheels: Vec<[f64; 2]> = self
@@ -192,13 +209,13 @@ impl TerrainProblem<'_> {
         };
         [
             rms(&mut self
-                .steady
-                .iter()
-                .map(|s| (self.steady_body(terrain, s.encoders), s.body))),
+                .steady_bodies(terrain)
+                .into_iter()
+                .zip(self.steady.iter().map(|s| s.body))),
             rms(&mut self
-                .transients
-                .iter()
-                .map(|t| (self.transient_body(terrain, t), t.body))),
+                .transient_bodies(terrain)
+                .into_iter()
+                .zip(self.transients.iter().map(|t| t.body))),
         ]
     }
 }

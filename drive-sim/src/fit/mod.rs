@@ -383,12 +383,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     }
     check_coverage(&steady, &g)?;
     // 1. Controller, from regression slopes and the largest speeds measured.
-    let body = |u: Input| {
-        [
-            g.wheel_radius * (u.x + u.y) / 2.0,
-            g.wheel_radius * (u.y - u.x) / g.baseline,
-        ]
-    };
+    let body = |u: Input| wheel_body(&g, u);
     let slope = |i: usize| {
         let (mut xy, mut xx) = (0.0, 0.0);
         for s in &steady {
@@ -476,6 +471,9 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     // The right side's gain and the wheel limit are the controller stage's.
     powertrain.right_gain = right.clamp(RIGHT_GAIN_RANGE.0, RIGHT_GAIN_RANGE.1);
     powertrain.wheel_limit = limit;
+    // The encoders follow the commands (the controller's check above); the localization
+    // must follow the encoders.
+    check_direction(&steady, &g)?;
     // 3. Terrain, on at most 60 steady and 60 transient windows spread over the data.
     let stride = steady.len().div_ceil(60).max(1);
     let sample: Vec<Steady> = steady.iter().step_by(stride).copied().collect();
@@ -491,16 +489,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     spec.max_speed = limit * g.wheel_radius;
     let mut params = VehicleParams::from_spec(&spec, &g);
     params.powertrain = powertrain;
-    let wheels: Vec<[f64; 2]> = sample
-        .iter()
-        .map(|s| {
-            let u = s.encoders;
-            [
-                g.wheel_radius * (u.x + u.y) / 2.0,
-                g.wheel_radius * (u.y - u.x) / g.baseline,
-            ]
-        })
-        .collect();
+    let wheels: Vec<[f64; 2]> = sample.iter().map(|s| wheel_body(&g, s.encoders)).collect();
     let moved: Vec<[f64; 2]> = sample.iter().map(|s| s.body).collect();
     let tp = TerrainProblem {
         steady: &sample,
@@ -623,16 +612,21 @@ fn spread_of(values: impl Iterator<Item = f64>) -> f64 {
     mean(v.iter().map(|x| (x - m).powi(2))).sqrt()
 }
 
+/// The body velocity (forward speed, yaw rate) the wheel speeds `u` give (eq. 4).
+fn wheel_body(g: &DifferentialDrive, u: Input) -> [f64; 2] {
+    [
+        g.wheel_radius * (u.x + u.y) / 2.0,
+        g.wheel_radius * (u.y - u.x) / g.baseline,
+    ]
+}
+
 /// A twin needs the run to have both driven and turned: at least a tenth of the steady
 /// windows on each side of the turn share one half (see [`REGIONS`]).
 fn check_coverage(steady: &[Steady], g: &DifferentialDrive) -> Result<(), SimFitError> {
     let turning = steady
         .iter()
         .filter(|s| {
-            let (v, w) = (
-                g.wheel_radius * (s.encoders.x + s.encoders.y) / 2.0,
-                g.wheel_radius * (s.encoders.y - s.encoders.x) / g.baseline,
-            );
+            let [v, w] = wheel_body(g, s.encoders);
             let turn = w.abs() * g.baseline / 2.0;
             turn > v.abs()
         })
@@ -643,6 +637,29 @@ fn check_coverage(steady: &[Steady], g: &DifferentialDrive) -> Result<(), SimFit
             "{:.0}% of the steady windows turn more than they drive (their wheel speeds): a twin needs both, at least 10% of each (a DRIVE run over the whole input space)",
             100.0 * share
         )));
+    }
+    Ok(())
+}
+
+/// The localization must move the way the wheels drive: over the steady windows, the
+/// slope (through the origin) of the measured forward speed and of the measured yaw rate on
+/// those the wheel speeds give must be positive. A mirrored or sign-flipped localization
+/// fails here, before the ground's fit (the most expensive stage) would miss it.
+fn check_direction(steady: &[Steady], g: &DifferentialDrive) -> Result<(), SimFitError> {
+    for (axis, what) in [(0, "forward speed"), (1, "yaw rate")] {
+        let (mut xy, mut xx) = (0.0, 0.0);
+        for s in steady {
+            let wheels = wheel_body(g, s.encoders)[axis];
+            xy += wheels * s.body[axis];
+            xx += wheels * wheels;
+        }
+        let slope = xy / xx;
+        // NaN (no motion, non-finite data) counts as a failure too.
+        if !(slope > 0.0) {
+            return Err(SimFitError::Unfit(format!(
+                "the measured {what} goes against the one the wheel speeds give (slope {slope:.3} over the steady windows): is the localization mirrored, or another robot's?"
+            )));
+        }
     }
     Ok(())
 }

@@ -1,0 +1,4 @@
+//! drive-eval's integration tests, one binary (one link): one module per subject.
+
+mod protocols;
+mod terrain;
