@@ -1,6 +1,7 @@
 //! Registering parts: a tag collision is an error at registration naming both parts, a
 //! declared tag that is not the serialized one is refused, and a model name resolves to
-//! the registered parts.
+//! the registered parts. (A test binary of its own: the colliding tags it registers would
+//! make every model file's tag ambiguous in another test's binary.)
 
 use drive_models::registry::builtin_slip_learners;
 use drive_traits::{
