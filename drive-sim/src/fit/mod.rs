@@ -655,7 +655,7 @@ fn check_direction(steady: &[Steady], g: &DifferentialDrive) -> Result<(), SimFi
         }
         let slope = xy / xx;
         // NaN (no motion, non-finite data) counts as a failure too.
-        if !(slope > 0.0) {
+        if slope.is_nan() || slope <= 0.0 {
             return Err(SimFitError::Unfit(format!(
                 "the measured {what} goes against the one the wheel speeds give (slope {slope:.3} over the steady windows): is the localization mirrored, or another robot's?"
             )));
