@@ -3,24 +3,12 @@
 
 use drive_models::powertrain::RateLimited;
 use drive_models::vehicles::Ackermann;
-use drive_samplers::{
-    autorally, build_sampler, builtin_samplers, RobotSpec, RunnerConfig, RunnerState,
-    SamplerContext, StopReason,
-};
+use drive_samplers::{autorally, RobotSpec, RunnerConfig, RunnerState, StopReason};
 use drive_sim::{builtin_plants, simulate, CarParams, Simulation, SimulationConfig, Terrain};
 use drive_traits::{PowertrainLearner, WindowSet};
 
 fn run(robot: RobotSpec, terrain: &str, intervals: usize, seed: u64) -> Simulation {
-    let spec = robot.clone();
-    let samplers = builtin_samplers();
-    let factory = move |space| {
-        build_sampler(
-            &samplers,
-            "uniform",
-            &SamplerContext::new(&spec, seed).over(space),
-        )
-        .unwrap()
-    };
+    let factory = crate::uniform(robot.clone(), seed);
     let config = SimulationConfig {
         robot,
         terrain: Terrain::preset(terrain).unwrap(),
@@ -211,16 +199,7 @@ fn a_car_whose_physics_cannot_be_integrated_stops_with_a_reason() {
         events: vec![],
         name: "huge".into(),
     };
-    let samplers = builtin_samplers();
-    let spec = small_car();
-    let factory = move |space| {
-        build_sampler(
-            &samplers,
-            "uniform",
-            &SamplerContext::new(&spec, 1).over(space),
-        )
-        .unwrap()
-    };
+    let factory = crate::uniform(small_car(), 1);
     let Err(e) = simulate(config, &builtin_plants(), factory, None) else {
         panic!("no dataset from a diverged simulation");
     };

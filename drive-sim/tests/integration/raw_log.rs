@@ -3,23 +3,12 @@
 //! localization).
 
 use drive_data::{import_raw, parse_raw_log, write_raw_log, DropReason, ImportConfig, RAW_COLUMNS};
-use drive_samplers::{
-    build_sampler, builtin_robots, builtin_samplers, RobotSpec, RunnerConfig, SamplerContext,
-};
+use drive_samplers::{builtin_robots, RobotSpec, RunnerConfig};
 use drive_sim::{builtin_plants, simulate, Event, Simulation, SimulationConfig, Terrain};
 
 fn run(events: Vec<Event>, max_intervals: usize) -> Simulation {
     let robot = RobotSpec::load(&builtin_robots(), "husky").unwrap();
-    let spec = robot.clone();
-    let samplers = builtin_samplers();
-    let factory = move |space| {
-        build_sampler(
-            &samplers,
-            "uniform",
-            &SamplerContext::new(&spec, 4).over(space),
-        )
-        .unwrap()
-    };
+    let factory = crate::uniform(robot.clone(), 4);
     let config = SimulationConfig {
         robot,
         terrain: Terrain::preset("gravel").unwrap(),

@@ -2,8 +2,7 @@
 //! and resume, watchdog, geofence, convergence stop, determinism.
 
 use drive_samplers::{
-    build_sampler, builtin_robots, builtin_samplers, PauseReason, RobotSpec, RunnerConfig,
-    RunnerState, SamplerContext, StopReason,
+    builtin_robots, PauseReason, RobotSpec, RunnerConfig, RunnerState, StopReason,
 };
 use drive_sim::{
     builtin_plants, simulate, Event, Simulation, SimulationConfig, Simulator, Terrain,
@@ -29,16 +28,7 @@ fn run_on(
     converged: Option<Box<dyn FnMut(usize) -> bool>>,
 ) -> Simulation {
     let robot = RobotSpec::load(&builtin_robots(), preset).unwrap();
-    let spec = robot.clone();
-    let samplers = builtin_samplers();
-    let factory = move |space| {
-        build_sampler(
-            &samplers,
-            "uniform",
-            &SamplerContext::new(&spec, seed).over(space),
-        )
-        .unwrap()
-    };
+    let factory = crate::uniform(robot.clone(), seed);
     let config = SimulationConfig {
         robot,
         terrain: Terrain::preset(terrain).unwrap(),
