@@ -47,9 +47,11 @@ const MAX_COEFFICIENT: f64 = 1e15;
 /// Fewest scores a step's difficulty is fitted on (below: no difficulty at that step).
 const MIN_ROWS: usize = 30;
 
-/// Ridge strength on the standardized features, per score (a feature as informative as
-/// noise gets half the coefficient least squares would give it).
-const RIDGE: f64 = 1.0;
+/// Ridge strengths on the standardized features, per score, among which the calibration
+/// chooses the one whose regions are sharpest on held-out windows (at 1, a feature as
+/// informative as noise gets half the coefficient least squares would give it; the
+/// calibration tries them in this order and keeps the first of equal sharpness).
+pub(crate) const RIDGES: [f64; 4] = [1.0, 0.1, 0.3, 3.0];
 
 /// The features shared by position and yaw at every step `k >= 1` of a prediction from
 /// `start` whose mean poses are `poses` (sample period `dt`), without the covariance
@@ -226,10 +228,12 @@ pub(crate) struct Row {
 }
 
 /// Least squares of `ln score` on the features of `rows` (excluding the fold `skip`),
-/// with a ridge on standardized features; [`StepDifficulty::NONE`] with too few rows.
+/// with a ridge of strength `ridge` per row on standardized features;
+/// [`StepDifficulty::NONE`] with too few rows.
 pub(crate) fn fit_step<'a>(
     rows: impl Iterator<Item = &'a Row>,
     skip: Option<usize>,
+    ridge: f64,
 ) -> StepDifficulty {
     // The rows fitted on, gathered once.
     let kept: Vec<&Row> = rows
@@ -272,7 +276,7 @@ pub(crate) fn fit_step<'a>(
         b += z * r.score.max(floor).ln();
     }
     for j in 0..FEATURES {
-        a[(j, j)] += if j == 0 { 1e-9 } else { RIDGE * n };
+        a[(j, j)] += if j == 0 { 1e-9 } else { ridge * n };
     }
     let Some(chol) = a.cholesky() else {
         return StepDifficulty::NONE;
@@ -323,15 +327,15 @@ mod tests {
         // score = exp(0.5 + 2 s) exactly, s = 0, 0.01, ..., 1.99: the ridge (as strong as the
         // data on a standardized feature) halves the least-squares slope, 2 -> 1, and the
         // intercept keeps the mean: 0.5 + 2 mean(s) - 1 mean(s) = 1.495.
-        let d = fit_step(rows.iter(), None);
+        let d = fit_step(rows.iter(), None, 1.0);
         assert!((d.beta[1] - 1.0).abs() < 1e-9, "{:?}", d.beta);
         assert!((d.beta[0] - 1.495).abs() < 1e-9, "{:?}", d.beta);
         // Constant features get no coefficient; the range is what the training reached.
         assert_eq!(d.beta[2], 0.0);
         assert!((d.range[0] - 1.495).abs() < 1e-9 && (d.range[1] - 3.485).abs() < 1e-9);
         // Leaving a fold out (every other row) gives the same fit here.
-        assert!((fit_step(rows.iter(), Some(0)).beta[1] - 1.0).abs() < 1e-3);
-        assert_eq!(fit_step(rows[..20].iter(), None), StepDifficulty::NONE);
+        assert!((fit_step(rows.iter(), Some(0), 1.0).beta[1] - 1.0).abs() < 1e-3);
+        assert_eq!(fit_step(rows[..20].iter(), None, 1.0), StepDifficulty::NONE);
     }
 
     #[test]

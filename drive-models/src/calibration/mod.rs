@@ -57,7 +57,16 @@ use serde::{Deserialize, Serialize};
 
 use crate::difficulty::{
     fit_step, log_sizes, motion_features, FeatureWalk, Features, Row, StepDifficulty, FEATURES,
+    RIDGES,
 };
+
+/// What a region's sharpness is measured by: a position ellipse's area, a yaw interval's
+/// width.
+#[derive(Debug, Clone, Copy)]
+enum Region {
+    Area,
+    Width,
+}
 
 mod model;
 mod scores;
@@ -274,11 +283,10 @@ impl Calibrator {
             }
         }
         let chi2 = chi2_2(self.level);
-        let by_model = self.difficulties(&position, folds_count);
+        let model_size = |r: &Row| r.x[FEATURES - 1].exp();
+        let by_model = self.difficulties(&position, folds_count, chi2, Region::Area, model_size);
         let model_scale = self.scales(&mut by_model.scores.clone(), chi2);
-        let model_area = mean_areas(&position, &by_model, &model_scale, |r| {
-            r.x[FEATURES - 1].exp()
-        });
+        let model_area = mean_areas(&position, &by_model, &model_scale, 1.0, model_size);
         // The same with the errors' own shape in the predicted heading's frame.
         // Each held-out error is scored under the shape estimated without its own fold
         // (as the difficulty: no error shapes its own region); the shape kept is estimated
@@ -320,9 +328,10 @@ impl Calibrator {
                     .collect()
             })
             .collect();
-        let by_heading = self.difficulties(&by_heading_rows, folds_count);
+        let by_heading =
+            self.difficulties(&by_heading_rows, folds_count, chi2, Region::Area, |_| 1.0);
         let heading_scale = self.scales(&mut by_heading.scores.clone(), chi2);
-        let heading_area = mean_areas(&by_heading_rows, &by_heading, &heading_scale, |_| 1.0);
+        let heading_area = mean_areas(&by_heading_rows, &by_heading, &heading_scale, 1.0, |_| 1.0);
         // The shape whose regions are smaller, step by step (geometric mean of the ratios),
         // at the same calibrated coverage.
         let log_ratio: f64 = heading_area
@@ -336,7 +345,11 @@ impl Calibrator {
         } else {
             (by_model, model_scale, Vec::new())
         };
-        let mut yaw_fit = self.difficulties(&yaw, folds_count);
+        // The yaw interval's width grows with the root of its variance.
+        let mut yaw_fit =
+            self.difficulties(&yaw, folds_count, chi2_1(self.level), Region::Width, |r| {
+                (0.5 * r.x[FEATURES - 1]).exp()
+            });
         let calibration = HorizonCalibration {
             level: self.level,
             shape_floor: self.shape_floor,
@@ -353,6 +366,52 @@ impl Calibrator {
         Ok(Box::new(CalibratedModel { model, calibration }))
     }
 
+    /// [`Self::difficulties_with`] at each of the ridge strengths
+    /// ([`crate::difficulty::RIDGES`]), keeping the one whose regions are the sharpest on
+    /// the held-out windows at the level's coverage: the smallest geometric mean over the
+    /// steps of the regions' mean area (position) or width (yaw), each region sized by its
+    /// out-of-fold difficulty and the scale the out-of-fold scores give. `size` is the
+    /// model's own size of a row's region (the root determinant of its position block, the
+    /// yaw's standard deviation). A weaker ridge ranks the windows more sharply where the
+    /// features say much about the errors (the bundled Husky's slip-BLR) and spends area
+    /// on windows wrongly called hard where they say little (most Warthog runs): the
+    /// held-out windows choose.
+    fn difficulties(
+        &self,
+        rows: &[Vec<Row>],
+        folds: usize,
+        chi2: f64,
+        region: Region,
+        size: impl Fn(&Row) -> f64,
+    ) -> Difficulties {
+        if !self.difficulty {
+            return self.difficulties_with(rows, folds, RIDGES[0]);
+        }
+        let power = match region {
+            Region::Area => 1.0,
+            Region::Width => 0.5,
+        };
+        let mut best: Option<(f64, Difficulties)> = None;
+        for ridge in RIDGES {
+            let fit = self.difficulties_with(rows, folds, ridge);
+            let scale = self.scales(&mut fit.scores.clone(), chi2);
+            let log_sharpness: f64 = mean_areas(rows, &fit, &scale, power, &size)
+                .iter()
+                .skip(1)
+                .filter(|v| v.is_finite() && **v > 0.0)
+                .map(|v| v.ln())
+                .sum();
+            if best.as_ref().is_none_or(|(b, _)| log_sharpness < *b) {
+                best = Some((log_sharpness, fit));
+            }
+        }
+        match best {
+            Some((_, fit)) => fit,
+            // Unreachable: RIDGES is not empty, and its first strength sets `best`.
+            None => self.difficulties_with(rows, folds, RIDGES[0]),
+        }
+    }
+
     /// Per step, the difficulty fitted on the rows of its [`neighbour_steps`] (none without
     /// [`Calibrator::difficulty`], and none at a step where a fold's fit has too few rows),
     /// and the scores divided by the difficulty fitted without their own fold (cross-fitting:
@@ -366,7 +425,7 @@ impl Calibrator {
     /// `gamma = 0` is one size per step. With the slope, a window of twice the difficulty of
     /// another gets, on held-out windows, errors twice as large, so that each kind of
     /// window (transient or steady, slow or fast) keeps close to the level's coverage.
-    fn difficulties(&self, rows: &[Vec<Row>], folds: usize) -> Difficulties {
+    fn difficulties_with(&self, rows: &[Vec<Row>], folds: usize, ridge: f64) -> Difficulties {
         let n = rows.len();
         let raw = || Difficulties {
             difficulty: Vec::new(),
@@ -390,8 +449,9 @@ impl Calibrator {
             }
             let (lo, hi) = neighbour_steps(k, n);
             let pooled = || rows[lo..=hi].iter().flatten();
-            let out_of_fold: Vec<StepDifficulty> =
-                (0..folds).map(|f| fit_step(pooled(), Some(f))).collect();
+            let out_of_fold: Vec<StepDifficulty> = (0..folds)
+                .map(|f| fit_step(pooled(), Some(f), ridge))
+                .collect();
             // A step where a fold's fit has too few scores has none (its scores would be
             // scaled without the difficulty its regions are then given).
             if out_of_fold.contains(&StepDifficulty::NONE) {
@@ -399,7 +459,7 @@ impl Calibrator {
                 log_d.push(vec![0.0; rows[k].len()]);
                 continue;
             }
-            fitted.push(fit_step(pooled(), None));
+            fitted.push(fit_step(pooled(), None, ridge));
             log_d.push(
                 rows[k]
                     .iter()

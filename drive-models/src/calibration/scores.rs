@@ -92,12 +92,15 @@ pub(super) struct Difficulties {
 
 /// Per step, the mean over the held-out rows of the calibrated region's area over
 /// `pi chi2` (scale times out-of-fold difficulty times the root determinant of the shape,
-/// `root_det`); NaN at a step without rows.
+/// `size`), with `power` 1; with `power` 1/2, of a yaw interval's half-width over the
+/// root of the chi-square quantile (`size` the yaw's standard deviation); NaN at a step
+/// without rows.
 pub(super) fn mean_areas(
     rows: &[Vec<Row>],
     fit: &Difficulties,
     scale: &[f64],
-    root_det: impl Fn(&Row) -> f64,
+    power: f64,
+    size: impl Fn(&Row) -> f64,
 ) -> Vec<f64> {
     rows.iter()
         .zip(&fit.log_multipliers)
@@ -106,7 +109,7 @@ pub(super) fn mean_areas(
             let sum: f64 = step
                 .iter()
                 .zip(l)
-                .map(|(r, l)| s * l.exp() * root_det(r))
+                .map(|(r, l)| (s * l.exp()).powf(power) * size(r))
                 .sum();
             sum / step.len() as f64
         })

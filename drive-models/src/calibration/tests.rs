@@ -427,8 +427,8 @@ fn a_step_whose_fold_fits_lack_scores_has_no_difficulty() {
             }
         })
         .collect();
-    assert_ne!(fit_step(rows.iter(), None), StepDifficulty::NONE);
-    let fit = Calibrator::default().difficulties(&[Vec::new(), rows.clone()], 2);
+    assert_ne!(fit_step(rows.iter(), None, 1.0), StepDifficulty::NONE);
+    let fit = Calibrator::default().difficulties_with(&[Vec::new(), rows.clone()], 2, 1.0);
     assert!(fit.difficulty.is_empty());
     let raw: Vec<f64> = rows.iter().map(|r| r.score).collect();
     assert_eq!(fit.scores[1], raw);
@@ -438,7 +438,7 @@ fn a_step_whose_fold_fits_lack_scores_has_no_difficulty() {
         .enumerate()
         .map(|(i, r)| Row { fold: i % 2, ..*r })
         .collect();
-    let fit = Calibrator::default().difficulties(&[Vec::new(), balanced], 2);
+    let fit = Calibrator::default().difficulties_with(&[Vec::new(), balanced], 2, 1.0);
     assert!(fit.difficulty[1].beta[1] > 0.0, "{:?}", fit.difficulty);
 }
 
@@ -467,4 +467,44 @@ fn chi_square_quantiles() {
     assert!((chi2_1(0.5) - 0.454_936_423_119_572_7).abs() < 1e-9);
     assert!((chi2_1(0.99) - 6.634_896_601_021_214).abs() < 1e-8);
     assert!((chi2_2(0.5) - 1.386_294_361_119_890_6).abs() < 1e-12);
+}
+
+#[test]
+fn the_ridge_is_chosen_by_held_out_sharpness() {
+    // Scores that follow the first feature exactly (ln score = 2 s, with a repeating
+    // spread that does not depend on it): the weakest ridge keeps most of the slope, the
+    // held-out regions are then the smallest at the same coverage, and it is chosen.
+    let informative: Vec<Row> = (0..200)
+        .map(|i| {
+            let s = (i % 10) as f64 / 10.0;
+            Row {
+                x: [1.0, s, 0.0, 0.0, 0.0, 0.0],
+                score: (2.0 * s).exp() * (1.0 + 0.05 * (i % 3) as f64),
+                fold: i % 2,
+            }
+        })
+        .collect();
+    let rows = [Vec::new(), informative];
+    let c = Calibrator::default();
+    let chosen = c.difficulties(&rows, 2, chi2_2(0.95), Region::Area, |_| 1.0);
+    let weakest = c.difficulties_with(&rows, 2, 0.1);
+    assert_eq!(chosen.difficulty, weakest.difficulty);
+    assert!(
+        chosen.difficulty[1].beta[1] > c.difficulties_with(&rows, 2, 1.0).difficulty[1].beta[1]
+    );
+    // A feature that says nothing of the scores (a pattern of period 7 against one of
+    // period 10 in the feature): the stronger ridges shrink its spurious coefficient, and
+    // no weaker ridge than the default's is chosen.
+    let noise: Vec<Row> = (0..200)
+        .map(|i| Row {
+            x: [1.0, (i % 10) as f64, 0.0, 0.0, 0.0, 0.0],
+            score: 1.0 + (i % 7) as f64,
+            fold: i % 2,
+        })
+        .collect();
+    let rows = [Vec::new(), noise];
+    let chosen = c.difficulties(&rows, 2, chi2_2(0.95), Region::Width, |_| 1.0);
+    let default = c.difficulties_with(&rows, 2, 1.0);
+    let slope = |d: &Difficulties| d.difficulty.get(1).map_or(0.0, |s| s.beta[1].abs());
+    assert!(slope(&chosen) <= slope(&default), "{:?}", chosen.difficulty);
 }
