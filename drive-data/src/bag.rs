@@ -303,6 +303,7 @@ impl Collected {
         topics: &BagTopics,
         fail: &dyn Fn(DataErrorKind) -> DataError,
     ) -> Result<(), DataError> {
+        use crate::chunk_codecs::ChunkDecoder;
         use mcap::records::{op, Record};
         use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
         let options = LinearReaderOptions::default()
@@ -310,6 +311,12 @@ impl Collected {
             .with_prevalidate_chunk_crcs(true)
             .with_validate_data_section_crc(true);
         let mut reader = LinearReader::new_with_options(options);
+        // Names that are not empty: registering cannot fail.
+        for codec in [ChunkDecoder::zstd(), ChunkDecoder::lz4()] {
+            reader
+                .add_decompressor(codec)
+                .map_err(|e| fail(DataErrorKind::Inconsistent(format!("{fname}{e}"))))?;
+        }
         // schema id -> name; channel id -> (topic, schema name, encoding).
         let mut schemas: std::collections::HashMap<u16, String> = Default::default();
         let mut channels: std::collections::HashMap<u16, Channel> = Default::default();

@@ -21,6 +21,7 @@
 
 mod bag;
 pub mod bundled;
+mod chunk_codecs;
 mod error;
 mod import;
 pub mod output;

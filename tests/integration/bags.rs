@@ -361,3 +361,104 @@ fn a_bag_without_localization_is_refused_with_the_raw_logs_reasons() {
     );
     assert!(!target.exists());
 }
+
+/// `bytes` (an MCAP file of uncompressed chunks) with each chunk's records compressed by
+/// `compress` under the name `codec`, its summary dropped (its offsets no longer hold) and
+/// its data section's CRC cleared (the section changed).
+fn recompressed(bytes: &[u8], codec: &str, compress: impl Fn(&[u8]) -> Vec<u8>) -> Vec<u8> {
+    let magic = &bytes[..8];
+    let mut out = magic.to_vec();
+    let mut at = 8;
+    let mut chunks = 0;
+    loop {
+        let op = bytes[at];
+        let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+        let content = &bytes[at + 9..at + 9 + len];
+        match op {
+            0x06 => {
+                let name = u32::from_le_bytes(content[28..32].try_into().unwrap()) as usize;
+                assert_eq!(name, 0, "an uncompressed chunk");
+                let packed = compress(&content[40..]);
+                let mut chunk = content[..28].to_vec();
+                chunk.extend((codec.len() as u32).to_le_bytes());
+                chunk.extend(codec.as_bytes());
+                chunk.extend((packed.len() as u64).to_le_bytes());
+                chunk.extend(packed);
+                out.push(0x06);
+                out.extend((chunk.len() as u64).to_le_bytes());
+                out.extend(chunk);
+                chunks += 1;
+            }
+            0x0F => {
+                // Data end without a CRC, then a footer without a summary.
+                out.push(0x0F);
+                out.extend(4u64.to_le_bytes());
+                out.extend([0; 4]);
+                out.push(0x02);
+                out.extend(20u64.to_le_bytes());
+                out.extend([0; 20]);
+                out.extend(magic);
+                assert!(chunks > 0);
+                return out;
+            }
+            _ => out.extend(&bytes[at..at + 9 + len]),
+        }
+        at += 9 + len;
+    }
+}
+
+/// Bags whose chunks are zstd or lz4 compressed (rosbag2's options) give the windows of the
+/// same bag uncompressed; a compressed chunk cut short is refused in one line.
+#[test]
+fn zstd_and_lz4_chunks_give_the_windows_of_the_uncompressed_bag() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, bag) = fixtures(dir.path());
+    let bytes = std::fs::read(bag.join("bag.mcap")).unwrap();
+    let plain = dir.path().join("plain.csv");
+    ok(&import("--bag", &bag.join("bag.mcap"), &plain, &[]));
+    let zstd = |r: &[u8]| {
+        ruzstd::encoding::compress_to_vec(r, ruzstd::encoding::CompressionLevel::Fastest)
+    };
+    let lz4 = |r: &[u8]| {
+        let mut w = lz4_flex::frame::FrameEncoder::new(Vec::new());
+        std::io::Write::write_all(&mut w, r).unwrap();
+        w.finish().unwrap()
+    };
+    for (codec, packed) in [
+        ("zstd", recompressed(&bytes, "zstd", zstd)),
+        ("lz4", recompressed(&bytes, "lz4", lz4)),
+    ] {
+        assert!(
+            packed.len() < bytes.len() / 2,
+            "{codec}: {} bytes",
+            packed.len()
+        );
+        let file = dir.path().join(format!("{codec}.mcap"));
+        std::fs::write(&file, &packed).unwrap();
+        let out = dir.path().join(format!("{codec}.csv"));
+        ok(&import("--bag", &file, &out, &[]));
+        assert_eq!(
+            std::fs::read(&out).unwrap(),
+            std::fs::read(&plain).unwrap(),
+            "{codec}"
+        );
+        // The first chunk's compressed records cut in half: refused, not half read.
+        let cut = dir.path().join(format!("{codec}_cut.mcap"));
+        let chunk = 8 + 9 + 26;
+        let content = chunk + 9;
+        let name = 4 + codec.len();
+        let len_at = content + 28 + name;
+        let packed_len = u64::from_le_bytes(packed[len_at..len_at + 8].try_into().unwrap());
+        let mut short = packed.clone();
+        let half = packed_len / 2;
+        short[len_at..len_at + 8].copy_from_slice(&half.to_le_bytes());
+        let record_len = u64::from_le_bytes(short[chunk + 1..chunk + 9].try_into().unwrap());
+        short[chunk + 1..chunk + 9]
+            .copy_from_slice(&(record_len - (packed_len - half)).to_le_bytes());
+        let end = len_at + 8 + half as usize;
+        short.drain(end..end + (packed_len - half) as usize);
+        std::fs::write(&cut, &short).unwrap();
+        let err = user_error(&import("--bag", &cut, &dir.path().join("cut.csv"), &[]));
+        assert!(err.contains(&format!("{codec} chunk")), "{err}");
+    }
+}
