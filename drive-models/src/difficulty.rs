@@ -19,7 +19,8 @@
 //! | `ln c` | the log size of the model's own covariance at `k` (position: half the log determinant of its 2x2 block; yaw: the log variance) |
 //!
 //! The difficulty is `d = exp(beta_k . x)` with `beta_k` fitted per step by least squares
-//! (with a small ridge on standardized features) of the log of the held-out windows'
+//! (with a ridge on standardized features, its strength chosen by the calibration among
+//! four, see [`crate::calibration`]) of the log of the held-out windows'
 //! scores (squared Mahalanobis distances under the model's covariance, see
 //! [`crate::calibration`]) on the features: for a score that is a chi-square variable
 //! scaled by the difficulty, `E[ln score] = ln d + const`. The conformal quantile is then

@@ -19,7 +19,8 @@
 //! 3. a difficulty of each prediction ([`crate::difficulty`]: what the prediction itself says,
 //!    its speed, its turning, how far from the start's motion) is fitted per step on those
 //!    scores, each score divided by the difficulty fitted without its own fold, the
-//!    difficulty tempered by its out-of-fold calibration slope (off with
+//!    difficulty tempered by its out-of-fold calibration slope, its fit's ridge strength
+//!    the one whose held-out regions are the sharpest (off with
 //!    [`Calibrator::difficulty`] or [`Uncertainty::Horizon`]);
 //! 4. the region's shape: the model's covariance, or, where it gives smaller regions on
 //!    the held-out windows at the same coverage (geometric mean over the steps of the mean
