@@ -121,14 +121,18 @@ fn a_three_input_base_runs_the_whole_protocol_and_slip_blr_beats_naive() {
     let powertrain = &mut cut["model"]["model"]["powertrain"];
     powertrain["axes"].as_array_mut().unwrap().truncate(2);
     let edited = dir.path().join("cut.json");
-    std::fs::write(&edited, cut.to_string()).unwrap();
-    let e = user_error(&[
-        "predict",
-        "--model",
-        edited.to_str().unwrap(),
-        "--commands",
-        "x.csv",
-    ]);
+    // `predict` with the edited model file: the error it gives on loading it.
+    let refusal = |cut: &serde_json::Value| {
+        std::fs::write(&edited, cut.to_string()).unwrap();
+        user_error(&[
+            "predict",
+            "--model",
+            edited.to_str().unwrap(),
+            "--commands",
+            "x.csv",
+        ])
+    };
+    let e = refusal(&cut);
     assert!(e.contains("2 axis responses for limits of 3 axes"), "{e}");
     for limit in ["min", "max"] {
         cut["model"]["model"]["powertrain"]["limits"][limit]
@@ -136,14 +140,7 @@ fn a_three_input_base_runs_the_whole_protocol_and_slip_blr_beats_naive() {
             .unwrap()
             .truncate(2);
     }
-    std::fs::write(&edited, cut.to_string()).unwrap();
-    let e = user_error(&[
-        "predict",
-        "--model",
-        edited.to_str().unwrap(),
-        "--commands",
-        "x.csv",
-    ]);
+    let e = refusal(&cut);
     assert!(
         e.contains("the powertrain models 2 input axes; the vehicle has 3"),
         "{e}"

@@ -3,23 +3,13 @@
 
 use drive_models::powertrain::RateLimited;
 use drive_models::vehicles::Ackermann;
-use drive_samplers::{autorally, RobotSpec, RunnerConfig, RunnerState, StopReason};
-use drive_sim::{builtin_plants, simulate, CarParams, Simulation, SimulationConfig, Terrain};
+use drive_samplers::{autorally, RobotSpec, RunnerState, StopReason};
+use drive_sim::{builtin_plants, simulate, CarParams, Simulation, Terrain};
 use drive_traits::{PowertrainLearner, WindowSet};
 
 fn run(robot: RobotSpec, terrain: &str, intervals: usize, seed: u64) -> Simulation {
     let factory = crate::uniform(robot.clone(), seed);
-    let config = SimulationConfig {
-        robot,
-        terrain: Terrain::preset(terrain).unwrap(),
-        seed,
-        runner: RunnerConfig {
-            max_intervals: Some(intervals),
-            ..RunnerConfig::default()
-        },
-        events: vec![],
-        name: "car".into(),
-    };
+    let config = crate::config(robot, terrain, seed, intervals, "car");
     simulate(config, &builtin_plants(), factory, None).unwrap()
 }
 
@@ -188,17 +178,7 @@ fn a_car_whose_physics_cannot_be_integrated_stops_with_a_reason() {
     // A wheelbase of 1e308 m: the yaw inertia overflows at once.
     let mut robot = small_car();
     robot.vehicle = std::sync::Arc::new(Ackermann::new(1e308, 0.42));
-    let config = SimulationConfig {
-        robot,
-        terrain: Terrain::preset("gravel").unwrap(),
-        seed: 1,
-        runner: RunnerConfig {
-            max_intervals: Some(2),
-            ..RunnerConfig::default()
-        },
-        events: vec![],
-        name: "huge".into(),
-    };
+    let config = crate::config(robot, "gravel", 1, 2, "huge");
     let factory = crate::uniform(small_car(), 1);
     let Err(e) = simulate(config, &builtin_plants(), factory, None) else {
         panic!("no dataset from a diverged simulation");

@@ -3,22 +3,15 @@
 //! localization).
 
 use drive_data::{import_raw, parse_raw_log, write_raw_log, DropReason, ImportConfig, RAW_COLUMNS};
-use drive_samplers::{builtin_robots, RobotSpec, RunnerConfig};
-use drive_sim::{builtin_plants, simulate, Event, Simulation, SimulationConfig, Terrain};
+use drive_samplers::{builtin_robots, RobotSpec};
+use drive_sim::{builtin_plants, simulate, Event, Simulation, SimulationConfig};
 
 fn run(events: Vec<Event>, max_intervals: usize) -> Simulation {
     let robot = RobotSpec::load(&builtin_robots(), "husky").unwrap();
     let factory = crate::uniform(robot.clone(), 4);
     let config = SimulationConfig {
-        robot,
-        terrain: Terrain::preset("gravel").unwrap(),
-        seed: 4,
-        runner: RunnerConfig {
-            max_intervals: Some(max_intervals),
-            ..RunnerConfig::default()
-        },
         events,
-        name: "round-trip".into(),
+        ..crate::config(robot, "gravel", 4, max_intervals, "round-trip")
     };
     simulate(config, &builtin_plants(), factory, None).unwrap()
 }

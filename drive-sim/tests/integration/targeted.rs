@@ -2,11 +2,8 @@
 //! seen, and the protocol runner feeds it every completed interval.
 
 use drive_models::DifferentialDrive;
-use drive_samplers::{
-    build_sampler, builtin_robots, builtin_samplers, RobotSpec, RunnerConfig, SamplerContext,
-    Target, TargetedSampler, UniformSampler,
-};
-use drive_sim::{builtin_plants, simulate, SimulationConfig, Terrain};
+use drive_samplers::{builtin_robots, RobotSpec, Target, TargetedSampler, UniformSampler};
+use drive_sim::{builtin_plants, simulate};
 use drive_traits::{CommandModel, Input, InputSampler};
 
 fn husky() -> (RobotSpec, DifferentialDrive) {
@@ -17,27 +14,8 @@ fn husky() -> (RobotSpec, DifferentialDrive) {
 
 fn run(sampler: &'static str, intervals: usize, seed: u64) -> drive_sim::Simulation {
     let (robot, _) = husky();
-    let spec = robot.clone();
-    let samplers = builtin_samplers();
-    let factory = move |space| {
-        build_sampler(
-            &samplers,
-            sampler,
-            &SamplerContext::new(&spec, seed).over(space),
-        )
-        .unwrap()
-    };
-    let config = SimulationConfig {
-        robot,
-        terrain: Terrain::preset("gravel").unwrap(),
-        seed,
-        runner: RunnerConfig {
-            max_intervals: Some(intervals),
-            ..RunnerConfig::default()
-        },
-        events: vec![],
-        name: "targeted".into(),
-    };
+    let factory = crate::sampler(sampler, robot.clone(), seed);
+    let config = crate::config(robot, "gravel", seed, intervals, "targeted");
     simulate(config, &builtin_plants(), factory, None).unwrap()
 }
 
