@@ -62,6 +62,8 @@ pub(crate) const RIGHT_GAIN_RANGE: (f64, f64) = (0.5, 2.0);
 pub(crate) const MAX_VARIABILITY: f64 = 3.0;
 /// The localization mount's range: offsets (m) and yaw (rad).
 pub(crate) const MOUNT_RANGE: (f64, f64) = (10.0, 1.0);
+/// The widest jitter of the localization's timestamps (s).
+pub(crate) const MAX_ICP_JITTER_S: f64 = 1.0;
 /// The slowest localization rate (Hz).
 pub(crate) const MIN_ICP_RATE_HZ: f64 = 0.5;
 /// The correlation time's range, in windows: from 1/50 of a window to 50 windows.
@@ -144,6 +146,12 @@ pub fn fitted_parameters(t: &Terrain, window_s: f64) -> Vec<FittedParameter> {
         );
         push("sensors.icp_noise.position", s.icp_noise[0], None, None);
         push("sensors.icp_noise.yaw", s.icp_noise[1], None, None);
+        push(
+            "sensors.icp_jitter",
+            s.icp_jitter,
+            None,
+            Some(MAX_ICP_JITTER_S),
+        );
         let (offset, yaw) = MOUNT_RANGE;
         push(
             "sensors.icp_mount.forward",

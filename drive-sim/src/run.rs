@@ -161,12 +161,13 @@ pub fn simulate(
         let geometry: Arc<dyn CommandModel> =
             Arc::new(DifferentialDrive::new(nominal.wheel_radius, p.baseline));
         let mut inner = sampler;
+        let body_limits = p.body_limits;
         sampler = Box::new(move |space| {
-            Box::new(ProtocolSampler::new(
-                inner(space),
-                gain,
-                Arc::clone(&geometry),
-            ))
+            let s = ProtocolSampler::new(inner(space), gain, Arc::clone(&geometry));
+            Box::new(match body_limits {
+                Some(limits) => s.within(limits, nominal.clone()),
+                None => s,
+            })
         });
     }
     let samples = max_s * robot.rate_hz;

@@ -395,14 +395,18 @@ impl Terrain {
                 p.robot_baseline / 100.0,
                 100.0 * p.robot_baseline,
             )?;
-            for axis in p.input_limits {
+            let axes = p.input_limits.map(|a| ("protocol.input_limits", a));
+            let body = p
+                .body_limits
+                .map(|b| b.map(|a| ("protocol.body_limits", a)));
+            for (field, axis) in axes.into_iter().chain(body.into_iter().flatten()) {
                 if !(axis[0].is_finite()
                     && axis[1].is_finite()
                     && axis[0] < axis[1]
                     && axis[0].abs().max(axis[1].abs()) <= 1e6)
                 {
                     return Err(bad(
-                        "protocol.input_limits",
+                        field,
                         format!(
                             "each axis must be [min, max] with min < max, finite, got {axis:?}"
                         ),

@@ -10,6 +10,7 @@
 //! speed: a box in the nominal wheel speeds would command twice the forward speeds the real
 //! run did. Its commands also step at the start of an interval instead of ramping.
 
+use drive_models::DifferentialDrive;
 use drive_traits::{Input, InputSampler, InputSpace, RobotDescription, Window};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -31,6 +32,13 @@ pub struct TwinProtocol {
     /// Angular acceleration limit of the sent commands (rad/s^2); absent: commands step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_angular_acceleration: Option<f64>,
+    /// The rectangle of body velocities the protocol drew from, when it drew them there and
+    /// not wheel speeds in a box: `[[min, max] forward speed (m/s), [min, max] yaw rate
+    /// (rad/s)]`, in the robot's geometry (`robot_wheel_radius`, `robot_baseline`); draws of
+    /// `input_limits` (then its bounding box in wheel speeds) outside it are drawn again.
+    /// Absent: the box alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body_limits: Option<[[f64; 2]; 2]>,
     /// The wheel radius (m) of the robot the twin was fitted for (the data's).
     pub robot_wheel_radius: f64,
     /// The baseline (m) of the robot the twin was fitted for (the data's).
@@ -46,6 +54,7 @@ impl TwinProtocol {
     ///     input_limits: [[-6.0, 6.0], [-5.0, 6.5]],
     ///     max_linear_acceleration: None,
     ///     max_angular_acceleration: None,
+    ///     body_limits: None,
     ///     robot_wheel_radius: 0.165,
     ///     robot_baseline: 0.55,
     /// };
@@ -114,6 +123,8 @@ pub fn scale_difference(u: Input, gain: f64) -> Input {
 pub struct ProtocolSampler {
     inner: Box<dyn InputSampler>,
     gain: f64,
+    /// The body-velocity rectangle its draws must fall in, and the geometry that tells.
+    within: Option<([[f64; 2]; 2], DifferentialDrive)>,
     robot: Option<RobotDescription>,
     protocol_vehicle: Arc<dyn drive_traits::CommandModel>,
 }
@@ -129,15 +140,67 @@ impl ProtocolSampler {
         ProtocolSampler {
             inner,
             gain,
+            within: None,
             robot: None,
             protocol_vehicle,
         }
     }
 }
 
+impl ProtocolSampler {
+    /// Draws only inputs whose body velocity in `geometry` (the recorded commands') lies in
+    /// `limits` (`[[min, max] forward speed, [min, max] yaw rate]`, [`TwinProtocol::body_limits`]):
+    /// the others are drawn again (up to 10,000 times; then the last is moved into the
+    /// rectangle).
+    ///
+    /// ```
+    /// use drive_sim::ProtocolSampler;
+    /// use drive_models::DifferentialDrive;
+    /// use drive_traits::{Input, InputSampler, InputSpace};
+    /// let space = InputSpace::new(Input::new(-10.0, -10.0, 0.0), Input::new(10.0, 10.0, 0.0)).unwrap();
+    /// let inner = drive_samplers::UniformSampler::new(space, 7).unwrap();
+    /// let g = DifferentialDrive::new(0.3, 1.08);
+    /// let mut s = ProtocolSampler::new(Box::new(inner), 1.0, std::sync::Arc::new(g.clone()))
+    ///     .within([[-1.0, 1.0], [-0.5, 0.5]], g.clone());
+    /// for _ in 0..100 {
+    ///     let u = s.next_input();
+    ///     let (v, w) = (0.3 * (u.x + u.y) / 2.0, 0.3 * (u.y - u.x) / 1.08);
+    ///     assert!(v.abs() <= 1.0 + 1e-9 && w.abs() <= 0.5 + 1e-9);
+    /// }
+    /// ```
+    pub fn within(mut self, limits: [[f64; 2]; 2], geometry: DifferentialDrive) -> Self {
+        self.within = Some((limits, geometry));
+        self
+    }
+}
+
 impl InputSampler for ProtocolSampler {
     fn next_input(&mut self) -> Input {
-        scale_difference(self.inner.next_input(), self.gain)
+        let Some(([v_range, w_range], g)) = &self.within else {
+            return scale_difference(self.inner.next_input(), self.gain);
+        };
+        let body = |u: Input| {
+            [
+                g.wheel_radius * (u.x + u.y) / 2.0,
+                g.wheel_radius * (u.y - u.x) / g.baseline,
+            ]
+        };
+        let inside = |[v, w]: [f64; 2]| {
+            (v_range[0]..=v_range[1]).contains(&v) && (w_range[0]..=w_range[1]).contains(&w)
+        };
+        let mut u = scale_difference(self.inner.next_input(), self.gain);
+        for _ in 0..10_000 {
+            if inside(body(u)) {
+                return u;
+            }
+            u = scale_difference(self.inner.next_input(), self.gain);
+        }
+        let [v, w] = body(u);
+        let (v, w) = (
+            v.clamp(v_range[0], v_range[1]),
+            w.clamp(w_range[0], w_range[1]),
+        );
+        crate::ControllerParams::wheels([v, w], g.wheel_radius, g.baseline)
     }
 
     fn observe(&mut self, robot: &RobotDescription, interval: &[Window]) {

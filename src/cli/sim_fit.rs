@@ -177,8 +177,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             _ => "variability: none (fewer than 30 steady windows to measure it)\n".to_string(),
         };
         text += &format!(
-            "sensors: localization {:.1} Hz with {:.4} m and {:.4} rad noise, encoders {:.3} rad/s, IMU {:.4} rad/s with a {:+.4} rad/s bias\n",
-            s.icp_rate_hz, s.icp_noise[0], s.icp_noise[1], s.encoder_noise, s.imu_noise, s.imu_bias,
+            "sensors: localization {:.1} Hz with {:.4} m and {:.4} rad noise and timestamps jittering by up to {:.3} s, encoders {:.3} rad/s, IMU {:.4} rad/s with a {:+.4} rad/s bias\n",
+            s.icp_rate_hz, s.icp_noise[0], s.icp_noise[1], s.icp_jitter, s.encoder_noise, s.imu_noise, s.imu_bias,
         );
         let [[dv, dw], [tv, tw]] = r.motion;
         text += &format!(
@@ -250,9 +250,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         if let Some(q) = &t.protocol {
             let [[l0, l1], [r0, r1]] = q.input_limits;
             text += &format!(
-                "protocol: wheel speeds drawn in left [{l0:.2}, {l1:.2}] and right [{r0:.2}, {r1:.2}] rad/s with a {:.3} m baseline (the data's {:.3} m), commands {}\n",
+                "protocol: wheel speeds drawn in left [{l0:.2}, {l1:.2}] and right [{r0:.2}, {r1:.2}] rad/s with a {:.3} m baseline (the data's {:.3} m){}, commands {}\n",
                 q.baseline,
                 data_baseline(&data),
+                q.body_limits.map_or(String::new(), |[[v0, v1], [w0, w1]]| format!(
+                    " within forward speeds [{v0:.2}, {v1:.2}] m/s and yaw rates [{w0:.2}, {w1:.2}] rad/s"
+                )),
                 match (q.max_linear_acceleration, q.max_angular_acceleration) {
                     (Some(a), Some(b)) => format!("ramped at {a:.2} m/s^2 and {b:.2} rad/s^2"),
                     _ => "stepped".to_string(),

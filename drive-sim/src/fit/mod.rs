@@ -12,15 +12,15 @@
 //! 3. **Terrain** (steady windows): the body velocity the localization measured against the
 //!    one the simulated ground gives for the same wheel speeds (forward speed and yaw rate:
 //!    the steady-state slip in every input region the data covers).
-//! 4. **Sensors**: the localization's update rate and noise, the encoders' and the IMU's
+//! 4. **Sensors**: the localization's update rate, noise and timestamp jitter, the encoders' and the IMU's
 //!    noise and the IMU's bias, from the windows' residuals.
 //!
 //! 5. **Protocol**: the input space the real run sampled and whether its commands stepped
 //!    or ramped ([`TwinProtocol`]).
 
 use crate::parameters::{
-    CORRELATION_WINDOWS, MAX_DEAD_TIME_S, MAX_ROLLING, MAX_VARIABILITY, MIN_ICP_RATE_HZ,
-    MOUNT_RANGE, RIGHT_GAIN_RANGE, SLIP_MODULUS_RANGE, TRACTION_RANGE,
+    CORRELATION_WINDOWS, MAX_DEAD_TIME_S, MAX_ICP_JITTER_S, MAX_ROLLING, MAX_VARIABILITY,
+    MIN_ICP_RATE_HZ, MOUNT_RANGE, RIGHT_GAIN_RANGE, SLIP_MODULUS_RANGE, TRACTION_RANGE,
 };
 use crate::vehicle::{step_body, VehicleParams, VehicleState};
 use crate::{
@@ -522,8 +522,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     }
     // 4. Sensors.
     let mut held = Vec::new();
-    let (mut pos, mut yaw, mut enc, mut imu_sd, mut imu_bias) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut enc, mut imu_sd, mut imu_bias) = (Vec::new(), Vec::new(), Vec::new());
     for w in data
         .windows
         .iter()
@@ -532,16 +531,11 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         let n = w.len();
         let same = (1..n).filter(|&k| w.pose[k] == w.pose[k - 1]).count();
         held.push(same as f64 / (n - 1) as f64);
-        let xs: Vec<f64> = w.pose.iter().map(|p| p.x).collect();
-        let ys: Vec<f64> = w.pose.iter().map(|p| p.y).collect();
         let mut unwrapped = vec![w.pose[0].z];
         for k in 1..n {
             let last = unwrapped[k - 1];
             unwrapped.push(last + drive_traits::wrap_angle(w.pose[k].z - w.pose[k - 1].z));
         }
-        pos.push(detrended_sd(&xs, 2));
-        pos.push(detrended_sd(&ys, 2));
-        yaw.push(detrended_sd(&unwrapped, 2));
         let l: Vec<f64> = w.measured.iter().map(|m| m.x).collect();
         let r: Vec<f64> = w.measured.iter().map(|m| m.y).collect();
         enc.push(detrended_sd(&l, 1));
@@ -550,14 +544,15 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         let rate = (unwrapped[n - 1] - unwrapped[0]) / ((n - 1) as f64 * dt);
         imu_bias.push(mean(w.imu_yaw_rate.iter().copied()) - rate);
     }
+    let (icp_noise, icp_jitter) = localization_noise(data);
     let sensors = Sensors {
         icp_mount: localization_mount(data),
         encoder_noise: median(enc),
         icp_rate_hz: (data.robot.rate_hz * (1.0 - median(held)))
             .clamp(MIN_ICP_RATE_HZ, data.robot.rate_hz),
-        icp_noise: [median(pos), median(yaw)],
+        icp_noise,
         icp_latency: 0.0,
-        icp_jitter: 0.0,
+        icp_jitter: icp_jitter.min(MAX_ICP_JITTER_S),
         imu_noise: median(imu_sd),
         imu_bias: median(imu_bias),
     };

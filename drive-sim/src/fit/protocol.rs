@@ -1,5 +1,6 @@
 //! Stage 5: the protocol the real run followed, the box it drew from in the geometry that
-//! makes its draws fill their bounding box, and whether its commands stepped or ramped.
+//! makes its draws fill their bounding box, the rectangle of body velocities they span, and
+//! whether its commands stepped or ramped.
 
 use super::*;
 
@@ -12,7 +13,11 @@ use super::*;
 /// rate `w`, whose covariance `var v - b_p^2 var w / 4` vanishes at `b_p = 2 sd(v) / sd(w)`.
 /// From there, the baseline whose draws fill their bounding box best (see
 /// [`tightest_box`]). The box's bounds are the draws' extremes widened by one expected gap (range / (n - 1)),
-/// the unbiased estimate of a uniform's bounds. The commands step when, in most transient
+/// the unbiased estimate of a uniform's bounds. The draws' body velocities, widened alike,
+/// bound the draws too ([`TwinProtocol::body_limits`]): a protocol that drew body
+/// velocities in a rectangle (or capped the forward speed and yaw rate) fills it, and the
+/// twin draws in the box and the rectangle both; on a box's draws the rectangle cuts
+/// only the box's corners. The commands step when, in most transient
 /// windows whose command changed, one tick carries 90% of the change; otherwise they ramp,
 /// at the largest body accelerations the transients show.
 pub(super) fn fit_protocol(data: &Dataset, g: &DifferentialDrive) -> TwinProtocol {
@@ -72,6 +77,23 @@ pub(super) fn fit_protocol(data: &Dataset, g: &DifferentialDrive) -> TwinProtoco
     }
     let gap = (hi - lo) / (draws.len().max(2) - 1) as f64;
     let (lo, hi) = (lo - gap, hi + gap);
+    // The rectangle of body velocities the draws span, widened alike: a protocol that drew
+    // body velocities (or capped them) fills it, one that drew wheel speeds in a box spans
+    // it only at the box's corners, where it cuts nothing.
+    let mut rectangle = [[f64::INFINITY, f64::NEG_INFINITY]; 2];
+    for &u in &draws {
+        for (axis, x) in body(u).into_iter().enumerate() {
+            rectangle[axis] = [rectangle[axis][0].min(x), rectangle[axis][1].max(x)];
+        }
+    }
+    let rectangle = rectangle.map(|[a, b]| {
+        let gap = (b - a) / (draws.len().max(2) - 1) as f64;
+        [a - gap, b + gap]
+    });
+    let body_limits = rectangle
+        .iter()
+        .all(|[a, b]| a.is_finite() && b.is_finite() && a < b)
+        .then_some(rectangle);
     // Stepped or ramped: the share of a transient's change its largest tick carries.
     let (mut stepped, mut changed) = (0usize, 0usize);
     let (mut dv, mut dw) = (Vec::new(), Vec::new());
@@ -117,6 +139,7 @@ pub(super) fn fit_protocol(data: &Dataset, g: &DifferentialDrive) -> TwinProtoco
         input_limits: [[lo.x, hi.x], [lo.y, hi.y]],
         max_linear_acceleration: if ramped { largest(dv) } else { None },
         max_angular_acceleration: if ramped { largest(dw) } else { None },
+        body_limits,
         robot_wheel_radius: g.wheel_radius,
         robot_baseline: g.baseline,
     }

@@ -34,3 +34,191 @@ pub(super) fn localization_mount(data: &Dataset) -> [f64; 3] {
         _ => [0.0; 3],
     }
 }
+
+/// The localization's noise (position m, yaw rad) and the jitter of its timestamps (s,
+/// the width of [`Sensors::icp_jitter`](crate::Sensors::icp_jitter)'s uniform draw), from
+/// the steady windows' updates (the samples where the pose changed: a held pose is the
+/// update rate's, not noise).
+///
+/// A pose stamped `d` seconds off is off by `w d` in yaw and `v d` along the path, so the
+/// updates' spread around each window's steady motion grows with its speed, as real
+/// localizations' do (on the released Warthog runs, from under 0.01 rad turning slowly to
+/// over 0.1 rad at 2 rad/s). Per window, the yaw's variance around a parabola in time (which
+/// follows a motion still settling) is `s_yaw^2 + w^2 var(d)`: fitted non-negative by least squares over the windows, then again without
+/// the windows more than three times above the first fit (a localization's occasional jumps,
+/// which would otherwise set the noise of every update). The position noise is the median,
+/// over the windows that turn less than 0.5 rad (where a parabola in time follows the arc),
+/// of what the timing leaves of the positions' variance around a parabola, `(var -
+/// v^2 var(d)) / 2` per axis. The uniform draw's width is `sqrt(12 var(d))`.
+pub(super) fn localization_noise(data: &Dataset) -> ([f64; 2], f64) {
+    let dt = 1.0 / data.robot.rate_hz;
+    // (yaw rate squared, the yaw's variance) and (speed squared, the positions' variance).
+    let (mut yaw_rows, mut position_rows) = (Vec::new(), Vec::new());
+    for w in data
+        .windows
+        .iter()
+        .filter(|w| w.phase == Phase::Steady && w.len() > 4)
+    {
+        let n = w.len();
+        let mut unwrapped = vec![w.pose[0].z];
+        for k in 1..n {
+            let last = unwrapped[k - 1];
+            unwrapped.push(last + drive_traits::wrap_angle(w.pose[k].z - w.pose[k - 1].z));
+        }
+        let fresh: Vec<usize> = (0..n)
+            .filter(|&k| k == 0 || w.pose[k] != w.pose[k - 1])
+            .collect();
+        if fresh.len() < 6 {
+            continue;
+        }
+        let t: Vec<f64> = fresh.iter().map(|&k| k as f64 * dt).collect();
+        let at = |f: &dyn Fn(usize) -> f64| -> Vec<f64> { fresh.iter().map(|&k| f(k)).collect() };
+        let Some((yaw_var, rate)) = polynomial_fit(&t, &at(&|k| unwrapped[k]), 2) else {
+            continue;
+        };
+        yaw_rows.push((rate * rate, yaw_var));
+        if (unwrapped[n - 1] - unwrapped[0]).abs() <= 0.5 {
+            let xs = polynomial_fit(&t, &at(&|k| w.pose[k].x), 2);
+            let ys = polynomial_fit(&t, &at(&|k| w.pose[k].y), 2);
+            if let (Some((vx, _)), Some((vy, _))) = (xs, ys) {
+                let [v, _] = window_motion(&w.pose, dt);
+                position_rows.push((v * v, vx + vy));
+            }
+        }
+    }
+    let first = nonnegative_line(yaw_rows.iter().copied());
+    let [yaw_var, timing_var] = nonnegative_line(
+        yaw_rows
+            .iter()
+            .copied()
+            .filter(|&(x, y)| y <= 3.0 * (first[0] + first[1] * x)),
+    );
+    let position_var = median(
+        position_rows
+            .iter()
+            .map(|&(x, y)| (y - timing_var * x).max(0.0) / 2.0)
+            .collect(),
+    );
+    (
+        [position_var.sqrt(), yaw_var.sqrt()],
+        (12.0 * timing_var).sqrt(),
+    )
+}
+
+/// The non-negative intercept and slope `[a, b]` of the least-squares line `y = a + b x`
+/// through `points`; zeros without points.
+fn nonnegative_line(points: impl Iterator<Item = (f64, f64)>) -> [f64; 2] {
+    let (mut n, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (x, y) in points {
+        n += 1.0;
+        sx += x;
+        sy += y;
+        sxx += x * x;
+        sxy += x * y;
+    }
+    if n == 0.0 {
+        return [0.0; 2];
+    }
+    let det = n * sxx - sx * sx;
+    let (a, b) = if det > 1e-12 * n * sxx.max(1e-300) {
+        ((sxx * sy - sx * sxy) / det, (n * sxy - sx * sy) / det)
+    } else {
+        (sy / n, 0.0)
+    };
+    if a >= 0.0 && b >= 0.0 {
+        [a, b]
+    } else if b < 0.0 || sxx == 0.0 {
+        // The slope would be negative: the mean alone.
+        [(sy / n).max(0.0), 0.0]
+    } else {
+        // The intercept would be negative: a line through the origin.
+        [0.0, (sxy / sxx).max(0.0)]
+    }
+}
+
+/// The residual variance (sum of squares over `n - degree - 1`) of `y`'s least-squares
+/// polynomial of `degree` (1 or 2) in `t`, and its slope at the mean `t`; `None` with too
+/// few points or a singular fit.
+fn polynomial_fit(t: &[f64], y: &[f64], degree: usize) -> Option<(f64, f64)> {
+    use drive_traits::nalgebra::{DMatrix, DVector};
+    let n = t.len();
+    let cols = degree + 1;
+    if n <= cols {
+        return None;
+    }
+    let t0 = t.iter().sum::<f64>() / n as f64;
+    let a = DMatrix::from_fn(n, cols, |i, j| (t[i] - t0).powi(j as i32));
+    let b = DVector::from_column_slice(y);
+    let sol = a.clone().svd(true, true).solve(&b, 1e-12).ok()?;
+    let r = b - &a * &sol;
+    Some((r.norm_squared() / (n - cols) as f64, sol[1]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive_samplers::{builtin_robots, RobotSpec};
+
+    /// A 150-interval run of the Husky on gravel with the localization's `sensors`.
+    fn run(sensors: Sensors) -> Dataset {
+        let robot = RobotSpec::load(&builtin_robots(), "husky").unwrap();
+        let terrain = Terrain {
+            sensors: Some(sensors),
+            ..Terrain::preset("gravel").unwrap()
+        };
+        let config = SimulationConfig {
+            robot: robot.clone(),
+            terrain,
+            seed: 5,
+            runner: RunnerConfig {
+                max_intervals: Some(150),
+                ..RunnerConfig::default()
+            },
+            events: Vec::new(),
+            name: "noise".into(),
+        };
+        let sampler = move |space| -> Box<dyn InputSampler> {
+            // A characterized input space is not empty.
+            Box::new(UniformSampler::new(space, 5).unwrap())
+        };
+        simulate(config, &builtin_plants(), sampler, None)
+            .unwrap()
+            .dataset
+    }
+
+    #[test]
+    fn the_timestamps_jitter_is_told_from_the_noise() {
+        let quiet = Sensors {
+            icp_noise: [0.01, 0.004],
+            ..Sensors::default()
+        };
+        // Without jitter, next to none; the noise is the generator's.
+        let ([position, yaw], jitter) = localization_noise(&run(quiet));
+        assert!(jitter < 0.04, "{jitter}");
+        assert!((position - 0.01).abs() < 0.003, "{position}");
+        assert!((yaw - 0.004).abs() < 0.0015, "{yaw}");
+        // With a 0.3 s jitter the spread grows with the speed, and the noise stays.
+        let jittery = Sensors {
+            icp_jitter: 0.3,
+            ..quiet
+        };
+        let ([position, yaw], jitter) = localization_noise(&run(jittery));
+        assert!((jitter - 0.3).abs() < 0.06, "{jitter}");
+        assert!((position - 0.01).abs() < 0.005, "{position}");
+        // The Husky turns slowly: some of the timing's spread goes to the yaw's noise.
+        assert!(yaw < 0.015, "{yaw}");
+    }
+
+    #[test]
+    fn a_nonnegative_line_falls_back_to_a_mean_or_the_origin() {
+        let line = |p: &[(f64, f64)]| nonnegative_line(p.iter().copied());
+        assert_eq!(line(&[(0.0, 1.0), (1.0, 3.0)]), [1.0, 2.0]);
+        // A falling line: the mean alone.
+        assert_eq!(line(&[(0.0, 3.0), (1.0, 1.0)]), [2.0, 0.0]);
+        // A negative intercept: through the origin, (1 * 1 + 2 * 3) / (1 + 4).
+        let [a, b] = line(&[(1.0, 1.0), (2.0, 3.0)]);
+        assert_eq!(a, 0.0);
+        assert!((b - 1.4).abs() < 1e-12);
+        assert_eq!(line(&[]), [0.0, 0.0]);
+    }
+}

@@ -294,7 +294,11 @@ pub(super) fn fit_variability(
             column[axis] = (got[axis] - vb[axis]).max(0.0) / (probe * probe) / vr[axis];
         }
     }
-    let variances = nonnegative_fit(&columns, [excess[0] / vr[0], excess[1] / vr[1]]);
+    let variances = nonnegative_fit(
+        &columns,
+        [excess[0] / vr[0], excess[1] / vr[1]],
+        MAX_VARIABILITY * MAX_VARIABILITY,
+    );
     // One correction for what the response's curvature leaves: all variances scaled by the
     // factor that best matches the excess.
     let sd = variances.map(f64::sqrt);
@@ -319,9 +323,12 @@ pub(super) fn fit_variability(
     Ok((Some(variability), report(twin.scatter()?), twin.motion))
 }
 
-/// Non-negative `x` (3) minimizing `|sum_j x_j columns[j] - target|` in two dimensions: the
-/// best of the one- and two-column least-squares solutions that are non-negative.
-pub(super) fn nonnegative_fit(columns: &[[f64; 2]; 3], target: [f64; 2]) -> [f64; 3] {
+/// Non-negative `x` (3), each at most `cap`, minimizing `|sum_j x_j columns[j] - target|` in
+/// two dimensions: the best of the one- and two-column least-squares solutions, each
+/// non-negative and brought within `cap`. (Unbounded, a column that barely moves the
+/// scatter would be given a huge variance to reach the target exactly: a process the
+/// simulator cannot run, which is then cut to its cap and misses.)
+pub(super) fn nonnegative_fit(columns: &[[f64; 2]; 3], target: [f64; 2], cap: f64) -> [f64; 3] {
     let miss = |x: &[f64; 3]| {
         (0..2)
             .map(|i| {
@@ -333,6 +340,7 @@ pub(super) fn nonnegative_fit(columns: &[[f64; 2]; 3], target: [f64; 2]) -> [f64
     let mut best = ([0.0; 3], miss(&[0.0; 3]));
     let mut consider = |x: [f64; 3]| {
         if x.iter().all(|v| v.is_finite() && *v >= 0.0) {
+            let x = x.map(|v| v.min(cap));
             let m = miss(&x);
             if m < best.1 {
                 best = (x, m);
@@ -370,4 +378,26 @@ pub struct ScatterFit {
     pub without: Scatter,
     /// The fitted twin's.
     pub twin: Scatter,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_column_that_barely_moves_the_scatter_is_not_stretched_past_its_cap() {
+        // What the variability stage measured on a run whose turning resistance varies,
+        // localized with a jittery clock: traction and lateral move both scatters alike,
+        // rolling the yaw rate's a little; the forward speed's needs nothing more.
+        let columns = [[2.63, 10.85], [2.38, 9.24], [0.0, 0.0157]];
+        let target = [0.0, 0.872];
+        // Unbounded, rolling alone would reach the target with a variance of 55.
+        let unbounded = nonnegative_fit(&columns, target, f64::INFINITY);
+        assert!(unbounded[2] > 50.0, "{unbounded:?}");
+        // Within the simulator's cap (a log standard deviation of 3), traction alone is the
+        // fit (lateral alone misses by a little more): its least-squares variance.
+        let x = nonnegative_fit(&columns, target, 9.0);
+        assert_eq!((x[1], x[2]), (0.0, 0.0), "{x:?}");
+        assert!((x[0] - 10.85 * 0.872 / (2.63f64.powi(2) + 10.85f64.powi(2))).abs() < 1e-9);
+    }
 }

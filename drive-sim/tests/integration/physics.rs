@@ -149,6 +149,7 @@ fn terrain_files_round_trip_and_refuse_bad_values() {
         input_limits: [[-10.0, 10.0], [-9.0, 11.0]],
         max_linear_acceleration: None,
         max_angular_acceleration: Some(4.0),
+        body_limits: Some([[-1.0, 1.5], [-2.0, 2.0]]),
         robot_wheel_radius: 0.165,
         robot_baseline: 0.55,
     });
@@ -172,6 +173,10 @@ fn terrain_files_round_trip_and_refuse_bad_values() {
         (
             text.replace("[-9.0, 11.0]", "[11.0, -9.0]"),
             "protocol.input_limits",
+        ),
+        (
+            text.replace("[-2.0, 2.0]", "[2.0, inf]"),
+            "protocol.body_limits",
         ),
         (
             text.replace("baseline = 0.3", "baseline = 0.0"),
