@@ -32,11 +32,12 @@ pub struct TwinProtocol {
     /// Angular acceleration limit of the sent commands (rad/s^2); absent: commands step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_angular_acceleration: Option<f64>,
-    /// The rectangle of body velocities the protocol drew from, when it drew them there and
-    /// not wheel speeds in a box: `[[min, max] forward speed (m/s), [min, max] yaw rate
-    /// (rad/s)]`, in the robot's geometry (`robot_wheel_radius`, `robot_baseline`); draws of
-    /// `input_limits` (then its bounding box in wheel speeds) outside it are drawn again.
-    /// Absent: the box alone.
+    /// The rectangle of body velocities the protocol's draws span: `[[min, max] forward
+    /// speed (m/s), [min, max] yaw rate (rad/s)]`, in the robot's geometry
+    /// (`robot_wheel_radius`, `robot_baseline`). Draws of `input_limits` outside it are drawn
+    /// again: a protocol that drew body velocities in a rectangle (or capped them) is
+    /// followed, and on a box's draws the rectangle cuts only the box's corners. Absent: the
+    /// box alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub body_limits: Option<[[f64; 2]; 2]>,
     /// The wheel radius (m) of the robot the twin was fitted for (the data's).
@@ -145,9 +146,7 @@ impl ProtocolSampler {
             protocol_vehicle,
         }
     }
-}
 
-impl ProtocolSampler {
     /// Draws only inputs whose body velocity in `geometry` (the recorded commands') lies in
     /// `limits` (`[[min, max] forward speed, [min, max] yaw rate]`, [`TwinProtocol::body_limits`]):
     /// the others are drawn again (up to 10,000 times; then the last is moved into the
