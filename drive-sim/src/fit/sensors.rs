@@ -44,9 +44,10 @@ pub(super) fn localization_mount(data: &Dataset) -> [f64; 3] {
 /// updates' spread around each window's steady motion grows with its speed, as real
 /// localizations' do (on the released Warthog runs, from under 0.01 rad turning slowly to
 /// over 0.1 rad at 2 rad/s). Per window, the yaw's variance around a parabola in time (which
-/// follows a motion still settling) is `s_yaw^2 + w^2 var(d)`: fitted non-negative by least squares over the windows, then again without
-/// the windows more than three times above the first fit (a localization's occasional jumps,
-/// which would otherwise set the noise of every update). The position noise is the median,
+/// follows a motion still settling) is `s_yaw^2 + w^2 var(d)`: fitted non-negative by least
+/// squares over the windows, then again without the windows more than three times above the
+/// first fit (a localization's occasional jumps, which would otherwise set the noise of
+/// every update). The position noise is the median,
 /// over the windows that turn less than 0.5 rad (where a parabola in time follows the arc),
 /// of what the timing leaves of the positions' variance around a parabola, `(var -
 /// v^2 var(d)) / 2` per axis. The uniform draw's width is `sqrt(12 var(d))`.
@@ -76,13 +77,18 @@ pub(super) fn localization_noise(data: &Dataset) -> ([f64; 2], f64) {
         let Some((yaw_var, rate)) = polynomial_fit(&t, &at(&|k| unwrapped[k]), 2) else {
             continue;
         };
+        if !(rate.is_finite() && yaw_var.is_finite()) {
+            continue;
+        }
         yaw_rows.push((rate * rate, yaw_var));
         if (unwrapped[n - 1] - unwrapped[0]).abs() <= 0.5 {
             let xs = polynomial_fit(&t, &at(&|k| w.pose[k].x), 2);
             let ys = polynomial_fit(&t, &at(&|k| w.pose[k].y), 2);
             if let (Some((vx, _)), Some((vy, _))) = (xs, ys) {
                 let [v, _] = window_motion(&w.pose, dt);
-                position_rows.push((v * v, vx + vy));
+                if (v * v + vx + vy).is_finite() {
+                    position_rows.push((v * v, vx + vy));
+                }
             }
         }
     }
