@@ -12,8 +12,8 @@
 //! 3. **Terrain** (steady windows): the body velocity the localization measured against the
 //!    one the simulated ground gives for the same wheel speeds (forward speed and yaw rate:
 //!    the steady-state slip in every input region the data covers).
-//! 4. **Sensors**: the localization's update rate, noise and timestamp jitter, the encoders' and the IMU's
-//!    noise and the IMU's bias, from the windows' residuals.
+//! 4. **Sensors**: the localization's update rate, noise and timestamp jitter, the
+//!    encoders' and the IMU's noise and the IMU's bias, from the windows' residuals.
 //!
 //! 5. **Protocol**: the input space the real run sampled and whether its commands stepped
 //!    or ramped ([`TwinProtocol`]).
