@@ -65,6 +65,50 @@ impl TrackerConfig {
             history_s: 0.5,
         }
     }
+
+    /// The speed and the goal tolerance checked, and `path` against them: what
+    /// [`Tracker::new`] refuses before it builds a controller, to be asked before any other
+    /// work. Returns the goal tolerance (m).
+    ///
+    /// ```
+    /// use drive_control::{ReferencePath, TrackerConfig};
+    /// let path = ReferencePath::from_csv("short", "x,y\n0,0\n0.1,0\n").unwrap();
+    /// let err = TrackerConfig::new(0.5).check_path(&path).unwrap_err();
+    /// assert!(err.to_string().contains("give a longer path"));
+    /// let metre = ReferencePath::from_csv("metre", "x,y\n0,0\n1,0\n").unwrap();
+    /// assert_eq!(TrackerConfig::new(1.0).check_path(&metre).unwrap(), 0.5);
+    /// ```
+    pub fn check_path(&self, path: &ReferencePath) -> Result<f64, ControlError> {
+        let speed = self.speed;
+        if !(speed.is_finite() && speed > 0.0) {
+            return Err(ControlError::BadSetting {
+                field: "speed",
+                message: format!("{speed} m/s is not a positive speed"),
+            });
+        }
+        let goal_tolerance = match self.goal_tolerance {
+            Some(g) if !(g.is_finite() && g > 0.0) => {
+                return Err(ControlError::BadSetting {
+                    field: "goal_tolerance",
+                    message: format!("{g} m is not a positive distance"),
+                })
+            }
+            Some(g) => g,
+            None => (speed * 0.5).max(0.2),
+        };
+        if path.length() <= goal_tolerance {
+            return Err(ControlError::BadSetting {
+                field: "path",
+                message: format!(
+                    "'{}' is {} m long, no longer than the distance within which its end counts as reached ({} m): give a longer path",
+                    path.name(),
+                    drive_traits::limits::Short(path.length()),
+                    drive_traits::limits::Short(goal_tolerance)
+                ),
+            });
+        }
+        Ok(goal_tolerance)
+    }
 }
 
 /// What one tick did.
@@ -156,34 +200,8 @@ impl Tracker {
         config: TrackerConfig,
         vehicle: Arc<dyn CommandModel>,
     ) -> Result<Self, ControlError> {
+        let goal_tolerance = config.check_path(&path)?;
         let speed = config.speed;
-        if !(speed.is_finite() && speed > 0.0) {
-            return Err(ControlError::BadSetting {
-                field: "speed",
-                message: format!("{speed} m/s is not a positive speed"),
-            });
-        }
-        let goal_tolerance = match config.goal_tolerance {
-            Some(g) if !(g.is_finite() && g > 0.0) => {
-                return Err(ControlError::BadSetting {
-                    field: "goal_tolerance",
-                    message: format!("{g} m is not a positive distance"),
-                })
-            }
-            Some(g) => g,
-            None => (speed * 0.5).max(0.2),
-        };
-        if path.length() <= goal_tolerance {
-            return Err(ControlError::BadSetting {
-                field: "path",
-                message: format!(
-                    "'{}' is {} m long, no longer than the distance within which its end counts as reached ({} m): give a longer path",
-                    path.name(),
-                    drive_traits::limits::Short(path.length()),
-                    drive_traits::limits::Short(goal_tolerance)
-                ),
-            });
-        }
         let dt = 1.0 / setup.robot.rate_hz;
         if !(config.history_s.is_finite() && (0.0..=10.0).contains(&config.history_s)) {
             return Err(ControlError::BadSetting {

@@ -13,17 +13,25 @@ pub struct Args {
     /// mass and build; the geometry is the data's.
     #[arg(long)]
     robot: String,
-    /// Output terrain TOML (`drive simulate --terrain FILE`).
+    /// Output terrain TOML (`drive simulate --terrain FILE`). Optional with --twin (the
+    /// checked twin is then written only when given).
+    #[arg(long, required_unless_present = "twin")]
+    out: Option<PathBuf>,
+    /// Check this twin (a terrain TOML file, e.g. one `sim-fit` wrote, or a preset's name)
+    /// against the data instead of fitting one: the same check and the same refusal, in a
+    /// fraction of the time. A twin fitted on one run, checked on another run of the same
+    /// robot and terrain, says whether it holds beyond the run it was fitted on.
     #[arg(long)]
-    out: PathBuf,
+    twin: Option<String>,
     /// The twin's name (default: the dataset's name and "twin").
     #[arg(long)]
     name: Option<String>,
     /// Print the fit as JSON on stdout: `parameters` (each fitted parameter with `name`,
     /// `value`, its range and `at_bound`), `check` (per model: `real_translational_m`,
     /// `twin_translational_m`, `real_rotational_rad`, `twin_rotational_rad`), `scatter`,
-    /// `poor`, `written`, and the twin (`terrain`) and the fit's `report`. A twin refused
-    /// by the check is printed too, with `"written": false`, and the command fails.
+    /// `poor`, `written`, `fitted` (false with --twin), and the twin (`terrain`) and the
+    /// fit's `report` (absent with --twin). A twin refused by the check is printed too, with
+    /// `"written": false`, and the command fails.
     #[arg(long)]
     json: bool,
     /// Write the twin even when the check finds a median (naive, powertrain, slip-blr,
@@ -46,8 +54,10 @@ struct Output<'a> {
     poor: &'a [String],
     scatter_off: &'a [String],
     written: bool,
+    fitted: bool,
     terrain: &'a crate::sim::Terrain,
-    report: &'a crate::sim::SimFitReport,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    report: Option<&'a crate::sim::SimFitReport>,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
@@ -61,13 +71,27 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             );
         }
     }
-    if args.out.is_dir() {
-        anyhow::bail!("cannot write {}: it is a directory", args.out.display());
+    if let Some(out) = args.out.as_ref().filter(|o| o.is_dir()) {
+        anyhow::bail!("cannot write {}: it is a directory", out.display());
+    }
+    if args.twin.is_some() && args.name.is_some() {
+        anyhow::bail!("--name names a fitted twin; a checked twin (--twin) keeps its own name");
     }
     let mut inputs = args.data.inputs();
     inputs.extend(robot_input(&args.robot));
-    let mut outputs = outputs_for(&inputs, &[("--out", &args.out)])?;
+    if let Some(twin) = &args.twin {
+        inputs.extend(super::common::terrain_input("--twin", twin));
+    }
+    let planned: Vec<(&str, &std::path::Path)> =
+        args.out.iter().map(|o| ("--out", o.as_path())).collect();
+    let mut outputs = outputs_for(&inputs, &planned)?;
     let spec = registries.robot(&args.robot)?;
+    // A twin to check is read before the data: a mistyped name fails at once.
+    let given = args
+        .twin
+        .as_deref()
+        .map(|t| registries.terrain(t))
+        .transpose()?;
     let data = load(registries, &args.data)?;
     let name = args
         .name
@@ -82,17 +106,25 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         crate::traits::limits::MAX_SEEDS as f64,
         "",
     )?;
-    let fit = crate::sim::sim_fit(&data, &spec, &name)?;
+    // The twin: fitted on the data, or the one given to check.
+    let (terrain, report) = match given {
+        Some(terrain) => (terrain, None),
+        None => {
+            let fit = crate::sim::sim_fit(&data, &spec, &name)?;
+            (fit.terrain, Some(fit.report))
+        }
+    };
     // The twin check: the twin's runs against the real one.
     let models = registries
         .models()
         .resolve_list(&crate::eval::TWIN_CHECK_MODELS)?;
     let seeds: Vec<u64> = (1..=args.check_seeds as u64).collect();
-    let check = crate::eval::twin_check(registries, &data, &spec, &fit.terrain, &seeds, &models)?;
+    let check = crate::eval::twin_check(registries, &data, &spec, &terrain, &seeds, &models)?;
     let window_s = data.robot.window_len as f64 / data.robot.rate_hz;
-    let parameters = crate::sim::fitted_parameters(&fit.terrain, window_s);
+    let parameters = crate::sim::fitted_parameters(&terrain, window_s);
     let poor = !check.poor.is_empty();
-    let written = !poor || args.allow_poor_twin;
+    let accepted = !poor || args.allow_poor_twin;
+    let written = accepted && args.out.is_some();
     let output = Output {
         parameters,
         check: &check.check,
@@ -102,94 +134,51 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         poor: &check.poor,
         scatter_off: &check.scatter_off,
         written,
-        terrain: &fit.terrain,
-        report: &fit.report,
+        fitted: report.is_some(),
+        terrain: &terrain,
+        report: report.as_ref(),
     };
-    if !written {
+    if !accepted {
         // A refused twin's fit and check are still printed with --json (`"written": false`):
         // what to look at before deciding on --allow-poor-twin.
         if args.json {
             outln!("{}", serde_json::to_string(&output)?);
         }
         anyhow::bail!(
-            "the twin was not written: it does not drive like the real run within {:.0}%: {}; write it anyway with --allow-poor-twin",
+            "the twin {}: it does not drive like the real run within {:.0}%: {}; {} anyway with --allow-poor-twin",
+            if args.out.is_some() { "was not written" } else { "fails its check" },
             100.0 * check.tolerance,
-            check.poor.join("; ")
+            check.poor.join("; "),
+            if args.out.is_some() { "write it" } else { "accept it" },
         );
     }
-    outputs.write(&args.out, fit.terrain.to_toml())?;
-    outputs.publish()?;
+    if let Some(out) = &args.out {
+        outputs.write(out, terrain.to_toml())?;
+        outputs.publish()?;
+    }
     if poor {
         super::common::note(format!(
-            "note: a poor twin, written with --allow-poor-twin: {}",
+            "note: a poor twin, {} with --allow-poor-twin: {}",
+            if written { "written" } else { "accepted" },
             check.poor.join("; ")
         ));
     }
     emit(args.json, &output, |o| {
         let t = o.terrain;
-        let r = o.report;
-        let c = t.controller.unwrap_or_default();
-        // sim_fit always fits the powertrain.
-        let p = t.powertrain.expect("a fitted twin has a powertrain");
-        let s = t.sensors.unwrap_or_default();
-        let limit =
-            |a: Option<f64>, unit: &str| a.map_or("none".to_string(), |a| format!("{a:.2} {unit}"));
-        let mut text = format!(
-            "twin '{}' of {} fitted on {} steady and {} transient windows; saved to {}\n",
-            t.name,
-            data.robot.name,
-            r.steady_windows,
-            r.transient_windows,
-            args.out.display()
-        );
-        text += &format!(
-            "controller: linear gain {:.3}, angular gain {:.3}, max {:.3} m/s and {:.3} rad/s, acceleration limits {} and {}; wheel limit {:.2} rad/s, right side x{:.3} (steady encoders RMS {:.3} rad/s)\n",
-            c.linear_gain,
-            c.angular_gain,
-            c.max_linear.unwrap_or(f64::INFINITY),
-            c.max_angular.unwrap_or(f64::INFINITY),
-            limit(c.max_linear_acceleration, "m/s^2"),
-            limit(c.max_angular_acceleration, "rad/s^2"),
-            p.wheel_limit,
-            p.right_gain,
-            r.controller_rms,
-        );
-        text += &format!(
-            "powertrain: time constant {:.3} s rising, {:.3} s falling, dead time {:.3} s (transient encoders RMS {:.3} rad/s)\n",
-            p.time_constant[0], p.time_constant[1], p.dead_time, r.powertrain_rms,
-        );
-        let [[sv, sw], [tv, tw]] = r.terrain_rms;
-        let [[sv0, sw0], [tv0, tw0]] = r.terrain_rms_start;
-        text += &format!(
-            "ground: traction {:.3}, lateral {:.3}, slip modulus {:.3}, rolling {:.3} (body velocity RMS {sv:.3} m/s and {sw:.3} rad/s steady, {tv:.3} and {tw:.3} transient; from the gravel preset {sv0:.3}, {sw0:.3}, {tv0:.3}, {tw0:.3})\n",
-            t.traction, t.lateral, t.slip_modulus, t.rolling,
-        );
-        text += &match (&t.variability, &r.scatter) {
-            (Some(v), Some(sc)) => format!(
-                "variability: traction {:.3}, lateral {:.3}, rolling {:.3} (log standard deviations), correlation time {:.2} s (steady scatter {:.3} m/s and {:.3} rad/s; the twin's {:.3} and {:.3}, {:.3} and {:.3} without)\n",
-                v.traction, v.lateral, v.rolling, v.correlation_time,
-                sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1], sc.without.rms[0], sc.without.rms[1],
+        let saved = args
+            .out
+            .as_ref()
+            .filter(|_| o.written)
+            .map_or(String::new(), |out| format!("; saved to {}", out.display()));
+        let mut text = match o.report {
+            Some(r) => fit_text(t, r, &data, &saved),
+            None => format!(
+                "twin '{}' ({}) checked against {}, not fitted{saved}\n",
+                t.name,
+                args.twin.as_deref().unwrap_or_default(),
+                data.robot.name,
             ),
-            (None, Some(sc)) => format!(
-                "variability: none (steady scatter {:.3} m/s and {:.3} rad/s; the twin's already {:.3} and {:.3})\n",
-                sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1],
-            ),
-            _ => "variability: none (fewer than 30 steady windows to measure it)\n".to_string(),
         };
-        text += &format!(
-            "sensors: localization {:.1} Hz with {:.4} m and {:.4} rad noise and timestamps jittering by up to {:.3} s, encoders {:.3} rad/s, IMU {:.4} rad/s with a {:+.4} rad/s bias\n",
-            s.icp_rate_hz, s.icp_noise[0], s.icp_noise[1], s.icp_jitter, s.encoder_noise, s.imu_noise, s.imu_bias,
-        );
-        let [[dv, dw], [tv, tw]] = r.motion;
-        text += &format!(
-            "check: the twin's steady windows move at {tv:.3} m/s and {tw:.3} rad/s on average (mean absolute forward speed and yaw rate; the data's {dv:.3} and {dw:.3})\n"
-        );
-        if !r.at_bounds.is_empty() {
-            text += &format!(
-                "note: at a bound of its range, not pinned down by the data: {}\n",
-                r.at_bounds.join(", ")
-            );
-        }
         text += &format!(
             "twin check ({} runs of the twin as long as the real run, seeds {}; each split in halves, eq. 8 medians over the evaluation halves, {} real and {} twin windows):\n",
             o.check_seeds.len(),
@@ -242,8 +231,9 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             )
         } else {
             format!(
-                "  outside {:.0}% (written with --allow-poor-twin): {}\n",
+                "  outside {:.0}% ({} with --allow-poor-twin): {}\n",
                 100.0 * o.tolerance,
+                if o.written { "written" } else { "accepted" },
                 o.poor.join("; ")
             )
         };
@@ -264,6 +254,74 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         }
         text
     })
+}
+
+/// The fit's part of `drive sim-fit`'s text: each stage's parameters and how well they fit.
+fn fit_text(
+    t: &crate::sim::Terrain,
+    r: &crate::sim::SimFitReport,
+    data: &crate::traits::Dataset,
+    saved: &str,
+) -> String {
+    let c = t.controller.unwrap_or_default();
+    // sim_fit always fits the powertrain (this text is a fit's only).
+    let p = t.powertrain.expect("a fitted twin has a powertrain");
+    let s = t.sensors.unwrap_or_default();
+    let limit =
+        |a: Option<f64>, unit: &str| a.map_or("none".to_string(), |a| format!("{a:.2} {unit}"));
+    let mut text = format!(
+        "twin '{}' of {} fitted on {} steady and {} transient windows{saved}\n",
+        t.name, data.robot.name, r.steady_windows, r.transient_windows,
+    );
+    text += &format!(
+        "controller: linear gain {:.3}, angular gain {:.3}, max {:.3} m/s and {:.3} rad/s, acceleration limits {} and {}; wheel limit {:.2} rad/s, right side x{:.3} (steady encoders RMS {:.3} rad/s)\n",
+        c.linear_gain,
+        c.angular_gain,
+        c.max_linear.unwrap_or(f64::INFINITY),
+        c.max_angular.unwrap_or(f64::INFINITY),
+        limit(c.max_linear_acceleration, "m/s^2"),
+        limit(c.max_angular_acceleration, "rad/s^2"),
+        p.wheel_limit,
+        p.right_gain,
+        r.controller_rms,
+    );
+    text += &format!(
+        "powertrain: time constant {:.3} s rising, {:.3} s falling, dead time {:.3} s (transient encoders RMS {:.3} rad/s)\n",
+        p.time_constant[0], p.time_constant[1], p.dead_time, r.powertrain_rms,
+    );
+    let [[sv, sw], [tv, tw]] = r.terrain_rms;
+    let [[sv0, sw0], [tv0, tw0]] = r.terrain_rms_start;
+    text += &format!(
+        "ground: traction {:.3}, lateral {:.3}, slip modulus {:.3}, rolling {:.3} (body velocity RMS {sv:.3} m/s and {sw:.3} rad/s steady, {tv:.3} and {tw:.3} transient; from the gravel preset {sv0:.3}, {sw0:.3}, {tv0:.3}, {tw0:.3})\n",
+        t.traction, t.lateral, t.slip_modulus, t.rolling,
+    );
+    text += &match (&t.variability, &r.scatter) {
+        (Some(v), Some(sc)) => format!(
+            "variability: traction {:.3}, lateral {:.3}, rolling {:.3} (log standard deviations), correlation time {:.2} s (steady scatter {:.3} m/s and {:.3} rad/s; the twin's {:.3} and {:.3}, {:.3} and {:.3} without)\n",
+            v.traction, v.lateral, v.rolling, v.correlation_time,
+            sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1], sc.without.rms[0], sc.without.rms[1],
+        ),
+        (None, Some(sc)) => format!(
+            "variability: none (steady scatter {:.3} m/s and {:.3} rad/s; the twin's already {:.3} and {:.3})\n",
+            sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1],
+        ),
+        _ => "variability: none (fewer than 30 steady windows to measure it)\n".to_string(),
+    };
+    text += &format!(
+        "sensors: localization {:.1} Hz with {:.4} m and {:.4} rad noise and timestamps jittering by up to {:.3} s, encoders {:.3} rad/s, IMU {:.4} rad/s with a {:+.4} rad/s bias\n",
+        s.icp_rate_hz, s.icp_noise[0], s.icp_noise[1], s.icp_jitter, s.encoder_noise, s.imu_noise, s.imu_bias,
+    );
+    let [[dv, dw], [tv, tw]] = r.motion;
+    text += &format!(
+        "check: the twin's steady windows move at {tv:.3} m/s and {tw:.3} rad/s on average (mean absolute forward speed and yaw rate; the data's {dv:.3} and {dw:.3})\n"
+    );
+    if !r.at_bounds.is_empty() {
+        text += &format!(
+            "note: at a bound of its range, not pinned down by the data: {}\n",
+            r.at_bounds.join(", ")
+        );
+    }
+    text
 }
 
 /// The data's baseline (a differential drive: sim-fit refuses the others).

@@ -303,22 +303,46 @@ fn degenerate_data_is_refused_with_its_reason() {
 fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_time() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    let (a, b) = (path("a.toml"), path("b.toml"));
-    // The twin check decides whether the twin is written: a twin whose medians are more
-    // than 30% from the real run's is refused, saying which, unless allowed. With --json the
-    // fit and its check are printed either way.
-    // One seed of the check (its default is three): the same check, a third of the time.
-    let first = common::drive(&[
+    let (a, c) = (path("a.toml"), path("c.toml"));
+    // One fit (most of this test's time), written whatever its check; one seed of the check
+    // (its default is three): the same check, a third of the time.
+    let fitted = common::drive(&[
         "sim-fit",
         "--robot",
         "husky",
         "--out",
         &a,
+        "--allow-poor-twin",
+        "--check-seeds",
+        "1",
+    ]);
+    assert!(fitted.status.success());
+    let text = String::from_utf8_lossy(&fitted.stdout).to_string();
+    assert!(
+        text.contains("controller:") && text.contains("twin check") && text.contains("saved to"),
+        "{text}"
+    );
+    // The twin checked again (--twin: no fit), without --allow-poor-twin: the check decides
+    // whether it is written; a twin whose medians are more than 30% from the real run's is
+    // refused, saying which. With --json the check is printed either way.
+    let checked = common::drive(&[
+        "sim-fit",
+        "--robot",
+        "husky",
+        "--twin",
+        &a,
+        "--out",
+        &c,
         "--json",
         "--check-seeds",
         "1",
     ]);
-    let v: serde_json::Value = serde_json::from_slice(&first.stdout).unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&checked.stdout).unwrap();
+    assert_eq!(v["fitted"], false);
+    assert!(
+        v.get("report").is_none(),
+        "a checked twin has no fit report"
+    );
     for p in v["parameters"].as_array().unwrap() {
         assert!(p["name"].is_string() && p["value"].is_number() && p["at_bound"].is_boolean());
     }
@@ -334,6 +358,8 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
             let (r, t) = (c[real].as_f64().unwrap(), c[twin].as_f64().unwrap());
             assert!(r > 0.0 && t > 0.0, "{c}");
             outside += usize::from(((t - r) / r).abs() > 0.3);
+            // The same twin, data and seed: the fit's check, number for number.
+            assert!(text.contains(&format!("{t:.4}")), "{t:.4} not in\n{text}");
         }
     }
     // The real run's medians are `drive eval`'s (the paper's anchors for the naive model).
@@ -341,53 +367,34 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
     let poor = v["poor"].as_array().unwrap();
     assert_eq!(poor.len(), outside, "{v}");
     assert_eq!(v["written"], poor.is_empty());
-    // The second run writes the twin whatever its check, and prints the table.
-    let second = common::drive(&[
-        "sim-fit",
-        "--robot",
-        "husky",
-        "--out",
-        &b,
-        "--allow-poor-twin",
-        "--check-seeds",
-        "1",
-    ]);
-    assert!(second.status.success());
-    let out = String::from_utf8_lossy(&second.stdout);
-    assert!(
-        out.contains("controller:") && out.contains("twin check"),
-        "{out}"
-    );
     let printed: Terrain = serde_json::from_value(v["terrain"].clone()).unwrap();
-    let written = std::fs::read_to_string(&b).unwrap();
-    assert_eq!(
-        printed.to_toml(),
-        written,
-        "the printed twin is the written one"
-    );
+    let written = std::fs::read_to_string(&a).unwrap();
+    assert_eq!(printed.to_toml(), written, "the checked twin is the file's");
     if poor.is_empty() {
-        assert!(first.status.success());
-        assert_eq!(std::fs::read_to_string(&a).unwrap(), written);
+        assert!(checked.status.success());
+        assert_eq!(std::fs::read_to_string(&c).unwrap(), written);
     } else {
-        let err = String::from_utf8_lossy(&first.stderr);
+        let err = String::from_utf8_lossy(&checked.stderr);
         assert!(
-            !first.status.success() && err.contains("--allow-poor-twin"),
+            !checked.status.success() && err.contains("--allow-poor-twin"),
             "{err}"
         );
         for p in poor {
             assert!(err.contains(p.as_str().unwrap()), "{err}");
         }
         assert!(
-            !std::path::Path::new(&a).exists(),
+            !std::path::Path::new(&c).exists(),
             "a poor twin was written"
         );
-        let note = String::from_utf8_lossy(&second.stderr);
+        let note = String::from_utf8_lossy(&fitted.stderr);
         assert!(
             note.contains("a poor twin, written with --allow-poor-twin"),
             "{note}"
         );
-        std::fs::copy(&b, &a).unwrap();
     }
+    // A twin to check that does not exist: named, before any work.
+    let err = user_error(&["sim-fit", "--robot", "husky", "--twin", &path("none.toml")]);
+    assert!(err.contains("none.toml"), "{err}");
     let text = std::fs::read_to_string(&a).unwrap();
     // The README's twin is this command's output.
     let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/husky_twin.toml");
@@ -471,6 +478,8 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
         "{err}"
     );
     // Two terrains under one name would be pooled.
+    let b = path("b.toml");
+    std::fs::copy(&a, &b).unwrap();
     let err = user_error(&[
         "compare-protocols",
         "--robot",

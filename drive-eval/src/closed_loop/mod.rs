@@ -383,6 +383,39 @@ pub fn run_track(
     }
     let top = top_speed(registries, &d, &study.terrain, study.seeds[0])?;
     let scale = (4.0 * top).max(2.0);
+    // The paths, each within the longest run at every speed.
+    let paths: Vec<(String, ReferencePath)> = study
+        .paths
+        .iter()
+        .map(|p| match p {
+            PathChoice::Preset(shape) => Ok((p.name(), shape.at_scale(scale)?)),
+            PathChoice::Given(path) => Ok((p.name(), path.clone())),
+        })
+        .collect::<Result<_, PathError>>()?;
+    if study.time_limit_s.is_none() {
+        for (name, path) in &paths {
+            for &fraction in &study.speeds {
+                let limit = default_time_limit(path.length(), fraction * top);
+                if limit.is_nan() || limit > MAX_RUN_S {
+                    return Err(TrackError::Invalid(format!(
+                        "path '{name}' ({} m) at {}% of the top speed ({} m/s) would take up to {} s (twice its length at that speed, plus 20 s); a run lasts at most {MAX_RUN_S} s: give a shorter path, a higher speed or --time-limit",
+                        Short(path.length()),
+                        Short(100.0 * fraction),
+                        Short(fraction * top),
+                        Short(limit)
+                    )));
+                }
+            }
+        }
+    }
+    // Every path longer than its goal tolerance at every speed, before any simulation.
+    for (name, path) in &paths {
+        for &fraction in &study.speeds {
+            TrackerConfig::new(fraction * top)
+                .check_path(path)
+                .map_err(|e| TrackError::Invalid(format!("path '{name}': {e}")))?;
+        }
+    }
     // The training data: a dataset once, a simulated run per seed.
     let mut sets: Vec<(usize, Option<u64>, Arc<Dataset>)> = Vec::new();
     let mut runs_to_simulate = Vec::new();
@@ -449,31 +482,6 @@ pub fn run_track(
                 })
         })
         .collect::<Result<_, _>>()?;
-    // The paths, each within the longest run at every speed.
-    let paths: Vec<(String, ReferencePath)> = study
-        .paths
-        .iter()
-        .map(|p| match p {
-            PathChoice::Preset(shape) => Ok((p.name(), shape.at_scale(scale)?)),
-            PathChoice::Given(path) => Ok((p.name(), path.clone())),
-        })
-        .collect::<Result<_, PathError>>()?;
-    if study.time_limit_s.is_none() {
-        for (name, path) in &paths {
-            for &fraction in &study.speeds {
-                let limit = default_time_limit(path.length(), fraction * top);
-                if limit.is_nan() || limit > MAX_RUN_S {
-                    return Err(TrackError::Invalid(format!(
-                        "path '{name}' ({} m) at {}% of the top speed ({} m/s) would take up to {} s (twice its length at that speed, plus 20 s); a run lasts at most {MAX_RUN_S} s: give a shorter path, a higher speed or --time-limit",
-                        Short(path.length()),
-                        Short(100.0 * fraction),
-                        Short(fraction * top),
-                        Short(limit)
-                    )));
-                }
-            }
-        }
-    }
     // Every run.
     let mut plans = Vec::new();
     for (i, t) in study.training.iter().enumerate() {
