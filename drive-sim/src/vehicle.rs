@@ -272,7 +272,8 @@ fn slip_reference_speed(surface: f64, vx: f64, vy: f64) -> f64 {
         // NaNs fail the comparison and take the full path.
         above
     } else {
-        surface.max(vx.hypot(vy)).max(SLIP_SPEED_FLOOR)
+        // max is exact and order-free here (the floor is positive): the same bits.
+        above.max(vx.hypot(vy))
     }
 }
 

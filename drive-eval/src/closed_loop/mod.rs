@@ -383,7 +383,7 @@ pub fn run_track(
     }
     let top = top_speed(registries, &d, &study.terrain, study.seeds[0])?;
     let scale = (4.0 * top).max(2.0);
-    // The paths, each within the longest run at every speed.
+    // The paths, presets at the scale of the top speed.
     let paths: Vec<(String, ReferencePath)> = study
         .paths
         .iter()
@@ -392,28 +392,23 @@ pub fn run_track(
             PathChoice::Given(path) => Ok((p.name(), path.clone())),
         })
         .collect::<Result<_, PathError>>()?;
-    if study.time_limit_s.is_none() {
-        for (name, path) in &paths {
-            for &fraction in &study.speeds {
-                let limit = default_time_limit(path.length(), fraction * top);
-                if limit.is_nan() || limit > MAX_RUN_S {
-                    return Err(TrackError::Invalid(format!(
-                        "path '{name}' ({} m) at {}% of the top speed ({} m/s) would take up to {} s (twice its length at that speed, plus 20 s); a run lasts at most {MAX_RUN_S} s: give a shorter path, a higher speed or --time-limit",
-                        Short(path.length()),
-                        Short(100.0 * fraction),
-                        Short(fraction * top),
-                        Short(limit)
-                    )));
-                }
-            }
-        }
-    }
-    // Every path longer than its goal tolerance at every speed, before any simulation.
+    // Every path at every speed: longer than its goal tolerance, and within the longest run
+    // unless a time limit is given; before any simulation.
     for (name, path) in &paths {
         for &fraction in &study.speeds {
             TrackerConfig::new(fraction * top)
                 .check_path(path)
                 .map_err(|e| TrackError::Invalid(format!("path '{name}': {e}")))?;
+            let limit = default_time_limit(path.length(), fraction * top);
+            if study.time_limit_s.is_none() && (limit.is_nan() || limit > MAX_RUN_S) {
+                return Err(TrackError::Invalid(format!(
+                    "path '{name}' ({} m) at {}% of the top speed ({} m/s) would take up to {} s (twice its length at that speed, plus 20 s); a run lasts at most {MAX_RUN_S} s: give a shorter path, a higher speed or --time-limit",
+                    Short(path.length()),
+                    Short(100.0 * fraction),
+                    Short(fraction * top),
+                    Short(limit)
+                )));
+            }
         }
     }
     // The training data: a dataset once, a simulated run per seed.
