@@ -4,9 +4,9 @@
 //! the checked-in baseline `.ci/instructions-baseline.txt`.
 //!
 //! ```sh
-//! cargo build --release --features examples --example instructions
-//! target/release/examples/instructions train/slip-ipem   # one workload
-//! target/release/examples/instructions --list            # their names
+//! cargo build --release -p drive-benches --features instructions --bin instructions
+//! target/release/instructions train/slip-ipem   # one workload
+//! target/release/instructions --list            # their names
 //! ```
 //!
 //! Timings are criterion's job (`cargo bench`, see BENCHMARKS.md); these workloads are
