@@ -20,7 +20,9 @@ pub struct Args {
     /// Check this twin (a terrain TOML file, e.g. one `sim-fit` wrote, or a preset's name)
     /// against the data instead of fitting one: the same check and the same refusal, in a
     /// fraction of the time. A twin fitted on one run, checked on another run of the same
-    /// robot and terrain, says whether it holds beyond the run it was fitted on.
+    /// robot and terrain, says whether it holds beyond the run it was fitted on. The twin
+    /// drives its own file's protocol (its input box and command steps), not the checked
+    /// run's commands: check it on runs driven the same way (docs/twins.md).
     #[arg(long)]
     twin: Option<String>,
     /// The twin's name (default: the dataset's name and "twin").
