@@ -392,6 +392,49 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
             "{note}"
         );
     }
+    // A twin that is not the robot (its ground four times as slippery) is refused whatever
+    // the fitted one's check said: each median off named, nothing written; with
+    // --allow-poor-twin written, with a note.
+    let mut slippery = Terrain::from_toml("a.toml", &written).unwrap();
+    slippery.traction *= 0.25;
+    slippery.lateral *= 0.25;
+    let (b, d) = (path("slippery.toml"), path("d.toml"));
+    std::fs::write(&b, slippery.to_toml()).unwrap();
+    let check_slippery = |allow: bool| {
+        let mut args = vec![
+            "sim-fit",
+            "--robot",
+            "husky",
+            "--twin",
+            &b,
+            "--out",
+            &d,
+            "--check-seeds",
+            "1",
+        ];
+        if allow {
+            args.push("--allow-poor-twin");
+        }
+        common::drive(&args)
+    };
+    let refused = check_slippery(false);
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && err.contains("--allow-poor-twin") && err.contains("median"),
+        "{err}"
+    );
+    assert!(
+        !std::path::Path::new(&d).exists(),
+        "a poor twin was written"
+    );
+    let allowed = check_slippery(true);
+    let note = String::from_utf8_lossy(&allowed.stderr);
+    assert!(allowed.status.success(), "{note}");
+    assert!(
+        note.contains("a poor twin, written with --allow-poor-twin"),
+        "{note}"
+    );
+    assert_eq!(std::fs::read_to_string(&d).unwrap(), slippery.to_toml());
     // A twin to check that does not exist: named, before any work.
     let err = user_error(&["sim-fit", "--robot", "husky", "--twin", &path("none.toml")]);
     assert!(err.contains("none.toml"), "{err}");

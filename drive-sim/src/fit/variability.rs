@@ -212,24 +212,15 @@ pub(super) fn twin_runs(
     })
 }
 
-/// The scatter of the twin's own runs ([`twin_runs`]).
-pub(super) fn twin_scatter(
-    data: &Dataset,
-    g: &DifferentialDrive,
-    robot: &RobotSpec,
-    terrain: &Terrain,
-) -> Result<Scatter, SimFitError> {
-    twin_runs(data, g, robot, terrain)?.scatter()
-}
-
 /// The ground's variability: the twin without it is simulated, and what its scatter lacks
 /// of the real data's is added. The correlation time comes from the correlation of the
 /// excess yaw-rate scatter between an interval's two steady windows; the three standard
-/// deviations from the twin's response to each process alone (the scatter's variances are
-/// about linear in their squares), fitted non-negative on both axes relative to what is
-/// missing, then one common correction on the whole twin. `None` when the twin already
-/// scatters as much as the data (within 10% in variance), or the data has too few steady
-/// windows to tell. With the fitted twin's mean motion ([`TwinRuns`]).
+/// deviations from the twin's response to each process alone at three deviations
+/// ([`PROBES`]; the response is far from linear in them), fitted on both axes relative to
+/// what is missing ([`additive_fit`]), then corrected on the twin's own runs with all three
+/// at once. `None` when the twin already scatters as much as the data (within 10% in
+/// variance), or the data has too few steady windows to tell. With the fitted twin's mean
+/// motion ([`TwinRuns`]).
 pub(super) fn fit_variability(
     data: &Dataset,
     g: &DifferentialDrive,
@@ -282,91 +273,157 @@ pub(super) fn fit_variability(
         }),
         ..terrain.clone()
     };
-    // What each process adds to the two variances per unit of its variance, relative to
+    // What each process alone adds to the two variances at a few deviations, relative to
     // the real variances (so that both axes count alike).
-    let probe: f64 = 0.3;
-    let mut columns = [[0.0; 2]; 3];
-    for (j, column) in columns.iter_mut().enumerate() {
-        let mut sd = [0.0; 3];
-        sd[j] = probe;
-        let got = var(&twin_scatter(data, g, robot, &with(sd))?);
-        for axis in 0..2 {
-            column[axis] = (got[axis] - vb[axis]).max(0.0) / (probe * probe) / vr[axis];
+    // A process is not taken beyond the last deviation at which the twin still drives like
+    // itself without it (a traction whose log varies by 3 leaves the robot slipping most of
+    // the time: its median factor is exp(-4.5)).
+    let mut curves = [[[0.0; 2]; PROBES.len()]; 3];
+    let mut limits = [0.0; 3];
+    for (j, curve) in curves.iter_mut().enumerate() {
+        for (point, &probe) in curve.iter_mut().zip(&PROBES) {
+            let mut sd = [0.0; 3];
+            sd[j] = probe;
+            let runs = twin_runs(data, g, robot, &with(sd))?;
+            let got = var(&runs.scatter()?);
+            *point = std::array::from_fn(|i| (got[i] - vb[i]) / vr[i]);
+            let drives = (0..2).all(|i| {
+                (runs.motion[i] - without.motion[i]).abs() <= MOTION_TOLERANCE * without.motion[i]
+            });
+            if !drives {
+                break;
+            }
+            limits[j] = probe;
         }
     }
-    let variances = nonnegative_fit(
-        &columns,
-        [excess[0] / vr[0], excess[1] / vr[1]],
-        MAX_VARIABILITY * MAX_VARIABILITY,
-    );
-    // One correction for what the response's curvature leaves: all variances scaled by the
-    // factor that best matches the excess.
-    let sd = variances.map(f64::sqrt);
-    let got = var(&twin_scatter(data, g, robot, &with(sd))?);
-    let (num, den) = (0..2).fold((0.0, 0.0), |(n, d), axis| {
-        let added = (got[axis] - vb[axis]).max(0.0) / vr[axis];
-        (n + added * excess[axis] / vr[axis], d + added * added)
-    });
-    let k = if den > 0.0 {
-        (num / den).clamp(0.25, 4.0)
-    } else {
-        1.0
+    let target = [excess[0] / vr[0], excess[1] / vr[1]];
+    // The processes are not independent in the twin (a varying traction scatters the yaw
+    // rate less under a varying rolling resistance): after each fit, the twin's runs tell
+    // how far the added responses were off on each axis, the curves are scaled by it and
+    // refitted, a few rounds; the closest twin is kept.
+    let miss = |a: &[f64; 2]| (a[0] - target[0]).powi(2) + (a[1] - target[1]).powi(2);
+    let mut best: Option<(f64, [f64; 3], TwinRuns)> = None;
+    let mut scaled = curves;
+    for _ in 0..CORRECTIONS {
+        let sd = additive_fit(&scaled, limits, target);
+        let runs = twin_runs(data, g, robot, &with(sd))?;
+        let got = var(&runs.scatter()?);
+        let added: [f64; 2] = std::array::from_fn(|i| (got[i] - vb[i]) / vr[i]);
+        let predicted: [f64; 2] =
+            std::array::from_fn(|i| (0..3).map(|j| response(&scaled[j], sd[j], i)).sum());
+        let m = miss(&added);
+        let closer = best.as_ref().is_none_or(|(b, _, _)| m < *b);
+        if closer {
+            best = Some((m, sd, runs));
+        }
+        if (0..2).all(|i| (added[i] - target[i]).abs() <= SCATTER_TOLERANCE) {
+            break;
+        }
+        if (0..2).all(|i| (added[i] - predicted[i]).abs() <= 1e-9 * predicted[i].abs().max(1.0)) {
+            // The model was right: another round would give the same twin.
+            break;
+        }
+        for i in 0..2 {
+            let ratio = if predicted[i] > 1e-9 && added[i] > 0.0 {
+                (added[i] / predicted[i]).clamp(0.25, 4.0)
+            } else {
+                1.0
+            };
+            for curve in scaled.iter_mut() {
+                for point in curve.iter_mut() {
+                    point[i] *= ratio;
+                }
+            }
+        }
+    }
+    let Some((_, sd, twin)) = best else {
+        // Unreachable: CORRECTIONS >= 1, and the first round sets `best` or returns.
+        return Ok((None, report(base), without.motion));
     };
-    let sd = variances.map(|v| (k * v).sqrt().min(MAX_VARIABILITY));
     let variability = Variability {
         traction: sd[0],
         lateral: sd[1],
         rolling: sd[2],
         correlation_time,
     };
-    let twin = twin_runs(data, g, robot, &with(sd))?;
     Ok((Some(variability), report(twin.scatter()?), twin.motion))
 }
 
-/// Non-negative `x` (3), each at most `cap`, minimizing `|sum_j x_j columns[j] - target|` in
-/// two dimensions: the best of the one- and two-column least-squares solutions, each
-/// non-negative and brought within `cap`. (Unbounded, a column that barely moves the
-/// scatter would be given a huge variance to reach the target exactly: a process the
-/// simulator cannot run, which is then cut to its cap and misses.)
-pub(super) fn nonnegative_fit(columns: &[[f64; 2]; 3], target: [f64; 2], cap: f64) -> [f64; 3] {
-    let miss = |x: &[f64; 3]| {
-        (0..2)
-            .map(|i| {
-                let got: f64 = (0..3).map(|j| x[j] * columns[j][i]).sum();
-                (got - target[i]).powi(2)
-            })
-            .sum::<f64>()
-    };
-    let mut best = ([0.0; 3], miss(&[0.0; 3]));
-    let mut consider = |x: [f64; 3]| {
-        if x.iter().all(|v| v.is_finite() && *v >= 0.0) {
-            let x = x.map(|v| v.min(cap));
-            let m = miss(&x);
-            if m < best.1 {
-                best = (x, m);
+/// How far (a share) the twin's steady mean speed and yaw rate may move from the twin's
+/// without variability at a probe for the process to be taken that far.
+const MOTION_TOLERANCE: f64 = 0.2;
+
+/// Rounds of the variability's fit on the twin's runs (each one run of the twin).
+const CORRECTIONS: usize = 3;
+
+/// The variability's fit stops when both axes are this close to their target (a share of
+/// the real variance).
+const SCATTER_TOLERANCE: f64 = 0.05;
+
+/// The deviations each grip process is simulated alone at, in the variability stage.
+const PROBES: [f64; 3] = [0.5, 1.5, MAX_VARIABILITY];
+
+/// Step of [`additive_fit`]'s search over each deviation.
+const SEARCH_STEP: f64 = 0.05;
+
+/// What one process adds at deviation `sd`, from its `curve` at [`PROBES`]: linear in the
+/// variance `sd^2` between the probes (nothing at 0; a small variability adds variance in
+/// proportion to its own), the last probe's beyond it.
+fn response(curve: &[[f64; 2]; PROBES.len()], sd: f64, axis: usize) -> f64 {
+    let (mut x0, mut y0) = (0.0, 0.0);
+    let v = sd * sd;
+    for (&p, point) in PROBES.iter().zip(curve) {
+        let (x1, y1) = (p * p, point[axis]);
+        if v <= x1 {
+            return y0 + (y1 - y0) * (v - x0) / (x1 - x0);
+        }
+        (x0, y0) = (x1, y1);
+    }
+    y0
+}
+
+/// The three deviations (traction, lateral, rolling; each within 0 and its limit in
+/// `limits`, at most the simulator's largest, [`MAX_VARIABILITY`]) whose responses, added
+/// ([`response`]: independent processes add their variances), come closest to `target` on
+/// both axes (least squares), searched on a grid of [`SEARCH_STEP`]; of equally close ones,
+/// the smallest deviations. (A linear model of the responses from one small probe took, on
+/// the bundled Husky data, the rolling resistance's variability alone for both axes and
+/// left the yaw rate's scatter a third short of the data's: a varying rolling resistance
+/// turns the robot much less, and drives it no more unevenly beyond a point, than its small
+/// probe says.)
+fn additive_fit(
+    curves: &[[[f64; 2]; PROBES.len()]; 3],
+    limits: [f64; 3],
+    target: [f64; 2],
+) -> [f64; 3] {
+    let steps = (MAX_VARIABILITY / SEARCH_STEP).round() as usize;
+    let grid: Vec<f64> = (0..=steps).map(|i| i as f64 * SEARCH_STEP).collect();
+    // Each process's response on the grid, per axis, up to its limit.
+    let table: Vec<Vec<[f64; 2]>> = curves
+        .iter()
+        .zip(limits)
+        .map(|(c, limit)| {
+            grid.iter()
+                .take_while(|&&sd| sd <= limit + 1e-9)
+                .map(|&sd| [response(c, sd, 0), response(c, sd, 1)])
+                .collect()
+        })
+        .collect();
+    let mut best = (f64::INFINITY, f64::INFINITY, [0.0; 3]);
+    for (i, a) in table[0].iter().enumerate() {
+        for (j, b) in table[1].iter().enumerate() {
+            for (k, c) in table[2].iter().enumerate() {
+                let miss: f64 = (0..2)
+                    .map(|axis| (a[axis] + b[axis] + c[axis] - target[axis]).powi(2))
+                    .sum();
+                let size = grid[i].powi(2) + grid[j].powi(2) + grid[k].powi(2);
+                if miss < best.0 - 1e-12 || (miss <= best.0 + 1e-12 && size < best.1) {
+                    best = (miss, size, [grid[i], grid[j], grid[k]]);
+                }
             }
         }
-    };
-    for j in 0..3 {
-        let c = columns[j];
-        let norm = c[0] * c[0] + c[1] * c[1];
-        if norm > 0.0 {
-            let mut x = [0.0; 3];
-            x[j] = (c[0] * target[0] + c[1] * target[1]) / norm;
-            consider(x);
-        }
     }
-    for (a, b) in [(0, 1), (0, 2), (1, 2)] {
-        let (p, q) = (columns[a], columns[b]);
-        let det = p[0] * q[1] - q[0] * p[1];
-        if det.abs() > 1e-12 {
-            let mut x = [0.0; 3];
-            x[a] = (target[0] * q[1] - q[0] * target[1]) / det;
-            x[b] = (p[0] * target[1] - target[0] * p[1]) / det;
-            consider(x);
-        }
-    }
-    best.0
+    best.2
 }
 
 /// The scatter of the real data, of the twin without variability and of the fitted twin.
@@ -385,19 +442,42 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_column_that_barely_moves_the_scatter_is_not_stretched_past_its_cap() {
-        // What the variability stage measured on a run whose turning resistance varies,
-        // localized with a jittery clock: traction and lateral move both scatters alike,
-        // rolling the yaw rate's a little; the forward speed's needs nothing more.
-        let columns = [[2.63, 10.85], [2.38, 9.24], [0.0, 0.0157]];
-        let target = [0.0, 0.872];
-        // Unbounded, rolling alone would reach the target with a variance of 55.
-        let unbounded = nonnegative_fit(&columns, target, f64::INFINITY);
-        assert!(unbounded[2] > 50.0, "{unbounded:?}");
-        // Within the simulator's cap (a log standard deviation of 3), traction alone is the
-        // fit (lateral alone misses by a little more): its least-squares variance.
-        let x = nonnegative_fit(&columns, target, 9.0);
-        assert_eq!((x[1], x[2]), (0.0, 0.0), "{x:?}");
-        assert!((x[0] - 10.85 * 0.872 / (2.63f64.powi(2) + 10.85f64.powi(2))).abs() < 1e-9);
+    fn responses_are_interpolated_in_the_variance_and_flat_beyond_the_last_probe() {
+        // At the probes 0.5, 1.5 and 3 (variances 0.25, 2.25 and 9).
+        let curve = [[0.1, 0.2], [0.5, 1.0], [0.6, 1.0]];
+        assert!((response(&curve, 0.25, 0) - 0.025).abs() < 1e-12);
+        assert!((response(&curve, 0.5, 1) - 0.2).abs() < 1e-12);
+        let at = (1.25f64 - 0.25) / 2.0;
+        assert!((response(&curve, 1.25f64.sqrt(), 0) - (0.1 + 0.4 * at)).abs() < 1e-12);
+        assert_eq!(response(&curve, 3.0, 0), 0.6);
+        assert_eq!(response(&curve, 0.0, 1), 0.0);
+    }
+
+    #[test]
+    fn each_axis_gets_the_process_that_reaches_it() {
+        // Rolling adds forward scatter (up to 0.6 of the real variance) and little yaw;
+        // lateral adds yaw scatter and almost no forward; traction a little of both.
+        let rolling = [[0.1, 0.02], [0.5, 0.1], [0.6, 0.15]];
+        let lateral = [[0.01, 0.5], [0.02, 2.0], [0.05, 3.0]];
+        let traction = [[0.02, 0.02], [0.05, 0.05], [0.1, 0.1]];
+        let curves = [traction, lateral, rolling];
+        let added = |sd: [f64; 3], axis: usize| -> f64 {
+            (0..3).map(|j| response(&curves[j], sd[j], axis)).sum()
+        };
+        let sd = additive_fit(&curves, [3.0; 3], [0.55, 0.6]);
+        assert!(
+            (added(sd, 0) - 0.55).abs() < 0.02 && (added(sd, 1) - 0.6).abs() < 0.02,
+            "{sd:?}"
+        );
+        assert!(sd[2] > 0.5 && sd[1] > 0.0, "{sd:?}");
+        // A limit (where the twin stops driving like itself) is kept: without rolling
+        // beyond 0.5, the forward scatter falls short.
+        let sd = additive_fit(&curves, [3.0, 3.0, 0.5], [0.55, 0.6]);
+        assert!(sd[2] <= 0.5 && added(sd, 0) < 0.3, "{sd:?}");
+        // A target no process reaches: as close as they get, with the smallest deviations
+        // among equally close ones (nothing is added beyond the last probe).
+        let sd = additive_fit(&curves, [3.0; 3], [5.0, 0.0]);
+        assert_eq!(sd[1], 0.0, "{sd:?}");
+        assert!((sd[2] - 3.0).abs() < 1e-9, "{sd:?}");
     }
 }
