@@ -81,6 +81,26 @@ pub(crate) const CORRELATION_WINDOWS: f64 = 50.0;
 /// assert!(p.iter().any(|p| p.name == "powertrain.dead_time"));
 /// ```
 pub fn fitted_parameters(t: &Terrain, window_s: f64) -> Vec<FittedParameter> {
+    fitted_parameters_within(t, window_s, None)
+}
+
+/// [`fitted_parameters`], the grip processes' variability searched only up to `limits`
+/// (traction, lateral, rolling; [`crate::SimFitReport::variability_limits`]) where given:
+/// a process at its limit is at a bound.
+///
+/// ```
+/// let twin = drive_sim::Terrain::from_toml("twin.toml",
+///     &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/husky_twin.toml")).unwrap()).unwrap();
+/// let rolling = twin.variability.unwrap().rolling;
+/// let p = drive_sim::fitted_parameters_within(&twin, 2.0, Some([3.0, 3.0, rolling]));
+/// let r = p.iter().find(|p| p.name == "variability.rolling").unwrap();
+/// assert!(r.at_bound && r.max == Some(rolling));
+/// ```
+pub fn fitted_parameters_within(
+    t: &Terrain,
+    window_s: f64,
+    limits: Option<[f64; 3]>,
+) -> Vec<FittedParameter> {
     let mut out = Vec::new();
     let mut push = |name: &str, value: f64, min: Option<f64>, max: Option<f64>| {
         out.push(FittedParameter::new(name, value, min, max))
@@ -170,12 +190,17 @@ pub fn fitted_parameters(t: &Terrain, window_s: f64) -> Vec<FittedParameter> {
         push("sensors.imu_bias", s.imu_bias, None, None);
     }
     if let Some(v) = &t.variability {
-        for (name, sd) in [
+        for (j, (name, sd)) in [
             ("variability.traction", v.traction),
             ("variability.lateral", v.lateral),
             ("variability.rolling", v.rolling),
-        ] {
-            push(name, sd, None, Some(MAX_VARIABILITY));
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let limit = limits.map_or(MAX_VARIABILITY, |l| l[j].min(MAX_VARIABILITY));
+            // A process searched no further than zero is none, not at a bound.
+            push(name, sd, None, (limit > 0.0).then_some(limit));
         }
         push(
             "variability.correlation_time",

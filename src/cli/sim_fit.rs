@@ -123,7 +123,9 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let seeds: Vec<u64> = (1..=args.check_seeds as u64).collect();
     let check = crate::eval::twin_check(registries, &data, &spec, &terrain, &seeds, &models)?;
     let window_s = data.robot.window_len as f64 / data.robot.rate_hz;
-    let parameters = crate::sim::fitted_parameters(&terrain, window_s);
+    // A fitted twin's variability is at a bound at the limit its fit searched to.
+    let limits = report.as_ref().and_then(|r| r.variability_limits);
+    let parameters = crate::sim::fitted_parameters_within(&terrain, window_s, limits);
     let poor = !check.poor.is_empty();
     let accepted = !poor || args.allow_poor_twin;
     let written = accepted && args.out.is_some();

@@ -121,6 +121,11 @@ pub struct SimFitReport {
     /// Fitted values that ended at a bound of their range: what the data does not pin
     /// down (`name = value`).
     pub at_bounds: Vec<String>,
+    /// The largest log deviation the variability's fit searched for each grip process
+    /// (traction, lateral, rolling): the simulator's largest, or less where the twin no
+    /// longer drove like itself with more (`None` without a variability fit). A process at
+    /// its limit is at a bound.
+    pub variability_limits: Option<[f64; 3]>,
 }
 
 /// The twin and how it fits.
@@ -566,7 +571,8 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         ..fitted
     };
     // 6. Variability, by simulating the twin.
-    let (variability, scatter, twin_motion) = fit_variability(data, &g, robot, &terrain)?;
+    let (variability, scatter, twin_motion, variability_limits) =
+        fit_variability(data, &g, robot, &terrain)?;
     terrain.variability = variability;
     // The twin as a file: within the simulator's ranges, and driving like the data.
     Terrain::from_toml(name, &terrain.to_toml()).map_err(|e| {
@@ -583,7 +589,12 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
             )));
         }
     }
-    let at_bounds = at_bounds(&terrain, data.robot.window_len as f64 / data.robot.rate_hz);
+    let window_s = data.robot.window_len as f64 / data.robot.rate_hz;
+    let at_bounds = crate::fitted_parameters_within(&terrain, window_s, variability_limits)
+        .into_iter()
+        .filter(|p| p.at_bound)
+        .map(|p| format!("{} = {}", p.name, drive_traits::limits::Short(p.value)))
+        .collect();
     Ok(SimFit {
         terrain,
         report: SimFitReport {
@@ -596,6 +607,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
             scatter,
             motion,
             at_bounds,
+            variability_limits,
         },
     })
 }
@@ -669,13 +681,4 @@ fn steady_motion(data: &Dataset) -> [f64; 2] {
         .map(|w| window_motion(&w.pose, dt))
         .collect();
     [0, 1].map(|a| mean(motions.iter().map(|m| m[a].abs())))
-}
-
-/// The fitted values at a bound of their range (`name = value`).
-fn at_bounds(t: &Terrain, window_s: f64) -> Vec<String> {
-    crate::fitted_parameters(t, window_s)
-        .into_iter()
-        .filter(|p| p.at_bound)
-        .map(|p| format!("{} = {}", p.name, drive_traits::limits::Short(p.value)))
-        .collect()
 }

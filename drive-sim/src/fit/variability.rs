@@ -119,8 +119,14 @@ impl InputSampler for Still {
 pub(super) const VARIABILITY_SEEDS: [u64; 2] = [101, 202];
 
 /// The variability stage's outcome: the variability (if any), the scatters it was fitted
-/// on, and the fitted twin's mean motion.
-pub(super) type FittedVariability = (Option<Variability>, Option<ScatterFit>, [f64; 2]);
+/// on, the fitted twin's mean motion, and the largest deviation each process was searched
+/// to (traction, lateral, rolling; none without a fit).
+pub(super) type FittedVariability = (
+    Option<Variability>,
+    Option<ScatterFit>,
+    [f64; 2],
+    Option<[f64; 3]>,
+);
 
 /// What the twin's own runs show (as many intervals as the data, at least 100, at most
 /// 300, per seed; the runs pooled): their scatter (`None` with too few steady windows) and
@@ -229,7 +235,7 @@ pub(super) fn fit_variability(
 ) -> Result<FittedVariability, SimFitError> {
     let without = twin_runs(data, g, robot, terrain)?;
     let Some(real) = scatter(data, g) else {
-        return Ok((None, None, without.motion));
+        return Ok((None, None, without.motion, None));
     };
     let base = without.scatter()?;
     let var = |s: &Scatter| s.rms.map(|r| r * r);
@@ -243,7 +249,7 @@ pub(super) fn fit_variability(
         })
     };
     if excess[0] <= 0.1 * vr[0] && excess[1] <= 0.1 * vr[1] {
-        return Ok((None, report(base), without.motion));
+        return Ok((None, report(base), without.motion, None));
     }
     // The correlation time: the excess yaw-rate scatter's own correlation, inverted.
     let window = data.robot.window_len as f64 / data.robot.rate_hz;
@@ -338,7 +344,7 @@ pub(super) fn fit_variability(
     }
     let Some((_, sd, twin)) = best else {
         // Unreachable: CORRECTIONS >= 1, and the first round sets `best` or returns.
-        return Ok((None, report(base), without.motion));
+        return Ok((None, report(base), without.motion, None));
     };
     let variability = Variability {
         traction: sd[0],
@@ -346,7 +352,12 @@ pub(super) fn fit_variability(
         rolling: sd[2],
         correlation_time,
     };
-    Ok((Some(variability), report(twin.scatter()?), twin.motion))
+    Ok((
+        Some(variability),
+        report(twin.scatter()?),
+        twin.motion,
+        Some(limits),
+    ))
 }
 
 /// How far (a share) the twin's steady mean speed and yaw rate may move from the twin's
