@@ -571,8 +571,12 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         ..fitted
     };
     // 6. Variability, by simulating the twin.
-    let (variability, scatter, twin_motion, variability_limits) =
-        fit_variability(data, &g, robot, &terrain)?;
+    let FittedVariability {
+        variability,
+        scatter,
+        motion: twin_motion,
+        limits: variability_limits,
+    } = fit_variability(data, &g, robot, &terrain)?;
     terrain.variability = variability;
     // The twin as a file: within the simulator's ranges, and driving like the data.
     Terrain::from_toml(name, &terrain.to_toml()).map_err(|e| {

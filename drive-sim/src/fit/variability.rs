@@ -118,15 +118,30 @@ impl InputSampler for Still {
 /// Seeds of the twin's runs in the variability stage.
 pub(super) const VARIABILITY_SEEDS: [u64; 2] = [101, 202];
 
-/// The variability stage's outcome: the variability (if any), the scatters it was fitted
-/// on, the fitted twin's mean motion, and the largest deviation each process was searched
-/// to (traction, lateral, rolling; none without a fit).
-pub(super) type FittedVariability = (
-    Option<Variability>,
-    Option<ScatterFit>,
-    [f64; 2],
-    Option<[f64; 3]>,
-);
+/// The variability stage's outcome.
+pub(super) struct FittedVariability {
+    /// The variability, if the twin needs one.
+    pub(super) variability: Option<Variability>,
+    /// The scatters it was fitted on (none with too few steady windows).
+    pub(super) scatter: Option<ScatterFit>,
+    /// The fitted twin's steady mean absolute forward speed and yaw rate.
+    pub(super) motion: [f64; 2],
+    /// The largest deviation each process was searched to (traction, lateral, rolling;
+    /// none without a fit).
+    pub(super) limits: Option<[f64; 3]>,
+}
+
+impl FittedVariability {
+    /// No variability: the twin `motion`, with the scatters `scatter` if any.
+    fn none(scatter: Option<ScatterFit>, motion: [f64; 2]) -> Self {
+        FittedVariability {
+            variability: None,
+            scatter,
+            motion,
+            limits: None,
+        }
+    }
+}
 
 /// What the twin's own runs show (as many intervals as the data, at least 100, at most
 /// 300, per seed; the runs pooled): their scatter (`None` with too few steady windows) and
@@ -235,7 +250,7 @@ pub(super) fn fit_variability(
 ) -> Result<FittedVariability, SimFitError> {
     let without = twin_runs(data, g, robot, terrain)?;
     let Some(real) = scatter(data, g) else {
-        return Ok((None, None, without.motion, None));
+        return Ok(FittedVariability::none(None, without.motion));
     };
     let base = without.scatter()?;
     let var = |s: &Scatter| s.rms.map(|r| r * r);
@@ -249,7 +264,7 @@ pub(super) fn fit_variability(
         })
     };
     if excess[0] <= 0.1 * vr[0] && excess[1] <= 0.1 * vr[1] {
-        return Ok((None, report(base), without.motion, None));
+        return Ok(FittedVariability::none(report(base), without.motion));
     }
     // The correlation time: the excess yaw-rate scatter's own correlation, inverted.
     let window = data.robot.window_len as f64 / data.robot.rate_hz;
@@ -344,7 +359,7 @@ pub(super) fn fit_variability(
     }
     let Some((_, sd, twin)) = best else {
         // Unreachable: CORRECTIONS >= 1, and the first round sets `best` or returns.
-        return Ok((None, report(base), without.motion, None));
+        return Ok(FittedVariability::none(report(base), without.motion));
     };
     let variability = Variability {
         traction: sd[0],
@@ -352,12 +367,12 @@ pub(super) fn fit_variability(
         rolling: sd[2],
         correlation_time,
     };
-    Ok((
-        Some(variability),
-        report(twin.scatter()?),
-        twin.motion,
-        Some(limits),
-    ))
+    Ok(FittedVariability {
+        variability: Some(variability),
+        scatter: report(twin.scatter()?),
+        motion: twin.motion,
+        limits: Some(limits),
+    })
 }
 
 /// How far (a share) the twin's steady mean speed and yaw rate may move from the twin's
