@@ -38,7 +38,7 @@ pub use omni::OmniPlant;
 pub use parameters::{fitted_parameters, fitted_parameters_within, FittedParameter};
 pub use plant::{builtin_plants, plant_for, KinematicPlant, MakePlant, Plant};
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
-pub use sensors::{Instruments, Sensors};
+pub use sensors::{Instruments, Sensors, ICP_GAP_BINS, ICP_GAP_STEP_S};
 pub use sim::{Measured, Simulator};
 pub use terrain::{builtin_terrains, Terrain, TerrainError, Variability};
 pub use twin::{scale_difference, ProtocolSampler, TwinProtocol};

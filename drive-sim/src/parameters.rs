@@ -164,6 +164,10 @@ pub fn fitted_parameters_within(
             Some(MIN_ICP_RATE_HZ),
             None,
         );
+        if let Some((mean, long)) = s.gap_summary(0.5) {
+            push("sensors.icp_gaps.mean_s", mean, None, None);
+            push("sensors.icp_gaps.share_from_0.5s", long, None, None);
+        }
         push("sensors.icp_noise.position", s.icp_noise[0], None, None);
         push("sensors.icp_noise.yaw", s.icp_noise[1], None, None);
         push(

@@ -33,6 +33,59 @@ pub struct Sensors {
     pub imu_noise: f64,
     /// IMU bias (rad/s).
     pub imu_bias: f64,
+    /// When the localization's pose changes: the share of its updates that come
+    /// [`ICP_GAP_STEP_S`] (0.05 s), 0.10 s, ..., 1 s (the last bin: 1 s or more) after the
+    /// previous one ([`ICP_GAP_BINS`] bins; they need not sum to one). All zero (the
+    /// default): every `1 / icp_rate_hz`. A real localization falls behind now and then
+    /// (a scan matched late, a map update): its pose holds for half a second or more, then
+    /// catches up in one jump. Between its updates it is still published at
+    /// `icp_rate_hz`, unchanged, as a localization node republishes its last estimate.
+    #[serde(skip_serializing_if = "no_gaps")]
+    pub icp_gaps: [f64; ICP_GAP_BINS],
+}
+
+impl Sensors {
+    /// The mean gap between the localization's updates (s) and the share of its updates
+    /// that come at least `long_s` after the previous one, from [`Sensors::icp_gaps`];
+    /// `None` without gaps.
+    ///
+    /// ```
+    /// use drive_sim::{Sensors, ICP_GAP_BINS};
+    /// let mut gaps = [0.0; ICP_GAP_BINS];
+    /// gaps[1] = 0.75; // 0.10 s
+    /// gaps[9] = 0.25; // 0.50 s
+    /// let s = Sensors { icp_gaps: gaps, ..Sensors::default() };
+    /// let (mean, long) = s.gap_summary(0.5).unwrap();
+    /// assert!((mean - 0.2).abs() < 1e-12 && (long - 0.25).abs() < 1e-12);
+    /// assert_eq!(Sensors::default().gap_summary(0.5), None);
+    /// ```
+    pub fn gap_summary(&self, long_s: f64) -> Option<(f64, f64)> {
+        let total: f64 = self.icp_gaps.iter().sum();
+        if total.is_nan() || total <= 0.0 {
+            return None;
+        }
+        let at = |i: usize| (i + 1) as f64 * ICP_GAP_STEP_S;
+        let mean = (0..ICP_GAP_BINS)
+            .map(|i| self.icp_gaps[i] * at(i))
+            .sum::<f64>()
+            / total;
+        let long = (0..ICP_GAP_BINS)
+            .filter(|&i| at(i) >= long_s - 1e-9)
+            .map(|i| self.icp_gaps[i])
+            .sum::<f64>()
+            / total;
+        Some((mean, long))
+    }
+}
+
+/// Bins of [`Sensors::icp_gaps`].
+pub const ICP_GAP_BINS: usize = 20;
+
+/// Width of a bin of [`Sensors::icp_gaps`] (s).
+pub const ICP_GAP_STEP_S: f64 = 0.05;
+
+fn no_gaps(gaps: &[f64; ICP_GAP_BINS]) -> bool {
+    gaps.iter().all(|&g| g == 0.0)
 }
 
 impl Default for Sensors {
@@ -48,6 +101,7 @@ impl Default for Sensors {
             icp_mount: [0.0; 3],
             imu_noise: 0.01,
             imu_bias: 0.005,
+            icp_gaps: [0.0; ICP_GAP_BINS],
         }
     }
 }
@@ -79,6 +133,8 @@ pub struct Instruments {
     icp: Pose,
     /// The true poses of the last ticks, for a localization with latency.
     past: VecDeque<(f64, Pose)>,
+    /// The tick of the localization's next update, with [`Sensors::icp_gaps`].
+    next_update: usize,
     rng: Xoshiro256PlusPlus,
 }
 
@@ -92,6 +148,7 @@ impl Instruments {
             history: Vec::new(),
             icp: Pose::zeros(),
             past: VecDeque::new(),
+            next_update: 0,
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
         }
     }
@@ -173,7 +230,18 @@ impl Instruments {
         yaw_rate: f64,
     ) -> Measured {
         let period = (self.rate_hz / self.sensors.icp_rate_hz).round().max(1.0) as usize;
-        let fresh_pose = self.tick % period == 0;
+        let published = self.tick % period == 0;
+        // Whether the pose changes at this tick: at every publication, or when the next
+        // update's gap has passed.
+        let (fresh_pose, update) = if no_gaps(&self.sensors.icp_gaps) {
+            (published, published)
+        } else if self.tick >= self.next_update {
+            let gap = self.gap_ticks();
+            self.next_update = self.tick + gap;
+            (true, true)
+        } else {
+            (published, false)
+        };
         let now = self.time();
         let pose = self.mounted(&pose);
         let delayed = self.sensors.icp_latency > 0.0 || self.sensors.icp_jitter > 0.0;
@@ -181,7 +249,7 @@ impl Instruments {
             self.past.push_back((now, pose));
             let delay = self.sensors.icp_latency
                 + match Uniform::new(0.0, self.sensors.icp_jitter) {
-                    Ok(u) if fresh_pose => u.sample(&mut self.rng),
+                    Ok(u) if update => u.sample(&mut self.rng),
                     _ => 0.0,
                 };
             // Keep what the longest delay can still ask for.
@@ -193,7 +261,7 @@ impl Instruments {
         } else {
             pose
         };
-        if fresh_pose {
+        if update {
             let [sp, sy] = self.sensors.icp_noise;
             self.icp = Pose::new(
                 pose.x + self.noise(sp),
@@ -219,6 +287,26 @@ impl Instruments {
             fresh_pose,
             imu_yaw_rate,
         }
+    }
+}
+
+impl Instruments {
+    /// The ticks to the localization's next update: a gap drawn from
+    /// [`Sensors::icp_gaps`], at least one tick.
+    fn gap_ticks(&mut self) -> usize {
+        let gaps = &self.sensors.icp_gaps;
+        let total: f64 = gaps.iter().sum();
+        let mut u = Uniform::new(0.0, total).map_or(0.0, |d| d.sample(&mut self.rng));
+        let mut bin = ICP_GAP_BINS - 1;
+        for (i, &g) in gaps.iter().enumerate() {
+            if u < g {
+                bin = i;
+                break;
+            }
+            u -= g;
+        }
+        let seconds = (bin + 1) as f64 * ICP_GAP_STEP_S;
+        ((seconds * self.rate_hz).round() as usize).max(1)
     }
 }
 

@@ -351,6 +351,21 @@ impl Terrain {
                     ),
                 ));
             }
+            if !s
+                .icp_gaps
+                .iter()
+                .all(|g| g.is_finite() && (0.0..=1.0).contains(g))
+            {
+                return Err(bad(
+                    "sensors.icp_gaps",
+                    format!(
+                        "each share must be in [0, 1] ({} bins of {} s), got {:?}",
+                        crate::ICP_GAP_BINS,
+                        crate::ICP_GAP_STEP_S,
+                        s.icp_gaps
+                    ),
+                ));
+            }
             if !(s.imu_bias.is_finite() && s.imu_bias.abs() <= 100.0) {
                 return Err(bad(
                     "sensors.imu_bias",

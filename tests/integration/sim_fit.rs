@@ -58,6 +58,7 @@ fn generator() -> Terrain {
             icp_mount: [0.08, 0.0, -0.03],
             imu_noise: 0.03,
             imu_bias: 0.002,
+            icp_gaps: [0.0; drive::sim::ICP_GAP_BINS],
         }),
         variability: Some(Variability {
             traction: 0.0,
@@ -180,15 +181,15 @@ fn a_twin_of_a_simulated_robot_recovers_what_the_data_can_tell() {
     let s = t.sensors.unwrap();
     assert!((9.0..=10.5).contains(&s.icp_rate_hz), "{}", s.icp_rate_hz);
     close("position noise", s.icp_noise[0], 0.01, 0.3);
-    // Its timestamps are on time: no jitter invented from the motion's own spread.
+    // Its timestamps are on time: no jitter invented from the motion's own spread; it
+    // updates at its rate, never held longer.
     assert!(s.icp_jitter < 0.05, "{}", s.icp_jitter);
+    assert_eq!(s.icp_gaps, [0.0; drive::sim::ICP_GAP_BINS]);
     close("encoder noise", s.encoder_noise, 0.1, 0.2);
     // The localization's mount: ahead of the centre, yawed.
     assert!((s.icp_mount[0] - 0.08).abs() < 0.02, "{:?}", s.icp_mount);
     assert!((s.icp_mount[2] + 0.03).abs() < 0.01, "{:?}", s.icp_mount);
-    // Variability: the turning resistance's, with its correlation time. (Seen through a
-    // localization whose timestamps jitter, a varying traction spreads the steady windows
-    // much as a varying turning resistance does: see drive-sim's `nonnegative_fit` test.)
+    // Variability: the turning resistance's, with its correlation time.
     let v = t.variability.unwrap();
     close("lateral variability", v.lateral, 0.3, 0.35);
     close("correlation time", v.correlation_time, 3.0, 0.35);

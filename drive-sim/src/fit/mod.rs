@@ -560,6 +560,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         icp_jitter: icp_jitter.min(MAX_ICP_JITTER_S),
         imu_noise: median(imu_sd),
         imu_bias: median(imu_bias),
+        icp_gaps: localization_gaps(data),
     };
     let protocol = fit_protocol(data, &g);
     let mut terrain = Terrain {

@@ -2,6 +2,7 @@
 //! lateral speed regressed on yaw rate and speed.
 
 use super::*;
+use crate::{ICP_GAP_BINS, ICP_GAP_STEP_S};
 
 /// Where the localization sits on the body: the steady windows' lateral speed regressed on
 /// the yaw rate, the forward speed and their product (the last is the body's own sideslip,
@@ -160,6 +161,40 @@ fn polynomial_fit(t: &[f64], y: &[f64], degree: usize) -> Option<(f64, f64)> {
     Some((r.norm_squared() / (n - cols) as f64, sol[1]))
 }
 
+/// When the localization's pose changes ([`Sensors::icp_gaps`](crate::Sensors::icp_gaps)):
+/// the gaps between the samples at which each window's pose changed, binned by
+/// [`ICP_GAP_STEP_S`] (the last bin: that far or more), as shares. A window sees a gap
+/// whole only when both its ends fall inside it, the more rarely the longer the gap (in a
+/// window spanning `n` ticks, a gap of `g` ticks fits in `n - g` places): each is counted
+/// `n / (n - g)` times. All zero with fewer than 100 gaps, or when every gap is the
+/// localization's one period (a regular localization is its rate's).
+pub(super) fn localization_gaps(data: &Dataset) -> [f64; ICP_GAP_BINS] {
+    let dt = 1.0 / data.robot.rate_hz;
+    let (mut shares, mut seen) = ([0.0; ICP_GAP_BINS], 0usize);
+    for w in &data.windows {
+        let span = w.len().saturating_sub(1);
+        let mut last: Option<usize> = None;
+        for k in 1..w.len() {
+            if w.pose[k] != w.pose[k - 1] {
+                if let Some(j) = last {
+                    let gap = k - j;
+                    let bin = ((gap as f64 * dt / ICP_GAP_STEP_S).round() as usize)
+                        .clamp(1, ICP_GAP_BINS);
+                    // gap < span: both ends are changes after the window's first sample.
+                    shares[bin - 1] += span as f64 / (span - gap) as f64;
+                    seen += 1;
+                }
+                last = Some(k);
+            }
+        }
+    }
+    let total: f64 = shares.iter().sum();
+    if seen < 100 || shares.iter().filter(|&&c| c > 0.0).count() < 2 {
+        return [0.0; ICP_GAP_BINS];
+    }
+    shares.map(|c| c / total)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -213,6 +248,34 @@ mod tests {
         assert!((position - 0.01).abs() < 0.005, "{position}");
         // The Husky turns slowly: some of the timing's spread goes to the yaw's noise.
         assert!(yaw < 0.015, "{yaw}");
+    }
+
+    #[test]
+    fn the_localizations_update_gaps_are_recovered_and_a_regular_one_has_none() {
+        let regular = Sensors {
+            icp_noise: [0.01, 0.004],
+            ..Sensors::default()
+        };
+        assert_eq!(localization_gaps(&run(regular)), [0.0; ICP_GAP_BINS]);
+        // 70% of the updates 0.1 s apart, 20% 0.3 s, 10% 0.8 s (held, then caught up).
+        let mut gaps = [0.0; ICP_GAP_BINS];
+        (gaps[1], gaps[5], gaps[15]) = (0.7, 0.2, 0.1);
+        let data = run(Sensors {
+            icp_gaps: gaps,
+            ..regular
+        });
+        // Published at 10 Hz all along, the runner's watchdog (0.5 s) never paused it.
+        assert_eq!(data.windows.len(), 450);
+        let fitted = localization_gaps(&data);
+        for (bin, want) in [(1, 0.7), (5, 0.2), (15, 0.1)] {
+            assert!((fitted[bin] - want).abs() < 0.03, "{bin}: {fitted:?}");
+        }
+        // Nothing lands elsewhere.
+        let elsewhere: f64 = (0..ICP_GAP_BINS)
+            .filter(|b| ![1, 5, 15].contains(b))
+            .map(|b| fitted[b])
+            .sum();
+        assert!(elsewhere < 1e-12, "{fitted:?}");
     }
 
     #[test]
