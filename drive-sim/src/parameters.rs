@@ -66,8 +66,35 @@ pub(crate) const MOUNT_RANGE: (f64, f64) = (10.0, 1.0);
 pub(crate) const MAX_ICP_JITTER_S: f64 = 1.0;
 /// The slowest localization rate (Hz).
 pub(crate) const MIN_ICP_RATE_HZ: f64 = 0.5;
-/// The correlation time's range, in windows: from 1/50 of a window to 50 windows.
+/// The correlation time's search, in windows: from 1/50 of a window to 50 windows.
 pub(crate) const CORRELATION_WINDOWS: f64 = 50.0;
+/// The correlations of an interval's two steady windows the correlation time is inverted
+/// from: a measured one beyond them is taken at them (its correlation time then at a bound
+/// of its range, [`correlation_time_for`] of these).
+pub(crate) const CORRELATION_RANGE: (f64, f64) = (0.05, 0.95);
+
+/// The correlation of the means of two adjacent windows of length `t` of a stationary
+/// first-order Gauss-Markov process of correlation time `tau`.
+pub(crate) fn adjacent_window_correlation(t: f64, tau: f64) -> f64 {
+    let x = t / tau;
+    (1.0 - (-x).exp()).powi(2) / (2.0 * (x - 1.0 + (-x).exp()))
+}
+
+/// The correlation time whose adjacent windows of length `window` (s) correlate by `rho`
+/// ([`adjacent_window_correlation`] inverted by bisection within [`CORRELATION_WINDOWS`]).
+pub(crate) fn correlation_time_for(window: f64, rho: f64) -> f64 {
+    let (mut lo, mut hi) = (window / CORRELATION_WINDOWS, window * CORRELATION_WINDOWS);
+    for _ in 0..60 {
+        let mid = (lo * hi).sqrt();
+        // The correlation grows with the correlation time.
+        if adjacent_window_correlation(window, mid) < rho {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    (lo * hi).sqrt()
+}
 
 /// Every fitted parameter of the twin `t` (as `drive sim-fit` writes it) with its range;
 /// `window_s` is the data's window length (s), which the correlation time's range follows.
@@ -206,11 +233,14 @@ pub fn fitted_parameters_within(
             // A process searched no further than zero is none, not at a bound.
             push(name, sd, None, (limit > 0.0).then_some(limit));
         }
+        // What the fit can give: the correlation time of the least and the most correlated
+        // windows it inverts.
+        let (least, most) = CORRELATION_RANGE;
         push(
             "variability.correlation_time",
             v.correlation_time,
-            Some(window_s / CORRELATION_WINDOWS),
-            Some(window_s * CORRELATION_WINDOWS),
+            Some(correlation_time_for(window_s, least)),
+            Some(correlation_time_for(window_s, most)),
         );
     }
     if let Some(p) = &t.protocol {
@@ -256,5 +286,30 @@ mod tests {
             .map(|p| p.name.as_str())
             .collect();
         assert_eq!(bound, ["traction", "variability.rolling"]);
+    }
+
+    #[test]
+    fn a_correlation_time_the_fit_cannot_go_below_is_at_a_bound() {
+        // Windows of 2 s correlating by the fit's least correlation (0.05): 0.18 s.
+        let least = correlation_time_for(2.0, CORRELATION_RANGE.0);
+        assert!((adjacent_window_correlation(2.0, least) - 0.05).abs() < 1e-9);
+        assert!((least - 0.1818).abs() < 1e-3, "{least}");
+        let mut t = Terrain::preset("gravel").unwrap();
+        let at = |t: &Terrain| {
+            fitted_parameters(t, 2.0)
+                .into_iter()
+                .find(|p| p.name == "variability.correlation_time")
+                .unwrap()
+                .at_bound
+        };
+        for (tau, bound) in [(least, true), (1.0, false), (1e3, true)] {
+            t.variability = Some(crate::Variability {
+                traction: 0.1,
+                lateral: 0.0,
+                rolling: 0.0,
+                correlation_time: tau,
+            });
+            assert_eq!(at(&t), bound, "{tau}");
+        }
     }
 }

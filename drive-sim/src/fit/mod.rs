@@ -19,8 +19,9 @@
 //!    or ramped ([`TwinProtocol`]).
 
 use crate::parameters::{
-    CORRELATION_WINDOWS, MAX_DEAD_TIME_S, MAX_ICP_JITTER_S, MAX_ROLLING, MAX_VARIABILITY,
-    MIN_ICP_RATE_HZ, MOUNT_RANGE, RIGHT_GAIN_RANGE, SLIP_MODULUS_RANGE, TRACTION_RANGE,
+    correlation_time_for, CORRELATION_RANGE, MAX_DEAD_TIME_S, MAX_ICP_JITTER_S, MAX_ROLLING,
+    MAX_VARIABILITY, MIN_ICP_RATE_HZ, MOUNT_RANGE, RIGHT_GAIN_RANGE, SLIP_MODULUS_RANGE,
+    TRACTION_RANGE,
 };
 use crate::vehicle::{step_body, VehicleParams, VehicleState};
 use crate::{

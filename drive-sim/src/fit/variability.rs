@@ -99,13 +99,6 @@ pub fn scatter(data: &Dataset, g: &DifferentialDrive) -> Option<Scatter> {
     })
 }
 
-/// The correlation of the means of two adjacent windows of length `t` of a stationary
-/// first-order Gauss-Markov process of correlation time `tau`.
-pub(super) fn adjacent_window_correlation(t: f64, tau: f64) -> f64 {
-    let x = t / tau;
-    (1.0 - (-x).exp()).powi(2) / (2.0 * (x - 1.0 + (-x).exp()))
-}
-
 /// Holds the robot still (stands in for a sampler that cannot be built).
 pub(super) struct Still;
 
@@ -268,23 +261,14 @@ pub(super) fn fit_variability(
     }
     // The correlation time: the excess yaw-rate scatter's own correlation, inverted.
     let window = data.robot.window_len as f64 / data.robot.rate_hz;
+    let (least, most) = CORRELATION_RANGE;
     let rho = if excess[1] > 0.0 {
         ((real.within_interval * vr[1] - base.within_interval * vb[1]) / excess[1])
-            .clamp(0.05, 0.95)
+            .clamp(least, most)
     } else {
         0.5
     };
-    let (mut lo, mut hi) = (window / CORRELATION_WINDOWS, window * CORRELATION_WINDOWS);
-    for _ in 0..60 {
-        let mid = (lo * hi).sqrt();
-        // The correlation grows with the correlation time.
-        if adjacent_window_correlation(window, mid) < rho {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    let correlation_time = (lo * hi).sqrt();
+    let correlation_time = correlation_time_for(window, rho);
     let with = |sd: [f64; 3]| Terrain {
         variability: Some(Variability {
             traction: sd[0],
