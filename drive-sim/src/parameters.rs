@@ -7,15 +7,18 @@ use serde::Serialize;
 /// One fitted parameter of a twin.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FittedParameter {
-    /// Its name as the twin's TOML file has it (`traction`, `powertrain.dead_time`, ...).
+    /// Its name as the twin's TOML file has it (`traction`, `powertrain.dead_time`, ...),
+    /// or, for a summary of a table of the file, the table's name and what is summarised
+    /// (`sensors.icp_gaps.mean_s`).
     pub name: String,
     /// The fitted value.
     pub value: f64,
-    /// The lower bound of the range the fit searched; `None` when there is none, or when it
+    /// The lower bound of the range the fit searched (or, where its search is wider than
+    /// what it can give, of the values it can give); `None` when there is none, or when it
     /// is the quantity's own zero (a noise, a dead time, a variability of zero means "none",
     /// not "the fit wanted less").
     pub min: Option<f64>,
-    /// The upper bound of the range the fit searched; `None` when there is none.
+    /// The upper bound of that range; `None` when there is none.
     pub max: Option<f64>,
     /// The value sits at one of the bounds (within 0.1%): the fit would have gone further,
     /// so the data does not pin it down, or the simulator cannot express what it shows.
@@ -193,7 +196,7 @@ pub fn fitted_parameters_within(
         );
         if let Some((mean, long)) = s.gap_summary(0.5) {
             push("sensors.icp_gaps.mean_s", mean, None, None);
-            push("sensors.icp_gaps.share_from_0.5s", long, None, None);
+            push("sensors.icp_gaps.share_from_half_s", long, None, None);
         }
         push("sensors.icp_noise.position", s.icp_noise[0], None, None);
         push("sensors.icp_noise.yaw", s.icp_noise[1], None, None);

@@ -34,12 +34,14 @@ pub struct Sensors {
     /// IMU bias (rad/s).
     pub imu_bias: f64,
     /// When the localization's pose changes: the share of its updates that come
-    /// [`ICP_GAP_STEP_S`] (0.05 s), 0.10 s, ..., 1 s (the last bin: 1 s or more) after the
-    /// previous one ([`ICP_GAP_BINS`] bins; they need not sum to one). All zero (the
-    /// default): every `1 / icp_rate_hz`. A real localization falls behind now and then
-    /// (a scan matched late, a map update): its pose holds for half a second or more, then
-    /// catches up in one jump. Between its updates it is still published at
-    /// `icp_rate_hz`, unchanged, as a localization node republishes its last estimate.
+    /// [`ICP_GAP_STEP_S`] (0.05 s), 0.10 s, ..., 1 s (the last bin: 1 s or more, drawn as
+    /// 1 s) after the previous one ([`ICP_GAP_BINS`] bins; they need not sum to one), each
+    /// gap rounded to whole command ticks. All zero (the default): every `1 / icp_rate_hz`.
+    /// A real localization falls behind now and then (a scan matched late, a map update):
+    /// its pose holds for half a second or more, then catches up in one jump. Between its
+    /// updates it is still published at `icp_rate_hz`, unchanged, as a localization node
+    /// republishes its last estimate (so at a rate above 2 Hz the runner's 0.5 s watchdog
+    /// does not pause).
     #[serde(skip_serializing_if = "no_gaps")]
     pub icp_gaps: [f64; ICP_GAP_BINS],
 }
@@ -220,7 +222,7 @@ impl Instruments {
     }
 
     /// What the sensors report at this tick: the localization (a noisy copy of `pose`
-    /// at the ICP rate, held between updates), the inputs with noise of standard deviation
+    /// at the ICP rate, or at the gaps of [`Sensors::icp_gaps`], held between updates), the inputs with noise of standard deviation
     /// `input_noise` per axis, and the IMU yaw rate with noise and bias.
     pub fn measure(
         &mut self,

@@ -28,7 +28,9 @@ pub struct Measured {
     pub input: Input,
     /// ICP pose (held between updates).
     pub pose: Pose,
-    /// True when the ICP pose was updated at this tick.
+    /// True when the localization published its pose at this tick: an update, or, between
+    /// the updates of a localization with [`Sensors::icp_gaps`](crate::Sensors::icp_gaps),
+    /// its last estimate again at its rate (what the runner and the logger take for a fix).
     pub fresh_pose: bool,
     /// IMU yaw rate (rad/s).
     pub imu_yaw_rate: f64,

@@ -166,8 +166,10 @@ fn polynomial_fit(t: &[f64], y: &[f64], degree: usize) -> Option<(f64, f64)> {
 /// [`ICP_GAP_STEP_S`] (the last bin: that far or more), as shares. A window sees a gap
 /// whole only when both its ends fall inside it, the more rarely the longer the gap (in a
 /// window spanning `n` ticks, a gap of `g` ticks fits in `n - g` places): each is counted
-/// `n / (n - g)` times. All zero with fewer than 100 gaps, or when every gap is the
-/// localization's one period (a regular localization is its rate's).
+/// `n / (n - g)` times (a gap as long as the window is never seen: the last bin is a lower
+/// bound of the long holds). All zero with fewer than 100 gaps, or when every gap is one
+/// length (a localization whose period is a whole number of ticks is its rate's; one of
+/// 15 Hz sampled at 20 Hz gets its gaps of one and two ticks).
 pub(super) fn localization_gaps(data: &Dataset) -> [f64; ICP_GAP_BINS] {
     let dt = 1.0 / data.robot.rate_hz;
     let (mut shares, mut seen) = ([0.0; ICP_GAP_BINS], 0usize);

@@ -171,6 +171,13 @@ fn terrain_files_round_trip_and_refuse_bad_values() {
             "sensors.icp_rate_hz",
         ),
         (
+            text.replace(
+                "imu_bias = 0.005",
+                "imu_bias = 0.005\nicp_gaps = [0.5, -0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]",
+            ),
+            "sensors.icp_gaps",
+        ),
+        (
             text.replace("[-9.0, 11.0]", "[11.0, -9.0]"),
             "protocol.input_limits",
         ),
