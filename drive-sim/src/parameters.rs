@@ -194,7 +194,7 @@ pub fn fitted_parameters_within(
             Some(MIN_ICP_RATE_HZ),
             None,
         );
-        if let Some((mean, long)) = s.gap_summary(0.5) {
+        if let Some((mean, long)) = s.gap_summary() {
             push("sensors.icp_gaps.mean_s", mean, None, None);
             push("sensors.icp_gaps.share_from_half_s", long, None, None);
         }

@@ -48,8 +48,8 @@ pub struct Sensors {
 
 impl Sensors {
     /// The mean gap between the localization's updates (s) and the share of its updates
-    /// that come at least `long_s` after the previous one, from [`Sensors::icp_gaps`];
-    /// `None` without gaps.
+    /// that come half a second or more after the previous one, from
+    /// [`Sensors::icp_gaps`]; `None` without gaps.
     ///
     /// ```
     /// use drive_sim::{Sensors, ICP_GAP_BINS};
@@ -57,11 +57,12 @@ impl Sensors {
     /// gaps[1] = 0.75; // 0.10 s
     /// gaps[9] = 0.25; // 0.50 s
     /// let s = Sensors { icp_gaps: gaps, ..Sensors::default() };
-    /// let (mean, long) = s.gap_summary(0.5).unwrap();
+    /// let (mean, long) = s.gap_summary().unwrap();
     /// assert!((mean - 0.2).abs() < 1e-12 && (long - 0.25).abs() < 1e-12);
-    /// assert_eq!(Sensors::default().gap_summary(0.5), None);
+    /// assert_eq!(Sensors::default().gap_summary(), None);
     /// ```
-    pub fn gap_summary(&self, long_s: f64) -> Option<(f64, f64)> {
+    pub fn gap_summary(&self) -> Option<(f64, f64)> {
+        const LONG_S: f64 = 0.5;
         let total: f64 = self.icp_gaps.iter().sum();
         if total.is_nan() || total <= 0.0 {
             return None;
@@ -72,7 +73,7 @@ impl Sensors {
             .sum::<f64>()
             / total;
         let long = (0..ICP_GAP_BINS)
-            .filter(|&i| at(i) >= long_s - 1e-9)
+            .filter(|&i| at(i) >= LONG_S - 1e-9)
             .map(|i| self.icp_gaps[i])
             .sum::<f64>()
             / total;
@@ -247,23 +248,23 @@ impl Instruments {
         let now = self.time();
         let pose = self.mounted(&pose);
         let delayed = self.sensors.icp_latency > 0.0 || self.sensors.icp_jitter > 0.0;
-        let pose = if delayed {
+        if delayed {
             self.past.push_back((now, pose));
-            let delay = self.sensors.icp_latency
-                + match Uniform::new(0.0, self.sensors.icp_jitter) {
-                    Ok(u) if update => u.sample(&mut self.rng),
-                    _ => 0.0,
-                };
             // Keep what the longest delay can still ask for.
             let oldest = now - self.sensors.icp_latency - self.sensors.icp_jitter;
             while self.past.len() > 2 && self.past[1].0 <= oldest {
                 self.past.pop_front();
             }
-            pose_at(&self.past, now - delay)
-        } else {
-            pose
-        };
+        }
         if update {
+            let pose = if delayed {
+                let delay = self.sensors.icp_latency
+                    + Uniform::new(0.0, self.sensors.icp_jitter)
+                        .map_or(0.0, |u| u.sample(&mut self.rng));
+                pose_at(&self.past, now - delay)
+            } else {
+                pose
+            };
             let [sp, sy] = self.sensors.icp_noise;
             self.icp = Pose::new(
                 pose.x + self.noise(sp),

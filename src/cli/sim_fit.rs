@@ -315,7 +315,7 @@ fn fit_text(
         "sensors: localization {:.1} Hz with {:.4} m and {:.4} rad noise and timestamps jittering by up to {:.3} s, encoders {:.3} rad/s, IMU {:.4} rad/s with a {:+.4} rad/s bias\n",
         s.icp_rate_hz, s.icp_noise[0], s.icp_noise[1], s.icp_jitter, s.encoder_noise, s.imu_noise, s.imu_bias,
     );
-    if let Some((mean, long)) = s.gap_summary(0.5) {
+    if let Some((mean, long)) = s.gap_summary() {
         text += &format!(
             "sensors: the localization's pose changes every {mean:.3} s on average, {:.1}% of its updates 0.5 s or more after the previous one (held, then caught up)\n",
             100.0 * long

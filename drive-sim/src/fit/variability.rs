@@ -406,8 +406,8 @@ fn response(curve: &[[f64; 2]; PROBES.len()], sd: f64, axis: usize) -> f64 {
 /// `limits`, at most the simulator's largest, [`MAX_VARIABILITY`]) whose responses, added
 /// ([`response`]: independent processes add their variances), come closest to `target` on
 /// both axes (least squares, plus [`DEVIATION_COST`] per unit of variance), searched on a
-/// grid of [`SEARCH_STEP`]; of equally close ones, the smallest deviations. (A linear model of the responses from one small probe took, on
-/// the bundled Husky data, the rolling resistance's variability alone for both axes and
+/// grid of [`SEARCH_STEP`]; of equally close ones, the smallest deviations. (A linear
+/// model of the responses from one small probe took, on the bundled Husky data, the rolling resistance's variability alone for both axes and
 /// left the yaw rate's scatter a third short of the data's: a varying rolling resistance
 /// turns the robot much less, and drives it no more unevenly beyond a point, than its small
 /// probe says.)
