@@ -80,7 +80,8 @@ pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use registries::{Catalog, Listed, Registries};
 pub use split::{split_by_interval, SplitError};
 pub use stats::{
-    average_ranks, improvement_percent, paired_bootstrap, quantile, spearman, PairedErrors, Summary,
+    average_ranks, improvement_percent, median_interval, paired_bootstrap, quantile, spearman,
+    PairedErrors, Summary,
 };
 pub use terrain::{
     energy_unpredictability, unpredictability, Unpredictability, UnpredictabilityConfig,

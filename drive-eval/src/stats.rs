@@ -2,6 +2,7 @@ use crate::BootstrapConfig;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use serde::Serialize;
+use std::ops::Range;
 
 /// The `p`-quantile of sorted values by linear interpolation between order statistics
 /// (position `(n - 1) p`, as numpy's default). `None` for no values.
@@ -123,23 +124,12 @@ pub fn paired_bootstrap(
     }
     let percent = improvement_percent(median_of(&mut mine), median_of(&mut base));
     // Each run's blocks as ranges of windows.
-    let ranges: Vec<Vec<std::ops::Range<usize>>> = runs
+    let ranges: Vec<Vec<Range<usize>>> = runs
         .iter()
         .map(|r| {
-            let n = r.model.len().min(r.reference.len());
-            match r.blocks {
-                None => Vec::new(),
-                Some(ids) => {
-                    let mut out: Vec<std::ops::Range<usize>> = Vec::new();
-                    for i in 0..n.min(ids.len()) {
-                        match out.last_mut() {
-                            Some(last) if ids[i] == ids[last.start] => last.end = i + 1,
-                            _ => out.push(i..i + 1),
-                        }
-                    }
-                    out
-                }
-            }
+            r.blocks.map_or_else(Vec::new, |ids| {
+                block_ranges(&ids[..ids.len().min(r.model.len().min(r.reference.len()))])
+            })
         })
         .collect();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
@@ -177,6 +167,70 @@ pub fn paired_bootstrap(
             quantile(&draws, 1.0 - tail).unwrap_or(f64::NAN),
         ],
     }
+}
+
+/// The runs of equal consecutive `ids` as ranges of indices: the blocks a bootstrap
+/// resamples whole.
+fn block_ranges(ids: &[usize]) -> Vec<Range<usize>> {
+    let mut out: Vec<Range<usize>> = Vec::new();
+    for (i, id) in ids.iter().enumerate() {
+        match out.last_mut() {
+            Some(last) if *id == ids[last.start] => last.end = i + 1,
+            _ => out.push(i..i + 1),
+        }
+    }
+    out
+}
+
+/// The bootstrap percentile interval of the median of `errors`: the blocks of windows
+/// (`blocks[i]` the block of window `i`, e.g. its DRIVE interval, non-decreasing; `None`:
+/// each window alone) resampled whole with replacement `config.resamples` times, seeded by
+/// `seed`. How far the median of one run's evaluation windows could have fallen with other
+/// commands drawn; NaN bounds when `errors` is empty.
+///
+/// ```
+/// use drive_eval::{median_interval, BootstrapConfig};
+/// // Ten intervals of three windows: 0.1, 0.2, ..., 1.0 m.
+/// let errors: Vec<f64> = (0..30).map(|i| (i / 3 + 1) as f64 / 10.0).collect();
+/// let blocks: Vec<usize> = (0..30).map(|i| i / 3).collect();
+/// let [lo, hi] = median_interval(&errors, Some(&blocks), &BootstrapConfig::default(), 0);
+/// assert!(lo < 0.55 && 0.55 < hi && lo >= 0.1 && hi <= 1.0);
+/// // One value everywhere: no spread.
+/// assert_eq!(median_interval(&[0.2; 12], None, &BootstrapConfig::default(), 0), [0.2, 0.2]);
+/// ```
+pub fn median_interval(
+    errors: &[f64],
+    blocks: Option<&[usize]>,
+    config: &BootstrapConfig,
+    seed: u64,
+) -> [f64; 2] {
+    let n = errors.len();
+    let ranges = match blocks {
+        Some(ids) => block_ranges(&ids[..ids.len().min(n)]),
+        None => (0..n).map(|i| i..i + 1).collect(),
+    };
+    if ranges.is_empty() {
+        return [f64::NAN; 2];
+    }
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut draw = Vec::with_capacity(n);
+    let mut medians = Vec::with_capacity(config.resamples);
+    for _ in 0..config.resamples {
+        draw.clear();
+        for _ in 0..ranges.len() {
+            draw.extend_from_slice(&errors[ranges[rng.random_range(0..ranges.len())].clone()]);
+        }
+        let m = median_of(&mut draw);
+        if m.is_finite() {
+            medians.push(m);
+        }
+    }
+    medians.sort_unstable_by(f64::total_cmp);
+    let tail = (1.0 - config.level) / 2.0;
+    [
+        quantile(&medians, tail).unwrap_or(f64::NAN),
+        quantile(&medians, 1.0 - tail).unwrap_or(f64::NAN),
+    ]
 }
 
 /// The ranks of `values` (1 = smallest), ties sharing their mean rank.

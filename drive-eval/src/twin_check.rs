@@ -4,7 +4,10 @@
 //! eq. 8 on the second; the medians of the real run against those of the twin's runs
 //! pooled, and the steady windows' scatter of both.
 
-use crate::{quantile, split_by_interval, ExperimentError, Registries, SimRun};
+use crate::{
+    median_interval, quantile, split_by_interval, BootstrapConfig, ExperimentError, Registries,
+    SimRun,
+};
 use drive_models::{DifferentialDrive, ModelSpec};
 use drive_samplers::{RobotSpec, RunnerConfig};
 use drive_sim::Terrain;
@@ -28,8 +31,14 @@ pub struct TwinCheckRow {
     pub real_translational_m: f64,
     /// The same over the twin's runs' evaluation windows, pooled (m).
     pub twin_translational_m: f64,
+    /// The 95% bootstrap interval of `real_translational_m` ([`median_interval`]: the
+    /// real run's evaluation intervals resampled whole, 1000 times): how far the real
+    /// median itself could have fallen with other commands drawn (m).
+    pub real_translational_ci_m: [f64; 2],
     /// Median rotational error over the real run's evaluation windows (rad).
     pub real_rotational_rad: f64,
+    /// The same interval of `real_rotational_rad` (rad).
+    pub real_rotational_ci_rad: [f64; 2],
     /// The same over the twin's runs (rad).
     pub twin_rotational_rad: f64,
     /// `100 (twin - real) / real`, translational.
@@ -121,7 +130,7 @@ pub fn twin_check(
     let cells: Vec<(usize, usize)> = (0..sets.len())
         .flat_map(|d| (0..models.len()).map(move |m| (d, m)))
         .collect();
-    let errors: Vec<Vec<[f64; 2]>> = cells
+    let errors: Vec<Vec<WindowError>> = cells
         .par_iter()
         .map(|&(d, m)| window_errors(sets[d], &models[m]))
         .collect::<Result<_, _>>()?;
@@ -133,9 +142,15 @@ pub fn twin_check(
     let mut windows = [0, 0];
     for (m, spec) in models.iter().enumerate() {
         let of = |d: usize| &errors[d * models.len() + m];
-        let (mut rt, mut rr): (Vec<f64>, Vec<f64>) = of(0).iter().map(|e| (e[0], e[1])).unzip();
+        let (mut rt, mut rr): (Vec<f64>, Vec<f64>) =
+            of(0).iter().map(|e| (e.error[0], e.error[1])).unzip();
+        let blocks: Vec<usize> = of(0).iter().map(|e| e.interval).collect();
+        // Seed 0, as `drive eval`'s intervals; one draw for both errors.
+        let interval_of =
+            |errors: &[f64]| median_interval(errors, Some(&blocks), &BootstrapConfig::default(), 0);
+        let (real_t_ci, real_r_ci) = (interval_of(&rt), interval_of(&rr));
         let (mut tt, mut tr): (Vec<f64>, Vec<f64>) = (1..sets.len())
-            .flat_map(|d| of(d).iter().map(|e| (e[0], e[1])))
+            .flat_map(|d| of(d).iter().map(|e| (e.error[0], e.error[1])))
             .unzip();
         windows = [rt.len(), tt.len()];
         let (real_t, real_r, twin_t, twin_r) = (
@@ -148,8 +163,10 @@ pub fn twin_check(
         check.push(TwinCheckRow {
             model: spec.name.clone(),
             real_translational_m: real_t,
+            real_translational_ci_m: real_t_ci,
             twin_translational_m: twin_t,
             real_rotational_rad: real_r,
+            real_rotational_ci_rad: real_r_ci,
             twin_rotational_rad: twin_r,
             translational_off_percent: off(twin_t, real_t),
             rotational_off_percent: off(twin_r, real_r),
@@ -187,9 +204,15 @@ pub fn twin_check(
     })
 }
 
+/// One evaluation window's translational and rotational errors (eq. 8) and its interval.
+struct WindowError {
+    error: [f64; 2],
+    interval: usize,
+}
+
 /// The translational and rotational errors (eq. 8) of `spec`, fitted on the first half of
 /// `data`'s intervals, over the windows of the second half.
-fn window_errors(data: &Dataset, spec: &ModelSpec) -> Result<Vec<[f64; 2]>, ExperimentError> {
+fn window_errors(data: &Dataset, spec: &ModelSpec) -> Result<Vec<WindowError>, ExperimentError> {
     let (train, eval) = split_by_interval(data, 0.5).map_err(|e| {
         ExperimentError::NotEnoughData(format!("the twin check on {}: {e}", data.robot.name))
     })?;
@@ -203,19 +226,27 @@ fn window_errors(data: &Dataset, spec: &ModelSpec) -> Result<Vec<[f64; 2]>, Expe
     Ok(report
         .windows
         .iter()
-        .map(|w| [w.error.translational, w.error.rotational])
+        .map(|w| WindowError {
+            error: [w.error.translational, w.error.rotational],
+            interval: w.interval,
+        })
         .collect())
 }
 
-/// The medians further than `tolerance` (a fraction) from the real ones, in words.
+/// The medians further than `tolerance` (a fraction) from the real ones, in words, each with
+/// the real median's bootstrap interval (a miss the real run's own sampling could explain
+/// shows a twin median inside it).
 ///
 /// ```
 /// use drive_eval::{poor_twin, TwinCheckRow};
 /// let row = TwinCheckRow { model: "slip-blr".into(), real_translational_m: 0.10,
-///     twin_translational_m: 0.12, real_rotational_rad: 0.10, twin_rotational_rad: 0.21,
-///     translational_off_percent: 20.0, rotational_off_percent: 110.0 };
+///     real_translational_ci_m: [0.09, 0.11], twin_translational_m: 0.12,
+///     real_rotational_rad: 0.10, real_rotational_ci_rad: [0.08, 0.13],
+///     twin_rotational_rad: 0.21, translational_off_percent: 20.0,
+///     rotational_off_percent: 110.0 };
 /// let poor = poor_twin(&[row], 0.3);
-/// assert_eq!(poor, ["slip-blr rotational median +110% (twin 0.2100 rad against the real run's 0.1000)"]);
+/// assert_eq!(poor, ["slip-blr rotational median +110% (twin 0.2100 rad against the real run's \
+///     0.1000, whose 95% interval is [0.0800, 0.1300])"]);
 /// ```
 pub fn poor_twin(check: &[TwinCheckRow], tolerance: f64) -> Vec<String> {
     let mut out = Vec::new();
@@ -224,7 +255,7 @@ pub fn poor_twin(check: &[TwinCheckRow], tolerance: f64) -> Vec<String> {
             &mut out,
             format!("{} translational median", r.model),
             r.twin_translational_m,
-            r.real_translational_m,
+            (r.real_translational_m, Some(r.real_translational_ci_m)),
             "m",
             tolerance,
         );
@@ -232,7 +263,7 @@ pub fn poor_twin(check: &[TwinCheckRow], tolerance: f64) -> Vec<String> {
             &mut out,
             format!("{} rotational median", r.model),
             r.twin_rotational_rad,
-            r.real_rotational_rad,
+            (r.real_rotational_rad, Some(r.real_rotational_ci_rad)),
             "rad",
             tolerance,
         );
@@ -247,7 +278,7 @@ fn scatter_off(s: &ScatterCheck, tolerance: f64) -> Vec<String> {
         &mut out,
         "steady forward-speed scatter".into(),
         s.twin[0],
-        s.real[0],
+        (s.real[0], None),
         "m/s",
         tolerance,
     );
@@ -255,7 +286,7 @@ fn scatter_off(s: &ScatterCheck, tolerance: f64) -> Vec<String> {
         &mut out,
         "steady yaw-rate scatter".into(),
         s.twin[1],
-        s.real[1],
+        (s.real[1], None),
         "rad/s",
         tolerance,
     );
@@ -263,12 +294,22 @@ fn scatter_off(s: &ScatterCheck, tolerance: f64) -> Vec<String> {
 }
 
 /// Adds `what` to `out` when `twin` is further than `tolerance` (a fraction) from `real`
-/// (or not a number).
-fn off_by(out: &mut Vec<String>, what: String, twin: f64, real: f64, unit: &str, tolerance: f64) {
+/// (or not a number); `real` comes with its interval where it has one.
+fn off_by(
+    out: &mut Vec<String>,
+    what: String,
+    twin: f64,
+    (real, interval): (f64, Option<[f64; 2]>),
+    unit: &str,
+    tolerance: f64,
+) {
     let off = (twin - real) / real;
     if off.is_nan() || off.abs() > tolerance {
+        let interval = interval.map_or_else(String::new, |[lo, hi]| {
+            format!(", whose 95% interval is [{lo:.4}, {hi:.4}]")
+        });
         out.push(format!(
-            "{what} {:+.0}% (twin {twin:.4} {unit} against the real run's {real:.4})",
+            "{what} {:+.0}% (twin {twin:.4} {unit} against the real run's {real:.4}{interval})",
             100.0 * off
         ));
     }

@@ -30,7 +30,9 @@ pub struct Args {
     name: Option<String>,
     /// Print the fit as JSON on stdout: `parameters` (each fitted parameter with `name`,
     /// `value`, its range and `at_bound`), `check` (per model: `real_translational_m`,
-    /// `twin_translational_m`, `real_rotational_rad`, `twin_rotational_rad`), `scatter`,
+    /// `twin_translational_m`, `real_rotational_rad`, `twin_rotational_rad`, and the real
+    /// medians' 95% bootstrap intervals `real_translational_ci_m`, `real_rotational_ci_rad`),
+    /// `scatter`,
     /// `poor`, `written`, `fitted` (false with --twin), and the twin (`terrain`) and the
     /// fit's `report` (absent with --twin). A twin refused by the check is printed too, with
     /// `"written": false`, and the command fails.
@@ -195,17 +197,28 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             check.windows[1]
         );
         text += &format!(
-            "  {:<11} {:>10} {:>10} {:>8}   {:>10} {:>10} {:>8}\n",
-            "model", "real [m]", "twin [m]", "off", "real [rad]", "twin [rad]", "off"
+            "  {:<11} {:>10} {:>16} {:>10} {:>6}   {:>10} {:>16} {:>10} {:>6}\n",
+            "model",
+            "real [m]",
+            "real 95% [m]",
+            "twin [m]",
+            "off",
+            "real [rad]",
+            "real 95% [rad]",
+            "twin [rad]",
+            "off"
         );
+        let interval = |[lo, hi]: [f64; 2]| format!("[{lo:.3}, {hi:.3}]");
         for c in o.check {
             text += &format!(
-                "  {:<11} {:>10.4} {:>10.4} {:>+7.0}%   {:>10.4} {:>10.4} {:>+7.0}%\n",
+                "  {:<11} {:>10.4} {:>16} {:>10.4} {:>+5.0}%   {:>10.4} {:>16} {:>10.4} {:>+5.0}%\n",
                 c.model,
                 c.real_translational_m,
+                interval(c.real_translational_ci_m),
                 c.twin_translational_m,
                 c.translational_off_percent,
                 c.real_rotational_rad,
+                interval(c.real_rotational_ci_rad),
                 c.twin_rotational_rad,
                 c.rotational_off_percent
             );

@@ -358,6 +358,11 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
         ] {
             let (r, t) = (c[real].as_f64().unwrap(), c[twin].as_f64().unwrap());
             assert!(r > 0.0 && t > 0.0, "{c}");
+            // The real median's bootstrap interval (its evaluation intervals resampled)
+            // holds it, and is not a point: the real run's own sampling spread.
+            let ci = &c[real.replace("_m", "_ci_m").replace("_rad", "_ci_rad")];
+            let (lo, hi) = (ci[0].as_f64().unwrap(), ci[1].as_f64().unwrap());
+            assert!(0.0 < lo && lo < r && r < hi && hi < 2.0 * r, "{c}");
             outside += usize::from(((t - r) / r).abs() > 0.3);
             // The same twin, data and seed: the fit's check, number for number.
             assert!(text.contains(&format!("{t:.4}")), "{t:.4} not in\n{text}");
@@ -382,6 +387,7 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
         );
         for p in poor {
             assert!(err.contains(p.as_str().unwrap()), "{err}");
+            assert!(p.as_str().unwrap().contains("95% interval"), "{p}");
         }
         assert!(
             !std::path::Path::new(&c).exists(),
@@ -424,6 +430,9 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
         !refused.status.success() && err.contains("--allow-poor-twin") && err.contains("median"),
         "{err}"
     );
+    // Each median off with the real one's interval: whether the real run's own sampling
+    // could explain the miss.
+    assert!(err.contains("whose 95% interval is ["), "{err}");
     assert!(
         !std::path::Path::new(&d).exists(),
         "a poor twin was written"
