@@ -88,7 +88,8 @@ pub use terrain::{
     UnpredictabilitySummary, WindowUnpredictability,
 };
 pub use twin_check::{
-    poor_twin, twin_check, ScatterCheck, TwinCheck, TwinCheckRow, TWIN_CHECK_MODELS, TWIN_TOLERANCE,
+    poor_twin, twin_check, CheckCommands, ScatterCheck, TwinCheck, TwinCheckRow, TWIN_CHECK_MODELS,
+    TWIN_TOLERANCE,
 };
 pub use uncertainty::{
     score_uncertainty, GroupCoverage, ReliabilityPoint, UncertaintyReport, COVERAGE_HORIZONS_S,

@@ -1,17 +1,18 @@
 //! The twin check: does a twin (`drive sim-fit`) drive like the real run it was fitted on?
-//! The real run and runs of the twin (as long as the real one, with its protocol, one per
-//! seed) are each split in halves, the same models fitted on the first and scored with
-//! eq. 8 on the second; the medians of the real run against those of the twin's runs
-//! pooled, and the steady windows' scatter of both.
+//! The real run and runs of the twin (as long as the real one, one per seed, given the real
+//! run's own commands or fresh draws of its protocol: [`CheckCommands`]) are each split in
+//! halves, the same models fitted on the first and scored with eq. 8 on the second; the
+//! medians of the real run against those of the twin's runs pooled, and the steady
+//! windows' scatter of both.
 
 use crate::{
     median_interval, quantile, split_by_interval, BootstrapConfig, ExperimentError, Registries,
     SimRun,
 };
 use drive_models::{DifferentialDrive, ModelSpec};
-use drive_samplers::{RobotSpec, RunnerConfig};
-use drive_sim::Terrain;
-use drive_traits::{vehicle_as, Dataset, FitError, WindowSet};
+use drive_samplers::{ReplaySampler, RobotSpec, RunnerConfig};
+use drive_sim::{SimulationConfig, Terrain};
+use drive_traits::{vehicle_as, Dataset, FitError, Input, InputSampler, WindowSet};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -21,6 +22,49 @@ pub const TWIN_CHECK_MODELS: [&str; 4] = ["naive", "powertrain", "slip-blr", "sl
 
 /// How far a twin's median may be from the real one (30%).
 pub const TWIN_TOLERANCE: f64 = 0.30;
+
+/// What the twin's runs of a check are commanded.
+///
+/// ```
+/// use drive_eval::CheckCommands;
+/// assert_eq!(CheckCommands::parse("draw"), Ok(CheckCommands::Draw));
+/// assert_eq!(CheckCommands::default().as_str(), "replay");
+/// assert!(CheckCommands::parse("fresh").unwrap_err().contains("replay"));
+/// ```
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CheckCommands {
+    /// The real run's commands, interval by interval in their order
+    /// ([`drive_samplers::ReplaySampler`]): twin and robot compared on the same inputs, so
+    /// that a difference is the twin's and not that of the commands drawn (the seeds vary
+    /// the twin's noise and variability only).
+    #[default]
+    Replay,
+    /// Fresh draws of the twin's protocol, one sequence per seed (as `drive simulate` runs
+    /// the twin): the comparison then also carries the real run's luck in its draws.
+    Draw,
+}
+
+impl CheckCommands {
+    /// From its name, `replay` or `draw`.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        match name {
+            "replay" => Ok(CheckCommands::Replay),
+            "draw" => Ok(CheckCommands::Draw),
+            other => Err(format!(
+                "unknown check commands '{other}' (replay: the real run's commands; draw: fresh draws of the twin's protocol)"
+            )),
+        }
+    }
+
+    /// Its name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            CheckCommands::Replay => "replay",
+            CheckCommands::Draw => "draw",
+        }
+    }
+}
 
 /// One model's medians on the real run and on the twin's runs (pooled).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -62,6 +106,8 @@ pub struct ScatterCheck {
 pub struct TwinCheck {
     /// Seeds of the twin's runs.
     pub seeds: Vec<u64>,
+    /// What the twin's runs were commanded.
+    pub commands: CheckCommands,
     /// Evaluation windows of the real run and of the twin's runs together.
     pub windows: [usize; 2],
     /// Per model.
@@ -78,18 +124,19 @@ pub struct TwinCheck {
     pub scatter_off: Vec<String>,
 }
 
-/// Runs the twin check of `twin`, fitted on `data` for `robot`, with `seeds` twin runs and
-/// the models `models` (each fitted with its own uncertainty: medians do not depend on the
-/// calibration).
+/// Runs the twin check of `twin`, fitted on `data` for `robot`, with `seeds` twin runs
+/// commanded as `commands` says and the models `models` (each fitted with its own
+/// uncertainty: medians do not depend on the calibration).
 ///
 /// ```no_run
-/// use drive_eval::{twin_check, Registries, TWIN_CHECK_MODELS};
+/// use drive_eval::{twin_check, CheckCommands, Registries, TWIN_CHECK_MODELS};
 /// let r = Registries::builtin();
 /// let data = drive_data::read_dataset("run.csv".as_ref(), None).unwrap();
 /// let robot = r.robot("husky").unwrap();
 /// let twin = r.terrain("twin.toml").unwrap();
 /// let models = r.models().resolve_list(&TWIN_CHECK_MODELS).unwrap();
-/// let check = twin_check(&r, &data, &robot, &twin, &[1, 2, 3], &models).unwrap();
+/// let check = twin_check(&r, &data, &robot, &twin, &[1, 2, 3], &models, CheckCommands::Replay)
+///     .unwrap();
 /// for p in &check.poor { println!("{p}"); }
 /// ```
 pub fn twin_check(
@@ -99,6 +146,7 @@ pub fn twin_check(
     twin: &Terrain,
     seeds: &[u64],
     models: &[ModelSpec],
+    commands: CheckCommands,
 ) -> Result<TwinCheck, ExperimentError> {
     if seeds.is_empty() {
         return Err(ExperimentError::Empty("seeds"));
@@ -121,9 +169,13 @@ pub fn twin_check(
             seed,
         })
         .collect();
+    let recorded = ReplaySampler::interval_commands(&data.windows);
     let simulated: Vec<Dataset> = runs
         .par_iter()
-        .map(|run| crate::simulate_run(registries, run).map(|s| s.dataset))
+        .map(|run| match commands {
+            CheckCommands::Draw => crate::simulate_run(registries, run).map(|s| s.dataset),
+            CheckCommands::Replay => replay_run(registries, run, &recorded),
+        })
         .collect::<Result<_, _>>()?;
     // Every (dataset, model) cell: the real run first.
     let sets: Vec<&Dataset> = std::iter::once(data).chain(simulated.iter()).collect();
@@ -195,6 +247,7 @@ pub fn twin_check(
     let scatter_off = scatter.map_or_else(Vec::new, |s| scatter_off(&s, TWIN_TOLERANCE));
     Ok(TwinCheck {
         seeds: seeds.to_vec(),
+        commands,
         windows,
         check,
         scatter,
@@ -202,6 +255,46 @@ pub fn twin_check(
         poor,
         scatter_off,
     })
+}
+
+/// `run` with the recorded commands `recorded` held in their order instead of its sampler's
+/// draws. A twin's protocol maps what a sampler draws in the protocol's geometry to the
+/// recorded commands ([`drive_sim::ProtocolSampler`]): the commands are given to it mapped
+/// back, and its rectangle of body velocities (which redraws inputs outside it) is not
+/// applied, so that every interval holds the command the real one held.
+fn replay_run(
+    registries: &Registries,
+    run: &SimRun,
+    recorded: &[Input],
+) -> Result<Dataset, ExperimentError> {
+    let mut terrain = run.terrain.clone();
+    let gain = match (
+        terrain.protocol.as_mut(),
+        vehicle_as::<DifferentialDrive>(run.robot.vehicle.as_ref()),
+    ) {
+        (Some(p), Some(g)) => {
+            p.body_limits = None;
+            p.difference_gain(g.baseline)
+        }
+        _ => 1.0,
+    };
+    let commands: Vec<Input> = recorded
+        .iter()
+        .map(|&u| drive_sim::scale_difference(u, 1.0 / gain))
+        .collect();
+    let sampler = ReplaySampler::new(commands).ok_or_else(|| {
+        ExperimentError::NotEnoughData("the twin check: the real run has no command".into())
+    })?;
+    let config = SimulationConfig {
+        name: run.label(),
+        robot: run.robot.clone(),
+        terrain,
+        seed: run.seed,
+        runner: run.runner.clone(),
+        events: Vec::new(),
+    };
+    let factory = move |_| Box::new(sampler.clone()) as Box<dyn InputSampler>;
+    Ok(drive_sim::simulate(config, &registries.simulators, factory, None)?.dataset)
 }
 
 /// One evaluation window's translational and rotational errors (eq. 8) and its interval.
@@ -312,5 +405,40 @@ fn off_by(
             "{what} {:+.0}% (twin {twin:.4} {unit} against the real run's {real:.4}{interval})",
             100.0 * off
         ));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_replayed_run_holds_the_recorded_commands_through_the_twins_protocol() {
+        // The shipped Husky twin draws in a 0.222 m baseline and records in the robot's
+        // 0.55 m: the replayed commands go through that mapping and come out as recorded.
+        let r = Registries::builtin();
+        let robot = r.robot("husky").unwrap();
+        let twin = r
+            .terrain(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../examples/husky_twin.toml"
+            ))
+            .unwrap();
+        assert!(twin.protocol.is_some());
+        let drawn = crate::simulate_run(&r, &SimRun::intervals(&robot, &twin, "uniform", 12, 5))
+            .unwrap()
+            .dataset;
+        let recorded = ReplaySampler::interval_commands(&drawn.windows);
+        assert_eq!(recorded.len(), 12);
+        let run = SimRun::intervals(&robot, &twin, "uniform", 12, 6);
+        let replayed = replay_run(&r, &run, &recorded).unwrap();
+        let held = ReplaySampler::interval_commands(&replayed.windows);
+        assert_eq!(held.len(), recorded.len());
+        for (a, b) in held.iter().zip(&recorded) {
+            assert!((a - b).norm() < 1e-9, "{a} against {b}");
+        }
+        // Its own draws (seed 6) are other commands.
+        let other = crate::simulate_run(&r, &run).unwrap().dataset;
+        assert_ne!(ReplaySampler::interval_commands(&other.windows), recorded);
     }
 }

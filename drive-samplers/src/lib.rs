@@ -6,6 +6,7 @@
 
 mod others;
 mod registry;
+mod replay;
 mod robot;
 mod runner;
 mod schedule;
@@ -14,6 +15,7 @@ mod uniform;
 
 pub use others::{AngularSampler, GridSampler, LinearSampler};
 pub use registry::{build_sampler, builtin_samplers, MakeSampler, SamplerContext};
+pub use replay::ReplaySampler;
 pub use robot::{autorally, builtin_robots, ridgeback, BodySize, RobotError, RobotSpec};
 pub use runner::{
     PauseReason, ProtocolRunner, RunnerConfig, RunnerInput, RunnerOutput, RunnerState, SampleTag,

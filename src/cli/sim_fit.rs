@@ -20,9 +20,9 @@ pub struct Args {
     /// Check this twin (a terrain TOML file, e.g. one `sim-fit` wrote, or a preset's name)
     /// against the data instead of fitting one: the same check and the same refusal, in a
     /// fraction of the time. A twin fitted on one run, checked on another run of the same
-    /// robot and terrain, says whether it holds beyond the run it was fitted on. The twin
-    /// drives its own file's protocol (its input box and command steps), not the checked
-    /// run's commands: check it on runs driven the same way (docs/twins.md).
+    /// robot and terrain, says whether it holds beyond the run it was fitted on: the twin is
+    /// given the checked run's commands (with --check-commands draw, fresh draws of its own
+    /// file's protocol instead: check it then on runs driven the same way; docs/twins.md).
     #[arg(long)]
     twin: Option<String>,
     /// The twin's name (default: the dataset's name and "twin").
@@ -32,10 +32,9 @@ pub struct Args {
     /// `value`, its range and `at_bound`), `check` (per model: `real_translational_m`,
     /// `twin_translational_m`, `real_rotational_rad`, `twin_rotational_rad`, and the real
     /// medians' 95% bootstrap intervals `real_translational_ci_m`, `real_rotational_ci_rad`),
-    /// `scatter`,
-    /// `poor`, `written`, `fitted` (false with --twin), and the twin (`terrain`) and the
-    /// fit's `report` (absent with --twin). A twin refused by the check is printed too, with
-    /// `"written": false`, and the command fails.
+    /// `scatter`, `check_seeds`, `check_commands`, `poor`, `written`, `fitted` (false with
+    /// --twin), and the twin (`terrain`) and the fit's `report` (absent with --twin). A twin
+    /// refused by the check is printed too, with `"written": false`, and the command fails.
     #[arg(long)]
     json: bool,
     /// Write the twin even when the check finds a median (naive, powertrain, slip-blr,
@@ -45,6 +44,11 @@ pub struct Args {
     /// Seeds of the twin's runs in the check (1, 2, ...): each as long as the real run.
     #[arg(long, default_value_t = 3)]
     check_seeds: usize,
+    /// What the twin's runs in the check are commanded: the real run's commands in their
+    /// order (replay: twin and robot on the same inputs, the seeds varying the twin's noise),
+    /// or fresh draws of the twin's protocol, one sequence per seed (draw).
+    #[arg(long, default_value = "replay", value_parser = crate::eval::CheckCommands::parse)]
+    check_commands: crate::eval::CheckCommands,
 }
 
 /// What `drive sim-fit --json` prints.
@@ -54,6 +58,7 @@ struct Output<'a> {
     check: &'a [crate::eval::TwinCheckRow],
     scatter: Option<crate::eval::ScatterCheck>,
     check_seeds: &'a [u64],
+    check_commands: crate::eval::CheckCommands,
     tolerance: f64,
     poor: &'a [String],
     scatter_off: &'a [String],
@@ -123,7 +128,15 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .models()
         .resolve_list(&crate::eval::TWIN_CHECK_MODELS)?;
     let seeds: Vec<u64> = (1..=args.check_seeds as u64).collect();
-    let check = crate::eval::twin_check(registries, &data, &spec, &terrain, &seeds, &models)?;
+    let check = crate::eval::twin_check(
+        registries,
+        &data,
+        &spec,
+        &terrain,
+        &seeds,
+        &models,
+        args.check_commands,
+    )?;
     let window_s = data.robot.window_len as f64 / data.robot.rate_hz;
     // A fitted twin's variability is at a bound at the limit its fit searched to.
     let limits = report.as_ref().and_then(|r| r.variability_limits);
@@ -136,6 +149,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         check: &check.check,
         scatter: check.scatter,
         check_seeds: &check.seeds,
+        check_commands: check.commands,
         tolerance: check.tolerance,
         poor: &check.poor,
         scatter_off: &check.scatter_off,
@@ -186,13 +200,17 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             ),
         };
         text += &format!(
-            "twin check ({} runs of the twin as long as the real run, seeds {}; each split in halves, eq. 8 medians over the evaluation halves, {} real and {} twin windows):\n",
+            "twin check ({} runs of the twin as long as the real run, seeds {}, {}; each split in halves, eq. 8 medians over the evaluation halves, {} real and {} twin windows):\n",
             o.check_seeds.len(),
             o.check_seeds
                 .iter()
                 .map(u64::to_string)
                 .collect::<Vec<_>>()
                 .join(", "),
+            match o.check_commands {
+                crate::eval::CheckCommands::Replay => "each given the real run's commands",
+                crate::eval::CheckCommands::Draw => "each drawing its own commands",
+            },
             check.windows[0],
             check.windows[1]
         );

@@ -618,3 +618,55 @@ fn table_one_across_twins_pairs_each_twin_with_its_robot() {
     ]);
     assert!(err.contains("twice"), "{err}");
 }
+
+#[test]
+fn the_check_gives_the_twin_the_real_runs_commands_unless_asked_to_draw() {
+    // A "real" run of the shipped Husky twin, checked against that same twin: only the
+    // simulator's noise differs. With the run's own commands replayed (the default) the
+    // twin is within the tolerance on every median; the real medians do not depend on what
+    // the twin is commanded.
+    let dir = tempfile::tempdir().unwrap();
+    let real = dir.path().join("real.csv").to_str().unwrap().to_string();
+    let twin = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/husky_twin.toml");
+    ok(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        twin,
+        "--duration",
+        "600",
+        "--seed",
+        "11",
+        "--out",
+        &real,
+    ]);
+    let base = [
+        "sim-fit", "--data", &real, "--robot", "husky", "--twin", twin,
+    ];
+    let check = |commands: Option<&str>| {
+        let mut args = base.to_vec();
+        args.extend(["--json", "--check-seeds", "2"]);
+        if let Some(c) = commands {
+            args.extend(["--check-commands", c]);
+        }
+        let out = common::drive(&args);
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let (replayed, drawn) = (check(None), check(Some("draw")));
+    assert_eq!(replayed["check_commands"], "replay");
+    assert_eq!(drawn["check_commands"], "draw");
+    assert_eq!(replayed["poor"].as_array().unwrap().len(), 0, "{replayed}");
+    for (a, b) in replayed["check"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(drawn["check"].as_array().unwrap())
+    {
+        assert_eq!(a["real_translational_m"], b["real_translational_m"]);
+        assert_eq!(a["real_rotational_ci_rad"], b["real_rotational_ci_rad"]);
+        assert_ne!(a["twin_translational_m"], b["twin_translational_m"]);
+    }
+    let err = user_error(&[&base[..], &["--check-commands", "fresh"]].concat());
+    assert!(err.contains("replay") && err.contains("draw"), "{err}");
+}
