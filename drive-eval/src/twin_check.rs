@@ -81,10 +81,11 @@ pub struct TwinCheckRow {
     pub real_translational_ci_m: [f64; 2],
     /// Median rotational error over the real run's evaluation windows (rad).
     pub real_rotational_rad: f64,
-    /// The same interval of `real_rotational_rad` (rad).
-    pub real_rotational_ci_rad: [f64; 2],
-    /// The same over the twin's runs (rad).
+    /// Median rotational error over the twin's runs' evaluation windows, pooled (rad).
     pub twin_rotational_rad: f64,
+    /// The 95% bootstrap interval of `real_rotational_rad`, as `real_translational_ci_m`'s
+    /// (rad).
+    pub real_rotational_ci_rad: [f64; 2],
     /// `100 (twin - real) / real`, translational.
     pub translational_off_percent: f64,
     /// `100 (twin - real) / real`, rotational.
