@@ -185,8 +185,9 @@ fn block_ranges(ids: &[usize]) -> Vec<Range<usize>> {
 /// The bootstrap percentile interval of the median of `errors`: the blocks of windows
 /// (`blocks[i]` the block of window `i`, e.g. its DRIVE interval, non-decreasing; `None`:
 /// each window alone) resampled whole with replacement `config.resamples` times, seeded by
-/// `seed`. How far the median of one run's evaluation windows could have fallen with other
-/// commands drawn; NaN bounds when `errors` is empty.
+/// `seed` (not `config.seed`, as [`paired_bootstrap`]). How far the median of one run's
+/// evaluation windows could have fallen with other commands drawn; NaN bounds when there is
+/// no window to draw (`errors` or `blocks` empty). Windows beyond `blocks` are left out.
 ///
 /// ```
 /// use drive_eval::{median_interval, BootstrapConfig};

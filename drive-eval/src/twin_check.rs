@@ -76,8 +76,8 @@ pub struct TwinCheckRow {
     /// The same over the twin's runs' evaluation windows, pooled (m).
     pub twin_translational_m: f64,
     /// The 95% bootstrap interval of `real_translational_m` ([`median_interval`]: the
-    /// real run's evaluation intervals resampled whole, 1000 times): how far the real
-    /// median itself could have fallen with other commands drawn (m).
+    /// real run's evaluation intervals resampled whole, 1000 times): how precisely one run
+    /// pins its median down, how far it could have fallen with other commands drawn (m).
     pub real_translational_ci_m: [f64; 2],
     /// Median rotational error over the real run's evaluation windows (rad).
     pub real_rotational_rad: f64,
@@ -259,39 +259,48 @@ pub fn twin_check(
 }
 
 /// `run` with the recorded commands `recorded` held in their order instead of its sampler's
-/// draws. A twin's protocol maps what a sampler draws in the protocol's geometry to the
-/// recorded commands ([`drive_sim::ProtocolSampler`]): the commands are given to it mapped
-/// back, and its rectangle of body velocities (which redraws inputs outside it) is not
-/// applied, so that every interval holds the command the real one held.
+/// draws, one interval each. A twin's protocol maps what a sampler draws in the protocol's
+/// geometry to the recorded commands ([`drive_sim::ProtocolSampler`]): the commands are
+/// given to it mapped back, and its rectangle of body velocities (which redraws inputs
+/// outside it) is not applied, so that every interval holds the command the real one held.
+/// Without a protocol the commands are held as recorded (every input axis).
 fn replay_run(
     registries: &Registries,
     run: &SimRun,
     recorded: &[Input],
 ) -> Result<Dataset, ExperimentError> {
     let mut terrain = run.terrain.clone();
-    let gain = match (
+    let commands: Vec<Input> = match (
         terrain.protocol.as_mut(),
         vehicle_as::<DifferentialDrive>(run.robot.vehicle.as_ref()),
     ) {
         (Some(p), Some(g)) => {
             p.body_limits = None;
-            p.difference_gain(g.baseline)
+            let back = 1.0 / p.difference_gain(g.baseline);
+            recorded
+                .iter()
+                .map(|&u| drive_sim::scale_difference(u, back))
+                .collect()
         }
-        _ => 1.0,
+        _ => recorded.to_vec(),
     };
-    let commands: Vec<Input> = recorded
-        .iter()
-        .map(|&u| drive_sim::scale_difference(u, 1.0 / gain))
-        .collect();
     let sampler = ReplaySampler::new(commands).ok_or_else(|| {
         ExperimentError::NotEnoughData("the twin check: the real run has no command".into())
     })?;
     let config = SimulationConfig {
-        name: run.label(),
+        name: SimRun {
+            sampler: "replay".into(),
+            ..run.clone()
+        }
+        .label(),
         robot: run.robot.clone(),
         terrain,
         seed: run.seed,
-        runner: run.runner.clone(),
+        // As many intervals as commands: the two runs' evaluation halves hold the same ones.
+        runner: RunnerConfig {
+            max_intervals: Some(recorded.len().max(2)),
+            ..run.runner.clone()
+        },
         events: Vec::new(),
     };
     let factory = move |_| Box::new(sampler.clone()) as Box<dyn InputSampler>;
@@ -328,8 +337,9 @@ fn window_errors(data: &Dataset, spec: &ModelSpec) -> Result<Vec<WindowError>, E
 }
 
 /// The medians further than `tolerance` (a fraction) from the real ones, in words, each with
-/// the real median's bootstrap interval (a miss the real run's own sampling could explain
-/// shows a twin median inside it).
+/// the real median's bootstrap interval (how precisely the real run pins it down; with the
+/// real commands replayed the twin shares them, so a twin median inside it is a weak sign,
+/// not a proof, that the miss is the run's sampling).
 ///
 /// ```
 /// use drive_eval::{poor_twin, TwinCheckRow};
@@ -429,8 +439,11 @@ mod tests {
         let drawn = crate::simulate_run(&r, &SimRun::intervals(&robot, &twin, "uniform", 12, 5))
             .unwrap()
             .dataset;
-        let recorded = ReplaySampler::interval_commands(&drawn.windows);
+        let mut recorded = ReplaySampler::interval_commands(&drawn.windows);
         assert_eq!(recorded.len(), 12);
+        // Straight ahead at the top wheel speeds: 0.99 m/s, outside the protocol's rectangle
+        // of body velocities (up to 0.96 m/s), which would redraw it.
+        recorded.insert(3, Input::new(6.0, 6.0, 0.0));
         let run = SimRun::intervals(&robot, &twin, "uniform", 12, 6);
         let replayed = replay_run(&r, &run, &recorded).unwrap();
         let held = ReplaySampler::interval_commands(&replayed.windows);
@@ -441,5 +454,28 @@ mod tests {
         // Its own draws (seed 6) are other commands.
         let other = crate::simulate_run(&r, &run).unwrap().dataset;
         assert_ne!(ReplaySampler::interval_commands(&other.windows), recorded);
+    }
+
+    #[test]
+    fn a_replayed_run_without_a_protocol_holds_every_input_axis() {
+        // An omnidirectional base (v_x, v_y, w) on a preset ground: the yaw-rate command
+        // is held too.
+        let r = Registries::builtin();
+        let robot = r.robot("ridgeback").unwrap();
+        let ground = r.terrain("tile").unwrap();
+        let run = SimRun::intervals(&robot, &ground, "uniform", 8, 3);
+        let drawn = crate::simulate_run(&r, &run).unwrap().dataset;
+        let recorded = ReplaySampler::interval_commands(&drawn.windows);
+        assert!(recorded.iter().any(|u| u.z.abs() > 0.1));
+        let replayed = replay_run(&r, &SimRun { seed: 4, ..run }, &recorded).unwrap();
+        assert_eq!(
+            ReplaySampler::interval_commands(&replayed.windows),
+            recorded
+        );
+        assert!(
+            replayed.robot.name.contains("replay"),
+            "{}",
+            replayed.robot.name
+        );
     }
 }

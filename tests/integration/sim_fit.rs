@@ -637,7 +637,7 @@ fn the_check_gives_the_twin_the_real_runs_commands_unless_asked_to_draw() {
         "--duration",
         "600",
         "--seed",
-        "11",
+        "12",
         "--out",
         &real,
     ]);
