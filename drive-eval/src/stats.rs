@@ -123,14 +123,10 @@ pub fn paired_bootstrap(
         base.extend_from_slice(r.reference);
     }
     let percent = improvement_percent(median_of(&mut mine), median_of(&mut base));
-    // Each run's blocks as ranges of windows.
+    // Each run's blocks as ranges of windows (each window alone without blocks).
     let ranges: Vec<Vec<Range<usize>>> = runs
         .iter()
-        .map(|r| {
-            r.blocks.map_or_else(Vec::new, |ids| {
-                block_ranges(&ids[..ids.len().min(r.model.len().min(r.reference.len()))])
-            })
-        })
+        .map(|r| block_ranges(r.model.len().min(r.reference.len()), r.blocks))
         .collect();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let mut draws = Vec::with_capacity(config.resamples);
@@ -138,19 +134,10 @@ pub fn paired_bootstrap(
         mine.clear();
         base.clear();
         for (r, blocks) in runs.iter().zip(&ranges) {
-            if r.blocks.is_some() {
-                for _ in 0..blocks.len() {
-                    let b = &blocks[rng.random_range(0..blocks.len())];
-                    mine.extend_from_slice(&r.model[b.clone()]);
-                    base.extend_from_slice(&r.reference[b.clone()]);
-                }
-            } else {
-                let n = r.model.len().min(r.reference.len());
-                for _ in 0..n {
-                    let i = rng.random_range(0..n);
-                    mine.push(r.model[i]);
-                    base.push(r.reference[i]);
-                }
+            for _ in 0..blocks.len() {
+                let b = &blocks[rng.random_range(0..blocks.len())];
+                mine.extend_from_slice(&r.model[b.clone()]);
+                base.extend_from_slice(&r.reference[b.clone()]);
             }
         }
         let p = improvement_percent(median_of(&mut mine), median_of(&mut base));
@@ -158,20 +145,20 @@ pub fn paired_bootstrap(
             draws.push(p);
         }
     }
-    draws.sort_unstable_by(f64::total_cmp);
-    let tail = (1.0 - config.level) / 2.0;
     Improvement {
         percent,
-        ci: [
-            quantile(&draws, tail).unwrap_or(f64::NAN),
-            quantile(&draws, 1.0 - tail).unwrap_or(f64::NAN),
-        ],
+        ci: percentile_interval(&mut draws, config.level),
     }
 }
 
-/// The runs of equal consecutive `ids` as ranges of indices: the blocks a bootstrap
-/// resamples whole.
-fn block_ranges(ids: &[usize]) -> Vec<Range<usize>> {
+/// The blocks a bootstrap resamples whole among `n` windows, as ranges of indices: the runs
+/// of equal consecutive `ids` (windows beyond `ids` left out), or each window alone without
+/// them.
+fn block_ranges(n: usize, ids: Option<&[usize]>) -> Vec<Range<usize>> {
+    let Some(ids) = ids else {
+        return (0..n).map(|i| i..i + 1).collect();
+    };
+    let ids = &ids[..ids.len().min(n)];
     let mut out: Vec<Range<usize>> = Vec::new();
     for (i, id) in ids.iter().enumerate() {
         match out.last_mut() {
@@ -180,6 +167,17 @@ fn block_ranges(ids: &[usize]) -> Vec<Range<usize>> {
         }
     }
     out
+}
+
+/// The percentile interval at `level` of bootstrap `draws` (sorted here); NaN bounds without
+/// draws.
+fn percentile_interval(draws: &mut [f64], level: f64) -> [f64; 2] {
+    draws.sort_unstable_by(f64::total_cmp);
+    let tail = (1.0 - level) / 2.0;
+    [
+        quantile(draws, tail).unwrap_or(f64::NAN),
+        quantile(draws, 1.0 - tail).unwrap_or(f64::NAN),
+    ]
 }
 
 /// The bootstrap percentile interval of the median of `errors`: the blocks of windows
@@ -205,16 +203,12 @@ pub fn median_interval(
     config: &BootstrapConfig,
     seed: u64,
 ) -> [f64; 2] {
-    let n = errors.len();
-    let ranges = match blocks {
-        Some(ids) => block_ranges(&ids[..ids.len().min(n)]),
-        None => (0..n).map(|i| i..i + 1).collect(),
-    };
+    let ranges = block_ranges(errors.len(), blocks);
     if ranges.is_empty() {
         return [f64::NAN; 2];
     }
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-    let mut draw = Vec::with_capacity(n);
+    let mut draw = Vec::with_capacity(errors.len());
     let mut medians = Vec::with_capacity(config.resamples);
     for _ in 0..config.resamples {
         draw.clear();
@@ -226,12 +220,7 @@ pub fn median_interval(
             medians.push(m);
         }
     }
-    medians.sort_unstable_by(f64::total_cmp);
-    let tail = (1.0 - config.level) / 2.0;
-    [
-        quantile(&medians, tail).unwrap_or(f64::NAN),
-        quantile(&medians, 1.0 - tail).unwrap_or(f64::NAN),
-    ]
+    percentile_interval(&mut medians, config.level)
 }
 
 /// The ranks of `values` (1 = smallest), ties sharing their mean rank.

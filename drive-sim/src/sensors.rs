@@ -67,13 +67,12 @@ impl Sensors {
         if total.is_nan() || total <= 0.0 {
             return None;
         }
-        let at = |i: usize| (i + 1) as f64 * ICP_GAP_STEP_S;
         let mean = (0..ICP_GAP_BINS)
-            .map(|i| self.icp_gaps[i] * at(i))
+            .map(|i| self.icp_gaps[i] * gap_seconds(i))
             .sum::<f64>()
             / total;
         let long = (0..ICP_GAP_BINS)
-            .filter(|&i| at(i) >= LONG_S - 1e-9)
+            .filter(|&i| gap_seconds(i) >= LONG_S - 1e-9)
             .map(|i| self.icp_gaps[i])
             .sum::<f64>()
             / total;
@@ -86,6 +85,11 @@ pub const ICP_GAP_BINS: usize = 20;
 
 /// Width of a bin of [`Sensors::icp_gaps`] (s).
 pub const ICP_GAP_STEP_S: f64 = 0.05;
+
+/// The gap (s) bin `bin` of [`Sensors::icp_gaps`] stands for.
+fn gap_seconds(bin: usize) -> f64 {
+    (bin + 1) as f64 * ICP_GAP_STEP_S
+}
 
 fn no_gaps(gaps: &[f64; ICP_GAP_BINS]) -> bool {
     gaps.iter().all(|&g| g == 0.0)
@@ -308,8 +312,7 @@ impl Instruments {
             }
             u -= g;
         }
-        let seconds = (bin + 1) as f64 * ICP_GAP_STEP_S;
-        ((seconds * self.rate_hz).round() as usize).max(1)
+        ((gap_seconds(bin) * self.rate_hz).round() as usize).max(1)
     }
 }
 
