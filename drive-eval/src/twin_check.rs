@@ -270,20 +270,7 @@ fn replay_run(
     recorded: &[Input],
 ) -> Result<Dataset, ExperimentError> {
     let mut terrain = run.terrain.clone();
-    let commands: Vec<Input> = match (
-        terrain.protocol.as_mut(),
-        vehicle_as::<DifferentialDrive>(run.robot.vehicle.as_ref()),
-    ) {
-        (Some(p), Some(g)) => {
-            p.body_limits = None;
-            let back = 1.0 / p.difference_gain(g.baseline);
-            recorded
-                .iter()
-                .map(|&u| drive_sim::scale_difference(u, back))
-                .collect()
-        }
-        _ => recorded.to_vec(),
-    };
+    let commands = drive_sim::replay_commands(&mut terrain, &run.robot, recorded);
     let sampler = ReplaySampler::new(commands).ok_or_else(|| {
         ExperimentError::NotEnoughData("the twin check: the real run has no command".into())
     })?;

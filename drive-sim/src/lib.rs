@@ -41,7 +41,7 @@ pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
 pub use sensors::{Instruments, Sensors, ICP_GAP_BINS, ICP_GAP_STEP_S};
 pub use sim::{Measured, Simulator};
 pub use terrain::{builtin_terrains, Terrain, TerrainError, Variability};
-pub use twin::{scale_difference, ProtocolSampler, TwinProtocol};
+pub use twin::{replay_commands, scale_difference, ProtocolSampler, TwinProtocol};
 pub use vehicle::{
     contact_force, step_body, ControllerParams, PowertrainParams, VehicleParams, VehicleState,
 };

@@ -105,6 +105,56 @@ pub fn scale_difference(u: Input, gain: f64) -> Input {
     Input::new(sum - diff, sum + diff, 0.0)
 }
 
+/// What to give a twin's sampler so that its runs hold the `recorded` commands, interval by
+/// interval (a twin run driven as a real one was: `drive sim-fit`'s check and its variability
+/// stage). Through the twin's protocol, on a differential-drive `robot`, the commands are
+/// mapped back from the protocol's geometry (its difference gain undone), and its rectangle
+/// of body velocities, which redraws inputs outside it, is removed from `terrain`; without a
+/// protocol, or on another vehicle, they are held as recorded, every input axis.
+///
+/// ```
+/// use drive_samplers::{builtin_robots, RobotSpec};
+/// use drive_sim::{replay_commands, scale_difference, Terrain, TwinProtocol};
+/// use drive_traits::Input;
+/// let robot = RobotSpec::load(&builtin_robots(), "husky").unwrap(); // baseline 0.55 m
+/// let mut terrain = Terrain::preset("gravel").unwrap();
+/// let recorded = [Input::new(1.0, 3.0, 0.0)];
+/// // Without a protocol: as recorded.
+/// assert_eq!(replay_commands(&mut terrain.clone(), &robot, &recorded), recorded);
+/// terrain.protocol = Some(TwinProtocol {
+///     input_limits: [[-6.0, 6.0], [-6.0, 6.0]],
+///     baseline: 0.275,
+///     max_linear_acceleration: None,
+///     max_angular_acceleration: None,
+///     body_limits: Some([[-1.0, 1.0], [-2.0, 2.0]]),
+///     robot_wheel_radius: 0.165,
+///     robot_baseline: 0.55,
+/// });
+/// let given = replay_commands(&mut terrain, &robot, &recorded);
+/// // The protocol doubles the difference (0.55 / 0.275): given half of it, it records it.
+/// assert_eq!(given, [Input::new(1.5, 2.5, 0.0)]);
+/// assert_eq!(scale_difference(given[0], 2.0), recorded[0]);
+/// assert_eq!(terrain.protocol.unwrap().body_limits, None);
+/// ```
+pub fn replay_commands(
+    terrain: &mut crate::Terrain,
+    robot: &drive_samplers::RobotSpec,
+    recorded: &[Input],
+) -> Vec<Input> {
+    let nominal = drive_traits::vehicle_as::<DifferentialDrive>(robot.vehicle.as_ref());
+    match (terrain.protocol.as_mut(), nominal) {
+        (Some(p), Some(nominal)) => {
+            p.body_limits = None;
+            let back = 1.0 / p.difference_gain(nominal.baseline);
+            recorded
+                .iter()
+                .map(|&u| scale_difference(u, back))
+                .collect()
+        }
+        _ => recorded.to_vec(),
+    }
+}
+
 /// A sampler in the protocol's geometry, seen in the nominal one: its inputs are recorded
 /// with their wheel-speed difference scaled by `gain`; what it observes is mapped back, with
 /// a robot description of the protocol's geometry, so that a sampler that learns from the

@@ -3,6 +3,7 @@
 use super::common::{emit, load, outputs_for, robot_input, DataArgs};
 use crate::Registries;
 use anyhow::Result;
+use clap::builder::TypedValueParser;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -47,7 +48,12 @@ pub struct Args {
     /// What the twin's runs in the check are commanded: the real run's commands in their
     /// order (replay: twin and robot on the same inputs, the seeds varying the twin's noise),
     /// or fresh draws of the twin's protocol, one sequence per seed (draw).
-    #[arg(long, default_value = "replay", value_parser = crate::eval::CheckCommands::parse)]
+    #[arg(
+        long,
+        default_value = "replay",
+        value_parser = clap::builder::PossibleValuesParser::new(["replay", "draw"])
+            .try_map(|name| crate::eval::CheckCommands::parse(&name))
+    )]
     check_commands: crate::eval::CheckCommands,
 }
 

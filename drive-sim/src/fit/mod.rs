@@ -17,6 +17,9 @@
 //!
 //! 5. **Protocol**: the input space the real run sampled and whether its commands stepped
 //!    or ramped ([`TwinProtocol`]).
+//! 6. **Variability**: how the ground changes from moment to moment, fitted by simulating the
+//!    twin, driven by the data's own commands, until its steady windows scatter as the
+//!    data's ([`Scatter`]).
 
 use crate::parameters::{
     correlation_time_for, CORRELATION_RANGE, MAX_DEAD_TIME_S, MAX_ICP_JITTER_S, MAX_ROLLING,
@@ -32,7 +35,7 @@ use argmin::core::{CostFunction, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use drive_models::DifferentialDrive;
 use drive_samplers::RobotSpec;
-use drive_samplers::{RunnerConfig, UniformSampler};
+use drive_samplers::{ReplaySampler, RunnerConfig, UniformSampler};
 use drive_traits::InputSampler;
 use drive_traits::{vehicle_as, Dataset, Input, Phase, Pose};
 use serde::Serialize;

@@ -137,8 +137,9 @@ impl FittedVariability {
 }
 
 /// What the twin's own runs show (as many intervals as the data, at least 100, at most
-/// 300, per seed; the runs pooled): their scatter (`None` with too few steady windows) and
-/// the steady windows' mean absolute forward speed and yaw rate.
+/// 300, per seed; the runs pooled; driven by the data's own commands, see [`twin_runs`]):
+/// their scatter (`None` with too few steady windows) and the steady windows' mean
+/// absolute forward speed and yaw rate.
 pub(super) struct TwinRuns {
     pub(super) scatter: Option<Scatter>,
     pub(super) motion: [f64; 2],
@@ -156,6 +157,14 @@ impl TwinRuns {
     }
 }
 
+/// The twin's runs of the variability stage: each seed's run holds the data's own commands,
+/// interval by interval, in their order ([`ReplaySampler`]; from the first again when the
+/// data has fewer than 100 intervals), as the twin check does by default. A run's scatter
+/// depends on the commands it holds (how fast and how sharply it turned): fresh uniform draws
+/// fitted the variability to other commands than the data's. Through the twin's protocol the
+/// commands are mapped back from its geometry and its rectangle of body velocities (which
+/// redraws inputs outside it) is not applied, so each interval holds the recorded command.
+/// Data without commands gets uniform draws over the twin's input space.
 pub(super) fn twin_runs(
     data: &Dataset,
     g: &DifferentialDrive,
@@ -163,6 +172,9 @@ pub(super) fn twin_runs(
     terrain: &Terrain,
 ) -> Result<TwinRuns, SimFitError> {
     let intervals = data.interval_count().clamp(100, 300);
+    let (terrain, commands) = replayed(data, robot, terrain);
+    let terrain = &terrain;
+    let commands = &commands;
     let mut pooled = Dataset {
         robot: data.robot.clone(),
         windows: Vec::new(),
@@ -171,29 +183,7 @@ pub(super) fn twin_runs(
     let runs: Vec<Result<Simulation, SimError>> = std::thread::scope(|scope| {
         let handles: Vec<_> = VARIABILITY_SEEDS
             .iter()
-            .map(|&seed| {
-                scope.spawn(move || {
-                    let config = SimulationConfig {
-                        robot: robot.clone(),
-                        terrain: terrain.clone(),
-                        seed,
-                        runner: RunnerConfig {
-                            max_intervals: Some(intervals),
-                            ..RunnerConfig::default()
-                        },
-                        events: Vec::new(),
-                        name: "twin".into(),
-                    };
-                    let factory = move |space| -> Box<dyn InputSampler> {
-                        match UniformSampler::new(space, seed) {
-                            Ok(s) => Box::new(s),
-                            // A protocol's box is validated non-empty; a point stands in.
-                            Err(_) => Box::new(Still),
-                        }
-                    };
-                    simulate(config, &builtin_plants(), factory, None)
-                })
-            })
+            .map(|&seed| scope.spawn(move || twin_run(robot, terrain, commands, seed, intervals)))
             .collect();
         handles
             .into_iter()
@@ -224,6 +214,50 @@ pub(super) fn twin_runs(
         scatter: scatter(&pooled, g),
         motion: steady_motion(&pooled),
     })
+}
+
+/// One run of `intervals` intervals of the twin `terrain` with the noise of `seed`, holding
+/// `commands` in turn (uniform draws over the twin's input space when there is none).
+fn twin_run(
+    robot: &RobotSpec,
+    terrain: &Terrain,
+    commands: &[Input],
+    seed: u64,
+    intervals: usize,
+) -> Result<Simulation, SimError> {
+    let config = SimulationConfig {
+        robot: robot.clone(),
+        terrain: terrain.clone(),
+        seed,
+        runner: RunnerConfig {
+            max_intervals: Some(intervals),
+            ..RunnerConfig::default()
+        },
+        events: Vec::new(),
+        name: "twin".into(),
+    };
+    let replay = ReplaySampler::new(commands.to_vec());
+    let factory = move |space| -> Box<dyn InputSampler> {
+        if let Some(replay) = &replay {
+            return Box::new(replay.clone());
+        }
+        match UniformSampler::new(space, seed) {
+            Ok(s) => Box::new(s),
+            // A protocol's box is validated non-empty; a point stands in.
+            Err(_) => Box::new(Still),
+        }
+    };
+    simulate(config, &builtin_plants(), factory, None)
+}
+
+/// The twin to simulate and the commands its runs hold: the data's, one per interval
+/// ([`ReplaySampler::interval_commands`]), through the twin's protocol
+/// ([`crate::replay_commands`]).
+fn replayed(data: &Dataset, robot: &RobotSpec, terrain: &Terrain) -> (Terrain, Vec<Input>) {
+    let recorded = ReplaySampler::interval_commands(&data.windows);
+    let mut terrain = terrain.clone();
+    let commands = crate::replay_commands(&mut terrain, robot, &recorded);
+    (terrain, commands)
 }
 
 /// The ground's variability: the twin without it is simulated, and what its scatter lacks
@@ -461,6 +495,54 @@ pub struct ScatterFit {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_twins_runs_hold_the_datas_commands_through_its_protocol() {
+        use drive_samplers::builtin_robots;
+        let robot = RobotSpec::load(&builtin_robots(), "husky").unwrap();
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/husky_twin.toml");
+        let twin = Terrain::from_toml("twin", &std::fs::read_to_string(path).unwrap()).unwrap();
+        let protocol = twin.protocol.as_ref().unwrap();
+        assert!(protocol.body_limits.is_some() && protocol.baseline < 0.5);
+        // A "real" run: the twin's own draws, 8 intervals, and one command outside the
+        // protocol's rectangle of body velocities (0.99 m/s straight; it would be redrawn).
+        let mut data = twin_run(&robot, &twin, &[], 3, 8).unwrap().dataset;
+        let last = data.windows.last().unwrap().interval;
+        data.windows.retain(|w| w.interval != last);
+        let mut outside = data
+            .windows
+            .iter()
+            .filter(|w| w.interval == last - 1)
+            .cloned()
+            .collect::<Vec<_>>();
+        for w in &mut outside {
+            w.interval = last;
+            w.command
+                .iter_mut()
+                .for_each(|u| *u = Input::new(6.0, 6.0, 0.0));
+        }
+        data.windows.extend(outside);
+        let recorded = ReplaySampler::interval_commands(&data.windows);
+        assert_eq!(recorded.len(), 8);
+        let (simulated, commands) = replayed(&data, &robot, &twin);
+        assert_eq!(simulated.protocol.as_ref().unwrap().body_limits, None);
+        // Two seeds: the same commands, other noise.
+        for seed in VARIABILITY_SEEDS {
+            let run = twin_run(&robot, &simulated, &commands, seed, 8).unwrap();
+            let held = ReplaySampler::interval_commands(&run.dataset.windows);
+            assert_eq!(held.len(), 8);
+            for (a, b) in held.iter().zip(&recorded) {
+                assert!((a - b).norm() < 1e-9, "{a:?} {b:?}");
+            }
+        }
+        // Without the data's commands the twin draws its own.
+        let drawn = twin_run(&robot, &twin, &[], 4, 8).unwrap();
+        let drawn = ReplaySampler::interval_commands(&drawn.dataset.windows);
+        assert!(drawn
+            .iter()
+            .zip(&recorded)
+            .any(|(a, b)| (a - b).norm() > 1e-3));
+    }
 
     #[test]
     fn responses_are_interpolated_in_the_variance_and_flat_beyond_the_last_probe() {
