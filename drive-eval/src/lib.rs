@@ -88,8 +88,9 @@ pub use terrain::{
     UnpredictabilitySummary, WindowUnpredictability,
 };
 pub use twin_check::{
-    poor_twin, twin_check, CheckCommands, ScatterCheck, TwinCheck, TwinCheckRow, TWIN_CHECK_MODELS,
-    TWIN_TOLERANCE,
+    choose_variability, poor_twin, twin_check, CheckCommands, CheckDistance, ScatterCheck,
+    TwinCheck, TwinCheckRow, VariabilityChoice, TWIN_CHECK_MODELS, TWIN_TOLERANCE,
+    VARIABILITY_CHOICE_SEEDS,
 };
 pub use uncertainty::{
     score_uncertainty, GroupCoverage, ReliabilityPoint, UncertaintyReport, COVERAGE_HORIZONS_S,

@@ -23,6 +23,11 @@ pub const TWIN_CHECK_MODELS: [&str; 4] = ["naive", "powertrain", "slip-blr", "sl
 /// How far a twin's median may be from the real one (30%).
 pub const TWIN_TOLERANCE: f64 = 0.30;
 
+/// Seeds of the twin's runs that decide whether a fitted twin keeps its variability
+/// ([`choose_variability`]): apart from the check's own seeds (1, 2, ...), so that the check
+/// printed after the choice does not score the very runs that chose.
+pub const VARIABILITY_CHOICE_SEEDS: [u64; 2] = [1_000_001, 1_000_002];
+
 /// What the twin's runs of a check are commanded.
 ///
 /// ```
@@ -406,6 +411,128 @@ fn off_by(
     }
 }
 
+/// How far one twin's medians are from the real run's in a check.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CheckDistance {
+    /// The mean distance of the medians (translational and rotational, every model), in
+    /// percent of the real ones.
+    pub mean_off_percent: f64,
+    /// How many of them are further than [`TWIN_TOLERANCE`].
+    pub beyond_tolerance: usize,
+}
+
+impl CheckDistance {
+    /// The distance of a check's medians.
+    ///
+    /// ```
+    /// use drive_eval::{CheckDistance, TwinCheckRow};
+    /// let row = |t: f64, r: f64| TwinCheckRow { model: "m".into(), real_translational_m: 1.0,
+    ///     real_translational_ci_m: [0.9, 1.1], twin_translational_m: 1.0 + t / 100.0,
+    ///     real_rotational_rad: 1.0, real_rotational_ci_rad: [0.9, 1.1],
+    ///     twin_rotational_rad: 1.0 + r / 100.0, translational_off_percent: t,
+    ///     rotational_off_percent: r };
+    /// let d = CheckDistance::of(&[row(10.0, -40.0), row(0.0, 30.0)]);
+    /// assert_eq!(d.mean_off_percent, 20.0);
+    /// assert_eq!(d.beyond_tolerance, 1); // 30% is within
+    /// ```
+    pub fn of(check: &[TwinCheckRow]) -> Self {
+        let offs: Vec<f64> = check
+            .iter()
+            .flat_map(|r| [r.translational_off_percent, r.rotational_off_percent])
+            .map(f64::abs)
+            .collect();
+        CheckDistance {
+            mean_off_percent: offs.iter().sum::<f64>() / offs.len().max(1) as f64,
+            // NaN (a median that could not be computed) counts as beyond.
+            beyond_tolerance: offs
+                .iter()
+                .filter(|o| o.is_nan() || **o > 100.0 * TWIN_TOLERANCE)
+                .count(),
+        }
+    }
+
+    /// True when `self` is closer than `other`: fewer medians beyond the tolerance, then a
+    /// smaller mean distance.
+    fn closer_than(&self, other: &CheckDistance) -> bool {
+        (self.beyond_tolerance, self.mean_off_percent)
+            .partial_cmp(&(other.beyond_tolerance, other.mean_off_percent))
+            .is_some_and(|o| o.is_lt())
+    }
+}
+
+/// Whether a fitted twin keeps its ground's variability ([`choose_variability`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VariabilityChoice {
+    /// True when the twin keeps the fitted variability.
+    pub kept: bool,
+    /// The twin with its fitted variability against the real run.
+    pub with: CheckDistance,
+    /// The same twin without variability.
+    pub without: CheckDistance,
+    /// Seeds of the twins' runs ([`VARIABILITY_CHOICE_SEEDS`]).
+    pub seeds: Vec<u64>,
+}
+
+/// Whether the fitted `twin` keeps its variability: the twin with and without it, each
+/// checked against `data` as [`twin_check`] does (its runs given the real run's commands,
+/// [`VARIABILITY_CHOICE_SEEDS`]), and the one whose medians come closer
+/// ([`CheckDistance`]: fewer beyond the tolerance, then the smaller mean distance) is kept;
+/// on a tie the variability stays. `None` when the twin has no variability.
+///
+/// The variability's fit matches the steady windows' scatter, a proxy: on the released
+/// Warthog runs the real excess scatter is uncorrelated between an interval's two steady
+/// windows, so the fit adds a ground that changes within a fifth of a second, which can take
+/// the twin's model errors further from the real run's than no variability does (2024-09-20a:
+/// slip-BLR's rotational median +51% with it, -9% without). What the twin is for, the
+/// models' errors, decides.
+///
+/// ```no_run
+/// use drive_eval::{choose_variability, Registries, TWIN_CHECK_MODELS};
+/// let r = Registries::builtin();
+/// let data = drive_data::read_dataset("run.csv".as_ref(), None).unwrap();
+/// let robot = r.robot("husky").unwrap();
+/// let twin = r.terrain("twin.toml").unwrap();
+/// let models = r.models().resolve_list(&TWIN_CHECK_MODELS).unwrap();
+/// if let Some(choice) = choose_variability(&r, &data, &robot, &twin, &models).unwrap() {
+///     println!("kept: {} ({:?} against {:?})", choice.kept, choice.with, choice.without);
+/// }
+/// ```
+pub fn choose_variability(
+    registries: &Registries,
+    data: &Dataset,
+    robot: &RobotSpec,
+    twin: &Terrain,
+    models: &[ModelSpec],
+) -> Result<Option<VariabilityChoice>, ExperimentError> {
+    if twin.variability.is_none() {
+        return Ok(None);
+    }
+    let without_variability = Terrain {
+        variability: None,
+        ..twin.clone()
+    };
+    let seeds = VARIABILITY_CHOICE_SEEDS.to_vec();
+    let distance = |t: &Terrain| -> Result<CheckDistance, ExperimentError> {
+        let check = twin_check(
+            registries,
+            data,
+            robot,
+            t,
+            &seeds,
+            models,
+            CheckCommands::Replay,
+        )?;
+        Ok(CheckDistance::of(&check.check))
+    };
+    let (with, without) = (distance(twin)?, distance(&without_variability)?);
+    Ok(Some(VariabilityChoice {
+        kept: !without.closer_than(&with),
+        with,
+        without,
+        seeds,
+    }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -441,6 +568,52 @@ mod tests {
         // Its own draws (seed 6) are other commands.
         let other = crate::simulate_run(&r, &run).unwrap().dataset;
         assert_ne!(ReplaySampler::interval_commands(&other.windows), recorded);
+    }
+
+    #[test]
+    fn a_variability_that_takes_the_models_away_from_the_run_is_dropped_and_one_that_brings_them_closer_kept(
+    ) {
+        let r = Registries::builtin();
+        let robot = r.robot("husky").unwrap();
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/husky_twin.toml");
+        let twin = r.terrain(path).unwrap();
+        let models = r.models().resolve_list(&TWIN_CHECK_MODELS).unwrap();
+        let run_of = |terrain: &Terrain| {
+            crate::simulate_run(&r, &SimRun::intervals(&robot, terrain, "uniform", 60, 21))
+                .unwrap()
+                .dataset
+        };
+        let wild = Terrain {
+            variability: Some(drive_sim::Variability {
+                traction: 0.5,
+                lateral: 3.0,
+                rolling: 3.0,
+                correlation_time: 0.2,
+            }),
+            ..twin.clone()
+        };
+        // A run of a steady ground, and a twin whose ground varies wildly: dropped.
+        let steady = Terrain {
+            variability: None,
+            ..twin.clone()
+        };
+        let choice = choose_variability(&r, &run_of(&steady), &robot, &wild, &models)
+            .unwrap()
+            .unwrap();
+        assert!(!choice.kept, "{choice:?}");
+        assert!(choice.without.mean_off_percent < choice.with.mean_off_percent);
+        assert_eq!(choice.seeds, VARIABILITY_CHOICE_SEEDS);
+        // A run of that varying ground, and the same twin: kept.
+        let choice = choose_variability(&r, &run_of(&wild), &robot, &wild, &models)
+            .unwrap()
+            .unwrap();
+        assert!(choice.kept, "{choice:?}");
+        // No variability, nothing to choose.
+        assert!(
+            choose_variability(&r, &run_of(&steady), &robot, &steady, &models)
+                .unwrap()
+                .is_none()
+        );
     }
 
     #[test]

@@ -34,7 +34,9 @@ pub struct Args {
     /// `twin_translational_m`, `real_rotational_rad`, `twin_rotational_rad`, and the real
     /// medians' 95% bootstrap intervals `real_translational_ci_m`, `real_rotational_ci_rad`),
     /// `scatter`, `check_seeds`, `check_commands`, `poor`, `written`, `fitted` (false with
-    /// --twin), and the twin (`terrain`) and the fit's `report` (absent with --twin). A twin
+    /// --twin), and the twin (`terrain`), the fit's `report` and `variability_choice`
+    /// (whether the fitted variability was kept: the models' medians with and without it;
+    /// absent with --twin). A twin
     /// refused by the check is printed too, with `"written": false`, and the command fails.
     #[arg(long)]
     json: bool,
@@ -73,6 +75,9 @@ struct Output<'a> {
     terrain: &'a crate::sim::Terrain,
     #[serde(skip_serializing_if = "Option::is_none")]
     report: Option<&'a crate::sim::SimFitReport>,
+    /// Whether the fitted twin kept its variability (absent with --twin, or without one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    variability_choice: Option<&'a crate::eval::VariabilityChoice>,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
@@ -121,18 +126,24 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         crate::traits::limits::MAX_SEEDS as f64,
         "",
     )?;
-    // The twin: fitted on the data, or the one given to check.
-    let (terrain, report) = match given {
-        Some(terrain) => (terrain, None),
-        None => {
-            let fit = crate::sim::sim_fit(&data, &spec, &name)?;
-            (fit.terrain, Some(fit.report))
-        }
-    };
-    // The twin check: the twin's runs against the real one.
     let models = registries
         .models()
         .resolve_list(&crate::eval::TWIN_CHECK_MODELS)?;
+    // The twin: fitted on the data (its variability kept only where it brings the models'
+    // errors closer to the real run's), or the one given to check.
+    let (terrain, report, variability_choice) = match given {
+        Some(terrain) => (terrain, None, None),
+        None => {
+            let mut fit = crate::sim::sim_fit(&data, &spec, &name)?;
+            let choice =
+                crate::eval::choose_variability(registries, &data, &spec, &fit.terrain, &models)?;
+            if choice.as_ref().is_some_and(|c| !c.kept) {
+                fit = fit.without_variability();
+            }
+            (fit.terrain, Some(fit.report), choice)
+        }
+    };
+    // The twin check: the twin's runs against the real one.
     let seeds: Vec<u64> = (1..=args.check_seeds as u64).collect();
     let check = crate::eval::twin_check(
         registries,
@@ -163,6 +174,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         fitted: report.is_some(),
         terrain: &terrain,
         report: report.as_ref(),
+        variability_choice: variability_choice.as_ref(),
     };
     if !accepted {
         // A refused twin's fit and check are still printed with --json (`"written": false`):
@@ -197,7 +209,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             .filter(|_| o.written)
             .map_or(String::new(), |out| format!("; saved to {}", out.display()));
         let mut text = match o.report {
-            Some(r) => fit_text(t, r, &data, &saved),
+            Some(r) => fit_text(t, r, &data, &saved, o.variability_choice),
             None => format!(
                 "twin '{}' ({}) checked against {}, not fitted{saved}\n",
                 t.name,
@@ -303,6 +315,7 @@ fn fit_text(
     r: &crate::sim::SimFitReport,
     data: &crate::traits::Dataset,
     saved: &str,
+    choice: Option<&crate::eval::VariabilityChoice>,
 ) -> String {
     let c = t.controller.unwrap_or_default();
     // sim_fit always fits the powertrain (this text is a fit's only).
@@ -342,12 +355,28 @@ fn fit_text(
             v.traction, v.lateral, v.rolling, v.correlation_time,
             sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1], sc.without.rms[0], sc.without.rms[1],
         ),
+        (None, Some(sc)) if choice.is_some() => format!(
+            "variability: none (steady scatter {:.3} m/s and {:.3} rad/s; the twin's {:.3} and {:.3} without one)\n",
+            sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1],
+        ),
         (None, Some(sc)) => format!(
             "variability: none (steady scatter {:.3} m/s and {:.3} rad/s; the twin's already {:.3} and {:.3})\n",
             sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1],
         ),
         _ => "variability: none (fewer than 30 steady windows to measure it)\n".to_string(),
     };
+    if let Some(c) = choice {
+        // The models' errors decide (drive_eval::choose_variability).
+        text += &format!(
+            "variability {}: the twin's medians {:.1}% from the real run's on average with it ({} beyond 30%), {:.1}% ({}) without (seeds {})\n",
+            if c.kept { "kept" } else { "dropped" },
+            c.with.mean_off_percent,
+            c.with.beyond_tolerance,
+            c.without.mean_off_percent,
+            c.without.beyond_tolerance,
+            c.seeds.iter().map(u64::to_string).collect::<Vec<_>>().join(", "),
+        );
+    }
     text += &format!(
         "sensors: localization {:.1} Hz with {:.4} m and {:.4} rad noise and timestamps jittering by up to {:.3} s, encoders {:.3} rad/s, IMU {:.4} rad/s with a {:+.4} rad/s bias\n",
         s.icp_rate_hz, s.icp_noise[0], s.icp_noise[1], s.icp_jitter, s.encoder_noise, s.imu_noise, s.imu_bias,

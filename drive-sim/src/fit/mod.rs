@@ -122,6 +122,9 @@ pub struct SimFitReport {
     /// The mean absolute forward speed (m/s) and yaw rate (rad/s) of the steady windows:
     /// the data's, then the fitted twin's on its own runs.
     pub motion: [[f64; 2]; 2],
+    /// The same of the twin without variability on its own runs (the fitted twin's when it
+    /// has none).
+    pub motion_without_variability: [f64; 2],
     /// Fitted values that ended at a bound of their range: what the data does not pin
     /// down (`name = value`).
     pub at_bounds: Vec<String>,
@@ -139,6 +142,44 @@ pub struct SimFit {
     pub terrain: Terrain,
     /// The fit's report.
     pub report: SimFitReport,
+}
+
+impl SimFit {
+    /// The same twin without its ground's variability, its report saying so: the twin's
+    /// scatter and motion those of its runs without it, no variability limits, no
+    /// variability parameter at a bound. (`drive sim-fit` drops a variability that takes the
+    /// twin's model errors further from the real run's: `drive_eval::choose_variability`.)
+    ///
+    /// ```
+    /// # use drive_sim::{SimFit, SimFitReport, Terrain, Variability};
+    /// let variability = Variability { traction: 0.5, lateral: 0.5, rolling: 3.0, correlation_time: 0.2 };
+    /// let fit = SimFit {
+    ///     terrain: Terrain { variability: Some(variability), ..Terrain::preset("gravel").unwrap() },
+    ///     report: SimFitReport {
+    ///         steady_windows: 200, transient_windows: 100, controller_rms: 0.1, powertrain_rms: 0.2,
+    ///         terrain_rms: [[0.1; 2]; 2], terrain_rms_start: [[0.2; 2]; 2], scatter: None,
+    ///         motion: [[1.0, 0.5], [1.1, 0.6]], motion_without_variability: [1.2, 0.4],
+    ///         at_bounds: vec!["traction = 0.1".into(), "variability.rolling = 3".into()],
+    ///         variability_limits: Some([0.5, 0.5, 3.0]),
+    ///     },
+    /// };
+    /// let plain = fit.without_variability();
+    /// assert_eq!(plain.terrain.variability, None);
+    /// assert_eq!(plain.report.motion[1], [1.2, 0.4]);
+    /// assert_eq!(plain.report.at_bounds, ["traction = 0.1"]);
+    /// assert_eq!(plain.report.variability_limits, None);
+    /// ```
+    pub fn without_variability(mut self) -> SimFit {
+        self.terrain.variability = None;
+        let r = &mut self.report;
+        if let Some(s) = r.scatter.as_mut() {
+            s.twin = s.without;
+        }
+        r.motion[1] = r.motion_without_variability;
+        r.variability_limits = None;
+        r.at_bounds.retain(|b| !b.starts_with("variability."));
+        self
+    }
 }
 
 /// One steady window's statistics.
@@ -580,6 +621,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         variability,
         scatter,
         motion: twin_motion,
+        motion_without,
         limits: variability_limits,
     } = fit_variability(data, &g, robot, &terrain)?;
     terrain.variability = variability;
@@ -615,6 +657,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
             terrain_rms_start,
             scatter,
             motion,
+            motion_without_variability: motion_without,
             at_bounds,
             variability_limits,
         },

@@ -119,6 +119,8 @@ pub(super) struct FittedVariability {
     pub(super) scatter: Option<ScatterFit>,
     /// The fitted twin's steady mean absolute forward speed and yaw rate.
     pub(super) motion: [f64; 2],
+    /// The same of the twin without variability.
+    pub(super) motion_without: [f64; 2],
     /// The largest deviation each process was searched to (traction, lateral, rolling;
     /// none without a fit).
     pub(super) limits: Option<[f64; 3]>,
@@ -131,6 +133,7 @@ impl FittedVariability {
             variability: None,
             scatter,
             motion,
+            motion_without: motion,
             limits: None,
         }
     }
@@ -389,6 +392,7 @@ pub(super) fn fit_variability(
         variability: Some(variability),
         scatter: report(twin.scatter()?),
         motion: twin.motion,
+        motion_without: without.motion,
         limits: Some(limits),
     })
 }
