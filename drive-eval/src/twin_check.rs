@@ -431,9 +431,9 @@ impl CheckDistance {
     ///     real_rotational_rad: 1.0, real_rotational_ci_rad: [0.9, 1.1],
     ///     twin_rotational_rad: 1.0 + r / 100.0, translational_off_percent: t,
     ///     rotational_off_percent: r };
-    /// let d = CheckDistance::of(&[row(10.0, -40.0), row(0.0, 30.0)]);
-    /// assert_eq!(d.mean_off_percent, 20.0);
-    /// assert_eq!(d.beyond_tolerance, 1); // 30% is within
+    /// let d = CheckDistance::of(&[row(10.0, -40.0), row(0.0, 26.0)]);
+    /// assert_eq!(d.mean_off_percent, 19.0);
+    /// assert_eq!(d.beyond_tolerance, 1); // as the check counts them (`poor_twin`)
     /// ```
     pub fn of(check: &[TwinCheckRow]) -> Self {
         let offs: Vec<f64> = check
@@ -443,20 +443,22 @@ impl CheckDistance {
             .collect();
         CheckDistance {
             mean_off_percent: offs.iter().sum::<f64>() / offs.len().max(1) as f64,
-            // NaN (a median that could not be computed) counts as beyond.
-            beyond_tolerance: offs
-                .iter()
-                .filter(|o| o.is_nan() || **o > 100.0 * TWIN_TOLERANCE)
-                .count(),
+            // The check's own count (NaN, a median that could not be computed, is beyond).
+            beyond_tolerance: poor_twin(check, TWIN_TOLERANCE).len(),
         }
     }
 
     /// True when `self` is closer than `other`: fewer medians beyond the tolerance, then a
-    /// smaller mean distance.
+    /// smaller mean distance (an undefined one, NaN, is the farthest).
     fn closer_than(&self, other: &CheckDistance) -> bool {
-        (self.beyond_tolerance, self.mean_off_percent)
-            .partial_cmp(&(other.beyond_tolerance, other.mean_off_percent))
-            .is_some_and(|o| o.is_lt())
+        let mean = |d: &CheckDistance| {
+            if d.mean_off_percent.is_nan() {
+                f64::INFINITY
+            } else {
+                d.mean_off_percent
+            }
+        };
+        (self.beyond_tolerance, mean(self)) < (other.beyond_tolerance, mean(other))
     }
 }
 
@@ -465,6 +467,8 @@ impl CheckDistance {
 pub struct VariabilityChoice {
     /// True when the twin keeps the fitted variability.
     pub kept: bool,
+    /// The fitted variability, kept or not.
+    pub fitted: drive_sim::Variability,
     /// The twin with its fitted variability against the real run.
     pub with: CheckDistance,
     /// The same twin without variability.
@@ -504,9 +508,9 @@ pub fn choose_variability(
     twin: &Terrain,
     models: &[ModelSpec],
 ) -> Result<Option<VariabilityChoice>, ExperimentError> {
-    if twin.variability.is_none() {
+    let Some(fitted) = twin.variability else {
         return Ok(None);
-    }
+    };
     let without_variability = Terrain {
         variability: None,
         ..twin.clone()
@@ -527,6 +531,7 @@ pub fn choose_variability(
     let (with, without) = (distance(twin)?, distance(&without_variability)?);
     Ok(Some(VariabilityChoice {
         kept: !without.closer_than(&with),
+        fitted,
         with,
         without,
         seeds,

@@ -35,8 +35,10 @@ pub struct Args {
     /// medians' 95% bootstrap intervals `real_translational_ci_m`, `real_rotational_ci_rad`),
     /// `scatter`, `check_seeds`, `check_commands`, `poor`, `written`, `fitted` (false with
     /// --twin), and the twin (`terrain`), the fit's `report` and `variability_choice`
-    /// (whether the fitted variability was kept: the models' medians with and without it;
-    /// absent with --twin). A twin
+    /// (whether the fitted variability was kept: `kept`, the `fitted` variability, and the
+    /// mean distance of the models' medians from the real run's and how many are beyond 30%,
+    /// `with` and `without` it, on two runs of its own `seeds`, the real commands replayed;
+    /// absent with --twin or when no variability was fitted). A twin
     /// refused by the check is printed too, with `"written": false`, and the command fails.
     #[arg(long)]
     json: bool,
@@ -349,17 +351,18 @@ fn fit_text(
         "ground: traction {:.3}, lateral {:.3}, slip modulus {:.3}, rolling {:.3} (body velocity RMS {sv:.3} m/s and {sw:.3} rad/s steady, {tv:.3} and {tw:.3} transient; from the gravel preset {sv0:.3}, {sw0:.3}, {tv0:.3}, {tw0:.3})\n",
         t.traction, t.lateral, t.slip_modulus, t.rolling,
     );
-    text += &match (&t.variability, &r.scatter) {
-        (Some(v), Some(sc)) => format!(
+    text += &match (&t.variability, &r.scatter, choice.map(|c| c.fitted)) {
+        (Some(v), Some(sc), _) => format!(
             "variability: traction {:.3}, lateral {:.3}, rolling {:.3} (log standard deviations), correlation time {:.2} s (steady scatter {:.3} m/s and {:.3} rad/s; the twin's {:.3} and {:.3}, {:.3} and {:.3} without)\n",
             v.traction, v.lateral, v.rolling, v.correlation_time,
             sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1], sc.without.rms[0], sc.without.rms[1],
         ),
-        (None, Some(sc)) if choice.is_some() => format!(
-            "variability: none (steady scatter {:.3} m/s and {:.3} rad/s; the twin's {:.3} and {:.3} without one)\n",
+        (None, Some(sc), Some(v)) => format!(
+            "variability: fitted traction {:.3}, lateral {:.3}, rolling {:.3} (log standard deviations), correlation time {:.2} s, and dropped (below); none in the twin (steady scatter {:.3} m/s and {:.3} rad/s; the twin's {:.3} and {:.3} without it)\n",
+            v.traction, v.lateral, v.rolling, v.correlation_time,
             sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1],
         ),
-        (None, Some(sc)) => format!(
+        (None, Some(sc), None) => format!(
             "variability: none (steady scatter {:.3} m/s and {:.3} rad/s; the twin's already {:.3} and {:.3})\n",
             sc.real.rms[0], sc.real.rms[1], sc.twin.rms[0], sc.twin.rms[1],
         ),
@@ -368,13 +371,13 @@ fn fit_text(
     if let Some(c) = choice {
         // The models' errors decide (drive_eval::choose_variability).
         text += &format!(
-            "variability {}: the twin's medians {:.1}% from the real run's on average with it ({} beyond 30%), {:.1}% ({}) without (seeds {})\n",
+            "variability {}: on two runs of its own (seeds {}, not the check's below; the real commands replayed), the twin's medians are {:.1}% from the real run's on average with it ({} beyond 30%), {:.1}% ({}) without\n",
             if c.kept { "kept" } else { "dropped" },
+            c.seeds.iter().map(u64::to_string).collect::<Vec<_>>().join(", "),
             c.with.mean_off_percent,
             c.with.beyond_tolerance,
             c.without.mean_off_percent,
             c.without.beyond_tolerance,
-            c.seeds.iter().map(u64::to_string).collect::<Vec<_>>().join(", "),
         );
     }
     text += &format!(

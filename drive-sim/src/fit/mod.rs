@@ -130,8 +130,9 @@ pub struct SimFitReport {
     pub at_bounds: Vec<String>,
     /// The largest log deviation the variability's fit searched for each grip process
     /// (traction, lateral, rolling): the simulator's largest, or less where the twin no
-    /// longer drove like itself with more (`None` without a variability fit). A process at
-    /// its limit is at a bound.
+    /// longer drove like itself with more (`None` without a variability fit, or once the
+    /// twin dropped it: [`SimFit::without_variability`]). A process at its limit is at a
+    /// bound.
     pub variability_limits: Option<[f64; 3]>,
 }
 
