@@ -120,6 +120,11 @@ pub struct TwinCheck {
     pub check: Vec<TwinCheckRow>,
     /// The steady scatter, when both have at least 30 steady windows.
     pub scatter: Option<ScatterCheck>,
+    /// How consistently the wheels follow the commands (`drive_sim::command_scatter`: the
+    /// steady windows' wheel speeds around a smooth function of their commands), when both
+    /// have at least 30 steady windows. Reported: a real powertrain that stalls under load
+    /// on some commands and not on others like them, which a twin's does not, shows here.
+    pub command_scatter: Option<ScatterCheck>,
     /// The tolerance of `poor` (a fraction: 0.3 is 30%).
     pub tolerance: f64,
     /// Every median further than the tolerance from the real one, in words: what makes a
@@ -128,6 +133,8 @@ pub struct TwinCheck {
     /// The steady scatter where it is further than the tolerance from the real one, in
     /// words (reported; it does not make a poor twin alone).
     pub scatter_off: Vec<String>,
+    /// The same of `command_scatter` (reported; it does not make a poor twin alone).
+    pub command_scatter_off: Vec<String>,
 }
 
 /// Runs the twin check of `twin`, fitted on `data` for `robot`, with `seeds` twin runs
@@ -230,36 +237,60 @@ pub fn twin_check(
             rotational_off_percent: off(twin_r, real_r),
         });
     }
-    let scatter = vehicle_as::<DifferentialDrive>(data.robot.vehicle.as_ref()).and_then(|g| {
-        let real = drive_sim::scatter(data, &g)?;
-        let twins: Vec<[f64; 2]> = simulated
-            .iter()
-            .filter_map(|s| drive_sim::scatter(s, &g))
-            .map(|s| s.rms)
-            .collect();
-        if twins.is_empty() {
-            return None;
-        }
-        let n = twins.len() as f64;
-        Some(ScatterCheck {
-            real: real.rms,
-            twin: [
-                twins.iter().map(|t| t[0]).sum::<f64>() / n,
-                twins.iter().map(|t| t[1]).sum::<f64>() / n,
-            ],
+    let geometry = vehicle_as::<DifferentialDrive>(data.robot.vehicle.as_ref());
+    let scatter = geometry.as_ref().and_then(|g| {
+        pooled_check(data, &simulated, |d| {
+            drive_sim::scatter(d, g).map(|s| s.rms)
         })
     });
+    let command_scatter = geometry
+        .as_ref()
+        .and_then(|g| pooled_check(data, &simulated, |d| drive_sim::command_scatter(d, g)));
     let poor = poor_twin(&check, TWIN_TOLERANCE);
-    let scatter_off = scatter.map_or_else(Vec::new, |s| scatter_off(&s, TWIN_TOLERANCE));
+    let scatter_off = scatter.map_or_else(Vec::new, |s| {
+        let what = ["steady forward-speed scatter", "steady yaw-rate scatter"];
+        scatters_off(&s, what, TWIN_TOLERANCE)
+    });
+    let command_scatter_off = command_scatter.map_or_else(Vec::new, |s| {
+        let what = [
+            "wheels' forward-speed scatter around the commands",
+            "wheels' yaw-rate scatter around the commands",
+        ];
+        scatters_off(&s, what, TWIN_TOLERANCE)
+    });
     Ok(TwinCheck {
         seeds: seeds.to_vec(),
         commands,
         windows,
         check,
         scatter,
+        command_scatter,
         tolerance: TWIN_TOLERANCE,
         poor,
         scatter_off,
+        command_scatter_off,
+    })
+}
+
+/// A statistic of the real run against its mean over the twin's runs; `None` where the real
+/// run or every twin run has none.
+fn pooled_check(
+    data: &Dataset,
+    simulated: &[Dataset],
+    statistic: impl Fn(&Dataset) -> Option<[f64; 2]>,
+) -> Option<ScatterCheck> {
+    let real = statistic(data)?;
+    let twins: Vec<[f64; 2]> = simulated.iter().filter_map(&statistic).collect();
+    if twins.is_empty() {
+        return None;
+    }
+    let n = twins.len() as f64;
+    Some(ScatterCheck {
+        real,
+        twin: [
+            twins.iter().map(|t| t[0]).sum::<f64>() / n,
+            twins.iter().map(|t| t[1]).sum::<f64>() / n,
+        ],
     })
 }
 
@@ -367,25 +398,20 @@ pub fn poor_twin(check: &[TwinCheckRow], tolerance: f64) -> Vec<String> {
     out
 }
 
-/// The steady scatters further than `tolerance` from the real ones, in words.
-fn scatter_off(s: &ScatterCheck, tolerance: f64) -> Vec<String> {
+/// The scatters (forward speed, yaw rate: `what`) further than `tolerance` from the real
+/// ones, in words.
+fn scatters_off(s: &ScatterCheck, what: [&str; 2], tolerance: f64) -> Vec<String> {
     let mut out = Vec::new();
-    off_by(
-        &mut out,
-        "steady forward-speed scatter".into(),
-        s.twin[0],
-        (s.real[0], None),
-        "m/s",
-        tolerance,
-    );
-    off_by(
-        &mut out,
-        "steady yaw-rate scatter".into(),
-        s.twin[1],
-        (s.real[1], None),
-        "rad/s",
-        tolerance,
-    );
+    for (axis, unit) in [(0, "m/s"), (1, "rad/s")] {
+        off_by(
+            &mut out,
+            what[axis].into(),
+            s.twin[axis],
+            (s.real[axis], None),
+            unit,
+            tolerance,
+        );
+    }
     out
 }
 

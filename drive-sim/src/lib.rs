@@ -33,7 +33,9 @@ mod twin;
 mod vehicle;
 
 pub use car::{step_car, Actuator, CarParams, CarSimulator, CarState};
-pub use fit::{scatter, sim_fit, Scatter, ScatterFit, SimFit, SimFitError, SimFitReport};
+pub use fit::{
+    command_scatter, scatter, sim_fit, Scatter, ScatterFit, SimFit, SimFitError, SimFitReport,
+};
 pub use omni::OmniPlant;
 pub use parameters::{fitted_parameters, fitted_parameters_within, FittedParameter};
 pub use plant::{builtin_plants, plant_for, KinematicPlant, MakePlant, Plant};

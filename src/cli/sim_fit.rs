@@ -33,7 +33,11 @@ pub struct Args {
     /// `value`, its range and `at_bound`), `check` (per model: `real_translational_m`,
     /// `twin_translational_m`, `real_rotational_rad`, `twin_rotational_rad`, and the real
     /// medians' 95% bootstrap intervals `real_translational_ci_m`, `real_rotational_ci_rad`),
-    /// `scatter`, `check_seeds`, `check_commands`, `poor`, `written`, `fitted` (false with
+    /// `scatter` (the steady windows' body velocity around a smooth function of their wheel
+    /// speeds, `real` and `twin`), `command_scatter` (their wheel speeds around a smooth
+    /// function of their commands: how consistently the wheels follow the commands;
+    /// `command_scatter_off` names those further than 30% from the real run's, reported),
+    /// `check_seeds`, `check_commands`, `poor`, `written`, `fitted` (false with
     /// --twin), and the twin (`terrain`), the fit's `report` and `variability_choice`
     /// (whether the fitted variability was kept: `kept`, the `fitted` variability, and the
     /// mean distance of the models' medians from the real run's and how many are beyond 30%,
@@ -67,11 +71,13 @@ struct Output<'a> {
     parameters: Vec<crate::sim::FittedParameter>,
     check: &'a [crate::eval::TwinCheckRow],
     scatter: Option<crate::eval::ScatterCheck>,
+    command_scatter: Option<crate::eval::ScatterCheck>,
     check_seeds: &'a [u64],
     check_commands: crate::eval::CheckCommands,
     tolerance: f64,
     poor: &'a [String],
     scatter_off: &'a [String],
+    command_scatter_off: &'a [String],
     written: bool,
     fitted: bool,
     terrain: &'a crate::sim::Terrain,
@@ -167,11 +173,13 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         parameters,
         check: &check.check,
         scatter: check.scatter,
+        command_scatter: check.command_scatter,
         check_seeds: &check.seeds,
         check_commands: check.commands,
         tolerance: check.tolerance,
         poor: &check.poor,
         scatter_off: &check.scatter_off,
+        command_scatter_off: &check.command_scatter_off,
         written,
         fitted: report.is_some(),
         terrain: &terrain,
@@ -261,22 +269,23 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                 c.rotational_off_percent
             );
         }
-        if let Some(s) = o.scatter {
+        for (what, scatter, off) in [
+            ("steady scatter", o.scatter, o.scatter_off),
+            (
+                "wheels around a smooth function of the commands (steady)",
+                o.command_scatter,
+                o.command_scatter_off,
+            ),
+        ] {
+            let Some(s) = scatter else { continue };
+            let outside = if off.is_empty() {
+                String::new()
+            } else {
+                format!(" (outside {:.0}%: {})", 100.0 * o.tolerance, off.join("; "))
+            };
             text += &format!(
-                "  steady scatter: real {:.3} m/s and {:.3} rad/s, twin {:.3} and {:.3}{}\n",
-                s.real[0],
-                s.real[1],
-                s.twin[0],
-                s.twin[1],
-                if o.scatter_off.is_empty() {
-                    String::new()
-                } else {
-                    format!(
-                        " (outside {:.0}%: {})",
-                        100.0 * o.tolerance,
-                        o.scatter_off.join("; ")
-                    )
-                }
+                "  {what}: real {:.3} m/s and {:.3} rad/s, twin {:.3} and {:.3}{outside}\n",
+                s.real[0], s.real[1], s.twin[0], s.twin[1],
             );
         }
         text += &if o.poor.is_empty() {

@@ -323,6 +323,10 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
         text.contains("controller:") && text.contains("twin check") && text.contains("saved to"),
         "{text}"
     );
+    assert!(
+        text.contains("wheels around a smooth function of the commands (steady): real "),
+        "{text}"
+    );
     // The twin checked again (--twin: no fit), without --allow-poor-twin: the check decides
     // whether it is written; a twin whose medians are more than 30% from the real run's is
     // refused, saying which. With --json the check is printed either way.
@@ -659,6 +663,17 @@ fn the_check_gives_the_twin_the_real_runs_commands_unless_asked_to_draw() {
     assert_eq!(replayed["check_commands"], "replay");
     assert_eq!(drawn["check_commands"], "draw");
     assert_eq!(replayed["poor"].as_array().unwrap().len(), 0, "{replayed}");
+    // How consistently the wheels follow the commands: the same powertrain, the same
+    // scatter around the commands (within 30%, none named off).
+    let c = &replayed["command_scatter"];
+    for axis in 0..2 {
+        let (r, t) = (
+            c["real"][axis].as_f64().unwrap(),
+            c["twin"][axis].as_f64().unwrap(),
+        );
+        assert!(r > 0.0 && (t / r - 1.0).abs() < 0.3, "{c}");
+    }
+    assert_eq!(replayed["command_scatter_off"], serde_json::json!([]));
     for (a, b) in replayed["check"]
         .as_array()
         .unwrap()

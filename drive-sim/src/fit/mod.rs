@@ -52,7 +52,7 @@ use ground::*;
 use protocol::*;
 use sensors::*;
 use variability::*;
-pub use variability::{scatter, Scatter, ScatterFit};
+pub use variability::{command_scatter, scatter, Scatter, ScatterFit};
 
 /// Why a twin cannot be fitted.
 #[derive(Debug, Error, Clone, PartialEq)]

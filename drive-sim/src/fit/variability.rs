@@ -36,21 +36,107 @@ pub struct Scatter {
 /// assert!(drive_sim::scatter(&few, &g).is_none());
 /// ```
 pub fn scatter(data: &Dataset, g: &DifferentialDrive) -> Option<Scatter> {
-    use drive_traits::nalgebra::{DMatrix, DVector};
     let dt = 1.0 / data.robot.rate_hz;
-    let rows: Vec<(usize, [f64; 2], [f64; 2])> = data
-        .windows
-        .iter()
-        .filter(|w| w.phase == Phase::Steady && w.len() >= 3)
+    let rows: Vec<(usize, [f64; 2], [f64; 2])> = steady_windows(data)
         .map(|w| {
-            let e = w.measured.iter().sum::<Input>() / w.len() as f64;
-            let body = [
-                g.wheel_radius * (e.x + e.y) / 2.0,
-                g.wheel_radius * (e.y - e.x) / g.baseline,
-            ];
-            (w.interval, body, window_motion(&w.pose, dt))
+            (
+                w.interval,
+                mean_body(g, &w.measured),
+                window_motion(&w.pose, dt),
+            )
         })
         .collect();
+    let residuals = smooth_residuals(&rows)?;
+    let rms = residuals.each_ref().map(|r| rms(r));
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    let yaw = &residuals[1];
+    for i in 1..rows.len() {
+        if rows[i].0 == rows[i - 1].0 {
+            sab += yaw[i] * yaw[i - 1];
+            saa += yaw[i - 1] * yaw[i - 1];
+            sbb += yaw[i] * yaw[i];
+        }
+    }
+    let within = if saa > 0.0 && sbb > 0.0 {
+        sab / (saa * sbb).sqrt()
+    } else {
+        0.0
+    };
+    Some(Scatter {
+        rms,
+        within_interval: within,
+    })
+}
+
+/// The steady windows' wheels around a smooth function of their commands: the RMS residual
+/// of the body velocity the encoders give (forward speed in m/s, yaw rate in rad/s) around
+/// its least-squares fit on the basis of [`Scatter`] of the body velocity the commands ask
+/// for; `None` with fewer than 30 steady windows. How consistently the wheels follow the
+/// commands: a powertrain that gives every command the same share of it (or a fixed cap)
+/// scatters little; one that stalls under load on some commands and not on others like
+/// them scatters far more. The twin check reports it (`drive sim-fit`), real against twin.
+///
+/// ```
+/// use drive_traits::{Dataset, Input, Phase, Pose, RobotDescription, Window};
+/// let g = drive_models::DifferentialDrive::new(0.165, 0.55);
+/// let robot = RobotDescription {
+///     name: "r".into(),
+///     robot: "husky".into(),
+///     rate_hz: 20.0,
+///     window_len: 40,
+///     vehicle: std::sync::Arc::new(g.clone()),
+///     position_frame: Default::default(),
+///     terrain: String::new(),
+/// };
+/// // Wheels at 80% of every command: a smooth function of it, no scatter around it.
+/// let windows: Vec<Window> = (0..40)
+///     .map(|i| {
+///         let u = Input::new((i % 7) as f64 - 3.0, (i % 5) as f64 - 2.0, 0.0);
+///         let n = 40;
+///         Window::new(i, i, Phase::Steady, vec![u; n], vec![0.8 * u; n], vec![Pose::zeros(); n], vec![0.0; n])
+///     })
+///     .collect();
+/// let data = Dataset { robot, windows };
+/// let [v, w] = drive_sim::command_scatter(&data, &g).unwrap();
+/// assert!(v < 1e-9 && w < 1e-9);
+/// ```
+pub fn command_scatter(data: &Dataset, g: &DifferentialDrive) -> Option<[f64; 2]> {
+    let rows: Vec<(usize, [f64; 2], [f64; 2])> = steady_windows(data)
+        .map(|w| {
+            let wheels = mean_body(g, &w.measured);
+            (w.interval, mean_body(g, &w.command), wheels)
+        })
+        .collect();
+    let residuals = smooth_residuals(&rows)?;
+    Some(residuals.each_ref().map(|r| rms(r)))
+}
+
+/// The steady windows of at least three samples.
+fn steady_windows(data: &Dataset) -> impl Iterator<Item = &drive_traits::Window> {
+    data.windows
+        .iter()
+        .filter(|w| w.phase == Phase::Steady && w.len() >= 3)
+}
+
+/// The body velocity (forward speed, yaw rate) the mean of the wheel speeds `u` gives.
+fn mean_body(g: &DifferentialDrive, u: &[Input]) -> [f64; 2] {
+    let e = u.iter().sum::<Input>() / u.len() as f64;
+    [
+        g.wheel_radius * (e.x + e.y) / 2.0,
+        g.wheel_radius * (e.y - e.x) / g.baseline,
+    ]
+}
+
+/// The root mean square of `r`.
+fn rms(r: &[f64]) -> f64 {
+    (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt()
+}
+
+/// The residuals of each output `rows[i].2[axis]` around its least-squares fit on `1, v, w,
+/// v w, v^2, w^2, |v|, |w|, v |w|, w |v|` of `rows[i].1 = [v, w]`; `None` with fewer than 30
+/// rows or a fit that fails.
+fn smooth_residuals(rows: &[(usize, [f64; 2], [f64; 2])]) -> Option<[Vec<f64>; 2]> {
+    use drive_traits::nalgebra::{DMatrix, DVector};
     if rows.len() < 30 {
         return None;
     }
@@ -76,27 +162,7 @@ pub fn scatter(data: &Dataset, g: &DifferentialDrive) -> Option<Scatter> {
         let fit = svd.solve(&y, 1e-10).ok()?;
         *out = (y - &basis * fit).iter().copied().collect();
     }
-    let rms = residuals
-        .each_ref()
-        .map(|r| (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt());
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    let yaw = &residuals[1];
-    for i in 1..rows.len() {
-        if rows[i].0 == rows[i - 1].0 {
-            sab += yaw[i] * yaw[i - 1];
-            saa += yaw[i - 1] * yaw[i - 1];
-            sbb += yaw[i] * yaw[i];
-        }
-    }
-    let within = if saa > 0.0 && sbb > 0.0 {
-        sab / (saa * sbb).sqrt()
-    } else {
-        0.0
-    };
-    Some(Scatter {
-        rms,
-        within_interval: within,
-    })
+    Some(residuals)
 }
 
 /// Holds the robot still (stands in for a sampler that cannot be built).
@@ -499,6 +565,63 @@ pub struct ScatterFit {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wheels_that_give_like_commands_unlike_shares_scatter_around_them() {
+        let g = DifferentialDrive::new(0.3, 1.1);
+        let robot = drive_traits::RobotDescription {
+            name: "r".into(),
+            robot: "warthog".into(),
+            rate_hz: 20.0,
+            window_len: 40,
+            vehicle: std::sync::Arc::new(g.clone()),
+            position_frame: Default::default(),
+            terrain: String::new(),
+        };
+        let commands: Vec<Input> = (0..20)
+            .map(|i| Input::new((i % 7) as f64 - 3.0, (i % 4) as f64 * 1.5 - 2.0, 0.0))
+            .collect();
+        let run = |shares: [f64; 2]| Dataset {
+            robot: robot.clone(),
+            windows: (0..40)
+                .map(|i| {
+                    let u = commands[i % 20];
+                    let wheels = shares[i / 20] * u;
+                    let n = 40;
+                    let pose = vec![Pose::zeros(); n];
+                    drive_traits::Window::new(
+                        i,
+                        i,
+                        Phase::Steady,
+                        vec![u; n],
+                        vec![wheels; n],
+                        pose,
+                        vec![0.0; n],
+                    )
+                })
+                .collect(),
+        };
+        // Every command given the same share: a smooth function of it, nothing around it.
+        let [v, w] = command_scatter(&run([0.8, 0.8]), &g).unwrap();
+        assert!(v < 1e-9 && w < 1e-9, "{v} {w}");
+        // The same commands given 80% in one pass and 20% in the other (a powertrain that
+        // stalls on some of them): the fit is the mean share, 50%, and every residual 30% of
+        // its command's body velocity.
+        let [v, w] = command_scatter(&run([0.8, 0.2]), &g).unwrap();
+        let body: Vec<[f64; 2]> = commands.iter().map(|u| mean_body(&g, &[*u])).collect();
+        let want = |a: usize| 0.3 * rms(&body.iter().map(|b| b[a]).collect::<Vec<_>>());
+        for (got, axis) in [(v, 0), (w, 1)] {
+            assert!(
+                (got / want(axis) - 1.0).abs() < 1e-9,
+                "{got} {}",
+                want(axis)
+            );
+        }
+        // Too few steady windows: none.
+        let mut few = run([0.8, 0.2]);
+        few.windows.truncate(29);
+        assert!(command_scatter(&few, &g).is_none());
+    }
 
     #[test]
     fn the_twins_runs_hold_the_datas_commands_through_its_protocol() {
