@@ -97,8 +97,10 @@ pub struct TwinCheckRow {
     pub rotational_off_percent: f64,
 }
 
-/// The steady windows' scatter of the body velocity around a smooth function of the wheel
-/// speeds (`drive_sim::scatter`): forward speed (m/s) and yaw rate (rad/s).
+/// A scatter of the steady windows, forward speed (m/s) and yaw rate (rad/s), real against
+/// twin: the body velocity around a smooth function of the wheel speeds
+/// (`drive_sim::scatter`, [`TwinCheck::scatter`]) or the wheel speeds around a smooth
+/// function of the commands (`drive_sim::command_scatter`, [`TwinCheck::command_scatter`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ScatterCheck {
     /// The real run's.
