@@ -120,11 +120,7 @@ fn steady_windows(data: &Dataset) -> impl Iterator<Item = &drive_traits::Window>
 
 /// The body velocity (forward speed, yaw rate) the mean of the wheel speeds `u` gives.
 fn mean_body(g: &DifferentialDrive, u: &[Input]) -> [f64; 2] {
-    let e = u.iter().sum::<Input>() / u.len() as f64;
-    [
-        g.wheel_radius * (e.x + e.y) / 2.0,
-        g.wheel_radius * (e.y - e.x) / g.baseline,
-    ]
+    wheel_body(g, u.iter().sum::<Input>() / u.len() as f64)
 }
 
 /// The root mean square of `r`.
