@@ -9,7 +9,8 @@
 //! turning scrubs the wheels sideways; rolling resistance; torque-limited motors in a
 //! velocity loop with rising and falling time constants and a dead time, behind an optional
 //! low-level controller with body-velocity gains, caps and acceleration limits
-//! ([`ControllerParams`]); a ground whose grip can vary in time ([`Variability`]); sensors
+//! ([`ControllerParams`]); a ground whose grip can vary in time ([`Variability`]) and that
+//! can hold a turn at its start ([`TurnStall`]); sensors
 //! as on the real robots (encoder noise, ICP poses at 10 Hz with noise, latency, jitter and
 //! a mount on the body, an IMU with noise and bias). Terrain presets `tile`, `gravel`,
 //! `snow`, `ice` (see [`Terrain`]), or a twin of a real robot fitted on its data
@@ -28,6 +29,7 @@ mod plant;
 mod run;
 mod sensors;
 mod sim;
+mod stall;
 mod terrain;
 mod twin;
 mod vehicle;
@@ -35,6 +37,7 @@ mod vehicle;
 pub use car::{step_car, Actuator, CarParams, CarSimulator, CarState};
 pub use fit::{
     command_scatter, scatter, sim_fit, Scatter, ScatterFit, SimFit, SimFitError, SimFitReport,
+    TurnStallFit,
 };
 pub use omni::OmniPlant;
 pub use parameters::{fitted_parameters, fitted_parameters_within, FittedParameter};
@@ -42,6 +45,7 @@ pub use plant::{builtin_plants, plant_for, KinematicPlant, MakePlant, Plant};
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
 pub use sensors::{Instruments, Sensors, ICP_GAP_BINS, ICP_GAP_STEP_S};
 pub use sim::{Measured, Simulator};
+pub use stall::{TurnStall, CONTINUING_TURN};
 pub use terrain::{builtin_terrains, Terrain, TerrainError, Variability};
 pub use twin::{replay_commands, scale_difference, ProtocolSampler, TwinProtocol};
 pub use vehicle::{

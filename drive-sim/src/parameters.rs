@@ -246,6 +246,12 @@ pub fn fitted_parameters_within(
             Some(correlation_time_for(window_s, most)),
         );
     }
+    if let Some(s) = &t.turn_stall {
+        // A share of counted commands: no range of a search.
+        push("turn_stall.probability", s.probability, None, None);
+        // Clamped at zero: stalled wheels that turned against their command.
+        push("turn_stall.share", s.share, Some(0.0), None);
+    }
     if let Some(p) = &t.protocol {
         push("protocol.baseline", p.baseline, None, None);
     }

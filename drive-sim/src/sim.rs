@@ -1,6 +1,7 @@
 //! The simulator: physics at fine substeps, the powertrain, and sensors as on the real
 //! robots, advanced one command tick at a time.
 
+use crate::stall::StallState;
 use crate::vehicle::{step_body, VehicleParams, VehicleState};
 use crate::{ControllerParams, Instruments, Plant, Terrain};
 use drive_models::DifferentialDrive;
@@ -56,6 +57,8 @@ pub struct Simulator {
     /// The controller's output (forward speed, yaw rate) as each side sees it (each side's
     /// command arrives after its own dead time).
     controller_output: [[f64; 2]; 2],
+    /// The ground's hold on a turn's start (see [`TurnStall`](crate::TurnStall)).
+    stall: Option<StallState>,
 }
 
 impl Simulator {
@@ -83,6 +86,7 @@ impl Simulator {
         let grip = terrain.variability.map_or([0.0; 3], |v| {
             v.deviations().map(|sd| sd * standard_normal(&mut grip_rng))
         });
+        let stall = terrain.turn_stall.map(|s| StallState::new(s, seed));
         Simulator {
             params,
             ground: terrain.clone(),
@@ -90,6 +94,7 @@ impl Simulator {
             grip,
             grip_rng,
             controller_output: [[0.0; 2]; 2],
+            stall,
             instruments: Instruments::new(sensors, spec.rate_hz, seed),
             state: VehicleState {
                 pose: Pose::zeros(),
@@ -147,6 +152,12 @@ impl Simulator {
     }
 
     fn step(&mut self, command: Input) {
+        // A stalled turn's wheels are commanded a share of it (the command as sent is what
+        // the run logs).
+        let command = match self.stall.as_mut() {
+            Some(stall) => stall.command(command, self.state.wheels),
+            None => command,
+        };
         self.instruments.record(command);
         let dt = self.instruments.dt();
         self.vary_ground(dt);

@@ -5,7 +5,7 @@
 //! Janosi and Hanamoto 1961 for the shear-deformation modulus), chosen once, per terrain,
 //! not tuned to make any protocol or model win.
 
-use crate::{ControllerParams, PowertrainParams, Sensors, TwinProtocol};
+use crate::{ControllerParams, PowertrainParams, Sensors, TurnStall, TwinProtocol};
 use drive_traits::{Registry, RegistryError, RegistryItem};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -45,6 +45,9 @@ pub struct Terrain {
     /// How the grip varies in time around the coefficients above (none when absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub variability: Option<Variability>,
+    /// How the ground holds a turn at its start (none when absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub turn_stall: Option<TurnStall>,
     /// How a fitted twin's real run commanded the robot: the input space it sampled and how
     /// its commands changed (the characterization is skipped).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -185,13 +188,15 @@ impl Terrain {
             controller: None,
             sensors: None,
             variability: None,
+            turn_stall: None,
             protocol: None,
         }
     }
 
     /// A terrain from a TOML file's text (what `drive sim-fit` writes): the ground's
     /// `name`, `traction`, `slip_modulus`, `lateral`, `rolling`, and optionally the tables
-    /// `[powertrain]`, `[controller]`, `[sensors]` and `[protocol]`.
+    /// `[powertrain]`, `[controller]`, `[sensors]`, `[variability]`, `[turn_stall]` and
+    /// `[protocol]`.
     ///
     /// ```
     /// let t = drive_sim::Terrain::from_toml("wet.toml",
@@ -393,6 +398,22 @@ impl Terrain {
                 }
             }
             range("variability.correlation_time", v.correlation_time, 0.0, 1e4)?;
+        }
+        if let Some(s) = &self.turn_stall {
+            for (field, value) in [
+                ("turn_stall.probability", s.probability),
+                ("turn_stall.share", s.share),
+            ] {
+                if !(value.is_finite() && (0.0..=1.0).contains(&value)) {
+                    return Err(bad(
+                        field,
+                        format!(
+                            "must be in [0, 1], got {}",
+                            drive_traits::limits::Short(value)
+                        ),
+                    ));
+                }
+            }
         }
         if let Some(p) = &self.protocol {
             range(

@@ -338,6 +338,17 @@ fn fit_text(
         "twin '{}' of {} fitted on {} steady and {} transient windows{saved}\n",
         t.name, data.robot.name, r.steady_windows, r.transient_windows,
     );
+    let st = &r.turn_stall;
+    text += &match st.stall {
+        Some(stall) => format!(
+            "turn stall: {} of {} commands starting or reversing a turn left the wheels turning together (under 0.3 of a followed turn's share, {:.2}), {} of {} continuing one: each such command stalls with probability {:.3}, its wheels keeping {:.3} of its turn (left out of the controller's and powertrain's fits)\n",
+            st.stalled_starts, st.starts, st.followed_share, st.stalled_continued, st.continued, stall.probability, stall.share,
+        ),
+        None => format!(
+            "turn stall: none ({} of {} commands starting or reversing a turn left the wheels turning together, {} of {} continuing one; a stall needs 3)\n",
+            st.stalled_starts, st.starts, st.stalled_continued, st.continued,
+        ),
+    };
     text += &format!(
         "controller: linear gain {:.3}, angular gain {:.3}, max {:.3} m/s and {:.3} rad/s, acceleration limits {} and {}; wheel limit {:.2} rad/s, right side x{:.3} (steady encoders RMS {:.3} rad/s)\n",
         c.linear_gain,

@@ -66,6 +66,7 @@ fn generator() -> Terrain {
             rolling: 0.0,
             correlation_time: 3.0,
         }),
+        turn_stall: None,
         protocol: Some(TwinProtocol {
             baseline: 0.3,
             input_limits: [[-6.0, 6.0], [-6.0, 6.0]],
@@ -139,6 +140,10 @@ fn a_twin_of_a_simulated_robot_recovers_what_the_data_can_tell() {
     let data = run(&truth, 200, 7);
     let fit = sim_fit(&data, &husky(), "twin").unwrap();
     let t = &fit.terrain;
+    // No turn held at its start on this ground: none counted, none fitted.
+    assert_eq!(t.turn_stall, None);
+    let stall = &fit.report.turn_stall;
+    assert!(stall.stalled_starts < 3 && stall.starts > 20, "{stall:?}");
     // Controller: gains and caps from the steady encoders, acceleration limits from the
     // transients.
     let (c, want) = (t.controller.unwrap(), truth.controller.unwrap());
@@ -327,6 +332,8 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
         text.contains("wheels around a smooth function of the commands (steady): real "),
         "{text}"
     );
+    // The bundled Husky's turns always follow: none held at its start.
+    assert!(text.contains("turn stall: none (0 of "), "{text}");
     // The twin checked again (--twin: no fit), without --allow-poor-twin: the check decides
     // whether it is written; a twin whose medians are more than 30% from the real run's is
     // refused, saying which. With --json the check is printed either way.

@@ -73,6 +73,7 @@ impl TerrainProblem<'_> {
             controller: None,
             sensors: None,
             variability: None,
+            turn_stall: None,
             protocol: None,
         }
     }

@@ -3,6 +3,9 @@
 //! twin of that robot on that ground.
 //!
 //! Each stage fits a statistic a user cares about, with argmin's Nelder-Mead:
+//! 0. **Turn stall** (steady windows): how often a command starting or reversing a turn
+//!    leaves the wheels turning together ([`TurnStall`](crate::TurnStall)); those commands
+//!    are left out of stages 1 and 2 when a stall is fitted.
 //! 1. **Controller** (steady windows): the mean encoder velocities against the mean
 //!    commands, through the controller's body-velocity gains and limits, the right side's
 //!    gain and the wheel limit.
@@ -45,12 +48,15 @@ mod controller;
 mod ground;
 mod protocol;
 mod sensors;
+mod stall;
 mod variability;
 
 use controller::*;
 use ground::*;
 use protocol::*;
 use sensors::*;
+pub use stall::TurnStallFit;
+use stall::*;
 use variability::*;
 pub use variability::{command_scatter, scatter, Scatter, ScatterFit};
 
@@ -134,6 +140,8 @@ pub struct SimFitReport {
     /// twin dropped it: [`SimFit::without_variability`]). A process at its limit is at a
     /// bound.
     pub variability_limits: Option<[f64; 3]>,
+    /// The turn stall's counts on the real run, and the stall fitted from them.
+    pub turn_stall: TurnStallFit,
 }
 
 /// The twin and how it fits.
@@ -161,7 +169,7 @@ impl SimFit {
     ///         terrain_rms: [[0.1; 2]; 2], terrain_rms_start: [[0.2; 2]; 2], scatter: None,
     ///         motion: [[1.0, 0.5], [1.1, 0.6]], motion_without_variability: [1.2, 0.4],
     ///         at_bounds: vec!["traction = 0.1".into(), "variability.rolling = 3".into()],
-    ///         variability_limits: Some([0.5, 0.5, 3.0]),
+    ///         variability_limits: Some([0.5, 0.5, 3.0]), turn_stall: Default::default(),
     ///     },
     /// };
     /// let plain = fit.without_variability();
@@ -186,6 +194,7 @@ impl SimFit {
 /// One steady window's statistics.
 #[derive(Debug, Clone, Copy)]
 struct Steady {
+    interval: usize,
     command: Input,
     encoders: Input,
     /// Forward speed (m/s) and yaw rate (rad/s) from localization.
@@ -196,6 +205,7 @@ struct Steady {
 /// velocity the previous window measured and its own (forward speed, yaw rate).
 #[derive(Debug, Clone)]
 struct Transient {
+    interval: usize,
     before: Input,
     command: Vec<Input>,
     encoders: Vec<Input>,
@@ -331,6 +341,7 @@ fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
         match w.phase {
             Phase::Steady => {
                 steady.push(Steady {
+                    interval: w.interval,
                     command: Input::new(
                         mean(w.command.iter().map(|c| c.x)),
                         mean(w.command.iter().map(|c| c.y)),
@@ -354,6 +365,7 @@ fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
                     _ => continue,
                 };
                 transients.push(Transient {
+                    interval: w.interval,
                     before,
                     command: w.command.clone(),
                     encoders: w.measured.clone(),
@@ -405,7 +417,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     }
     let dt = 1.0 / data.robot.rate_hz;
     let (steady, transients) = extract(data);
-    for (what, stage, found, needed) in [
+    at_least(&[
         ("steady windows", "controller and terrain", steady.len(), 12),
         (
             "transient windows after a previous interval",
@@ -413,16 +425,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
             transients.len(),
             6,
         ),
-    ] {
-        if found < needed {
-            return Err(SimFitError::TooFew {
-                what,
-                stage,
-                found,
-                needed,
-            });
-        }
-    }
+    ])?;
     // Data a twin cannot come from: the quality checks' fatal findings, and encoders and
     // localization in different units (positions in millimetres: the fit would run minutes
     // before finding that the speeds do not follow the wheels).
@@ -433,11 +436,38 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         return Err(SimFitError::Unfit(format!("{} ({})", f.message, f.check)));
     }
     check_coverage(&steady, &g)?;
+    // 0. The turns the ground held at their start: the commands the wheels followed are
+    // the controller's and the powertrain's data (all of them when no stall is fitted).
+    let (turn_stall, stalled) = fit_turn_stall(data);
+    let followed: Vec<Steady> = steady
+        .iter()
+        .filter(|s| !stalled.contains(&s.interval))
+        .copied()
+        .collect();
+    let followed_transients: Vec<Transient> = transients
+        .iter()
+        .filter(|t| !stalled.contains(&t.interval))
+        .cloned()
+        .collect();
+    at_least(&[
+        (
+            "steady windows of turns the wheels followed",
+            "controller",
+            followed.len(),
+            12,
+        ),
+        (
+            "transient windows of turns the wheels followed",
+            "powertrain",
+            followed_transients.len(),
+            6,
+        ),
+    ])?;
     // 1. Controller, from regression slopes and the largest speeds measured.
     let body = |u: Input| wheel_body(&g, u);
     let slope = |i: usize| {
         let (mut xy, mut xx) = (0.0, 0.0);
-        for s in &steady {
+        for s in &followed {
             let (c, e) = (body(s.command)[i], body(s.encoders)[i]);
             xy += c * e;
             xx += c * c;
@@ -445,12 +475,12 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         (xy / xx.max(1e-12)).clamp(0.05, 20.0)
     };
     let top = |i: usize| {
-        steady
+        followed
             .iter()
             .map(|s| body(s.encoders)[i].abs())
             .fold(1e-3, f64::max)
     };
-    let wheel_top = steady
+    let wheel_top = followed
         .iter()
         .map(|s| s.encoders.x.abs().max(s.encoders.y.abs()))
         .fold(1e-3, f64::max);
@@ -463,7 +493,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         1.0,
     ];
     let cp = ControllerProblem {
-        steady: &steady,
+        steady: &followed,
         geometry: g.clone(),
     };
     let p = minimize(
@@ -474,7 +504,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         "controller",
     )?;
     let controller_rms = cp.cost(&p).map_or(f64::NAN, f64::sqrt);
-    let encoder_spread = spread_of(steady.iter().flat_map(|s| [s.encoders.x, s.encoders.y]));
+    let encoder_spread = spread_of(followed.iter().flat_map(|s| [s.encoders.x, s.encoders.y]));
     // NaN counts as a miss.
     if controller_rms.is_nan() || controller_rms > 0.5 * encoder_spread {
         return Err(SimFitError::Unfit(format!(
@@ -485,7 +515,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     let (controller, limit, right) = controller_of(&p);
     // 2. Powertrain: a coarse grid, then Nelder-Mead.
     let pp = PowertrainProblem {
-        transients: &transients,
+        transients: &followed_transients,
         geometry: g.clone(),
         controller,
         limit,
@@ -615,6 +645,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         controller: Some(controller),
         sensors: Some(sensors),
         protocol: Some(protocol),
+        turn_stall: turn_stall.stall,
         ..fitted
     };
     // 6. Variability, by simulating the twin.
@@ -661,8 +692,22 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
             motion_without_variability: motion_without,
             at_bounds,
             variability_limits,
+            turn_stall,
         },
     })
+}
+
+/// `TooFew` for the first of `(what, stage, found, needed)` with fewer found than needed.
+fn at_least(counts: &[(&'static str, &'static str, usize, usize)]) -> Result<(), SimFitError> {
+    match counts.iter().find(|c| c.2 < c.3) {
+        Some(&(what, stage, found, needed)) => Err(SimFitError::TooFew {
+            what,
+            stage,
+            found,
+            needed,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// The spread (standard deviation) of `values`.

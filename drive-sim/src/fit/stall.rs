@@ -1,0 +1,201 @@
+//! Stage 0: the turns the ground holds at their start ([`TurnStall`]), counted on the real
+//! run's steady windows before the controller is fitted (whose gains then describe the
+//! commands the wheels followed).
+
+use super::*;
+use crate::stall::half_difference;
+use crate::TurnStall;
+use std::collections::BTreeSet;
+
+/// Fewest stalled starts for a fitted stall: fewer are read as the run's odd windows.
+pub(super) const MIN_STALLED_STARTS: usize = 3;
+
+/// Fewest continued turns for the share of a followed turn.
+const MIN_CONTINUED_TURNS: usize = 5;
+
+/// A turn command stalled when its wheels kept less than this share of a followed turn's.
+pub(super) const STALLED_SHARE: f64 = 0.3;
+
+/// What the stall stage counted on the real run, and the stall it fitted.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct TurnStallFit {
+    /// Turn commands (a turn at least a quarter of the run's 90th percentile) after an
+    /// interval whose wheels did not already turn their way: starts and reversals.
+    pub starts: usize,
+    /// Of those, the ones whose steady wheels kept less than 0.3 of a followed turn's share.
+    pub stalled_starts: usize,
+    /// Turn commands that continued the wheels' turn.
+    pub continued: usize,
+    /// Of those, the stalled ones.
+    pub stalled_continued: usize,
+    /// The median share of its turn a continued turn command's steady wheels give (the
+    /// encoders' half difference over the command's).
+    pub followed_share: f64,
+    /// The fitted stall: none with fewer than 3 stalled starts.
+    pub stall: Option<TurnStall>,
+}
+
+/// One interval's turn: the command's half difference, its steady wheels' (mean over its
+/// steady windows), and its last steady window's.
+struct IntervalTurn {
+    interval: usize,
+    command: f64,
+    wheels: f64,
+    last_wheels: f64,
+}
+
+/// The `q` quantile of `v` (linear between order statistics), NaN when empty.
+fn quantile(mut v: Vec<f64>, q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let at = q * (v.len() - 1) as f64;
+    let (lo, hi) = (at.floor() as usize, at.ceil() as usize);
+    v[lo] + (v[hi] - v[lo]) * (at - lo as f64)
+}
+
+/// Counts the real run's stalled turns: each interval's steady wheels against its command,
+/// split by whether the previous interval's last steady wheels already turned its way
+/// ([`TurnStall::continues`]); fits a [`TurnStall`] from the starts and reversals when at
+/// least [`MIN_STALLED_STARTS`] of them stalled: its probability their stalled share, its
+/// share their kept turn (median) over a followed one's, in [0, 1]. Also the intervals
+/// whose command stalled, when a stall is fitted (the controller and powertrain stages
+/// leave them out), none otherwise.
+pub(super) fn fit_turn_stall(data: &Dataset) -> (TurnStallFit, BTreeSet<usize>) {
+    let mut turns: Vec<IntervalTurn> = Vec::new();
+    for w in data.windows.iter().filter(|w| w.phase == Phase::Steady) {
+        if w.command.is_empty() || w.measured.is_empty() {
+            continue;
+        }
+        let command = mean(w.command.iter().map(|&u| half_difference(u)));
+        let wheels = mean(w.measured.iter().map(|&u| half_difference(u)));
+        match turns.last_mut() {
+            // The interval's second steady window: the mean of both, and its own last.
+            Some(t) if t.interval == w.interval => {
+                t.command = (t.command + command) / 2.0;
+                t.wheels = (t.wheels + wheels) / 2.0;
+                t.last_wheels = wheels;
+            }
+            _ => turns.push(IntervalTurn {
+                interval: w.interval,
+                command,
+                wheels,
+                last_wheels: wheels,
+            }),
+        }
+    }
+    // Each interval after its previous one, with the previous one's last steady wheels.
+    let after: Vec<(&IntervalTurn, f64)> = turns
+        .windows(2)
+        .filter(|pair| pair[0].interval + 1 == pair[1].interval)
+        .map(|pair| (&pair[1], pair[0].last_wheels))
+        .collect();
+    let threshold = quantile(after.iter().map(|(t, _)| t.command.abs()).collect(), 0.9) / 4.0;
+    // (continues, share, interval) of each turn command.
+    let judged: Vec<(bool, f64, usize)> = after
+        .iter()
+        .filter(|(t, _)| t.command.abs() >= threshold && t.command != 0.0)
+        .map(|&(t, before)| {
+            let continues = TurnStall::continues(
+                drive_traits::Input::new(-t.command, t.command, 0.0),
+                drive_traits::Input::new(-before, before, 0.0),
+            );
+            (continues, t.wheels / t.command, t.interval)
+        })
+        .collect();
+    let continued: Vec<f64> = judged.iter().filter(|j| j.0).map(|j| j.1).collect();
+    let followed_share = if continued.len() >= MIN_CONTINUED_TURNS {
+        median(continued.clone())
+    } else {
+        f64::NAN
+    };
+    let is_stalled = |share: f64| share < STALLED_SHARE * followed_share;
+    let starts: Vec<f64> = judged.iter().filter(|j| !j.0).map(|j| j.1).collect();
+    let stalled_starts: Vec<f64> = starts.iter().copied().filter(|&s| is_stalled(s)).collect();
+    let stalled_continued = continued.iter().filter(|&&s| is_stalled(s)).count();
+    let stall =
+        (followed_share > 0.0 && stalled_starts.len() >= MIN_STALLED_STARTS).then(|| TurnStall {
+            probability: stalled_starts.len() as f64 / starts.len() as f64,
+            share: (median(stalled_starts.clone()) / followed_share).clamp(0.0, 1.0),
+        });
+    let stalled_intervals = if stall.is_some() {
+        judged
+            .iter()
+            .filter(|j| is_stalled(j.1))
+            .map(|j| j.2)
+            .collect()
+    } else {
+        BTreeSet::new()
+    };
+    let fit = TurnStallFit {
+        starts: starts.len(),
+        stalled_starts: stalled_starts.len(),
+        continued: continued.len(),
+        stalled_continued,
+        followed_share,
+        stall,
+    };
+    (fit, stalled_intervals)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive_samplers::builtin_robots;
+
+    /// A 200-interval Husky run on gravel, its turns held at their start as `stall` says.
+    fn run(stall: Option<TurnStall>, seed: u64) -> Dataset {
+        let robot = RobotSpec::load(&builtin_robots(), "husky").unwrap();
+        let config = SimulationConfig {
+            robot,
+            terrain: Terrain {
+                turn_stall: stall,
+                ..Terrain::preset("gravel").unwrap()
+            },
+            seed,
+            runner: RunnerConfig {
+                max_intervals: Some(200),
+                ..RunnerConfig::default()
+            },
+            events: Vec::new(),
+            name: "stall".into(),
+        };
+        let sampler = move |space| -> Box<dyn InputSampler> {
+            // A characterized input space is not empty.
+            Box::new(UniformSampler::new(space, seed).unwrap())
+        };
+        simulate(config, &builtin_plants(), sampler, None)
+            .unwrap()
+            .dataset
+    }
+
+    #[test]
+    fn the_stage_counts_the_stalls_a_ground_gives_and_none_where_it_gives_none() {
+        let held = TurnStall {
+            probability: 0.5,
+            share: 0.1,
+        };
+        let (fit, stalled) = fit_turn_stall(&run(Some(held), 3));
+        let s = fit.stall.expect("a stall is found");
+        // About a hundred starts: the probability within a binomial spread's two sigmas.
+        assert!(fit.starts > 60, "{fit:?}");
+        assert!((s.probability - 0.5).abs() < 0.15, "{fit:?}");
+        assert!(s.share < 0.25, "{fit:?}");
+        // A continued turn never stalls; the stalled intervals are the stalled starts.
+        assert_eq!(fit.stalled_continued, 0, "{fit:?}");
+        assert_eq!(stalled.len(), fit.stalled_starts);
+        // The same ground without a stall: none fitted, every interval followed.
+        let (fit, stalled) = fit_turn_stall(&run(None, 3));
+        assert_eq!(fit.stall, None, "{fit:?}");
+        assert!(fit.stalled_starts < MIN_STALLED_STARTS, "{fit:?}");
+        assert!(stalled.is_empty());
+    }
+
+    #[test]
+    fn quantiles_interpolate_between_order_statistics() {
+        assert_eq!(quantile(vec![3.0, 1.0, 2.0, 4.0], 0.5), 2.5);
+        assert_eq!(quantile(vec![1.0, 2.0, 3.0, 4.0, 5.0], 0.9), 4.6);
+        assert!(quantile(Vec::new(), 0.9).is_nan());
+    }
+}
