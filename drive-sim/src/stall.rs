@@ -27,9 +27,9 @@ pub const CONTINUING_TURN: f64 = 0.2;
 /// starts or reverses a turn (the wheels not turning its way by at least
 /// [`CONTINUING_TURN`] of it) stalls with `probability`, and its wheels are then commanded
 /// `share` of its turn, their mean speed unchanged, until the next command. A command
-/// change is a step, or a ramp (a command changing every tick): one draw decides whether
-/// it stalls, at the first of its ticks whose turn the wheels do not continue, and a stall
-/// lasts until the next change.
+/// change (a step, or a ramp: a command changing every tick) is decided when the command is
+/// held again (for a step, the tick after it), with one draw, judged as the fit judges the
+/// real run: the new command against the wheels as they were when the change began.
 ///
 /// ```
 /// let t = drive_sim::Terrain::from_toml("slow.toml",
@@ -69,15 +69,17 @@ pub(crate) fn half_difference(u: Input) -> f64 {
     (u.y - u.x) / 2.0
 }
 
-/// A simulator's stall: the previous tick's command, whether it was held, the current
-/// change's draw and its factor on the command's turn. Its draws are its own stream, so a
-/// terrain without a stall simulates exactly as before it existed.
+/// A simulator's stall: the previous tick's command, whether it was held, the wheels when
+/// the current change began, whether that change is decided, and the factor on the
+/// command's turn. Its draws are its own stream, so a terrain without a stall simulates
+/// exactly as before it existed.
 #[derive(Debug, Clone)]
 pub(crate) struct StallState {
     stall: TurnStall,
     last: Option<Input>,
     held: bool,
-    draw: f64,
+    wheels_before: Input,
+    decided: bool,
     factor: f64,
     rng: Xoshiro256PlusPlus,
 }
@@ -88,31 +90,36 @@ impl StallState {
             stall,
             last: None,
             held: true,
-            draw: 1.0,
+            wheels_before: Input::zeros(),
+            decided: true,
             factor: 1.0,
             rng: Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x57A1_1ED7_0125),
         }
     }
 
     /// The command the wheel loops are given for `command`, with the wheels at `wheels`: a
-    /// change after a held command draws once; the change stalls at its first tick whose
-    /// turn the wheels do not continue, if the draw is under the probability, and a stalled
-    /// command keeps `share` of its turn until the next change.
+    /// change is followed while it changes; when the command is held again, one draw under
+    /// the probability stalls it unless the wheels as they were when it began continue its
+    /// turn, and a stalled command keeps `share` of its turn until the next change.
     pub(crate) fn command(&mut self, command: Input, wheels: Input) -> Input {
         if self.last == Some(command) {
             self.held = true;
+            if !self.decided {
+                self.decided = true;
+                let draw: f64 = self.rng.random();
+                if draw < self.stall.probability
+                    && !TurnStall::continues(command, self.wheels_before)
+                {
+                    self.factor = self.stall.share;
+                }
+            }
         } else {
             if self.held {
-                // A new change (a step, or a ramp's first tick).
+                // A new change (a step, or a ramp's first tick): followed until held.
                 self.held = false;
-                self.draw = self.rng.random();
+                self.wheels_before = wheels;
+                self.decided = false;
                 self.factor = 1.0;
-            }
-            if self.factor == 1.0
-                && self.draw < self.stall.probability
-                && !TurnStall::continues(command, wheels)
-            {
-                self.factor = self.stall.share;
             }
             self.last = Some(command);
         }
@@ -136,20 +143,24 @@ mod tests {
             share: 0.1,
         };
         let mut s = StallState::new(always, 1);
-        // From rest: a turn starts and stalls; the mean speed is kept.
+        // From rest: a turn starts, followed at its step, stalled once held; the mean speed
+        // is kept.
         let u = Input::new(0.0, 2.0, 0.0);
+        assert_eq!(s.command(u, Input::zeros()), u);
         let out = s.command(u, Input::zeros());
         assert!(
             (out.x - 0.9).abs() < 1e-12 && (out.y - 1.1).abs() < 1e-12,
             "{out}"
         );
-        // The same command again: no new decision, even with the wheels now turning.
+        // Held on: stalled, whatever the wheels do meanwhile.
         assert_eq!(s.command(u, Input::new(0.0, 2.0, 0.0)), out);
-        // A new command whose turn the wheels already make: followed.
+        // A new command whose turn the wheels make when it begins: followed.
         let v = Input::new(-1.0, 2.0, 0.0);
         assert_eq!(s.command(v, Input::new(0.5, 1.5, 0.0)), v);
-        // Reversed: stalls.
+        assert_eq!(s.command(v, Input::new(0.5, 1.5, 0.0)), v);
+        // Reversed: stalls once held.
         let r = Input::new(2.0, 0.0, 0.0);
+        assert_eq!(s.command(r, Input::new(0.5, 1.5, 0.0)), r);
         let out = s.command(r, Input::new(0.5, 1.5, 0.0));
         assert!(
             (out.x - 1.1).abs() < 1e-12 && (out.y - 0.9).abs() < 1e-12,
@@ -163,6 +174,7 @@ mod tests {
             },
             1,
         );
+        assert_eq!(never.command(u, Input::zeros()), u);
         assert_eq!(never.command(u, Input::zeros()), u);
     }
 
@@ -178,11 +190,11 @@ mod tests {
         let mut stalled = 0;
         for i in 0..4000 {
             // Alternating turns from rest, each held for two ticks: each a change, each a
-            // start.
+            // start, decided on its second tick.
             let turn = if i % 2 == 0 { 1.0 } else { -1.0 };
             let u = Input::new(-turn, turn, 0.0);
+            assert_eq!(s.command(u, Input::zeros()), u);
             let out = s.command(u, Input::zeros());
-            assert_eq!(s.command(u, Input::zeros()), out);
             stalled += usize::from(out.x == 0.0 && out.y == 0.0);
         }
         let share = stalled as f64 / 4000.0;
@@ -190,29 +202,29 @@ mod tests {
     }
 
     #[test]
-    fn a_ramp_is_one_change_that_stalls_where_its_turn_leaves_the_wheels() {
+    fn a_ramp_is_one_change_judged_by_the_wheels_when_it_began() {
         let always = TurnStall {
             probability: 1.0,
             share: 0.0,
         };
         let at = |turn: f64| Input::new(-turn, turn, 0.0);
-        // A ramp whose turn the wheels continue throughout: followed.
+        // A ramp from a small turn to a large one: followed while it ramps; held, it
+        // stalls, as the wheels when it began (0.3) made less than a fifth of its 2.0.
         let mut s = StallState::new(always, 3);
-        s.command(at(1.0), at(1.0));
-        s.command(at(1.0), at(1.0));
-        for turn in [1.2, 1.4, 1.6] {
-            assert_eq!(s.command(at(turn), at(turn - 0.2)), at(turn));
+        s.command(at(0.3), at(0.3));
+        s.command(at(0.3), at(0.3));
+        for turn in [0.8, 1.4, 2.0] {
+            assert_eq!(s.command(at(turn), at(turn - 0.5)), at(turn));
         }
-        // A ramp reversing the turn: followed while the wheels turn its way, stalled from
-        // the tick it reverses, and stalled to its end (a zero turn, the mean kept).
+        assert_eq!(s.command(at(2.0), at(1.8)), Input::zeros());
+        // A ramp down the same way: the wheels when it began continue it, followed.
         let mut s = StallState::new(always, 3);
-        s.command(at(1.0), at(1.0));
-        s.command(at(1.0), at(1.0));
-        assert_eq!(s.command(at(0.5), at(1.0)), at(0.5));
-        assert_eq!(s.command(at(-0.5), at(0.5)), Input::zeros());
-        assert_eq!(s.command(at(-1.0), at(0.0)), Input::zeros());
-        assert_eq!(s.command(at(-1.0), at(0.0)), Input::zeros());
-        let moving = Input::new(1.0, 3.0, 0.0);
-        assert_eq!(s.command(moving, at(0.0)), Input::new(2.0, 2.0, 0.0));
+        s.command(at(2.0), at(2.0));
+        s.command(at(2.0), at(2.0));
+        for turn in [1.5, 1.0, 0.5] {
+            assert_eq!(s.command(at(turn), at(turn + 0.5)), at(turn));
+        }
+        assert_eq!(s.command(at(0.5), at(0.6)), at(0.5));
+        assert_eq!(s.command(at(0.5), at(0.5)), at(0.5));
     }
 }

@@ -267,6 +267,20 @@ impl Terrain {
                 ))
             }
         };
+        // The same with both ends allowed.
+        let closed = |field: &'static str, v: f64, lo: f64, hi: f64| {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(bad(
+                    field,
+                    format!(
+                        "must be in [{lo}, {hi}], got {}",
+                        drive_traits::limits::Short(v)
+                    ),
+                ))
+            }
+        };
         range("traction", self.traction, 0.0, 5.0)?;
         range("lateral", self.lateral, 0.0, 5.0)?;
         range("slip_modulus", self.slip_modulus, 0.0, 10.0)?;
@@ -331,15 +345,7 @@ impl Terrain {
                 ("sensors.icp_jitter", s.icp_jitter),
                 ("sensors.imu_noise", s.imu_noise),
             ] {
-                if !(v.is_finite() && (0.0..=100.0).contains(&v)) {
-                    return Err(bad(
-                        field,
-                        format!(
-                            "must be in [0, 100], got {}",
-                            drive_traits::limits::Short(v)
-                        ),
-                    ));
-                }
+                closed(field, v, 0.0, 100.0)?;
             }
             if !s
                 .icp_mount
@@ -387,15 +393,7 @@ impl Terrain {
                 ("variability.lateral", v.lateral),
                 ("variability.rolling", v.rolling),
             ] {
-                if !(value.is_finite() && (0.0..=3.0).contains(&value)) {
-                    return Err(bad(
-                        field,
-                        format!(
-                            "must be in [0, 3], got {}",
-                            drive_traits::limits::Short(value)
-                        ),
-                    ));
-                }
+                closed(field, value, 0.0, 3.0)?;
             }
             range("variability.correlation_time", v.correlation_time, 0.0, 1e4)?;
         }
@@ -404,15 +402,7 @@ impl Terrain {
                 ("turn_stall.probability", s.probability),
                 ("turn_stall.share", s.share),
             ] {
-                if !(value.is_finite() && (0.0..=1.0).contains(&value)) {
-                    return Err(bad(
-                        field,
-                        format!(
-                            "must be in [0, 1], got {}",
-                            drive_traits::limits::Short(value)
-                        ),
-                    ));
-                }
+                closed(field, value, 0.0, 1.0)?;
             }
         }
         if let Some(p) = &self.protocol {

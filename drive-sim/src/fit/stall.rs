@@ -35,12 +35,13 @@ pub struct TurnStallFit {
     pub stall: Option<TurnStall>,
 }
 
-/// One interval's turn: the command's half difference, its steady wheels' (mean over its
-/// steady windows), and its last steady window's.
+/// One interval's turn: the command's half difference and its steady wheels' (means over
+/// its steady windows), and its last steady window's wheels.
 struct IntervalTurn {
     interval: usize,
     command: f64,
     wheels: f64,
+    windows: usize,
     last_wheels: f64,
 }
 
@@ -71,16 +72,19 @@ pub(super) fn fit_turn_stall(data: &Dataset) -> (TurnStallFit, BTreeSet<usize>) 
         let command = mean(w.command.iter().map(|&u| half_difference(u)));
         let wheels = mean(w.measured.iter().map(|&u| half_difference(u)));
         match turns.last_mut() {
-            // The interval's second steady window: the mean of both, and its own last.
+            // Another steady window of the interval: the running means, and its last.
             Some(t) if t.interval == w.interval => {
-                t.command = (t.command + command) / 2.0;
-                t.wheels = (t.wheels + wheels) / 2.0;
+                t.windows += 1;
+                let n = t.windows as f64;
+                t.command += (command - t.command) / n;
+                t.wheels += (wheels - t.wheels) / n;
                 t.last_wheels = wheels;
             }
             _ => turns.push(IntervalTurn {
                 interval: w.interval,
                 command,
                 wheels,
+                windows: 1,
                 last_wheels: wheels,
             }),
         }
@@ -178,10 +182,11 @@ mod tests {
         };
         let (fit, stalled) = fit_turn_stall(&run(Some(held), 3));
         let s = fit.stall.expect("a stall is found");
-        // About a hundred starts: the probability within a binomial spread's two sigmas.
+        // About a hundred starts: the probability within two binomial sigmas (over twelve
+        // seeds the stage counts 547 stalls of 1128 starts, 0.485), the share within half.
         assert!(fit.starts > 60, "{fit:?}");
-        assert!((s.probability - 0.5).abs() < 0.15, "{fit:?}");
-        assert!(s.share < 0.25, "{fit:?}");
+        assert!((s.probability - 0.5).abs() < 0.1, "{fit:?}");
+        assert!((s.share - 0.1).abs() < 0.05, "{fit:?}");
         // A continued turn never stalls; the stalled intervals are the stalled starts.
         assert_eq!(fit.stalled_continued, 0, "{fit:?}");
         assert_eq!(stalled.len(), fit.stalled_starts);
