@@ -4,23 +4,7 @@ use rand::{RngExt, SeedableRng};
 use serde::Serialize;
 use std::ops::Range;
 
-/// The `p`-quantile of sorted values by linear interpolation between order statistics
-/// (position `(n - 1) p`, as numpy's default). `None` for no values.
-///
-/// ```
-/// use drive_eval::quantile;
-/// assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0], 0.5), Some(2.5));
-/// assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0], 0.25), Some(1.75));
-/// ```
-pub fn quantile(sorted: &[f64], p: f64) -> Option<f64> {
-    if sorted.is_empty() {
-        return None;
-    }
-    let pos = (sorted.len() - 1) as f64 * p.clamp(0.0, 1.0);
-    let lo = pos.floor() as usize;
-    let hi = pos.ceil() as usize;
-    Some(sorted[lo] + (sorted[hi] - sorted[lo]) * (pos - lo as f64))
-}
+pub use drive_traits::quantile;
 
 /// Median and interquartile range of a set of errors.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

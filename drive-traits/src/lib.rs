@@ -58,7 +58,7 @@ pub use registry::{
 };
 pub use sampler::InputSampler;
 pub use slip::{FitSlip, OnlineSlip, SlipData, SlipLearner, SlipModel, SlipSample, SlipWindow};
-pub use stats::median;
+pub use stats::{median, quantile};
 pub use tag::{PartTag, TagProbe, Tagged};
 pub use vehicle::{
     spanned_space, vehicle_as, vehicle_tag, Characterization, CommandModel, InputAxis, InputSpace,

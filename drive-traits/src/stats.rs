@@ -23,3 +23,22 @@ pub fn median(values: &mut [f64]) -> f64 {
     let lower = left.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     lower + (upper - lower) * 0.5
 }
+
+/// The `p`-quantile of sorted values by linear interpolation between order statistics
+/// (position `(n - 1) p`, as numpy's default). `None` for no values.
+///
+/// ```
+/// use drive_traits::quantile;
+/// assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0], 0.5), Some(2.5));
+/// assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0], 0.25), Some(1.75));
+/// assert_eq!(quantile(&[], 0.5), None);
+/// ```
+pub fn quantile(sorted: &[f64], p: f64) -> Option<f64> {
+    if sorted.is_empty() {
+        return None;
+    }
+    let pos = (sorted.len() - 1) as f64 * p.clamp(0.0, 1.0);
+    let lo = pos.floor() as usize;
+    let hi = pos.ceil() as usize;
+    Some(sorted[lo] + (sorted[hi] - sorted[lo]) * (pos - lo as f64))
+}

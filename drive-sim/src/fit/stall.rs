@@ -45,17 +45,6 @@ struct IntervalTurn {
     last_wheels: f64,
 }
 
-/// The `q` quantile of `v` (linear between order statistics), NaN when empty.
-fn quantile(mut v: Vec<f64>, q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let at = q * (v.len() - 1) as f64;
-    let (lo, hi) = (at.floor() as usize, at.ceil() as usize);
-    v[lo] + (v[hi] - v[lo]) * (at - lo as f64)
-}
-
 /// Counts the real run's stalled turns: each interval's steady wheels against its command,
 /// split by whether the previous interval's last steady wheels already turned its way
 /// ([`TurnStall::continues`]); fits a [`TurnStall`] from the starts and reversals when at
@@ -95,7 +84,9 @@ pub(super) fn fit_turn_stall(data: &Dataset) -> (TurnStallFit, BTreeSet<usize>) 
         .filter(|pair| pair[0].interval + 1 == pair[1].interval)
         .map(|pair| (&pair[1], pair[0].last_wheels))
         .collect();
-    let threshold = quantile(after.iter().map(|(t, _)| t.command.abs()).collect(), 0.9) / 4.0;
+    let mut turns_commanded: Vec<f64> = after.iter().map(|(t, _)| t.command.abs()).collect();
+    turns_commanded.sort_by(f64::total_cmp);
+    let threshold = drive_traits::quantile(&turns_commanded, 0.9).unwrap_or(f64::NAN) / 4.0;
     // (continues, share, interval) of each turn command.
     let judged: Vec<(bool, f64, usize)> = after
         .iter()
@@ -195,12 +186,5 @@ mod tests {
         assert_eq!(fit.stall, None, "{fit:?}");
         assert!(fit.stalled_starts < MIN_STALLED_STARTS, "{fit:?}");
         assert!(stalled.is_empty());
-    }
-
-    #[test]
-    fn quantiles_interpolate_between_order_statistics() {
-        assert_eq!(quantile(vec![3.0, 1.0, 2.0, 4.0], 0.5), 2.5);
-        assert_eq!(quantile(vec![1.0, 2.0, 3.0, 4.0, 5.0], 0.9), 4.6);
-        assert!(quantile(Vec::new(), 0.9).is_nan());
     }
 }
