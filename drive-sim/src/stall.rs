@@ -29,7 +29,9 @@ pub const CONTINUING_TURN: f64 = 0.2;
 /// `share` of its turn, their mean speed unchanged, until the next command. A command
 /// change (a step, or a ramp: a command changing every tick) is decided when the command is
 /// held again (for a step, the tick after it), with one draw, judged as the fit judges the
-/// real run: the new command against the wheels as they were when the change began.
+/// real run: the new command against the wheels as they were when the change began. A
+/// command that changes every tick (a closed-loop controller's, `drive track`) is never
+/// held, so never stalls: the stall acts on protocol runs, stepped or ramped.
 ///
 /// ```
 /// let t = drive_sim::Terrain::from_toml("slow.toml",

@@ -341,8 +341,12 @@ fn fit_text(
     let st = &r.turn_stall;
     text += &match st.stall {
         Some(stall) => format!(
-            "turn stall: {} of {} commands starting or reversing a turn left the wheels turning together (under 0.3 of a followed turn's share, {:.2}), {} of {} continuing one: each such command stalls with probability {:.3}, its wheels keeping {:.3} of its turn (left out of the controller's and powertrain's fits)\n",
+            "turn stall: {} of {} commands starting or reversing a turn left the wheels turning together (under 0.3 of a followed turn's share, {:.2}), {} of {} continuing one: each such command stalls with probability {:.3}, its wheels keeping {:.3} of its turn (the stalled ones left out of the controller's and powertrain's fits)\n",
             st.stalled_starts, st.starts, st.followed_share, st.stalled_continued, st.continued, stall.probability, stall.share,
+        ),
+        None if st.followed_share.is_nan() => format!(
+            "turn stall: none ({} turn commands continued a turn the wheels made, fewer than the 5 a followed turn's share is measured on; {} started or reversed one)\n",
+            st.continued, st.starts,
         ),
         None => format!(
             "turn stall: none ({} of {} commands starting or reversing a turn left the wheels turning together, {} of {} continuing one; a stall needs 3)\n",

@@ -4,8 +4,9 @@
 //!
 //! Each stage fits a statistic a user cares about, with argmin's Nelder-Mead:
 //! 0. **Turn stall** (steady windows): how often a command starting or reversing a turn
-//!    leaves the wheels turning together ([`TurnStall`](crate::TurnStall)); those commands
-//!    are left out of stages 1 and 2 when a stall is fitted.
+//!    leaves the wheels turning together ([`TurnStall`](crate::TurnStall)); the stalled
+//!    turn commands are left out of stages 1 and 2 when a stall is fitted (and, from
+//!    stage 2, the transients that follow them).
 //! 1. **Controller** (steady windows): the mean encoder velocities against the mean
 //!    commands, through the controller's body-velocity gains and limits, the right side's
 //!    gain and the wheel limit.
@@ -444,9 +445,17 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
         .filter(|s| !stalled.contains(&s.interval))
         .copied()
         .collect();
+    // A transient replays the previous interval's command through the dead time: not one
+    // that stalled either.
     let followed_transients: Vec<Transient> = transients
         .iter()
-        .filter(|t| !stalled.contains(&t.interval))
+        .filter(|t| {
+            !stalled.contains(&t.interval)
+                && !t
+                    .interval
+                    .checked_sub(1)
+                    .is_some_and(|p| stalled.contains(&p))
+        })
         .cloned()
         .collect();
     at_least(&[

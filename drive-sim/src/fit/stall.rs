@@ -29,9 +29,10 @@ pub struct TurnStallFit {
     /// Of those, the stalled ones.
     pub stalled_continued: usize,
     /// The median share of its turn a continued turn command's steady wheels give (the
-    /// encoders' half difference over the command's).
+    /// encoders' half difference over the command's); NaN with fewer than 5 continued turn
+    /// commands (then none is counted as stalled).
     pub followed_share: f64,
-    /// The fitted stall: none with fewer than 3 stalled starts.
+    /// The fitted stall: none with fewer than 3 stalled starts or 5 continued turns.
     pub stall: Option<TurnStall>,
 }
 
@@ -48,10 +49,14 @@ struct IntervalTurn {
 /// Counts the real run's stalled turns: each interval's steady wheels against its command,
 /// split by whether the previous interval's last steady wheels already turned its way
 /// ([`TurnStall::continues`]); fits a [`TurnStall`] from the starts and reversals when at
-/// least [`MIN_STALLED_STARTS`] of them stalled: its probability their stalled share, its
-/// share their kept turn (median) over a followed one's, in [0, 1]. Also the intervals
-/// whose command stalled, when a stall is fitted (the controller and powertrain stages
-/// leave them out), none otherwise.
+/// least [`MIN_STALLED_STARTS`] of them stalled and at least [`MIN_CONTINUED_TURNS`] turn
+/// commands continued a turn (the followed share a stall is measured against): its
+/// probability their stalled share, its share their kept turn (median) over a followed
+/// one's, in [0, 1]. Also the intervals whose turn command stalled (a start, or a continued
+/// turn, which the simulator never stalls), when a stall is fitted (the controller and
+/// powertrain stages leave them out), none otherwise. The previous interval is the one
+/// numbered before: after a step the data dropped, a command is judged against wheels
+/// that ran before that step.
 pub(super) fn fit_turn_stall(data: &Dataset) -> (TurnStallFit, BTreeSet<usize>) {
     let mut turns: Vec<IntervalTurn> = Vec::new();
     for w in data.windows.iter().filter(|w| w.phase == Phase::Steady) {
@@ -81,7 +86,7 @@ pub(super) fn fit_turn_stall(data: &Dataset) -> (TurnStallFit, BTreeSet<usize>) 
     // Each interval after its previous one, with the previous one's last steady wheels.
     let after: Vec<(&IntervalTurn, f64)> = turns
         .windows(2)
-        .filter(|pair| pair[0].interval + 1 == pair[1].interval)
+        .filter(|pair| pair[0].interval.checked_add(1) == Some(pair[1].interval))
         .map(|pair| (&pair[1], pair[0].last_wheels))
         .collect();
     let mut turns_commanded: Vec<f64> = after.iter().map(|(t, _)| t.command.abs()).collect();
