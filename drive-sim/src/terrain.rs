@@ -254,33 +254,23 @@ impl Terrain {
             field,
             message,
         };
-        let range = |field: &'static str, v: f64, lo: f64, hi: f64| {
-            if v.is_finite() && v > lo && v <= hi {
+        // Within `lo` (excluded, or included when `closed`) and `hi` (included).
+        let within = |field: &'static str, v: f64, lo: f64, hi: f64, closed: bool| {
+            if v.is_finite() && (v > lo || (closed && v == lo)) && v <= hi {
                 Ok(())
             } else {
+                let open = if closed { '[' } else { '(' };
                 Err(bad(
                     field,
                     format!(
-                        "must be in ({lo}, {hi}], got {}",
+                        "must be in {open}{lo}, {hi}], got {}",
                         drive_traits::limits::Short(v)
                     ),
                 ))
             }
         };
-        // The same with both ends allowed.
-        let closed = |field: &'static str, v: f64, lo: f64, hi: f64| {
-            if v.is_finite() && (lo..=hi).contains(&v) {
-                Ok(())
-            } else {
-                Err(bad(
-                    field,
-                    format!(
-                        "must be in [{lo}, {hi}], got {}",
-                        drive_traits::limits::Short(v)
-                    ),
-                ))
-            }
-        };
+        let range = |field, v, lo, hi| within(field, v, lo, hi, false);
+        let closed = |field, v, lo, hi| within(field, v, lo, hi, true);
         range("traction", self.traction, 0.0, 5.0)?;
         range("lateral", self.lateral, 0.0, 5.0)?;
         range("slip_modulus", self.slip_modulus, 0.0, 10.0)?;

@@ -50,6 +50,8 @@ mod ground;
 mod protocol;
 mod sensors;
 mod stall;
+#[cfg(test)]
+mod test_runs;
 mod variability;
 
 use controller::*;
@@ -58,6 +60,8 @@ use protocol::*;
 use sensors::*;
 pub use stall::TurnStallFit;
 use stall::*;
+#[cfg(test)]
+use test_runs::husky_run;
 use variability::*;
 pub use variability::{command_scatter, scatter, Scatter, ScatterFit};
 

@@ -200,33 +200,14 @@ pub(super) fn localization_gaps(data: &Dataset) -> [f64; ICP_GAP_BINS] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use drive_samplers::{builtin_robots, RobotSpec};
 
     /// A 150-interval run of the Husky on gravel with the localization's `sensors`.
     fn run(sensors: Sensors) -> Dataset {
-        let robot = RobotSpec::load(&builtin_robots(), "husky").unwrap();
         let terrain = Terrain {
             sensors: Some(sensors),
             ..Terrain::preset("gravel").unwrap()
         };
-        let config = SimulationConfig {
-            robot: robot.clone(),
-            terrain,
-            seed: 5,
-            runner: RunnerConfig {
-                max_intervals: Some(150),
-                ..RunnerConfig::default()
-            },
-            events: Vec::new(),
-            name: "noise".into(),
-        };
-        let sampler = move |space| -> Box<dyn InputSampler> {
-            // A characterized input space is not empty.
-            Box::new(UniformSampler::new(space, 5).unwrap())
-        };
-        simulate(config, &builtin_plants(), sampler, None)
-            .unwrap()
-            .dataset
+        husky_run(terrain, 150, 5)
     }
 
     #[test]

@@ -142,32 +142,14 @@ pub(super) fn fit_turn_stall(data: &Dataset) -> (TurnStallFit, BTreeSet<usize>) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use drive_samplers::builtin_robots;
 
     /// A 200-interval Husky run on gravel, its turns held at their start as `stall` says.
     fn run(stall: Option<TurnStall>, seed: u64) -> Dataset {
-        let robot = RobotSpec::load(&builtin_robots(), "husky").unwrap();
-        let config = SimulationConfig {
-            robot,
-            terrain: Terrain {
-                turn_stall: stall,
-                ..Terrain::preset("gravel").unwrap()
-            },
-            seed,
-            runner: RunnerConfig {
-                max_intervals: Some(200),
-                ..RunnerConfig::default()
-            },
-            events: Vec::new(),
-            name: "stall".into(),
+        let terrain = Terrain {
+            turn_stall: stall,
+            ..Terrain::preset("gravel").unwrap()
         };
-        let sampler = move |space| -> Box<dyn InputSampler> {
-            // A characterized input space is not empty.
-            Box::new(UniformSampler::new(space, seed).unwrap())
-        };
-        simulate(config, &builtin_plants(), sampler, None)
-            .unwrap()
-            .dataset
+        husky_run(terrain, 200, seed)
     }
 
     #[test]
