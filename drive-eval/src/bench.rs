@@ -126,7 +126,7 @@ pub fn bench_units(inputs: &[BenchInput], models: usize, config: &BenchConfig) -
 }
 
 /// The ordered pairs (train, test) of datasets of the same robot that can be compared, and
-/// the pairs skipped with why.
+/// the pairs skipped with why (other rates or vehicle types, or the same windows).
 fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
     let mut pairs = Vec::new();
     let mut skipped = Vec::new();
@@ -147,6 +147,12 @@ fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
                     crate::vehicle_type(&ia.data),
                     crate::vehicle_type(&ib.data)
                 ))
+            } else if ia.data.windows == ib.data.windows {
+                // One run listed twice (or in two formats): its own windows.
+                Some(
+                    "the same windows (one run listed twice?): each model would be scored on windows it was fitted on"
+                        .to_string(),
+                )
             } else {
                 None
             };

@@ -36,8 +36,8 @@ mod vehicle;
 
 pub use car::{step_car, Actuator, CarParams, CarSimulator, CarState};
 pub use fit::{
-    command_scatter, scatter, sim_fit, Scatter, ScatterFit, SimFit, SimFitError, SimFitReport,
-    TurnStallFit,
+    check_real_run, command_scatter, scatter, sim_fit, Scatter, ScatterFit, SimFit, SimFitError,
+    SimFitReport, TurnStallFit,
 };
 pub use omni::OmniPlant;
 pub use parameters::{fitted_parameters, fitted_parameters_within, FittedParameter};

@@ -18,6 +18,7 @@ pub struct Sensors {
     /// ICP localization rate (Hz); poses are held between updates.
     pub icp_rate_hz: f64,
     /// ICP position noise (m) and yaw noise (rad), standard deviations.
+    #[serde(deserialize_with = "drive_traits::exact::array")]
     pub icp_noise: [f64; 2],
     /// ICP latency (s): an update reports the pose of this long before.
     pub icp_latency: f64,
@@ -28,6 +29,7 @@ pub struct Sensors {
     /// yaw (rad) from the centre the body turns about. A lidar ahead of that centre sees
     /// the robot slide sideways as it turns; a yawed one sees straight driving as a
     /// crab.
+    #[serde(deserialize_with = "drive_traits::exact::array")]
     pub icp_mount: [f64; 3],
     /// IMU yaw-rate noise (rad/s).
     pub imu_noise: f64,
@@ -42,7 +44,10 @@ pub struct Sensors {
     /// updates it is still published at `icp_rate_hz`, unchanged, as a localization node
     /// republishes its last estimate (so at a rate above 2 Hz the runner's 0.5 s watchdog
     /// does not pause).
-    #[serde(skip_serializing_if = "no_gaps")]
+    #[serde(
+        skip_serializing_if = "no_gaps",
+        deserialize_with = "drive_traits::exact::array"
+    )]
     pub icp_gaps: [f64; ICP_GAP_BINS],
 }
 

@@ -254,6 +254,17 @@ impl Terrain {
             field,
             message,
         };
+        // The name is in every output line and in the sidecar of every run simulated on it
+        // (whose reader holds it to the same rule).
+        if self.name.trim().is_empty()
+            || self.name.chars().count() > 200
+            || self.name.chars().any(char::is_control)
+        {
+            return Err(bad(
+                "name",
+                "must be 1 to 200 characters without control characters".into(),
+            ));
+        }
         // Within `lo` (excluded, or included when `closed`) and `hi` (included).
         let within = |field: &'static str, v: f64, lo: f64, hi: f64, closed: bool| {
             if v.is_finite() && (v > lo || (closed && v == lo)) && v <= hi {

@@ -284,6 +284,23 @@ pub fn load(registries: &crate::Registries, args: &DataArgs) -> Result<Dataset> 
     Ok(data)
 }
 
+/// Says on stderr what the data checks (`drive check`) warn of in `data`: a command fits
+/// and scores on such data, and its figures carry what the warning says (an IMU that never
+/// changes, encoders outside their limits, ...).
+pub fn note_quality(data: &Dataset) {
+    for f in crate::data::quality::check(data, None)
+        .into_iter()
+        .filter(|f| f.severity == crate::data::quality::Severity::Warning)
+    {
+        say!(
+            "note: {}: {} ({}; drive check says more)",
+            data.robot.name,
+            f.message,
+            f.check
+        );
+    }
+}
+
 /// [`load`] without the registry check.
 fn load_unchecked(args: &DataArgs) -> Result<Dataset, DataError> {
     let mut data = match &args.data {

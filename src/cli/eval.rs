@@ -82,7 +82,24 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         args.powertrain.as_deref(),
     )?)?;
     let dataset = load(registries, &args.data)?;
+    super::common::note_quality(&dataset);
     let cmp = compare_specs(&dataset, args.split, &specs)?;
+    // Figures from a handful of intervals are printed, and said to be so.
+    let evidence = crate::eval::BenchConfig::default().min_evidence_intervals;
+    if cmp.eval_intervals < evidence {
+        say!(
+            "note: {} evaluation interval(s): the medians and their bootstrap intervals rest on too few to be evidence (drive bench counts a dataset from {evidence})",
+            cmp.eval_intervals
+        );
+    }
+    if cmp.train_intervals < 2
+        && args.prediction.uncertainty()? != crate::models::calibration::Uncertainty::Paper
+    {
+        say!(
+            "note: {} training interval(s): no uncertainty is calibrated (the calibration holds out blocks of training intervals); each model's covariance is its own",
+            cmp.train_intervals
+        );
+    }
     if let Some(path) = &args.per_window {
         if let Some((m, w)) = cmp.models.iter().find_map(|m| {
             m.report

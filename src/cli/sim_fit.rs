@@ -121,10 +121,15 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .map(|t| registries.terrain(t))
         .transpose()?;
     let data = load(registries, &args.data)?;
+    super::common::note_quality(&data);
     let name = args
         .name
         .clone()
-        .unwrap_or_else(|| format!("{} twin", data.robot.name));
+        // Within a terrain name's 200 characters, whatever the dataset's name.
+        .unwrap_or_else(|| {
+            let base: String = data.robot.name.chars().take(195).collect();
+            format!("{base} twin")
+        });
     if args.check_seeds == 0 {
         anyhow::bail!("--check-seeds must be at least 1");
     }
@@ -140,7 +145,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     // The twin: fitted on the data (its variability kept only where it brings the models'
     // errors closer to the real run's), or the one given to check.
     let (terrain, report, variability_choice) = match given {
-        Some(terrain) => (terrain, None, None),
+        // A twin is checked only against data a twin could be fitted on (the same
+        // refusals: another robot's geometry, too few windows, a frozen localization, ...).
+        Some(terrain) => {
+            crate::sim::check_real_run(&data, &spec)?;
+            (terrain, None, None)
+        }
         None => {
             let mut fit = crate::sim::sim_fit(&data, &spec, &name)?;
             let choice =

@@ -324,7 +324,8 @@ fn frame_corrected_rotates_the_bundled_positions_and_leaves_yaw_and_first_sample
             assert_eq!(model(&a, m)[key], model(&b, m)[key]);
         }
     }
-    assert!(na.is_empty() && nb.is_empty(), "{na}{nb}");
+    // No note of the frame (its 8 evaluation intervals get the note of too few).
+    assert!(!na.contains("frame") && !nb.contains("frame"), "{na}{nb}");
     assert!(user_error(&["eval", "--frame", "map"]).contains("map"));
 }
 
@@ -1076,6 +1077,93 @@ fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
     ]);
     assert!(
         err.contains("c.csv, line 2, column 'cmd_left' = 1e15 is more than the limit of 1e9"),
+        "{err}"
+    );
+}
+
+#[test]
+fn eval_on_a_handful_of_intervals_says_its_figures_are_no_evidence() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("tiny.csv");
+    let data = data.to_str().unwrap();
+    ok(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        "gravel",
+        "--duration",
+        "60",
+        "--seed",
+        "1",
+        "--out",
+        data,
+    ]);
+    // 6 intervals: 1 trained on, 5 evaluated.
+    let out = drive(&["eval", "--data", data, "--split", "0.2"]);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("note: 5 evaluation interval(s)") && err.contains("too few to be evidence"),
+        "{err}"
+    );
+    assert!(
+        err.contains("note: 1 training interval(s): no uncertainty is calibrated"),
+        "{err}"
+    );
+    // The paper's propagation is not calibrated anyway: only the first note.
+    let out = drive(&[
+        "eval",
+        "--data",
+        data,
+        "--split",
+        "0.2",
+        "--uncertainty",
+        "paper",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("too few to be evidence") && !err.contains("calibrated"),
+        "{err}"
+    );
+    // The bundled run is evidence, and passes the data checks: no note of any kind.
+    let out = drive(&["eval"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !err.contains("evidence") && !err.contains("calibrated") && !err.contains("drive check"),
+        "{err}"
+    );
+    // An IMU that never changes (not recorded): eval says what the data check warns of.
+    let text = std::fs::read_to_string(data).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let imu = header.split(',').position(|c| c == "imu_yaw_rate").unwrap();
+    let mut edited = format!("{header}\n");
+    for line in lines {
+        let mut cells: Vec<&str> = line.split(',').collect();
+        cells[imu] = "1.2345";
+        edited += &cells.join(",");
+        edited.push('\n');
+    }
+    let constant = dir.path().join("constant.csv");
+    std::fs::write(&constant, edited).unwrap();
+    let sidecar = |p: &Path| p.with_extension("meta.json");
+    let mut meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(sidecar(Path::new(data))).unwrap()).unwrap();
+    // The edited file no longer has the recorded checksum.
+    meta.as_object_mut().unwrap().remove("csv");
+    std::fs::write(sidecar(&constant), meta.to_string()).unwrap();
+    let out = drive(&[
+        "eval",
+        "--data",
+        constant.to_str().unwrap(),
+        "--split",
+        "0.2",
+    ]);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("(imu-constant; drive check says more)"),
         "{err}"
     );
 }

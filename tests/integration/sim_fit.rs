@@ -277,6 +277,34 @@ fn data_that_cannot_tell_a_twin_is_refused_with_what_to_look_at() {
     }
     let err = sim_fit(&still, &husky(), "twin").unwrap_err().to_string();
     assert!(err.contains("not-moving"), "{err}");
+    // A given twin is checked only against data a twin could be fitted on.
+    let err = drive::sim::check_real_run(&still, &husky())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("not-moving"), "{err}");
+}
+
+#[test]
+fn a_given_twin_is_refused_on_data_a_fit_is_refused_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("checked.toml");
+    let twin = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/husky_twin.toml");
+    // The Husky's twin against a Warthog run, allowed to be poor: the geometry refuses it,
+    // as it refuses a fit, and nothing is written.
+    let err = user_error(&[
+        "sim-fit",
+        "--robot",
+        "husky",
+        "--data",
+        "bundled:warthog_asphalt_a",
+        "--twin",
+        twin,
+        "--allow-poor-twin",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(err.contains("wheel radius 0.165 m"), "{err}");
+    assert!(!out.exists());
 }
 
 #[test]

@@ -222,7 +222,9 @@ pub struct TrackSummary {
     /// Mean effort.
     pub effort: f64,
     /// How much lower the RMS cross-track error is than the first model's with the same
-    /// training, path and speed (%; positive is better), when this is not the first model.
+    /// training, path and speed (%; positive is better), when this is not the first model
+    /// and both reached the end in every run (absent otherwise: a run that stops short is
+    /// scored on the part of the path it covered).
     pub improvement_over_first_percent: Option<f64>,
 }
 

@@ -95,15 +95,17 @@ pub(super) fn summarise(study: &TrackStudy, runs: &[TrackRun]) -> Vec<TrackSumma
                         improvement_over_first_percent: None,
                     });
                 }
-                // Against the first model of the study, when it ran here.
+                // Against the first model of the study, when it ran here; only between runs
+                // that all reached the end: a robot that stops (or never starts) has a small
+                // cross-track error over the little of the path it covered.
                 let base = block
                     .first()
-                    .filter(|s| s.model == study.models[0].name)
+                    .filter(|s| s.model == study.models[0].name && s.completed_share == 1.0)
                     .map(|s| s.cross_track_rms_m);
                 if let Some(base) = base.filter(|b| *b > 0.0) {
                     for s in block.iter_mut().skip(1) {
-                        s.improvement_over_first_percent =
-                            Some(100.0 * (base - s.cross_track_rms_m) / base);
+                        s.improvement_over_first_percent = (s.completed_share == 1.0)
+                            .then(|| 100.0 * (base - s.cross_track_rms_m) / base);
                     }
                 }
                 out.extend(block);

@@ -4,6 +4,10 @@ use drive_traits::{
 };
 use serde::{Deserialize, Serialize};
 
+/// The share of the turn probe's commanded wheel difference its wheels must make for the
+/// probe to give an effective baseline.
+const MIN_TURN_MADE: f64 = 0.2;
+
 /// The ideal differential drive of a skid-steer robot (paper eq. 4):
 /// `f = r [ (w_l + w_r) / 2, 0, (w_r - w_l) / b ]`; inputs are the left and right wheel
 /// (or track sprocket) angular velocities.
@@ -121,7 +125,8 @@ impl CommandModel for DifferentialDrive {
 
     /// The wheel limits from the forward and backward probes; with localization, the
     /// effective wheel radius (distance over wheel angle going forward) and baseline
-    /// (`r (w_r - w_l)` over the yaw rate turning in place).
+    /// (`r (w_r - w_l)` over the yaw rate turning in place; none when the wheels made less
+    /// than a fifth of the probe's turn, or the robot turned the other way).
     fn characterize(&self, results: &[ProbeResult]) -> Result<Characterization, String> {
         let straight: Vec<ProbeResult> = results
             .iter()
@@ -143,11 +148,17 @@ impl CommandModel for DifferentialDrive {
         if let (Some(r), Some(t)) = (radius, turn) {
             if let Some(m) = t.motion {
                 let yaw_rate = m.yaw_turned / m.duration_s;
-                if m.duration_s > 0.0 && yaw_rate.abs() > 1e-6 {
-                    geometry.push((
-                        "baseline".to_string(),
-                        r * (t.measured.y - t.measured.x) / yaw_rate,
-                    ));
+                // Only a turn the wheels made tells the geometry: on a ground that holds a
+                // turn at its start they may stay together, and the ratio of two rates
+                // near zero is noise (of either sign).
+                let (asked, made) = (
+                    t.probe.command.y - t.probe.command.x,
+                    t.measured.y - t.measured.x,
+                );
+                let turned = made * asked > 0.0 && made.abs() >= MIN_TURN_MADE * asked.abs();
+                let baseline = r * made / yaw_rate;
+                if m.duration_s > 0.0 && yaw_rate.abs() > 1e-6 && turned && baseline > 0.0 {
+                    geometry.push(("baseline".to_string(), baseline));
                 }
             }
         }
@@ -172,5 +183,69 @@ impl CommandModel for DifferentialDrive {
 
     fn clone_box(&self) -> Box<dyn CommandModel> {
         Box::new(self.clone())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive_traits::ProbeMotion;
+
+    fn probes(turn_made: Input, yaw_turned: f64) -> Vec<ProbeResult> {
+        let husky = DifferentialDrive::new(0.165, 0.55);
+        let forward = ProbeResult {
+            probe: husky.probe(0, 1.0, &[]).unwrap(),
+            measured: Input::new(6.0, 6.0, 0.0),
+            // 1.98 m in 2 s at 6 rad/s: a radius of 0.165 m.
+            motion: Some(ProbeMotion {
+                duration_s: 2.0,
+                distance_m: 1.98,
+                yaw_turned: 0.0,
+            }),
+        };
+        let backward = ProbeResult {
+            probe: husky.probe(1, 1.0, &[]).unwrap(),
+            measured: Input::new(-6.0, -6.0, 0.0),
+            motion: None,
+        };
+        let done = [forward.clone()];
+        let turn = ProbeResult {
+            probe: husky.probe(2, 1.0, &done).unwrap(),
+            measured: turn_made,
+            motion: Some(ProbeMotion {
+                duration_s: 2.0,
+                distance_m: 0.0,
+                yaw_turned,
+            }),
+        };
+        vec![forward, backward, turn]
+    }
+
+    fn baseline(results: &[ProbeResult]) -> Option<f64> {
+        DifferentialDrive::new(0.165, 0.55)
+            .characterize(results)
+            .unwrap()
+            .geometry
+            .iter()
+            .find(|(name, _)| name == "baseline")
+            .map(|g| g.1)
+    }
+
+    #[test]
+    fn the_turn_probe_gives_a_baseline_only_when_its_wheels_made_the_turn() {
+        // The probe asks -3 / +3 rad/s; the wheels make it and the robot turns 0.99 rad/s:
+        // b = 0.165 * 6 / 0.99 = 1.0 m.
+        let b = baseline(&probes(Input::new(-3.0, 3.0, 0.0), 1.98)).unwrap();
+        assert!((b - 1.0).abs() < 1e-12, "{b}");
+        // A turn held at its start: the wheels make a twentieth of it, the yaw is noise of
+        // either sign. No baseline, where the ratio gave 0.165 * 0.3 / -0.01 = -4.95 m.
+        assert_eq!(baseline(&probes(Input::new(-0.15, 0.15, 0.0), -0.02)), None);
+        assert_eq!(baseline(&probes(Input::new(-0.15, 0.15, 0.0), 0.02)), None);
+        // The wheels turning the other way, or the robot: none either.
+        assert_eq!(baseline(&probes(Input::new(3.0, -3.0, 0.0), 1.98)), None);
+        assert_eq!(baseline(&probes(Input::new(-3.0, 3.0, 0.0), -1.98)), None);
+        // Just over a fifth of the turn is enough.
+        let b = baseline(&probes(Input::new(-0.62, 0.62, 0.0), 0.4)).unwrap();
+        assert!((b - 0.165 * 1.24 / 0.2).abs() < 1e-12, "{b}");
     }
 }

@@ -383,6 +383,81 @@ fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
     (steady, transients)
 }
 
+/// Whether `data` is a real run a twin of `robot` can be fitted on or checked against:
+/// the robot's geometry is the data's, the data has at least 12 steady windows and 6
+/// transient windows after a previous interval, none of the quality checks' fatal findings
+/// (a frozen localization, a dead encoder, ...) nor encoders and localization in different
+/// units, and its steady windows drive more than they turn in place. [`sim_fit`] starts
+/// with it; `drive sim-fit --twin` asks it before checking a given twin, so that a checked
+/// twin is refused on the data a fit is refused on.
+///
+/// ```
+/// use drive_sim::{check_real_run, SimFitError};
+/// let samplers = drive_samplers::builtin_robots();
+/// let husky = drive_samplers::RobotSpec::load(&samplers, "husky").unwrap();
+/// let warthog = drive_samplers::RobotSpec::load(&samplers, "warthog").unwrap();
+/// let data = drive_traits::Dataset {
+///     robot: drive_traits::RobotDescription {
+///         name: "empty".into(),
+///         robot: "husky".into(),
+///         rate_hz: 20.0,
+///         window_len: 40,
+///         vehicle: husky.vehicle.clone(),
+///         position_frame: Default::default(),
+///         terrain: String::new(),
+///     },
+///     windows: Vec::new(),
+/// };
+/// // Another robot's geometry, then too few windows.
+/// assert!(matches!(check_real_run(&data, &warthog), Err(SimFitError::Geometry { .. })));
+/// assert!(matches!(check_real_run(&data, &husky), Err(SimFitError::TooFew { .. })));
+/// ```
+pub fn check_real_run(data: &Dataset, robot: &RobotSpec) -> Result<(), SimFitError> {
+    checked_run(data, robot).map(|_| ())
+}
+
+/// [`check_real_run`], with the data's geometry and its steady and transient windows.
+fn checked_run(
+    data: &Dataset,
+    robot: &RobotSpec,
+) -> Result<(DifferentialDrive, Vec<Steady>, Vec<Transient>), SimFitError> {
+    let g: DifferentialDrive =
+        vehicle_as(data.robot.vehicle.as_ref()).ok_or(SimFitError::NotDifferential)?;
+    let own: DifferentialDrive =
+        vehicle_as(robot.vehicle.as_ref()).ok_or(SimFitError::NotDifferential)?;
+    let off = |a: f64, b: f64| (a - b).abs() > 0.01 * b.abs();
+    if off(own.wheel_radius, g.wheel_radius) || off(own.baseline, g.baseline) {
+        return Err(SimFitError::Geometry {
+            robot: robot.name.clone(),
+            robot_radius: own.wheel_radius,
+            robot_baseline: own.baseline,
+            data_radius: g.wheel_radius,
+            data_baseline: g.baseline,
+        });
+    }
+    let (steady, transients) = extract(data);
+    at_least(&[
+        ("steady windows", "controller and terrain", steady.len(), 12),
+        (
+            "transient windows after a previous interval",
+            "powertrain",
+            transients.len(),
+            6,
+        ),
+    ])?;
+    // Data a twin cannot come from: the quality checks' fatal findings, and encoders and
+    // localization in different units (positions in millimetres: the fit would run minutes
+    // before finding that the speeds do not follow the wheels).
+    if let Some(f) = drive_data::quality::check(data, None)
+        .into_iter()
+        .find(|f| f.severity == drive_data::quality::Severity::Fatal || f.check == "encoder-units")
+    {
+        return Err(SimFitError::Unfit(format!("{} ({})", f.message, f.check)));
+    }
+    check_coverage(&steady, &g)?;
+    Ok((g, steady, transients))
+}
+
 /// Fits a twin of the robot `robot` (its mass and build; its geometry must be the data's)
 /// from `data`, named `name`: the stages of this module, each on a statistic of the data.
 /// Deterministic (the variability stage's runs are seeded).
@@ -406,41 +481,8 @@ fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
 /// assert!(matches!(sim_fit(&empty, &robot, "twin"), Err(SimFitError::TooFew { .. })));
 /// ```
 pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, SimFitError> {
-    let g: DifferentialDrive =
-        vehicle_as(data.robot.vehicle.as_ref()).ok_or(SimFitError::NotDifferential)?;
-    let own: DifferentialDrive =
-        vehicle_as(robot.vehicle.as_ref()).ok_or(SimFitError::NotDifferential)?;
-    let off = |a: f64, b: f64| (a - b).abs() > 0.01 * b.abs();
-    if off(own.wheel_radius, g.wheel_radius) || off(own.baseline, g.baseline) {
-        return Err(SimFitError::Geometry {
-            robot: robot.name.clone(),
-            robot_radius: own.wheel_radius,
-            robot_baseline: own.baseline,
-            data_radius: g.wheel_radius,
-            data_baseline: g.baseline,
-        });
-    }
+    let (g, steady, transients) = checked_run(data, robot)?;
     let dt = 1.0 / data.robot.rate_hz;
-    let (steady, transients) = extract(data);
-    at_least(&[
-        ("steady windows", "controller and terrain", steady.len(), 12),
-        (
-            "transient windows after a previous interval",
-            "powertrain",
-            transients.len(),
-            6,
-        ),
-    ])?;
-    // Data a twin cannot come from: the quality checks' fatal findings, and encoders and
-    // localization in different units (positions in millimetres: the fit would run minutes
-    // before finding that the speeds do not follow the wheels).
-    if let Some(f) = drive_data::quality::check(data, None)
-        .into_iter()
-        .find(|f| f.severity == drive_data::quality::Severity::Fatal || f.check == "encoder-units")
-    {
-        return Err(SimFitError::Unfit(format!("{} ({})", f.message, f.check)));
-    }
-    check_coverage(&steady, &g)?;
     // 0. The turns the ground held at their start: the commands the wheels followed are
     // the controller's and the powertrain's data (all of them when no stall is fitted).
     let (turn_stall, stalled) = fit_turn_stall(data);

@@ -162,6 +162,15 @@ fn terrain_files_round_trip_and_refuse_bad_values() {
             text.replace("traction = 0.3", "traction = -0.3"),
             "traction",
         ),
+        (text.replace("name = \"twin\"", "name = \"\""), "name"),
+        (
+            text.replace("name = \"twin\"", "name = \"a\\nb\""),
+            "name",
+        ),
+        (
+            text.replace("name = \"twin\"", &format!("name = \"{}\"", "x".repeat(201))),
+            "name",
+        ),
         (
             text.replace("slip_modulus = 0.2", "slip_modulus = nan"),
             "slip_modulus",
@@ -199,6 +208,34 @@ fn terrain_files_round_trip_and_refuse_bad_values() {
         Terrain::from_toml("t.toml", &format!("{text}\nwetness = 3\n")),
         Err(TerrainError::Parse { .. })
     ));
+    // The sensors' arrays hold exactly their number of values: a longer one is refused,
+    // not cut short.
+    let twenty_one = format!("[{}]", ["0.05"; 21].join(", "));
+    for (bad, what) in [
+        (
+            text.replace(
+                "imu_bias = 0.005",
+                &format!("imu_bias = 0.005\nicp_gaps = {twenty_one}"),
+            ),
+            "invalid length 21, expected 20",
+        ),
+        (
+            text.replace(
+                "icp_mount = [0.0, 0.0, 0.0]",
+                "icp_mount = [0.0, 0.0, 0.0, 1.0]",
+            ),
+            "invalid length 4, expected 3",
+        ),
+    ] {
+        assert_ne!(bad, text, "{what}: the replacement must apply");
+        match Terrain::from_toml("t.toml", &bad) {
+            Err(e @ TerrainError::Parse { .. }) => {
+                let e = e.to_string();
+                assert!(e.contains(what), "{e}");
+            }
+            other => panic!("{what}: {other:?}"),
+        }
+    }
     // A preset by name, a file by path, and neither.
     let terrains = builtin_terrains();
     assert_eq!(
