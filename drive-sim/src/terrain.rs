@@ -440,6 +440,28 @@ impl Terrain {
                     ));
                 }
             }
+            // The rectangle must hold body velocities the box reaches (in the robot's
+            // geometry: the box's mean wheel speed gives the forward speed, its difference
+            // over the protocol's baseline the yaw rate); a draw outside both would be moved
+            // into the rectangle, outside the box.
+            if let Some([v, w]) = p.body_limits {
+                let [l, r] = p.input_limits;
+                let radius = p.robot_wheel_radius;
+                let speeds = [radius * (l[0] + r[0]) / 2.0, radius * (l[1] + r[1]) / 2.0];
+                let rates = [
+                    radius * (r[0] - l[1]) / p.baseline,
+                    radius * (r[1] - l[0]) / p.baseline,
+                ];
+                if v[1] < speeds[0] || v[0] > speeds[1] || w[1] < rates[0] || w[0] > rates[1] {
+                    return Err(bad(
+                        "protocol.body_limits",
+                        format!(
+                            "holds no body velocity input_limits reach (forward speeds [{:.3}, {:.3}] m/s, yaw rates [{:.3}, {:.3}] rad/s)",
+                            speeds[0], speeds[1], rates[0], rates[1]
+                        ),
+                    ));
+                }
+            }
             for (field, v) in [
                 (
                     "protocol.max_linear_acceleration",

@@ -284,16 +284,23 @@ pub fn load(registries: &crate::Registries, args: &DataArgs) -> Result<Dataset> 
     Ok(data)
 }
 
-/// Says on stderr what the data checks (`drive check`) warn of in `data`: a command fits
-/// and scores on such data, and its figures carry what the warning says (an IMU that never
-/// changes, encoders outside their limits, ...).
-pub fn note_quality(data: &Dataset) {
+/// Says on stderr what the data checks (`drive check`) find in `data`: a command fits and
+/// scores on such data, and its figures carry what a warning says (an IMU that never
+/// changes, encoders outside their limits, ...); a fatal finding (a frozen localization, a
+/// dead encoder) is said too with `with_fatal`, as what to look at first when the command
+/// then fails on a consequence of it (a command that refuses such data itself leaves it).
+pub fn note_quality(data: &Dataset, with_fatal: bool) {
     for f in crate::data::quality::check(data, None)
         .into_iter()
-        .filter(|f| f.severity == crate::data::quality::Severity::Warning)
+        .filter(|f| with_fatal || f.severity == crate::data::quality::Severity::Warning)
     {
+        let fatal = if f.severity == crate::data::quality::Severity::Fatal {
+            ", which drive check calls fatal"
+        } else {
+            ""
+        };
         say!(
-            "note: {}: {} ({}; drive check says more)",
+            "note: {}: {} ({}{fatal}; drive check says more)",
             data.robot.name,
             f.message,
             f.check

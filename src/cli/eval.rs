@@ -82,7 +82,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         args.powertrain.as_deref(),
     )?)?;
     let dataset = load(registries, &args.data)?;
-    super::common::note_quality(&dataset);
+    super::common::note_quality(&dataset, true);
     let cmp = compare_specs(&dataset, args.split, &specs)?;
     // Figures from a handful of intervals are printed, and said to be so.
     let evidence = crate::eval::BenchConfig::default().min_evidence_intervals;

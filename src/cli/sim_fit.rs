@@ -121,7 +121,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .map(|t| registries.terrain(t))
         .transpose()?;
     let data = load(registries, &args.data)?;
-    super::common::note_quality(&data);
+    // What the data checks warn of (their fatal findings refuse the data, below).
+    super::common::note_quality(&data, false);
     let name = args
         .name
         .clone()

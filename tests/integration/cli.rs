@@ -1133,37 +1133,50 @@ fn eval_on_a_handful_of_intervals_says_its_figures_are_no_evidence() {
         !err.contains("evidence") && !err.contains("calibrated") && !err.contains("drive check"),
         "{err}"
     );
+    // The simulated run with `columns` set to `value` in every row, and its sidecar without
+    // the recorded checksum (the file is no longer the one recorded).
+    let edited = |name: &str, columns: &[&str], value: &str| {
+        let text = std::fs::read_to_string(data).unwrap();
+        let mut lines = text.lines();
+        let header = lines.next().unwrap();
+        let at: Vec<usize> = columns
+            .iter()
+            .map(|c| header.split(',').position(|h| h == *c).unwrap())
+            .collect();
+        let mut out = format!("{header}\n");
+        for line in lines {
+            let mut cells: Vec<&str> = line.split(',').collect();
+            for &i in &at {
+                cells[i] = value;
+            }
+            out += &cells.join(",");
+            out.push('\n');
+        }
+        let path = dir.path().join(name);
+        std::fs::write(&path, out).unwrap();
+        let sidecar = |p: &Path| p.with_extension("meta.json");
+        let mut meta: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(sidecar(Path::new(data))).unwrap())
+                .unwrap();
+        meta.as_object_mut().unwrap().remove("csv");
+        std::fs::write(sidecar(&path), meta.to_string()).unwrap();
+        path.to_str().unwrap().to_string()
+    };
     // An IMU that never changes (not recorded): eval says what the data check warns of.
-    let text = std::fs::read_to_string(data).unwrap();
-    let mut lines = text.lines();
-    let header = lines.next().unwrap();
-    let imu = header.split(',').position(|c| c == "imu_yaw_rate").unwrap();
-    let mut edited = format!("{header}\n");
-    for line in lines {
-        let mut cells: Vec<&str> = line.split(',').collect();
-        cells[imu] = "1.2345";
-        edited += &cells.join(",");
-        edited.push('\n');
-    }
-    let constant = dir.path().join("constant.csv");
-    std::fs::write(&constant, edited).unwrap();
-    let sidecar = |p: &Path| p.with_extension("meta.json");
-    let mut meta: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(sidecar(Path::new(data))).unwrap()).unwrap();
-    // The edited file no longer has the recorded checksum.
-    meta.as_object_mut().unwrap().remove("csv");
-    std::fs::write(sidecar(&constant), meta.to_string()).unwrap();
-    let out = drive(&[
-        "eval",
-        "--data",
-        constant.to_str().unwrap(),
-        "--split",
-        "0.2",
-    ]);
+    let constant = edited("constant.csv", &["imu_yaw_rate"], "1.2345");
+    let out = drive(&["eval", "--data", &constant, "--split", "0.2"]);
     assert!(out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains("(imu-constant; drive check says more)"),
+        "{err}"
+    );
+    // A frozen localization: whatever a model's fit then fails on, the finding comes first.
+    let frozen = edited("frozen.csv", &["x", "y", "yaw"], "0");
+    let out = drive(&["eval", "--data", &frozen, "--split", "0.2"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("(not-moving, which drive check calls fatal; drive check says more)"),
         "{err}"
     );
 }

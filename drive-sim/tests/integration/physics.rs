@@ -198,6 +198,11 @@ fn terrain_files_round_trip_and_refuse_bad_values() {
             text.replace("baseline = 0.3", "baseline = 0.0"),
             "protocol.baseline",
         ),
+        // Forward speeds of 3-4 m/s, where the box reaches at most 0.165 * 10.5 = 1.7 m/s.
+        (
+            text.replace("[-1.0, 1.5]", "[3.0, 4.0]"),
+            "protocol.body_limits",
+        ),
     ] {
         match Terrain::from_toml("t.toml", &bad) {
             Err(TerrainError::Invalid { field: f, .. }) => assert_eq!(f, field),
