@@ -101,6 +101,8 @@ fn cases() -> Vec<Case> {
         // Sidecar.
         Case { name: "sidecar negative radius", file: ds(keep, |s| s.replace("\"wheel_radius\": 0.3", "\"wheel_radius\": -0.3")),
             args: &["eval", "--data", "{data}"], says: &["data.meta.json, field 'vehicle'", "wheel_radius = -0.3"] },
+        Case { name: "sidecar radius in millimetres", file: ds(keep, |s| s.replace("\"wheel_radius\": 0.3", "\"wheel_radius\": 300.0")),
+            args: &["eval", "--data", "{data}"], says: &["data.meta.json, field 'vehicle'", "wheel_radius = 300 m is more than 100 m"] },
         Case { name: "sidecar unknown vehicle", file: ds(keep, |s| s.replace("\"differential\"", "\"hovercraft\"")),
             args: &["eval", "--data", "{data}"], says: &["data.meta.json, field 'vehicle'", "hovercraft"] },
         Case { name: "sidecar zero rate", file: ds(keep, |s| s.replace("\"rate_hz\": 20", "\"rate_hz\": 0")),

@@ -164,12 +164,7 @@ impl CommandModel for Ackermann {
     }
 
     fn check(&self) -> Result<(), String> {
-        if !(self.wheelbase.is_finite() && self.wheelbase > 0.0) {
-            return Err(format!(
-                "vehicle wheelbase = {} is not a positive length",
-                Short(self.wheelbase)
-            ));
-        }
+        super::positive_lengths(&[("wheelbase", self.wheelbase)])?;
         if !(self.max_steering > 0.0 && self.max_steering < std::f64::consts::FRAC_PI_2) {
             return Err(format!(
                 "vehicle max_steering = {} is not an angle in (0, pi/2) rad",

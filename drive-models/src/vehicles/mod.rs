@@ -9,13 +9,24 @@ pub use ackermann::Ackermann;
 pub use differential::DifferentialDrive;
 pub use omni::Omnidirectional;
 
-/// `Err` naming the first of `lengths` that is not a finite positive length.
+/// The longest length a ground robot's geometry may give (m): no wheel radius, baseline or
+/// wheelbase comes near it; a value beyond is in another unit (millimetres).
+const MAX_LENGTH_M: f64 = 100.0;
+
+/// `Err` naming the first of `lengths` that is not a finite positive length of at most
+/// [`MAX_LENGTH_M`].
 fn positive_lengths(lengths: &[(&'static str, f64)]) -> Result<(), String> {
     match lengths.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
         Some((name, v)) => Err(format!(
             "vehicle {name} = {} is not a positive length",
             drive_traits::limits::Short(*v)
         )),
-        None => Ok(()),
+        None => match lengths.iter().find(|(_, v)| *v > MAX_LENGTH_M) {
+            Some((name, v)) => Err(format!(
+                "vehicle {name} = {} m is more than {MAX_LENGTH_M} m: a length in another unit (millimetres?)",
+                drive_traits::limits::Short(*v)
+            )),
+            None => Ok(()),
+        },
     }
 }
