@@ -248,6 +248,19 @@ impl Terrain {
         ))
     }
 
+    /// Whether `name` can name a terrain: 1 to 200 characters (not all blank), without
+    /// control characters (it is in every output line and in a simulated run's sidecar).
+    ///
+    /// ```
+    /// assert!(drive_sim::Terrain::is_valid_name("gravel twin"));
+    /// assert!(!drive_sim::Terrain::is_valid_name(" ") && !drive_sim::Terrain::is_valid_name("a\nb"));
+    /// ```
+    pub fn is_valid_name(name: &str) -> bool {
+        !name.trim().is_empty()
+            && name.chars().count() <= 200
+            && !name.chars().any(char::is_control)
+    }
+
     fn validate(&self, file: &str) -> Result<(), TerrainError> {
         let bad = |field: &'static str, message: String| TerrainError::Invalid {
             file: file.to_string(),
@@ -256,10 +269,7 @@ impl Terrain {
         };
         // The name is in every output line and in the sidecar of every run simulated on it
         // (whose reader holds it to the same rule).
-        if self.name.trim().is_empty()
-            || self.name.chars().count() > 200
-            || self.name.chars().any(char::is_control)
-        {
+        if !Terrain::is_valid_name(&self.name) {
             return Err(bad(
                 "name",
                 "must be 1 to 200 characters without control characters".into(),

@@ -90,10 +90,7 @@ struct Output<'a> {
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if let Some(name) = &args.name {
-        if name.trim().is_empty()
-            || name.chars().count() > 200
-            || name.chars().any(char::is_control)
-        {
+        if !crate::sim::Terrain::is_valid_name(name) {
             anyhow::bail!(
                 "--name must be 1 to 200 characters without control characters (it names the terrain in every output line)"
             );
