@@ -234,6 +234,22 @@ impl Outputs {
                 .map(|f| ("the output".to_string(), f.target.clone(), f.id.clone())),
         );
         for (role, path) in outputs {
+            // A directory on the way that is a file: said before any work (creating the
+            // directories later failed with "File exists").
+            if let Some(file) = path
+                .ancestors()
+                .skip(1)
+                .find(|a| !a.as_os_str().is_empty() && a.exists())
+                .filter(|a| !a.is_dir())
+            {
+                return Err(OutputError::Write {
+                    path: path.to_path_buf(),
+                    reason: format!(
+                        "{} is a file, not a directory (the output {role} would be inside it)",
+                        file.display()
+                    ),
+                });
+            }
             let id = Identity::of(path);
             if let Some((other_role, other, _)) = seen.iter().find(|(_, _, o)| o.same(&id)) {
                 return Err(OutputError::Clash {
@@ -412,6 +428,25 @@ impl Drop for Outputs {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_output_inside_a_file_is_refused_before_any_work() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("afile");
+        std::fs::write(&file, "").unwrap();
+        let outputs = Outputs::new(&[]);
+        let e = outputs
+            .check(&[("--out", &file.join("deeper/x.json"))])
+            .unwrap_err();
+        assert!(
+            e.to_string().contains("afile is a file, not a directory"),
+            "{e}"
+        );
+        // Directories not there yet are made when publishing: no error.
+        assert!(outputs
+            .check(&[("--out", &dir.path().join("new/x.json"))])
+            .is_ok());
+    }
 
     #[test]
     fn an_output_on_an_input_through_another_spelling_is_refused() {

@@ -70,7 +70,7 @@ pub const CHECKS: [(&str, &str); 7] = [
     ),
     (
         "encoder-units",
-        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius)",
+        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius), or localization's yaw turning over five times faster than the encoders' (yaw in degrees)",
     ),
     (
         "encoder-command",
@@ -192,6 +192,18 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
             ),
         });
     }
+    // Nothing driven at all: no window's commands, encoders or localization reach the
+    // motion the checks above look at (commands and limits in another unit, or zero).
+    if asked == 0 && driven == 0 && motions.iter().all(|m| m.2 < 0.2 && m.3.abs() < 0.2) {
+        out.push(Finding {
+            check: "not-moving",
+            severity: Severity::Fatal,
+            message: format!(
+                "in none of the {} windows do the commands, the encoders or localization reach 0.2 m or 0.2 rad of motion: nothing was driven (commands in another unit, or all zero?)",
+                windows.len()
+            ),
+        });
+    }
     if driven > 0 && still * 10 >= driven {
         let fatal = still * 2 > driven;
         out.push(Finding {
@@ -310,6 +322,48 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
             });
         }
     }
+    // encoder-units, the yaw: the localization's yaw rate (median over the samples its yaw
+    // changed at) against the encoders' (median over the samples they turn at). A skid-steer's
+    // localization turns less than its encoders say; a yaw in degrees, or scaled, turns
+    // many times more (its wrapped steps scattered up to pi).
+    let dt = data.robot.dt();
+    // Each change over the time since the previous one (a localization slower than the
+    // command rate holds its yaw in between).
+    let mut seen: Vec<f64> = Vec::new();
+    for w in &windows {
+        let mut last = 0;
+        for k in 1..w.len() {
+            let d = w.pose[k].z - w.pose[last].z;
+            if d != 0.0 {
+                seen.push(d.sin().atan2(d.cos()).abs() / ((k - last) as f64 * dt));
+                last = k;
+            }
+        }
+    }
+    let mut implied: Vec<f64> = windows
+        .iter()
+        .flat_map(|w| w.measured.iter())
+        .map(|u| data.robot.vehicle.body_velocity(u).z.abs())
+        .filter(|r| *r > 1e-3)
+        .collect();
+    if seen.len() >= 100 && implied.len() >= 100 {
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let (seen, implied) = (median(&mut seen), median(&mut implied));
+        if seen > 5.0 && seen > 5.0 * implied {
+            out.push(Finding {
+                check: "encoder-units",
+                severity: Severity::Warning,
+                message: format!(
+                    "localization's yaw turns at a median {} rad/s where it changes, {}x the encoders' median yaw rate: yaw in degrees, or in another unit?",
+                    Short((seen * 100.0).round() / 100.0),
+                    Short((seen / implied * 10.0).round() / 10.0)
+                ),
+            });
+        }
+    }
     // outside-limits: beyond three times the description's limit on an axis (real runs go
     // past a manufacturer's nominal speed: the bundled Husky data reaches 2.4 times it).
     if let Some(space) = limits {
@@ -395,8 +449,11 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         for (c, m) in samples().filter(|(c, _)| on(c)) {
             n += 1;
             dead += usize::from(m[i].abs() <= 1e-3 * largest);
-            cc += c[i] * c[i];
-            cm += c[i] * m[i];
+            // Scaled by the largest command, so that tiny commands (1e-300) do not
+            // underflow to a gain of infinity.
+            let (c, m) = (c[i] / largest, m[i] / largest);
+            cc += c * c;
+            cm += c * m;
         }
         if n < 100 {
             continue;
@@ -603,6 +660,48 @@ mod tests {
         let w = &data.windows[0];
         let r = yaw_rate_from_localization(w, None, data.robot.vehicle.as_ref(), 0.05);
         assert!(r.iter().all(|v| (v - 4.0).abs() < 1e-9), "{r:?}");
+    }
+
+    #[test]
+    fn a_yaw_in_degrees_is_noticed() {
+        // Five windows spinning at 1 rad/s (195 yaw changes), in radians and in degrees.
+        let spins = |scale: f64| {
+            let mut data = spin(1.0, 1.0);
+            let w = data.windows[0].clone();
+            data.windows = (0..5)
+                .map(|i| {
+                    let mut v = w.clone();
+                    v.index = i;
+                    for q in &mut v.pose {
+                        q.z *= scale;
+                    }
+                    v
+                })
+                .collect();
+            check(&data, None)
+        };
+        let says = |f: &[Finding]| f.iter().any(|f| f.message.contains("yaw in degrees"));
+        assert!(!says(&spins(1.0)), "{:?}", spins(1.0));
+        let degrees = spins(180.0 / std::f64::consts::PI);
+        assert!(says(&degrees), "{degrees:?}");
+    }
+
+    #[test]
+    fn a_run_where_nothing_is_driven_is_useless() {
+        // 0.01 rad/s of spin for 2 s: 0.02 rad, a tenth of what any check looks at.
+        let findings = check(&spin(0.005, 1.0), None);
+        assert_eq!(findings.len(), 1, "{findings:?}");
+        assert_eq!(
+            (findings[0].check, findings[0].severity),
+            ("not-moving", Severity::Fatal)
+        );
+        assert!(findings[0].message.contains("nothing was driven"));
+        // Commands of 1e-300 (a limit in another unit): the same, with no infinite gain.
+        let tiny = check(&spin(1e-300, 1.0), None);
+        assert!(tiny.iter().all(|f| !f.message.contains("inf")), "{tiny:?}");
+        assert!(tiny
+            .iter()
+            .any(|f| f.message.contains("nothing was driven")));
     }
 
     #[test]

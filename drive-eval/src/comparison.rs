@@ -282,6 +282,17 @@ pub fn compare_specs(
             model: spec.name.clone(),
             reason,
         })?;
+        // The uncertainty the fitted model has: a calibration asked for but not made (fewer
+        // training intervals than its folds, or a fold's refit failed) leaves the model's
+        // own covariance, which is what `paper` names.
+        let uncertainty = match &scored.model {
+            Some(m)
+                if spec.uncertainty != Uncertainty::Paper && m.typetag_name() != "calibrated" =>
+            {
+                Uncertainty::Paper
+            }
+            _ => spec.uncertainty,
+        };
         let report = scored.report;
         let u = report.uncertainty.as_ref();
         // The evaluation set is non-empty (the split guarantees it), so summaries exist.
@@ -300,7 +311,7 @@ pub fn compare_specs(
             steady: summarize(&report, &naive, Some(Phase::Steady)),
             fit_seconds: cell.fit_seconds,
             start: spec.start,
-            uncertainty: u.map(|_| spec.uncertainty),
+            uncertainty: u.map(|_| uncertainty),
             coverage95: u.map(|u| u.coverage95.clone()),
             yaw_coverage95: u.map(|u| u.yaw_coverage95.clone()),
             nll: u.map(|u| u.nll),

@@ -86,6 +86,10 @@ pub struct OrderSpread {
     /// Convergence time (s) by the paper's rule: minimum, median, maximum over the orders
     /// whose curve meets it.
     pub convergence_time_s: Option<[f64; 3]>,
+    /// The median convergence time (s) over every order, an order that never converges
+    /// counted as later than any: `None` when half of the orders or more never converge
+    /// (the median of `convergence_time_s` is over the converging orders alone).
+    pub median_convergence_time_s: Option<f64>,
     /// Orders whose curve never meets the rule.
     pub never_converged: usize,
     /// The curve's spread, in increasing training time.
@@ -239,6 +243,7 @@ pub fn convergence_with(
             orders: config.orders,
             seed: config.seed,
             never_converged: config.orders - times.len(),
+            median_convergence_time_s: median_with_never(&times, config.orders),
             convergence_time_s: (!times.is_empty()).then(|| spread(&mut times)),
             curve,
         }
@@ -369,6 +374,8 @@ fn curve(
 /// let curve = [p(6.0, 2.0), p(12.0, 1.4), p(18.0, 1.1), p(24.0, 1.094), p(30.0, 1.106)];
 /// assert_eq!(convergence_time(&curve, [0.01, 0.01]), Some(18.0));
 /// assert_eq!(convergence_time(&curve[..2], [0.01, 0.01]), None);
+/// // One point has no gradient: nothing is known about convergence.
+/// assert_eq!(convergence_time(&curve[..1], [0.01, 0.01]), None);
 /// ```
 pub fn convergence_time(curve: &[ConvergencePoint], thresholds: [f64; 2]) -> Option<f64> {
     let steep = |a: &ConvergencePoint, b: &ConvergencePoint| {
@@ -376,17 +383,44 @@ pub fn convergence_time(curve: &[ConvergencePoint], thresholds: [f64; 2]) -> Opt
         ((b.translational_median_m - a.translational_median_m) / dt).abs() >= thresholds[0]
             || ((b.rotational_median_rad - a.rotational_median_rad) / dt).abs() >= thresholds[1]
     };
-    // The last steep step decides: convergence starts at the point after it.
+    // The last steep step decides: convergence starts at the point after it. A point with
+    // no later one has no gradient to meet the rule with.
     match curve.windows(2).rposition(|w| steep(&w[0], &w[1])) {
-        None => curve.first().map(|p| p.training_time_s),
+        None if curve.len() >= 2 => curve.first().map(|p| p.training_time_s),
+        None => None,
         Some(i) if i + 1 < curve.len() - 1 => Some(curve[i + 1].training_time_s),
         Some(_) => None,
     }
 }
 
+/// The median of `orders` convergence times of which `times` are the orders that converge
+/// (the others never do: later than any time); `None` when the median is one of those.
+fn median_with_never(times: &[f64], orders: usize) -> Option<f64> {
+    if orders == 0 || times.len() > orders {
+        return None;
+    }
+    let mut sorted = times.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    // The two middle ranks (equal for an odd count), 0-based.
+    let (a, b) = ((orders - 1) / 2, orders / 2);
+    Some(0.5 * (*sorted.get(a)? + *sorted.get(b)?))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn orders_that_never_converge_count_in_the_median() {
+        // 5 orders, 3 converge: the median is the third time.
+        assert_eq!(median_with_never(&[30.0, 6.0, 12.0], 5), Some(30.0));
+        // 30 orders, 12 converge at 6 s: most never do, so no median (was "6.0 s").
+        assert_eq!(median_with_never(&[6.0; 12], 30), None);
+        // 4 orders, 2 converge: the median needs the third, which never comes.
+        assert_eq!(median_with_never(&[6.0, 12.0], 4), None);
+        assert_eq!(median_with_never(&[6.0, 12.0, 18.0, 24.0], 4), Some(15.0));
+        assert_eq!(median_with_never(&[], 0), None);
+    }
 
     #[test]
     fn training_amounts_resolve_the_early_curve_and_end_at_all_the_data() {

@@ -183,10 +183,22 @@ pub fn simulate_run(registries: &Registries, run: &SimRun) -> Result<Simulation,
     };
     let result = simulate(config, &registries.simulators, factory, None)?;
     let failed = failure.lock().unwrap_or_else(|p| p.into_inner()).take();
-    match failed {
-        Some(e) => Err(sampler_error(e)),
-        None => Ok(result),
+    if let Some(e) = failed {
+        return Err(sampler_error(e));
     }
+    // A run nothing can be learned from (a robot that cannot move: a wheel limit or a
+    // friction of 1e-300 in a twin file) is refused here rather than scored as all-zero
+    // errors by every command that simulates.
+    if let Some(f) = drive_data::quality::check(&result.dataset, None)
+        .into_iter()
+        .find(|f| f.severity == drive_data::quality::Severity::Fatal)
+    {
+        return Err(ExperimentError::Unusable {
+            run: run.label(),
+            finding: format!("{} ({})", f.message, f.check),
+        });
+    }
+    Ok(result)
 }
 
 /// Runs every simulation in parallel (rayon), in order; `progress` is called after each.

@@ -64,6 +64,15 @@ pub enum ExperimentError {
     /// A data set holds too few windows for the experiment.
     #[error("{0}")]
     NotEnoughData(String),
+    /// A simulated run is no driving data (the data checks' fatal finding): a robot or
+    /// terrain file whose robot cannot move, or a protocol that commands nothing.
+    #[error("simulated run {run}: {finding}; check the robot's and the terrain's values")]
+    Unusable {
+        /// The run's label.
+        run: String,
+        /// The finding and its check.
+        finding: String,
+    },
 }
 
 fn too_short(driving_s: f64) -> String {

@@ -331,6 +331,14 @@ impl BlrPosterior {
                 Short(self.b)
             ));
         }
+        // The predictive of eq. 7 is a Student t with 2a degrees of freedom: its variance,
+        // which the covariance propagation uses, is finite only for 2a > 2.
+        if self.a <= 1.0 {
+            return Err(format!(
+                "{what}: the noise shape a = {} must be above 1 (the predictive has 2a degrees of freedom and a finite variance only above 2; a fit writes a0 + n / 2 for n samples)",
+                Short(self.a)
+            ));
+        }
         // What a fit writes: a = a0 + n / 2 for n samples, a noise variance b / a of a
         // slip (m/s or rad/s, squared) and weights of the size of a measurement.
         if self.a > MAX_NOISE_SHAPE {

@@ -218,6 +218,21 @@ pub fn model_from_json(
             file: file.into(),
             message: at_path("robot", &robot, &e),
         })?;
+    // The rate's range is the sidecar's (a rate of 0 made the command period infinite,
+    // which no step compared unequal to).
+    let (lo, hi) = (
+        drive_traits::limits::MIN_RATE_HZ,
+        drive_traits::limits::MAX_RATE_HZ,
+    );
+    if !(lo..=hi).contains(&robot.rate_hz) {
+        return Err(ModelFileError::Model {
+            file: file.into(),
+            message: format!(
+                "robot.rate_hz = {} Hz is outside the supported {lo} to {hi} Hz",
+                drive_traits::limits::Short(robot.rate_hz)
+            ),
+        });
+    }
     let model = obj.remove("model").ok_or(ModelFileError::MissingField {
         file: file.into(),
         field: "model",

@@ -552,8 +552,8 @@ impl Report {
             }
         }
         if let Some(o) = &conv.random_orders {
-            let _ = match o.convergence_time_s {
-                Some([lo, med, hi]) => writeln!(
+            let _ = match (o.convergence_time_s, o.median_convergence_time_s) {
+                (Some([lo, _, hi]), Some(med)) => writeln!(
                     s,
                     "\nOver {} random orders of the training intervals (seed {}), the same rule gives a median of **{med:.1} s** (range {lo:.1} to {hi:.1} s){}: how much the recording order's figure owes to the order the commands came in.",
                     o.orders,
@@ -564,7 +564,12 @@ impl Report {
                         String::new()
                     }
                 ),
-                None => writeln!(
+                (Some([lo, _, hi]), None) => writeln!(
+                    s,
+                    "\nOver {} random orders of the training intervals (seed {}), {} never meet the rule, so their median is never (the others converge after {lo:.1} to {hi:.1} s).",
+                    o.orders, o.seed, o.never_converged
+                ),
+                (None, _) => writeln!(
                     s,
                     "\nNone of {} random orders of the training intervals meets the rule.",
                     o.orders
@@ -618,6 +623,21 @@ impl Report {
                 self.options.uncertainty.as_str(),
                 self.options.start.as_str()
             );
+            // A calibration asked for but not made: said, with the models it concerns.
+            let uncalibrated: Vec<&str> = self
+                .comparison
+                .models
+                .iter()
+                .filter(|m| m.uncertainty.is_some_and(|u| u != self.options.uncertainty))
+                .map(|m| m.name.as_str())
+                .collect();
+            if !uncalibrated.is_empty() {
+                let _ = writeln!(
+                    s,
+                    "**Not calibrated**: {} (the calibration holds out blocks of training intervals: too few training intervals, or a fold's refit failed); their regions are the model's own covariance, with no promise of 95%.\n",
+                    uncalibrated.join(", ")
+                );
+            }
             let _ = writeln!(
                 s,
                 "| model | position 0.5 / 1 / 2 s | yaw 0.5 / 1 / 2 s | all steps (position) | NLL [nats/step] |"

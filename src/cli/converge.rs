@@ -26,7 +26,9 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// At most this many training amounts per curve (every amount when there are fewer
-    /// intervals; otherwise every amount up to half of it, the rest evenly spaced).
+    /// intervals; otherwise every amount up to half of it, the rest evenly spaced). The
+    /// convergence rule reads the gradients between the points kept: fewer points, coarser
+    /// gradients, another convergence time.
     #[arg(long, default_value_t = 100)]
     max_points: usize,
     /// What the predictions start from (see drive eval --help).
@@ -149,11 +151,15 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             thresholds[0],
             thresholds[1]
         ),
+        None if c.curve.len() < 2 => outln!(
+            "convergence time: none (a curve of {} point has no gradient to meet the rule with: too few training intervals)",
+            c.curve.len()
+        ),
         None => outln!("convergence time: none (the curve never meets the rule)"),
     }
     if let Some(o) = orders {
-        match o.convergence_time_s {
-            Some([lo, med, hi]) => outln!(
+        match (o.convergence_time_s, o.median_convergence_time_s) {
+            (Some([lo, _, hi]), Some(med)) => outln!(
                 "over {} random orders: median {med:.1} s, range {lo:.1} to {hi:.1} s{}",
                 o.orders,
                 if o.never_converged > 0 {
@@ -162,7 +168,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                     String::new()
                 }
             ),
-            None => outln!("over {} random orders: none converges", o.orders),
+            (Some([lo, _, hi]), None) => outln!(
+                "over {} random orders: median never ({} never converge; the others from {lo:.1} to {hi:.1} s)",
+                o.orders,
+                o.never_converged
+            ),
+            (None, _) => outln!("over {} random orders: none converges", o.orders),
         }
     }
     Ok(())

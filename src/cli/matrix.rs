@@ -51,8 +51,26 @@ pub fn run_with(
     // A sweep file is a page of TOML: a regular file of at most 1 MB.
     let text = crate::traits::files::read_text(config, 1 << 20)
         .with_context(|| format!("reading {name}"))?;
-    let sweep = SweepFile::parse(&name, &text)?;
+    let mut sweep = SweepFile::parse(&name, &text)?;
     let base = config.parent().unwrap_or(Path::new("."));
+    // Robot and terrain files are read relative to the sweep file, as its datasets are
+    // (registered names stay names).
+    if let Some(sim) = &mut sweep.simulated {
+        let relative = |name: &mut String, registered: bool| {
+            let path = Path::new(name.as_str());
+            if !registered && path.is_relative() && base.join(path).is_file() {
+                *name = base.join(path).display().to_string();
+            }
+        };
+        for r in &mut sim.robots {
+            let registered = registries.robots.find(r).is_some();
+            relative(r, registered);
+        }
+        for t in &mut sim.terrains {
+            let registered = registries.terrains.find(t).is_some();
+            relative(t, registered);
+        }
+    }
     let mut inputs = vec![("--config", config.to_path_buf())];
     // The robot and terrain files the simulated part reads (named as on the command line).
     if let Some(sim) = &sweep.simulated {

@@ -189,6 +189,33 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
         Some(values) => values.input("--start-wheels", axes.len())?,
         None => Input::zeros(),
     };
+    // The start's values within what the CSV readers accept (1e9): a start at 1e308 m
+    // lost every step of the motion to rounding.
+    let flags: [(&str, Vec<f64>); 4] = [
+        ("--start", args.start.map(Vec::from).unwrap_or_default()),
+        (
+            "--start-wheels",
+            (0..axes.len()).map(|i| measured[i]).collect(),
+        ),
+        (
+            "--start-yaw-rate",
+            args.start_yaw_rate.into_iter().collect(),
+        ),
+        (
+            "--start-velocity",
+            args.start_velocity.map(Vec::from).unwrap_or_default(),
+        ),
+    ];
+    for (flag, values) in flags {
+        for v in values {
+            crate::traits::limits::at_most(
+                flag,
+                v.abs(),
+                crate::traits::limits::MAX_ABS_MEASUREMENT,
+                "",
+            )?;
+        }
+    }
     let start = StartState::measured(pose, measured, robot.vehicle.as_ref());
     let start = args
         .start_yaw_rate

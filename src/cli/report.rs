@@ -66,6 +66,15 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                     ours.unwrap_or_default()
                 );
             }
+            // Another robot of the same kind: its limits and body are used, said as `drive
+            // check --robot` says it (the unpredictability depends on the body).
+            if let Some(f) = crate::data::quality::vehicle_mismatch(
+                dataset.robot.vehicle.as_ref(),
+                spec.vehicle.as_ref(),
+                &spec.name,
+            ) {
+                say!("note: {}", f.message);
+            }
             Some((
                 format!("naive input space ({} manufacturer limits)", spec.name),
                 spec.nominal_input_space,

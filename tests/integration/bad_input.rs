@@ -230,6 +230,18 @@ fn cases() -> Vec<Case> {
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "weight 1e300"] },
         Case { name: "model powertrain limits no fit writes", file: File::Model(|m| edit_model(&m, |v| composed(v)["powertrain"]["limits"]["max"][0] = 1e300.into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "powertrain limit 1e300"] },
+        // From an outside sweep: a noise shape of a predictive without a variance, a rate
+        // of 0 (an infinite command period no step compared unequal to).
+        Case { name: "model noise shape of infinite variance", file: File::Model(|m| edit_model(&m, |v| composed(v)["slip"]["slip_x"]["a"] = 0.5.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "slip_x", "noise shape a = 0.5 must be above 1"] },
+        Case { name: "model robot rate zero", file: File::Model(|m| edit_model(&m, |v| v["robot"]["rate_hz"] = 0.0.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "rate_hz = 0 Hz is outside the supported 1 to 1000 Hz"] },
+        Case { name: "robot top speed in another unit", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = 0.5\nmax_speed = 1e-300\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),
+            args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["field 'max_speed'", "1e-300 m/s is below 0.001 m/s"] },
+        Case { name: "robot wheel in another unit", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 1e-300\nbaseline = 0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),
+            args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["wheel_radius = 1e-300 m is less than 0.001 m"] },
+        Case { name: "predict start beyond 1e9", file: File::Model(|m| m),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}", "--start", "1e308,1e308,0"], says: &["--start = 1e308 is more than the limit of 1e9"] },
         // Issue 35: a parse error names the path inside the model.
         Case { name: "model field of the wrong type", file: File::Model(|m| edit_model(&m, |v| composed(v)["powertrain"]["dt"] = "fast".into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "model.model.powertrain.dt", "invalid type"] },
@@ -243,8 +255,10 @@ fn cases() -> Vec<Case> {
             args: &["predict", "--model", "/dev/zero", "--commands", "{commands}"], says: &["/dev/zero", "not a regular file"] },
         Case { name: "sweep from a device", file: File::None,
             args: &["matrix", "--config", "/dev/zero", "--out", "{out}"], says: &["/dev/zero", "not a regular file"] },
+        // A start beyond what a CSV reader accepts is refused before predicting (it was
+        // refused after, as a prediction that is not a finite number).
         Case { name: "prediction beyond the model", file: File::None,
-            args: &["predict", "--model", "{model}", "--commands", "{commands}", "--start-wheels", "1e308,1e308"], says: &["not a finite number from step"] },
+            args: &["predict", "--model", "{model}", "--commands", "{commands}", "--start-wheels", "1e308,1e308"], says: &["--start-wheels = 1e308 is more than the limit of 1e9"] },
     ]
 }
 

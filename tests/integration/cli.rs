@@ -827,6 +827,54 @@ fn compare_protocols_user_errors() {
 }
 
 #[test]
+fn a_twin_whose_robot_cannot_move_is_refused_not_scored() {
+    // Values a twin file accepts (positive, in range) but with which nothing is driven:
+    // before, compare-protocols ranked the protocols on all-zero errors.
+    let dir = tempfile::tempdir().unwrap();
+    let twin = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/husky_twin.toml"
+    ))
+    .unwrap();
+    let edit = |key: &str, value: &str| {
+        let line = twin
+            .lines()
+            .find(|l| l.starts_with(&format!("{key} = ")))
+            .unwrap();
+        twin.replacen(line, &format!("{key} = {value}"), 1)
+    };
+    for (name, text, says) in [
+        (
+            "stuck.toml",
+            edit("wheel_limit", "1e-300"),
+            "neither the encoders nor localization saw a tenth of it",
+        ),
+        (
+            "still.toml",
+            edit("input_limits", "[[-1e-300, 1e-300], [-1e-300, 1e-300]]"),
+            "nothing was driven",
+        ),
+    ] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let twins = format!("husky={}", path.display());
+        let err = user_error(&[
+            "compare-protocols",
+            "--twins",
+            &twins,
+            "--duration",
+            "60",
+            "--test-duration",
+            "60",
+        ]);
+        assert!(
+            err.contains("simulated run") && err.contains(says),
+            "{name}: {err}"
+        );
+    }
+}
+
+#[test]
 fn simulate_raw_log_then_import_then_eval() {
     let dir = tempfile::tempdir().unwrap();
     let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
@@ -1111,6 +1159,22 @@ fn eval_on_a_handful_of_intervals_says_its_figures_are_no_evidence() {
         err.contains("note: 1 training interval(s): no uncertainty is calibrated"),
         "{err}"
     );
+    // The JSON says what each model's covariance is: its own (`paper`), not `calibrated`
+    // as asked.
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "eval",
+        "--data",
+        data,
+        "--split",
+        "0.2",
+        "--models",
+        "slip-blr,acc-blr",
+        "--json",
+    ]))
+    .unwrap();
+    for m in v["models"].as_array().unwrap() {
+        assert_eq!(m["uncertainty"], "paper", "{m}");
+    }
     // The paper's propagation is not calibrated anyway: only the first note.
     let out = drive(&[
         "eval",

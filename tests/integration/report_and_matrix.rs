@@ -360,3 +360,40 @@ fn matrix_refuses_a_bad_sweep_with_one_clear_line() {
         assert!(!out_dir.join("matrix.csv").exists());
     }
 }
+
+#[test]
+fn a_sweeps_robot_file_is_read_relative_to_the_sweep_file() {
+    // Run from elsewhere: the robot file beside the sweep is found, as its datasets are.
+    let dir = tempfile::tempdir().unwrap();
+    let sub = dir.path().join("study");
+    std::fs::create_dir(&sub).unwrap();
+    std::fs::write(
+        sub.join("myrobot.toml"),
+        "name = 'x'\nmass_kg = 75\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 1\nwheel_radius = 0.3\nbaseline = 1.2\n",
+    )
+    .unwrap();
+    let sweep = "learners = [\"no-slip\"]\npowertrains = [\"commanded\"]\n[simulated]\nrobots = [\"myrobot.toml\"]\nterrains = [\"tile\"]\nsamplers = [\"uniform\"]\ndurations = [30]\nseeds = [1]\ntest_duration = 30\n";
+    std::fs::write(sub.join("sweep.toml"), sweep).unwrap();
+    let config = sub.join("sweep.toml");
+    let out = dir.path().join("out");
+    ok(&[
+        "matrix",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("x/tile uniform 30 s"), "{summary}");
+    // A seed listed twice is refused, not pooled as a second run.
+    std::fs::write(&config, sweep.replace("seeds = [1]", "seeds = [1, 1]")).unwrap();
+    let refused = drive(&[
+        "matrix",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("lists seed 1 twice"));
+}

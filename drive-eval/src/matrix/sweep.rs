@@ -122,9 +122,10 @@ impl DatasetSource {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SimulatedSweep {
-    /// Robot presets (husky, hd2, warthog) or robot TOML files.
+    /// Robot presets (husky, hd2, warthog) or robot TOML files (`drive matrix` reads a
+    /// relative path relative to the sweep file). Each at most once, as every list here.
     pub robots: Vec<String>,
-    /// Terrains (tile, gravel, snow, ice).
+    /// Terrains (tile, gravel, snow, ice) or terrain TOML files.
     pub terrains: Vec<String>,
     /// Samplers (registered names).
     pub samplers: Vec<String>,
@@ -327,6 +328,14 @@ impl SweepFile {
                 limits::Short(*bad)
             )));
         }
+        // A value listed twice would pool the same cells twice, as if they were
+        // independent runs (narrower bootstrap intervals from duplicated rows).
+        if let Some(f) = first_repeat(&self.splits) {
+            return Err(invalid(format!(
+                "split {} is listed twice: each would be scored as another run",
+                limits::Short(*f)
+            )));
+        }
         let b = self.bootstrap;
         if !(b.level > 0.0 && b.level < 1.0) || b.resamples < 10 {
             return Err(invalid(format!(
@@ -434,6 +443,15 @@ pub struct SimulatedPlan {
     pub test_sampler: String,
 }
 
+/// The first value of `values` that an earlier one equals.
+fn first_repeat<T: PartialEq>(values: &[T]) -> Option<&T> {
+    values
+        .iter()
+        .enumerate()
+        .find(|(i, v)| values[..*i].contains(v))
+        .map(|(_, v)| v)
+}
+
 impl SimulatedPlan {
     fn new(s: &SimulatedSweep, registries: &Registries) -> Result<Self, MatrixError> {
         let invalid = |s: String| MatrixError::Invalid(s);
@@ -447,6 +465,29 @@ impl SimulatedPlan {
             if empty {
                 return Err(invalid(format!("[simulated] lists no {what}")));
             }
+        }
+        // Listed twice, a value would pool its runs twice (the same seed simulates the same
+        // run): refused, as two datasets under one label are.
+        let repeated = [
+            ("robot", first_repeat(&s.robots).map(|r| format!("'{r}'"))),
+            (
+                "terrain",
+                first_repeat(&s.terrains).map(|t| format!("'{t}'")),
+            ),
+            (
+                "sampler",
+                first_repeat(&s.samplers).map(|t| format!("'{t}'")),
+            ),
+            (
+                "duration",
+                first_repeat(&s.durations).map(|d| format!("{} s", limits::Short(*d))),
+            ),
+            ("seed", first_repeat(&s.seeds).map(|d| d.to_string())),
+        ];
+        if let Some((what, Some(value))) = repeated.into_iter().find(|(_, v)| v.is_some()) {
+            return Err(invalid(format!(
+                "[simulated] lists {what} {value} twice: its runs would be pooled as if they were others"
+            )));
         }
         let robots = s
             .robots
@@ -524,5 +565,33 @@ mod tests {
         );
         // The test run defaults to the longest duration, at least 300 s.
         assert_eq!(plan.simulated.unwrap().test_duration, 300.0);
+    }
+
+    #[test]
+    fn a_value_listed_twice_is_refused_not_pooled_twice() {
+        let plan = |text: &str| {
+            SweepFile::parse("t", text)
+                .unwrap()
+                .plan(&Registries::builtin(), &|_| Err("no files here".into()))
+                .map(|_| ())
+                .unwrap_err()
+                .to_string()
+        };
+        let sim = |line: &str| {
+            let base = "robots = [\"husky\"]\nterrains = [\"ice\"]\nsamplers = [\"uniform\"]\ndurations = [12]\nseeds = [1]\n";
+            let key = line.split(' ').next().unwrap();
+            let kept: String = base
+                .lines()
+                .filter(|l| !l.starts_with(key))
+                .map(|l| format!("{l}\n"))
+                .collect();
+            format!("learners = [\"naive\", \"slip-blr\"]\npowertrains = [\"commanded\", \"fopdt\"]\n[simulated]\n{kept}{line}\n")
+        };
+        let e = plan(&sim("seeds = [1, 2, 1]"));
+        assert!(e.contains("lists seed 1 twice"), "{e}");
+        assert!(plan(&sim("durations = [12, 12.0]")).contains("lists duration 12 s twice"));
+        assert!(plan(&sim("robots = [\"husky\", \"husky\"]")).contains("lists robot 'husky' twice"));
+        let splits = format!("splits = [0.5, 0.3, 0.5]\n{}", sim("seeds = [1]"));
+        assert!(plan(&splits).contains("split 0.5 is listed twice"));
     }
 }

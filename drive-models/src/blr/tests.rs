@@ -28,13 +28,14 @@ fn hand_computed_single_input() {
 #[test]
 fn a_posterior_read_from_a_file_holds_what_a_fit_writes() {
     let fitted = BlrPosterior::fit(
-        &[1.0, 2.0],
+        &[1.0, 2.0, 3.0],
         1,
-        &[1.0, 3.0],
+        &[1.0, 3.0, 2.0],
         &Prior::Uninformative { phi: 1.0 },
         "t",
     )
     .unwrap();
+    assert_eq!(fitted.a, 1.5);
     assert!(fitted.check(1, "slip_x").is_ok());
     let refused = |edit: &dyn Fn(&mut BlrPosterior), says: &str| {
         let mut p = fitted.clone();
@@ -44,7 +45,10 @@ fn a_posterior_read_from_a_file_holds_what_a_fit_writes() {
     };
     refused(&|p| p.a = 1e300, "noise shape a = 1e300");
     refused(&|p| p.b = 1e300, "noise variance");
-    refused(&|p| p.a = 1e-300, "noise variance");
+    // A shape of 1 or less: a predictive of infinite variance (acc-BLR's covariances
+    // collapsed to zero with a = 0.5).
+    refused(&|p| p.a = 1.0, "noise shape a = 1 must be above 1");
+    refused(&|p| p.a = 0.5, "must be above 1");
     refused(&|p| p.mean[0] = 1e300, "weight 1e300");
     refused(&|p| p.covariance[0] = 1e300, "covariance entry 1e300");
     refused(&|p| p.covariance[0] = -1.0, "not positive definite");

@@ -13,8 +13,12 @@ pub use omni::Omnidirectional;
 /// wheelbase comes near it; a value beyond is in another unit (millimetres).
 const MAX_LENGTH_M: f64 = 100.0;
 
-/// `Err` naming the first of `lengths` that is not a finite positive length of at most
-/// [`MAX_LENGTH_M`].
+/// Shortest length a vehicle's geometry may hold (m): below a millimetre is another unit
+/// (kilometres?) or a typo, and its wheel speeds (v / r) leave every range a command has.
+const MIN_LENGTH_M: f64 = 1e-3;
+
+/// `Err` naming the first of `lengths` that is not a finite positive length within
+/// [`MIN_LENGTH_M`] and [`MAX_LENGTH_M`].
 fn positive_lengths(lengths: &[(&'static str, f64)]) -> Result<(), String> {
     match lengths.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
         Some((name, v)) => Err(format!(
@@ -26,7 +30,13 @@ fn positive_lengths(lengths: &[(&'static str, f64)]) -> Result<(), String> {
                 "vehicle {name} = {} m is more than {MAX_LENGTH_M} m: a length in another unit (millimetres?)",
                 drive_traits::limits::Short(*v)
             )),
-            None => Ok(()),
+            None => match lengths.iter().find(|(_, v)| *v < MIN_LENGTH_M) {
+                Some((name, v)) => Err(format!(
+                    "vehicle {name} = {} m is less than {MIN_LENGTH_M} m: a length in another unit (kilometres?)",
+                    drive_traits::limits::Short(*v)
+                )),
+                None => Ok(()),
+            },
         },
     }
 }

@@ -190,6 +190,16 @@ impl RobotSpec {
                 format!("expected a positive number, found {}", Short(f.max_speed)),
             ));
         }
+        if f.max_speed < super::MIN_SPEED_MPS {
+            return Err(invalid(
+                "max_speed",
+                format!(
+                    "{} m/s is below {} m/s: a speed in another unit (km/s?)",
+                    Short(f.max_speed),
+                    super::MIN_SPEED_MPS
+                ),
+            ));
+        }
         let nominal = match (vehicle.nominal_input_space(f.max_speed), input_limits) {
             (Some(j), _) => j,
             (None, Some(limits)) => limits,

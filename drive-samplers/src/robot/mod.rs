@@ -44,6 +44,10 @@ pub enum RobotError {
     Registry(#[from] RegistryError),
 }
 
+/// Lowest top speed a robot may have (m/s): below a millimetre per second is another unit,
+/// and the wheel speeds of its input space fall towards the denormal numbers.
+pub const MIN_SPEED_MPS: f64 = 1e-3;
+
 /// A robot description for the DRIVE protocol.
 ///
 /// In TOML: `name`, `mass_kg`, `max_speed` (the manufacturer's top speed, m/s),
@@ -346,6 +350,15 @@ impl RobotSpec {
                     &format!("expected a positive number, found {}", Short(v)),
                 );
             }
+        }
+        if self.max_speed < MIN_SPEED_MPS {
+            return invalid(
+                "max_speed",
+                &format!(
+                    "{} m/s is below {MIN_SPEED_MPS} m/s: a speed in another unit (km/s?)",
+                    Short(self.max_speed)
+                ),
+            );
         }
         // The body limits are infinite only where per-axis rate limits replace them.
         for (field, v) in [
