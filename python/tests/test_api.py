@@ -419,7 +419,8 @@ def test_wrong_types_and_unintegrable_inputs_raise_drive_errors(husky, tmp_path)
         "predict", "--model", model_file, "--commands", cmds, "--start-wheels", "1e300,1e300",
         ok=False,
     ).stderr.strip()
-    assert "not a finite number" in cli_err
+    # The command line refuses a start beyond 1e9 before predicting, as it refuses commands.
+    assert "--start-wheels = 1e300 is more than the limit of 1e9" in cli_err
     # Commands of 1e300 in a file are refused as corrupted numbers before any prediction.
     cmds.write_text("t,cmd_left,cmd_right\n" + "".join(f"{k * 0.05},1e300,1e300\n" for k in range(40)))
     cli_err = cli("predict", "--model", model_file, "--commands", cmds, ok=False).stderr.strip()

@@ -100,6 +100,22 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             cmp.train_intervals
         );
     }
+    // Regions far wider than one circle holding as many of the positions: said (the grass
+    // run's 45 training windows gave 4x and 17x: the calibration's fold models, fitted on
+    // half of them, missed by far more than the final model).
+    for m in cmp.models.iter().filter(|m| {
+        m.uncertainty
+            .is_some_and(|u| u != crate::models::calibration::Uncertainty::Paper)
+    }) {
+        if let Some(r) = m.area_ratio_to_constant.filter(|r| *r > 2.0) {
+            say!(
+                "note: {}'s 95% regions at 2 s are {:.1}x the area of one circle holding as many of the measured positions: over-cautious on this data (the calibration scores models fitted on part of the {} training interval(s); more training data sharpens them)",
+                m.name,
+                r,
+                cmp.train_intervals
+            );
+        }
+    }
     if let Some(path) = &args.per_window {
         if let Some((m, w)) = cmp.models.iter().find_map(|m| {
             m.report

@@ -1130,6 +1130,31 @@ fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
 }
 
 #[test]
+fn eval_says_when_the_regions_are_far_wider_than_one_circle() {
+    // The grass run (15 training intervals): slip-ipem's calibrated regions at 2 s are many
+    // times the area of one circle holding as many positions, and eval says so.
+    let out = drive(&[
+        "eval",
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--models",
+        "slip-ipem",
+        "--json",
+    ]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let ratio = f(&v["models"][0]["area_ratio_to_constant"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(ratio > 2.0, "{ratio}");
+    assert!(
+        err.contains(&format!(
+            "slip-ipem's 95% regions at 2 s are {ratio:.1}x the area"
+        )) && err.contains("over-cautious"),
+        "{err}"
+    );
+}
+
+#[test]
 fn eval_on_a_handful_of_intervals_says_its_figures_are_no_evidence() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("tiny.csv");
