@@ -47,7 +47,7 @@ const MAX_COMMAND_LINE_BYTES: u64 = 4096;
 const MAX_COMMANDS: usize = 1_000_000;
 
 /// Reads a command file with the header `t,<columns>` sampled at period `dt`.
-fn read_commands(path: &Path, columns: &[&str], dt: f64) -> Result<Vec<Input>> {
+fn read_commands(path: &Path, columns: &[&str], dt: f64) -> Result<(Vec<Input>, f64)> {
     use std::io::BufRead as _;
     use std::io::Read as _;
     let name = path.display().to_string();
@@ -158,10 +158,10 @@ fn read_commands(path: &Path, columns: &[&str], dt: f64) -> Result<Vec<Input>> {
         }
         out.push(Input::new(v[1], v[2], v[3]));
     }
-    if out.is_empty() {
-        bail!("{name}: no command rows");
+    match t0 {
+        Some(t0) if !out.is_empty() => Ok((out, t0)),
+        _ => bail!("{name}: no command rows"),
     }
-    Ok(out)
 }
 
 pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
@@ -181,7 +181,8 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
         .with_context(|| format!("{name}: the model's vehicle"))?;
     let axes = robot.vehicle.axes();
     let columns: Vec<&str> = axes.iter().map(|a| a.command_column).collect();
-    let cmds = read_commands(&args.commands, &columns, model.dt())?;
+    // The output's t runs on the command file's clock (from its first t).
+    let (cmds, t0) = read_commands(&args.commands, &columns, model.dt())?;
     let pose = args
         .start
         .map_or(Pose::zeros(), |[x, y, yaw]| Pose::new(x, y, yaw));
@@ -247,7 +248,7 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
         let _ = write!(
             row,
             "{k},{},{},{},{}",
-            Num(k as f64 / rate_hz),
+            Num(t0 + k as f64 / rate_hz),
             Num(p.x),
             Num(p.y),
             Num(p.z)

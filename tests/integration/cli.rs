@@ -1130,6 +1130,56 @@ fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
 }
 
 #[test]
+fn predict_keeps_the_command_files_clock() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("naive.json");
+    ok(&[
+        "train",
+        "--model",
+        "naive",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    let commands = dir.path().join("c.csv");
+    std::fs::write(
+        &commands,
+        "t,cmd_left,cmd_right\n100,1,1\n100.05,1,1\n100.1,1,1\n",
+    )
+    .unwrap();
+    let out = ok(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--commands",
+        commands.to_str().unwrap(),
+    ]);
+    let t: Vec<&str> = out
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap())
+        .collect();
+    assert_eq!(t, ["100", "100.05", "100.1"], "{out}");
+}
+
+#[test]
+fn a_model_named_twice_is_refused_as_bench_refuses_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let out = out.to_str().unwrap();
+    for args in [
+        &["eval", "--models", "naive,slip-blr,naive"][..],
+        &["report", "--models", "naive,slip-blr,naive", "--out", out][..],
+    ] {
+        let err = user_error(args);
+        assert!(
+            err.contains("the model 'naive' is named twice"),
+            "{args:?}: {err}"
+        );
+    }
+    assert!(!dir.path().join("r").exists());
+}
+
+#[test]
 fn eval_says_when_the_regions_are_far_wider_than_one_circle() {
     // The grass run (15 training intervals): slip-ipem's calibrated regions at 2 s are many
     // times the area of one circle holding as many positions, and eval says so.
