@@ -66,14 +66,7 @@ pub fn specs(
             out.push(spec);
         }
     }
-    // A model named twice would be two identical rows (drive bench refuses it too).
-    if let Some(twice) = out
-        .iter()
-        .enumerate()
-        .find(|(i, m)| out[..*i].iter().any(|o| o.name == m.name))
-    {
-        bail!("the model '{}' is named twice", twice.1.name);
-    }
+    super::common::named_once(&out)?;
     Ok(out)
 }
 

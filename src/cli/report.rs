@@ -44,15 +44,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &inputs,
         &[("--out", &args.out), ("report.md in --out", &md)],
     )?;
-    let specs = registries.models().resolve_list(&models)?;
-    // A model named twice would be two identical rows (as eval and bench refuse it).
-    if let Some(twice) = specs
-        .iter()
-        .enumerate()
-        .find(|(i, m)| specs[..*i].iter().any(|o| o.name == m.name))
-    {
-        bail!("the model '{}' is named twice", twice.1.name);
-    }
+    super::common::named_once(&registries.models().resolve_list(&models)?)?;
     registries.model(&args.model)?;
     let dataset = load(registries, &args.data)?;
     let robot = args
