@@ -32,6 +32,35 @@ pub enum CompareError {
         /// why
         reason: FitError,
     },
+    /// Two models share a name: they would be two rows of one name ([`check_names`]).
+    #[error("the model '{0}' is named twice")]
+    DuplicateModel(String),
+}
+
+/// `Err` naming the first model of `specs` whose name an earlier one has: a comparison
+/// would give two rows of one name. [`compare_specs`] refuses such a list; a caller can
+/// check it before loading any data (`drive eval` and `drive report` do). Names are what
+/// is checked: the same model under two names (`powertrain` and its spelled-out
+/// `no-slip+fopdt`) gives two rows that say which is which (`drive bench`, whose
+/// leaderboard ranks models, refuses that too).
+///
+/// ```
+/// use drive_eval::{check_names, CompareError, Registries};
+/// let r = Registries::builtin();
+/// let specs = r.models().resolve_list(&["naive", "slip-blr", "naive"]).unwrap();
+/// assert!(matches!(check_names(&specs), Err(CompareError::DuplicateModel(n)) if n == "naive"));
+/// let specs = r.models().resolve_list(&["powertrain", "no-slip+fopdt"]).unwrap();
+/// assert!(check_names(&specs).is_ok());
+/// ```
+pub fn check_names(specs: &[ModelSpec]) -> Result<(), CompareError> {
+    match specs
+        .iter()
+        .enumerate()
+        .find(|(i, m)| specs[..*i].iter().any(|o| o.name == m.name))
+    {
+        Some((_, twice)) => Err(CompareError::DuplicateModel(twice.name.clone())),
+        None => Ok(()),
+    }
 }
 
 /// Median and IQR of one error kind, with the improvement over the naive model.
@@ -255,6 +284,7 @@ pub fn compare_specs(
     split: f64,
     specs: &[ModelSpec],
 ) -> Result<Comparison, CompareError> {
+    check_names(specs)?;
     let (train, eval) = split_by_interval(data, split)?;
     // The naive model is the reference of every improvement figure.
     let naive_model =

@@ -59,8 +59,8 @@ pub use compare::{
     evaluate_errors, evaluate_model, evaluate_model_from, ModelReport, WindowErrors,
 };
 pub use comparison::{
-    compare, compare_specs, vehicle_type, CompareError, Comparison, ErrorSummary, ModelResult,
-    PairedImprovement, PhaseSummary,
+    check_names, compare, compare_specs, vehicle_type, CompareError, Comparison, ErrorSummary,
+    ModelResult, PairedImprovement, PhaseSummary,
 };
 pub use convergence::{
     convergence, convergence_time, convergence_with, Convergence, ConvergenceConfig,
@@ -88,8 +88,9 @@ pub use terrain::{
     UnpredictabilitySummary, WindowUnpredictability,
 };
 pub use twin_check::{
-    choose_variability, poor_twin, twin_check, CheckCommands, CheckDistance, ScatterCheck,
-    TwinCheck, TwinCheckRow, VariabilityChoice, TWIN_CHECK_MODELS, TWIN_TOLERANCE,
+    choose_variability, fit_twin, poor_twin, twin_check, CheckCommands, CheckDistance,
+    ContactSpreadChoice, FittedTwin, ScatterCheck, SpreadTried, TwinCheck, TwinCheckRow,
+    VariabilityChoice, CONTACT_SPREAD_MARGIN, TWIN_CHECK_MODELS, TWIN_TOLERANCE,
     VARIABILITY_CHOICE_SEEDS,
 };
 pub use uncertainty::{

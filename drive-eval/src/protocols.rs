@@ -52,6 +52,9 @@ pub enum ExperimentError {
     /// A terrain file is invalid, or no terrain has that name.
     #[error(transparent)]
     Terrain(#[from] drive_sim::TerrainError),
+    /// A twin could not be fitted on the data.
+    #[error(transparent)]
+    SimFit(#[from] drive_sim::SimFitError),
     /// A driving time shorter than one interval, or not finite.
     #[error("{}", too_short(*.0))]
     TooShort(f64),

@@ -36,17 +36,21 @@ mod vehicle;
 
 pub use car::{step_car, Actuator, CarParams, CarSimulator, CarState};
 pub use fit::{
-    check_real_run, command_scatter, scatter, sim_fit, Scatter, ScatterFit, SimFit, SimFitError,
-    SimFitReport, TurnStallFit,
+    check_real_run, command_scatter, scatter, sim_fit, sim_fit_with_contact_spread, Scatter,
+    ScatterFit, SimFit, SimFitError, SimFitReport, TurnStallFit,
 };
 pub use omni::OmniPlant;
-pub use parameters::{fitted_parameters, fitted_parameters_within, FittedParameter};
+pub use parameters::{
+    fitted_parameters, fitted_parameters_within, FittedParameter, CONTACT_SPREAD_CHOICES,
+};
 pub use plant::{builtin_plants, plant_for, KinematicPlant, MakePlant, Plant};
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
 pub use sensors::{Instruments, Sensors, ICP_GAP_BINS, ICP_GAP_STEP_S};
 pub use sim::{Measured, Simulator};
 pub use stall::{TurnStall, CONTINUING_TURN};
-pub use terrain::{builtin_terrains, Terrain, TerrainError, Variability};
+pub use terrain::{
+    builtin_terrains, Terrain, TerrainError, Variability, MAX_CONTACT_SPREAD, MIN_CONTACT_SPREAD,
+};
 pub use twin::{replay_commands, scale_difference, ProtocolSampler, TwinProtocol};
 pub use vehicle::{
     contact_force, step_body, ControllerParams, PowertrainParams, VehicleParams, VehicleState,

@@ -57,6 +57,10 @@ pub(crate) const TRACTION_RANGE: (f64, f64) = (1e-3, 5.0);
 pub(crate) const SLIP_MODULUS_RANGE: (f64, f64) = (1e-3, 10.0);
 /// The largest rolling resistance.
 pub(crate) const MAX_ROLLING: f64 = 0.9;
+/// The contact spreads (shares of the baseline, [`Terrain::contact_spread`]) a twin's fit
+/// tries when the vehicle's own (0.9 for wheels, 1.1 for tracks) gives a twin that fails its
+/// check (`drive_eval::fit_twin`): shorter and longer levers of the turning resistance.
+pub const CONTACT_SPREAD_CHOICES: [f64; 3] = [0.6, 0.75, 1.2];
 /// The largest dead time (s).
 pub(crate) const MAX_DEAD_TIME_S: f64 = 2.0;
 /// The right side's gain range.
@@ -144,6 +148,14 @@ pub fn fitted_parameters_within(
         push("lateral_slip_modulus", k, Some(lo), Some(hi));
     }
     push("rolling", t.rolling, None, Some(MAX_ROLLING));
+    if let Some(s) = t.contact_spread {
+        // Chosen among CONTACT_SPREAD_CHOICES and the vehicle's own: at a bound at the
+        // shortest or longest tried.
+        let tried = CONTACT_SPREAD_CHOICES.iter().copied();
+        let lo = tried.clone().fold(f64::INFINITY, f64::min);
+        let hi = tried.fold(f64::NEG_INFINITY, f64::max);
+        push("contact_spread", s, Some(lo), Some(hi));
+    }
     if let Some(c) = &t.controller {
         push("controller.linear_gain", c.linear_gain, None, None);
         push("controller.angular_gain", c.angular_gain, None, None);
@@ -295,6 +307,39 @@ mod tests {
             .map(|p| p.name.as_str())
             .collect();
         assert_eq!(bound, ["traction", "variability.rolling"]);
+    }
+
+    #[test]
+    fn a_contact_spread_is_listed_at_a_bound_at_the_shortest_or_longest_tried() {
+        let spread = |s: Option<f64>| {
+            let t = Terrain {
+                contact_spread: s,
+                ..Terrain::preset("gravel").unwrap()
+            };
+            fitted_parameters(&t, 2.0)
+                .into_iter()
+                .find(|p| p.name == "contact_spread")
+                .map(|p| (p.min, p.max, p.at_bound))
+        };
+        assert_eq!(spread(None), None);
+        assert_eq!(spread(Some(0.6)), Some((Some(0.6), Some(1.2), true)));
+        assert_eq!(spread(Some(0.75)), Some((Some(0.6), Some(1.2), false)));
+        assert_eq!(spread(Some(1.2)), Some((Some(0.6), Some(1.2), true)));
+        // In a twin file: read back, and refused outside the simulator's range, named.
+        let text =
+            "name = 'g'\ntraction = 0.5\nslip_modulus = 0.1\nlateral = 0.4\nrolling = 0.02\n";
+        let t = Terrain::from_toml("g.toml", &format!("{text}contact_spread = 0.75\n")).unwrap();
+        assert_eq!(t.contact_spread, Some(0.75));
+        assert_eq!(Terrain::from_toml("g.toml", &t.to_toml()).unwrap(), t);
+        for bad in ["0.05", "3.5", "nan", "-1"] {
+            let err = Terrain::from_toml("g.toml", &format!("{text}contact_spread = {bad}\n"))
+                .unwrap_err()
+                .to_string();
+            assert!(
+                err.contains("contact_spread") && err.contains("[0.1, 3]"),
+                "{bad}: {err}"
+            );
+        }
     }
 
     #[test]

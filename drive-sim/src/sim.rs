@@ -74,6 +74,9 @@ impl Simulator {
     ) -> Self {
         let substeps = ((1.0 / spec.rate_hz) / PHYSICS_STEP_S).ceil().max(1.0) as usize;
         let mut params = VehicleParams::from_spec(spec, geometry);
+        if let Some(share) = terrain.contact_spread {
+            params = params.with_contact_spread(share);
+        }
         if let Some(pt) = terrain.powertrain {
             params.powertrain = pt;
         }

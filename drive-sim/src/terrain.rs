@@ -11,6 +11,12 @@ use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use thiserror::Error;
 
+/// The shortest contact spread a terrain may give (a share of the baseline,
+/// [`Terrain::contact_spread`]).
+pub const MIN_CONTACT_SPREAD: f64 = 0.1;
+/// The longest contact spread a terrain may give (a share of the baseline).
+pub const MAX_CONTACT_SPREAD: f64 = 3.0;
+
 /// The ground's parameters, and, for a fitted twin of a real robot (`drive sim-fit`), the
 /// robot's powertrain, controller, sensors and the protocol its real run followed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -33,6 +39,13 @@ pub struct Terrain {
     pub lateral: f64,
     /// Rolling-resistance coefficient.
     pub rolling: f64,
+    /// How far apart along each side the ground holds the wheels or the track: the contacts'
+    /// spread as a share of the baseline (the lever arm of the turning resistance a
+    /// skid-steer scrubs against); the vehicle's own when absent (0.9 for wheels, 1.1 for
+    /// tracks: [`VehicleParams::from_spec`](crate::VehicleParams::from_spec)). A fitted
+    /// twin has one when its check chose it (`drive_eval::fit_twin`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_spread: Option<f64>,
     /// The motors of a fitted twin (the robot's defaults when absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub powertrain: Option<PowertrainParams>,
@@ -184,6 +197,7 @@ impl Terrain {
             lateral_slip_modulus: None,
             lateral: 0.5,
             rolling: 0.02,
+            contact_spread: None,
             powertrain: None,
             controller: None,
             sensors: None,
@@ -297,6 +311,9 @@ impl Terrain {
         range("slip_modulus", self.slip_modulus, 0.0, 10.0)?;
         if let Some(k) = self.lateral_slip_modulus {
             range("lateral_slip_modulus", k, 0.0, 10.0)?;
+        }
+        if let Some(s) = self.contact_spread {
+            closed("contact_spread", s, MIN_CONTACT_SPREAD, MAX_CONTACT_SPREAD)?;
         }
         if !(self.rolling.is_finite() && (0.0..1.0).contains(&self.rolling)) {
             return Err(bad(

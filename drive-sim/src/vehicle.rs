@@ -195,12 +195,7 @@ impl VehicleParams {
     /// identity controller.
     pub fn from_spec(spec: &RobotSpec, geometry: &DifferentialDrive) -> Self {
         let baseline = geometry.baseline;
-        let wheelbase = if spec.tracked { 1.1 } else { 0.9 } * baseline;
-        let contacts = if spec.tracked {
-            (0..5).map(|i| (i as f64 / 4.0 - 0.5) * wheelbase).collect()
-        } else {
-            vec![wheelbase / 2.0, -wheelbase / 2.0]
-        };
+        let wheelbase = Self::nominal_contact_spread(spec.tracked) * baseline;
         let mass = spec.mass_kg;
         VehicleParams {
             mass,
@@ -208,10 +203,51 @@ impl VehicleParams {
             wheel_radius: geometry.wheel_radius,
             baseline,
             wheelbase,
-            contacts,
+            contacts: Self::contacts(spec.tracked, wheelbase),
             powertrain: PowertrainParams::for_robot(spec, geometry.wheel_radius),
             controller: ControllerParams::default(),
         }
+    }
+
+    /// The contacts' spread along each side of a vehicle as a share of its baseline: 0.9
+    /// for wheels (the axles' distance), 1.1 for tracks.
+    pub fn nominal_contact_spread(tracked: bool) -> f64 {
+        if tracked {
+            1.1
+        } else {
+            0.9
+        }
+    }
+
+    /// The contact points along a side spread over `length` (m): the two axles for wheels,
+    /// five points for tracks.
+    fn contacts(tracked: bool, length: f64) -> Vec<f64> {
+        if tracked {
+            (0..5).map(|i| (i as f64 / 4.0 - 0.5) * length).collect()
+        } else {
+            vec![length / 2.0, -length / 2.0]
+        }
+    }
+
+    /// The same vehicle with its contacts spread over `share` of the baseline along each
+    /// side ([`Terrain::contact_spread`](crate::Terrain::contact_spread)): where the ground
+    /// holds the wheels, not the body's mass, so the yaw inertia stays.
+    ///
+    /// ```
+    /// use drive_sim::VehicleParams;
+    /// let robot = drive_samplers::RobotSpec::load(&drive_samplers::builtin_robots(), "husky").unwrap();
+    /// let geometry = drive_models::DifferentialDrive::new(0.165, 0.55);
+    /// let nominal = VehicleParams::from_spec(&robot, &geometry);
+    /// let short = nominal.clone().with_contact_spread(0.6);
+    /// assert!((short.wheelbase - 0.6 * nominal.baseline).abs() < 1e-12);
+    /// assert_eq!(short.contacts, vec![short.wheelbase / 2.0, -short.wheelbase / 2.0]);
+    /// assert_eq!(short.inertia, nominal.inertia);
+    /// ```
+    pub fn with_contact_spread(mut self, share: f64) -> Self {
+        let tracked = self.contacts.len() > 2;
+        self.wheelbase = share * self.baseline;
+        self.contacts = Self::contacts(tracked, self.wheelbase);
+        self
     }
 }
 
@@ -379,5 +415,61 @@ mod tests {
                 full(s, vx, vy).to_bits()
             );
         }
+    }
+
+    /// The steady forward speed and yaw rate of `p` on `terrain` with its wheels held at
+    /// `wheels`, from the no-slip velocity.
+    fn steady(p: &VehicleParams, terrain: &Terrain, wheels: Input) -> [f64; 2] {
+        let mut state = VehicleState {
+            pose: Pose::zeros(),
+            velocity: [
+                p.wheel_radius * (wheels.x + wheels.y) / 2.0,
+                0.0,
+                p.wheel_radius * (wheels.y - wheels.x) / p.baseline,
+            ],
+            wheels,
+        };
+        for _ in 0..3000 {
+            step_body(p, terrain, &mut state, wheels, 1e-3);
+            state.wheels = wheels;
+        }
+        [state.velocity[0], state.velocity[2]]
+    }
+
+    #[test]
+    fn a_shorter_contact_spread_costs_a_turn_less_speed_and_leaves_straight_driving_alone() {
+        let robot =
+            drive_samplers::RobotSpec::load(&drive_samplers::builtin_robots(), "husky").unwrap();
+        let g = drive_models::DifferentialDrive::new(0.165, 0.55);
+        let own = VehicleParams::from_spec(&robot, &g);
+        assert!((own.wheelbase - 0.9 * 0.55).abs() < 1e-12);
+        let short = own.clone().with_contact_spread(0.6);
+        let gravel = Terrain::preset("gravel").unwrap();
+        // A curve: the left wheels at 2 rad/s, the right at 6.
+        let curve = Input::new(2.0, 6.0, 0.0);
+        let (a, b) = (steady(&own, &gravel, curve), steady(&short, &gravel, curve));
+        // The ideal (eq. 4): 0.66 m/s and 1.2 rad/s. The ground's turning resistance has a
+        // shorter lever: both kept closer to it.
+        assert!(b[0] > a[0] + 0.01 && b[0] < 0.66, "{a:?} {b:?}");
+        assert!(b[1] > a[1] + 0.01 && b[1] < 1.2, "{a:?} {b:?}");
+        // Straight ahead, nothing scrubs sideways: the spread does not matter.
+        let straight = Input::new(4.0, 4.0, 0.0);
+        let (a, b) = (
+            steady(&own, &gravel, straight),
+            steady(&short, &gravel, straight),
+        );
+        assert!((a[0] - b[0]).abs() < 1e-9 && a[1].abs() < 1e-9 && b[1].abs() < 1e-9);
+        // Tracks keep their five points along the shorter spread.
+        let tracked = VehicleParams {
+            contacts: vec![-0.3, -0.15, 0.0, 0.15, 0.3],
+            ..own
+        }
+        .with_contact_spread(0.6);
+        let half = 0.3 * 0.55;
+        assert_eq!(tracked.contacts.len(), 5);
+        assert!(
+            (tracked.contacts[0] + half).abs() < 1e-12
+                && (tracked.contacts[4] - half).abs() < 1e-12
+        );
     }
 }

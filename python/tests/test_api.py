@@ -211,6 +211,9 @@ def test_the_start_velocity_reaches_slip_ipem_as_on_the_command_line(husky, tmp_
     close(drive.evaluate(husky, models=["slip-ipem"], start=start), expected)
     with pytest.raises(drive.DriveError, match="unknown start information"):
         drive.evaluate(husky, models=["slip-blr"], start="gps")
+    # A model named twice: refused as by the command line (two rows of one name before).
+    with pytest.raises(drive.DriveError, match="the model 'naive' is named twice"):
+        drive.evaluate(husky, models=["naive", "slip-blr", "naive"])
 
 
 def test_user_errors_raise_with_the_command_lines_message(husky, tmp_path):

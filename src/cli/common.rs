@@ -165,19 +165,6 @@ pub fn robot_of(
     )?)
 }
 
-/// `Err` when two of `specs` share a name: they would be two identical rows (`eval` and
-/// `report`; `drive bench` refuses it in its library).
-pub fn named_once(specs: &[crate::models::ModelSpec]) -> Result<()> {
-    match specs
-        .iter()
-        .enumerate()
-        .find(|(i, m)| specs[..*i].iter().any(|o| o.name == m.name))
-    {
-        Some((_, twice)) => anyhow::bail!("the model '{}' is named twice", twice.name),
-        None => Ok(()),
-    }
-}
-
 /// `Err` when `--max-samples` is beyond the ceiling it may be raised to.
 pub fn check_max_samples(max_samples: usize) -> Result<()> {
     crate::traits::limits::at_most(

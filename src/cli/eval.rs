@@ -66,7 +66,8 @@ pub fn specs(
             out.push(spec);
         }
     }
-    super::common::named_once(&out)?;
+    // Before any data is read (compare_specs refuses it too).
+    crate::eval::check_names(&out)?;
     Ok(out)
 }
 

@@ -44,7 +44,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &inputs,
         &[("--out", &args.out), ("report.md in --out", &md)],
     )?;
-    super::common::named_once(&registries.models().resolve_list(&models)?)?;
+    // Before any data is read (compare_specs refuses it too).
+    crate::eval::check_names(&registries.models().resolve_list(&models)?)?;
     registries.model(&args.model)?;
     let dataset = load(registries, &args.data)?;
     let robot = args

@@ -42,7 +42,11 @@ pub struct Args {
     /// (whether the fitted variability was kept: `kept`, the `fitted` variability, and the
     /// mean distance of the models' medians from the real run's and how many are beyond 30%,
     /// `with` and `without` it, on two runs of its own `seeds`, the real commands replayed;
-    /// absent with --twin or when no variability was fitted). A twin
+    /// absent with --twin or when no variability was fitted), and `contact_spread_choice`
+    /// (the contacts' spread along each side the twin keeps, a share of the baseline: `kept`,
+    /// `vehicle_own`, and each spread `tried` with its `distance`, the same measure on the
+    /// same seeds; another spread than the vehicle's is kept only when its twin comes
+    /// clearly closer; absent with --twin). A twin
     /// refused by the check is printed too, with `"written": false`, and the command fails.
     #[arg(long)]
     json: bool,
@@ -86,6 +90,9 @@ struct Output<'a> {
     /// Whether the fitted twin kept its variability (absent with --twin, or without one).
     #[serde(skip_serializing_if = "Option::is_none")]
     variability_choice: Option<&'a crate::eval::VariabilityChoice>,
+    /// Which contact spread the fitted twin kept (absent with --twin).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    contact_spread_choice: Option<&'a crate::eval::ContactSpreadChoice>,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
@@ -140,23 +147,24 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let models = registries
         .models()
         .resolve_list(&crate::eval::TWIN_CHECK_MODELS)?;
-    // The twin: fitted on the data (its variability kept only where it brings the models'
-    // errors closer to the real run's), or the one given to check.
-    let (terrain, report, variability_choice) = match given {
+    // The twin: fitted on the data (its variability kept, and its contact spread other
+    // than the vehicle's, only where that brings the models' errors closer to the real
+    // run's: drive_eval::fit_twin), or the one given to check.
+    let (terrain, report, variability_choice, contact_spread_choice) = match given {
         // A twin is checked only against data a twin could be fitted on (the same
         // refusals: another robot's geometry, too few windows, a frozen localization, ...).
         Some(terrain) => {
             crate::sim::check_real_run(&data, &spec)?;
-            (terrain, None, None)
+            (terrain, None, None, None)
         }
         None => {
-            let mut fit = crate::sim::sim_fit(&data, &spec, &name)?;
-            let choice =
-                crate::eval::choose_variability(registries, &data, &spec, &fit.terrain, &models)?;
-            if choice.as_ref().is_some_and(|c| !c.kept) {
-                fit = fit.without_variability();
-            }
-            (fit.terrain, Some(fit.report), choice)
+            let twin = crate::eval::fit_twin(registries, &data, &spec, &name, &models)?;
+            (
+                twin.fit.terrain,
+                Some(twin.fit.report),
+                twin.variability,
+                Some(twin.contact_spread),
+            )
         }
     };
     // The twin check: the twin's runs against the real one.
@@ -193,6 +201,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         terrain: &terrain,
         report: report.as_ref(),
         variability_choice: variability_choice.as_ref(),
+        contact_spread_choice: contact_spread_choice.as_ref(),
     };
     if !accepted {
         // A refused twin's fit and check are still printed with --json (`"written": false`):
@@ -227,7 +236,14 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             .filter(|_| o.written)
             .map_or(String::new(), |out| format!("; saved to {}", out.display()));
         let mut text = match o.report {
-            Some(r) => fit_text(t, r, &data, &saved, o.variability_choice),
+            Some(r) => fit_text(
+                t,
+                r,
+                &data,
+                &saved,
+                o.variability_choice,
+                o.contact_spread_choice,
+            ),
             None => format!(
                 "twin '{}' ({}) checked against {}, not fitted{saved}\n",
                 t.name,
@@ -335,6 +351,7 @@ fn fit_text(
     data: &crate::traits::Dataset,
     saved: &str,
     choice: Option<&crate::eval::VariabilityChoice>,
+    spread: Option<&crate::eval::ContactSpreadChoice>,
 ) -> String {
     let c = t.controller.unwrap_or_default();
     // sim_fit always fits the powertrain (this text is a fit's only).
@@ -412,6 +429,9 @@ fn fit_text(
             c.without.beyond_tolerance,
         );
     }
+    if let Some(s) = spread {
+        text += &contact_spread_text(s);
+    }
     text += &format!(
         "sensors: localization {:.1} Hz with {:.4} m and {:.4} rad noise and timestamps jittering by up to {:.3} s, encoders {:.3} rad/s, IMU {:.4} rad/s with a {:+.4} rad/s bias\n",
         s.icp_rate_hz, s.icp_noise[0], s.icp_noise[1], s.icp_jitter, s.encoder_noise, s.imu_noise, s.imu_bias,
@@ -439,4 +459,42 @@ fn fit_text(
 fn data_baseline(data: &crate::traits::Dataset) -> f64 {
     crate::traits::vehicle_as::<crate::models::DifferentialDrive>(data.robot.vehicle.as_ref())
         .map_or(f64::NAN, |g| g.baseline)
+}
+
+/// The `contact spread:` line of `drive sim-fit`'s text ([`crate::eval::fit_twin`]).
+fn contact_spread_text(s: &crate::eval::ContactSpreadChoice) -> String {
+    let seeds = s
+        .seeds
+        .iter()
+        .map(u64::to_string)
+        .collect::<Vec<_>>()
+        .join(", ");
+    let tried = |t: &crate::eval::SpreadTried| match (&t.distance, &t.error) {
+        (Some(d), _) => format!(
+            "{:.2}{}: {:.1}% ({} beyond 30%)",
+            t.contact_spread,
+            if t.vehicle_own {
+                " (the vehicle's)"
+            } else {
+                ""
+            },
+            d.mean_off_percent,
+            d.beyond_tolerance
+        ),
+        (None, e) => format!(
+            "{:.2}: not fitted ({})",
+            t.contact_spread,
+            e.as_deref().unwrap_or("no reason given")
+        ),
+    };
+    format!(
+        "contact spread: {:.2} of the baseline{}; the twin's medians from the real run's on two runs of its own (seeds {seeds}), with each spread tried: {}\n",
+        s.kept,
+        if s.vehicle_own {
+            " (the vehicle's: no other came clearly closer)"
+        } else {
+            " (its twin came clearly closer than the vehicle's)"
+        },
+        s.tried.iter().map(tried).collect::<Vec<_>>().join("; ")
+    )
 }

@@ -40,6 +40,7 @@ fn generator() -> Terrain {
         lateral_slip_modulus: None,
         lateral: 0.45,
         rolling: 0.05,
+        contact_spread: None,
         powertrain: Some(powertrain),
         controller: Some(ControllerParams {
             linear_gain: 1.5,
@@ -362,6 +363,21 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
     );
     // The bundled Husky's turns always follow: none held at its start.
     assert!(text.contains("turn stall: none (0 of "), "{text}");
+    // Its twin with the vehicle's own contact spread is as close to the real run as with
+    // any other tried (within the margin): the geometry stays, and the four are listed.
+    assert!(
+        text.contains(
+            "contact spread: 0.90 of the baseline (the vehicle's: no other came clearly closer)"
+        ),
+        "{text}"
+    );
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("contact spread:"))
+        .unwrap();
+    for tried in ["0.90 (the vehicle's): ", "0.60: ", "0.75: ", "1.20: "] {
+        assert!(line.contains(tried), "{line}");
+    }
     // The twin checked again (--twin: no fit), without --allow-poor-twin: the check decides
     // whether it is written; a twin whose medians are more than 30% from the real run's is
     // refused, saying which. With --json the check is printed either way.
@@ -380,7 +396,7 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
     let v: serde_json::Value = serde_json::from_slice(&checked.stdout).unwrap();
     assert_eq!(v["fitted"], false);
     assert!(
-        v.get("report").is_none(),
+        v.get("report").is_none() && v.get("contact_spread_choice").is_none(),
         "a checked twin has no fit report"
     );
     for p in v["parameters"].as_array().unwrap() {

@@ -69,6 +69,7 @@ impl TerrainProblem<'_> {
                 p[4].exp().clamp(SLIP_MODULUS_RANGE.0, SLIP_MODULUS_RANGE.1),
             ),
             rolling: p[3].exp().clamp(0.0, MAX_ROLLING),
+            contact_spread: None,
             powertrain: None,
             controller: None,
             sensors: None,

@@ -481,6 +481,51 @@ fn checked_run(
 /// assert!(matches!(sim_fit(&empty, &robot, "twin"), Err(SimFitError::TooFew { .. })));
 /// ```
 pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, SimFitError> {
+    sim_fit_with_contact_spread(data, robot, name, None)
+}
+
+/// [`sim_fit`] with the ground holding the wheels over `contact_spread` of the baseline
+/// along each side ([`Terrain::contact_spread`]; the vehicle's own when `None`): the ground's
+/// coefficients and its variability are fitted for that spread, and the twin keeps it.
+/// `drive_eval::fit_twin` tries other spreads when the vehicle's own gives a twin whose
+/// models' errors are not the real run's.
+///
+/// ```
+/// use drive_sim::{sim_fit_with_contact_spread, SimFitError};
+/// let robot = drive_samplers::RobotSpec::load(&drive_samplers::builtin_robots(), "husky").unwrap();
+/// let empty = drive_traits::Dataset {
+///     robot: drive_traits::RobotDescription {
+///         name: "empty".into(),
+///         robot: "husky".into(),
+///         rate_hz: 20.0,
+///         window_len: 40,
+///         vehicle: robot.vehicle.clone(),
+///         position_frame: Default::default(),
+///         terrain: String::new(),
+///     },
+///     windows: Vec::new(),
+/// };
+/// // A spread outside the simulator's range is refused before the data is read.
+/// let err = sim_fit_with_contact_spread(&empty, &robot, "twin", Some(5.0)).unwrap_err();
+/// assert!(err.to_string().contains("contact spread"), "{err}");
+/// ```
+pub fn sim_fit_with_contact_spread(
+    data: &Dataset,
+    robot: &RobotSpec,
+    name: &str,
+    contact_spread: Option<f64>,
+) -> Result<SimFit, SimFitError> {
+    if let Some(s) = contact_spread {
+        if !(s.is_finite() && (crate::MIN_CONTACT_SPREAD..=crate::MAX_CONTACT_SPREAD).contains(&s))
+        {
+            return Err(SimFitError::Unfit(format!(
+                "a contact spread of {} of the baseline is outside the simulator's [{}, {}]",
+                drive_traits::limits::Short(s),
+                crate::MIN_CONTACT_SPREAD,
+                crate::MAX_CONTACT_SPREAD
+            )));
+        }
+    }
     let (g, steady, transients) = checked_run(data, robot)?;
     let dt = 1.0 / data.robot.rate_hz;
     // 0. The turns the ground held at their start: the commands the wheels followed are
@@ -624,6 +669,9 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     let mut spec = robot.clone();
     spec.max_speed = limit * g.wheel_radius;
     let mut params = VehicleParams::from_spec(&spec, &g);
+    if let Some(share) = contact_spread {
+        params = params.with_contact_spread(share);
+    }
     params.powertrain = powertrain;
     let wheels: Vec<[f64; 2]> = sample.iter().map(|s| wheel_body(&g, s.encoders)).collect();
     let moved: Vec<[f64; 2]> = sample.iter().map(|s| s.body).collect();
@@ -645,7 +693,10 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
     ];
     let terrain_rms_start = tp.errors(&TerrainProblem::terrain(&t0));
     let t = minimize(tp.clone(), t0, &[0.4, 0.4, 0.4, 0.4, 0.4], 400, "terrain")?;
-    let fitted = TerrainProblem::terrain(&t);
+    let fitted = Terrain {
+        contact_spread,
+        ..TerrainProblem::terrain(&t)
+    };
     let terrain_rms = tp.errors(&fitted);
     for (axis, what, unit) in [(0, "forward speed", "m/s"), (1, "yaw rate", "rad/s")] {
         let miss = terrain_rms[0][axis];
