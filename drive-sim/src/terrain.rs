@@ -208,7 +208,8 @@ impl Terrain {
     }
 
     /// A terrain from a TOML file's text (what `drive sim-fit` writes): the ground's
-    /// `name`, `traction`, `slip_modulus`, `lateral`, `rolling`, and optionally the tables
+    /// `name`, `traction`, `slip_modulus`, `lateral`, `rolling`, optionally
+    /// `lateral_slip_modulus` and `contact_spread`, and optionally the tables
     /// `[powertrain]`, `[controller]`, `[sensors]`, `[variability]`, `[turn_stall]` and
     /// `[protocol]`.
     ///

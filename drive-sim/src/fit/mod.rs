@@ -487,8 +487,9 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
 /// [`sim_fit`] with the ground holding the wheels over `contact_spread` of the baseline
 /// along each side ([`Terrain::contact_spread`]; the vehicle's own when `None`): the ground's
 /// coefficients and its variability are fitted for that spread, and the twin keeps it.
-/// `drive_eval::fit_twin` tries other spreads when the vehicle's own gives a twin whose
-/// models' errors are not the real run's.
+/// `drive_eval::fit_twin` fits with the vehicle's own spread and with
+/// [`CONTACT_SPREAD_CHOICES`](crate::CONTACT_SPREAD_CHOICES), and keeps another only when
+/// its twin's models' errors come clearly closer to the real run's.
 ///
 /// ```
 /// use drive_sim::{sim_fit_with_contact_spread, SimFitError};
