@@ -666,7 +666,8 @@ pub fn fit_twin(
     let seeds = VARIABILITY_CHOICE_SEEDS.to_vec();
     // A twin fitted with the spread (the vehicle's own when `None`), its variability chosen,
     // and its distance from the real run on the choice's seeds.
-    let attempt = |spread: Option<f64>| -> Result<(FittedTwin, CheckDistance), ExperimentError> {
+    type Attempt = (drive_sim::SimFit, Option<VariabilityChoice>, CheckDistance);
+    let attempt = |spread: Option<f64>| -> Result<Attempt, ExperimentError> {
         let mut fit = drive_sim::sim_fit_with_contact_spread(data, robot, name, spread)?;
         let variability = choose_variability(registries, data, robot, &fit.terrain, models)?;
         let distance = match &variability {
@@ -688,48 +689,33 @@ pub fn fit_twin(
                 CheckDistance::of(&check.check)
             }
         };
-        let own = drive_sim::VehicleParams::nominal_contact_spread(robot.tracked);
-        let choice = ContactSpreadChoice {
-            kept: spread.unwrap_or(own),
-            vehicle_own: spread.is_none(),
-            tried: Vec::new(),
-            seeds: seeds.clone(),
-        };
-        Ok((
-            FittedTwin {
-                fit,
-                variability,
-                contact_spread: choice,
-            },
-            distance,
-        ))
+        Ok((fit, variability, distance))
     };
+    let own = drive_sim::VehicleParams::nominal_contact_spread(robot.tracked);
     // The vehicle's own spread: its fit's refusals are the data's, and stand.
-    let (mut best, mut best_distance) = attempt(None)?;
+    let (fit, variability, own_distance) = attempt(None)?;
+    let mut best = (None, fit, variability, own_distance);
     let mut tried = vec![SpreadTried {
-        contact_spread: best.contact_spread.kept,
+        contact_spread: own,
         vehicle_own: true,
-        distance: Some(best_distance),
+        distance: Some(own_distance),
         error: None,
     }];
-    let own_distance = best_distance;
     for &spread in &drive_sim::CONTACT_SPREAD_CHOICES {
         match attempt(Some(spread)) {
-            Ok((twin, distance)) => {
+            Ok((fit, variability, distance)) => {
                 tried.push(SpreadTried {
                     contact_spread: spread,
                     vehicle_own: false,
                     distance: Some(distance),
                     error: None,
                 });
-                if distance.clearly_closer_than(&own_distance)
-                    && distance.closer_than(&best_distance)
-                {
-                    (best, best_distance) = (twin, distance);
+                if distance.clearly_closer_than(&own_distance) && distance.closer_than(&best.3) {
+                    best = (Some(spread), fit, variability, distance);
                 }
             }
-            // A spread with which the ground cannot be fitted is not kept; the others
-            // are still tried.
+            // A spread with which the ground cannot be fitted is not kept; the others are
+            // still tried.
             Err(e) => tried.push(SpreadTried {
                 contact_spread: spread,
                 vehicle_own: false,
@@ -738,8 +724,17 @@ pub fn fit_twin(
             }),
         }
     }
-    best.contact_spread.tried = tried;
-    Ok(best)
+    let (spread, fit, variability, _) = best;
+    Ok(FittedTwin {
+        fit,
+        variability,
+        contact_spread: ContactSpreadChoice {
+            kept: spread.unwrap_or(own),
+            vehicle_own: spread.is_none(),
+            tried,
+            seeds,
+        },
+    })
 }
 
 #[cfg(test)]

@@ -262,6 +262,22 @@ pub struct VehicleState {
     pub wheels: Input,
 }
 
+impl VehicleState {
+    /// At the origin, its wheels at `wheels` and the body moving as they give without slip
+    /// (eq. 4): where a settling from the measured wheel speeds starts.
+    pub(crate) fn without_slip(p: &VehicleParams, wheels: Input) -> Self {
+        VehicleState {
+            pose: Pose::zeros(),
+            velocity: [
+                p.wheel_radius * (wheels.x + wheels.y) / 2.0,
+                0.0,
+                p.wheel_radius * (wheels.y - wheels.x) / p.baseline,
+            ],
+            wheels,
+        }
+    }
+}
+
 /// Smooth sign: `tanh(x / scale)`, to keep Coulomb-type forces continuous.
 fn smooth_sign(x: f64, scale: f64) -> f64 {
     (x / scale).tanh()
@@ -420,15 +436,7 @@ mod tests {
     /// The steady forward speed and yaw rate of `p` on `terrain` with its wheels held at
     /// `wheels`, from the no-slip velocity.
     fn steady(p: &VehicleParams, terrain: &Terrain, wheels: Input) -> [f64; 2] {
-        let mut state = VehicleState {
-            pose: Pose::zeros(),
-            velocity: [
-                p.wheel_radius * (wheels.x + wheels.y) / 2.0,
-                0.0,
-                p.wheel_radius * (wheels.y - wheels.x) / p.baseline,
-            ],
-            wheels,
-        };
+        let mut state = VehicleState::without_slip(p, wheels);
         for _ in 0..3000 {
             step_body(p, terrain, &mut state, wheels, 1e-3);
             state.wheels = wheels;

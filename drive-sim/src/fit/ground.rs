@@ -83,15 +83,7 @@ impl TerrainProblem<'_> {
     /// at `wheels`: settled for 1.5 s from the no-slip velocity, averaged over 0.5 s.
     pub(super) fn steady_body(&self, terrain: &Terrain, wheels: Input) -> [f64; 2] {
         let p = &self.params;
-        let mut state = VehicleState {
-            pose: Pose::zeros(),
-            velocity: [
-                p.wheel_radius * (wheels.x + wheels.y) / 2.0,
-                0.0,
-                p.wheel_radius * (wheels.y - wheels.x) / p.baseline,
-            ],
-            wheels,
-        };
+        let mut state = VehicleState::without_slip(p, wheels);
         let (mut v, mut w, mut n) = (0.0, 0.0, 0usize);
         for k in 0..2000 {
             // The wheels held at the measured speeds (reset after each step: the motors'
