@@ -309,6 +309,15 @@ impl MotionModel for ComposedModel {
         Some(self.powertrain.as_ref())
     }
 
+    /// The parts' steppers one after the other when they all have one (every built-in part
+    /// does), otherwise the replay of the prediction.
+    fn stepper(
+        &self,
+        options: drive_traits::step::StepOptions,
+    ) -> Result<Box<dyn drive_traits::step::Stepper + '_>, MotionError> {
+        crate::stepping::composed_stepper(self, options)
+    }
+
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
         with_scratch(|s| {
             self.velocities(start, commands, s);

@@ -118,6 +118,45 @@ impl FeatureWalk {
         }
     }
 
+    /// The numbers a stepped state keeps the walk in ([`FeatureWalk::write`]).
+    pub const NUMBERS: usize = 6;
+
+    /// Writes the walk into `out` ([`FeatureWalk::NUMBERS`] numbers).
+    pub fn write(&self, out: &mut [f64]) {
+        out[..Self::NUMBERS].copy_from_slice(&[
+            self.start_speed,
+            self.start_rate,
+            self.dt,
+            self.k as f64,
+            self.path,
+            self.turn,
+        ]);
+    }
+
+    /// The walk written by [`FeatureWalk::write`] (a step count that is not one reads 0).
+    ///
+    /// ```
+    /// use drive_models::difficulty::FeatureWalk;
+    /// use drive_traits::{Pose, StartState};
+    /// let mut walk = FeatureWalk::new(&StartState::at_rest(Pose::zeros()), 0.1);
+    /// walk.step(&Pose::zeros(), &Pose::new(0.1, 0.0, 0.0));
+    /// let mut numbers = [0.0; FeatureWalk::NUMBERS];
+    /// walk.write(&mut numbers);
+    /// let mut back = FeatureWalk::read(&numbers);
+    /// assert_eq!(back.step(&Pose::new(0.1, 0.0, 0.0), &Pose::new(0.2, 0.0, 0.0)),
+    ///            walk.step(&Pose::new(0.1, 0.0, 0.0), &Pose::new(0.2, 0.0, 0.0)));
+    /// ```
+    pub fn read(s: &[f64]) -> Self {
+        FeatureWalk {
+            start_speed: s[0],
+            start_rate: s[1],
+            dt: s[2],
+            k: drive_traits::step::index_of(s[3], usize::MAX),
+            path: s[4],
+            turn: s[5],
+        }
+    }
+
     /// The features at the next step, whose pose is `b` after `a`.
     pub fn step(&mut self, a: &Pose, b: &Pose) -> Features {
         self.k += 1;

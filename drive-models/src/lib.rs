@@ -25,6 +25,7 @@ pub mod powertrain;
 pub mod registry;
 pub mod rollout;
 pub mod slip;
+mod stepping;
 pub mod vehicles;
 
 pub use composed::{Composed, ComposedModel, GrowingFit};

@@ -38,6 +38,38 @@ impl Integrator {
         }
     }
 
+    /// Resumes a rollout at `pose` whose heading's cosine and sine were carried as `cos`
+    /// and `sin` (what [`Integrator::heading`] gave): the same steps as the integrator that
+    /// was interrupted.
+    ///
+    /// ```
+    /// use drive_models::rollout::Integrator;
+    /// use drive_traits::{BodyVelocity, Pose};
+    /// let v = BodyVelocity::new(1.0, 0.0, 2.0);
+    /// let mut whole = Integrator::new(&Pose::zeros(), 0.1);
+    /// whole.step(&v);
+    /// let (cos, sin) = whole.heading();
+    /// let mut resumed = Integrator::resume(&whole.pose(), cos, sin, 0.1);
+    /// whole.step(&v);
+    /// resumed.step(&v);
+    /// assert_eq!(whole.pose(), resumed.pose());
+    /// ```
+    #[inline]
+    pub fn resume(pose: &Pose, cos: f64, sin: f64, dt: f64) -> Self {
+        Integrator {
+            pose: *pose,
+            cos,
+            sin,
+            dt,
+        }
+    }
+
+    /// The cosine and sine of the heading, as carried.
+    #[inline]
+    pub fn heading(&self) -> (f64, f64) {
+        (self.cos, self.sin)
+    }
+
     /// The current pose.
     #[inline]
     pub fn pose(&self) -> Pose {
@@ -125,16 +157,28 @@ pub fn propagate_covariance(
     let mut p = PoseCovariance::zeros();
     out.push(p);
     for k in 0..poses.len() - 1 {
-        let (s, c) = poses[k].z.sin_cos();
-        let v = &velocities[k];
-        let mut f = PoseCovariance::identity();
-        f[(0, 2)] = -(s * v.x + c * v.y) * dt;
-        f[(1, 2)] = (c * v.x - s * v.y) * dt;
-        let g = PoseCovariance::new(c * dt, -s * dt, 0.0, s * dt, c * dt, 0.0, 0.0, 0.0, dt);
-        let sv = PoseCovariance::from_diagonal(&variances[k]);
-        p = f * p * f.transpose() + g * sv * g.transpose();
+        p = covariance_step(&p, &poses[k], &velocities[k], &variances[k], dt);
         out.push(p);
     }
+}
+
+/// One step of [`propagate_covariance`]: the covariance after a step from `pose` (whose
+/// covariance is `p`) at body velocity `v` with variances `variance`.
+#[inline]
+pub fn covariance_step(
+    p: &PoseCovariance,
+    pose: &Pose,
+    v: &BodyVelocity,
+    variance: &BodyVelocity,
+    dt: f64,
+) -> PoseCovariance {
+    let (s, c) = pose.z.sin_cos();
+    let mut f = PoseCovariance::identity();
+    f[(0, 2)] = -(s * v.x + c * v.y) * dt;
+    f[(1, 2)] = (c * v.x - s * v.y) * dt;
+    let g = PoseCovariance::new(c * dt, -s * dt, 0.0, s * dt, c * dt, 0.0, 0.0, 0.0, dt);
+    let sv = PoseCovariance::from_diagonal(variance);
+    f * p * f.transpose() + g * sv * g.transpose()
 }
 
 /// Integrates the mean poses and propagates their covariance (see [`integrate`] and

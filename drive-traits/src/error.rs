@@ -79,6 +79,32 @@ pub enum MotionError {
         /// pose slots given
         poses: usize,
     },
+    /// A stepped state's buffer does not hold the stepper's number of values
+    /// ([`crate::step::Stepper::state_len`] per state).
+    #[error(
+        "state shape: the stepper's states hold {expected} numbers, the buffer given holds {found}"
+    )]
+    StateShape {
+        /// numbers expected
+        expected: usize,
+        /// numbers given
+        found: usize,
+    },
+    /// A command history given to a model stepped by replay, which predicts from the start
+    /// alone ([`crate::step::ReplayStepper`]).
+    #[error("the {model} model is stepped by replaying its prediction, which takes no command history: give history=[] (or implement its stepper)")]
+    NoHistory {
+        /// model name
+        model: String,
+    },
+    /// A state stepped by replay holds every command so far, up to a number of steps.
+    #[error("the {model} model is stepped by replay, whose states hold at most {max_steps} steps (raise max_steps, or start a new state)")]
+    ReplayFull {
+        /// model name
+        model: String,
+        /// the states' capacity
+        max_steps: usize,
+    },
     /// A prediction that is not a finite number: a start state or commands beyond what the
     /// model can integrate (never returned as poses).
     #[error("the prediction is not a finite number from step {step} (t = {} s): the start state or the commands are beyond what {model} can integrate", crate::limits::Short(*t))]

@@ -9,6 +9,7 @@
 //! | [`Powertrain`] / [`PowertrainLearner`] | commanded -> reached inputs over a horizon | eq. 3 |
 //! | [`SlipModel`] / [`SlipLearner`] | slip velocity from the commanded body velocity | eq. 5-7 |
 //! | [`MotionModel`] / [`Learner`] | poses (and covariances) over a horizon | eq. 1, 2, 7 |
+//! | [`step::Stepper`] | a fitted model stepped one command at a time, its state a flat vector | eq. 1 |
 //! | [`Baseline`] | a whole-model learner that is not built from a slip model (acc-BLR) | |
 //! | [`InputSampler`] | draws the next input of the protocol, seeded | Sec. III-A |
 //! | [`Tagged`] | the name a part's type is saved under | |
@@ -37,6 +38,7 @@ mod registry;
 mod sampler;
 mod slip;
 mod stats;
+pub mod step;
 mod tag;
 mod vehicle;
 mod velocity;
@@ -52,12 +54,15 @@ pub use pose::{
     euler_step, input_serde, relative_pose, unwrap_angles, wrap_angle, BodyVelocity, Input, Pose,
     PoseCovariance, MAX_INPUTS,
 };
-pub use powertrain::{FitPowertrain, Powertrain, PowertrainLearner};
+pub use powertrain::{FitPowertrain, Powertrain, PowertrainLearner, PowertrainStepper};
 pub use registry::{
     is_part_name, Entry, Registry, RegistryError, RegistryItem, TagCollision, TagProblem,
 };
 pub use sampler::InputSampler;
-pub use slip::{FitSlip, OnlineSlip, SlipData, SlipLearner, SlipModel, SlipSample, SlipWindow};
+pub use slip::{
+    FitSlip, OnlineSlip, SlipCovarianceStepper, SlipData, SlipLearner, SlipModel, SlipSample,
+    SlipStepper, SlipWindow, StatelessSlip,
+};
 pub use stats::{median, quantile};
 pub use tag::{PartTag, TagProbe, Tagged};
 pub use vehicle::{

@@ -1,5 +1,6 @@
 //! Fitted motion models: poses over a horizon from a start state and an input sequence.
 
+use crate::step::{ReplayStepper, StepOptions, Stepper};
 use crate::{BodyVelocity, Input, MotionError, Pose, PoseCovariance, Powertrain};
 
 /// Checks a prediction step read from a file: a positive number of seconds.
@@ -199,6 +200,18 @@ pub trait MotionModel: std::fmt::Debug + Send + Sync {
     ) -> Result<(), MotionError> {
         let _ = (start, commands, poses, covariances);
         Err(MotionError::NoUncertainty { model: self.name() })
+    }
+
+    /// The model stepped one command at a time, its whole internal state a flat vector of
+    /// numbers ([`crate::step`]): what a sampling-based controller's `dynamics(state,
+    /// action)` calls. Stepping `k` times from a start equals row `k` of
+    /// [`MotionModel::predict_into`] (and of its covariance, with `options.covariance`).
+    ///
+    /// The default replays the prediction ([`ReplayStepper`]: exact, but each step costs a
+    /// prediction as long as the steps so far, and no command history); a model with a
+    /// state of its own overrides it with a stepper of that state.
+    fn stepper(&self, options: StepOptions) -> Result<Box<dyn Stepper + '_>, MotionError> {
+        Ok(Box::new(ReplayStepper::new(self, options)?))
     }
 
     /// The fitted parameters by name, for reports: a composed model's are its powertrain's

@@ -70,8 +70,72 @@ pub trait Powertrain: std::fmt::Debug + Send + Sync {
         Vec::new()
     }
 
+    /// The powertrain stepped one command at a time ([`crate::step`]), when it has a
+    /// stepper: a composed model steps its powertrain through it. `None`, the default: a
+    /// composed model with this powertrain is stepped by replaying its prediction
+    /// ([`crate::step::ReplayStepper`]).
+    fn stepper(&self) -> Option<Box<dyn PowertrainStepper + '_>> {
+        None
+    }
+
     /// Boxed clone (fitted models that embed a powertrain are cloneable).
     fn clone_box(&self) -> Box<dyn Powertrain>;
+}
+
+/// A powertrain stepped one command at a time: its state (the inputs reached, the commands
+/// still inside its dead time) in [`PowertrainStepper::state_len`] numbers. From
+/// [`PowertrainStepper::init`] with no history, the inputs returned by `k + 1` calls of
+/// [`PowertrainStepper::step`] are the first `k + 1` of [`Powertrain::predict_into`]
+/// through the same commands.
+///
+/// ```
+/// use drive_traits::{Input, Powertrain, PowertrainStepper, Tagged};
+/// # use serde::{Deserialize, Serialize};
+/// /// The input reached is the command of the step before (one step of dead time).
+/// #[derive(Debug, Clone, Serialize, Deserialize)]
+/// struct OneStepLate;
+/// #[typetag::serde(name = "one-step-late-doc")]
+/// impl Powertrain for OneStepLate {
+///     fn predict_into(&self, initial: &Input, commands: &[Input], predicted: &mut Vec<Input>) {
+///         predicted.clear();
+///         predicted.extend(std::iter::once(*initial).chain(commands.iter().copied()).take(commands.len()));
+///     }
+///     fn stepper(&self) -> Option<Box<dyn PowertrainStepper + '_>> { Some(Box::new(LateStepper)) }
+///     fn clone_box(&self) -> Box<dyn Powertrain> { Box::new(OneStepLate) }
+/// }
+/// # impl Tagged for OneStepLate { const TAG: &'static str = "one-step-late-doc"; }
+/// struct LateStepper;
+/// impl PowertrainStepper for LateStepper {
+///     fn state_len(&self) -> usize { 3 }
+///     fn init(&self, initial: &Input, _history: &[Input], state: &mut [f64]) {
+///         state.copy_from_slice(initial.as_slice());
+///     }
+///     fn step(&self, state: &mut [f64], command: &Input) -> Input {
+///         let reached = Input::from_column_slice(state);
+///         state.copy_from_slice(command.as_slice());
+///         reached
+///     }
+/// }
+/// let commands = [Input::new(1.0, 2.0, 0.0), Input::new(3.0, 4.0, 0.0)];
+/// let predicted = OneStepLate.predict(&Input::zeros(), &commands);
+/// let stepper = OneStepLate.stepper().unwrap();
+/// let mut state = vec![0.0; stepper.state_len()];
+/// stepper.init(&Input::zeros(), &[], &mut state);
+/// assert_eq!(stepper.step(&mut state, &commands[0]), predicted[0]);
+/// assert_eq!(stepper.step(&mut state, &commands[1]), predicted[1]);
+/// ```
+pub trait PowertrainStepper: Send + Sync {
+    /// The numbers of the powertrain's state.
+    fn state_len(&self) -> usize;
+
+    /// Writes the state at the start: `initial` the input measured then, `history` the
+    /// commands sent before it (oldest first; without them, the commands before the start
+    /// are taken to be `initial`, as [`Powertrain::predict_into`] takes them).
+    fn init(&self, initial: &Input, history: &[Input], state: &mut [f64]);
+
+    /// The input reached at this sample (what the vehicle turns into a body velocity during
+    /// this step), then the state moved to the next sample under `command`.
+    fn step(&self, state: &mut [f64], command: &Input) -> Input;
 }
 
 impl Clone for Box<dyn Powertrain> {

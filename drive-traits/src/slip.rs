@@ -126,6 +126,26 @@ pub trait SlipModel: std::fmt::Debug + Send + Sync {
         Ok(())
     }
 
+    /// The slip model stepped one commanded body velocity at a time ([`crate::step`]),
+    /// when it has a stepper: a composed model steps its slip model through it. `None`, the
+    /// default: a composed model with this slip model is stepped by replaying its
+    /// prediction ([`crate::step::ReplayStepper`]). A slip map without a state of its own
+    /// (one that overrides neither [`SlipModel::rollout_velocities_into`] nor
+    /// [`SlipModel::rollout_covariances_into`]) returns [`StatelessSlip`].
+    fn stepper(&self) -> Option<Box<dyn SlipStepper + '_>> {
+        None
+    }
+
+    /// The pose covariance of a model whose slip errors are correlated along the horizon
+    /// ([`SlipModel::rollout_covariances_into`]) stepped one commanded body velocity at a
+    /// time, at step `dt`. `None`, the default: a model with such covariances is stepped by
+    /// replay; one with per-step variances ([`SlipModel::slip_variance`]) needs none, the
+    /// composed model propagates them.
+    fn covariance_stepper(&self, dt: f64) -> Option<Box<dyn SlipCovarianceStepper + '_>> {
+        let _ = dt;
+        None
+    }
+
     /// The command period (s) the slip model's own dynamics were fitted at (a lag per
     /// step), when they depend on it; a composed model checks that it is its own. `None` by
     /// default (a slip map without dynamics).
@@ -141,6 +161,71 @@ pub trait SlipModel: std::fmt::Debug + Send + Sync {
 
     /// Boxed clone.
     fn clone_box(&self) -> Box<dyn SlipModel>;
+}
+
+/// A slip model stepped one commanded body velocity at a time: its own state (a lagging
+/// body velocity, a disturbance seen at the start) in [`SlipStepper::state_len`] numbers.
+/// From [`SlipStepper::init`], the body velocities returned by `k` calls of
+/// [`SlipStepper::step`] are the first `k` of [`SlipModel::rollout_velocities_into`] from
+/// the same start through the same commanded body velocities.
+pub trait SlipStepper: Send + Sync {
+    /// The numbers of the slip model's state (0 for a slip map).
+    fn state_len(&self) -> usize;
+    /// Writes the state at `start` (what was measured then).
+    fn init(&self, start: &StartState, state: &mut [f64]);
+    /// The body velocity `v = f - g` (eq. 2) of this step at the commanded body velocity
+    /// `f`, the state moved to the next step.
+    fn step(&self, state: &mut [f64], f: &BodyVelocity) -> BodyVelocity;
+}
+
+/// The stepper of a slip map without a state of its own: `v = f - g(f)` (eq. 2) each step,
+/// through [`SlipModel::slip`].
+///
+/// ```
+/// use drive_traits::{BodyVelocity, Pose, SlipModel, SlipStepper, StartState, StatelessSlip, Tagged};
+/// # use serde::{Deserialize, Serialize};
+/// #[derive(Debug, Clone, Serialize, Deserialize)]
+/// struct Skid { lost: f64 }
+/// #[typetag::serde(name = "skid-stepper-doc")]
+/// impl SlipModel for Skid {
+///     fn slip(&self, f: &BodyVelocity) -> BodyVelocity { BodyVelocity::new(0.0, 0.0, self.lost * f.z) }
+///     // A slip map: one line makes it step natively.
+///     fn stepper(&self) -> Option<Box<dyn drive_traits::SlipStepper + '_>> { Some(Box::new(StatelessSlip(self))) }
+///     fn clone_box(&self) -> Box<dyn SlipModel> { Box::new(self.clone()) }
+/// }
+/// # impl Tagged for Skid { const TAG: &'static str = "skid-stepper-doc"; }
+/// let skid = Skid { lost: 0.75 };
+/// let stepper = skid.stepper().unwrap();
+/// let mut state = vec![0.0; stepper.state_len()];
+/// stepper.init(&StartState::at_rest(Pose::zeros()), &mut state);
+/// assert_eq!(stepper.step(&mut state, &BodyVelocity::new(1.0, 0.0, 2.0)), BodyVelocity::new(1.0, 0.0, 0.5));
+/// ```
+pub struct StatelessSlip<'a, S: ?Sized>(pub &'a S);
+
+impl<S: SlipModel + ?Sized> SlipStepper for StatelessSlip<'_, S> {
+    fn state_len(&self) -> usize {
+        0
+    }
+    fn init(&self, _start: &StartState, _state: &mut [f64]) {}
+    #[inline]
+    fn step(&self, _state: &mut [f64], f: &BodyVelocity) -> BodyVelocity {
+        f - self.0.slip(f)
+    }
+}
+
+/// The pose covariance of a slip model with correlated errors
+/// ([`SlipModel::rollout_covariances_into`]) stepped one commanded body velocity at a time,
+/// its state in [`SlipCovarianceStepper::state_len`] numbers: from
+/// [`SlipCovarianceStepper::init`], the `k`-th call of [`SlipCovarianceStepper::step`]
+/// returns covariance `k` of `rollout_covariances_into` from the same start.
+pub trait SlipCovarianceStepper: Send + Sync {
+    /// The numbers of the covariance's state.
+    fn state_len(&self) -> usize;
+    /// Writes the state at `start`.
+    fn init(&self, start: &StartState, state: &mut [f64]);
+    /// The pose covariance at the next sample after a step at the commanded body velocity
+    /// `f`, the state moved to it.
+    fn step(&self, state: &mut [f64], f: &BodyVelocity) -> PoseCovariance;
 }
 
 impl Clone for Box<dyn SlipModel> {

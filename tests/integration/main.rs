@@ -23,4 +23,5 @@ mod report_parts;
 mod sim_fit;
 mod start_information;
 mod start_velocity;
+mod step;
 mod track;

@@ -1,10 +1,11 @@
 use crate::blr::{BlrPosterior, Prior};
 use crate::powertrain::Commanded;
-use crate::rollout::{integrate, integrate_with_covariance};
+use crate::rollout::{covariance_step, integrate, integrate_with_covariance, Integrator};
+use drive_traits::step::{check_state, layout, ReplayStepper, StepOptions, Stepper};
 use drive_traits::{
     Baseline, BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, FitPowertrain, Input,
-    MotionError, MotionModel, PartTag, Pose, PoseCovariance, Powertrain, StartState, Tagged,
-    WindowSet,
+    MotionError, MotionModel, PartTag, Pose, PoseCovariance, Powertrain, PowertrainStepper,
+    StartState, Tagged, WindowSet,
 };
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -133,6 +134,41 @@ impl Baseline for AccBlr {
 }
 
 impl AccBlrModel {
+    /// One step of the velocity state: from `v[k]` (variance `var[k]`) and the input
+    /// reached at sample k, `v[k+1]` and, with `variances`, `var[k+1]` (otherwise `var[k]`).
+    #[inline]
+    fn advance(
+        &self,
+        v: &BodyVelocity,
+        var: &BodyVelocity,
+        u: &Input,
+        variances: bool,
+    ) -> (BodyVelocity, BodyVelocity) {
+        let f = self.vehicle.body_velocity(u);
+        let (xx, xw) = ([f.x, v.x], [f.z, v.z]);
+        let next = BodyVelocity::new(
+            v.x + self.accel_x.predict_mean(&xx),
+            0.0,
+            v.z + self.accel_yaw.predict_mean(&xw),
+        );
+        if !variances {
+            return (next, *var);
+        }
+        // v[k+1] = (1 + gamma_v) v[k] + gamma_f f[k] + noise: first-order propagation.
+        let (gx, gw) = (1.0 + self.accel_x.mean[1], 1.0 + self.accel_yaw.mean[1]);
+        let var = BodyVelocity::new(
+            gx * gx * var.x + self.accel_x.predictive_variance(&xx),
+            0.0,
+            gw * gw * var.z + self.accel_yaw.predictive_variance(&xw),
+        );
+        (next, var)
+    }
+
+    /// The velocity state at the start: the measured forward speed and yaw rate.
+    fn start_velocity(start: &StartState) -> BodyVelocity {
+        BodyVelocity::new(start.body_velocity.x, 0.0, start.body_velocity.z)
+    }
+
     fn body_velocities(
         &self,
         start: &StartState,
@@ -140,7 +176,7 @@ impl AccBlrModel {
         mut variances: Option<&mut Vec<BodyVelocity>>,
     ) -> Vec<BodyVelocity> {
         let mut out = Vec::with_capacity(commands.len());
-        let mut v = BodyVelocity::new(start.body_velocity.x, 0.0, start.body_velocity.z);
+        let mut v = Self::start_velocity(start);
         let mut var = BodyVelocity::zeros();
         if let Some(vs) = variances.as_deref_mut() {
             vs.clear();
@@ -151,25 +187,81 @@ impl AccBlrModel {
             if let Some(vs) = variances.as_deref_mut() {
                 vs.push(var);
             }
-            let f = self.vehicle.body_velocity(u);
-            let (xx, xw) = ([f.x, v.x], [f.z, v.z]);
-            let next = BodyVelocity::new(
-                v.x + self.accel_x.predict_mean(&xx),
-                0.0,
-                v.z + self.accel_yaw.predict_mean(&xw),
-            );
-            if variances.is_some() {
-                // v[k+1] = (1 + gamma_v) v[k] + gamma_f f[k] + noise: first-order propagation.
-                let (gx, gw) = (1.0 + self.accel_x.mean[1], 1.0 + self.accel_yaw.mean[1]);
-                var = BodyVelocity::new(
-                    gx * gx * var.x + self.accel_x.predictive_variance(&xx),
-                    0.0,
-                    gw * gw * var.z + self.accel_yaw.predictive_variance(&xw),
-                );
-            }
-            v = next;
+            (v, var) = self.advance(&v, &var, u, variances.is_some());
         }
         out
+    }
+}
+
+/// acc-BLR stepped: after the header, the heading's cosine and sine, the velocity state and
+/// its variance (three numbers each), then the powertrain's state.
+struct AccBlrStepper<'a> {
+    model: &'a AccBlrModel,
+    powertrain: Box<dyn PowertrainStepper + 'a>,
+    covariance: bool,
+}
+
+const TRIG: usize = layout::HEADER;
+const VELOCITY: usize = TRIG + 2;
+const VARIANCE: usize = VELOCITY + 3;
+const POWERTRAIN: usize = VARIANCE + 3;
+
+impl Stepper for AccBlrStepper<'_> {
+    fn state_len(&self) -> usize {
+        POWERTRAIN + self.powertrain.state_len()
+    }
+
+    fn with_covariance(&self) -> bool {
+        self.covariance
+    }
+
+    fn init(
+        &self,
+        start: &StartState,
+        history: &[Input],
+        state: &mut [f64],
+    ) -> Result<(), MotionError> {
+        check_state(self.state_len(), state)?;
+        state.fill(0.0);
+        layout::write(
+            state,
+            &start.pose,
+            &start.body_velocity,
+            &PoseCovariance::zeros(),
+            0,
+        );
+        let (sin, cos) = start.pose.z.sin_cos();
+        (state[TRIG], state[TRIG + 1]) = (cos, sin);
+        state[VELOCITY..VELOCITY + 3]
+            .copy_from_slice(AccBlrModel::start_velocity(start).as_slice());
+        self.powertrain
+            .init(&start.input, history, &mut state[POWERTRAIN..]);
+        Ok(())
+    }
+
+    fn step(&self, state: &mut [f64], command: &Input) -> Result<(), MotionError> {
+        check_state(self.state_len(), state)?;
+        let m = self.model;
+        let pose = layout::pose(state);
+        let k = layout::steps(state);
+        let reached = self.powertrain.step(&mut state[POWERTRAIN..], command);
+        let v = BodyVelocity::from_column_slice(&state[VELOCITY..VELOCITY + 3]);
+        let var = BodyVelocity::from_column_slice(&state[VARIANCE..VARIANCE + 3]);
+        let (next, next_var) = m.advance(&v, &var, &reached, self.covariance);
+        if self.covariance {
+            let p = covariance_step(&layout::covariance(state), &pose, &v, &var, m.dt);
+            layout::write_covariance(state, &p);
+        }
+        let mut it = Integrator::resume(&pose, state[TRIG], state[TRIG + 1], m.dt);
+        it.step(&v);
+        let (cos, sin) = it.heading();
+        (state[TRIG], state[TRIG + 1]) = (cos, sin);
+        state[layout::POSE..layout::POSE + 3].copy_from_slice(it.pose().as_slice());
+        state[layout::VELOCITY..layout::VELOCITY + 3].copy_from_slice(v.as_slice());
+        state[layout::STEPS] = (k + 1) as f64;
+        state[VELOCITY..VELOCITY + 3].copy_from_slice(next.as_slice());
+        state[VARIANCE..VARIANCE + 3].copy_from_slice(next_var.as_slice());
+        Ok(())
     }
 }
 
@@ -208,6 +300,19 @@ impl MotionModel for AccBlrModel {
     fn powertrain(&self) -> Option<&dyn Powertrain> {
         Some(self.powertrain.as_ref())
     }
+    /// The velocity state, its variance and the powertrain's state, stepped (by replay
+    /// for a powertrain without a stepper).
+    fn stepper(&self, options: StepOptions) -> Result<Box<dyn Stepper + '_>, MotionError> {
+        match self.powertrain.stepper() {
+            Some(powertrain) => Ok(Box::new(AccBlrStepper {
+                model: self,
+                powertrain,
+                covariance: options.covariance,
+            })),
+            None => Ok(Box::new(ReplayStepper::new(self, options)?)),
+        }
+    }
+
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
         let v = self.body_velocities(start, commands, None);
         integrate(&start.pose, &v, self.dt, poses);

@@ -50,6 +50,7 @@
 //!
 //! [`Uncertainty::Paper`] keeps the model's propagation as published (eq. 7 for the BLRs).
 
+use drive_traits::step::{check_state, layout, StepOptions, Stepper};
 use drive_traits::{
     limits::Short, wrap_angle, FitError, Input, MotionError, MotionModel, Pose, PoseCovariance,
     StartInfo, StartState, Tagged, WindowSet,

@@ -206,6 +206,20 @@ impl MotionModel for CalibratedModel {
         self.model.powertrain()
     }
 
+    /// Without the covariance, the wrapped model's stepper; with it, the wrapped model's
+    /// stepped with its own covariance, calibrated at every step as a prediction is.
+    fn stepper(&self, options: StepOptions) -> Result<Box<dyn Stepper + '_>, MotionError> {
+        let inner = self.model.stepper(options)?;
+        if !options.covariance {
+            return Ok(inner);
+        }
+        Ok(Box::new(CalibratedStepper {
+            calibration: &self.calibration,
+            dt: self.model.dt(),
+            inner,
+        }))
+    }
+
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
         self.model.predict_into(start, commands, poses)
     }
@@ -240,6 +254,66 @@ impl MotionModel for CalibratedModel {
             let yaw = poses.get(k).map_or(start.pose.z, |p| p.z);
             *c = self.calibration.apply(k, c, &x, yaw);
         }
+        Ok(())
+    }
+}
+
+/// A calibrated model stepped with its covariance: after the header, the difficulty's
+/// feature walk ([`FeatureWalk::NUMBERS`]), then the wrapped model's state, whose header
+/// holds its own covariance; the header holds the calibrated one.
+struct CalibratedStepper<'a> {
+    calibration: &'a HorizonCalibration,
+    dt: f64,
+    inner: Box<dyn Stepper + 'a>,
+}
+
+const WALK: usize = layout::HEADER;
+const INNER: usize = WALK + FeatureWalk::NUMBERS;
+
+impl Stepper for CalibratedStepper<'_> {
+    fn state_len(&self) -> usize {
+        INNER + self.inner.state_len()
+    }
+
+    fn with_covariance(&self) -> bool {
+        true
+    }
+
+    fn init(
+        &self,
+        start: &StartState,
+        history: &[Input],
+        state: &mut [f64],
+    ) -> Result<(), MotionError> {
+        check_state(self.state_len(), state)?;
+        let (outer, inner) = state.split_at_mut(INNER);
+        self.inner.init(start, history, inner)?;
+        outer.fill(0.0);
+        outer[..layout::HEADER].copy_from_slice(&inner[..layout::HEADER]);
+        FeatureWalk::new(start, self.dt).write(&mut outer[WALK..]);
+        Ok(())
+    }
+
+    fn step(&self, state: &mut [f64], command: &Input) -> Result<(), MotionError> {
+        check_state(self.state_len(), state)?;
+        let (outer, inner) = state.split_at_mut(INNER);
+        let before = layout::pose(inner);
+        self.inner.step(inner, command)?;
+        let after = layout::pose(inner);
+        let k = layout::steps(inner);
+        let x = if self.calibration.has_difficulty() && k >= 1 {
+            let mut walk = FeatureWalk::read(&outer[WALK..]);
+            let x = walk.step(&before, &after);
+            walk.write(&mut outer[WALK..]);
+            x
+        } else {
+            [0.0; FEATURES]
+        };
+        let c = self
+            .calibration
+            .apply(k, &layout::covariance(inner), &x, after.z);
+        outer[..layout::HEADER].copy_from_slice(&inner[..layout::HEADER]);
+        layout::write_covariance(outer, &c);
         Ok(())
     }
 }

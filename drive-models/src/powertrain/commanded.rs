@@ -1,4 +1,6 @@
-use drive_traits::{FitError, Input, Powertrain, PowertrainLearner, Tagged, WindowSet};
+use drive_traits::{
+    FitError, Input, Powertrain, PowertrainLearner, PowertrainStepper, Tagged, WindowSet,
+};
 use serde::{Deserialize, Serialize};
 
 /// The manufacturer's assumption: the vehicle reaches every command at once, unbounded
@@ -24,8 +26,27 @@ impl Powertrain for CommandedPowertrain {
         predicted.extend_from_slice(commands);
     }
 
+    /// No state: the input reached at a sample is its command.
+    fn stepper(&self) -> Option<Box<dyn PowertrainStepper + '_>> {
+        Some(Box::new(CommandedStepper))
+    }
+
     fn clone_box(&self) -> Box<dyn Powertrain> {
         Box::new(*self)
+    }
+}
+
+/// The commanded powertrain stepped: no state.
+struct CommandedStepper;
+
+impl PowertrainStepper for CommandedStepper {
+    fn state_len(&self) -> usize {
+        0
+    }
+    fn init(&self, _initial: &Input, _history: &[Input], _state: &mut [f64]) {}
+    #[inline]
+    fn step(&self, _state: &mut [f64], command: &Input) -> Input {
+        *command
     }
 }
 

@@ -11,10 +11,12 @@
 //! eq. 3 at every sample time. Before the window the command is taken to be the measured
 //! start velocity (the wheels hold it until the delay has passed, as in eq. 3).
 
+use super::delay::DelayLine;
 use argmin::core::{CostFunction, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use drive_traits::{
-    FitError, Input, InputSpace, Phase, Powertrain, PowertrainLearner, Tagged, WindowSet,
+    FitError, Input, InputSpace, Phase, Powertrain, PowertrainLearner, PowertrainStepper, Tagged,
+    WindowSet, MAX_INPUTS,
 };
 use serde::{Deserialize, Serialize};
 
@@ -214,8 +216,78 @@ impl Powertrain for FopdtPowertrain {
         out
     }
 
+    fn stepper(&self) -> Option<Box<dyn PowertrainStepper + '_>> {
+        let axes = self.axes.len().min(MAX_INPUTS);
+        let d: Vec<Discrete> = self.axes[..axes]
+            .iter()
+            .map(|a| a.discrete(self.dt))
+            .collect();
+        let lags: Vec<usize> = d.iter().map(|d| d.m).collect();
+        let none = Discrete {
+            m: 0,
+            own: 1.0,
+            older: 0.0,
+            newer: 0.0,
+        };
+        Some(Box::new(FopdtStepper {
+            d: std::array::from_fn(|i| d.get(i).copied().unwrap_or(none)),
+            axes,
+            limits: self.limits,
+            delay: DelayLine::new(&lags),
+        }))
+    }
+
     fn clone_box(&self) -> Box<dyn Powertrain> {
         Box::new(self.clone())
+    }
+}
+
+/// The FOPDT stepped one command at a time: the state is the inputs reached (three
+/// numbers; an axis without a response keeps the measured start, as a prediction does), the
+/// commands delayed by each axis's whole-sample delay + 1 at the last step (three), then
+/// the [`DelayLine`]. The same recursion as [`FopdtPowertrain::predict_into`], value for
+/// value.
+struct FopdtStepper {
+    d: [Discrete; MAX_INPUTS],
+    axes: usize,
+    limits: InputSpace,
+    delay: DelayLine,
+}
+
+impl PowertrainStepper for FopdtStepper {
+    fn state_len(&self) -> usize {
+        2 * MAX_INPUTS + self.delay.state_len()
+    }
+
+    fn init(&self, initial: &Input, history: &[Input], state: &mut [f64]) {
+        let (lo, hi) = (self.limits.min, self.limits.max);
+        let (w, rest) = state.split_at_mut(MAX_INPUTS);
+        w.copy_from_slice(initial.as_slice());
+        let (older, line) = rest.split_at_mut(MAX_INPUTS);
+        let o = self
+            .delay
+            .init(initial, history, |a, v| v.clamp(lo[a], hi[a]), line);
+        older.copy_from_slice(&o);
+    }
+
+    #[inline]
+    fn step(&self, state: &mut [f64], command: &Input) -> Input {
+        let (lo, hi) = (self.limits.min, self.limits.max);
+        let reached = Input::new(state[0], state[1], state[2]);
+        let saturated: [f64; MAX_INPUTS] = std::array::from_fn(|a| {
+            if a < self.axes {
+                command[a].clamp(lo[a], hi[a])
+            } else {
+                0.0
+            }
+        });
+        let newer = self.delay.step(&mut state[2 * MAX_INPUTS..], &saturated);
+        for (a, d) in self.d.iter().enumerate().take(self.axes) {
+            let older = state[MAX_INPUTS + a];
+            state[a] = d.own * state[a] + (d.older * older + d.newer * newer[a]);
+            state[MAX_INPUTS + a] = newer[a];
+        }
+        reached
     }
 }
 

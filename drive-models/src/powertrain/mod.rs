@@ -8,6 +8,7 @@
 //! | `rate-limited` | [`RateLimited`] | [`RateLimitedPowertrain`] | eq. 3 with a rate (acceleration) limit |
 
 mod commanded;
+mod delay;
 mod fopdt;
 mod rate_limited;
 

@@ -9,11 +9,13 @@
 //! exponential), with the fractional delay handled as in the FOPDT: two sub-steps per
 //! sample, towards the command delayed by `m + 1` samples then by `m` samples.
 
+use super::delay::DelayLine;
 use super::fopdt::{measured_limits, Fopdt};
 use argmin::core::{CostFunction, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use drive_traits::{
-    FitError, Input, InputSpace, Phase, Powertrain, PowertrainLearner, Tagged, WindowSet,
+    FitError, Input, InputSpace, Phase, Powertrain, PowertrainLearner, PowertrainStepper, Tagged,
+    WindowSet, MAX_INPUTS,
 };
 use serde::{Deserialize, Serialize};
 
@@ -57,6 +59,14 @@ impl RateLimitedResponse {
         u - (u - w) * (-h / self.time_constant).exp()
     }
 
+    /// The whole-sample part `m` and the fractional part `phi` of the dead time at step `dt`.
+    fn delay_parts(&self, dt: f64) -> (usize, f64) {
+        // Guard the floor against representation error (0.1 / 0.05 = 2.0000000000000004).
+        let m = (self.delay / dt + 1e-9).floor().max(0.0);
+        let phi = (self.delay - m * dt).clamp(0.0, dt);
+        (m as usize, phi)
+    }
+
     /// Runs the response from `initial` under `command(i)` (already saturated) for `n`
     /// samples, reporting `out(k, w)`.
     fn run(
@@ -70,10 +80,7 @@ impl RateLimitedResponse {
         if n == 0 {
             return;
         }
-        // Guard the floor against representation error (0.1 / 0.05 = 2.0000000000000004).
-        let m = (self.delay / dt + 1e-9).floor().max(0.0);
-        let phi = (self.delay - m * dt).clamp(0.0, dt);
-        let m = m as usize;
+        let (m, phi) = self.delay_parts(dt);
         let (mut w, mut older) = (initial, initial);
         out(0, w);
         for k in 1..n {
@@ -177,8 +184,77 @@ impl Powertrain for RateLimitedPowertrain {
         out
     }
 
+    fn stepper(&self) -> Option<Box<dyn PowertrainStepper + '_>> {
+        let axes = self.axes.len().min(MAX_INPUTS);
+        let parts: Vec<(usize, f64)> = self.axes[..axes]
+            .iter()
+            .map(|a| a.delay_parts(self.dt))
+            .collect();
+        let lags: Vec<usize> = parts.iter().map(|p| p.0).collect();
+        Some(Box::new(RateLimitedStepper {
+            powertrain: self,
+            phi: std::array::from_fn(|i| parts.get(i).map_or(0.0, |p| p.1)),
+            axes,
+            delay: DelayLine::new(&lags),
+        }))
+    }
+
     fn clone_box(&self) -> Box<dyn Powertrain> {
         Box::new(self.clone())
+    }
+}
+
+/// The rate-limited powertrain stepped one command at a time: the inputs reached (three
+/// numbers; an axis without a response stays at 0, as a prediction leaves it), the commands
+/// delayed by each axis's whole-sample delay + 1 at the last step (three), then the
+/// [`DelayLine`]. The same two sub-steps per sample as [`RateLimitedResponse::run`].
+struct RateLimitedStepper<'a> {
+    powertrain: &'a RateLimitedPowertrain,
+    phi: [f64; MAX_INPUTS],
+    axes: usize,
+    delay: DelayLine,
+}
+
+impl PowertrainStepper for RateLimitedStepper<'_> {
+    fn state_len(&self) -> usize {
+        2 * MAX_INPUTS + self.delay.state_len()
+    }
+
+    fn init(&self, initial: &Input, history: &[Input], state: &mut [f64]) {
+        let (lo, hi) = (self.powertrain.limits.min, self.powertrain.limits.max);
+        let (w, rest) = state.split_at_mut(MAX_INPUTS);
+        for (a, w) in w.iter_mut().enumerate() {
+            *w = if a < self.axes { initial[a] } else { 0.0 };
+        }
+        let (older, line) = rest.split_at_mut(MAX_INPUTS);
+        let o = self
+            .delay
+            .init(initial, history, |a, v| v.clamp(lo[a], hi[a]), line);
+        older.copy_from_slice(&o);
+    }
+
+    fn step(&self, state: &mut [f64], command: &Input) -> Input {
+        let p = self.powertrain;
+        let (lo, hi) = (p.limits.min, p.limits.max);
+        let reached = Input::new(state[0], state[1], state[2]);
+        let saturated: [f64; MAX_INPUTS] = std::array::from_fn(|a| {
+            if a < self.axes {
+                command[a].clamp(lo[a], hi[a])
+            } else {
+                0.0
+            }
+        });
+        let newer = self.delay.step(&mut state[2 * MAX_INPUTS..], &saturated);
+        for (a, axis) in p.axes.iter().enumerate().take(self.axes) {
+            let (phi, older) = (self.phi[a], state[MAX_INPUTS + a]);
+            let mut w = state[a];
+            if phi > 0.0 {
+                w = axis.step(w, older, phi);
+            }
+            state[a] = axis.step(w, newer[a], p.dt - phi);
+            state[MAX_INPUTS + a] = newer[a];
+        }
+        reached
     }
 }
 

@@ -1,5 +1,6 @@
 use drive_traits::{
-    BodyVelocity, FitError, OnlineSlip, RobotDescription, SlipData, SlipLearner, SlipModel, Tagged,
+    BodyVelocity, FitError, OnlineSlip, RobotDescription, SlipData, SlipLearner, SlipModel,
+    SlipStepper, StatelessSlip, Tagged,
 };
 use serde::{Deserialize, Serialize};
 
@@ -29,6 +30,10 @@ impl SlipModel for NoSlipModel {
     fn body_velocities_into(&self, f: &[BodyVelocity], out: &mut Vec<BodyVelocity>) {
         out.clear();
         out.extend_from_slice(f);
+    }
+
+    fn stepper(&self) -> Option<Box<dyn SlipStepper + '_>> {
+        Some(Box::new(StatelessSlip(self)))
     }
 
     fn clone_box(&self) -> Box<dyn SlipModel> {

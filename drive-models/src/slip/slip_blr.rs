@@ -1,7 +1,7 @@
 use crate::blr::{BlrPosterior, BlrStatistics, Prior};
 use drive_traits::{
     BodyVelocity, BodyVelocityEstimator, FitError, OnlineSlip, RobotDescription, SlipData,
-    SlipLearner, SlipModel, Steering, Tagged,
+    SlipLearner, SlipModel, SlipStepper, StartState, Steering, Tagged,
 };
 use serde::{Deserialize, Serialize};
 
@@ -415,6 +415,29 @@ impl SlipWeights {
     }
 }
 
+/// slip-BLR stepped: `v = f - g(f)` (eq. 2, 5) with the posterior means, as
+/// [`SlipModel::body_velocities_into`] computes it.
+struct SlipBlrStepper {
+    weights: SlipWeights,
+    basis: SlipBasis,
+}
+
+impl SlipStepper for SlipBlrStepper {
+    fn state_len(&self) -> usize {
+        0
+    }
+    fn init(&self, _start: &StartState, _state: &mut [f64]) {}
+    #[inline]
+    fn step(&self, _state: &mut [f64], f: &BodyVelocity) -> BodyVelocity {
+        let w = &self.weights;
+        match self.basis {
+            SlipBasis::SkidSteer => f - w.skid_steer(&slip_inputs(f)),
+            SlipBasis::Car => f - w.car(&car_slip_inputs(f)),
+            SlipBasis::Omnidirectional => f - w.car(&omni_slip_inputs(f)),
+        }
+    }
+}
+
 impl SlipBlrModel {
     /// The weight-uncertainty share of the slip's predictive variance at the commanded
     /// body velocity `f`, relative to each regression's noise and summed over the three
@@ -508,6 +531,15 @@ impl SlipModel for SlipBlrModel {
                 )
             }
         })
+    }
+
+    /// No state: the slip of eq. 5 at each step's commanded body velocity, with the
+    /// posterior means read once.
+    fn stepper(&self) -> Option<Box<dyn SlipStepper + '_>> {
+        Some(Box::new(SlipBlrStepper {
+            weights: self.weights(),
+            basis: self.basis,
+        }))
     }
 
     fn check(&self) -> Result<(), String> {

@@ -67,8 +67,8 @@ use argmin::core::{
 use argmin::solver::trustregion::{Dogleg, TrustRegion};
 use drive_traits::limits::{Short, MAX_ABS_MEASUREMENT};
 use drive_traits::{
-    unwrap_angles, wrap_angle, BodyVelocity, FitError, Pose, PoseCovariance, SlipData, SlipLearner,
-    SlipModel, StartState, Tagged,
+    unwrap_angles, wrap_angle, BodyVelocity, FitError, Pose, PoseCovariance, SlipCovarianceStepper,
+    SlipData, SlipLearner, SlipModel, SlipStepper, StartState, Tagged,
 };
 use faer::{Accum, Mat, Par};
 use nalgebra::{Const, DMatrix, DVector, SMatrix, SVector, U1};
@@ -83,6 +83,7 @@ mod jacobian;
 mod model;
 mod objective;
 mod ridge;
+mod step;
 #[cfg(test)]
 mod tests;
 
@@ -92,6 +93,7 @@ pub use model::SlipIpemModel;
 use model::*;
 use objective::*;
 use ridge::*;
+use step::*;
 
 /// The number of slip functions per body dimension.
 pub const FEATURES: usize = 13;

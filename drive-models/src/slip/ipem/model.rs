@@ -619,6 +619,18 @@ impl SlipModel for SlipIpemModel {
         Ok(())
     }
 
+    /// The lagging body velocity, the disturbance and what was measured at the start,
+    /// stepped.
+    fn stepper(&self) -> Option<Box<dyn SlipStepper + '_>> {
+        Some(Box::new(IpemStepper::new(self)))
+    }
+
+    /// The rollout's derivatives stepped (`None` for a malformed covariance, which the
+    /// rollout does not give either).
+    fn covariance_stepper(&self, dt: f64) -> Option<Box<dyn SlipCovarianceStepper + '_>> {
+        IpemCovarianceStepper::new(self, dt).map(|s| Box::new(s) as Box<dyn SlipCovarianceStepper>)
+    }
+
     /// The step the body dynamics were fitted at, for a model with the transport (files
     /// written before it do not record theirs).
     fn step(&self) -> Option<f64> {
