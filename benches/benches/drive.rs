@@ -272,5 +272,93 @@ fn converge(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, load, train, eval, predict, batch, ipem, converge, control);
+criterion_group!(benches, load, train, eval, predict, batch, ipem, converge, control, step);
 criterion_main!(benches);
+
+/// The step API (issue 59): a batch of states stepped one command at a time, at Nav2 MPPI's
+/// default shape (2000 sequences of 56 steps), on all cores and on one; and one step of
+/// 1024 states (the Python case's Rust side).
+fn step(c: &mut Criterion) {
+    use drive::models::batch::{rollout_states, step_batch_parallel};
+    use drive::traits::step::StepOptions;
+    use drive::traits::step::StepOutputs;
+    let data = drive::bundled::husky().unwrap();
+    let (train, eval) = split_by_interval(&data, 0.5).unwrap();
+    let vehicle = data.robot.vehicle.as_ref();
+    let registries = Registries::builtin();
+    for name in ["slip-blr", "slip-ipem"] {
+        let model = registries.model(name).unwrap().fit(&train).unwrap();
+        let stepper = model.stepper(StepOptions::default()).unwrap();
+        let len = stepper.state_len();
+        let (n, horizon) = (2000, 56);
+        let mut initial = vec![0.0; n * len];
+        for (i, s) in initial.chunks_exact_mut(len).enumerate() {
+            let w = eval.windows[i % eval.len()];
+            stepper.init(&w.start_state(vehicle), &[], s).unwrap();
+        }
+        let commands: Vec<Input> = (0..n * horizon)
+            .map(|i| {
+                let w = eval.windows[(i / horizon) % eval.len()];
+                let e = ((i / horizon) as f64 * 0.618).fract() - 0.5;
+                w.command[(i % horizon) % 40] + Input::new(e, -e, 0.0)
+            })
+            .collect();
+        let mut velocities = vec![drive::traits::BodyVelocity::zeros(); n * horizon];
+        let mut states = initial.clone();
+        c.bench_function(&format!("step/{name} 2000 x 56 steps, all cores"), |b| {
+            b.iter(|| {
+                states.copy_from_slice(&initial);
+                let outputs = StepOutputs {
+                    velocities: Some(&mut velocities),
+                    ..Default::default()
+                };
+                rollout_states(
+                    stepper.as_ref(),
+                    &mut states,
+                    &commands,
+                    horizon,
+                    outputs,
+                    250,
+                )
+                .unwrap()
+            })
+        });
+        c.bench_function(&format!("step/{name} 2000 x 56 steps, one core"), |b| {
+            b.iter(|| {
+                states.copy_from_slice(&initial);
+                let outputs = StepOutputs {
+                    velocities: Some(&mut velocities),
+                    ..Default::default()
+                };
+                rollout_states(
+                    stepper.as_ref(),
+                    &mut states,
+                    &commands,
+                    horizon,
+                    outputs,
+                    n,
+                )
+                .unwrap()
+            })
+        });
+        let one: Vec<Input> = commands
+            .iter()
+            .step_by(horizon)
+            .take(1024)
+            .copied()
+            .collect();
+        let mut batch = initial[..1024 * len].to_vec();
+        c.bench_function(
+            &format!("step/{name} one step of 1024 states, one core"),
+            |b| b.iter(|| stepper.step_batch(black_box(&mut batch), &one).unwrap()),
+        );
+        c.bench_function(
+            &format!("step/{name} one step of 1024 states, all cores"),
+            |b| {
+                b.iter(|| {
+                    step_batch_parallel(stepper.as_ref(), black_box(&mut batch), &one, 512).unwrap()
+                })
+            },
+        );
+    }
+}

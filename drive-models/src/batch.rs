@@ -2,10 +2,8 @@
 //! rayon thread pool, each chunk rolled out by the model's own batch kernel; and batches of
 //! stepped states ([`drive_traits::step`]) stepped or rolled out the same way.
 
-use drive_traits::step::{check_states, layout, Stepper};
-use drive_traits::{
-    BodyVelocity, Input, MotionError, MotionModel, Pose, PoseCovariance, StartState,
-};
+use drive_traits::step::{check_states, StepOutputs, Stepper};
+use drive_traits::{Input, MotionError, MotionModel, Pose, StartState};
 use rayon::prelude::*;
 
 /// Like [`MotionModel::predict_batch_into`], in parallel: the sequences are split into
@@ -88,19 +86,6 @@ pub fn step_batch_parallel(
         .try_for_each(|(s, c)| stepper.step_batch(s, c))
 }
 
-/// What [`rollout_states`] writes after every step of every state, each optional:
-/// `poses`, `velocities` (the body velocity of the step) and `covariances`, each
-/// `states x horizon` long (state `b`'s step `t` at `b * horizon + t`).
-#[derive(Default)]
-pub struct RolloutOutputs<'a> {
-    /// The pose after each step.
-    pub poses: Option<&'a mut [Pose]>,
-    /// The body velocity over each step.
-    pub velocities: Option<&'a mut [BodyVelocity]>,
-    /// The pose covariance after each step (of a stepper that carries it).
-    pub covariances: Option<&'a mut [PoseCovariance]>,
-}
-
 /// Rolls every state of `states` through its `horizon` commands
 /// (`commands[b * horizon..(b + 1) * horizon]` for state `b`), in parallel over chunks of
 /// `chunk` states, writing what `outputs` asks for after every step; the states are left
@@ -108,7 +93,7 @@ pub struct RolloutOutputs<'a> {
 /// robot's current state (Nav2's MPPI) calls once per cycle.
 ///
 /// ```
-/// use drive_models::batch::{rollout_states, RolloutOutputs};
+/// use drive_models::batch::{rollout_states, StepOutputs};
 /// use drive_models::{ComposedModel, DifferentialDrive};
 /// use drive_models::{powertrain::CommandedPowertrain, slip::NoSlipModel};
 /// use drive_traits::step::StepOptions;
@@ -124,7 +109,7 @@ pub struct RolloutOutputs<'a> {
 /// }
 /// let commands = vec![Input::new(10.0, 10.0, 0.0); n * horizon];
 /// let mut velocities = vec![BodyVelocity::zeros(); n * horizon];
-/// let outputs = RolloutOutputs { velocities: Some(&mut velocities), ..Default::default() };
+/// let outputs = StepOutputs { velocities: Some(&mut velocities), ..Default::default() };
 /// rollout_states(stepper.as_ref(), &mut states, &commands, horizon, outputs, 1).unwrap();
 /// assert_eq!(velocities[5], BodyVelocity::new(1.0, 0.0, 0.0));
 /// ```
@@ -133,7 +118,7 @@ pub fn rollout_states(
     states: &mut [f64],
     commands: &[Input],
     horizon: usize,
-    outputs: RolloutOutputs<'_>,
+    outputs: StepOutputs<'_>,
     chunk: usize,
 ) -> Result<(), MotionError> {
     let len = stepper.state_len();
@@ -150,7 +135,7 @@ pub fn rollout_states(
     if commands.len() != total {
         return Err(shape(total));
     }
-    let RolloutOutputs {
+    let StepOutputs {
         poses,
         velocities,
         covariances,
@@ -183,21 +168,16 @@ pub fn rollout_states(
         .zip(poses.into_par_iter())
         .zip(velocities.into_par_iter())
         .zip(covariances.into_par_iter())
-        .try_for_each(|((((s, c), mut p), mut v), mut cv)| {
+        .try_for_each(|((((s, c), p), v), cv)| {
+            let (mut p, mut v, mut cv) = (p, v, cv);
             for (b, (state, cmds)) in s.chunks_exact_mut(len).zip(c.chunks(horizon)).enumerate() {
-                for (t, u) in cmds.iter().enumerate() {
-                    stepper.step(state, u)?;
-                    let i = b * horizon + t;
-                    if let Some(p) = p.as_deref_mut() {
-                        p[i] = layout::pose(state);
-                    }
-                    if let Some(v) = v.as_deref_mut() {
-                        v[i] = layout::body_velocity(state);
-                    }
-                    if let Some(cv) = cv.as_deref_mut() {
-                        cv[i] = layout::covariance(state);
-                    }
-                }
+                let rows = b * horizon..(b + 1) * horizon;
+                let outputs = StepOutputs {
+                    poses: p.as_deref_mut().map(|p| &mut p[rows.clone()]),
+                    velocities: v.as_deref_mut().map(|v| &mut v[rows.clone()]),
+                    covariances: cv.as_deref_mut().map(|c| &mut c[rows.clone()]),
+                };
+                stepper.rollout(state, cmds, outputs)?;
             }
             Ok(())
         })

@@ -5,8 +5,9 @@
 //! "powertrain": {...}, "slip": {...}}`, or a baseline's own fields); files of version 1
 //! (the paper's four models, written before the parts) are converted when read.
 
-use drive_traits::{MotionModel, RobotDescription};
-use serde::Serialize;
+use crate::calibration::Uncertainty;
+use drive_traits::{MotionModel, RobotDescription, StartInfo};
+use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
 use thiserror::Error;
 
@@ -69,8 +70,104 @@ pub enum ModelFileError {
 struct ModelFileOut<'a> {
     format: &'static str,
     format_version: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    fitted_with: Option<&'a FitSettings>,
     robot: &'a RobotDescription,
     model: &'a dyn MotionModel,
+}
+
+/// The settings a model was fitted with, kept in its model file (`fitted_with`) so that a
+/// loaded model predicts and scores as the fitted one did.
+///
+/// ```
+/// use drive_models::calibration::Uncertainty;
+/// use drive_models::model_file::FitSettings;
+/// use drive_traits::StartInfo;
+/// let s = FitSettings::new("slip-blr", "slip-blr+fopdt", StartInfo::EncodersImuLocalization, Uncertainty::Calibrated);
+/// let json = serde_json::to_value(&s).unwrap();
+/// assert_eq!(json["start"], "encoders+imu+localization");
+/// assert_eq!(serde_json::from_value::<FitSettings>(json).unwrap(), s);
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitSettings {
+    /// The model name asked for (`slip-blr`, `naive`, `slip-blr+rate-limited`).
+    pub model: String,
+    /// Its parts (`slip-blr+fopdt`).
+    pub canonical: String,
+    /// What its predictions start from (`drive train --start`, `fit(start=)`): what the
+    /// fit kept of the IMU and the localization, and what a score predicts from.
+    #[serde(with = "start_name")]
+    pub start: StartInfo,
+    /// How its pose covariance was made (`--uncertainty`).
+    #[serde(with = "uncertainty_name")]
+    pub uncertainty: Uncertainty,
+    /// The share of the dataset's intervals it was fitted on (`--split`); `None`: all of
+    /// them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub split: Option<f64>,
+    /// The training windows.
+    #[serde(default)]
+    pub training_windows: usize,
+}
+
+impl FitSettings {
+    /// The settings of a model fitted as `model` (parts `canonical`) for `start`, with
+    /// `uncertainty`, on all of a dataset (no split) of unknown size.
+    pub fn new(model: &str, canonical: &str, start: StartInfo, uncertainty: Uncertainty) -> Self {
+        FitSettings {
+            model: model.into(),
+            canonical: canonical.into(),
+            start,
+            uncertainty,
+            split: None,
+            training_windows: 0,
+        }
+    }
+
+    /// The settings of `spec`.
+    pub fn of(spec: &crate::ModelSpec) -> Self {
+        FitSettings::new(&spec.name, &spec.canonical(), spec.start, spec.uncertainty)
+    }
+}
+
+/// A start's name in a file (`encoders+imu`), as `--start` spells it.
+mod start_name {
+    use drive_traits::StartInfo;
+    use serde::{Deserialize, Deserializer, Serializer};
+    pub fn serialize<S: Serializer>(v: &StartInfo, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(v.as_str())
+    }
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<StartInfo, D::Error> {
+        let name = String::deserialize(d)?;
+        StartInfo::parse(&name).map_err(serde::de::Error::custom)
+    }
+}
+
+/// An uncertainty's name in a file (`calibrated`), as `--uncertainty` spells it.
+mod uncertainty_name {
+    use crate::calibration::Uncertainty;
+    use serde::{Deserialize, Deserializer, Serializer};
+    pub fn serialize<S: Serializer>(v: &Uncertainty, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(v.as_str())
+    }
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Uncertainty, D::Error> {
+        let name = String::deserialize(d)?;
+        Uncertainty::parse(&name).map_err(serde::de::Error::custom)
+    }
+}
+
+/// A model file read: the model, the robot it was fitted for and the settings it was
+/// fitted with (`None` in a file written before they were kept, or by a program that did
+/// not give them).
+#[derive(Debug)]
+pub struct ModelFile {
+    /// The fitted model.
+    pub model: Box<dyn MotionModel>,
+    /// The robot (rate, vehicle) it was fitted for.
+    pub robot: RobotDescription,
+    /// The settings it was fitted with.
+    pub fitted_with: Option<FitSettings>,
 }
 
 /// The JSON text of a fitted model file; an error when a part does not serialize (a
@@ -79,9 +176,20 @@ pub fn model_to_json(
     model: &dyn MotionModel,
     robot: &RobotDescription,
 ) -> Result<String, serde_json::Error> {
+    model_file_to_json(model, robot, None)
+}
+
+/// The JSON text of a fitted model file that keeps the settings the model was fitted with
+/// (`fitted_with`, read back by [`read_model_file`]).
+pub fn model_file_to_json(
+    model: &dyn MotionModel,
+    robot: &RobotDescription,
+    fitted_with: Option<&FitSettings>,
+) -> Result<String, serde_json::Error> {
     let file = ModelFileOut {
         format: FORMAT_NAME,
         format_version: MODEL_FORMAT_VERSION,
+        fitted_with,
         robot,
         model,
     };
@@ -167,11 +275,17 @@ fn located(value: &Value, message: &str) -> Option<String> {
 }
 
 /// Loads a model file's text (`file` names it in errors): the model and the robot it was
-/// fitted for.
+/// fitted for (see [`read_model_file`] for the settings too).
 pub fn model_from_json(
     file: &str,
     text: &str,
 ) -> Result<(Box<dyn MotionModel>, RobotDescription), ModelFileError> {
+    read_model_file(file, text).map(|m| (m.model, m.robot))
+}
+
+/// Loads a model file's text (`file` names it in errors): the model, the robot it was
+/// fitted for and the settings it was fitted with.
+pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileError> {
     // A byte-order mark (an editor's) is not part of the JSON.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let parse_error = |e: serde_json::Error| ModelFileError::Parse {
@@ -208,6 +322,28 @@ pub fn model_from_json(
             file: file.into(),
             message: format!("a version 1 file that cannot be read: {message}"),
         })?;
+    }
+    let fitted_with = match obj.remove("fitted_with") {
+        Some(v) => Some(
+            serde_path_to_error::deserialize::<_, FitSettings>(&v).map_err(|e| {
+                ModelFileError::Model {
+                    file: file.into(),
+                    message: at_path("fitted_with", &v, &e),
+                }
+            })?,
+        ),
+        None => None,
+    };
+    if let Some(split) = fitted_with.as_ref().and_then(|f| f.split) {
+        if !(split > 0.0 && split <= 1.0) {
+            return Err(ModelFileError::Model {
+                file: file.into(),
+                message: format!(
+                    "fitted_with.split = {} is not a share of the intervals in (0, 1]",
+                    drive_traits::limits::Short(split)
+                ),
+            });
+        }
     }
     let robot = obj.remove("robot").ok_or(ModelFileError::MissingField {
         file: file.into(),
@@ -292,7 +428,11 @@ pub fn model_from_json(
             ),
         });
     }
-    Ok((model, robot))
+    Ok(ModelFile {
+        model,
+        robot,
+        fitted_with,
+    })
 }
 
 /// The calibration of a calibrated model file against its robot: as many per-step scales

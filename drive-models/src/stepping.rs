@@ -4,7 +4,7 @@
 
 use crate::rollout::{covariance_step, Integrator};
 use crate::ComposedModel;
-use drive_traits::step::{check_state, layout, ReplayStepper, StepOptions, Stepper};
+use drive_traits::step::{check_state, layout, ReplayStepper, StepOptions, StepOutputs, Stepper};
 use drive_traits::{
     BodyVelocity, Input, MotionError, MotionModel, Pose, PoseCovariance, PowertrainStepper,
     SlipCovarianceStepper, SlipStepper, StartState,
@@ -137,12 +137,107 @@ impl Stepper for ComposedStepper<'_> {
         Ok(())
     }
 
+    /// Stage by stage over the batch (the powertrain of every state, then the vehicle,
+    /// then the slip model, then eq. 1): one call per part and batch, and independent
+    /// states side by side in each loop. The same arithmetic as [`Stepper::step`].
+    fn step_batch(&self, states: &mut [f64], commands: &[Input]) -> Result<(), MotionError> {
+        drive_traits::step::check_states(self.len, states.len(), commands.len())?;
+        if commands.is_empty() {
+            return Ok(());
+        }
+        with_batch(|b| {
+            let n = commands.len();
+            b.reached.resize(n, Input::zeros());
+            b.velocities.resize(n, BodyVelocity::zeros());
+            // State 0's part starts at the part's offset, state i's `len` numbers on.
+            self.powertrain.step_many(
+                &mut states[self.powertrain_at..],
+                self.len,
+                commands,
+                &mut b.reached,
+            );
+            self.model
+                .vehicle
+                .body_velocities_into(&b.reached, &mut b.commanded);
+            self.slip.step_many(
+                &mut states[self.slip_at..],
+                self.len,
+                &b.commanded,
+                &mut b.velocities,
+            );
+            let dt = self.model.dt;
+            for (i, state) in states.chunks_exact_mut(self.len).enumerate() {
+                let (f, v) = (&b.commanded[i], &b.velocities[i]);
+                let pose = layout::pose(state);
+                self.covariance_step(state, &pose, f, v)?;
+                integrate(state, &pose, v, dt);
+            }
+            Ok(())
+        })
+    }
+
+    /// Each part over the whole sequence at once (as a prediction runs), then eq. 1 step
+    /// by step: the same arithmetic as [`Stepper::step`] command after command.
+    fn rollout(
+        &self,
+        state: &mut [f64],
+        commands: &[Input],
+        mut outputs: StepOutputs<'_>,
+    ) -> Result<(), MotionError> {
+        check_state(self.len, state)?;
+        outputs.check(commands.len())?;
+        if commands.is_empty() {
+            return Ok(());
+        }
+        with_batch(|b| {
+            let n = commands.len();
+            b.reached.resize(n, Input::zeros());
+            b.velocities.resize(n, BodyVelocity::zeros());
+            self.powertrain.step_seq(
+                &mut state[self.powertrain_at..self.slip_at],
+                commands,
+                &mut b.reached,
+            );
+            self.model
+                .vehicle
+                .body_velocities_into(&b.reached, &mut b.commanded);
+            self.slip.step_seq(
+                &mut state[self.slip_at..self.covariance_at],
+                &b.commanded,
+                &mut b.velocities,
+            );
+            let dt = self.model.dt;
+            let off = matches!(self.covariance, Covariance::Off);
+            let mut it = Integrator::resume(&layout::pose(state), state[TRIG], state[TRIG + 1], dt);
+            for (k, (f, v)) in b.commanded.iter().zip(&b.velocities).enumerate() {
+                if !off {
+                    self.covariance_step(state, &it.pose(), f, v)?;
+                    if let Some(c) = outputs.covariances.as_deref_mut() {
+                        c[k] = layout::covariance(state);
+                    }
+                }
+                it.step(v);
+                if let Some(p) = outputs.poses.as_deref_mut() {
+                    p[k] = it.pose();
+                }
+                if let Some(out) = outputs.velocities.as_deref_mut() {
+                    out[k] = *v;
+                }
+            }
+            let (cos, sin) = it.heading();
+            (state[TRIG], state[TRIG + 1]) = (cos, sin);
+            state[layout::POSE..layout::POSE + 3].copy_from_slice(it.pose().as_slice());
+            state[layout::VELOCITY..layout::VELOCITY + 3]
+                .copy_from_slice(b.velocities[n - 1].as_slice());
+            state[layout::STEPS] += n as f64;
+            Ok(())
+        })
+    }
+
     #[inline]
     fn step(&self, state: &mut [f64], command: &Input) -> Result<(), MotionError> {
         check_state(self.len, state)?;
-        let dt = self.model.dt;
         let pose = layout::pose(state);
-        let k = layout::steps(state);
         // Eq. 3, 4 and 2 at this sample.
         let reached = self
             .powertrain
@@ -151,31 +246,82 @@ impl Stepper for ComposedStepper<'_> {
         let v = self
             .slip
             .step(&mut state[self.slip_at..self.covariance_at], &f);
+        self.covariance_step(state, &pose, &f, &v)?;
+        integrate(state, &pose, &v, self.model.dt);
+        Ok(())
+    }
+}
+
+impl ComposedStepper<'_> {
+    /// The covariance's step, when carried: from the pose before the step, at the
+    /// commanded body velocity `f` and the actual `v`.
+    #[inline]
+    fn covariance_step(
+        &self,
+        state: &mut [f64],
+        pose: &Pose,
+        f: &BodyVelocity,
+        v: &BodyVelocity,
+    ) -> Result<(), MotionError> {
         match &self.covariance {
             Covariance::Off => {}
             Covariance::Variances => {
-                let variance = self.model.slip.slip_variance(&f).ok_or_else(|| {
-                    MotionError::NoUncertainty {
-                        model: self.model.name(),
-                    }
-                })?;
-                let p = covariance_step(&layout::covariance(state), &pose, &v, &variance, dt);
+                let variance =
+                    self.model
+                        .slip
+                        .slip_variance(f)
+                        .ok_or_else(|| MotionError::NoUncertainty {
+                            model: self.model.name(),
+                        })?;
+                let p = covariance_step(
+                    &layout::covariance(state),
+                    pose,
+                    v,
+                    &variance,
+                    self.model.dt,
+                );
                 layout::write_covariance(state, &p);
             }
             Covariance::Correlated(c) => {
-                let p = c.step(&mut state[self.covariance_at..], &f);
+                let p = c.step(&mut state[self.covariance_at..], f);
                 layout::write_covariance(state, &p);
             }
         }
-        // Eq. 1.
-        let mut it = Integrator::resume(&pose, state[TRIG], state[TRIG + 1], dt);
-        it.step(&v);
-        let (cos, sin) = it.heading();
-        (state[TRIG], state[TRIG + 1]) = (cos, sin);
-        let next = it.pose();
-        state[layout::POSE..layout::POSE + 3].copy_from_slice(next.as_slice());
-        state[layout::VELOCITY..layout::VELOCITY + 3].copy_from_slice(v.as_slice());
-        state[layout::STEPS] = (k + 1) as f64;
         Ok(())
     }
+}
+
+/// Eq. 1 from `pose` at body velocity `v` with the heading's cosine and sine carried; the
+/// header's pose, velocity and step count updated.
+#[inline]
+fn integrate(state: &mut [f64], pose: &Pose, v: &BodyVelocity, dt: f64) {
+    let mut it = Integrator::resume(pose, state[TRIG], state[TRIG + 1], dt);
+    it.step(v);
+    let (cos, sin) = it.heading();
+    (state[TRIG], state[TRIG + 1]) = (cos, sin);
+    let next = it.pose();
+    state[layout::POSE..layout::POSE + 3].copy_from_slice(next.as_slice());
+    state[layout::VELOCITY..layout::VELOCITY + 3].copy_from_slice(v.as_slice());
+    state[layout::STEPS] += 1.0;
+}
+
+/// The per-batch buffers of [`ComposedStepper::step_batch`]: the inputs reached, the
+/// commanded and the actual body velocities.
+#[derive(Default)]
+struct Batch {
+    reached: Vec<Input>,
+    commanded: Vec<BodyVelocity>,
+    velocities: Vec<BodyVelocity>,
+}
+
+thread_local! {
+    static BATCH: std::cell::RefCell<Batch> = std::cell::RefCell::new(Batch::default());
+}
+
+/// Runs `f` with this thread's batch buffers (fresh ones if they are in use).
+fn with_batch<R>(f: impl FnOnce(&mut Batch) -> R) -> R {
+    BATCH.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut b) => f(&mut b),
+        Err(_) => f(&mut Batch::default()),
+    })
 }

@@ -136,6 +136,33 @@ pub trait PowertrainStepper: Send + Sync {
     /// The input reached at this sample (what the vehicle turns into a body velocity during
     /// this step), then the state moved to the next sample under `command`.
     fn step(&self, state: &mut [f64], command: &Input) -> Input;
+
+    /// [`PowertrainStepper::step`] for many states at once: state `i` is
+    /// `states[i * stride..i * stride + state_len]` (the powertrain's part of consecutive
+    /// states of `stride` numbers), its command `commands[i]`, its input reached written
+    /// to `reached[i]`. One call per batch: the default loops over the states with the
+    /// implementation's own `step`, which the compiler inlines.
+    fn step_many(
+        &self,
+        states: &mut [f64],
+        stride: usize,
+        commands: &[Input],
+        reached: &mut [Input],
+    ) {
+        let len = self.state_len();
+        for (i, (u, r)) in commands.iter().zip(reached.iter_mut()).enumerate() {
+            *r = self.step(&mut states[i * stride..i * stride + len], u);
+        }
+    }
+
+    /// [`PowertrainStepper::step`] through a sequence of commands: `reached[k]` the input
+    /// reached at step k. The default loops with the implementation's own `step`, which
+    /// the compiler inlines.
+    fn step_seq(&self, state: &mut [f64], commands: &[Input], reached: &mut [Input]) {
+        for (u, r) in commands.iter().zip(reached.iter_mut()) {
+            *r = self.step(state, u);
+        }
+    }
 }
 
 impl Clone for Box<dyn Powertrain> {

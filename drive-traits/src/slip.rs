@@ -176,6 +176,31 @@ pub trait SlipStepper: Send + Sync {
     /// The body velocity `v = f - g` (eq. 2) of this step at the commanded body velocity
     /// `f`, the state moved to the next step.
     fn step(&self, state: &mut [f64], f: &BodyVelocity) -> BodyVelocity;
+
+    /// [`SlipStepper::step`] for many states at once: state `i` is
+    /// `states[i * stride..i * stride + state_len]`, its commanded body velocity `f[i]`, its
+    /// body velocity written to `v[i]`. The default loops with the implementation's own
+    /// `step`, which the compiler inlines.
+    fn step_many(
+        &self,
+        states: &mut [f64],
+        stride: usize,
+        f: &[BodyVelocity],
+        v: &mut [BodyVelocity],
+    ) {
+        let len = self.state_len();
+        for (i, (f, v)) in f.iter().zip(v.iter_mut()).enumerate() {
+            *v = self.step(&mut states[i * stride..i * stride + len], f);
+        }
+    }
+
+    /// [`SlipStepper::step`] through a sequence of commanded body velocities: `v[k]` the
+    /// body velocity of step k. The default loops with the implementation's own `step`.
+    fn step_seq(&self, state: &mut [f64], f: &[BodyVelocity], v: &mut [BodyVelocity]) {
+        for (f, v) in f.iter().zip(v.iter_mut()) {
+            *v = self.step(state, f);
+        }
+    }
 }
 
 /// The stepper of a slip map without a state of its own: `v = f - g(f)` (eq. 2) each step,

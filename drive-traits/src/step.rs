@@ -82,21 +82,25 @@ pub mod layout {
     /// s[2] = 0.5;
     /// assert_eq!(drive_traits::step::layout::pose(&s).z, 0.5);
     /// ```
+    #[inline]
     pub fn pose(state: &[f64]) -> Pose {
         Pose::from_column_slice(&state[POSE..POSE + 3])
     }
 
     /// The body velocity over the last step of a state.
+    #[inline]
     pub fn body_velocity(state: &[f64]) -> BodyVelocity {
         BodyVelocity::from_column_slice(&state[VELOCITY..VELOCITY + 3])
     }
 
     /// The pose covariance of a state.
+    #[inline]
     pub fn covariance(state: &[f64]) -> PoseCovariance {
         PoseCovariance::from_row_slice(&state[COVARIANCE..COVARIANCE + 9])
     }
 
     /// The number of steps a state has taken (0 for a value that is not a count).
+    #[inline]
     pub fn steps(state: &[f64]) -> usize {
         let k = state[STEPS];
         if k.is_finite() && k >= 0.0 {
@@ -108,6 +112,7 @@ pub mod layout {
 
     /// Writes the header of a state: its pose, body velocity and covariance, and the
     /// number of steps.
+    #[inline]
     pub fn write(
         state: &mut [f64],
         pose: &Pose,
@@ -122,6 +127,7 @@ pub mod layout {
     }
 
     /// Writes the pose covariance of a state (row-major).
+    #[inline]
     pub fn write_covariance(state: &mut [f64], covariance: &PoseCovariance) {
         for r in 0..3 {
             for c in 0..3 {
@@ -217,6 +223,76 @@ pub trait Stepper: Send + Sync {
         }
         Ok(())
     }
+
+    /// Steps `state` through every command of `commands` in turn, recording what `outputs`
+    /// asks for after each step (row k after command k). The same states as that many calls
+    /// of [`Stepper::step`], which the default makes; a stepper overrides it to run each
+    /// part over the whole sequence at once (as a prediction runs).
+    fn rollout(
+        &self,
+        state: &mut [f64],
+        commands: &[Input],
+        mut outputs: StepOutputs<'_>,
+    ) -> Result<(), MotionError> {
+        check_state(self.state_len(), state)?;
+        outputs.check(commands.len())?;
+        for (k, u) in commands.iter().enumerate() {
+            self.step(state, u)?;
+            outputs.record(k, state);
+        }
+        Ok(())
+    }
+}
+
+/// What a rollout of one state records after each of its steps, each optional: one row
+/// per command ([`Stepper::rollout`]).
+#[derive(Default)]
+pub struct StepOutputs<'a> {
+    /// The pose after each step.
+    pub poses: Option<&'a mut [Pose]>,
+    /// The body velocity over each step.
+    pub velocities: Option<&'a mut [BodyVelocity]>,
+    /// The pose covariance after each step (of a stepper that carries it).
+    pub covariances: Option<&'a mut [PoseCovariance]>,
+}
+
+impl StepOutputs<'_> {
+    /// Records row `k` from `state`.
+    #[inline]
+    pub fn record(&mut self, k: usize, state: &[f64]) {
+        if let Some(p) = self.poses.as_deref_mut() {
+            p[k] = layout::pose(state);
+        }
+        if let Some(v) = self.velocities.as_deref_mut() {
+            v[k] = layout::body_velocity(state);
+        }
+        if let Some(c) = self.covariances.as_deref_mut() {
+            c[k] = layout::covariance(state);
+        }
+    }
+
+    /// `Err` unless every output given has `rows` rows.
+    pub fn check(&self, rows: usize) -> Result<(), MotionError> {
+        for given in [
+            self.poses.as_ref().map(|p| p.len()),
+            self.velocities.as_ref().map(|v| v.len()),
+            self.covariances.as_ref().map(|c| c.len()),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            if given != rows {
+                return Err(MotionError::BatchShape {
+                    sequences: 1,
+                    horizon: rows,
+                    expected: rows,
+                    commands: rows,
+                    poses: given,
+                });
+            }
+        }
+        Ok(())
+    }
 }
 
 /// `Err` unless `state` holds exactly `len` numbers.
@@ -225,6 +301,7 @@ pub trait Stepper: Send + Sync {
 /// assert!(drive_traits::step::check_state(3, &[0.0; 3]).is_ok());
 /// assert!(drive_traits::step::check_state(3, &[0.0; 2]).is_err());
 /// ```
+#[inline]
 pub fn check_state(len: usize, state: &[f64]) -> Result<(), MotionError> {
     if state.len() == len {
         Ok(())
@@ -242,6 +319,7 @@ pub fn check_state(len: usize, state: &[f64]) -> Result<(), MotionError> {
 /// assert!(drive_traits::step::check_states(4, 8, 2).is_ok());
 /// assert!(drive_traits::step::check_states(4, 8, 3).is_err());
 /// ```
+#[inline]
 pub fn check_states(len: usize, numbers: usize, commands: usize) -> Result<(), MotionError> {
     if commands.checked_mul(len) == Some(numbers) {
         Ok(())
@@ -259,14 +337,17 @@ pub fn check_states(len: usize, numbers: usize, commands: usize) -> Result<(), M
 /// ```
 /// use drive_traits::step::index_of;
 /// assert_eq!(index_of(2.0, 4), 2);
-/// assert_eq!((index_of(9.0, 4), index_of(f64::NAN, 4), index_of(-1.0, 4)), (1, 0, 0));
+/// assert_eq!((index_of(9.0, 4), index_of(f64::NAN, 4), index_of(-1.0, 4)), (0, 0, 0));
 /// ```
 #[inline]
 pub fn index_of(value: f64, len: usize) -> usize {
-    if len == 0 || !(value.is_finite() && value >= 0.0) {
-        0
+    // `as` saturates (NaN and negatives to 0, beyond to usize::MAX): anything out of range
+    // reads 0.
+    let i = value as usize;
+    if i < len {
+        i
     } else {
-        (value as usize) % len
+        0
     }
 }
 

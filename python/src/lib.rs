@@ -15,6 +15,7 @@ mod dataset;
 mod evaluate;
 mod model;
 mod runner;
+mod step;
 mod tracker;
 
 create_exception!(
@@ -51,6 +52,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dataset::import_recording, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate::per_window_columns, m)?)?;
     runner::register(m)?;
+    step::register(m)?;
     tracker::register(m)?;
     Ok(())
 }

@@ -8,7 +8,7 @@ use crate::args::{
 use crate::err;
 use crate::evaluate::start_info_of;
 use drive::eval::split_by_interval;
-use drive::models::model_file::{model_from_json, model_to_json};
+use drive::models::model_file::{model_file_to_json, read_model_file, FitSettings};
 use drive::traits::{
     Input, MotionError, MotionModel, Pose, RobotDescription, StartInfo, StartState,
 };
@@ -24,9 +24,12 @@ use pyo3::prelude::*;
 pub(crate) struct Model {
     pub(crate) model: std::sync::Arc<dyn MotionModel>,
     pub(crate) robot: RobotDescription,
-    /// What the model was fitted to start from (`fit(..., start=)`; the default for a
-    /// loaded model file): what `score` gives it.
+    /// What the model was fitted to start from (`fit(..., start=)`; a loaded model file's
+    /// `fitted_with`, the default for a file without it): what `score` gives it.
     pub(crate) start: StartInfo,
+    /// The settings it was fitted with, written into its model file (`None` for a file
+    /// written without them).
+    pub(crate) settings: Option<FitSettings>,
 }
 
 impl Model {
@@ -59,6 +62,24 @@ impl Model {
     #[getter]
     fn dt(&self) -> f64 {
         self.model.dt()
+    }
+
+    /// The vehicle's input axes, in the order of a command's columns (`left [rad/s]`,
+    /// `right [rad/s]` for a differential drive).
+    #[getter]
+    fn inputs(&self) -> Vec<String> {
+        self.robot
+            .vehicle
+            .axes()
+            .iter()
+            .map(|a| format!("{} [{}]", a.name, a.unit))
+            .collect()
+    }
+
+    /// The number of input axes D (the width of a command).
+    #[getter]
+    fn n_inputs(&self) -> usize {
+        self.robot.vehicle.input_dim()
     }
 
     /// Predicted poses (H, 3) for the (H, D) commands (the vehicle's D inputs, one row per
@@ -331,6 +352,95 @@ impl Model {
         Ok(out)
     }
 
+    /// The numbers of one stepped state of this model (the width of `State.array`), with
+    /// or without the covariance; `max_steps` bounds a model stepped by replay only.
+    #[pyo3(signature = (covariance=None, max_steps=None))]
+    fn state_len(
+        &self,
+        covariance: Option<&Bound<'_, PyAny>>,
+        max_steps: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<usize> {
+        self.state_len_impl(covariance, max_steps)
+    }
+
+    /// `batch` states at a start, for stepping one command at a time (`step`): the start
+    /// as `predict` takes it (`start` x, y, yaw; `start_wheels` the measured inputs;
+    /// `start_yaw_rate`; `start_velocity`), each either one for every state or one row per
+    /// state ((B, 3), (B, D), (B,), (B, 2)), and `history` the commands already sent,
+    /// oldest first ((L, D)): those still inside the powertrain's dead time act in the
+    /// first steps. With `covariance=True` the states carry the pose covariance (a model
+    /// with an uncertainty). Stepping k times gives row k of `predict` from the same start
+    /// and commands. `max_steps` bounds the states of a model stepped by replay (a plug-in
+    /// model without a stepper of its own) only.
+    #[pyo3(signature = (start=None, start_wheels=None, start_yaw_rate=None, start_velocity=None, history=None, batch=None, covariance=None, max_steps=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn initial_state(
+        &self,
+        py: Python<'_>,
+        start: Option<&Bound<'_, PyAny>>,
+        start_wheels: Option<&Bound<'_, PyAny>>,
+        start_yaw_rate: Option<&Bound<'_, PyAny>>,
+        start_velocity: Option<&Bound<'_, PyAny>>,
+        history: Option<&Bound<'_, PyAny>>,
+        batch: Option<&Bound<'_, PyAny>>,
+        covariance: Option<&Bound<'_, PyAny>>,
+        max_steps: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<crate::step::State> {
+        self.initial_state_impl(
+            py,
+            start,
+            start_wheels,
+            start_yaw_rate,
+            start_velocity,
+            history,
+            batch,
+            covariance,
+            max_steps,
+        )
+    }
+
+    /// The states after one step of `dt` under `actions` (B, D): one command per state, one
+    /// column per input axis. A new `State` (the one given is left as it was), or the same
+    /// one stepped with `inplace=True`. Stepped in parallel without the GIL.
+    #[pyo3(signature = (state, actions, inplace=None))]
+    fn step(
+        &self,
+        py: Python<'_>,
+        state: &Bound<'_, crate::step::State>,
+        actions: &Bound<'_, PyAny>,
+        inplace: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Py<crate::step::State>> {
+        self.step_impl(py, state, actions, inplace)
+    }
+
+    /// `states` (K, state_len) after one step under `actions` (K, D), as a new array: the
+    /// pytorch_mppi signature `dynamics(state, action) -> next_state` on numpy arrays (see
+    /// `drive.MppiDynamics`). `covariance` and `max_steps` as the states were made with.
+    #[pyo3(signature = (states, actions, covariance=None, max_steps=None))]
+    fn step_array<'py>(
+        &self,
+        py: Python<'py>,
+        states: &Bound<'py, PyAny>,
+        actions: &Bound<'py, PyAny>,
+        covariance: Option<&Bound<'py, PyAny>>,
+        max_steps: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+        self.step_array_impl(py, states, actions, covariance, max_steps)
+    }
+
+    /// The settings the model was fitted with (its model file's `fitted_with`: model,
+    /// canonical, start, uncertainty, split, training_windows) as a dict; None for a file
+    /// written without them.
+    #[getter]
+    fn fitted_with<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        match &self.settings {
+            None => Ok(py.None().into_bound(py)),
+            Some(s) => py
+                .import("json")?
+                .call_method1("loads", (serde_json::to_string(s).map_err(err)?,)),
+        }
+    }
+
     /// Saves the model as the command line's model file (`drive predict --model`).
     fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
         let path = path_of("path", path)?;
@@ -359,9 +469,10 @@ impl Model {
         }
     }
 
-    /// The model file's JSON text (what `save` writes).
+    /// The model file's JSON text (what `save` writes), with the settings the model was
+    /// fitted with (`fitted_with`: its start among them).
     fn to_json(&self) -> PyResult<String> {
-        model_to_json(self.model.as_ref(), &self.robot).map_err(err)
+        model_file_to_json(self.model.as_ref(), &self.robot, self.settings.as_ref()).map_err(err)
     }
 
     /// The start information the model was fitted for ("encoders", "encoders+imu" or
@@ -519,10 +630,20 @@ pub(crate) fn fit(
         spec.fit(&train)
             .map_err(|e| format!("fitting {model}: {e}"))
     });
+    let fitted = fitted.map_err(err)?;
+    let training_windows = match split {
+        Some(f) => split_by_interval(data, f).map_err(err)?.0.len(),
+        None => data.windows.len(),
+    };
     Ok(Model {
-        model: fitted.map_err(err)?.into(),
+        model: fitted.into(),
         robot: data.robot.clone(),
         start,
+        settings: Some(FitSettings {
+            split,
+            training_windows,
+            ..FitSettings::of(&spec)
+        }),
     })
 }
 
@@ -538,18 +659,20 @@ pub(crate) fn load_model(path: &Bound<'_, PyAny>) -> PyResult<Model> {
     model_of_text(&name, &text, None)
 }
 
-/// A model from a model file's text; `start` the start information it was fitted for (the
-/// default when None).
+/// A model from a model file's text: the start it was fitted for is the file's
+/// (`fitted_with`); for a file without it, `start` (the default when None).
 pub(crate) fn model_of_text(name: &str, text: &str, start: Option<&str>) -> PyResult<Model> {
-    let (model, robot) = model_from_json(name, text).map_err(err)?;
-    let start = match start {
-        Some(s) => StartInfo::parse(s).map_err(err)?,
-        None => StartInfo::default(),
+    let file = read_model_file(name, text).map_err(err)?;
+    let start = match (&file.fitted_with, start) {
+        (Some(f), _) => f.start,
+        (None, Some(s)) => StartInfo::parse(s).map_err(err)?,
+        (None, None) => StartInfo::default(),
     };
     Ok(Model {
-        model: model.into(),
-        robot,
+        model: file.model.into(),
+        robot: file.robot,
         start,
+        settings: file.fitted_with,
     })
 }
 

@@ -1,7 +1,7 @@
 //! `drive train`: one model fitted and saved as JSON.
 
 use super::common::{load, outputs_for, DataArgs, PredictionArgs};
-use crate::models::model_file::model_to_json;
+use crate::models::model_file::{model_file_to_json, FitSettings};
 use crate::traits::WindowSet;
 use crate::Registries;
 use anyhow::{Context, Result};
@@ -66,7 +66,14 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                 .len()
         );
     }
-    let text = model_to_json(model.as_ref(), &dataset.robot)
+    // The settings it was fitted with, kept in the file (a loaded model predicts and scores
+    // from the start it was fitted for).
+    let settings = FitSettings {
+        split: args.split,
+        training_windows: train.len(),
+        ..FitSettings::of(&spec)
+    };
+    let text = model_file_to_json(model.as_ref(), &dataset.robot, Some(&settings))
         .with_context(|| format!("saving {}", args.model))?;
     outputs.write(&args.out, text)?;
     outputs.publish()?;

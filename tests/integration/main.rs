@@ -13,6 +13,7 @@ mod car;
 mod cli;
 mod data_checks;
 mod fuzz_corpus;
+mod model_files;
 mod omnidirectional;
 mod other_robot;
 mod outputs;

@@ -5,8 +5,9 @@
 
 use crate::common::ok;
 use drive::eval::split_by_interval;
-use drive::models::batch::{rollout_states, step_batch_parallel, RolloutOutputs};
+use drive::models::batch::{rollout_states, step_batch_parallel};
 use drive::models::calibration::Uncertainty;
+use drive::traits::step::StepOutputs;
 use drive::traits::step::{layout, StepOptions};
 use drive::traits::{
     BodyVelocity, Dataset, Input, MotionError, MotionModel, Pose, PoseCovariance, StartInfo,
@@ -247,7 +248,7 @@ fn batches_stepped_in_parallel_equal_states_stepped_one_by_one() {
             &mut rolled,
             &commands,
             horizon,
-            RolloutOutputs {
+            StepOutputs {
                 poses: Some(&mut poses),
                 velocities: Some(&mut velocities),
                 covariances: Some(&mut covariances),

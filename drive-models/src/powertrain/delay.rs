@@ -66,6 +66,48 @@ impl DelayLine {
         })
     }
 
+    /// The longest whole-sample delay (the ring's length) and the lags of axes 0 and 1.
+    #[inline]
+    pub(crate) fn two_lags(&self) -> (usize, usize, usize) {
+        (self.len, self.lags[0], self.lags[1])
+    }
+
+    /// [`DelayLine::step`] for two axes (a differential drive's sides, a car's speed and
+    /// steering): the delayed commands of axes 0 and 1, `(a, b)` pushed.
+    #[inline]
+    pub(crate) fn step_two(&self, state: &mut [f64], a: f64, b: f64) -> (f64, f64) {
+        let len = self.len;
+        if len == 0 {
+            return (a, b);
+        }
+        let head = index_of(state[0], len);
+        let delayed = |lag: usize, axis: usize, now: f64, state: &[f64]| {
+            if lag == 0 {
+                now
+            } else {
+                // (head - lag) mod len, head < len and 0 < lag <= len: no division.
+                let slot = if head >= lag {
+                    head - lag
+                } else {
+                    head + len - lag
+                };
+                state[1 + MAX_INPUTS * slot + axis]
+            }
+        };
+        let out = (
+            delayed(self.lags[0], 0, a, state),
+            delayed(self.lags[1], 1, b, state),
+        );
+        let at = 1 + MAX_INPUTS * head;
+        state[at..at + MAX_INPUTS].copy_from_slice(&[a, b, 0.0]);
+        state[0] = if head + 1 == len {
+            0.0
+        } else {
+            (head + 1) as f64
+        };
+        out
+    }
+
     /// Per axis, the command delayed by its lag at this step (`saturated` itself for a lag
     /// of 0), then `saturated` pushed into the line.
     #[inline]
@@ -82,13 +124,22 @@ impl DelayLine {
         for (axis, v) in newer.iter_mut().enumerate().take(self.axes) {
             let lag = self.lags[axis];
             if lag > 0 {
-                let slot = (head + self.len - lag) % self.len;
+                // (head - lag) mod len, head < len and 0 < lag <= len: no division.
+                let slot = if head >= lag {
+                    head - lag
+                } else {
+                    head + self.len - lag
+                };
                 *v = state[1 + MAX_INPUTS * slot + axis];
             }
         }
         let at = 1 + MAX_INPUTS * head;
         state[at..at + MAX_INPUTS].copy_from_slice(saturated);
-        state[0] = ((head + 1) % self.len) as f64;
+        state[0] = if head + 1 == self.len {
+            0.0
+        } else {
+            (head + 1) as f64
+        };
         newer
     }
 }

@@ -270,8 +270,20 @@ impl PowertrainStepper for FopdtStepper {
         older.copy_from_slice(&o);
     }
 
+    fn step_seq(&self, state: &mut [f64], commands: &[Input], reached: &mut [Input]) {
+        if self.axes == 2 {
+            return self.step_seq_two(state, commands, reached);
+        }
+        for (u, r) in commands.iter().zip(reached.iter_mut()) {
+            *r = self.step(state, u);
+        }
+    }
+
     #[inline]
     fn step(&self, state: &mut [f64], command: &Input) -> Input {
+        if self.axes == 2 {
+            return self.step_two(state, command);
+        }
         let (lo, hi) = (self.limits.min, self.limits.max);
         let reached = Input::new(state[0], state[1], state[2]);
         let saturated: [f64; MAX_INPUTS] = std::array::from_fn(|a| {
@@ -287,6 +299,83 @@ impl PowertrainStepper for FopdtStepper {
             state[a] = d.own * state[a] + (d.older * older + d.newer * newer[a]);
             state[MAX_INPUTS + a] = newer[a];
         }
+        reached
+    }
+}
+
+impl FopdtStepper {
+    /// [`PowertrainStepper::step_seq`] for two axes, the recursion's values in registers
+    /// between steps (the ring of delayed commands in the state): the same arithmetic as
+    /// [`FopdtStepper::step_two`] command after command.
+    fn step_seq_two(&self, state: &mut [f64], commands: &[Input], reached: &mut [Input]) {
+        let (lo, hi) = (self.limits.min, self.limits.max);
+        let (l, r) = (self.d[0], self.d[1]);
+        let (mut wl, mut wr, rest) = (state[0], state[1], state[2]);
+        let (mut older_l, mut older_r) = (state[MAX_INPUTS], state[MAX_INPUTS + 1]);
+        let line = &mut state[2 * MAX_INPUTS..];
+        let (len, lag_l, lag_r) = self.delay.two_lags();
+        let mut head = drive_traits::step::index_of(line[0], len);
+        // (head - lag) mod len, head < len and 0 < lag <= len: no division.
+        let slot = |head: usize, lag: usize| {
+            if head >= lag {
+                head - lag
+            } else {
+                head + len - lag
+            }
+        };
+        for (u, out) in commands.iter().zip(reached.iter_mut()) {
+            *out = Input::new(wl, wr, rest);
+            let (a, b) = (u.x.clamp(lo.x, hi.x), u.y.clamp(lo.y, hi.y));
+            let (newer_l, newer_r) = if len == 0 {
+                (a, b)
+            } else {
+                let nl = if lag_l == 0 {
+                    a
+                } else {
+                    line[1 + MAX_INPUTS * slot(head, lag_l)]
+                };
+                let nr = if lag_r == 0 {
+                    b
+                } else {
+                    line[2 + MAX_INPUTS * slot(head, lag_r)]
+                };
+                let at = 1 + MAX_INPUTS * head;
+                line[at] = a;
+                line[at + 1] = b;
+                line[at + 2] = 0.0;
+                head = if head + 1 == len { 0 } else { head + 1 };
+                (nl, nr)
+            };
+            wl = l.own * wl + (l.older * older_l + l.newer * newer_l);
+            wr = r.own * wr + (r.older * older_r + r.newer * newer_r);
+            (older_l, older_r) = (newer_l, newer_r);
+        }
+        if len > 0 {
+            line[0] = head as f64;
+        }
+        state[0] = wl;
+        state[1] = wr;
+        state[MAX_INPUTS] = older_l;
+        state[MAX_INPUTS + 1] = older_r;
+    }
+
+    /// [`PowertrainStepper::step`] written out for two axes, as the two-axis
+    /// [`FopdtPowertrain::predict_into`] is (the hot path of every stepped skid-steer).
+    #[inline]
+    fn step_two(&self, state: &mut [f64], command: &Input) -> Input {
+        let (lo, hi) = (self.limits.min, self.limits.max);
+        let (l, r) = (&self.d[0], &self.d[1]);
+        let reached = Input::new(state[0], state[1], state[2]);
+        let (newer_l, newer_r) = self.delay.step_two(
+            &mut state[2 * MAX_INPUTS..],
+            command.x.clamp(lo.x, hi.x),
+            command.y.clamp(lo.y, hi.y),
+        );
+        let (older_l, older_r) = (state[MAX_INPUTS], state[MAX_INPUTS + 1]);
+        state[0] = l.own * reached.x + (l.older * older_l + l.newer * newer_l);
+        state[1] = r.own * reached.y + (r.older * older_r + r.newer * newer_r);
+        state[MAX_INPUTS] = newer_l;
+        state[MAX_INPUTS + 1] = newer_r;
         reached
     }
 }

@@ -13,6 +13,9 @@ and the protocol runner a ROS 2 node drives a robot with. `pip install drive-ugv
     >>> result = drive.evaluate(data)               # the dict of `drive eval --json`
     >>> model = drive.fit(data, "slip-blr", split=0.5)
     >>> poses = model.predict(commands)             # (H, 2) -> (H, 3): x, y, yaw
+    >>> state = model.initial_state(start=(0, 0, 0), batch=1024)  # the step API
+    >>> state = model.step(state, actions)          # (1024, 2) -> state.poses (1024, 3)
+    >>> dynamics = drive.MppiDynamics(model)        # pytorch_mppi's dynamics(state, action)
     >>> runner = drive.ProtocolRunner("husky", "uniform", seed=0, geofence=20.0)
     >>> command = runner.tick({"t": 0.0, "encoder": (0.0, 0.0), "pose": (0.0, 0.0, 0.0),
     ...                        "deadman": True})    # command.inputs, .linear, .angular
@@ -35,9 +38,10 @@ import numpy as _np
 from collections.abc import Mapping as _Mapping
 
 from . import _native
-from ._native import Command, Dataset, DriveError, Model, Tracker, fit
+from ._native import Command, Dataset, DriveError, Model, State, Tracker, fit
 from ._native import bench_json as _bench_json
 from ._native import evaluate_json as _evaluate_json
+from ._mppi import MppiDynamics
 
 
 class DriveFileNotFoundError(DriveError, FileNotFoundError):
@@ -247,7 +251,9 @@ __all__ = [
     "DriveFileNotFoundError",
     "Measurements",
     "Model",
+    "MppiDynamics",
     "ProtocolRunner",
+    "State",
     "Tracker",
     "bench",
     "evaluate",

@@ -78,6 +78,23 @@ impl SlipStepper for IpemStepper {
         put_measured(&Measured::of(start), &mut state[BODY..]);
     }
 
+    /// The body and what was measured read once for the whole sequence.
+    fn step_seq(&self, state: &mut [f64], f: &[BodyVelocity], v: &mut [BodyVelocity]) {
+        let measured = get_measured(&state[BODY..]);
+        let mut body = get_body(state);
+        // The steady velocities first (independent steps, side by side), then the body's
+        // recursion through them: the same arithmetic as step after step.
+        for (f, v) in f.iter().zip(v.iter_mut()) {
+            let g = slip_of(&self.theta, &slip_features(f, &self.scale));
+            *v = BodyVelocity::new(f.x - g[0], f.y - g[1], f.z - g[2]);
+        }
+        for v in v.iter_mut() {
+            let ([x, y], z) = body.step(([v.x, v.y], v.z), &self.dynamics, &measured, self.dt);
+            *v = BodyVelocity::new(x, y, z);
+        }
+        put_body(&body, &mut state[..BODY]);
+    }
+
     #[inline]
     fn step(&self, state: &mut [f64], f: &BodyVelocity) -> BodyVelocity {
         let measured = get_measured(&state[BODY..]);
