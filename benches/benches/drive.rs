@@ -341,6 +341,56 @@ fn step(c: &mut Criterion) {
                 .unwrap()
             })
         });
+        // The same through the C library (model file, drive_state_init, drive_state_rollout
+        // with the commands as doubles): what a C or C++ controller calls.
+        let text = drive::models::model_file::model_to_json(model.as_ref(), &data.robot).unwrap();
+        let mut handle = std::ptr::null_mut();
+        // SAFETY: the text's bytes and a valid out pointer.
+        let status = unsafe {
+            drive_capi::drive_model_from_json(text.as_ptr().cast(), text.len(), &mut handle)
+        };
+        assert_eq!(status, drive_capi::DRIVE_OK);
+        let flat: Vec<f64> = commands.iter().flat_map(|u| [u.x, u.y]).collect();
+        let mut c_states = vec![0.0; n * len];
+        let mut c_velocities = vec![0.0; n * horizon * 3];
+        let mut start = drive_capi::drive_start::default();
+        // SAFETY: a valid start.
+        unsafe { drive_capi::drive_start_rest(&mut start) };
+        c.bench_function(
+            &format!("step/{name} 2000 x 56 steps through the C library"),
+            |b| {
+                b.iter(|| {
+                    // SAFETY: buffers of the sizes the calls read and write.
+                    unsafe {
+                        let s = drive_capi::drive_state_init(
+                            handle,
+                            0,
+                            &start,
+                            1,
+                            std::ptr::null(),
+                            0,
+                            c_states.as_mut_ptr(),
+                            n,
+                        );
+                        assert_eq!(s, drive_capi::DRIVE_OK);
+                        let s = drive_capi::drive_state_rollout(
+                            handle,
+                            0,
+                            c_states.as_mut_ptr(),
+                            n,
+                            flat.as_ptr(),
+                            horizon,
+                            std::ptr::null_mut(),
+                            c_velocities.as_mut_ptr(),
+                            std::ptr::null_mut(),
+                        );
+                        assert_eq!(s, drive_capi::DRIVE_OK);
+                    }
+                })
+            },
+        );
+        // SAFETY: the model loaded above, freed once.
+        unsafe { drive_capi::drive_model_free(handle) };
         let one: Vec<Input> = commands
             .iter()
             .step_by(horizon)

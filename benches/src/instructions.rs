@@ -21,7 +21,7 @@ use std::hint::black_box;
 use std::process::ExitCode;
 
 /// The workloads: name and what it runs.
-const WORKLOADS: [(&str, &str); 6] = [
+const WORKLOADS: [(&str, &str); 9] = [
     (
         "train/slip-blr",
         "slip-BLR on the FOPDT fitted on the bundled Husky's training half",
@@ -45,6 +45,18 @@ const WORKLOADS: [(&str, &str); 6] = [
     (
         "batch/slip-blr",
         "predict_batch_into of 10,000 x 40 steps with slip-BLR, one thread",
+    ),
+    (
+        "step/slip-blr",
+        "2,000 stepped states of slip-BLR rolled through 40 commands each (rollout_states: what Nav2's plug-in and the C library's drive_state_rollout run), one thread",
+    ),
+    (
+        "step/slip-ipem",
+        "2,000 stepped states of slip-ipem rolled through 40 commands each, one thread",
+    ),
+    (
+        "step-batch/slip-blr",
+        "2,000 stepped states of slip-BLR stepped 40 times one command at a time (step_batch: what Python's Model.step and pytorch_mppi's dynamics run)",
     ),
 ];
 
@@ -218,6 +230,56 @@ fn run(name: &str) -> Result<(), String> {
             let mut poses = vec![Pose::zeros(); commands.len()];
             measured(|| batch(model.as_ref(), &starts, &commands, black_box(&mut poses)))?;
             black_box(&poses);
+        }
+        "step/slip-blr" | "step/slip-ipem" | "step-batch/slip-blr" => {
+            use drive::models::batch::rollout_states;
+            use drive::traits::step::{StepOptions, StepOutputs};
+            let model = if name.ends_with("slip-blr") {
+                fit(&blr, &full)?
+            } else {
+                fit(&ipem_setup, &tiny)?
+            };
+            let (starts, commands) = sequences(&data, 2_000)?;
+            let stepper = model
+                .stepper(StepOptions::default())
+                .map_err(|e| e.to_string())?;
+            let len = stepper.state_len();
+            let mut states = vec![0.0; starts.len() * len];
+            for (s, start) in states.chunks_exact_mut(len).zip(&starts) {
+                stepper.init(start, &[], s).map_err(|e| e.to_string())?;
+            }
+            if name.starts_with("step-batch") {
+                let by_step: Vec<Vec<Input>> = (0..40)
+                    .map(|t| commands.iter().skip(t).step_by(40).copied().collect())
+                    .collect();
+                measured(|| -> Result<(), String> {
+                    for now in &by_step {
+                        stepper
+                            .step_batch(black_box(&mut states), now)
+                            .map_err(|e| e.to_string())?;
+                    }
+                    Ok(())
+                })?;
+            } else {
+                let mut velocities = vec![drive::traits::BodyVelocity::zeros(); commands.len()];
+                measured(|| {
+                    let outputs = StepOutputs {
+                        velocities: Some(&mut velocities),
+                        ..Default::default()
+                    };
+                    rollout_states(
+                        stepper.as_ref(),
+                        &mut states,
+                        &commands,
+                        40,
+                        outputs,
+                        starts.len(),
+                    )
+                    .map_err(|e| e.to_string())
+                })?;
+                black_box(&velocities);
+            }
+            black_box(&states);
         }
         other => {
             let names: Vec<&str> = WORKLOADS.iter().map(|(n, _)| *n).collect();

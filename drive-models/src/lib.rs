@@ -20,6 +20,7 @@ pub mod blr;
 pub mod calibration;
 mod composed;
 pub mod difficulty;
+pub mod export;
 pub mod model_file;
 pub mod powertrain;
 pub mod registry;

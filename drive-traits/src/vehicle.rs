@@ -244,6 +244,14 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
     /// command a lateral velocity: `v.y` must be zero).
     fn input_for(&self, v: &BodyVelocity) -> Option<Input>;
 
+    /// [`CommandModel::input_for`] of every body velocity of `v`, into `out` (cleared
+    /// first): one call per batch (a controller's sampled body velocities). The default
+    /// loops with the implementation's own `input_for`, which the compiler inlines.
+    fn inputs_for_into(&self, v: &[BodyVelocity], out: &mut Vec<Option<Input>>) {
+        out.clear();
+        out.extend(v.iter().map(|v| self.input_for(v)));
+    }
+
     /// The input that commands the forward speed `linear` (m/s) and the yaw rate `angular`
     /// (rad/s): what a Twist (linear.x, angular.z) asks of the robot, what the protocol's
     /// samplers and acceleration limits, the logger's commands on import and the

@@ -43,6 +43,7 @@ mod common;
 mod compare_protocols;
 mod converge;
 mod eval;
+mod export;
 mod import;
 mod list;
 mod matrix;
@@ -126,6 +127,9 @@ enum Command {
     Track(track::Args),
     /// Predict poses from a saved model and a command sequence.
     Predict(predict::Args),
+    /// Write a fitted model in the layout other software loads: norlab_controllers' slip-BLR
+    /// MPC (`--format norlab`: .npy arrays and a YAML of its parameters).
+    Export(export::Args),
     /// List the registered parts: vehicles, powertrains, learners, samplers, terrains,
     /// robots.
     List(list::Args),
@@ -197,6 +201,7 @@ where
             Command::Bench(a) => bench::run(&a, registries),
             Command::Track(a) => track::run(&a, registries),
             Command::Predict(a) => predict::run(&a, registries),
+            Command::Export(a) => export::run(&a, registries),
             Command::List(a) => list::run(&a, registries),
         });
     let notes = common::take_notes();

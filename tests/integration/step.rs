@@ -304,3 +304,63 @@ fn a_state_changed_by_hand_never_panics() {
         }
     }
 }
+
+#[test]
+fn rollouts_in_pieces_equal_steps_one_by_one_with_a_history() {
+    // A rollout runs each part over the whole sequence (the powertrain's delayed commands
+    // read from the sequence itself, the ring of commands rebuilt at its end): pieces
+    // shorter and longer than the dead time, from a start with commands already sent, leave
+    // the same states as steps one by one, number for number.
+    let data = drive::bundled::husky().unwrap();
+    let (train, eval) = split_by_interval(&data, 0.5).unwrap();
+    let vehicle = data.robot.vehicle.as_ref();
+    for name in [
+        "slip-blr",
+        "slip-ipem",
+        "slip-blr+rate-limited",
+        "acc-blr+fopdt",
+        "naive",
+    ] {
+        let model = Registries::builtin()
+            .models()
+            .resolve(name)
+            .unwrap()
+            .fit(&train)
+            .unwrap();
+        let stepper = model
+            .stepper(StepOptions::with_covariance(name != "naive"))
+            .unwrap();
+        let len = stepper.state_len();
+        let w = eval.windows[9];
+        let sent: Vec<Input> = eval.windows[8].command[25..].to_vec();
+        let start = w.start_state_with(vehicle, StartInfo::EncodersImuLocalization);
+        let (mut rolled, mut stepped) = (vec![0.0; len], vec![0.0; len]);
+        stepper.init(&start, &sent, &mut rolled).unwrap();
+        stepper.init(&start, &sent, &mut stepped).unwrap();
+        let mut at = 0;
+        for piece in [1, 2, 3, 20, 5, 9] {
+            let commands = &w.command[at..at + piece];
+            at += piece;
+            let mut poses = vec![Pose::zeros(); piece];
+            stepper
+                .rollout(
+                    &mut rolled,
+                    commands,
+                    StepOutputs {
+                        poses: Some(&mut poses),
+                        ..Default::default()
+                    },
+                )
+                .unwrap();
+            for (k, u) in commands.iter().enumerate() {
+                stepper.step(&mut stepped, u).unwrap();
+                assert_eq!(
+                    poses[k],
+                    layout::pose(&stepped),
+                    "{name}, piece of {piece}, step {k}"
+                );
+            }
+            assert_eq!(rolled, stepped, "{name}, after a piece of {piece}");
+        }
+    }
+}

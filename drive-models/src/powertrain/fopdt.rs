@@ -314,44 +314,61 @@ impl FopdtStepper {
         let (mut older_l, mut older_r) = (state[MAX_INPUTS], state[MAX_INPUTS + 1]);
         let line = &mut state[2 * MAX_INPUTS..];
         let (len, lag_l, lag_r) = self.delay.two_lags();
-        let mut head = drive_traits::step::index_of(line[0], len);
-        // (head - lag) mod len, head < len and 0 < lag <= len: no division.
-        let slot = |head: usize, lag: usize| {
-            if head >= lag {
-                head - lag
-            } else {
-                head + len - lag
-            }
+        let head = drive_traits::step::index_of(line[0], len);
+        // The command `k` samples before this sequence's first (1 <= k <= len), from the ring:
+        // slot (head - k) mod len (head holds the oldest), without a division.
+        let before = |line: &[f64], k: usize, axis: usize| {
+            let slot = if head >= k { head - k } else { head + len - k };
+            line[1 + MAX_INPUTS * slot + axis]
         };
-        for (u, out) in commands.iter().zip(reached.iter_mut()) {
+        let saturated = |u: &Input| (u.x.clamp(lo.x, hi.x), u.y.clamp(lo.y, hi.y));
+        // Within the sequence the delayed command is the sequence's own (as a prediction
+        // reads it); before it, the ring's.
+        for (j, out) in reached.iter_mut().enumerate().take(commands.len()) {
             *out = Input::new(wl, wr, rest);
-            let (a, b) = (u.x.clamp(lo.x, hi.x), u.y.clamp(lo.y, hi.y));
-            let (newer_l, newer_r) = if len == 0 {
-                (a, b)
+            let newer_l = if j >= lag_l {
+                commands[j - lag_l].x.clamp(lo.x, hi.x)
             } else {
-                let nl = if lag_l == 0 {
-                    a
-                } else {
-                    line[1 + MAX_INPUTS * slot(head, lag_l)]
-                };
-                let nr = if lag_r == 0 {
-                    b
-                } else {
-                    line[2 + MAX_INPUTS * slot(head, lag_r)]
-                };
-                let at = 1 + MAX_INPUTS * head;
-                line[at] = a;
-                line[at + 1] = b;
-                line[at + 2] = 0.0;
-                head = if head + 1 == len { 0 } else { head + 1 };
-                (nl, nr)
+                before(line, lag_l - j, 0)
+            };
+            let newer_r = if j >= lag_r {
+                commands[j - lag_r].y.clamp(lo.y, hi.y)
+            } else {
+                before(line, lag_r - j, 1)
             };
             wl = l.own * wl + (l.older * older_l + l.newer * newer_l);
             wr = r.own * wr + (r.older * older_r + r.newer * newer_r);
             (older_l, older_r) = (newer_l, newer_r);
         }
+        // The ring after the sequence: its last `len` commands, the oldest at the head the
+        // sequence's pushes leave, as step after step leaves it.
         if len > 0 {
-            line[0] = head as f64;
+            let n = commands.len().min(reached.len());
+            let mut last = [[0.0; 2]; 64];
+            let mut spill = Vec::new();
+            let values: &mut [[f64; 2]] = if len <= last.len() {
+                &mut last[..len]
+            } else {
+                spill.resize(len, [0.0; 2]);
+                &mut spill
+            };
+            for (e, v) in values.iter_mut().enumerate() {
+                // The command at index n - len + e of this sequence.
+                *v = if n + e >= len {
+                    let (a, b) = saturated(&commands[n + e - len]);
+                    [a, b]
+                } else {
+                    let k = len - n - e;
+                    [before(line, k, 0), before(line, k, 1)]
+                };
+            }
+            let end = (head + n % len) % len;
+            for (e, [a, b]) in values.iter().enumerate() {
+                let slot = (end + e) % len;
+                line[1 + MAX_INPUTS * slot..1 + MAX_INPUTS * (slot + 1)]
+                    .copy_from_slice(&[*a, *b, 0.0]);
+            }
+            line[0] = end as f64;
         }
         state[0] = wl;
         state[1] = wr;

@@ -82,6 +82,7 @@ impl CommandModel for Ackermann {
 
     /// `delta = atan(L w / v)`; at rest, only the body velocity zero (steering straight);
     /// never a lateral velocity.
+    #[inline]
     fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
         if v.y != 0.0 {
             return None;

@@ -77,6 +77,7 @@ impl CommandModel for DifferentialDrive {
         self.eq4(u)
     }
 
+    #[inline]
     fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
         if v.y != 0.0 {
             return None;

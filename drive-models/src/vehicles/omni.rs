@@ -85,6 +85,7 @@ impl CommandModel for Omnidirectional {
         *u
     }
 
+    #[inline]
     fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
         v.iter().all(|c| c.is_finite()).then_some(*v)
     }
