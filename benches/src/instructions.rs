@@ -21,7 +21,7 @@ use std::hint::black_box;
 use std::process::ExitCode;
 
 /// The workloads: name and what it runs.
-const WORKLOADS: [(&str, &str); 9] = [
+const WORKLOADS: [(&str, &str); 11] = [
     (
         "train/slip-blr",
         "slip-BLR on the FOPDT fitted on the bundled Husky's training half",
@@ -45,6 +45,14 @@ const WORKLOADS: [(&str, &str); 9] = [
     (
         "batch/slip-blr",
         "predict_batch_into of 10,000 x 40 steps with slip-BLR, one thread",
+    ),
+    (
+        "train-command/slip-blr",
+        "drive train --model slip-blr --split 0.5 (the default, calibrated uncertainty: the fit, two fold refits and the calibration), the bundled data read included",
+    ),
+    (
+        "train-command/slip-blr-paper",
+        "drive train --model slip-blr --split 0.5 --uncertainty paper",
     ),
     (
         "step/slip-blr",
@@ -280,6 +288,22 @@ fn run(name: &str) -> Result<(), String> {
                 black_box(&velocities);
             }
             black_box(&states);
+        }
+        "train-command/slip-blr" | "train-command/slip-blr-paper" => {
+            let out =
+                std::env::temp_dir().join(format!("instructions-{}.json", std::process::id()));
+            let mut args = vec!["drive", "train", "--model", "slip-blr", "--split", "0.5"];
+            if name.ends_with("paper") {
+                args.extend(["--uncertainty", "paper"]);
+            }
+            let out_arg = out.display().to_string();
+            args.extend(["--out", out_arg.as_str()]);
+            let registries = drive::Registries::builtin();
+            let status = measured(|| drive::cli::run_status(args, &registries));
+            let _ = std::fs::remove_file(&out);
+            if status != 0 {
+                return Err(format!("drive train exited with {status}"));
+            }
         }
         other => {
             let names: Vec<&str> = WORKLOADS.iter().map(|(n, _)| *n).collect();

@@ -63,9 +63,10 @@ pub fn predict_batch_parallel(
 /// for s in states.chunks_exact_mut(len) {
 ///     stepper.init(&StartState::at_rest(Pose::zeros()), &[], s).unwrap();
 /// }
-/// let commands: Vec<Input> = (0..n).map(|i| Input::new(10.0, i as f64, 0.0)).collect();
+/// // Wheels at 10 + i and 10 - i rad/s: 1 m/s, turning more and more.
+/// let commands: Vec<Input> = (0..n).map(|i| Input::new(10.0 + i as f64, 10.0 - i as f64, 0.0)).collect();
 /// step_batch_parallel(stepper.as_ref(), &mut states, &commands, 16).unwrap();
-/// // 1 m/s for one step of 0.05 s, whatever the turn.
+/// // 1 m/s for one step of 0.05 s, whatever the turn (the heading moves after the step).
 /// assert!((layout::pose(&states[..len]).x - 0.05).abs() < 1e-12);
 /// ```
 pub fn step_batch_parallel(
@@ -93,7 +94,8 @@ pub fn step_batch_parallel(
 /// robot's current state (Nav2's MPPI) calls once per cycle.
 ///
 /// ```
-/// use drive_models::batch::{rollout_states, StepOutputs};
+/// use drive_models::batch::rollout_states;
+/// use drive_traits::step::StepOutputs;
 /// use drive_models::{ComposedModel, DifferentialDrive};
 /// use drive_models::{powertrain::CommandedPowertrain, slip::NoSlipModel};
 /// use drive_traits::step::StepOptions;

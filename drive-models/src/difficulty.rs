@@ -269,83 +269,122 @@ pub(crate) struct Row {
 
 /// Least squares of `ln score` on the features of `rows` (excluding the fold `skip`),
 /// with a ridge of strength `ridge` per row on standardized features;
-/// [`StepDifficulty::NONE`] with too few rows.
+/// [`StepDifficulty::NONE`] with too few rows. (The calibration gathers the sums once for
+/// every ridge, [`StepSums`]; this one-off form is the tests'.)
+#[cfg(test)]
 pub(crate) fn fit_step<'a>(
     rows: impl Iterator<Item = &'a Row>,
     skip: Option<usize>,
     ridge: f64,
 ) -> StepDifficulty {
-    // The rows fitted on, gathered once.
-    let kept: Vec<&Row> = rows
-        .filter(|r| Some(r.fold) != skip && r.score.is_finite())
-        .collect();
-    let mut scores: Vec<f64> = kept.iter().map(|r| r.score).collect();
-    if scores.len() < MIN_ROWS {
-        return StepDifficulty::NONE;
-    }
-    // Scores of 0 (a prediction exactly right) are raised to a thousandth of the median.
-    scores.sort_by(f64::total_cmp);
-    let floor = (scores[scores.len() / 2] * 1e-3).max(1e-300);
-    let n = scores.len() as f64;
-    let (mut mean, mut sq) = ([0.0; FEATURES], [0.0; FEATURES]);
-    for r in &kept {
-        for (m, x) in mean.iter_mut().zip(&r.x).skip(1) {
-            *m += x / n;
+    StepSums::new(rows, skip).map_or(StepDifficulty::NONE, |s| s.solve(ridge))
+}
+
+/// What [`fit_step`] gathers from its rows before the ridge enters: the rows kept, the
+/// features' means and spreads, and the normal equations of the standardized least
+/// squares. One gathering serves every ridge strength (the same numbers as gathering
+/// again).
+pub(crate) struct StepSums<'a> {
+    kept: Vec<&'a Row>,
+    mean: Features,
+    sd: Features,
+    a: SMatrix<f64, FEATURES, FEATURES>,
+    b: SVector<f64, FEATURES>,
+}
+
+impl<'a> StepSums<'a> {
+    /// The sums of `rows` without the fold `skip`; `None` with too few rows.
+    pub(crate) fn new(rows: impl Iterator<Item = &'a Row>, skip: Option<usize>) -> Option<Self> {
+        // The rows fitted on, gathered once.
+        let kept: Vec<&Row> = rows
+            .filter(|r| Some(r.fold) != skip && r.score.is_finite())
+            .collect();
+        let mut scores: Vec<f64> = kept.iter().map(|r| r.score).collect();
+        if scores.len() < MIN_ROWS {
+            return None;
         }
-    }
-    for r in &kept {
-        for ((q, x), m) in sq.iter_mut().zip(&r.x).zip(&mean).skip(1) {
-            *q += (x - m).powi(2) / n;
-        }
-    }
-    let sd: Features = std::array::from_fn(|j| if j == 0 { 1.0 } else { sq[j].sqrt() });
-    let used = |j: usize| j == 0 || sd[j] > 1e-9 * (1.0 + mean[j].abs());
-    let mut a = SMatrix::<f64, FEATURES, FEATURES>::zeros();
-    let mut b = SVector::<f64, FEATURES>::zeros();
-    for r in &kept {
-        let z = SVector::<f64, FEATURES>::from_fn(|j, _| {
-            if j == 0 {
-                1.0
-            } else if used(j) {
-                (r.x[j] - mean[j]) / sd[j]
-            } else {
-                0.0
+        // Scores of 0 (a prediction exactly right) are raised to a thousandth of the
+        // median (the middle order statistic: the value a sort puts there).
+        let middle = scores.len() / 2;
+        let (_, median, _) = scores.select_nth_unstable_by(middle, f64::total_cmp);
+        let floor = (*median * 1e-3).max(1e-300);
+        let n = scores.len() as f64;
+        let (mut mean, mut sq) = ([0.0; FEATURES], [0.0; FEATURES]);
+        for r in &kept {
+            for (m, x) in mean.iter_mut().zip(&r.x).skip(1) {
+                *m += x / n;
             }
-        });
-        a += z * z.transpose();
-        b += z * r.score.max(floor).ln();
-    }
-    for j in 0..FEATURES {
-        a[(j, j)] += if j == 0 { 1e-9 } else { ridge * n };
-    }
-    let Some(chol) = a.cholesky() else {
-        return StepDifficulty::NONE;
-    };
-    let g = chol.solve(&b);
-    // Back to raw feature units: beta_j = g_j / sd_j, the intercept absorbing the means.
-    let mut beta = [0.0; FEATURES];
-    beta[0] = g[0];
-    for j in 1..FEATURES {
-        if used(j) {
-            beta[j] = g[j] / sd[j];
-            beta[0] -= g[j] * mean[j] / sd[j];
         }
+        for r in &kept {
+            for ((q, x), m) in sq.iter_mut().zip(&r.x).zip(&mean).skip(1) {
+                *q += (x - m).powi(2) / n;
+            }
+        }
+        let sd: Features = std::array::from_fn(|j| if j == 0 { 1.0 } else { sq[j].sqrt() });
+        let used = |j: usize| j == 0 || sd[j] > 1e-9 * (1.0 + mean[j].abs());
+        let mut a = SMatrix::<f64, FEATURES, FEATURES>::zeros();
+        let mut b = SVector::<f64, FEATURES>::zeros();
+        for r in &kept {
+            let z = SVector::<f64, FEATURES>::from_fn(|j, _| {
+                if j == 0 {
+                    1.0
+                } else if used(j) {
+                    (r.x[j] - mean[j]) / sd[j]
+                } else {
+                    0.0
+                }
+            });
+            a += z * z.transpose();
+            b += z * r.score.max(floor).ln();
+        }
+        Some(StepSums {
+            kept,
+            mean,
+            sd,
+            a,
+            b,
+        })
     }
-    let z = |x: &Features| -> f64 { beta.iter().zip(x).map(|(b, x)| b * x).sum() };
-    let (lo, hi) = kept
-        .iter()
-        .map(|r| z(&r.x))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        });
-    let fitted = StepDifficulty {
-        beta,
-        range: [lo.max(-50.0), hi.min(50.0)],
-    };
-    if fitted.check().is_err() {
-        return StepDifficulty::NONE;
+
+    /// The difficulty at ridge strength `ridge`.
+    pub(crate) fn solve(&self, ridge: f64) -> StepDifficulty {
+        let (mean, sd) = (&self.mean, &self.sd);
+        let used = |j: usize| j == 0 || sd[j] > 1e-9 * (1.0 + mean[j].abs());
+        let n = self.kept.len() as f64;
+        let mut a = self.a;
+        for j in 0..FEATURES {
+            a[(j, j)] += if j == 0 { 1e-9 } else { ridge * n };
+        }
+        let Some(chol) = a.cholesky() else {
+            return StepDifficulty::NONE;
+        };
+        let g = chol.solve(&self.b);
+        // Back to raw feature units: beta_j = g_j / sd_j, the intercept absorbing the means.
+        let mut beta = [0.0; FEATURES];
+        beta[0] = g[0];
+        for j in 1..FEATURES {
+            if used(j) {
+                beta[j] = g[j] / sd[j];
+                beta[0] -= g[j] * mean[j] / sd[j];
+            }
+        }
+        let z = |x: &Features| -> f64 { beta.iter().zip(x).map(|(b, x)| b * x).sum() };
+        let (lo, hi) = self
+            .kept
+            .iter()
+            .map(|r| z(&r.x))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            });
+        let fitted = StepDifficulty {
+            beta,
+            range: [lo.max(-50.0), hi.min(50.0)],
+        };
+        if fitted.check().is_err() {
+            return StepDifficulty::NONE;
+        }
+        fitted
     }
-    fitted
 }
 
 #[cfg(test)]

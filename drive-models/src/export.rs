@@ -46,8 +46,11 @@ pub struct Export {
 /// ```
 /// let bytes = drive_models::export::npy(&[1.5, 2.5], &[2, 1]);
 /// assert_eq!(&bytes[..6], b"\x93NUMPY");
-/// assert_eq!(bytes.len() % 64, 16); // the header pads to 64 bytes; two doubles follow
-/// assert!(String::from_utf8_lossy(&bytes[10..64]).contains("'shape': (2, 1)"));
+/// // The header pads to a multiple of 64 bytes, ending with a newline; two doubles follow.
+/// let header = bytes.len() - 16;
+/// assert_eq!((header % 64, bytes[header - 1]), (0, b'\n'));
+/// assert!(String::from_utf8_lossy(&bytes[10..header]).contains("'shape': (2, 1)"));
+/// assert_eq!(&bytes[header..header + 8], &1.5f64.to_le_bytes());
 /// ```
 pub fn npy(values: &[f64], shape: &[usize]) -> Vec<u8> {
     let shape = match shape {

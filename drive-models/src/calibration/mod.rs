@@ -58,7 +58,7 @@ use drive_traits::{
 use serde::{Deserialize, Serialize};
 
 use crate::difficulty::{
-    fit_step, log_sizes, motion_features, FeatureWalk, Features, Row, StepDifficulty, FEATURES,
+    log_sizes, motion_features, FeatureWalk, Features, Row, StepDifficulty, StepSums, FEATURES,
     RIDGES,
 };
 
@@ -212,8 +212,9 @@ impl Calibrator {
         model: Box<dyn MotionModel>,
         train: &WindowSet<'_>,
         start: StartInfo,
-        mut fit: impl FnMut(&WindowSet<'_>) -> Result<Box<dyn MotionModel>, FitError>,
+        fit: impl Fn(&WindowSet<'_>) -> Result<Box<dyn MotionModel>, FitError> + Sync,
     ) -> Result<Box<dyn MotionModel>, FitError> {
+        use rayon::prelude::*;
         self.check()?;
         let vehicle = train.robot.vehicle.as_ref();
         let Some(first) = train.windows.iter().find(|w| w.len() >= 2) else {
@@ -235,53 +236,69 @@ impl Calibrator {
             return Ok(model);
         };
         let n = train.windows.iter().map(|w| w.len()).max().unwrap_or(0);
+        let dt = model.dt();
+        let folds_count = folds.len();
+        // Each fold on its own thread: its refit, and its held-out windows' rows; `None`
+        // when its refit or a covariance fails (the model then comes back uncalibrated).
+        let fold_rows: Vec<Option<FoldRows>> = folds
+            .into_par_iter()
+            .enumerate()
+            .map(|(fold, (rest, held))| {
+                let fold_model = fit(&rest).ok()?;
+                let mut out = FoldRows::new(n);
+                let (mut predicted, mut features) = (Vec::new(), Vec::new());
+                let (mut poses, mut covs) = (Vec::new(), Vec::new());
+                for w in held.windows.iter().filter(|w| w.len() >= 2) {
+                    let s = w.start_state_with(vehicle, start);
+                    fold_model.predict_into(&s, &w.command, &mut predicted);
+                    model
+                        .predict_with_covariance_into(&s, &w.command, &mut poses, &mut covs)
+                        .ok()?;
+                    out.windows += 1;
+                    motion_features(&s, &poses, dt, &mut features);
+                    let errors = pose_errors(&predicted, &w.pose);
+                    for (k, e) in errors
+                        .iter()
+                        .enumerate()
+                        .skip(1)
+                        .take(covs.len().saturating_sub(1))
+                    {
+                        let c = floored(&covs[k], self.shape_floor);
+                        let (size, yaw_size) = log_sizes(&c);
+                        let mut x = features[k];
+                        x[FEATURES - 1] = size;
+                        out.position[k].push(Row {
+                            x,
+                            score: position_score(e, &c),
+                            fold,
+                        });
+                        out.along_across[k].push(heading_frame(e, predicted[k].z));
+                        x[FEATURES - 1] = yaw_size;
+                        out.yaw[k].push(Row {
+                            x,
+                            score: e.z * e.z / c[(2, 2)],
+                            fold,
+                        });
+                    }
+                }
+                Some(out)
+            })
+            .collect();
+        // The folds' rows in fold order, as one pass over the folds would append them.
         let mut position: Vec<Vec<Row>> = vec![Vec::new(); n];
         let mut yaw: Vec<Vec<Row>> = vec![Vec::new(); n];
         // Per step and position row: the error along and across the predicted heading.
         let mut along_across: Vec<Vec<[f64; 2]>> = vec![Vec::new(); n];
         let mut windows = 0;
-        let (mut predicted, mut features) = (Vec::new(), Vec::new());
-        let dt = model.dt();
-        let folds_count = folds.len();
-        for (fold, (rest, held)) in folds.into_iter().enumerate() {
-            let Ok(fold_model) = fit(&rest) else {
+        for rows in fold_rows {
+            let Some(rows) = rows else {
                 return Ok(model);
             };
-            for w in held.windows.iter().filter(|w| w.len() >= 2) {
-                let s = w.start_state_with(vehicle, start);
-                fold_model.predict_into(&s, &w.command, &mut predicted);
-                if model
-                    .predict_with_covariance_into(&s, &w.command, &mut poses, &mut covs)
-                    .is_err()
-                {
-                    return Ok(model);
-                }
-                windows += 1;
-                motion_features(&s, &poses, dt, &mut features);
-                let errors = pose_errors(&predicted, &w.pose);
-                for (k, e) in errors
-                    .iter()
-                    .enumerate()
-                    .skip(1)
-                    .take(covs.len().saturating_sub(1))
-                {
-                    let c = floored(&covs[k], self.shape_floor);
-                    let (size, yaw_size) = log_sizes(&c);
-                    let mut x = features[k];
-                    x[FEATURES - 1] = size;
-                    position[k].push(Row {
-                        x,
-                        score: position_score(e, &c),
-                        fold,
-                    });
-                    along_across[k].push(heading_frame(e, predicted[k].z));
-                    x[FEATURES - 1] = yaw_size;
-                    yaw[k].push(Row {
-                        x,
-                        score: e.z * e.z / c[(2, 2)],
-                        fold,
-                    });
-                }
+            windows += rows.windows;
+            for k in 0..n {
+                position[k].extend_from_slice(&rows.position[k]);
+                yaw[k].extend_from_slice(&rows.yaw[k]);
+                along_across[k].extend_from_slice(&rows.along_across[k]);
             }
         }
         let chi2 = chi2_2(self.level);
@@ -305,6 +322,7 @@ impl Calibrator {
             error_shape(kept, self.shape_floor).unwrap_or(UNIT_SHAPE)
         };
         let heading_shape: Vec<[f64; 3]> = (0..n)
+            .into_par_iter()
             .map(|k| {
                 if k == 0 {
                     UNIT_SHAPE
@@ -314,6 +332,7 @@ impl Calibrator {
             })
             .collect();
         let by_heading_rows: Vec<Vec<Row>> = (0..n)
+            .into_par_iter()
             .map(|k| {
                 if k == 0 {
                     return position[0].clone();
@@ -387,15 +406,17 @@ impl Calibrator {
         size: impl Fn(&Row) -> f64,
     ) -> Difficulties {
         if !self.difficulty {
-            return self.difficulties_with(rows, folds, RIDGES[0]);
+            return self.difficulties_with(rows, &[], RIDGES[0]);
         }
         let power = match region {
             Region::Area => 1.0,
             Region::Width => 0.5,
         };
+        // The rows' sums, gathered once for every ridge strength.
+        let sums = gather_sums(rows, folds);
         let mut best: Option<(f64, Difficulties)> = None;
         for ridge in RIDGES {
-            let fit = self.difficulties_with(rows, folds, ridge);
+            let fit = self.difficulties_with(rows, &sums, ridge);
             let scale = self.scales(&mut fit.scores.clone(), chi2);
             let log_sharpness: f64 = mean_areas(rows, &fit, &scale, power, &size)
                 .iter()
@@ -410,7 +431,7 @@ impl Calibrator {
         match best {
             Some((_, fit)) => fit,
             // Unreachable: RIDGES is not empty, and its first strength sets `best`.
-            None => self.difficulties_with(rows, folds, RIDGES[0]),
+            None => self.difficulties_with(rows, &sums, RIDGES[0]),
         }
     }
 
@@ -427,7 +448,12 @@ impl Calibrator {
     /// `gamma = 0` is one size per step. With the slope, a window of twice the difficulty of
     /// another gets, on held-out windows, errors twice as large, so that each kind of
     /// window (transient or steady, slow or fast) keeps close to the level's coverage.
-    fn difficulties_with(&self, rows: &[Vec<Row>], folds: usize, ridge: f64) -> Difficulties {
+    fn difficulties_with(
+        &self,
+        rows: &[Vec<Row>],
+        sums: &[StepSumsOfFolds<'_>],
+        ridge: f64,
+    ) -> Difficulties {
         let n = rows.len();
         let raw = || Difficulties {
             difficulty: Vec::new(),
@@ -449,11 +475,10 @@ impl Calibrator {
                 log_d.push(Vec::new());
                 continue;
             }
-            let (lo, hi) = neighbour_steps(k, n);
-            let pooled = || rows[lo..=hi].iter().flatten();
-            let out_of_fold: Vec<StepDifficulty> = (0..folds)
-                .map(|f| fit_step(pooled(), Some(f), ridge))
-                .collect();
+            let solve = |s: &Option<StepSums<'_>>| {
+                s.as_ref().map_or(StepDifficulty::NONE, |s| s.solve(ridge))
+            };
+            let out_of_fold: Vec<StepDifficulty> = sums[k].out_of_fold.iter().map(solve).collect();
             // A step where a fold's fit has too few scores has none (its scores would be
             // scaled without the difficulty its regions are then given).
             if out_of_fold.contains(&StepDifficulty::NONE) {
@@ -461,7 +486,7 @@ impl Calibrator {
                 log_d.push(vec![0.0; rows[k].len()]);
                 continue;
             }
-            fitted.push(fit_step(pooled(), None, ridge));
+            fitted.push(solve(&sums[k].all));
             log_d.push(
                 rows[k]
                     .iter()
@@ -538,4 +563,56 @@ impl Calibrator {
             })
             .collect()
     }
+}
+
+/// One fold's held-out rows, per step: the position and yaw scores and the position
+/// errors along and across the predicted heading; and its held-out windows.
+struct FoldRows {
+    position: Vec<Vec<Row>>,
+    yaw: Vec<Vec<Row>>,
+    along_across: Vec<Vec<[f64; 2]>>,
+    windows: usize,
+}
+
+impl FoldRows {
+    fn new(n: usize) -> Self {
+        FoldRows {
+            position: vec![Vec::new(); n],
+            yaw: vec![Vec::new(); n],
+            along_across: vec![Vec::new(); n],
+            windows: 0,
+        }
+    }
+}
+
+/// Per step, the sums of its pooled rows ([`neighbour_steps`]) without each fold and with
+/// all of them: what every ridge strength's difficulty is solved from.
+struct StepSumsOfFolds<'a> {
+    out_of_fold: Vec<Option<StepSums<'a>>>,
+    all: Option<StepSums<'a>>,
+}
+
+/// The sums of every step of `rows` (step 0, the start, has none: an empty entry).
+fn gather_sums(rows: &[Vec<Row>], folds: usize) -> Vec<StepSumsOfFolds<'_>> {
+    use rayon::prelude::*;
+    let n = rows.len();
+    (0..n)
+        .into_par_iter()
+        .map(|k| {
+            if k == 0 {
+                return StepSumsOfFolds {
+                    out_of_fold: Vec::new(),
+                    all: None,
+                };
+            }
+            let (lo, hi) = neighbour_steps(k, n);
+            let pooled = || rows[lo..=hi].iter().flatten();
+            StepSumsOfFolds {
+                out_of_fold: (0..folds)
+                    .map(|f| StepSums::new(pooled(), Some(f)))
+                    .collect(),
+                all: StepSums::new(pooled(), None),
+            }
+        })
+        .collect()
 }

@@ -144,13 +144,15 @@ pub(super) fn error_shape<'a>(
 ) -> Option<[f64; 3]> {
     let nonzero =
         move |u: &&[f64; 2]| u[0].is_finite() && u[1].is_finite() && u[0].hypot(u[1]) > 1e-12;
-    if u.clone().filter(nonzero).count() < 3 {
+    // The errors counted, picked once (the iterations visit them in the same order).
+    let kept: Vec<&[f64; 2]> = u.filter(nonzero).collect();
+    if kept.len() < 3 {
         return None;
     }
     let mut s = UNIT_SHAPE;
     for _ in 0..100 {
         let (mut a, mut b, mut d, mut m) = (0.0, 0.0, 0.0, 0.0);
-        for u in u.clone().filter(nonzero) {
+        for u in kept.iter().copied() {
             let w = 1.0 / shape_score(u, &s);
             a += w * u[0] * u[0];
             b += w * u[0] * u[1];
@@ -184,7 +186,8 @@ pub(super) fn error_shape<'a>(
 }
 
 /// The split-conformal quantile of `scores` at `level`: the `ceil((n + 1) level)`-th
-/// smallest (the largest when that rank exceeds `n`); `None` for no score. Sorts `scores`.
+/// smallest (the largest when that rank exceeds `n`); `None` for no score. Reorders
+/// `scores` (a selection, not a sort: the same order statistic in linear time).
 ///
 /// ```
 /// let mut s: Vec<f64> = (1..=19).map(f64::from).collect();
@@ -196,10 +199,10 @@ pub fn conformal_quantile(scores: &mut [f64], level: f64) -> Option<f64> {
     if scores.is_empty() {
         return None;
     }
-    scores.sort_by(f64::total_cmp);
     let n = scores.len();
     let rank = (((n + 1) as f64) * level).ceil() as usize;
-    Some(scores[rank.clamp(1, n) - 1])
+    let (_, q, _) = scores.select_nth_unstable_by(rank.clamp(1, n) - 1, f64::total_cmp);
+    Some(*q)
 }
 
 /// The measured minus the predicted pose at each step (yaw unwrapped along the measurement

@@ -427,8 +427,12 @@ fn a_step_whose_fold_fits_lack_scores_has_no_difficulty() {
             }
         })
         .collect();
-    assert_ne!(fit_step(rows.iter(), None, 1.0), StepDifficulty::NONE);
-    let fit = Calibrator::default().difficulties_with(&[Vec::new(), rows.clone()], 2, 1.0);
+    assert_ne!(
+        crate::difficulty::fit_step(rows.iter(), None, 1.0),
+        StepDifficulty::NONE
+    );
+    let steps = [Vec::new(), rows.clone()];
+    let fit = Calibrator::default().difficulties_with(&steps, &gather_sums(&steps, 2), 1.0);
     assert!(fit.difficulty.is_empty());
     let raw: Vec<f64> = rows.iter().map(|r| r.score).collect();
     assert_eq!(fit.scores[1], raw);
@@ -438,7 +442,8 @@ fn a_step_whose_fold_fits_lack_scores_has_no_difficulty() {
         .enumerate()
         .map(|(i, r)| Row { fold: i % 2, ..*r })
         .collect();
-    let fit = Calibrator::default().difficulties_with(&[Vec::new(), balanced], 2, 1.0);
+    let steps = [Vec::new(), balanced];
+    let fit = Calibrator::default().difficulties_with(&steps, &gather_sums(&steps, 2), 1.0);
     assert!(fit.difficulty[1].beta[1] > 0.0, "{:?}", fit.difficulty);
 }
 
@@ -487,10 +492,13 @@ fn the_ridge_is_chosen_by_held_out_sharpness() {
     let rows = [Vec::new(), informative];
     let c = Calibrator::default();
     let chosen = c.difficulties(&rows, 2, chi2_2(0.95), Region::Area, |_| 1.0);
-    let weakest = c.difficulties_with(&rows, 2, 0.1);
+    let weakest = c.difficulties_with(&rows, &gather_sums(&rows, 2), 0.1);
     assert_eq!(chosen.difficulty, weakest.difficulty);
     assert!(
-        chosen.difficulty[1].beta[1] > c.difficulties_with(&rows, 2, 1.0).difficulty[1].beta[1]
+        chosen.difficulty[1].beta[1]
+            > c.difficulties_with(&rows, &gather_sums(&rows, 2), 1.0)
+                .difficulty[1]
+                .beta[1]
     );
     // A feature that says nothing of the scores (a pattern of period 7 against one of
     // period 10 in the feature): the stronger ridges shrink its spurious coefficient, and
@@ -504,7 +512,7 @@ fn the_ridge_is_chosen_by_held_out_sharpness() {
         .collect();
     let rows = [Vec::new(), noise];
     let chosen = c.difficulties(&rows, 2, chi2_2(0.95), Region::Width, |_| 1.0);
-    let default = c.difficulties_with(&rows, 2, 1.0);
+    let default = c.difficulties_with(&rows, &gather_sums(&rows, 2), 1.0);
     let slope = |d: &Difficulties| d.difficulty.get(1).map_or(0.0, |s| s.beta[1].abs());
     assert!(slope(&chosen) <= slope(&default), "{:?}", chosen.difficulty);
 }
