@@ -45,6 +45,8 @@ use drive_traits::{
 };
 // (nalgebra's vectors are plain arrays of doubles: bytemuck checks the casts.)
 use nalgebra as _;
+// The facade is a dependency for its features only (Cargo.toml).
+use drive as _;
 use std::cell::RefCell;
 use std::ffi::{c_char, c_int, CStr, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
