@@ -4,10 +4,11 @@
 //!
 //! `cargo run --release --features examples --example car_slip_basis`; docs/car.md quotes it.
 
-use drive::eval::{evaluate_model, simulate_protocol, split_by_interval};
+use drive::eval::{evaluate_model, split_by_interval};
 use drive::models::powertrain::Fopdt;
 use drive::models::slip::{SlipBasis, SlipBlr};
 use drive::models::Composed;
+use drive::studies::simulate_protocol;
 use drive::traits::Learner;
 use drive::Registries;
 

@@ -11,9 +11,9 @@
 //! sampler, `forward-only`, draws uniformly over the part of the input space where both
 //! inputs are positive.
 
-use drive::eval::{run_matrix, SweepFile};
 use drive::models::rollout::integrate;
 use drive::samplers::{SamplerContext, UniformSampler};
+use drive::studies::{run_matrix, SweepFile};
 use drive::traits::{
     BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, Input, InputSampler, Learner,
     MotionModel, Pose, StartState, Tagged, WindowSet,

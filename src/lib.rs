@@ -9,7 +9,9 @@
 //! - [`models`] (drive-models): vehicles, powertrains, slip models, the composed model,
 //!   baselines;
 //! - [`samplers`] (drive-samplers): robots, input-space samplers, the protocol runner;
-//! - [`eval`] (drive-eval): the eq. 8 metric, the experiment engine and the analyses;
+//! - [`eval`] (drive-eval): the eq. 8 metric, the split, statistics and coverage;
+//! - [`studies`] (drive-studies): the application layer: the [`Registries`], the
+//!   experiment engine and every study (bench, matrix, track, twins, protocols, convergence);
 //! - [`sim`] (drive-sim): simulated UGVs to run the protocol without a robot;
 //! - [`control`] (drive-control): reference paths, the controller trait, MPPI and the
 //!   one-tick path follower ([`control::Tracker`]);
@@ -39,9 +41,10 @@ pub use drive_models as models;
 pub use drive_report as report;
 pub use drive_samplers as samplers;
 pub use drive_sim as sim;
+pub use drive_studies as studies;
 pub use drive_traits as traits;
 
-pub use drive_eval::Registries;
+pub use drive_studies::Registries;
 pub use drive_traits::{nalgebra, serde, typetag};
 
 pub mod bundled;

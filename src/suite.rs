@@ -1,6 +1,6 @@
 //! The datasets of a benchmark: a suite file's entries (window CSVs, raw logs and bags
 //! imported on the fly, bundled datasets) or every bundled dataset, loaded with their robot
-//! and terrain for [`drive_eval::run_bench`].
+//! and terrain for [`drive_studies::run_bench`].
 //!
 //! ```
 //! let registries = drive::Registries::builtin();
@@ -12,9 +12,9 @@
 
 use crate::data::suite::{SuiteEntry, SuiteError, SuiteSource};
 use crate::data::{read_dataset, DataError};
-use crate::eval::BenchInput;
 use crate::import::{import_recording, ImportError, ImportOptions, Imported, Recording};
 use crate::samplers::{BodySize, RobotError, RobotSpec};
+use crate::studies::BenchInput;
 use crate::traits::Dataset;
 use crate::Registries;
 use rayon::prelude::*;

@@ -5,13 +5,12 @@
 //! single-core cases run on the calling thread. See BENCHMARKS.md.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use drive::eval::{
-    compare, convergence_with, evaluate_model, split_by_interval, ConvergenceConfig,
-};
+use drive::eval::{evaluate_model, split_by_interval};
 use drive::models::batch::predict_batch_parallel;
 use drive::models::powertrain::Fopdt;
 use drive::models::slip::{SlipBlr, SlipIpem};
 use drive::models::Composed;
+use drive::studies::{compare, convergence_with, ConvergenceConfig};
 use drive::traits::{Input, Learner, MotionModel, Pose, StartState};
 use drive::Registries;
 

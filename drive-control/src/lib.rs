@@ -5,7 +5,7 @@
 //! ([`Tracker`]).
 //!
 //! The closed-loop experiment that drives a simulated robot with it (`drive track`) is
-//! `drive_eval::closed_loop`: this crate needs no simulator.
+//! `drive_studies::closed_loop`: this crate needs no simulator.
 
 #![warn(missing_docs)]
 

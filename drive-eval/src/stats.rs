@@ -1,7 +1,6 @@
-use crate::BootstrapConfig;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::ops::Range;
 
 pub use drive_traits::quantile;
@@ -35,6 +34,28 @@ impl Summary {
             q1: quantile(&v, 0.25)?,
             q3: quantile(&v, 0.75)?,
         })
+    }
+}
+
+/// The bootstrap of the improvement confidence intervals.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BootstrapConfig {
+    /// Resamples of the evaluation windows.
+    pub resamples: usize,
+    /// Confidence level of the interval.
+    pub level: f64,
+    /// Seed of the resampling.
+    pub seed: u64,
+}
+
+impl Default for BootstrapConfig {
+    fn default() -> Self {
+        BootstrapConfig {
+            resamples: 1000,
+            level: 0.95,
+            seed: 0,
+        }
     }
 }
 

@@ -306,7 +306,7 @@ struct SampleValues {
 ///
 /// ```
 /// use drive_eval::{unpredictability, UnpredictabilityConfig};
-/// let data = drive_eval::simulate_protocol(&drive_eval::Registries::builtin(), "husky", "tile", "uniform", 6, 1).unwrap().dataset;
+/// let data = drive_data::bundled::load("husky_drive").unwrap();
 /// let body = drive_samplers::BodySize { length_m: 0.8382, width_m: 0.6604 };
 /// let u = unpredictability(&data, Some(body), &UnpredictabilityConfig::default());
 /// let total = u.total.unwrap();

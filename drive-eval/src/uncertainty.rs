@@ -137,12 +137,14 @@ fn mean(values: &[f64]) -> f64 {
 /// `start` allows); `None` for a model without a covariance or windows without two samples.
 ///
 /// ```
-/// use drive_eval::{score_uncertainty, split_by_interval, Registries};
-/// let data = drive_eval::simulate_protocol(&Registries::builtin(), "husky", "gravel", "uniform", 12, 1).unwrap().dataset;
+/// use drive_eval::{score_uncertainty, split_by_interval};
+/// use drive_models::{powertrain::Fopdt, slip::SlipBlr, Composed};
+/// use drive_traits::{Learner, StartInfo};
+/// let data = drive_data::bundled::load("husky_drive").unwrap();
 /// let (train, eval) = split_by_interval(&data, 0.5).unwrap();
-/// let spec = Registries::builtin().models().resolve("slip-blr").unwrap();
-/// let model = spec.fit(&train).unwrap();
-/// let u = score_uncertainty(model.as_ref(), &eval, spec.start).unwrap();
+/// // The paper's slip-BLR, its covariance the paper's (eq. 7).
+/// let model = Composed::new(Fopdt::default(), SlipBlr::default()).fit(&train).unwrap();
+/// let u = score_uncertainty(&model, &eval, StartInfo::default()).unwrap();
 /// assert_eq!(u.coverage95.keys().collect::<Vec<_>>(), ["0.5", "1.0", "2.0"]);
 /// assert!(u.coverage95.values().all(|f| (0.0..=1.0).contains(f)));
 /// assert_eq!(u.reliability.len(), 8);

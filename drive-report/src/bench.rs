@@ -1,4 +1,4 @@
-//! The outputs of a benchmark ([`drive_eval::Bench`]): CSV tables, a Markdown summary, the
+//! The outputs of a benchmark ([`drive_studies::Bench`]): CSV tables, a Markdown summary, the
 //! JSON document and one self-contained HTML page whose figures (SVG) are embedded.
 //!
 //! | figure | shows |
@@ -10,7 +10,7 @@
 //! | `error_vs_unpredictability` | each model's median error against the dataset's unpredictability |
 
 use crate::ReportError;
-use drive_eval::Bench;
+use drive_studies::Bench;
 use std::fmt::Write as _;
 
 mod plots;
@@ -20,7 +20,7 @@ use plots::{figure_list, numbered};
 /// Every file of `drive bench --out` by name, with its content.
 ///
 /// ```no_run
-/// # fn demo(bench: &drive_eval::Bench) -> Result<(), drive_report::ReportError> {
+/// # fn demo(bench: &drive_studies::Bench) -> Result<(), drive_report::ReportError> {
 /// let files = drive_report::bench::files(bench)?;
 /// assert!(files.iter().any(|(name, _)| *name == "bench.html"));
 /// # Ok(()) }
@@ -351,7 +351,7 @@ pub fn markdown(b: &Bench) -> String {
             "| model | same terrain: pairs | loss t | loss r | other terrain: pairs | loss t | loss r | terrain unknown |\n|---|---|---|---|---|---|---|---|"
         );
         for t in &b.transfer_summary {
-            let g = |g: &drive_eval::TransferGroup| {
+            let g = |g: &drive_studies::TransferGroup| {
                 format!(
                     "{} | {} | {}",
                     g.pairs,

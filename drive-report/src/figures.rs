@@ -3,7 +3,8 @@
 use crate::analysis::{
     body_polygon, ellipse, Calibration, InputSpaceFigure, PowertrainTrace, Trajectory,
 };
-use drive_eval::{Convergence, Mrmse};
+use drive_eval::Mrmse;
+use drive_studies::Convergence;
 use drive_traits::CommandModel;
 use drive_traits::Phase;
 use plotters::coord::Shift;
@@ -478,7 +479,7 @@ where
         &keys,
     )?;
     let panels = body.split_evenly((1, 2));
-    let t = |p: &drive_eval::ConvergencePoint| p.training_time_s;
+    let t = |p: &drive_studies::ConvergencePoint| p.training_time_s;
     let (tx0, tx1) = c
         .curve
         .iter()
@@ -490,7 +491,7 @@ where
         (1.0, 10.0)
     };
     for (i, area) in panels.iter().enumerate() {
-        let value = |p: &drive_eval::ConvergencePoint| {
+        let value = |p: &drive_studies::ConvergencePoint| {
             if i == 0 {
                 p.translational_median_m
             } else {

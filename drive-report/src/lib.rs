@@ -14,7 +14,7 @@
 //!
 //! ```no_run
 //! # fn demo(data: &drive_traits::Dataset) -> Result<(), drive_report::ReportError> {
-//! let registries = drive_eval::Registries::builtin();
+//! let registries = drive_studies::Registries::builtin();
 //! let report = drive_report::Report::build(&registries, data, &drive_report::ReportOptions::default())?;
 //! let files = report.write(std::path::Path::new("report-out"))?;
 //! assert!(files.iter().any(|f| f.ends_with("report.md")));
@@ -30,11 +30,12 @@ pub mod track;
 
 use analysis::{Calibration, InputSpaceFigure, PowertrainTrace, Trajectory};
 use drive_data::output::{OutputError, Outputs};
-use drive_eval::{
-    compare_regions, compare_specs, convergence, split_by_interval, Comparison, Convergence, Mrmse,
-    RegionComparison, RegionStudy, Registries,
-};
+use drive_eval::{split_by_interval, Mrmse};
 use drive_models::powertrain::CommandedPowertrain;
+use drive_studies::{
+    compare_regions, compare_specs, convergence, Comparison, Convergence, RegionComparison,
+    RegionStudy, Registries,
+};
 use drive_traits::{CommandModel, Dataset, InputSpace, MotionModel, Powertrain};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -48,7 +49,7 @@ use thiserror::Error;
 pub enum ReportError {
     /// The model comparison failed (split, fit).
     #[error(transparent)]
-    Compare(#[from] drive_eval::CompareError),
+    Compare(#[from] drive_studies::CompareError),
     /// The split is not valid for this dataset.
     #[error(transparent)]
     Split(#[from] drive_eval::SplitError),
@@ -467,7 +468,7 @@ impl Report {
             "| model | Spearman t | Spearman r | low third (t / r) | middle third | high third |\n|---|---|---|---|---|---|"
         );
         for m in &self.comparison.models {
-            let g = drive_eval::ErrorGrowth::of(&m.report, u);
+            let g = drive_studies::ErrorGrowth::of(&m.report, u);
             let r = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:+.2}"));
             let third = |i: usize| {
                 g.thirds.get(i).map_or("-".to_string(), |t| {

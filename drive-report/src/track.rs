@@ -5,7 +5,7 @@
 use crate::figures::{header, Key, COLOURS};
 use crate::ReportError;
 use drive_data::output::Outputs;
-use drive_eval::{TrackResult, TrackRun};
+use drive_studies::{TrackResult, TrackRun};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::fmt::Write as _;

@@ -59,7 +59,7 @@ pub(crate) const SLIP_MODULUS_RANGE: (f64, f64) = (1e-3, 10.0);
 pub(crate) const MAX_ROLLING: f64 = 0.9;
 /// The contact spreads (shares of the baseline, [`Terrain::contact_spread`]) a twin's fit
 /// tries when the vehicle's own (0.9 for wheels, 1.1 for tracks) gives a twin that fails its
-/// check (`drive_eval::fit_twin`): shorter and longer levers of the turning resistance.
+/// check (`drive_studies::fit_twin`): shorter and longer levers of the turning resistance.
 pub const CONTACT_SPREAD_CHOICES: [f64; 3] = [0.6, 0.75, 1.2];
 /// The largest dead time (s).
 pub(crate) const MAX_DEAD_TIME_S: f64 = 2.0;

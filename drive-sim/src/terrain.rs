@@ -43,7 +43,7 @@ pub struct Terrain {
     /// spread as a share of the baseline (the lever arm of the turning resistance a
     /// skid-steer scrubs against); the vehicle's own when absent (0.9 for wheels, 1.1 for
     /// tracks: [`VehicleParams::from_spec`](crate::VehicleParams::from_spec)). A fitted
-    /// twin has one when its check chose it (`drive_eval::fit_twin`).
+    /// twin has one when its check chose it (`drive_studies::fit_twin`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_spread: Option<f64>,
     /// The motors of a fitted twin (the robot's defaults when absent).

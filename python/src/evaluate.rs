@@ -3,7 +3,7 @@
 
 use crate::args::{dataset_of, path_of, short_repr, type_name};
 use crate::err;
-use drive::eval::compare_specs;
+use drive::studies::compare_specs;
 use drive::traits::StartInfo;
 use drive::Registries;
 use numpy::IntoPyArray;
@@ -49,7 +49,7 @@ fn comparison(
     models: Option<&Bound<'_, PyAny>>,
     split: f64,
     start: Option<&Bound<'_, PyAny>>,
-) -> PyResult<drive::eval::Comparison> {
+) -> PyResult<drive::studies::Comparison> {
     let dataset = dataset_of(dataset)?;
     let start = start_info_of(start)?;
     let names = model_names(models)?.unwrap_or_else(|| {
@@ -171,13 +171,13 @@ pub(crate) fn bench_json(
             None => drive::suite::bundled(&registries),
         }
         .map_err(|e| e.to_string())?;
-        let config = drive::eval::BenchConfig {
+        let config = drive::studies::BenchConfig {
             split,
             transfer,
             ..Default::default()
         };
-        let bench =
-            drive::eval::run_bench(&inputs, &specs, &config, &|| {}).map_err(|e| e.to_string())?;
+        let bench = drive::studies::run_bench(&inputs, &specs, &config, &|| {})
+            .map_err(|e| e.to_string())?;
         serde_json::to_string(&bench).map_err(|e| e.to_string())
     });
     result.map_err(err)

@@ -3,7 +3,7 @@
 
 use super::common::{emit, outputs_for, PredictionArgs, Progress};
 use crate::data::suite::{read_suite, SuiteSource};
-use crate::eval::{bench_units, run_bench, Bench, BenchConfig, BenchInput};
+use crate::studies::{bench_units, run_bench, Bench, BenchConfig, BenchInput};
 use crate::Registries;
 use anyhow::{bail, Result};
 use std::fmt::Write as _;
@@ -293,7 +293,7 @@ pub fn text(b: &Bench, transfer: bool) -> String {
             s,
             "\ntransfer: each model fitted on all of one run, scored on another run of the same robot; median over the pairs of the loss against the model fitted on that run itself, translational / rotational [%]"
         );
-        let group = |g: &crate::eval::TransferGroup| {
+        let group = |g: &crate::studies::TransferGroup| {
             if g.pairs == 0 {
                 "-".to_string()
             } else {

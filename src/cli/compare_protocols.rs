@@ -1,7 +1,7 @@
 //! `drive compare-protocols`: the paper's Table I, on the simulator or on recorded data.
 
 use super::common::{emit, load, names, DataArgs};
-use crate::eval::{
+use crate::studies::{
     compare_protocols, compare_regions, ProtocolComparison, ProtocolStudy, RegionComparison,
     RegionStudy, MIXED,
 };
@@ -238,7 +238,7 @@ fn winners(t: &ProtocolComparison) -> String {
     for &(robot, terrain, d) in &blocks {
         let _ = write!(out, "  {robot} on {terrain}, {d:.0} s:");
         for test in &t.test_sets {
-            let rows: Vec<&crate::eval::ProtocolRow> = t
+            let rows: Vec<&crate::studies::ProtocolRow> = t
                 .rows
                 .iter()
                 .filter(|r| {
@@ -246,7 +246,7 @@ fn winners(t: &ProtocolComparison) -> String {
                         && &r.test_sampler == test
                 })
                 .collect();
-            let best = |f: fn(&crate::eval::ProtocolRow) -> f64| {
+            let best = |f: fn(&crate::studies::ProtocolRow) -> f64| {
                 rows.iter()
                     .min_by(|a, b| f(a).total_cmp(&f(b)))
                     .map_or("-", |r| r.train_sampler.as_str())
@@ -387,7 +387,7 @@ fn simulated_table(t: &ProtocolComparison) -> String {
             blocks.len()
         );
         for test in &t.test_sets {
-            let rank = |metric: fn(&crate::eval::ProtocolRow) -> f64| {
+            let rank = |metric: fn(&crate::studies::ProtocolRow) -> f64| {
                 let (mut best, mut worst) = (0, 0);
                 for &b in &blocks {
                     let values: Vec<f64> = trains
@@ -415,7 +415,7 @@ fn simulated_table(t: &ProtocolComparison) -> String {
         }
     }
     // The paper's two headline figures, averaged over every block, on each test set.
-    let mean = |train: &str, test: &str, f: fn(&crate::eval::ProtocolRow) -> f64| {
+    let mean = |train: &str, test: &str, f: fn(&crate::studies::ProtocolRow) -> f64| {
         let v: Vec<f64> = t
             .rows
             .iter()

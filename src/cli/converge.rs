@@ -58,20 +58,20 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         );
     }
     let dataset = load(registries, &args.data)?;
-    let config = crate::eval::ConvergenceConfig {
+    let config = crate::studies::ConvergenceConfig {
         split: args.split,
         thresholds,
         max_points: args.max_points,
         orders: args
             .orders
             .unwrap_or(if spec.growing(&dataset.robot).is_some() {
-                crate::eval::ConvergenceConfig::default().orders
+                crate::studies::ConvergenceConfig::default().orders
             } else {
                 0
             }),
         seed: args.seed,
     };
-    let c = crate::eval::convergence_with(&dataset, &config, &spec)?;
+    let c = crate::studies::convergence_with(&dataset, &config, &spec)?;
     if c.curve.is_empty() {
         let why = c
             .skipped

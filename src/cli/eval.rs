@@ -1,8 +1,8 @@
 //! `drive eval`: every model fitted on the training intervals and scored on the rest.
 
 use super::common::{emit, load, names, outputs_for, DataArgs, ModelsArg, PredictionArgs};
-use crate::eval::{compare_specs, Comparison, ErrorSummary, ModelResult, PhaseSummary};
 use crate::models::ModelSpec;
+use crate::studies::{compare_specs, Comparison, ErrorSummary, ModelResult, PhaseSummary};
 use crate::Registries;
 use anyhow::{bail, Result};
 use std::fmt::Write as _;
@@ -67,7 +67,7 @@ pub fn specs(
         }
     }
     // Before any data is read (compare_specs refuses it too).
-    crate::eval::check_names(&out)?;
+    crate::studies::check_names(&out)?;
     Ok(out)
 }
 
@@ -87,7 +87,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     super::common::note_quality(&dataset, true);
     let cmp = compare_specs(&dataset, args.split, &specs)?;
     // Figures from a handful of intervals are printed, and said to be so.
-    let evidence = crate::eval::BenchConfig::default().min_evidence_intervals;
+    let evidence = crate::studies::BenchConfig::default().min_evidence_intervals;
     if cmp.eval_intervals < evidence {
         say!(
             "note: {} evaluation interval(s): the medians and their bootstrap intervals rest on too few to be evidence (drive bench counts a dataset from {evidence})",

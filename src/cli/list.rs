@@ -1,7 +1,7 @@
 //! `drive list`: the registered parts and the bundled datasets.
 
 use super::common::emit;
-use crate::eval::{Catalog, Listed};
+use crate::studies::{Catalog, Listed};
 use crate::Registries;
 use anyhow::Result;
 use serde::Serialize;

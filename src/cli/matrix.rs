@@ -1,6 +1,6 @@
 //! `drive matrix`: every combination of a sweep file, with a progress bar on a terminal.
 
-use crate::eval::{run_matrix, DatasetSource, MatrixResult, SweepFile};
+use crate::studies::{run_matrix, DatasetSource, MatrixResult, SweepFile};
 use crate::Registries;
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! `drive protocol`: the DRIVE command schedule of a robot with a sampler.
 
-use crate::eval::INTERVAL_S;
 use crate::samplers::{build_sampler, schedule, schedule_csv, SamplerContext};
+use crate::studies::INTERVAL_S;
 use crate::traits::limits;
 use crate::Registries;
 use anyhow::{bail, Result};

@@ -45,7 +45,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &[("--out", &args.out), ("report.md in --out", &md)],
     )?;
     // Before any data is read (compare_specs refuses it too).
-    crate::eval::check_names(&registries.models().resolve_list(&models)?)?;
+    crate::studies::check_names(&registries.models().resolve_list(&models)?)?;
     registries.model(&args.model)?;
     let dataset = load(registries, &args.data)?;
     let robot = args

@@ -64,20 +64,20 @@ pub struct Args {
         long,
         default_value = "replay",
         value_parser = clap::builder::PossibleValuesParser::new(["replay", "draw"])
-            .try_map(|name| crate::eval::CheckCommands::parse(&name))
+            .try_map(|name| crate::studies::CheckCommands::parse(&name))
     )]
-    check_commands: crate::eval::CheckCommands,
+    check_commands: crate::studies::CheckCommands,
 }
 
 /// What `drive sim-fit --json` prints.
 #[derive(serde::Serialize)]
 struct Output<'a> {
     parameters: Vec<crate::sim::FittedParameter>,
-    check: &'a [crate::eval::TwinCheckRow],
-    scatter: Option<crate::eval::ScatterCheck>,
-    command_scatter: Option<crate::eval::ScatterCheck>,
+    check: &'a [crate::studies::TwinCheckRow],
+    scatter: Option<crate::studies::ScatterCheck>,
+    command_scatter: Option<crate::studies::ScatterCheck>,
     check_seeds: &'a [u64],
-    check_commands: crate::eval::CheckCommands,
+    check_commands: crate::studies::CheckCommands,
     tolerance: f64,
     poor: &'a [String],
     scatter_off: &'a [String],
@@ -89,10 +89,10 @@ struct Output<'a> {
     report: Option<&'a crate::sim::SimFitReport>,
     /// Whether the fitted twin kept its variability (absent with --twin, or without one).
     #[serde(skip_serializing_if = "Option::is_none")]
-    variability_choice: Option<&'a crate::eval::VariabilityChoice>,
+    variability_choice: Option<&'a crate::studies::VariabilityChoice>,
     /// Which contact spread the fitted twin kept (absent with --twin).
     #[serde(skip_serializing_if = "Option::is_none")]
-    contact_spread_choice: Option<&'a crate::eval::ContactSpreadChoice>,
+    contact_spread_choice: Option<&'a crate::studies::ContactSpreadChoice>,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
@@ -146,10 +146,10 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     )?;
     let models = registries
         .models()
-        .resolve_list(&crate::eval::TWIN_CHECK_MODELS)?;
+        .resolve_list(&crate::studies::TWIN_CHECK_MODELS)?;
     // The twin: fitted on the data (its variability kept, and its contact spread other
     // than the vehicle's, only where that brings the models' errors closer to the real
-    // run's: drive_eval::fit_twin), or the one given to check.
+    // run's: drive_studies::fit_twin), or the one given to check.
     let (terrain, report, variability_choice, contact_spread_choice) = match given {
         // A twin is checked only against data a twin could be fitted on (the same
         // refusals: another robot's geometry, too few windows, a frozen localization, ...).
@@ -158,7 +158,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             (terrain, None, None, None)
         }
         None => {
-            let twin = crate::eval::fit_twin(registries, &data, &spec, &name, &models)?;
+            let twin = crate::studies::fit_twin(registries, &data, &spec, &name, &models)?;
             (
                 twin.fit.terrain,
                 Some(twin.fit.report),
@@ -169,7 +169,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     };
     // The twin check: the twin's runs against the real one.
     let seeds: Vec<u64> = (1..=args.check_seeds as u64).collect();
-    let check = crate::eval::twin_check(
+    let check = crate::studies::twin_check(
         registries,
         &data,
         &spec,
@@ -260,8 +260,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                 .collect::<Vec<_>>()
                 .join(", "),
             match o.check_commands {
-                crate::eval::CheckCommands::Replay => "each given the real run's commands",
-                crate::eval::CheckCommands::Draw => "each drawing its own commands",
+                crate::studies::CheckCommands::Replay => "each given the real run's commands",
+                crate::studies::CheckCommands::Draw => "each drawing its own commands",
             },
             check.windows[0],
             check.windows[1]
@@ -350,8 +350,8 @@ fn fit_text(
     r: &crate::sim::SimFitReport,
     data: &crate::traits::Dataset,
     saved: &str,
-    choice: Option<&crate::eval::VariabilityChoice>,
-    spread: Option<&crate::eval::ContactSpreadChoice>,
+    choice: Option<&crate::studies::VariabilityChoice>,
+    spread: Option<&crate::studies::ContactSpreadChoice>,
 ) -> String {
     let c = t.controller.unwrap_or_default();
     // sim_fit always fits the powertrain (this text is a fit's only).
@@ -418,7 +418,7 @@ fn fit_text(
         _ => "variability: none (fewer than 30 steady windows to measure it)\n".to_string(),
     };
     if let Some(c) = choice {
-        // The models' errors decide (drive_eval::choose_variability).
+        // The models' errors decide (drive_studies::choose_variability).
         text += &format!(
             "variability {}: on two runs of its own (seeds {}, not the check's below; the real commands replayed), the twin's medians are {:.1}% from the real run's on average with it ({} beyond 30%), {:.1}% ({}) without\n",
             if c.kept { "kept" } else { "dropped" },
@@ -461,15 +461,15 @@ fn data_baseline(data: &crate::traits::Dataset) -> f64 {
         .map_or(f64::NAN, |g| g.baseline)
 }
 
-/// The `contact spread:` line of `drive sim-fit`'s text ([`crate::eval::fit_twin`]).
-fn contact_spread_text(s: &crate::eval::ContactSpreadChoice) -> String {
+/// The `contact spread:` line of `drive sim-fit`'s text ([`crate::studies::fit_twin`]).
+fn contact_spread_text(s: &crate::studies::ContactSpreadChoice) -> String {
     let seeds = s
         .seeds
         .iter()
         .map(u64::to_string)
         .collect::<Vec<_>>()
         .join(", ");
-    let tried = |t: &crate::eval::SpreadTried| match (&t.distance, &t.error) {
+    let tried = |t: &crate::studies::SpreadTried| match (&t.distance, &t.error) {
         (Some(d), _) => format!(
             "{:.2}{}: {:.1}% ({} beyond 30%)",
             t.contact_spread,

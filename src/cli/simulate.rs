@@ -1,7 +1,7 @@
 //! `drive simulate`: the protocol on a simulated robot, written as a window dataset.
 
-use crate::eval::{simulate_run, SimRun};
 use crate::samplers::RunnerConfig;
+use crate::studies::{simulate_run, SimRun};
 use crate::Registries;
 use anyhow::{bail, Result};
 use std::path::PathBuf;

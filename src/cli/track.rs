@@ -4,7 +4,7 @@
 
 use super::common::{emit, outputs_for, parse_number, Progress};
 use crate::control::{MakeController, Mppi, PathShape, ReferencePath};
-use crate::eval::{run_track, PathChoice, TrackResult, TrackStudy, Training};
+use crate::studies::{run_track, PathChoice, TrackResult, TrackStudy, Training};
 use crate::traits::limits;
 use crate::Registries;
 use anyhow::{bail, Context, Result};

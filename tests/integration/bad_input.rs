@@ -275,7 +275,7 @@ fn drive(args: &[String]) -> std::process::Output {
 fn fixtures(dir: &Path) -> (String, String, String, String) {
     let csv = dir.join("data.csv");
     let registries = drive::Registries::builtin();
-    let data = drive::eval::simulate_protocol(&registries, "warthog", "gravel", "uniform", 4, 2)
+    let data = drive::studies::simulate_protocol(&registries, "warthog", "gravel", "uniform", 4, 2)
         .unwrap()
         .dataset;
     drive::data::write_dataset(&data, &csv).unwrap();

@@ -403,7 +403,7 @@ fn write_small_dataset(dir: &Path) -> std::path::PathBuf {
     let csv = dir.join("small.csv");
     let registries = drive::Registries::builtin();
     let mut data =
-        drive::eval::simulate_protocol(&registries, "warthog", "gravel", "uniform", 4, 1)
+        drive::studies::simulate_protocol(&registries, "warthog", "gravel", "uniform", 4, 1)
             .unwrap()
             .dataset;
     data.robot.name = "small".into();

@@ -4,9 +4,9 @@
 //! window CSV with its own columns and read back, and every model combination is trained and
 //! evaluated on it and saved and loaded as a file.
 
-use drive::eval::{compare, simulate_protocol};
 use drive::models::model_file::{model_from_json, model_to_json};
 use drive::samplers::RobotSpec;
+use drive::studies::{compare, simulate_protocol};
 use drive::traits::{
     BodyVelocity, CommandModel, Input, InputAxis, InputSpace, Probe, ProbeResult, Tagged,
 };

@@ -3,9 +3,9 @@
 //! response in the powertrain figure; the vehicle's geometry comes from
 //! `CommandModel::geometry`.
 
-use drive::eval::Registries;
 use drive::report::{Report, ReportOptions};
 use drive::serde::{Deserialize, Serialize};
+use drive::studies::Registries;
 use drive::traits::{FitError, Input, Powertrain, PowertrainLearner, Tagged, WindowSet};
 use drive::typetag;
 use std::sync::Arc;
@@ -73,7 +73,7 @@ fn the_report_shows_a_plug_in_powertrains_own_parameters_and_response() {
             Arc::new(HalfWayLearner),
         )
         .unwrap();
-    let data = drive::eval::simulate_protocol(&registries, "husky", "gravel", "uniform", 14, 5)
+    let data = drive::studies::simulate_protocol(&registries, "husky", "gravel", "uniform", 14, 5)
         .unwrap()
         .dataset;
     let options = ReportOptions {

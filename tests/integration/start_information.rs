@@ -2,12 +2,13 @@
 //! the same information at the fit as at the prediction, for every start option and every
 //! model.
 
-use drive::eval::{split_by_interval, Registries};
+use drive::eval::split_by_interval;
+use drive::studies::Registries;
 use drive::traits::{Input, Pose, StartInfo, Window};
 
 /// A small simulated Husky run (the IMU, the encoders and the localization all recorded).
 fn run() -> drive::traits::Dataset {
-    drive::eval::simulate_protocol(&Registries::builtin(), "husky", "gravel", "uniform", 14, 5)
+    drive::studies::simulate_protocol(&Registries::builtin(), "husky", "gravel", "uniform", 14, 5)
         .unwrap()
         .dataset
 }

@@ -1,4 +1,3 @@
 //! drive-eval's integration tests, one binary (one link): one module per subject.
 
-mod protocols;
 mod terrain;

@@ -3,7 +3,7 @@
 
 use crate::figures::{self, BoxGroup, DrawResult, COLOURS};
 use crate::ReportError;
-use drive_eval::{Bench, TransferCell};
+use drive_studies::{Bench, TransferCell};
 use drive_traits::Phase;
 use plotters::coord::Shift;
 use plotters::prelude::*;

@@ -162,7 +162,7 @@ impl SimFit {
     /// The same twin without its ground's variability, its report saying so: the twin's
     /// scatter and motion those of its runs without it, no variability limits, no
     /// variability parameter at a bound. (`drive sim-fit` drops a variability that takes the
-    /// twin's model errors further from the real run's: `drive_eval::choose_variability`.)
+    /// twin's model errors further from the real run's: `drive_studies::choose_variability`.)
     ///
     /// ```
     /// # use drive_sim::{SimFit, SimFitReport, Terrain, Variability};
@@ -487,7 +487,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
 /// [`sim_fit`] with the ground holding the wheels over `contact_spread` of the baseline
 /// along each side ([`Terrain::contact_spread`]; the vehicle's own when `None`): the ground's
 /// coefficients and its variability are fitted for that spread, and the twin keeps it.
-/// `drive_eval::fit_twin` fits with the vehicle's own spread and with
+/// `drive_studies::fit_twin` fits with the vehicle's own spread and with
 /// [`CONTACT_SPREAD_CHOICES`](crate::CONTACT_SPREAD_CHOICES), and keeps another only when
 /// its twin's models' errors come clearly closer to the real run's.
 ///

@@ -115,7 +115,7 @@ fn held_input(windows: &[&Window]) -> Option<Input> {
 /// Runs the region study on a recorded dataset.
 ///
 /// ```
-/// use drive_eval::{compare_regions, simulate_protocol, RegionStudy, Registries};
+/// use drive_studies::{compare_regions, simulate_protocol, RegionStudy, Registries};
 /// let r = Registries::builtin();
 /// let data = simulate_protocol(&r, "husky", "gravel", "uniform", 40, 2).unwrap().dataset;
 /// let study = RegionStudy { draws: 3, ..RegionStudy::default() };

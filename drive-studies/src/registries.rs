@@ -18,7 +18,7 @@ use serde::Serialize;
 /// whole `drive` command line:
 ///
 /// ```
-/// use drive_eval::Registries;
+/// use drive_studies::Registries;
 /// use drive_models::powertrain::Fopdt;
 /// use std::sync::Arc;
 /// let mut r = Registries::builtin();
@@ -124,7 +124,7 @@ impl Registries {
     /// it runs.
     ///
     /// ```
-    /// use drive_eval::Registries;
+    /// use drive_studies::Registries;
     /// use std::sync::Arc;
     /// let mut r = Registries::builtin();
     /// assert!(r.check_tags().is_ok());
@@ -203,7 +203,7 @@ impl Registries {
     /// its listing and its name would be another part's or none).
     ///
     /// ```
-    /// use drive_eval::Registries;
+    /// use drive_studies::Registries;
     /// let r = Registries::builtin();
     /// let husky = r.robot("husky").unwrap();
     /// assert!(r.check_vehicle(husky.vehicle.as_ref()).is_ok());

@@ -2,9 +2,10 @@
 //! of training and testing each run directly, the improvements follow from them, and the
 //! region split follows its definition.
 
-use drive_eval::{
-    compare_protocols, compare_regions, evaluate_model, improvement_percent, simulate_protocol,
-    ExperimentError, ProtocolStudy, RegionStudy, Registries, Summary, MIXED,
+use drive_eval::{evaluate_model, improvement_percent, Summary};
+use drive_studies::{
+    compare_protocols, compare_regions, simulate_protocol, ExperimentError, ProtocolStudy,
+    RegionStudy, Registries, MIXED,
 };
 use drive_traits::{Input, RegistryError};
 

@@ -92,9 +92,9 @@ fn too_short(driving_s: f64) -> String {
 /// The number of whole DRIVE intervals that fit in `driving_s` seconds of driving.
 ///
 /// ```
-/// assert_eq!(drive_eval::intervals_in(30.0).unwrap(), 5);
-/// assert_eq!(drive_eval::intervals_in(35.0).unwrap(), 5);
-/// assert!(drive_eval::intervals_in(5.0).is_err());
+/// assert_eq!(drive_studies::intervals_in(30.0).unwrap(), 5);
+/// assert_eq!(drive_studies::intervals_in(35.0).unwrap(), 5);
+/// assert!(drive_studies::intervals_in(5.0).is_err());
 /// ```
 pub fn intervals_in(driving_s: f64) -> Result<usize, ExperimentError> {
     // The tolerance keeps 0.3 x 20 from flooring to 5.
@@ -110,7 +110,7 @@ pub fn intervals_in(driving_s: f64) -> Result<usize, ExperimentError> {
 /// TOML file); the simulator's noise and the sampler are seeded with `seed`.
 ///
 /// ```
-/// use drive_eval::{simulate_protocol, Registries};
+/// use drive_studies::{simulate_protocol, Registries};
 /// let run = simulate_protocol(&Registries::builtin(), "husky", "snow", "uniform", 2, 1).unwrap();
 /// assert_eq!(run.dataset.windows.len(), 6);
 /// ```
@@ -279,7 +279,7 @@ pub struct ProtocolComparison {
 /// parallel, then every fit, then every test.
 ///
 /// ```no_run
-/// use drive_eval::{compare_protocols, ProtocolStudy, Registries};
+/// use drive_studies::{compare_protocols, ProtocolStudy, Registries};
 /// let r = Registries::builtin();
 /// let study = ProtocolStudy::table_one(r.robot("husky").unwrap(), r.terrain("snow").unwrap(), 300.0, 1);
 /// let table = compare_protocols(&r, &study).unwrap();

@@ -39,7 +39,7 @@ pub const CONTACT_SPREAD_MARGIN: f64 = 2.0;
 /// What the twin's runs of a check are commanded.
 ///
 /// ```
-/// use drive_eval::CheckCommands;
+/// use drive_studies::CheckCommands;
 /// assert_eq!(CheckCommands::parse("draw"), Ok(CheckCommands::Draw));
 /// assert_eq!(CheckCommands::default().as_str(), "replay");
 /// assert!(CheckCommands::parse("fresh").unwrap_err().contains("replay"));
@@ -152,7 +152,7 @@ pub struct TwinCheck {
 /// uncertainty: medians do not depend on the calibration).
 ///
 /// ```no_run
-/// use drive_eval::{twin_check, CheckCommands, Registries, TWIN_CHECK_MODELS};
+/// use drive_studies::{twin_check, CheckCommands, Registries, TWIN_CHECK_MODELS};
 /// let r = Registries::builtin();
 /// let data = drive_data::read_dataset("run.csv".as_ref(), None).unwrap();
 /// let robot = r.robot("husky").unwrap();
@@ -375,7 +375,7 @@ fn window_errors(data: &Dataset, spec: &ModelSpec) -> Result<Vec<WindowError>, E
 /// not a proof, that the miss is the run's sampling).
 ///
 /// ```
-/// use drive_eval::{poor_twin, TwinCheckRow};
+/// use drive_studies::{poor_twin, TwinCheckRow};
 /// let row = TwinCheckRow { model: "slip-blr".into(), real_translational_m: 0.10,
 ///     real_translational_ci_m: [0.09, 0.11], twin_translational_m: 0.12,
 ///     real_rotational_rad: 0.10, real_rotational_ci_rad: [0.08, 0.13],
@@ -461,7 +461,7 @@ impl CheckDistance {
     /// The distance of a check's medians.
     ///
     /// ```
-    /// use drive_eval::{CheckDistance, TwinCheckRow};
+    /// use drive_studies::{CheckDistance, TwinCheckRow};
     /// let row = |t: f64, r: f64| TwinCheckRow { model: "m".into(), real_translational_m: 1.0,
     ///     real_translational_ci_m: [0.9, 1.1], twin_translational_m: 1.0 + t / 100.0,
     ///     real_rotational_rad: 1.0, real_rotational_ci_rad: [0.9, 1.1],
@@ -539,7 +539,7 @@ pub struct VariabilityChoice {
 /// models' errors, decides.
 ///
 /// ```no_run
-/// use drive_eval::{choose_variability, Registries, TWIN_CHECK_MODELS};
+/// use drive_studies::{choose_variability, Registries, TWIN_CHECK_MODELS};
 /// let r = Registries::builtin();
 /// let data = drive_data::read_dataset("run.csv".as_ref(), None).unwrap();
 /// let robot = r.robot("husky").unwrap();
@@ -648,7 +648,7 @@ pub struct FittedTwin {
 /// run itself (an indirect inference of one parameter, on seeds apart from the check's).
 ///
 /// ```no_run
-/// use drive_eval::{fit_twin, Registries, TWIN_CHECK_MODELS};
+/// use drive_studies::{fit_twin, Registries, TWIN_CHECK_MODELS};
 /// let r = Registries::builtin();
 /// let data = drive_data::read_dataset("run.csv".as_ref(), None).unwrap();
 /// let robot = r.robot("husky").unwrap();

@@ -51,8 +51,9 @@ pub struct Cell {
 /// cell keeps its fitted model.
 ///
 /// ```
-/// use drive_eval::{run_cells, split_by_interval, Registries, Setting};
-/// let data = drive_eval::simulate_protocol(&Registries::builtin(), "husky", "gravel", "uniform", 6, 1).unwrap().dataset;
+/// use drive_eval::split_by_interval;
+/// use drive_studies::{run_cells, Registries, Setting};
+/// let data = drive_studies::simulate_protocol(&Registries::builtin(), "husky", "gravel", "uniform", 6, 1).unwrap().dataset;
 /// let (train, eval) = split_by_interval(&data, 0.5).unwrap();
 /// let registries = Registries::builtin();
 /// let models = registries.models().resolve_list(&["naive", "slip-blr"]).unwrap();

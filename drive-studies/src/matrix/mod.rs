@@ -15,10 +15,10 @@ mod run;
 mod stats;
 mod sweep;
 
+pub use drive_eval::BootstrapConfig;
 pub use run::run_matrix;
 pub use sweep::{
-    BootstrapConfig, DatasetSource, FrameChoice, MatrixError, SimulatedPlan, SimulatedSweep,
-    SweepFile,
+    DatasetSource, FrameChoice, MatrixError, SimulatedPlan, SimulatedSweep, SweepFile,
 };
 
 use crate::{Mrmse, Summary};
@@ -103,7 +103,7 @@ pub struct MatrixCell {
     pub intervals: Vec<usize>,
 }
 
-pub use crate::stats::Improvement;
+pub use drive_eval::Improvement;
 
 /// One model in one scenario, every seed pooled.
 #[derive(Debug, Clone, Serialize)]

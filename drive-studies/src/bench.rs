@@ -335,10 +335,10 @@ fn within(
 /// after each unit of work ([`bench_units`] of them).
 ///
 /// ```
-/// use drive_eval::{run_bench, BenchConfig, BenchInput, Registries};
+/// use drive_studies::{run_bench, BenchConfig, BenchInput, Registries};
 /// let registries = Registries::builtin();
 /// let sim = |terrain: &str, seed| {
-///     let data = drive_eval::simulate_protocol(&registries, "husky", terrain, "uniform", 8, seed).unwrap().dataset;
+///     let data = drive_studies::simulate_protocol(&registries, "husky", terrain, "uniform", 8, seed).unwrap().dataset;
 ///     BenchInput { name: format!("{terrain}-{seed}"), source: "simulated".into(), robot: "husky".into(),
 ///         terrain: terrain.into(), body: None, body_source: String::new(), data, notes: Vec::new() }
 /// };

@@ -368,7 +368,7 @@ fn curve(
 /// absolute value.
 ///
 /// ```
-/// use drive_eval::{convergence_time, ConvergencePoint};
+/// use drive_studies::{convergence_time, ConvergencePoint};
 /// let p = |t: f64, e: f64| ConvergencePoint { training_time_s: t, intervals: 0, translational_median_m: e, rotational_median_rad: e };
 /// // Gradients: -0.1, -0.05, -0.001, 0.002 per second.
 /// let curve = [p(6.0, 2.0), p(12.0, 1.4), p(18.0, 1.1), p(24.0, 1.094), p(30.0, 1.106)];

@@ -137,7 +137,7 @@ mod tests {
     use super::super::Scenario;
     use super::*;
     use crate::quantile;
-    use crate::stats::median_of;
+    use drive_traits::median as median_of;
 
     fn cell(seed: u64, errors: &[f64]) -> MatrixCell {
         MatrixCell {

@@ -289,7 +289,7 @@ pub const MAX_TRAINING_TOTAL_S: f64 = 36_000.0;
 ///
 /// ```no_run
 /// use drive_control::PathShape;
-/// use drive_eval::{run_track, PathChoice, Registries, Training, TrackStudy};
+/// use drive_studies::{run_track, PathChoice, Registries, Training, TrackStudy};
 /// use std::sync::Arc;
 /// let r = Registries::builtin();
 /// let study = TrackStudy {

@@ -3,6 +3,7 @@
 
 use super::Matrix;
 use crate::{intervals_in, ExperimentError, Registries};
+use drive_eval::BootstrapConfig;
 use drive_models::ModelSpec;
 use drive_samplers::RobotSpec;
 use drive_sim::Terrain;
@@ -145,32 +146,10 @@ fn uniform() -> String {
     "uniform".into()
 }
 
-/// The bootstrap of the improvement confidence intervals.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct BootstrapConfig {
-    /// Resamples of the evaluation windows.
-    pub resamples: usize,
-    /// Confidence level of the interval.
-    pub level: f64,
-    /// Seed of the resampling.
-    pub seed: u64,
-}
-
-impl Default for BootstrapConfig {
-    fn default() -> Self {
-        BootstrapConfig {
-            resamples: 1000,
-            level: 0.95,
-            seed: 0,
-        }
-    }
-}
-
 /// A sweep description, as read from TOML.
 ///
 /// ```
-/// let sweep = drive_eval::SweepFile::parse("sweep.toml", r#"
+/// let sweep = drive_studies::SweepFile::parse("sweep.toml", r#"
 ///     learners = ["slip-blr", "acc-blr"]
 ///     powertrains = ["commanded", "fopdt"]
 ///     baseline = "acc-blr+commanded"
@@ -186,7 +165,7 @@ impl Default for BootstrapConfig {
 /// assert_eq!(sweep.splits, [0.5]); // the default
 /// assert_eq!(sweep.simulated.unwrap().test_sampler, "uniform");
 /// assert_eq!(sweep.start, drive_traits::StartInfo::EncodersImu); // the default
-/// assert_eq!(sweep.datasets[0].frame, drive_eval::FrameChoice::AsPublished);
+/// assert_eq!(sweep.datasets[0].frame, drive_studies::FrameChoice::AsPublished);
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -45,7 +45,7 @@ pub enum CompareError {
 /// leaderboard ranks models, refuses that too).
 ///
 /// ```
-/// use drive_eval::{check_names, CompareError, Registries};
+/// use drive_studies::{check_names, CompareError, Registries};
 /// let r = Registries::builtin();
 /// let specs = r.models().resolve_list(&["naive", "slip-blr", "naive"]).unwrap();
 /// assert!(matches!(check_names(&specs), Err(CompareError::DuplicateModel(n)) if n == "naive"));
@@ -262,8 +262,8 @@ pub fn vehicle_type(data: &Dataset) -> String {
 /// it on the rest; the improvements are over the naive model (eq. 4 on the commands).
 ///
 /// ```no_run
-/// # fn demo(data: &drive_traits::Dataset) -> Result<(), drive_eval::CompareError> {
-/// use drive_eval::{compare, Registries};
+/// # fn demo(data: &drive_traits::Dataset) -> Result<(), drive_studies::CompareError> {
+/// use drive_studies::{compare, Registries};
 /// let cmp = compare(&Registries::builtin(), data, 0.5, &["slip-blr", "slip-blr+commanded"])?;
 /// assert_eq!(cmp.models[1].powertrain.as_deref(), Some("commanded"));
 /// # Ok(()) }

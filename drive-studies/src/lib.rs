@@ -1,0 +1,77 @@
+//! The studies of DRIVE, the application layer: every analysis that fits models and scores
+//! them, each returning a typed result that the command line, Python and `drive-report`
+//! render. The parts they combine come from the [`Registries`]; the metrics are
+//! `drive-eval`'s.
+//!
+//! | file | job |
+//! |---|---|
+//! | `registries.rs` | every registry of parts ([`Registries`]) and their catalog |
+//! | `experiment.rs` | the engine: settings x models -> cells, simulated runs ([`run_cells`], [`simulate_runs`]) |
+//! | `comparison.rs` | the model comparison (Fig. 6) |
+//! | `convergence.rs` | error against training time (Fig. 7) |
+//! | `protocols.rs`, `regions.rs` | data-gathering protocols (Table I) on the simulator and on recorded data |
+//! | `matrix/` | the evaluation matrix: sweep file, run, statistics, outputs |
+//! | `bench.rs` | the benchmark: datasets x models, transfer between runs, leaderboard |
+//! | `twin_check.rs` | a twin fitted (with the simulator's fit) and its runs against its real run |
+//! | `closed_loop/` | a controller with a fitted model driving the simulator along paths (`drive track`) |
+//!
+//! ```
+//! use drive_studies::{compare, Registries};
+//! let data = drive_studies::simulate_protocol(&Registries::builtin(), "husky", "gravel", "uniform", 12, 1)
+//!     .unwrap()
+//!     .dataset;
+//! let cmp = compare(&Registries::builtin(), &data, 0.5, &["naive", "slip-blr"]).unwrap();
+//! assert_eq!(cmp.models.len(), 2);
+//! ```
+
+#![warn(missing_docs)]
+
+mod bench;
+pub mod closed_loop;
+mod comparison;
+mod convergence;
+mod experiment;
+mod matrix;
+mod protocols;
+mod regions;
+mod registries;
+mod twin_check;
+
+// The metrics, for the studies' own paths (`crate::mrmse`, ...).
+#[allow(unused_imports)]
+use drive_eval::*;
+
+pub use bench::{
+    bench_units, run_bench, terrain_known, Bench, BenchConfig, BenchDataset, BenchError,
+    BenchInput, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,
+    TransferCell, TransferGroup, TransferSummary, UnpredictabilityBin,
+};
+pub use closed_loop::{
+    run_track, PathChoice, PlacedPath, TrackError, TrackResult, TrackRun, TrackStudy, TrackSummary,
+    Training,
+};
+pub use comparison::{
+    check_names, compare, compare_specs, vehicle_type, CompareError, Comparison, ErrorSummary,
+    ModelResult, PairedImprovement, PhaseSummary,
+};
+pub use convergence::{
+    convergence, convergence_time, convergence_with, Convergence, ConvergenceConfig,
+    ConvergencePoint, OrderSpread, SkippedPoint, SpreadPoint,
+};
+pub use experiment::{run_cells, simulate_run, simulate_runs, Cell, Scored, Setting, SimRun};
+pub use matrix::{
+    run_matrix, DatasetSource, FrameChoice, Matrix, MatrixCell, MatrixError, MatrixResult,
+    Scenario, SimulatedPlan, SimulatedSweep, SummaryRow, SweepFile,
+};
+pub use protocols::{
+    compare_protocols, intervals_in, simulate_protocol, ExperimentError, ProtocolCell,
+    ProtocolComparison, ProtocolRow, ProtocolStudy, INTERVAL_S, MIXED,
+};
+pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
+pub use registries::{Catalog, Listed, Registries};
+pub use twin_check::{
+    choose_variability, fit_twin, poor_twin, twin_check, CheckCommands, CheckDistance,
+    ContactSpreadChoice, FittedTwin, ScatterCheck, SpreadTried, TwinCheck, TwinCheckRow,
+    VariabilityChoice, CONTACT_SPREAD_MARGIN, TWIN_CHECK_MODELS, TWIN_TOLERANCE,
+    VARIABILITY_CHOICE_SEEDS,
+};

@@ -1,0 +1,3 @@
+//! drive-studies' integration tests, one binary (one link): one module per subject.
+
+mod protocols;
