@@ -63,7 +63,7 @@ impl Signal {
 ///
 /// ```
 /// use drive_data::BagTopics;
-/// let husky = drive_models::DifferentialDrive::new(0.165, 0.555);
+/// let husky = drive_traits::vehicles::DifferentialDrive::new(0.165, 0.555);
 /// let mut topics = BagTopics::drive_logger(&husky);
 /// assert_eq!(topics.topic("cmd"), Some("/doughnut_cmd_vel"));
 /// topics.set("cmd=/cmd_vel").unwrap();

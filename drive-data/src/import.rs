@@ -314,7 +314,7 @@ fn seconds(ns: i64) -> f64 {
 /// ```
 /// use drive_data::{import_raw, ImportConfig, RawRow, CalibState, RawLog};
 /// use drive_traits::RobotDescription;
-/// let robot = RobotDescription::new("toy", "", 2.0, 4, drive_models::DifferentialDrive::new(0.5, 1.0));
+/// let robot = RobotDescription::new("toy", "", 2.0, 4, drive_traits::vehicles::DifferentialDrive::new(0.5, 1.0));
 /// // 6.5 s of driving straight at 1 m/s, localized at every tick.
 /// let rows: Vec<RawRow> = (0..14).map(|i| {
 ///     let mut r = RawRow::at_rest(i + 2, 1_000_000_000 + i as i64 * 500_000_000);

@@ -564,7 +564,7 @@ pub fn vehicle_mismatch(
 ///
 /// ```
 /// # use drive_traits::{Input, Phase, Pose, Window};
-/// use drive_models::DifferentialDrive;
+/// use drive_traits::vehicles::DifferentialDrive;
 /// // Turning at 1 rad/s through +-pi, localized every other sample.
 /// let pose = [3.0, 3.0, 3.1, 3.1, -3.083185307179586].iter().map(|&z| Pose::new(0.0, 0.0, z)).collect();
 /// let w = Window::new(0, 0, Phase::Steady, vec![Input::zeros(); 5], vec![Input::new(-1.0, 1.0, 0.0); 5],
@@ -619,7 +619,7 @@ pub fn to_text(findings: &[Finding]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use drive_models::DifferentialDrive;
+    use drive_traits::vehicles::DifferentialDrive;
     use drive_traits::{Input, Phase, Pose, RobotDescription};
 
     /// A differential drive (0.5 m wheels, 1 m track) spinning in place at `wheel` rad/s

@@ -35,9 +35,9 @@ pub const RAW_COLUMNS: [&str; 19] = [
 ///
 /// ```
 /// use drive_data::{raw_columns, RAW_COLUMNS};
-/// let car = drive_models::vehicles::Ackermann::new(0.57, 0.37);
+/// let car = drive_traits::vehicles::Ackermann::new(0.57, 0.37);
 /// assert_eq!(&raw_columns(&car)[5..7], ["meas_speed", "meas_steering"]);
-/// let husky = drive_models::DifferentialDrive::new(0.165, 0.55);
+/// let husky = drive_traits::vehicles::DifferentialDrive::new(0.165, 0.55);
 /// assert_eq!(raw_columns(&husky), RAW_COLUMNS);
 /// ```
 ///
@@ -56,7 +56,7 @@ pub fn raw_columns(vehicle: &dyn CommandModel) -> [&'static str; 19] {
 /// command); else an error that says why.
 ///
 /// ```
-/// let husky = drive_models::DifferentialDrive::new(0.165, 0.55);
+/// let husky = drive_traits::vehicles::DifferentialDrive::new(0.165, 0.55);
 /// assert!(drive_data::check_raw_vehicle(&husky).is_ok());
 /// ```
 pub fn check_raw_vehicle(vehicle: &dyn CommandModel) -> Result<(), String> {

@@ -1,8 +1,8 @@
 //! The sidecar JSON: the vehicle (with its geometry) and rates of a window dataset.
 
 use crate::{DataError, DataErrorKind, Location};
-use drive_models::DifferentialDrive;
 use drive_traits::limits::{self, Short};
+use drive_traits::vehicles::DifferentialDrive;
 use drive_traits::{CommandModel, PositionFrame, RobotDescription};
 use serde_json::{Map, Value};
 use std::sync::Arc;

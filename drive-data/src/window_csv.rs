@@ -11,7 +11,7 @@ use std::fmt::Write as _;
 ///
 /// ```
 /// use drive_traits::RobotDescription;
-/// let robot = RobotDescription::new("r", "", 20.0, 40, drive_models::DifferentialDrive::new(0.1, 0.5));
+/// let robot = RobotDescription::new("r", "", 20.0, 40, drive_traits::vehicles::DifferentialDrive::new(0.1, 0.5));
 /// assert_eq!(drive_data::columns(&robot)[4..8], ["cmd_left", "cmd_right", "enc_left", "enc_right"]);
 /// assert_eq!(drive_data::columns(&robot).len(), 12);
 /// ```

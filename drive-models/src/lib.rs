@@ -2,11 +2,14 @@
 //!
 //! | part | here | paper |
 //! |---|---|---|
-//! | vehicle | [`vehicles`]: [`DifferentialDrive`] (eq. 4), [`vehicles::Ackermann`] (a car) | eq. 4 |
-//! | powertrain | [`powertrain`]: commanded, FOPDT, rate-limited | eq. 3 |
-//! | slip model | [`slip`]: none, slip-BLR | eq. 5-7 |
-//! | the composed model | [`Composed`] -> [`ComposedModel`] | eq. 1-2 |
+//! | vehicle | [`vehicles`] (drive-traits', re-exported): [`DifferentialDrive`] (eq. 4), [`vehicles::Ackermann`] (a car), [`vehicles::Omnidirectional`] (three inputs) | eq. 4 |
+//! | powertrain | [`powertrain`]: commanded, FOPDT, rate-limited, the dead time's delay line | eq. 3 |
+//! | slip model | [`slip`]: none, slip-BLR, slip-ipem ([`slip::ipem`]: nonlinear, fitted with argmin on multi-step errors) | eq. 5-7 |
+//! | the composed model | [`Composed`] -> [`ComposedModel`], stepped one command at a time (`stepping.rs`) | eq. 1-2 |
 //! | baselines | [`baselines`]: acc-BLR | Fig. 6 |
+//! | uncertainty | [`calibration`] (calibrated regions, cross-conformal), [`difficulty`] (the learned difficulty) | eq. 7 |
+//! | batches | [`batch`]: rollouts and stepped states on all cores | |
+//! | files | [`model_file`]: model files with the settings a model was fitted with, [`export`] (norlab_controllers' layout) | |
 //!
 //! Learners are unfitted configurations implementing the learner traits of
 //! [`drive_traits`]; their `fit` returns a separate fitted type. [`registry`] names every part
@@ -27,7 +30,9 @@ pub mod registry;
 pub mod rollout;
 pub mod slip;
 mod stepping;
-pub mod vehicles;
+/// The built-in vehicles, drive-traits' ([`drive_traits::vehicles`]): at the foundation, so
+/// that data and robots name them without the models.
+pub use drive_traits::vehicles;
 
 pub use composed::{Composed, ComposedModel, GrowingFit};
 

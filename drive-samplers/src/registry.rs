@@ -2,10 +2,10 @@
 //! one [`Registry::register`] call away from every experiment that takes the registry.
 
 use crate::{
-    AngularSampler, GridSampler, LinearSampler, RobotSpec, SamplerError, Target, TargetedSampler,
+    AngularSampler, GridSampler, LinearSampler, RobotSpec, SamplerError, TargetedSampler,
     UniformSampler,
 };
-use drive_traits::{InputSampler, InputSpace, Registry, RegistryItem};
+use drive_traits::{InputSampler, InputSpace, Registry, RegistryItem, SlipLeverage};
 use std::sync::Arc;
 
 /// What a sampler is built from.
@@ -43,7 +43,7 @@ impl<'a> SamplerContext<'a> {
 /// ```
 /// use drive_samplers::{builtin_robots, builtin_samplers, build_sampler, SamplerContext, UniformSampler};
 /// use std::sync::Arc;
-/// let mut samplers = builtin_samplers();
+/// let mut samplers = builtin_samplers(Arc::new(drive_models::slip::SlipBlrLeverage::default()));
 /// // A researcher's sampler: uniform over the forward half of the input space only.
 /// samplers
 ///     .register("forward-half", "uniform over the forward half of J", Arc::new(|ctx: &SamplerContext<'_>| {
@@ -95,8 +95,10 @@ fn uniform(ctx: &SamplerContext<'_>) -> Result<Box<dyn InputSampler>, SamplerErr
 }
 
 /// The project's samplers: `uniform` (DRIVE), `grid`, `linear`, `angular`, `targeted`
-/// (largest slip-BLR uncertainty) and `targeted-coverage` (farthest from the inputs held).
-pub fn builtin_samplers() -> Registry<dyn MakeSampler> {
+/// (largest uncertainty of the slip model `slip`; the project's is the paper's slip-BLR,
+/// `drive_models::slip::SlipBlrLeverage`) and `targeted-coverage` (farthest from the inputs
+/// held). Samplers fit no model themselves: `targeted` asks `slip`.
+pub fn builtin_samplers(slip: Arc<dyn SlipLeverage>) -> Registry<dyn MakeSampler> {
     let mut r: Registry<dyn MakeSampler> = Registry::new("sampler");
     let parts: [(&str, &str, Arc<dyn MakeSampler>); 6] = [
         (
@@ -134,17 +136,19 @@ pub fn builtin_samplers() -> Registry<dyn MakeSampler> {
         (
             "targeted",
             "the input where the slip-BLR fitted so far is least sure of the slip, among 64 uniform candidates",
-            Arc::new(|c: &SamplerContext<'_>| {
-                Ok(Box::new(TargetedSampler::new(c.space, uniform(c)?, Target::SlipVariance))
-                    as Box<dyn InputSampler>)
+            Arc::new(move |c: &SamplerContext<'_>| {
+                Ok(Box::new(TargetedSampler::slip_variance(
+                    c.space,
+                    uniform(c)?,
+                    Arc::clone(&slip),
+                )) as Box<dyn InputSampler>)
             }),
         ),
         (
             "targeted-coverage",
             "the uniform candidate farthest from every input held so far (maximin design over J)",
             Arc::new(|c: &SamplerContext<'_>| {
-                Ok(Box::new(TargetedSampler::new(c.space, uniform(c)?, Target::Coverage))
-                    as Box<dyn InputSampler>)
+                Ok(Box::new(TargetedSampler::coverage(c.space, uniform(c)?)) as Box<dyn InputSampler>)
             }),
         ),
     ];

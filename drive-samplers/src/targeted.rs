@@ -1,19 +1,19 @@
 //! The targeted sampler: the paper's future work (Sec. V) made a sampler. It draws the
 //! next input from what the protocol has measured so far instead of blindly.
 
-use drive_models::powertrain::Fopdt;
-use drive_models::slip::SlipBlr;
+use std::sync::Arc;
+
 use drive_traits::{
-    Input, InputSampler, InputSpace, PowertrainLearner, RobotDescription, SlipData, SlipLearner,
-    Window, WindowSet, WINDOWS_PER_INTERVAL,
+    Input, InputSampler, InputSpace, RobotDescription, SlipLeverage, Window, WindowSet,
+    WINDOWS_PER_INTERVAL,
 };
 
 /// What a [`TargetedSampler`] aims at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Target {
-    /// The input where the slip-BLR fitted on the intervals so far is least sure of the
-    /// slip: the largest weight-uncertainty share of eq. 7's predictive variance
-    /// ([`SlipBlrModel::leverage`](drive_models::slip::SlipBlrModel::leverage)).
+    /// The input where the slip model fitted on the intervals so far is least sure of the
+    /// slip: the largest weight-uncertainty share of eq. 7's predictive variance (a
+    /// [`SlipLeverage`]; the paper's slip-BLR is `drive_models::slip::SlipBlrLeverage`).
     SlipVariance,
     /// The least-covered input: the candidate farthest from every input already held,
     /// distances measured in J scaled to a unit square (a maximin space-filling design).
@@ -23,17 +23,19 @@ pub enum Target {
 /// A sampler that picks, among `candidates` inputs drawn from a base sampler (uniform over
 /// J, with the controller limits), the one that best serves its [`Target`].
 ///
-/// With [`Target::SlipVariance`], the first `warmup` intervals are the base sampler's
-/// draws (there is no model yet); afterwards slip-BLR is refitted on every interval seen
-/// (the runner passes them through [`InputSampler::observe`]) before each draw. When the
-/// fit fails (too little or degenerate data), that draw falls back to [`Target::Coverage`].
+/// Aiming at the slip's variance ([`TargetedSampler::slip_variance`]), the first `warmup`
+/// intervals are the base sampler's draws (there is no model yet); afterwards the slip model
+/// is refitted on every interval seen (the runner passes them through
+/// [`InputSampler::observe`]) before each draw. When the fit fails (too little or
+/// degenerate data), that draw falls back to [`Target::Coverage`].
 ///
 /// ```
 /// use drive_samplers::{Target, TargetedSampler, UniformSampler};
 /// use drive_traits::{Input, InputSampler, InputSpace};
 /// let j = InputSpace::new(Input::new(-1.0, -1.0, 0.0), Input::new(1.0, 1.0, 0.0)).unwrap();
 /// let base = Box::new(UniformSampler::new(j, 7).unwrap());
-/// let mut s = TargetedSampler::new(j, base, Target::Coverage);
+/// let mut s = TargetedSampler::coverage(j, base);
+/// assert_eq!(s.target(), Target::Coverage);
 /// let inputs: Vec<Input> = (0..4).map(|_| s.next_input()).collect();
 /// // Every new input keeps its distance from the earlier ones.
 /// for (i, a) in inputs.iter().enumerate() {
@@ -46,8 +48,8 @@ pub struct TargetedSampler {
     space: InputSpace,
     base: Box<dyn InputSampler>,
     target: Target,
-    powertrain: Fopdt,
-    learner: SlipBlr,
+    /// The slip model's uncertainty, aiming at [`Target::SlipVariance`].
+    leverage: Option<Arc<dyn SlipLeverage>>,
     candidates: usize,
     warmup: usize,
     robot: Option<RobotDescription>,
@@ -67,21 +69,44 @@ impl std::fmt::Debug for TargetedSampler {
 }
 
 impl TargetedSampler {
-    /// Over J = `space`, choosing among 64 candidates from `base` per draw, after 2
-    /// warm-up intervals.
-    pub fn new(space: InputSpace, base: Box<dyn InputSampler>, target: Target) -> Self {
+    /// Aiming at [`Target::SlipVariance`] with the slip model `leverage` over J = `space`,
+    /// choosing among 64 candidates from `base` per draw, after 2 warm-up intervals.
+    pub fn slip_variance(
+        space: InputSpace,
+        base: Box<dyn InputSampler>,
+        leverage: Arc<dyn SlipLeverage>,
+    ) -> Self {
+        Self::new(space, base, Target::SlipVariance, Some(leverage))
+    }
+
+    /// Aiming at [`Target::Coverage`] over J = `space`, choosing among 64 candidates from
+    /// `base` per draw.
+    pub fn coverage(space: InputSpace, base: Box<dyn InputSampler>) -> Self {
+        Self::new(space, base, Target::Coverage, None)
+    }
+
+    fn new(
+        space: InputSpace,
+        base: Box<dyn InputSampler>,
+        target: Target,
+        leverage: Option<Arc<dyn SlipLeverage>>,
+    ) -> Self {
         TargetedSampler {
             space,
             base,
             target,
-            powertrain: Fopdt::default(),
-            learner: SlipBlr::default(),
+            leverage,
             candidates: 64,
             warmup: 2,
             robot: None,
             seen: Vec::new(),
             held: Vec::new(),
         }
+    }
+
+    /// What it aims at.
+    pub fn target(&self) -> Target {
+        self.target
     }
 
     /// The number of candidates per draw (at least 1).
@@ -105,23 +130,23 @@ impl TargetedSampler {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// Scores of the candidates under the slip-BLR fitted so far, or `None` when there is
+    /// Scores of the candidates under the slip model fitted so far, or `None` when there is
     /// no model yet.
     fn slip_scores(&self, candidates: &[Input]) -> Option<Vec<f64>> {
         let robot = self.robot.as_ref()?;
+        let leverage = self.leverage.as_ref()?;
         let set = WindowSet {
             robot,
             windows: self.seen.iter().collect(),
         };
-        // The paper's slip-BLR on the FOPDT: the slip inputs of a candidate held steadily are
-        // those of its commanded body velocity.
-        let powertrain = self.powertrain.fit(&set).ok()?;
-        let model = self.learner.fit(&SlipData::new(&set, &powertrain)).ok()?;
-        let scores: Vec<f64> = candidates
+        // The slip inputs of a candidate held steadily are those of its commanded body
+        // velocity.
+        let at: Vec<_> = candidates
             .iter()
-            .map(|u| model.leverage(&robot.vehicle.body_velocity(u)))
+            .map(|u| robot.vehicle.body_velocity(u))
             .collect();
-        scores.iter().all(|s| s.is_finite()).then_some(scores)
+        let scores = leverage.leverage(&set, &at)?;
+        (scores.len() == candidates.len() && scores.iter().all(|s| s.is_finite())).then_some(scores)
     }
 }
 

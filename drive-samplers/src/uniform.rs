@@ -62,7 +62,7 @@ pub enum SamplerError {
 /// ```
 /// use drive_samplers::BodyLimits;
 /// use drive_traits::Input;
-/// let car = drive_models::vehicles::Ackermann::new(0.5, 0.4);
+/// let car = drive_traits::vehicles::Ackermann::new(0.5, 0.4);
 /// let limits = BodyLimits {
 ///     vehicle: std::sync::Arc::new(car),
 ///     max_linear: f64::INFINITY,

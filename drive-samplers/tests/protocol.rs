@@ -17,7 +17,13 @@ fn sampler(
     name: &str,
     seed: u64,
 ) -> Result<Box<dyn InputSampler>, SamplerError> {
-    build_sampler(&builtin_samplers(), name, &SamplerContext::new(robot, seed))
+    build_sampler(
+        &builtin_samplers(std::sync::Arc::new(
+            drive_models::slip::SlipBlrLeverage::default(),
+        )),
+        name,
+        &SamplerContext::new(robot, seed),
+    )
 }
 
 fn make(
@@ -39,7 +45,11 @@ fn dd(robot: &RobotSpec) -> DifferentialDrive {
 fn same_seed_same_bytes_other_seed_other_schedule() {
     for name in ["husky", "hd2", "warthog"] {
         let robot = preset(name);
-        for s in builtin_samplers().names() {
+        for s in builtin_samplers(std::sync::Arc::new(
+            drive_models::slip::SlipBlrLeverage::default(),
+        ))
+        .names()
+        {
             let a = schedule_csv(&robot, &make(&robot, s, 11, 8));
             let b = schedule_csv(&robot, &make(&robot, s, 11, 8));
             assert_eq!(a, b, "{name} {s}");
@@ -249,7 +259,9 @@ fn car_robot_files_take_per_axis_rate_limits_and_a_lateral_acceleration_limit() 
     let limits = r.body_limits().unwrap();
     assert_eq!(limits.max_lateral_acceleration, 2.0);
     // The uniform sampler redraws beyond the lateral acceleration limit.
-    let samplers = builtin_samplers();
+    let samplers = builtin_samplers(std::sync::Arc::new(
+        drive_models::slip::SlipBlrLeverage::default(),
+    ));
     let mut s = build_sampler(&samplers, "uniform", &SamplerContext::new(&r, 3)).unwrap();
     for _ in 0..2000 {
         let f = r.vehicle.body_velocity(&s.next_input());

@@ -83,7 +83,9 @@ impl Registries {
             slip_learners: builtin_slip_learners(),
             baselines: builtin_baselines(),
             aliases: builtin_aliases(),
-            samplers: builtin_samplers(),
+            samplers: builtin_samplers(std::sync::Arc::new(
+                drive_models::slip::SlipBlrLeverage::default(),
+            )),
             terrains: builtin_terrains(),
             robots: builtin_robots(),
             simulators: builtin_plants(),

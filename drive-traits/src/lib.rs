@@ -41,6 +41,7 @@ mod stats;
 pub mod step;
 mod tag;
 mod vehicle;
+pub mod vehicles;
 mod velocity;
 
 pub use dataset::{
@@ -58,7 +59,7 @@ pub use powertrain::{FitPowertrain, Powertrain, PowertrainLearner, PowertrainSte
 pub use registry::{
     is_part_name, Entry, Registry, RegistryError, RegistryItem, TagCollision, TagProblem,
 };
-pub use sampler::InputSampler;
+pub use sampler::{InputSampler, SlipLeverage};
 pub use slip::{
     FitSlip, OnlineSlip, SlipCovarianceStepper, SlipData, SlipLearner, SlipModel, SlipSample,
     SlipStepper, SlipWindow, StatelessSlip,

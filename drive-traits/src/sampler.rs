@@ -1,4 +1,4 @@
-use crate::{Input, RobotDescription, Window};
+use crate::{BodyVelocity, Input, RobotDescription, Window, WindowSet};
 
 /// A sampler of protocol inputs: each call draws the input held for the next DRIVE
 /// interval. Implementations are seeded at construction and deterministic.
@@ -30,4 +30,26 @@ pub trait InputSampler {
     fn observe(&mut self, robot: &RobotDescription, interval: &[Window]) {
         let _ = (robot, interval);
     }
+}
+
+/// What a sampler that aims at the model's uncertainty asks of a model: fitted on the windows
+/// driven so far, how unsure it is of the slip at each commanded body velocity (the paper's
+/// future work, Sec. V). Samplers see models only through this trait; the paper's slip-BLR
+/// provides it in drive-models (`drive_models::slip::SlipBlrLeverage`).
+///
+/// ```
+/// use drive_traits::{BodyVelocity, SlipLeverage, WindowSet};
+/// /// Unsure in proportion to the speed, whatever was driven.
+/// struct BySpeed;
+/// impl SlipLeverage for BySpeed {
+///     fn leverage(&self, _: &WindowSet<'_>, at: &[BodyVelocity]) -> Option<Vec<f64>> {
+///         Some(at.iter().map(|v| v.x.abs()).collect())
+///     }
+/// }
+/// ```
+pub trait SlipLeverage: Send + Sync {
+    /// The weight-uncertainty share of the predictive slip variance (eq. 7) at each of
+    /// `at`, of a slip model fitted on `windows`; `None` when no model can be fitted on them
+    /// (too little or degenerate data).
+    fn leverage(&self, windows: &WindowSet<'_>, at: &[BodyVelocity]) -> Option<Vec<f64>>;
 }

@@ -14,7 +14,7 @@ fn warthog() -> RobotDescription {
         "warthog",
         20.0,
         40,
-        drive_models::DifferentialDrive::new(0.3, 1.1652),
+        drive_traits::vehicles::DifferentialDrive::new(0.3, 1.1652),
     )
 }
 

@@ -8,10 +8,12 @@
 //! | `slip-ipem` | [`SlipIpem`] | [`SlipIpemModel`] | slip nonlinear in the commanded body velocity with a body lag and an IMU yaw disturbance, fitted on multi-step rollout errors ([`ipem`]) |
 
 pub mod ipem;
+mod leverage;
 mod none;
 mod slip_blr;
 
 pub use ipem::{slip_features, SlipIpem, SlipIpemModel};
+pub use leverage::SlipBlrLeverage;
 pub use none::{NoSlip, NoSlipModel};
 pub use slip_blr::{
     car_slip_inputs, omni_slip_inputs, slip_inputs, CarSlipInputs, SlipBasis, SlipBlr,

@@ -3,9 +3,9 @@
 //! the paper's platforms). This file: the description, its builder and its checks.
 
 use crate::BodyLimits;
-use drive_models::vehicles::{Ackermann, Omnidirectional};
-use drive_models::DifferentialDrive;
 use drive_traits::limits::{self, Short};
+use drive_traits::vehicles::DifferentialDrive;
+use drive_traits::vehicles::{Ackermann, Omnidirectional};
 use drive_traits::{
     vehicle_tag, CommandModel, Input, InputSpace, Registry, RegistryError, RegistryItem, Steering,
     Tagged,
@@ -157,7 +157,7 @@ impl RobotSpec {
     /// ```
     /// use drive_samplers::RobotSpec;
     /// use std::sync::Arc;
-    /// let wheels = || Arc::new(drive_models::DifferentialDrive::new(0.1, 0.4));
+    /// let wheels = || Arc::new(drive_traits::vehicles::DifferentialDrive::new(0.1, 0.4));
     /// let robot = RobotSpec::new("mine", wheels(), 30.0, 1.5, 1.0, 3.0)
     ///     .unwrap()
     ///     .with_rate(10.0)
@@ -301,7 +301,7 @@ impl RobotSpec {
     /// use drive_samplers::RobotSpec;
     /// use drive_traits::Input;
     /// use std::sync::Arc;
-    /// let car = Arc::new(drive_models::vehicles::Ackermann::new(0.33, 0.42));
+    /// let car = Arc::new(drive_traits::vehicles::Ackermann::new(0.33, 0.42));
     /// let robot = RobotSpec::new("small", car, 3.5, 3.0, 3.0, 6.0).unwrap()
     ///     .with_input_rate_limits(Input::new(3.0, 6.0, 0.0)).unwrap()
     ///     .with_lateral_acceleration(2.5).unwrap();

@@ -44,7 +44,9 @@ fn sampler(
     spec: RobotSpec,
     seed: u64,
 ) -> impl FnMut(InputSpace) -> Box<dyn InputSampler> {
-    let samplers = builtin_samplers();
+    let samplers = builtin_samplers(std::sync::Arc::new(
+        drive_models::slip::SlipBlrLeverage::default(),
+    ));
     move |space| {
         // A built-in sampler over a characterized (non-empty) input space.
         build_sampler(

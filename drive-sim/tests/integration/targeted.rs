@@ -29,11 +29,12 @@ fn after_straight_driving_the_slip_variance_target_asks_for_a_turn() {
     let turn_in_place = vehicle
         .body_velocity(&Input::new(space.min.x, space.max.y, 0.0))
         .z;
-    let mut sampler = TargetedSampler::new(
+    let mut sampler = TargetedSampler::slip_variance(
         space,
         Box::new(UniformSampler::new(space, 5).unwrap()),
-        Target::SlipVariance,
+        std::sync::Arc::new(drive_models::slip::SlipBlrLeverage::default()),
     );
+    assert_eq!(sampler.target(), Target::SlipVariance);
     sampler.observe(&straight.dataset.robot, &straight.dataset.windows);
     let mut uniform = UniformSampler::new(space, 5).unwrap();
     let yaw = |u: Input| vehicle.body_velocity(&u).z.abs() / turn_in_place;
@@ -84,11 +85,8 @@ fn coverage_target_spreads_the_inputs_more_than_uniform() {
     };
     for seed in 0..5 {
         let mut uniform = UniformSampler::new(space, seed).unwrap();
-        let mut coverage = TargetedSampler::new(
-            space,
-            Box::new(UniformSampler::new(space, seed).unwrap()),
-            Target::Coverage,
-        );
+        let mut coverage =
+            TargetedSampler::coverage(space, Box::new(UniformSampler::new(space, seed).unwrap()));
         let (u, c) = (min_gap(&mut uniform), min_gap(&mut coverage));
         // 25 points in a 12 x 12 rad/s square: a maximin design keeps them ~2 rad/s apart.
         assert!(

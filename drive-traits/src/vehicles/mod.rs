@@ -1,4 +1,4 @@
-//! Vehicles (implementations of [`drive_traits::CommandModel`]): a new vehicle is a new file
+//! Vehicles (implementations of [`CommandModel`](crate::CommandModel)): a new vehicle is a new file
 //! here (or in a plug-in crate) and one registration in the vehicle registry.
 
 mod ackermann;
@@ -23,17 +23,17 @@ fn positive_lengths(lengths: &[(&'static str, f64)]) -> Result<(), String> {
     match lengths.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
         Some((name, v)) => Err(format!(
             "vehicle {name} = {} is not a positive length",
-            drive_traits::limits::Short(*v)
+            crate::limits::Short(*v)
         )),
         None => match lengths.iter().find(|(_, v)| *v > MAX_LENGTH_M) {
             Some((name, v)) => Err(format!(
                 "vehicle {name} = {} m is more than {MAX_LENGTH_M} m: a length in another unit (millimetres?)",
-                drive_traits::limits::Short(*v)
+                crate::limits::Short(*v)
             )),
             None => match lengths.iter().find(|(_, v)| *v < MIN_LENGTH_M) {
                 Some((name, v)) => Err(format!(
                     "vehicle {name} = {} m is less than {MIN_LENGTH_M} m: a length in another unit (kilometres?)",
-                    drive_traits::limits::Short(*v)
+                    crate::limits::Short(*v)
                 )),
                 None => Ok(()),
             },

@@ -1,5 +1,5 @@
-use drive_traits::limits::Short;
-use drive_traits::{
+use crate::limits::Short;
+use crate::{
     spanned_space, BodyVelocity, Characterization, CommandModel, Input, InputAxis, InputSpace,
     Probe, ProbeResult, Steering, Tagged,
 };
@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 /// same powertrain and slip learners, on a vehicle that cannot turn in place.
 ///
 /// ```
-/// use drive_models::vehicles::Ackermann;
+/// use drive_traits::vehicles::Ackermann;
 /// use drive_traits::{BodyVelocity, CommandModel, Input};
 /// let car = Ackermann::new(0.57, 0.3665);
 /// let f = car.body_velocity(&Input::new(2.0, 0.2, 0.0));
@@ -207,7 +207,7 @@ impl CommandModel for Ackermann {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use drive_traits::ProbeMotion;
+    use crate::ProbeMotion;
 
     fn result(name: &'static str, command: Input, measured: Input, yaw: f64) -> ProbeResult {
         ProbeResult {

@@ -1,8 +1,6 @@
 //! An omnidirectional (mecanum or omni-wheel) base commanded in body velocity: three inputs.
 
-use drive_traits::{
-    BodyVelocity, CommandModel, Input, InputAxis, InputSpace, Probe, ProbeResult, Tagged,
-};
+use crate::{BodyVelocity, CommandModel, Input, InputAxis, InputSpace, Probe, ProbeResult, Tagged};
 use serde::{Deserialize, Serialize};
 
 /// An omnidirectional base (mecanum wheels, as a Clearpath Ridgeback; omni wheels) commanded
@@ -17,7 +15,7 @@ use serde::{Deserialize, Serialize};
 /// (`|v_x|, |v_y| <= top speed`, `|w| <= top speed / (l_x + l_y)`).
 ///
 /// ```
-/// use drive_models::vehicles::Omnidirectional;
+/// use drive_traits::vehicles::Omnidirectional;
 /// use drive_traits::{BodyVelocity, CommandModel, Input};
 /// let base = Omnidirectional::new(0.319, 0.2775);
 /// let u = Input::new(0.5, -0.2, 0.3);
@@ -140,8 +138,8 @@ impl CommandModel for Omnidirectional {
         ]
     }
 
-    fn steering(&self) -> drive_traits::Steering {
-        drive_traits::Steering::Holonomic
+    fn steering(&self) -> crate::Steering {
+        crate::Steering::Holonomic
     }
 
     fn clone_box(&self) -> Box<dyn CommandModel> {

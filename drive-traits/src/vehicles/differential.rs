@@ -1,4 +1,4 @@
-use drive_traits::{
+use crate::{
     spanned_space, BodyVelocity, Characterization, CommandModel, Input, InputAxis, InputSpace,
     Probe, ProbeResult, Tagged,
 };
@@ -13,7 +13,7 @@ const MIN_TURN_MADE: f64 = 0.2;
 /// (or track sprocket) angular velocities.
 ///
 /// ```
-/// use drive_models::DifferentialDrive;
+/// use drive_traits::vehicles::DifferentialDrive;
 /// use drive_traits::{CommandModel, Input};
 /// let husky = DifferentialDrive::new(0.165, 0.55);
 /// let f = husky.body_velocity(&Input::new(2.0, 4.0, 0.0));
@@ -190,7 +190,7 @@ impl CommandModel for DifferentialDrive {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use drive_traits::ProbeMotion;
+    use crate::ProbeMotion;
 
     fn probes(turn_made: Input, yaw_turned: f64) -> Vec<ProbeResult> {
         let husky = DifferentialDrive::new(0.165, 0.55);
