@@ -138,12 +138,13 @@ pub fn import_recording(
     options: &ImportOptions,
 ) -> Result<Imported, ImportError> {
     let spec = registries.robot(robot)?;
-    crate::data::check_raw_vehicle(spec.vehicle.as_ref()).map_err(ImportError::Vehicle)?;
+    crate::data::check_raw_vehicle(spec.vehicle.as_ref())
+        .map_err(|e| ImportError::Vehicle(e.to_string()))?;
     let log = match recording {
         Recording::Bag { path, topics } => {
             let mut t = BagTopics::drive_logger(spec.vehicle.as_ref());
             for a in topics.iter() {
-                t.set(a).map_err(ImportError::Topic)?;
+                t.set(a).map_err(|e| ImportError::Topic(e.to_string()))?;
             }
             read_bag(path, &t)?
         }

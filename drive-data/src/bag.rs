@@ -117,16 +117,20 @@ impl BagTopics {
     }
 
     /// Sets a key's topic from `KEY=/topic` (`KEY=/topic:joint` for a JointState topic).
-    pub fn set(&mut self, assignment: &str) -> Result<(), String> {
+    pub fn set(&mut self, assignment: &str) -> Result<(), TopicAssignmentError> {
         let keys = self.keys().join(", ");
         let Some((key, value)) = assignment.split_once('=') else {
-            return Err(format!(
+            return Err(TopicAssignmentError(format!(
                 "--topic {assignment:?} is not KEY=/topic (keys: {keys})"
-            ));
+            )));
         };
         let (topic, joint) = match value.split_once(':') {
             Some((t, j)) if !j.is_empty() => (t, Some(j.to_string())),
-            Some(_) => return Err(format!("--topic {assignment:?}: the joint name is empty")),
+            Some(_) => {
+                return Err(TopicAssignmentError(format!(
+                    "--topic {assignment:?}: the joint name is empty"
+                )))
+            }
             None => (value, None),
         };
         let valid = topic.len() > 1
@@ -135,19 +139,19 @@ impl BagTopics {
                 .chars()
                 .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '/' || c == '~');
         if !valid {
-            return Err(format!(
+            return Err(TopicAssignmentError(format!(
                 "--topic {assignment:?}: {topic:?} is not an absolute ROS topic name (like /cmd_vel)"
-            ));
+            )));
         }
         let Some(entry) = self.entries.iter_mut().find(|e| e.0 == key) else {
-            return Err(format!(
+            return Err(TopicAssignmentError(format!(
                 "--topic {assignment:?}: no key {key:?} (keys: {keys})"
-            ));
+            )));
         };
         if joint.is_some() && !matches!(entry.1, Signal::Measured(_)) {
-            return Err(format!(
+            return Err(TopicAssignmentError(format!(
                 "--topic {assignment:?}: only a measured input can name a joint"
-            ));
+            )));
         }
         entry.2 = topic.to_string();
         entry.3 = joint;
@@ -672,3 +676,8 @@ fn rows_of(
 
 #[cfg(test)]
 mod tests;
+
+/// A `--topic KEY=/topic` assignment that cannot be applied ([`BagTopics::set`]), with why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct TopicAssignmentError(pub String);

@@ -32,8 +32,8 @@ pub mod suite;
 mod window_csv;
 
 pub use bag::{
-    bag_files, read_bag, read_bag_bytes, BagTopics, MAX_BAG_BYTES, MAX_BAG_MESSAGES,
-    MAX_BAG_RECORD_BYTES,
+    bag_files, read_bag, read_bag_bytes, BagTopics, TopicAssignmentError, MAX_BAG_BYTES,
+    MAX_BAG_MESSAGES, MAX_BAG_RECORD_BYTES,
 };
 pub use error::{DataError, DataErrorKind, Location};
 pub use import::{import_raw, DropReason, ImportConfig, ImportReport, StepOutcome};
@@ -41,7 +41,7 @@ pub use raw_log::{
     check_raw_vehicle, parse_raw_log, raw_columns, write_raw_log, CalibState, RawLog, RawRow,
     RAW_COLUMNS,
 };
-pub use sidecar::{parse_sidecar, sidecar_json, Announced, CsvDigest};
+pub use sidecar::{parse_sidecar, sidecar_json, Announced, CsvDigest, SidecarError};
 pub use window_csv::{columns, parse_windows, write_windows_csv, OPTIONAL_COLUMNS};
 
 use drive_traits::Dataset;
@@ -249,7 +249,7 @@ pub fn stage_dataset(
     .map_err(|e| {
         DataError::new(
             Location::file(&side.display().to_string()),
-            DataErrorKind::Io(e),
+            DataErrorKind::Io(e.to_string()),
         )
     })?;
     outputs.write(csv, text).map_err(|e| write_error(csv, e))?;

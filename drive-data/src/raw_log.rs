@@ -3,6 +3,7 @@
 
 use crate::error::{parse_measurement, parse_number};
 use crate::{DataError, DataErrorKind, Location};
+use drive_traits::InvalidPart;
 use drive_traits::{CommandModel, Input};
 use std::fmt::Write as _;
 
@@ -59,14 +60,14 @@ pub fn raw_columns(vehicle: &dyn CommandModel) -> [&'static str; 19] {
 /// let husky = drive_traits::vehicles::DifferentialDrive::new(0.165, 0.55);
 /// assert!(drive_data::check_raw_vehicle(&husky).is_ok());
 /// ```
-pub fn check_raw_vehicle(vehicle: &dyn CommandModel) -> Result<(), String> {
+pub fn check_raw_vehicle(vehicle: &dyn CommandModel) -> Result<(), InvalidPart> {
     let dim = vehicle.input_dim();
     if dim == 2 {
         return Ok(());
     }
-    Err(format!(
+    Err(InvalidPart::from(format!(
         "the DRIVE logger's recordings (its raw CSV and its bag topics) hold two measured inputs and a twist command (cmd_vel_x, cmd_vel_omega); this vehicle has {dim} input axes: write its windows as a window CSV with one command and one measured column per axis (the format drive simulate --out writes; see docs/data-format.md)"
-    ))
+    )))
 }
 
 /// The protocol's state as the logger writes it.

@@ -218,7 +218,7 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
     let position_frame = match required(obj, "position_frame") {
         None => PositionFrame::default(),
         Some(Value::String(name)) => {
-            PositionFrame::parse(name).map_err(|e| bad("position_frame", e))?
+            PositionFrame::parse(name).map_err(|e| bad("position_frame", e.to_string()))?
         }
         Some(v) => {
             return Err(bad(
@@ -302,9 +302,9 @@ pub fn sidecar_json(
     robot: &RobotDescription,
     windows: usize,
     csv: Option<CsvDigest>,
-) -> Result<String, String> {
+) -> Result<String, SidecarError> {
     let vehicle = serde_json::to_value(robot.vehicle.as_ref())
-        .map_err(|e| format!("the vehicle cannot be saved: {e}"))?;
+        .map_err(|e| SidecarError(format!("the vehicle cannot be saved: {e}")))?;
     let mut value = serde_json::json!({
         "name": robot.name,
         "robot": robot.robot,
@@ -322,5 +322,11 @@ pub fn sidecar_json(
     }
     serde_json::to_string_pretty(&value)
         .map(|t| t + "\n")
-        .map_err(|e| format!("the sidecar cannot be written: {e}"))
+        .map_err(|e| SidecarError(format!("the sidecar cannot be written: {e}")))
 }
+
+/// A sidecar that cannot be written (a plug-in vehicle that does not serialize to JSON),
+/// with why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct SidecarError(pub String);

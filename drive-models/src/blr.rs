@@ -3,6 +3,7 @@
 
 use drive_traits::limits::{Short, MAX_ABS_MEASUREMENT};
 use drive_traits::FitError;
+use drive_traits::InvalidPart;
 use faer::linalg::solvers::SolveLstsq;
 use faer::Mat;
 use nalgebra::{DMatrix, DVector};
@@ -311,71 +312,75 @@ impl BlrPosterior {
     }
 
     /// Checks a posterior read from a file: `k` inputs, finite values, `a, b >= 0`.
-    pub fn check(&self, k: usize, what: &str) -> Result<(), String> {
+    pub fn check(&self, k: usize, what: &str) -> Result<(), InvalidPart> {
         if self.mean.len() != k || self.covariance.len() != k * k {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "{what}: expected {k} weights and a {k}x{k} covariance, found {} and {}",
                 self.mean.len(),
                 self.covariance.len()
-            ));
+            )));
         }
         if !self.all_finite() {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "{what}: a posterior parameter is not a finite number"
-            ));
+            )));
         }
         if !(self.a > 0.0 && self.b > 0.0) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "{what}: the noise parameters a = {} and b = {} must be positive",
                 Short(self.a),
                 Short(self.b)
-            ));
+            )));
         }
         // The predictive of eq. 7 is a Student t with 2a degrees of freedom: its variance,
         // which the covariance propagation uses, is finite only for 2a > 2.
         if self.a <= 1.0 {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "{what}: the noise shape a = {} must be above 1 (the predictive has 2a degrees of freedom and a finite variance only above 2; a fit writes a0 + n / 2 for n samples)",
                 Short(self.a)
-            ));
+            )));
         }
         // What a fit writes: a = a0 + n / 2 for n samples, a noise variance b / a of a
         // slip (m/s or rad/s, squared) and weights of the size of a measurement.
         if self.a > MAX_NOISE_SHAPE {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "{what}: the noise shape a = {} is beyond {} (a fit writes a0 + n / 2 for n samples)",
                 Short(self.a),
                 Short(MAX_NOISE_SHAPE)
-            ));
+            )));
         }
         if self.b / self.a > MAX_VARIANCE {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "{what}: the noise variance b / a = {} is beyond {}",
                 Short(self.b / self.a),
                 Short(MAX_VARIANCE)
-            ));
+            )));
         }
         if let Some(m) = self.mean.iter().find(|m| m.abs() > MAX_ABS_MEASUREMENT) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "{what}: weight {} is beyond +-{}",
                 Short(*m),
                 Short(MAX_ABS_MEASUREMENT)
-            ));
+            )));
         }
         if let Some(c) = self.covariance.iter().find(|c| c.abs() > MAX_VARIANCE) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "{what}: covariance entry {} is beyond +-{}",
                 Short(*c),
                 Short(MAX_VARIANCE)
-            ));
+            )));
         }
         let c = DMatrix::from_row_slice(k, k, &self.covariance);
         let scale = c.amax().max(f64::MIN_POSITIVE);
         if (&c - c.transpose()).amax() > 1e-9 * scale {
-            return Err(format!("{what}: the covariance is not symmetric"));
+            return Err(InvalidPart::from(format!(
+                "{what}: the covariance is not symmetric"
+            )));
         }
         if k > 0 && c.cholesky().is_none() {
-            return Err(format!("{what}: the covariance is not positive definite"));
+            return Err(InvalidPart::from(format!(
+                "{what}: the covariance is not positive definite"
+            )));
         }
         Ok(())
     }

@@ -8,6 +8,7 @@
 //! fast as a hand-written one.
 
 use crate::rollout::{integrate, integrate_into, integrate_with_covariance};
+use drive_traits::InvalidPart;
 use drive_traits::{
     BodyVelocity, CommandModel, FitError, FitPowertrain, FitSlip, Input, Learner, MotionError,
     MotionModel, Pose, PoseCovariance, Powertrain, PowertrainLearner, SlipData, SlipLearner,
@@ -288,7 +289,7 @@ impl MotionModel for ComposedModel {
         self.dt
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         drive_traits::check_step(self.dt)?;
         self.vehicle.check()?;
         self.powertrain.check()?;

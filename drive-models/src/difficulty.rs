@@ -30,6 +30,7 @@
 //! on the training windows at that step: a prediction unlike any seen is not given a region
 //! extrapolated without limit.
 
+use drive_traits::InvalidPart;
 use drive_traits::{wrap_angle, Pose, PoseCovariance, StartState};
 use nalgebra::{SMatrix, SVector};
 use serde::{Deserialize, Serialize};
@@ -237,23 +238,23 @@ impl StepDifficulty {
     }
 
     /// Checks values read from a file.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), InvalidPart> {
         if self
             .beta
             .iter()
             .chain(&self.range)
             .any(|v| !(v.is_finite() && v.abs() <= MAX_COEFFICIENT))
         {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "a difficulty coefficient or bound is not a number within +-{}",
                 drive_traits::limits::Short(MAX_COEFFICIENT)
-            ));
+            )));
         }
         if self.range[0] > self.range[1] || self.range[0] < -50.0 || self.range[1] > 50.0 {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "difficulty range [{}, {}] is not an ordered log range within +-50",
                 self.range[0], self.range[1]
-            ));
+            )));
         }
         Ok(())
     }

@@ -17,6 +17,8 @@
 
 #![warn(missing_docs)]
 
+use drive_traits::InvalidPart;
+
 pub mod baselines;
 pub mod batch;
 pub mod blr;
@@ -39,13 +41,15 @@ pub use composed::{Composed, ComposedModel, GrowingFit};
 /// Checks a fitted part's sample period read from a file: `Err` when the `part` (the
 /// powertrain, the slip model) was fitted at another command period `step` than the
 /// model's `dt` (its time constants or lags would be read in the wrong unit of steps).
-pub(crate) fn check_same_step(part: &str, step: Option<f64>, dt: f64) -> Result<(), String> {
+pub(crate) fn check_same_step(part: &str, step: Option<f64>, dt: f64) -> Result<(), InvalidPart> {
     match step {
-        Some(step) if (step - dt).abs() > 1e-9 * dt.abs().max(step.abs()) => Err(format!(
-            "the {part}'s step {} s is not the model's {} s",
-            drive_traits::limits::Short(step),
-            drive_traits::limits::Short(dt)
-        )),
+        Some(step) if (step - dt).abs() > 1e-9 * dt.abs().max(step.abs()) => {
+            Err(InvalidPart::from(format!(
+                "the {part}'s step {} s is not the model's {} s",
+                drive_traits::limits::Short(step),
+                drive_traits::limits::Short(dt)
+            )))
+        }
         _ => Ok(()),
     }
 }

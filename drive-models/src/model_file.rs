@@ -413,9 +413,9 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
             file: file.into(),
             message: at_path("model", &model, &e),
         })?;
-    model.check().map_err(|message| ModelFileError::Model {
+    model.check().map_err(|e| ModelFileError::Model {
         file: file.into(),
-        message,
+        message: e.to_string(),
     })?;
     let (dt, period) = (model.dt(), 1.0 / robot.rate_hz);
     if !(robot.rate_hz.is_finite() && (dt - period).abs() <= 1e-9 * dt.max(period)) {

@@ -444,7 +444,9 @@ impl ProtocolRunner {
                     tick: 0,
                 }
             }
-            Err(reason) => RunnerState::Done(StopReason::CharacterizationFailed(reason)),
+            Err(reason) => {
+                RunnerState::Done(StopReason::CharacterizationFailed(reason.to_string()))
+            }
         }
     }
 

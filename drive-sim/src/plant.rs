@@ -67,19 +67,47 @@ pub trait MakePlant: Send + Sync {
         robot: &RobotSpec,
         terrain: &Terrain,
         seed: u64,
-    ) -> Result<Box<dyn Plant>, String>;
+    ) -> Result<Box<dyn Plant>, PlantError>;
 }
 
+/// Why a simulator cannot simulate a robot (its vehicle is not the kind the plant
+/// simulates, its geometry is out of the plant's range), with why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct PlantError(pub String);
+
+impl From<String> for PlantError {
+    fn from(message: String) -> Self {
+        PlantError(message)
+    }
+}
+
+impl From<&str> for PlantError {
+    fn from(message: &str) -> Self {
+        PlantError(message.to_string())
+    }
+}
+
+/// The message.
+impl std::ops::Deref for PlantError {
+    type Target = str;
+    fn deref(&self) -> &str {
+        &self.0
+    }
+}
+
+/// Any closure `Fn(&RobotSpec, &Terrain, u64) -> Result<Box<dyn Plant>, PlantError>` (a
+/// `&str` or a `String` becomes one with `?` or `.into()`).
 impl<F> MakePlant for F
 where
-    F: Fn(&RobotSpec, &Terrain, u64) -> Result<Box<dyn Plant>, String> + Send + Sync,
+    F: Fn(&RobotSpec, &Terrain, u64) -> Result<Box<dyn Plant>, PlantError> + Send + Sync,
 {
     fn make(
         &self,
         robot: &RobotSpec,
         terrain: &Terrain,
         seed: u64,
-    ) -> Result<Box<dyn Plant>, String> {
+    ) -> Result<Box<dyn Plant>, PlantError> {
         self(robot, terrain, seed)
     }
 }
@@ -138,7 +166,7 @@ pub fn plant_for(
     robot: &RobotSpec,
     terrain: &Terrain,
     seed: u64,
-) -> Result<Box<dyn Plant>, String> {
+) -> Result<Box<dyn Plant>, PlantError> {
     let tag = vehicle_tag(robot.vehicle.as_ref()).unwrap_or_default();
     match plants.find(&tag) {
         Some(p) => p.part().make(robot, terrain, seed),

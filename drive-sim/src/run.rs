@@ -184,7 +184,7 @@ pub fn simulate(
     let mut sim = plant_for(plants, &robot, &config.terrain, config.seed).map_err(|reason| {
         SimError::Plant {
             robot: robot.name.clone(),
-            reason,
+            reason: reason.to_string(),
         }
     })?;
     let mut runner = ProtocolRunner::new(robot.clone(), config.runner.clone(), sampler);

@@ -12,6 +12,7 @@ use crate::{
 use drive_models::{DifferentialDrive, ModelSpec};
 use drive_samplers::{ReplaySampler, RobotSpec, RunnerConfig};
 use drive_sim::{SimulationConfig, Terrain};
+use drive_traits::UnknownName;
 use drive_traits::{vehicle_as, Dataset, FitError, Input, InputSampler, WindowSet};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -60,13 +61,13 @@ pub enum CheckCommands {
 
 impl CheckCommands {
     /// From its name, `replay` or `draw`.
-    pub fn parse(name: &str) -> Result<Self, String> {
+    pub fn parse(name: &str) -> Result<Self, UnknownName> {
         match name {
             "replay" => Ok(CheckCommands::Replay),
             "draw" => Ok(CheckCommands::Draw),
-            other => Err(format!(
+            other => Err(UnknownName::from(format!(
                 "unknown check commands '{other}' (replay: the real run's commands; draw: fresh draws of the twin's protocol)"
-            )),
+            ))),
         }
     }
 

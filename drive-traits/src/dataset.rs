@@ -1,5 +1,6 @@
 //! Dataset types: windows of DRIVE driving data and the robot that recorded them.
 
+use crate::UnknownName;
 use crate::{CommandModel, Input, Pose, StartState};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -400,15 +401,15 @@ impl StartInfo {
     pub const NAMES: [&'static str; 3] = ["encoders", "encoders+imu", "encoders+imu+localization"];
 
     /// The start information of a name.
-    pub fn parse(name: &str) -> Result<Self, String> {
+    pub fn parse(name: &str) -> Result<Self, UnknownName> {
         match name {
             "encoders" => Ok(StartInfo::Encoders),
             "encoders+imu" => Ok(StartInfo::EncodersImu),
             "encoders+imu+localization" => Ok(StartInfo::EncodersImuLocalization),
-            other => Err(format!(
+            other => Err(UnknownName::from(format!(
                 "unknown start information {other:?}; known: {}",
                 Self::NAMES.join(", ")
-            )),
+            ))),
         }
     }
 
@@ -460,14 +461,14 @@ impl PositionFrame {
     pub const NAMES: [&'static str; 2] = ["first-sample", "paper-mean5"];
 
     /// The frame of a name.
-    pub fn parse(name: &str) -> Result<Self, String> {
+    pub fn parse(name: &str) -> Result<Self, UnknownName> {
         match name {
             "first-sample" => Ok(PositionFrame::FirstSample),
             "paper-mean5" => Ok(PositionFrame::PaperMean5),
-            other => Err(format!(
+            other => Err(UnknownName::from(format!(
                 "unknown position frame {other:?}; known: {}",
                 Self::NAMES.join(", ")
-            )),
+            ))),
         }
     }
 

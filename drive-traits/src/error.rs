@@ -171,3 +171,62 @@ impl MotionError {
         }
     }
 }
+
+/// A part (a vehicle, a powertrain, a slip model, a fitted model, a model's settings) whose
+/// values cannot work, with what is wrong in words: what the parts' `check` methods return.
+///
+/// ```
+/// use drive_traits::InvalidPart;
+/// let e = InvalidPart::from("vehicle wheel_radius = -1 is not a positive length");
+/// assert_eq!(e.to_string(), "vehicle wheel_radius = -1 is not a positive length");
+/// ```
+#[derive(Debug, Error, Clone, PartialEq, Eq)]
+#[error("{0}")]
+pub struct InvalidPart(pub String);
+
+/// The characterization probes' results give the vehicle no input space (paper Sec. III-A):
+/// what [`CommandModel::characterize`](crate::CommandModel::characterize) returns.
+///
+/// ```
+/// use drive_traits::CharacterizationError;
+/// let e = CharacterizationError::from(String::from("no probe moved the wheels"));
+/// assert_eq!(e.to_string(), "no probe moved the wheels");
+/// ```
+#[derive(Debug, Error, Clone, PartialEq, Eq)]
+#[error("{0}")]
+pub struct CharacterizationError(pub String);
+
+/// A name that is none of the ones known (a start, a frame, an uncertainty, a check's
+/// commands), with the known ones in its message.
+///
+/// ```
+/// use drive_traits::{StartInfo, UnknownName};
+/// let e: UnknownName = StartInfo::parse("gps").unwrap_err();
+/// assert!(e.to_string().contains("gps"));
+/// ```
+#[derive(Debug, Error, Clone, PartialEq, Eq)]
+#[error("{0}")]
+pub struct UnknownName(pub String);
+
+macro_rules! from_message {
+    ($($t:ident),*) => {$(
+        impl From<String> for $t {
+            fn from(message: String) -> Self {
+                $t(message)
+            }
+        }
+        impl From<&str> for $t {
+            fn from(message: &str) -> Self {
+                $t(message.to_string())
+            }
+        }
+        /// The message.
+        impl std::ops::Deref for $t {
+            type Target = str;
+            fn deref(&self) -> &str {
+                &self.0
+            }
+        }
+    )*};
+}
+from_message!(InvalidPart, CharacterizationError, UnknownName);

@@ -48,7 +48,7 @@ pub use dataset::{
     assign_intervals, Dataset, Phase, PositionFrame, RobotDescription, StartInfo, Window,
     WindowSet, END_VELOCITY_SPAN_S, PAPER_FRAME_SAMPLES, WINDOWS_PER_INTERVAL, WINDOW_S,
 };
-pub use error::{FitError, MotionError};
+pub use error::{CharacterizationError, FitError, InvalidPart, MotionError, UnknownName};
 pub use learner::{Baseline, Learner};
 pub use motion::{check_step, MotionModel, StartState};
 pub use pose::{

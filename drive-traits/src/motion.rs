@@ -1,6 +1,7 @@
 //! Fitted motion models: poses over a horizon from a start state and an input sequence.
 
 use crate::step::{ReplayStepper, StepOptions, Stepper};
+use crate::InvalidPart;
 use crate::{BodyVelocity, Input, MotionError, Pose, PoseCovariance, Powertrain};
 
 /// Checks a prediction step read from a file: a positive number of seconds.
@@ -9,14 +10,14 @@ use crate::{BodyVelocity, Input, MotionError, Pose, PoseCovariance, Powertrain};
 /// assert!(drive_traits::check_step(0.05).is_ok());
 /// assert!(drive_traits::check_step(0.0).unwrap_err().contains("dt = 0"));
 /// ```
-pub fn check_step(dt: f64) -> Result<(), String> {
+pub fn check_step(dt: f64) -> Result<(), InvalidPart> {
     if dt.is_finite() && dt > 0.0 {
         Ok(())
     } else {
-        Err(format!(
+        Err(InvalidPart::from(format!(
             "dt = {} is not a positive number of seconds",
             crate::limits::Short(dt)
-        ))
+        )))
     }
 }
 
@@ -151,7 +152,7 @@ pub trait MotionModel: std::fmt::Debug + Send + Sync {
 
     /// Checks the model's parameters (finite values, matching dimensions, positive step):
     /// what a model file must pass before it is used. `Err` says what is wrong.
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         check_step(self.dt())
     }
 

@@ -1,6 +1,7 @@
 //! Powertrains: commanded -> actually reached inputs over a horizon (paper eq. 3 and
 //! others), and their learners.
 
+use crate::InvalidPart;
 use crate::{FitError, Input, PartTag, RegistryItem, Tagged, WindowSet};
 
 /// A fitted powertrain model: predicts the inputs the vehicle actually reaches (wheel
@@ -54,7 +55,7 @@ pub trait Powertrain: std::fmt::Debug + Send + Sync {
 
     /// Checks the parameters read from a file (finite, physically meaningful); `Err` says
     /// what is wrong.
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         Ok(())
     }
 

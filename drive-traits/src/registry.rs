@@ -7,6 +7,7 @@
 //! `#[typetag::serde(name = ...)]` gives and that no other part uses it, so that a collision
 //! is an error at registration, naming both parts, not when a file is loaded.
 
+use crate::InvalidPart;
 use crate::PartTag;
 use std::sync::Arc;
 use thiserror::Error;
@@ -150,7 +151,7 @@ pub trait RegistryItem {
 
     /// Checks what every part of this kind must satisfy (a vehicle's number of input axes);
     /// `Err` says what is wrong. Nothing by default.
-    fn check_part(&self) -> Result<(), String> {
+    fn check_part(&self) -> Result<(), InvalidPart> {
         Ok(())
     }
 }
@@ -286,7 +287,7 @@ impl<T: ?Sized + RegistryItem> Registry<T> {
         part.check_part().map_err(|reason| RegistryError::BadPart {
             kind: self.kind,
             name: name.to_string(),
-            reason,
+            reason: reason.to_string(),
         })?;
         let tag = part.part_tag();
         if let Some(t) = &tag {

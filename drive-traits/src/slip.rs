@@ -7,6 +7,7 @@
 //! labels or rollouts); the fitted [`SlipModel`] is then rolled out with the vehicle and the
 //! powertrain by one composed model (eq. 1).
 
+use crate::InvalidPart;
 use crate::{
     BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, Input, PartTag, PoseCovariance,
     Powertrain, RegistryItem, RobotDescription, StartState, Tagged, Window, WindowSet,
@@ -122,7 +123,7 @@ pub trait SlipModel: std::fmt::Debug + Send + Sync {
     }
 
     /// Checks the parameters read from a file; `Err` says what is wrong.
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         Ok(())
     }
 

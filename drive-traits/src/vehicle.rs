@@ -3,6 +3,7 @@
 //! finds the true input space J of the vehicle.
 
 use crate::{BodyVelocity, Input, PartTag, RegistryItem};
+use crate::{CharacterizationError, InvalidPart};
 use serde::{Deserialize, Serialize};
 
 /// The input space J of a vehicle: a box of inputs `min <= u <= max`, with limits per axis
@@ -325,7 +326,10 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
 
     /// The input space (and geometry) from what the probes measured. By default the box
     /// spanned by the probes' mean measured inputs, refused when an axis did not move.
-    fn characterize(&self, results: &[ProbeResult]) -> Result<Characterization, String> {
+    fn characterize(
+        &self,
+        results: &[ProbeResult],
+    ) -> Result<Characterization, CharacterizationError> {
         Ok(Characterization {
             space: spanned_space(self, results)?,
             geometry: Vec::new(),
@@ -334,13 +338,13 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
 
     /// Checks the geometry read from a file (finite, positive lengths); `Err` says what is
     /// wrong.
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         Ok(())
     }
 
     /// Checks input limits given for this vehicle (a steering range within +-90 degrees,
     /// ...); `Err` says what is wrong. Any finite box by default.
-    fn check_input_space(&self, space: &InputSpace) -> Result<(), String> {
+    fn check_input_space(&self, space: &InputSpace) -> Result<(), InvalidPart> {
         let _ = space;
         Ok(())
     }
@@ -393,7 +397,7 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
 pub fn spanned_space<V: CommandModel + ?Sized>(
     vehicle: &V,
     results: &[ProbeResult],
-) -> Result<InputSpace, String> {
+) -> Result<InputSpace, CharacterizationError> {
     let mut min = Input::repeat(f64::INFINITY);
     let mut max = Input::repeat(f64::NEG_INFINITY);
     let mut cmd_min = Input::repeat(f64::INFINITY);
@@ -407,20 +411,20 @@ pub fn spanned_space<V: CommandModel + ?Sized>(
     for (i, axis) in vehicle.axes().iter().enumerate().take(crate::MAX_INPUTS) {
         let commanded = cmd_max[i] - cmd_min[i];
         if !(commanded.is_finite() && commanded > 0.0) {
-            return Err(format!(
+            return Err(CharacterizationError::from(format!(
                 "the characterization's probes never command the axis '{}': its range cannot be found; give the input limits",
                 axis.name
-            ));
+            )));
         }
         let reached = max[i] - min[i];
         if !(reached.is_finite() && reached >= 0.05 * commanded) {
-            return Err(format!(
+            return Err(CharacterizationError::from(format!(
                 "the axis '{}' did not move during the characterization (it reached {:.4} to {:.4} {} for commands of {:.4} to {:.4}); check that its measurement is recorded and the vehicle is free to move",
                 axis.name, min[i], max[i], axis.unit, cmd_min[i], cmd_max[i]
-            ));
+            )));
         }
     }
-    InputSpace::new(min, max).ok_or_else(|| "the measured input space is not finite".to_string())
+    InputSpace::new(min, max).ok_or_else(|| "the measured input space is not finite".into())
 }
 
 impl Clone for Box<dyn CommandModel> {
@@ -432,18 +436,18 @@ impl Clone for Box<dyn CommandModel> {
 impl RegistryItem for dyn CommandModel {
     /// Two or three input axes ([`MAX_INPUTS`](crate::MAX_INPUTS)), as many as
     /// [`CommandModel::input_dim`] says.
-    fn check_part(&self) -> Result<(), String> {
+    fn check_part(&self) -> Result<(), InvalidPart> {
         let (axes, dim) = (self.axes().len(), self.input_dim());
         if axes != dim {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "its axes() lists {axes} input axes and its input_dim() says {dim}"
-            ));
+            )));
         }
         if !(2..=crate::MAX_INPUTS).contains(&dim) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "it has {dim} input axes; a vehicle has 2 or 3 (at most MAX_INPUTS = {})",
                 crate::MAX_INPUTS
-            ));
+            )));
         }
         Ok(())
     }

@@ -2,6 +2,7 @@ use crate::blr::{BlrPosterior, Prior};
 use crate::powertrain::Commanded;
 use crate::rollout::{covariance_step, integrate, integrate_with_covariance, Integrator};
 use drive_traits::step::{check_state, layout, ReplayStepper, StepOptions, Stepper};
+use drive_traits::InvalidPart;
 use drive_traits::{
     Baseline, BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, FitPowertrain, Input,
     MotionError, MotionModel, PartTag, Pose, PoseCovariance, Powertrain, PowertrainStepper,
@@ -273,7 +274,7 @@ impl MotionModel for AccBlrModel {
     fn dt(&self) -> f64 {
         self.dt
     }
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         drive_traits::check_step(self.dt)?;
         self.vehicle.check()?;
         self.powertrain.check()?;

@@ -51,6 +51,7 @@
 //! [`Uncertainty::Paper`] keeps the model's propagation as published (eq. 7 for the BLRs).
 
 use drive_traits::step::{check_state, layout, StepOptions, Stepper};
+use drive_traits::UnknownName;
 use drive_traits::{
     limits::Short, wrap_angle, FitError, Input, MotionError, MotionModel, Pose, PoseCovariance,
     StartInfo, StartState, Tagged, WindowSet,
@@ -108,15 +109,15 @@ impl Uncertainty {
     pub const NAMES: [&'static str; 3] = ["calibrated", "paper", "horizon"];
 
     /// The method of a name.
-    pub fn parse(name: &str) -> Result<Self, String> {
+    pub fn parse(name: &str) -> Result<Self, UnknownName> {
         match name {
             "calibrated" => Ok(Uncertainty::Calibrated),
             "paper" => Ok(Uncertainty::Paper),
             "horizon" => Ok(Uncertainty::Horizon),
-            other => Err(format!(
+            other => Err(UnknownName::from(format!(
                 "unknown uncertainty method {other:?}; known: {}",
                 Self::NAMES.join(", ")
-            )),
+            ))),
         }
     }
 

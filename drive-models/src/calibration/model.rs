@@ -2,6 +2,7 @@
 //! shape) and the wrapped model whose covariance they scale.
 
 use super::*;
+use drive_traits::InvalidPart;
 
 /// The per-horizon-step scales of a calibrated model's covariance.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -33,21 +34,23 @@ pub struct HorizonCalibration {
 
 impl HorizonCalibration {
     /// Checks values read from a file.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), InvalidPart> {
         if !(self.level > 0.0 && self.level < 1.0) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "calibration level {} is not in (0, 1)",
                 Short(self.level)
-            ));
+            )));
         }
         if !(self.shape_floor >= 0.0 && self.shape_floor < 1.0) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "calibration shape_floor {} is not in [0, 1)",
                 Short(self.shape_floor)
-            ));
+            )));
         }
         if self.position_scale.is_empty() || self.position_scale.len() != self.yaw_scale.len() {
-            return Err("calibration scales are empty or of different lengths".into());
+            return Err(InvalidPart::from(
+                "calibration scales are empty or of different lengths",
+            ));
         }
         if let Some(s) = self
             .position_scale
@@ -55,32 +58,34 @@ impl HorizonCalibration {
             .chain(&self.yaw_scale)
             .find(|s| !(s.is_finite() && **s > 0.0))
         {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "calibration scale {} is not a finite number > 0",
                 Short(*s)
-            ));
+            )));
         }
         for d in [&self.position_difficulty, &self.yaw_difficulty] {
             if !d.is_empty() && d.len() != self.position_scale.len() {
-                return Err("calibration difficulties and scales are of different lengths".into());
+                return Err(InvalidPart::from(
+                    "calibration difficulties and scales are of different lengths",
+                ));
             }
             d.iter().try_for_each(StepDifficulty::check)?;
         }
         if !self.heading_shape.is_empty() {
             if self.heading_shape.len() != self.position_scale.len() {
-                return Err(
-                    "calibration heading shapes and scales are of different lengths".into(),
-                );
+                return Err(InvalidPart::from(
+                    "calibration heading shapes and scales are of different lengths",
+                ));
             }
             for &[a, b, d] in &self.heading_shape {
                 let det = a * d - b * b;
                 if !(a > 0.0 && d > 0.0 && (det - 1.0).abs() < 1e-6 && a < 1e6 && d < 1e6) {
-                    return Err(format!(
+                    return Err(InvalidPart::from(format!(
                         "calibration heading shape [{}, {}, {}] is not positive definite of determinant 1",
                         Short(a),
                         Short(b),
                         Short(d)
-                    ));
+                    )));
                 }
             }
         }
@@ -193,7 +198,7 @@ impl MotionModel for CalibratedModel {
         self.model.dt()
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         self.model.check()?;
         self.calibration.check()
     }

@@ -14,6 +14,7 @@
 use super::delay::DelayLine;
 use argmin::core::{CostFunction, Executor, State};
 use argmin::solver::neldermead::NelderMead;
+use drive_traits::InvalidPart;
 use drive_traits::{
     FitError, Input, InputSpace, Phase, Powertrain, PowertrainLearner, PowertrainStepper, Tagged,
     WindowSet, MAX_INPUTS,
@@ -183,23 +184,23 @@ impl Powertrain for FopdtPowertrain {
         Some(self.axes.len())
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         super::check_axes(self.axes.len(), &self.limits)?;
         for (i, r) in self.axes.iter().enumerate() {
             if !(r.time_constant.is_finite()
                 && r.time_constant > 0.0
                 && r.time_constant <= MAX_TIME_CONSTANT_S)
             {
-                return Err(format!(
+                return Err(InvalidPart::from(format!(
                     "powertrain axis {i} time constant {} is not a positive number of seconds up to {MAX_TIME_CONSTANT_S}",
                     drive_traits::limits::Short(r.time_constant)
-                ));
+                )));
             }
             if !(r.delay.is_finite() && r.delay >= 0.0 && r.delay <= MAX_DEAD_TIME_S) {
-                return Err(format!(
+                return Err(InvalidPart::from(format!(
                     "powertrain axis {i} delay {} is not a number of seconds in [0, {MAX_DEAD_TIME_S}]",
                     drive_traits::limits::Short(r.delay)
-                ));
+                )));
             }
         }
         super::check_step_and_limits(self.dt, &self.limits)

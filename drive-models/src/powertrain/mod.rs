@@ -7,6 +7,7 @@
 //! | `fopdt` | [`Fopdt`] | [`FopdtPowertrain`] | first order plus dead time per axis (eq. 3) |
 //! | `rate-limited` | [`RateLimited`] | [`RateLimitedPowertrain`] | eq. 3 with a rate (acceleration) limit |
 
+use drive_traits::InvalidPart;
 mod commanded;
 mod delay;
 mod fopdt;
@@ -18,12 +19,15 @@ pub use rate_limited::{RateLimited, RateLimitedPowertrain, RateLimitedResponse};
 
 /// `Err` unless a powertrain of `axes` responses (one per input axis, 2 or 3) has limits of
 /// as many axes.
-pub(crate) fn check_axes(axes: usize, limits: &drive_traits::InputSpace) -> Result<(), String> {
+pub(crate) fn check_axes(
+    axes: usize,
+    limits: &drive_traits::InputSpace,
+) -> Result<(), InvalidPart> {
     if !(2..=drive_traits::MAX_INPUTS).contains(&axes) || limits.dim() != axes {
-        return Err(format!(
+        return Err(InvalidPart::from(format!(
             "the powertrain has {axes} axis responses for limits of {} axes (2 or 3 expected, one per input axis)",
             limits.dim()
-        ));
+        )));
     }
     Ok(())
 }
@@ -33,12 +37,12 @@ pub(crate) fn check_axes(axes: usize, limits: &drive_traits::InputSpace) -> Resu
 pub(crate) fn check_vehicle_axes(
     powertrain: &dyn drive_traits::Powertrain,
     vehicle: &dyn drive_traits::CommandModel,
-) -> Result<(), String> {
+) -> Result<(), InvalidPart> {
     match powertrain.input_dim() {
-        Some(axes) if axes != vehicle.input_dim() => Err(format!(
+        Some(axes) if axes != vehicle.input_dim() => Err(InvalidPart::from(format!(
             "the powertrain models {axes} input axes; the vehicle has {}",
             vehicle.input_dim()
-        )),
+        ))),
         _ => Ok(()),
     }
 }
@@ -46,10 +50,12 @@ pub(crate) fn check_vehicle_axes(
 pub(crate) fn check_step_and_limits(
     dt: f64,
     limits: &drive_traits::InputSpace,
-) -> Result<(), String> {
+) -> Result<(), InvalidPart> {
     drive_traits::check_step(dt).map_err(|e| format!("powertrain {e}"))?;
     if drive_traits::InputSpace::new(limits.min, limits.max).is_none() {
-        return Err("powertrain limits are not a valid box (finite, min <= max)".into());
+        return Err(InvalidPart::from(
+            "powertrain limits are not a valid box (finite, min <= max)",
+        ));
     }
     // The limits are measured inputs (wheel velocities, speeds): no fit writes one beyond
     // what the data readers accept.
@@ -60,11 +66,11 @@ pub(crate) fn check_step_and_limits(
         .chain(limits.max.iter())
         .find(|v| v.abs() > bound)
     {
-        return Err(format!(
+        return Err(InvalidPart::from(format!(
             "powertrain limit {} is beyond +-{} (an input the data readers would refuse)",
             drive_traits::limits::Short(*v),
             drive_traits::limits::Short(bound)
-        ));
+        )));
     }
     Ok(())
 }

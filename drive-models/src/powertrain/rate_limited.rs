@@ -13,6 +13,7 @@ use super::delay::DelayLine;
 use super::fopdt::{measured_limits, Fopdt};
 use argmin::core::{CostFunction, Executor, State};
 use argmin::solver::neldermead::NelderMead;
+use drive_traits::InvalidPart;
 use drive_traits::{
     FitError, Input, InputSpace, Phase, Powertrain, PowertrainLearner, PowertrainStepper, Tagged,
     WindowSet, MAX_INPUTS,
@@ -148,7 +149,7 @@ impl Powertrain for RateLimitedPowertrain {
         Some(self.axes.len())
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         super::check_axes(self.axes.len(), &self.limits)?;
         for (i, r) in self.axes.iter().enumerate() {
             for (name, v, min) in [
@@ -157,7 +158,7 @@ impl Powertrain for RateLimitedPowertrain {
                 ("rate limit", r.max_rate, f64::MIN_POSITIVE),
             ] {
                 if !(v.is_finite() && v >= min) {
-                    return Err(format!(
+                    return Err(InvalidPart::from(format!(
                         "powertrain axis {i} {name} {} is not a {} number",
                         drive_traits::limits::Short(v),
                         if min > 0.0 {
@@ -165,7 +166,7 @@ impl Powertrain for RateLimitedPowertrain {
                         } else {
                             "non-negative"
                         }
-                    ));
+                    )));
                 }
             }
         }

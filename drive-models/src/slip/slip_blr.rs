@@ -1,4 +1,5 @@
 use crate::blr::{BlrPosterior, BlrStatistics, Prior};
+use drive_traits::InvalidPart;
 use drive_traits::{
     BodyVelocity, BodyVelocityEstimator, FitError, OnlineSlip, RobotDescription, SlipData,
     SlipLearner, SlipModel, SlipStepper, StartState, Steering, Tagged,
@@ -542,7 +543,7 @@ impl SlipModel for SlipBlrModel {
         }))
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         let [kx, ky, kw] = self.basis.dimensions();
         self.slip_x.check(kx, "slip_x")?;
         self.slip_y.check(ky, "slip_y")?;

@@ -107,7 +107,9 @@ impl RobotSpec {
                 ))
             }
         };
-        vehicle.check().map_err(|e| invalid("vehicle", e))?;
+        vehicle
+            .check()
+            .map_err(|e| invalid("vehicle", e.to_string()))?;
         let axis_limits = match (f.wheel_limits, f.input_limits) {
             (Some(_), Some(_)) => {
                 return Err(invalid(
@@ -181,7 +183,7 @@ impl RobotSpec {
             if let Some(space) = &input_limits {
                 vehicle
                     .check_input_space(space)
-                    .map_err(|e| invalid(field, e))?;
+                    .map_err(|e| invalid(field, e.to_string()))?;
             }
         }
         if !(f.max_speed.is_finite() && f.max_speed > 0.0) {

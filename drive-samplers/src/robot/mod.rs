@@ -183,7 +183,9 @@ impl RobotSpec {
         };
         positive(mass_kg).map_err(|m| invalid("mass_kg", m))?;
         positive(max_speed).map_err(|m| invalid("max_speed", m))?;
-        vehicle.check().map_err(|m| invalid("vehicle", m))?;
+        vehicle
+            .check()
+            .map_err(|m| invalid("vehicle", m.to_string()))?;
         let nominal_input_space = vehicle.nominal_input_space(max_speed).ok_or_else(|| {
             invalid(
                 "vehicle",

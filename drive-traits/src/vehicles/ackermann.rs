@@ -3,6 +3,7 @@ use crate::{
     spanned_space, BodyVelocity, Characterization, CommandModel, Input, InputAxis, InputSpace,
     Probe, ProbeResult, Steering, Tagged,
 };
+use crate::{CharacterizationError, InvalidPart};
 use serde::{Deserialize, Serialize};
 
 /// The kinematic bicycle of a car-like (Ackermann-steered) robot: inputs are the speed `v`
@@ -141,7 +142,10 @@ impl CommandModel for Ackermann {
     /// The box the probes reached (speed from the straight probes, steering from the
     /// turning ones); with localization, the effective wheelbase `v tan(delta) / w` of each
     /// turning probe, averaged.
-    fn characterize(&self, results: &[ProbeResult]) -> Result<Characterization, String> {
+    fn characterize(
+        &self,
+        results: &[ProbeResult],
+    ) -> Result<Characterization, CharacterizationError> {
         let space = spanned_space(self, results)?;
         let wheelbases: Vec<f64> = results
             .iter()
@@ -164,26 +168,26 @@ impl CommandModel for Ackermann {
         Ok(Characterization { space, geometry })
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         super::positive_lengths(&[("wheelbase", self.wheelbase)])?;
         if !(self.max_steering > 0.0 && self.max_steering < std::f64::consts::FRAC_PI_2) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "vehicle max_steering = {} is not an angle in (0, pi/2) rad",
                 Short(self.max_steering)
-            ));
+            )));
         }
         Ok(())
     }
 
     /// A steering range strictly within +-90 degrees (where `tan` is finite).
-    fn check_input_space(&self, space: &InputSpace) -> Result<(), String> {
+    fn check_input_space(&self, space: &InputSpace) -> Result<(), InvalidPart> {
         let half_turn = std::f64::consts::FRAC_PI_2;
         if space.min.y <= -half_turn || space.max.y >= half_turn {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "the steering range [{}, {}] rad reaches +-pi/2, where a car's curvature is infinite",
                 Short(space.min.y),
                 Short(space.max.y)
-            ));
+            )));
         }
         Ok(())
     }

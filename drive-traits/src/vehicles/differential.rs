@@ -2,6 +2,7 @@ use crate::{
     spanned_space, BodyVelocity, Characterization, CommandModel, Input, InputAxis, InputSpace,
     Probe, ProbeResult, Tagged,
 };
+use crate::{CharacterizationError, InvalidPart};
 use serde::{Deserialize, Serialize};
 
 /// The share of the turn probe's commanded wheel difference its wheels must make for the
@@ -128,7 +129,10 @@ impl CommandModel for DifferentialDrive {
     /// effective wheel radius (distance over wheel angle going forward) and baseline
     /// (`r (w_r - w_l)` over the yaw rate turning in place; none when the wheels made less
     /// than a fifth of the probe's turn, or the robot turned the other way).
-    fn characterize(&self, results: &[ProbeResult]) -> Result<Characterization, String> {
+    fn characterize(
+        &self,
+        results: &[ProbeResult],
+    ) -> Result<Characterization, CharacterizationError> {
         let straight: Vec<ProbeResult> = results
             .iter()
             .filter(|r| r.probe.name != "turn")
@@ -166,7 +170,7 @@ impl CommandModel for DifferentialDrive {
         Ok(Characterization { space, geometry })
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         super::positive_lengths(&self.geometry())
     }
 

@@ -1,5 +1,6 @@
 //! An omnidirectional (mecanum or omni-wheel) base commanded in body velocity: three inputs.
 
+use crate::InvalidPart;
 use crate::{BodyVelocity, CommandModel, Input, InputAxis, InputSpace, Probe, ProbeResult, Tagged};
 use serde::{Deserialize, Serialize};
 
@@ -127,7 +128,7 @@ impl CommandModel for Omnidirectional {
         })
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         super::positive_lengths(&self.geometry())
     }
 

@@ -14,6 +14,7 @@
 //! per input (speed and articulation) instead of body accelerations.
 
 use drive::serde::{Deserialize, Serialize};
+use drive::traits::InvalidPart;
 use drive::traits::{
     BodyVelocity, CommandModel, Input, InputAxis, InputSpace, Probe, ProbeResult, Steering, Tagged,
 };
@@ -117,31 +118,31 @@ impl CommandModel for Articulated {
         })
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         if !(self.front.is_finite() && self.front > 0.0 && self.rear.is_finite() && self.rear > 0.0)
         {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "articulated: front = {} and rear = {} must be positive lengths",
                 self.front, self.rear
-            ));
+            )));
         }
         if !(self.max_articulation > 0.0 && self.max_articulation < std::f64::consts::FRAC_PI_2) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "articulated: max_articulation = {} is not an angle in (0, pi/2) rad",
                 self.max_articulation
-            ));
+            )));
         }
         Ok(())
     }
 
     /// An articulation range strictly within +-90 degrees.
-    fn check_input_space(&self, space: &InputSpace) -> Result<(), String> {
+    fn check_input_space(&self, space: &InputSpace) -> Result<(), InvalidPart> {
         let half_turn = std::f64::consts::FRAC_PI_2;
         if space.min.y <= -half_turn || space.max.y >= half_turn {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "the articulation range [{}, {}] rad reaches +-pi/2",
                 space.min.y, space.max.y
-            ));
+            )));
         }
         Ok(())
     }

@@ -9,6 +9,7 @@
 
 use crate::unicycle::Unicycle;
 use drive::serde::{Deserialize, Serialize};
+use drive::traits::InvalidPart;
 use drive::traits::{
     BodyVelocity, CommandModel, Input, InputAxis, InputSpace, Probe, ProbeResult, Tagged,
 };
@@ -52,13 +53,13 @@ impl CommandModel for OffsetUnicycle {
         self.unicycle.probe(index, top_speed, done)
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         self.unicycle.check()?;
         if !(self.offset.is_finite() && self.offset.abs() <= 10.0) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "offset = {} m is not a plausible offset",
                 self.offset
-            ));
+            )));
         }
         Ok(())
     }

@@ -5,6 +5,7 @@
 
 use drive::nalgebra::{DMatrix, DVector};
 use drive::serde::{Deserialize, Serialize};
+use drive::traits::InvalidPart;
 use drive::traits::{
     BodyVelocity, BodyVelocityEstimator, FitError, SlipData, SlipLearner, SlipModel, Tagged,
 };
@@ -50,10 +51,10 @@ impl SlipModel for RidgeSlipModel {
         ))
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         let sizes = [2, 1, 4];
         if self.weights.iter().zip(sizes).any(|(w, k)| w.len() != k) {
-            return Err("ridge-slip: wrong number of weights".into());
+            return Err(InvalidPart::from("ridge-slip: wrong number of weights"));
         }
         if self
             .weights
@@ -62,7 +63,7 @@ impl SlipModel for RidgeSlipModel {
             .chain(&self.variance)
             .any(|v| !v.is_finite())
         {
-            return Err("ridge-slip: non-finite parameter".into());
+            return Err(InvalidPart::from("ridge-slip: non-finite parameter"));
         }
         Ok(())
     }

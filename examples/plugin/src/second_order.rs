@@ -3,6 +3,7 @@
 //! grid search over the time constant and the delay on the transient windows.
 
 use drive::serde::{Deserialize, Serialize};
+use drive::traits::InvalidPart;
 use drive::traits::{
     FitError, Input, InputSpace, Phase, Powertrain, PowertrainLearner, Tagged, WindowSet,
 };
@@ -76,7 +77,7 @@ impl Powertrain for SecondOrderPowertrain {
         }
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         if self
             .axes
             .iter()
@@ -86,7 +87,9 @@ impl Powertrain for SecondOrderPowertrain {
         {
             Ok(())
         } else {
-            Err("second-order powertrain: time constants and dt must be positive".into())
+            Err(InvalidPart::from(
+                "second-order powertrain: time constants and dt must be positive",
+            ))
         }
     }
 

@@ -3,6 +3,7 @@
 //! drives it with its kinematic plant (no physics registered for it).
 
 use drive::serde::{Deserialize, Serialize};
+use drive::traits::InvalidPart;
 use drive::traits::{
     BodyVelocity, CommandModel, Input, InputAxis, InputSpace, Probe, ProbeResult, Tagged,
 };
@@ -71,14 +72,14 @@ impl CommandModel for Unicycle {
         })
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         if self.max_yaw_rate.is_finite() && self.max_yaw_rate > 0.0 {
             Ok(())
         } else {
-            Err(format!(
+            Err(InvalidPart::from(format!(
                 "max_yaw_rate = {} is not a positive rate",
                 self.max_yaw_rate
-            ))
+            )))
         }
     }
 

@@ -3,6 +3,7 @@
 //! and the rollouts of its mean and pose covariance.
 
 use super::*;
+use drive_traits::InvalidPart;
 
 /// Fitted `slip-ipem`: the slip weights on [`slip_features`] and the uncertainty of its
 /// rollouts.
@@ -510,35 +511,35 @@ impl SlipModel for SlipIpemModel {
         out
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), InvalidPart> {
         if !self
             .scale
             .iter()
             .all(|s| s.is_finite() && *s > 0.0 && *s <= MAX_ABS_MEASUREMENT)
         {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "slip-ipem: scale [{}, {}] is not two positive numbers up to {}",
                 Short(self.scale[0]),
                 Short(self.scale[1]),
                 Short(MAX_ABS_MEASUREMENT)
-            ));
+            )));
         }
         for (d, w) in ["x", "y", "yaw"].iter().zip(&self.weights) {
             if w.len() != FEATURES {
-                return Err(format!(
+                return Err(InvalidPart::from(format!(
                     "slip-ipem: {} {d} weights, expected {FEATURES}",
                     w.len()
-                ));
+                )));
             }
             if let Some(v) = w
                 .iter()
                 .find(|v| !(v.is_finite() && v.abs() <= MAX_ABS_MEASUREMENT))
             {
-                return Err(format!(
+                return Err(InvalidPart::from(format!(
                     "slip-ipem: {d} weight {} is not a number within +-{} (a slip velocity)",
                     Short(*v),
                     Short(MAX_ABS_MEASUREMENT)
-                ));
+                )));
             }
         }
         let logits = self
@@ -554,46 +555,48 @@ impl SlipModel for SlipIpemModel {
             .chain(self.velocity_logit.iter().map(|v| ("start velocity", v)));
         for (what, v) in logits {
             if !(v.is_finite() && v.abs() <= MAX_LOGIT) {
-                return Err(format!(
+                return Err(InvalidPart::from(format!(
                     "slip-ipem: {what} logit {} is not a number within +-{MAX_LOGIT}",
                     Short(*v)
-                ));
+                )));
             }
         }
         if self.transport && !(self.dt.is_finite() && self.dt > 0.0) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "slip-ipem: dt (the step its body dynamics were fitted at) is {}: missing or not a positive number of seconds",
                 Short(self.dt)
-            ));
+            )));
         }
         if !(self.ridge.is_finite() && self.ridge >= 0.0) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "slip-ipem: ridge {} is not a finite number >= 0",
                 self.ridge
-            ));
+            )));
         }
         let size = self.covariance_size();
         if self.weight_covariance.len() != size * size {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "slip-ipem: {} weight covariance entries, expected {}",
                 self.weight_covariance.len(),
                 size * size
-            ));
+            )));
         }
         let c = |i: usize, j: usize| self.weight_covariance[i * size + j];
         let variance = |v: f64| v.is_finite() && (0.0..=MAX_VARIANCE).contains(&v);
         for i in 0..size {
             if !variance(c(i, i)) {
-                return Err(format!(
+                return Err(InvalidPart::from(format!(
                     "slip-ipem: weight variance {i} is {}, not a number in [0, {}]",
                     Short(c(i, i)),
                     Short(MAX_VARIANCE)
-                ));
+                )));
             }
             for j in 0..i {
                 let (a, b) = (c(i, j), c(j, i));
                 if !(a.is_finite() && (a - b).abs() <= 1e-9 * (1.0 + a.abs().max(b.abs()))) {
-                    return Err("slip-ipem: the weight covariance is not symmetric".into());
+                    return Err(InvalidPart::from(
+                        "slip-ipem: the weight covariance is not symmetric",
+                    ));
                 }
             }
         }
@@ -603,18 +606,18 @@ impl SlipModel for SlipIpemModel {
                 .symmetric_eigenvalues();
             let top = eigen.amax().max(f64::MIN_POSITIVE);
             if let Some(l) = eigen.iter().find(|l| **l < -1e-9 * top) {
-                return Err(format!(
+                return Err(InvalidPart::from(format!(
                     "slip-ipem: the weight covariance has the eigenvalue {}: not positive semi-definite",
                     Short(*l)
-                ));
+                )));
             }
         }
         if let Some(v) = self.bias_variance.iter().find(|v| !variance(**v)) {
-            return Err(format!(
+            return Err(InvalidPart::from(format!(
                 "slip-ipem: bias variance {} is not a number in [0, {}]",
                 Short(*v),
                 Short(MAX_VARIANCE)
-            ));
+            )));
         }
         Ok(())
     }
