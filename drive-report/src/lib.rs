@@ -112,9 +112,10 @@ impl Default for ReportOptions {
     fn default() -> Self {
         ReportOptions {
             split: 0.5,
-            models: ["naive", "powertrain", "slip-blr", "acc-blr"]
+            models: drive_studies::PAPER_MODELS
+                .split(',')
                 .map(String::from)
-                .to_vec(),
+                .collect(),
             model: "slip-blr".into(),
             naive_input_space: None,
             powertrain_intervals: 3,

@@ -37,6 +37,22 @@ mod regions;
 mod registries;
 mod twin_check;
 
+/// The models compared by default (`drive eval`, `report`, Python's `compare`): the paper's
+/// four (Fig. 6), comma-separated.
+///
+/// ```
+/// assert_eq!(drive_studies::PAPER_MODELS.split(',').count(), 4);
+/// ```
+pub const PAPER_MODELS: &str = "naive,powertrain,slip-blr,acc-blr";
+
+/// The models of the benchmark by default (`drive bench`, Python's `bench`): the paper's four
+/// and slip-ipem, comma-separated.
+///
+/// ```
+/// assert!(drive_studies::BENCH_MODELS.starts_with(drive_studies::PAPER_MODELS));
+/// ```
+pub const BENCH_MODELS: &str = "naive,powertrain,slip-blr,acc-blr,slip-ipem";
+
 // The metrics, for the studies' own paths (`crate::mrmse`, ...).
 #[allow(unused_imports)]
 use drive_eval::*;
@@ -64,8 +80,9 @@ pub use matrix::{
     Scenario, SimulatedPlan, SimulatedSweep, SummaryRow, SweepFile,
 };
 pub use protocols::{
-    compare_protocols, intervals_in, simulate_protocol, ExperimentError, ProtocolCell,
-    ProtocolComparison, ProtocolRow, ProtocolStudy, INTERVAL_S, MIXED,
+    compare_protocols, intervals_in, simulate_protocol, BestOnTest, ExperimentError, ProtocolCell,
+    ProtocolComparison, ProtocolRow, ProtocolStudy, ProtocolWinners, WinCount, WinnerBlock,
+    INTERVAL_S, MIXED,
 };
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use registries::{Catalog, Listed, Registries};

@@ -275,6 +275,126 @@ pub struct ProtocolComparison {
     pub cells: Vec<ProtocolCell>,
 }
 
+/// Which training sampler trains the best model (lowest median error) on each test set, per
+/// robot, terrain and driving time of a [`ProtocolComparison`], and how often each wins:
+/// Table I's win counts ([`ProtocolComparison::winners`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ProtocolWinners {
+    /// Per robot, terrain and driving time, in the table's order.
+    pub blocks: Vec<WinnerBlock>,
+    /// Per test set and training sampler, its wins over the blocks, ordered by test set
+    /// then sampler name; samplers that never win are absent.
+    pub wins: Vec<WinCount>,
+}
+
+/// The best training samplers of one robot, terrain and driving time.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WinnerBlock {
+    /// Robot.
+    pub robot: String,
+    /// Terrain (or twin).
+    pub terrain: String,
+    /// Training driving time (s).
+    pub driving_s: f64,
+    /// On each test set, in the table's order.
+    pub best: Vec<BestOnTest>,
+}
+
+/// The training samplers with the lowest median errors on one test set (`-` when the test
+/// set has no row).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BestOnTest {
+    /// Test set.
+    pub test_sampler: String,
+    /// Lowest translational median.
+    pub translational: String,
+    /// Lowest rotational median.
+    pub rotational: String,
+}
+
+/// How often a training sampler is the best on a test set.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WinCount {
+    /// Test set.
+    pub test_sampler: String,
+    /// Training sampler.
+    pub train_sampler: String,
+    /// Blocks where its translational median is the lowest.
+    pub translational: usize,
+    /// Blocks where its rotational median is the lowest.
+    pub rotational: usize,
+}
+
+impl ProtocolComparison {
+    /// The best training sampler on each test set per robot, terrain and driving time (the
+    /// first in row order on a tie), and the wins of each.
+    ///
+    /// ```
+    /// use drive_studies::ProtocolComparison;
+    /// let t = ProtocolComparison { model: "slip-blr".into(), reference: "uniform".into(), test_sets: vec![], test_driving_s: 60.0, rows: vec![], cells: vec![] };
+    /// assert!(t.winners().blocks.is_empty() && t.winners().wins.is_empty());
+    /// ```
+    pub fn winners(&self) -> ProtocolWinners {
+        let mut keys: Vec<(&str, &str, f64)> = Vec::new();
+        for r in &self.rows {
+            let key = (r.robot.as_str(), r.terrain.as_str(), r.driving_s);
+            if !keys.contains(&key) {
+                keys.push(key);
+            }
+        }
+        let mut wins: std::collections::BTreeMap<(String, String), [usize; 2]> = Default::default();
+        let mut blocks = Vec::new();
+        for &(robot, terrain, d) in &keys {
+            let mut best = Vec::new();
+            for test in &self.test_sets {
+                let rows: Vec<&ProtocolRow> = self
+                    .rows
+                    .iter()
+                    .filter(|r| {
+                        (r.robot.as_str(), r.terrain.as_str(), r.driving_s) == (robot, terrain, d)
+                            && &r.test_sampler == test
+                    })
+                    .collect();
+                let lowest = |f: fn(&ProtocolRow) -> f64| {
+                    rows.iter()
+                        .min_by(|a, b| f(a).total_cmp(&f(b)))
+                        .map_or("-", |r| r.train_sampler.as_str())
+                        .to_string()
+                };
+                let (t, r) = (
+                    lowest(|r| r.translational_median_m),
+                    lowest(|r| r.rotational_median_rad),
+                );
+                wins.entry((test.clone(), t.clone())).or_default()[0] += 1;
+                wins.entry((test.clone(), r.clone())).or_default()[1] += 1;
+                best.push(BestOnTest {
+                    test_sampler: test.clone(),
+                    translational: t,
+                    rotational: r,
+                });
+            }
+            blocks.push(WinnerBlock {
+                robot: robot.to_string(),
+                terrain: terrain.to_string(),
+                driving_s: d,
+                best,
+            });
+        }
+        ProtocolWinners {
+            blocks,
+            wins: wins
+                .into_iter()
+                .map(|((test_sampler, train_sampler), [t, r])| WinCount {
+                    test_sampler,
+                    train_sampler,
+                    translational: t,
+                    rotational: r,
+                })
+                .collect(),
+        }
+    }
+}
+
 /// Runs a [`ProtocolStudy`] with the registered samplers and model: every simulation in
 /// parallel, then every fit, then every test.
 ///

@@ -53,9 +53,10 @@ fn comparison(
     let dataset = dataset_of(dataset)?;
     let start = start_info_of(start)?;
     let names = model_names(models)?.unwrap_or_else(|| {
-        ["naive", "powertrain", "slip-blr", "acc-blr"]
+        drive::studies::PAPER_MODELS
+            .split(',')
             .map(String::from)
-            .to_vec()
+            .collect()
     });
     if names.is_empty() {
         return Err(err("models is empty"));
@@ -145,9 +146,10 @@ pub(crate) fn bench_json(
         .map(|p| path_of("suite", p))
         .transpose()?;
     let names = model_names(models)?.unwrap_or_else(|| {
-        ["naive", "powertrain", "slip-blr", "acc-blr", "slip-ipem"]
+        drive::studies::BENCH_MODELS
+            .split(',')
             .map(String::from)
-            .to_vec()
+            .collect()
     });
     if names.is_empty() {
         return Err(err("models is empty"));

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// The models of the benchmark by default: the paper's four and slip-ipem.
-pub const DEFAULT_MODELS: &str = "naive,powertrain,slip-blr,acc-blr,slip-ipem";
+pub const DEFAULT_MODELS: &str = crate::studies::BENCH_MODELS;
 
 #[derive(clap::Args)]
 pub struct Args {

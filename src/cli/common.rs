@@ -39,7 +39,7 @@ pub struct ModelsArg {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "naive,powertrain,slip-blr,acc-blr"
+        default_value = crate::studies::PAPER_MODELS
     )]
     pub models: Vec<String>,
 }

@@ -212,7 +212,10 @@ fn twins(args: &Args, registries: &Registries) -> Result<()> {
     // At least one pair: clap gave --twins a value.
     let table = table.ok_or_else(|| anyhow::anyhow!("--twins is empty"))?;
     if args.json {
-        outln!("{}", serde_json::to_string(&table)?);
+        // The table and, as the text shows them, its winners.
+        let mut json = serde_json::to_value(&table)?;
+        json["winners"] = serde_json::to_value(table.winners())?;
+        outln!("{}", serde_json::to_string(&json)?);
     } else {
         out!("{}", simulated_table(&table));
         out!("{}", winners(&table));
@@ -221,56 +224,36 @@ fn twins(args: &Args, registries: &Registries) -> Result<()> {
 }
 
 /// Per robot, terrain (twin) and driving time: which training sampler has the lowest
-/// median error on each test set, and how often each wins across them.
+/// median error on each test set, and how often each wins across them
+/// ([`ProtocolComparison::winners`]).
 fn winners(t: &ProtocolComparison) -> String {
     use std::fmt::Write as _;
+    let w = t.winners();
     let mut out = String::from(
         "\nwhich protocol trains the best model, per twin (lowest median error on each test set; translation / rotation):\n",
     );
-    let mut blocks: Vec<(&str, &str, f64)> = Vec::new();
-    for r in &t.rows {
-        let key = (r.robot.as_str(), r.terrain.as_str(), r.driving_s);
-        if !blocks.contains(&key) {
-            blocks.push(key);
-        }
-    }
-    let mut wins: std::collections::BTreeMap<(String, &str), [usize; 2]> = Default::default();
-    for &(robot, terrain, d) in &blocks {
-        let _ = write!(out, "  {robot} on {terrain}, {d:.0} s:");
-        for test in &t.test_sets {
-            let rows: Vec<&crate::studies::ProtocolRow> = t
-                .rows
-                .iter()
-                .filter(|r| {
-                    (r.robot.as_str(), r.terrain.as_str(), r.driving_s) == (robot, terrain, d)
-                        && &r.test_sampler == test
-                })
-                .collect();
-            let best = |f: fn(&crate::studies::ProtocolRow) -> f64| {
-                rows.iter()
-                    .min_by(|a, b| f(a).total_cmp(&f(b)))
-                    .map_or("-", |r| r.train_sampler.as_str())
-            };
-            let (bt, br) = (
-                best(|r| r.translational_median_m),
-                best(|r| r.rotational_median_rad),
+    for b in &w.blocks {
+        let _ = write!(out, "  {} on {}, {:.0} s:", b.robot, b.terrain, b.driving_s);
+        for best in &b.best {
+            let _ = write!(
+                out,
+                " on {} {} / {};",
+                best.test_sampler, best.translational, best.rotational
             );
-            wins.entry((test.clone(), bt)).or_default()[0] += 1;
-            wins.entry((test.clone(), br)).or_default()[1] += 1;
-            let _ = write!(out, " on {test} {bt} / {br};");
         }
         out.push('\n');
     }
     let _ = writeln!(
         out,
         "wins over the {} twins (translation, rotation):",
-        blocks.len()
+        w.blocks.len()
     );
     for test in &t.test_sets {
-        let line: Vec<String> = wins
+        let line: Vec<String> = w
+            .wins
             .iter()
-            .filter(|((set, _), _)| set == test)
-            .map(|((_, s), [a, b])| format!("{s} {a}/{b}"))
+            .filter(|c| &c.test_sampler == test)
+            .map(|c| format!("{} {}/{}", c.train_sampler, c.translational, c.rotational))
             .collect();
         let _ = writeln!(out, "  tested on {test}: {}", line.join(", "));
     }

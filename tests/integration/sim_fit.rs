@@ -657,6 +657,43 @@ fn table_one_across_twins_pairs_each_twin_with_its_robot() {
         .map(|r| r["terrain"].as_str().unwrap())
         .collect();
     assert_eq!(terrains.len(), 2);
+    // The winners the text shows are the JSON's: each block's best samplers and each
+    // sampler's wins, two blocks' worth of wins per test set and error.
+    let winners = &v["winners"];
+    for b in winners["blocks"].as_array().unwrap() {
+        let mut line = format!(
+            "  {} on {}, {:.0} s:",
+            b["robot"].as_str().unwrap(),
+            b["terrain"].as_str().unwrap(),
+            b["driving_s"].as_f64().unwrap()
+        );
+        for best in b["best"].as_array().unwrap() {
+            line += &format!(
+                " on {} {} / {};",
+                best["test_sampler"].as_str().unwrap(),
+                best["translational"].as_str().unwrap(),
+                best["rotational"].as_str().unwrap()
+            );
+        }
+        assert!(out.contains(&format!("{line}\n")), "{line} not in\n{out}");
+    }
+    let tests: Vec<&str> = v["test_sets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t.as_str().unwrap())
+        .collect();
+    let wins = winners["wins"].as_array().unwrap();
+    for test in &tests {
+        let of_test = wins.iter().filter(|w| w["test_sampler"] == *test);
+        let (t, r) = of_test.fold((0, 0), |(t, r), w| {
+            (
+                t + w["translational"].as_u64().unwrap(),
+                r + w["rotational"].as_u64().unwrap(),
+            )
+        });
+        assert_eq!((t, r), (2, 2), "{winners}");
+    }
     // A twin with another robot's geometry, a preset terrain and a malformed pair are
     // refused.
     let err = user_error(&["compare-protocols", "--twins", &format!("husky={warthog}")]);
