@@ -13,10 +13,10 @@
 //! - **The terrain's unpredictability** ([`unpredictability`]) per dataset, and how each
 //!   model's error grows with it.
 
-use crate::{
-    average_ranks, compare_specs, evaluate_errors, spearman, split_by_interval, unpredictability,
-    BootstrapConfig, CompareError, Mrmse, PairedImprovement, Unpredictability,
-    UnpredictabilityConfig, WindowUnpredictability,
+use crate::{compare_specs, CompareError, PairedImprovement};
+use drive_eval::{
+    average_ranks, evaluate_errors, spearman, split_by_interval, unpredictability, BootstrapConfig,
+    Mrmse, Unpredictability, UnpredictabilityConfig, WindowUnpredictability,
 };
 use drive_models::calibration::Uncertainty;
 use drive_models::ModelSpec;
@@ -179,14 +179,14 @@ fn median(values: &[f64]) -> Option<f64> {
 impl ErrorGrowth {
     /// How the errors of `report` grow with the unpredictability `u` of the same dataset's
     /// windows.
-    pub fn of(report: &crate::ModelReport, u: &Unpredictability) -> ErrorGrowth {
+    pub fn of(report: &drive_eval::ModelReport, u: &Unpredictability) -> ErrorGrowth {
         error_growth(&report.windows, &u.by_window(), u.total.is_some())
     }
 }
 
 /// How a model's window errors grow with the windows' unpredictability.
 fn error_growth(
-    windows: &[crate::WindowErrors],
+    windows: &[drive_eval::WindowErrors],
     unpredictable: &HashMap<usize, WindowUnpredictability>,
     with_total: bool,
 ) -> ErrorGrowth {
@@ -210,7 +210,7 @@ fn error_growth(
     } else {
         |u| u.translational
     };
-    let mut sorted: Vec<(f64, &crate::WindowErrors)> = windows
+    let mut sorted: Vec<(f64, &drive_eval::WindowErrors)> = windows
         .iter()
         .filter_map(|w| Some((key(unpredictable.get(&w.window)?)?, w)))
         .collect();
@@ -241,7 +241,7 @@ fn error_growth(
     }
 }
 
-fn ratio_of(improvement: &crate::Improvement) -> f64 {
+fn ratio_of(improvement: &drive_eval::Improvement) -> f64 {
     1.0 - improvement.percent / 100.0
 }
 
@@ -466,7 +466,7 @@ fn transfer_cells(
             let own = &datasets[b].models[m];
             let t = report.translational(None).map_or(f64::NAN, |s| s.median);
             let r = report.rotational(None).map_or(f64::NAN, |s| s.median);
-            let loss = |x: f64, own: f64| -crate::improvement_percent(x, own);
+            let loss = |x: f64, own: f64| -drive_eval::improvement_percent(x, own);
             progress();
             Ok(TransferCell {
                 model: specs[m].name.clone(),
@@ -525,8 +525,8 @@ fn leaderboard(specs: &[ModelSpec], datasets: &[BenchDataset]) -> Vec<Leaderboar
             let of: Vec<&BenchModel> = datasets.iter().map(|d| &d.models[m]).collect();
             let n = of.len().max(1) as f64;
             let mean = |f: &dyn Fn(&BenchModel) -> f64| of.iter().map(|b| f(b)).sum::<f64>() / n;
-            let above = |i: &crate::Improvement| i.ci[0] > 0.0;
-            let below = |i: &crate::Improvement| i.ci[1] < 0.0;
+            let above = |i: &drive_eval::Improvement| i.ci[0] > 0.0;
+            let below = |i: &drive_eval::Improvement| i.ci[1] < 0.0;
             let count = |f: &dyn Fn(&PairedImprovement) -> bool| {
                 datasets
                     .iter()

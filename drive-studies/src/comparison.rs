@@ -1,10 +1,10 @@
 //! The paper's model comparison (Fig. 6) on one dataset: fit every named model on the
 //! training intervals, score it on the evaluation intervals with eq. 8.
 
-use crate::{
-    evaluate_model, improvement_percent, paired_bootstrap, run_cells, split_by_interval,
-    BootstrapConfig, Improvement, ModelReport, PairedErrors, Registries, Setting, SplitError,
-    Summary,
+use crate::{run_cells, Registries, Setting};
+use drive_eval::{
+    evaluate_model, improvement_percent, paired_bootstrap, split_by_interval, BootstrapConfig,
+    Improvement, ModelReport, PairedErrors, SplitError, Summary,
 };
 use drive_models::calibration::Uncertainty;
 use drive_models::powertrain::{Commanded, Fopdt};
@@ -100,7 +100,7 @@ impl PairedImprovement {
     /// with whole DRIVE intervals resampled (the windows of one command together).
     pub fn of(model: &ModelReport, reference: &ModelReport, config: &BootstrapConfig) -> Self {
         let blocks: Vec<usize> = model.windows.iter().map(|w| w.interval).collect();
-        let one = |pick: fn(&crate::Mrmse) -> f64, salt: u64| {
+        let one = |pick: fn(&drive_eval::Mrmse) -> f64, salt: u64| {
             let m: Vec<f64> = model.windows.iter().map(|w| pick(&w.error)).collect();
             let r: Vec<f64> = reference.windows.iter().map(|w| pick(&w.error)).collect();
             let run = PairedErrors {
@@ -161,16 +161,16 @@ pub struct ModelResult {
     pub nll: Option<f64>,
     /// `coverage95` of the transient and of the steady windows.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub coverage95_by_phase: Option<crate::GroupCoverage>,
+    pub coverage95_by_phase: Option<drive_eval::GroupCoverage>,
     /// `yaw_coverage95` of the transient and of the steady windows.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub yaw_coverage95_by_phase: Option<crate::GroupCoverage>,
+    pub yaw_coverage95_by_phase: Option<drive_eval::GroupCoverage>,
     /// `coverage95` in the thirds of the windows by commanded speed (`low`, `mid`, `high`).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub coverage95_by_speed: Option<crate::GroupCoverage>,
+    pub coverage95_by_speed: Option<drive_eval::GroupCoverage>,
     /// `yaw_coverage95` in the same thirds.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub yaw_coverage95_by_speed: Option<crate::GroupCoverage>,
+    pub yaw_coverage95_by_speed: Option<drive_eval::GroupCoverage>,
     /// Mean 95% ellipse area at 2 s over the smallest constant circle of the same coverage.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub area_ratio_to_constant: Option<f64>,
@@ -185,7 +185,7 @@ pub struct ModelResult {
     /// The reliability diagram (nominal against observed coverage, every step) of the
     /// transient and of the steady windows.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub reliability_by_phase: Option<BTreeMap<String, Vec<crate::ReliabilityPoint>>>,
+    pub reliability_by_phase: Option<BTreeMap<String, Vec<drive_eval::ReliabilityPoint>>>,
     /// Improvement of the medians over the naive model, with 95% paired bootstrap intervals.
     pub improvement_over_naive: PairedImprovement,
     /// Improvement of the medians over slip-BLR (the paper's model, `slip-blr+fopdt`, fitted

@@ -1,6 +1,6 @@
 //! The paper's Fig. 7 analysis: prediction error against training driving time.
 
-use crate::{evaluate_errors, quantile, split_by_interval, SplitError, Summary};
+use drive_eval::{evaluate_errors, quantile, split_by_interval, SplitError, Summary};
 use drive_models::ModelSpec;
 use drive_traits::{Dataset, MotionModel, Window, WindowSet};
 use rand::rngs::Xoshiro256PlusPlus;

@@ -5,7 +5,8 @@
 //! and simulated runs x models), the protocol study (simulated training runs and a test
 //! run), the region study (subsets of intervals) and the convergence curve (prefixes).
 
-use crate::{evaluate_model_from, ExperimentError, ModelReport, Registries};
+use crate::{ExperimentError, Registries};
+use drive_eval::{evaluate_model_from, ModelReport};
 use drive_models::ModelSpec;
 use drive_samplers::{build_sampler, RobotSpec, RunnerConfig, SamplerContext, SamplerError};
 use drive_sim::{simulate, Simulation, SimulationConfig, Terrain};

@@ -53,10 +53,6 @@ pub const PAPER_MODELS: &str = "naive,powertrain,slip-blr,acc-blr";
 /// ```
 pub const BENCH_MODELS: &str = "naive,powertrain,slip-blr,acc-blr,slip-ipem";
 
-// The metrics, for the studies' own paths (`crate::mrmse`, ...).
-#[allow(unused_imports)]
-use drive_eval::*;
-
 pub use bench::{
     bench_units, run_bench, terrain_known, Bench, BenchConfig, BenchDataset, BenchError,
     BenchInput, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,

@@ -3,9 +3,10 @@
 //! model tested on held-out runs driven by each protocol (and on their union), so that no
 //! protocol is judged only on its own test distribution.
 
-use crate::{
-    evaluate_model_from, paired_bootstrap, simulate_run, simulate_runs, BootstrapConfig,
-    Improvement, ModelReport, PairedErrors, Registries, SimRun, Summary,
+use crate::{simulate_run, simulate_runs, Registries, SimRun};
+use drive_eval::{
+    evaluate_model_from, paired_bootstrap, BootstrapConfig, Improvement, ModelReport, PairedErrors,
+    Summary,
 };
 use drive_samplers::{RobotSpec, SamplerError};
 use drive_sim::{SimError, Simulation, Terrain};

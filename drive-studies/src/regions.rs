@@ -4,10 +4,8 @@
 //! evaluation part.
 
 use crate::protocols::median;
-use crate::{
-    improvement_percent, run_cells, split_by_interval, ExperimentError, Mrmse, Registries, Setting,
-    Summary,
-};
+use crate::{run_cells, ExperimentError, Registries, Setting};
+use drive_eval::{improvement_percent, split_by_interval, Mrmse, Summary};
 use drive_traits::{Dataset, Input, Window, WindowSet};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};

@@ -5,10 +5,8 @@
 //! medians of the real run against those of the twin's runs pooled, and the steady
 //! windows' scatter of both.
 
-use crate::{
-    median_interval, quantile, split_by_interval, BootstrapConfig, ExperimentError, Registries,
-    SimRun,
-};
+use crate::{ExperimentError, Registries, SimRun};
+use drive_eval::{median_interval, quantile, split_by_interval, BootstrapConfig};
 use drive_models::{DifferentialDrive, ModelSpec};
 use drive_samplers::{ReplaySampler, RobotSpec, RunnerConfig};
 use drive_sim::{SimulationConfig, Terrain};
@@ -359,7 +357,7 @@ fn window_errors(data: &Dataset, spec: &ModelSpec) -> Result<Vec<WindowError>, E
         data: data.robot.name.clone(),
         reason,
     })?;
-    let report = crate::evaluate_errors(model.as_ref(), &eval, spec.start);
+    let report = drive_eval::evaluate_errors(model.as_ref(), &eval, spec.start);
     Ok(report
         .windows
         .iter()

@@ -1,9 +1,8 @@
 //! What a benchmark reports: per dataset, per model, the transfer between runs, the
 //! terrain's unpredictability and the leaderboard (the JSON of `drive bench --json`).
 
-use crate::{
-    BootstrapConfig, Comparison, PairedImprovement, UnpredictabilitySummary, WindowUnpredictability,
-};
+use crate::{Comparison, PairedImprovement};
+use drive_eval::{BootstrapConfig, UnpredictabilitySummary, WindowUnpredictability};
 use drive_samplers::BodySize;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -85,7 +84,7 @@ pub struct BenchModel {
     /// Position coverage of the 95% regions per phase (`transient`, `steady`) at 0.5, 1 and
     /// 2 s, as `drive eval --json` gives it.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub coverage95_by_phase: Option<crate::GroupCoverage>,
+    pub coverage95_by_phase: Option<drive_eval::GroupCoverage>,
     /// Mean 95% ellipse area at 2 s over the constant circle of the same coverage.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub area_ratio_to_constant: Option<f64>,

@@ -21,7 +21,7 @@ pub use sweep::{
     DatasetSource, FrameChoice, MatrixError, SimulatedPlan, SimulatedSweep, SweepFile,
 };
 
-use crate::{Mrmse, Summary};
+use drive_eval::{Mrmse, Summary};
 use drive_models::ModelSpec;
 use drive_traits::Dataset;
 use serde::Serialize;

@@ -1,7 +1,7 @@
 //! The matrix's outputs: the tidy CSV and the Markdown summary.
 
 use super::{Improvement, MatrixCell, MatrixResult};
-use crate::Summary;
+use drive_eval::Summary;
 use std::fmt::Write as _;
 
 fn csv_field(s: &str) -> String {

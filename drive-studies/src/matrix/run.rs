@@ -76,7 +76,7 @@ pub fn run_matrix(
     for (label, data) in &matrix.datasets {
         for &split in &matrix.splits {
             let (train, eval) =
-                crate::split_by_interval(data, split).map_err(|e| MatrixError::Dataset {
+                drive_eval::split_by_interval(data, split).map_err(|e| MatrixError::Dataset {
                     name: label.clone(),
                     reason: e.to_string(),
                 })?;

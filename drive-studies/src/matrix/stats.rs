@@ -3,7 +3,7 @@
 
 use super::BootstrapConfig;
 use super::{Improvement, Matrix, MatrixCell, Scenario, SummaryRow};
-use crate::{paired_bootstrap, Mrmse, PairedErrors, Summary};
+use drive_eval::{paired_bootstrap, Mrmse, PairedErrors, Summary};
 use drive_models::ModelSpec;
 use rayon::prelude::*;
 
@@ -136,7 +136,7 @@ pub(super) fn bootstrap_improvement(
 mod tests {
     use super::super::Scenario;
     use super::*;
-    use crate::quantile;
+    use drive_eval::quantile;
     use drive_traits::median as median_of;
 
     fn cell(seed: u64, errors: &[f64]) -> MatrixCell {
