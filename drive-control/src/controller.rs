@@ -4,7 +4,7 @@
 //! in; a researcher's own is one file and one `register` call).
 
 use crate::mppi::Mppi;
-use drive_samplers::{RobotSpec, SentCommand};
+use drive_traits::robot::{RobotSpec, SentCommand};
 use drive_traits::{Input, MotionError, MotionModel, Pose, Registry, RegistryItem, StartState};
 use std::sync::Arc;
 use thiserror::Error;
@@ -94,7 +94,7 @@ impl InputMap {
 /// vehicle without an exact input for it), within its input space.
 ///
 /// ```
-/// let husky = drive_samplers::builtin_robots().get("husky").unwrap().part().as_ref().clone();
+/// let husky = drive_traits::robot::builtin_robots().get("husky").unwrap().part().as_ref().clone();
 /// assert_eq!(drive_control::stop_input(&husky), drive_traits::Input::zeros());
 /// ```
 pub fn stop_input(robot: &RobotSpec) -> Input {
@@ -114,7 +114,7 @@ pub struct ControlSetup {
     pub model: Arc<dyn MotionModel>,
     /// The robot as the controller commands it: its input space
     /// ([`RobotSpec::input_space`]) bounds every command, its acceleration (or input-rate)
-    /// limits bound how fast commands change ([`drive_samplers::next_command`]), its
+    /// limits bound how fast commands change ([`drive_traits::robot::next_command`]), its
     /// vehicle maps the controller's inputs to body velocities.
     pub robot: RobotSpec,
     /// The controller's inputs to the vehicle's (the model's).

@@ -10,7 +10,7 @@
 //!    `noise_correlation`, clamped to the input space. Two candidates carry no noise: the
 //!    previous plan, and stopping. Each sequence is then sent through the robot's
 //!    acceleration (or input-rate) limits from the command sent last
-//!    ([`drive_samplers::next_command`]), so every candidate is one the robot may be sent.
+//!    ([`drive_traits::robot::next_command`]), so every candidate is one the robot may be sent.
 //! 2. **Roll out** every candidate with the model's batch rollout
 //!    ([`MotionModel::predict_batch_into`]). With a history ([`ControlState::past`]), from
 //!    the state of a few ticks ago through the commands sent since, then the candidate:
@@ -35,8 +35,8 @@
 use crate::controller::{
     stop_input, ControlError, ControlSetup, ControlState, Controller, InputMap, MakeController,
 };
-use drive_samplers::{next_command, RobotSpec, SentCommand};
 use drive_traits::limits::Short;
+use drive_traits::robot::{next_command, RobotSpec, SentCommand};
 use drive_traits::{wrap_angle, Input, InputSpace, MotionModel, Pose, StartState};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;

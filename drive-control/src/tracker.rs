@@ -12,7 +12,7 @@ use crate::controller::{
     stop_input, ControlError, ControlSetup, ControlState, Controller, InputMap, MakeController,
 };
 use crate::path::{ReferencePath, CONTINUITY};
-use drive_samplers::{next_command, RobotSpec, SentCommand};
+use drive_traits::robot::{next_command, RobotSpec, SentCommand};
 use drive_traits::{
     euler_step, wrap_angle, BodyVelocity, CommandModel, Input, Pose, StartInfo, StartState,
 };
@@ -141,7 +141,7 @@ const VELOCITY_SPAN_S: f64 = 0.5;
 /// use drive_models::{ComposedModel, DifferentialDrive, powertrain::CommandedPowertrain, slip::NoSlipModel};
 /// use drive_traits::{Input, Pose, StartInfo};
 /// use std::sync::Arc;
-/// let husky = drive_samplers::builtin_robots().get("husky").unwrap().part().as_ref().clone();
+/// let husky = drive_traits::robot::builtin_robots().get("husky").unwrap().part().as_ref().clone();
 /// let model = Arc::new(ComposedModel { label: "naive".into(), vehicle: husky.vehicle.clone(),
 ///     powertrain: Box::new(CommandedPowertrain), slip: Box::new(NoSlipModel), dt: 0.05 });
 /// let setup = ControlSetup { model, robot: husky.clone(), to_vehicle: InputMap::identity(), speed: 0.5 };

@@ -8,8 +8,8 @@ use drive_models::ComposedModel;
 use drive_traits::{Input, MotionModel, Pose, StartInfo, StartState};
 use std::sync::Arc;
 
-fn husky() -> drive_samplers::RobotSpec {
-    drive_samplers::builtin_robots()
+fn husky() -> drive_traits::robot::RobotSpec {
+    drive_traits::robot::builtin_robots()
         .get("husky")
         .unwrap()
         .part()
@@ -18,7 +18,7 @@ fn husky() -> drive_samplers::RobotSpec {
 }
 
 /// The naive model of `robot`: eq. 4 on the commands.
-fn naive(robot: &drive_samplers::RobotSpec) -> Arc<dyn MotionModel> {
+fn naive(robot: &drive_traits::robot::RobotSpec) -> Arc<dyn MotionModel> {
     Arc::new(ComposedModel {
         label: "naive".into(),
         vehicle: robot.vehicle.clone(),

@@ -278,7 +278,8 @@ pub(crate) fn fit_step<'a>(
     skip: Option<usize>,
     ridge: f64,
 ) -> StepDifficulty {
-    StepSums::new(rows, skip).map_or(StepDifficulty::NONE, |s| s.solve(ridge))
+    StepSums::new(rows.map(|r| (r, r.score.ln())), skip)
+        .map_or(StepDifficulty::NONE, |s| s.solve(ridge))
 }
 
 /// What [`fit_step`] gathers from its rows before the ridge enters: the rows kept, the
@@ -286,7 +287,8 @@ pub(crate) fn fit_step<'a>(
 /// squares. One gathering serves every ridge strength (the same numbers as gathering
 /// again).
 pub(crate) struct StepSums<'a> {
-    kept: Vec<&'a Row>,
+    /// The rows kept, each with the logarithm of its score.
+    kept: Vec<(&'a Row, f64)>,
     mean: Features,
     sd: Features,
     a: SMatrix<f64, FEATURES, FEATURES>,
@@ -294,13 +296,17 @@ pub(crate) struct StepSums<'a> {
 }
 
 impl<'a> StepSums<'a> {
-    /// The sums of `rows` without the fold `skip`; `None` with too few rows.
-    pub(crate) fn new(rows: impl Iterator<Item = &'a Row>, skip: Option<usize>) -> Option<Self> {
+    /// The sums of `rows` without the fold `skip`; `None` with too few rows. Each row comes
+    /// with the logarithm of its score (computed once for the many sums a row enters).
+    pub(crate) fn new(
+        rows: impl Iterator<Item = (&'a Row, f64)>,
+        skip: Option<usize>,
+    ) -> Option<Self> {
         // The rows fitted on, gathered once.
-        let kept: Vec<&Row> = rows
-            .filter(|r| Some(r.fold) != skip && r.score.is_finite())
+        let kept: Vec<(&Row, f64)> = rows
+            .filter(|(r, _)| Some(r.fold) != skip && r.score.is_finite())
             .collect();
-        let mut scores: Vec<f64> = kept.iter().map(|r| r.score).collect();
+        let mut scores: Vec<f64> = kept.iter().map(|(r, _)| r.score).collect();
         if scores.len() < MIN_ROWS {
             return None;
         }
@@ -309,14 +315,15 @@ impl<'a> StepSums<'a> {
         let middle = scores.len() / 2;
         let (_, median, _) = scores.select_nth_unstable_by(middle, f64::total_cmp);
         let floor = (*median * 1e-3).max(1e-300);
+        let log_floor = floor.ln();
         let n = scores.len() as f64;
         let (mut mean, mut sq) = ([0.0; FEATURES], [0.0; FEATURES]);
-        for r in &kept {
+        for (r, _) in &kept {
             for (m, x) in mean.iter_mut().zip(&r.x).skip(1) {
                 *m += x / n;
             }
         }
-        for r in &kept {
+        for (r, _) in &kept {
             for ((q, x), m) in sq.iter_mut().zip(&r.x).zip(&mean).skip(1) {
                 *q += (x - m).powi(2) / n;
             }
@@ -325,8 +332,8 @@ impl<'a> StepSums<'a> {
         let used = |j: usize| j == 0 || sd[j] > 1e-9 * (1.0 + mean[j].abs());
         let mut a = SMatrix::<f64, FEATURES, FEATURES>::zeros();
         let mut b = SVector::<f64, FEATURES>::zeros();
-        for r in &kept {
-            let z = SVector::<f64, FEATURES>::from_fn(|j, _| {
+        for &(r, log_score) in &kept {
+            let z: [f64; FEATURES] = std::array::from_fn(|j| {
                 if j == 0 {
                     1.0
                 } else if used(j) {
@@ -335,8 +342,26 @@ impl<'a> StepSums<'a> {
                     0.0
                 }
             });
-            a += z * z.transpose();
-            b += z * r.score.max(floor).ln();
+            // z z^T, its upper triangle (the lower one is the same products, mirrored below).
+            for i in 0..FEATURES {
+                for j in i..FEATURES {
+                    a[(i, j)] += z[i] * z[j];
+                }
+            }
+            // ln(max(score, floor)), from the logarithm computed once.
+            let log = if r.score < floor {
+                log_floor
+            } else {
+                log_score
+            };
+            for (b, z) in b.iter_mut().zip(&z) {
+                *b += z * log;
+            }
+        }
+        for i in 0..FEATURES {
+            for j in 0..i {
+                a[(i, j)] = a[(j, i)];
+            }
         }
         Some(StepSums {
             kept,
@@ -373,7 +398,7 @@ impl<'a> StepSums<'a> {
         let (lo, hi) = self
             .kept
             .iter()
-            .map(|r| z(&r.x))
+            .map(|(r, _)| z(&r.x))
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
                 (lo.min(v), hi.max(v))
             });

@@ -13,9 +13,12 @@
 //! | `calibration` | reliability diagrams: observed against nominal coverage (50-99%) of the predicted position and yaw regions, over every window, the transient and the steady ones | |
 //!
 //! ```no_run
-//! # fn demo(data: &drive_traits::Dataset) -> Result<(), drive_report::ReportError> {
+//! # fn demo(data: &drive_traits::Dataset) -> Result<(), Box<dyn std::error::Error>> {
 //! let registries = drive_studies::Registries::builtin();
-//! let report = drive_report::Report::build(&registries, data, &drive_report::ReportOptions::default())?;
+//! let options = drive_report::ReportOptions::default();
+//! // The studies fit and evaluate; the report draws and writes.
+//! let analysis = drive_studies::report::ReportAnalysis::build(&registries, data, &options)?;
+//! let report = drive_report::Report::new(analysis);
 //! let files = report.write(std::path::Path::new("report-out"))?;
 //! assert!(files.iter().any(|f| f.ends_with("report.md")));
 //! # Ok(()) }
@@ -23,50 +26,24 @@
 
 #![warn(missing_docs)]
 
-pub mod analysis;
 pub mod bench;
 pub mod figures;
 pub mod track;
 
-use analysis::{Calibration, InputSpaceFigure, PowertrainTrace, Trajectory};
 use drive_data::output::{OutputError, Outputs};
-use drive_eval::{split_by_interval, Mrmse};
-use drive_models::powertrain::CommandedPowertrain;
-use drive_studies::{
-    compare_regions, compare_specs, convergence, Comparison, Convergence, RegionComparison,
-    RegionStudy, Registries,
-};
-use drive_traits::{CommandModel, Dataset, InputSpace, MotionModel, Powertrain};
+use drive_eval::Mrmse;
+/// What the figures show (computed by the studies: [`drive_studies::report::analysis`]).
+pub use drive_studies::report::analysis;
+pub use drive_studies::report::{FittedParameters, ReportAnalysis, ReportOptions};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use thiserror::Error;
 
-/// Why a report could not be made.
+/// Why a report could not be drawn or written.
 #[derive(Debug, Error)]
 pub enum ReportError {
-    /// The model comparison failed (split, fit).
-    #[error(transparent)]
-    Compare(#[from] drive_studies::CompareError),
-    /// The split is not valid for this dataset.
-    #[error(transparent)]
-    Split(#[from] drive_eval::SplitError),
-    /// A model or part name does not resolve.
-    #[error(transparent)]
-    Registry(#[from] drive_traits::RegistryError),
-    /// A model needed by the figures could not be fitted.
-    #[error("fitting {model}: {reason}")]
-    Fit {
-        /// Model.
-        model: String,
-        /// Why.
-        reason: drive_traits::FitError,
-    },
-    /// The dataset has no command or encoder sample.
-    #[error("the dataset has no samples to draw")]
-    Empty,
     /// A file could not be written (nothing was replaced), or an output would replace an
     /// input.
     #[error(transparent)]
@@ -76,96 +53,23 @@ pub enum ReportError {
     Draw(String),
 }
 
-/// What the report is made with.
-#[derive(Debug, Clone)]
-pub struct ReportOptions {
-    /// Training fraction of the intervals (the rest evaluates).
-    pub split: f64,
-    /// The models compared (model names); the paper's four by default.
-    pub models: Vec<String>,
-    /// The model whose convergence is analysed (Fig. 7) and trained on the protocol
-    /// regions (Fig. 5).
-    pub model: String,
-    /// The manufacturer's input space and where it comes from (for Fig. 1); `None` when
-    /// unknown.
-    pub naive_input_space: Option<(String, InputSpace)>,
-    /// Intervals shown in the powertrain figure.
-    pub powertrain_intervals: usize,
-    /// Evaluation windows shown in the trajectory figure.
-    pub trajectories: usize,
-    /// Convergence gradient thresholds (m/s, rad/s).
-    pub thresholds: [f64; 2],
-    /// Uniform draws of the protocol comparison.
-    pub draws: usize,
-    /// Figure size in pixels (PNG) and points (SVG).
-    pub size: (u32, u32),
-    /// What every model's predictions start from.
-    pub start: drive_traits::StartInfo,
-    /// How the models' pose covariances are made.
-    pub uncertainty: drive_models::calibration::Uncertainty,
-    /// The robot's body footprint for the terrain's total unpredictability, and where it
-    /// comes from; without it the report gives the translational and rotational ones.
-    pub body: Option<(String, drive_samplers::BodySize)>,
+/// A report: the analyses of [`drive_studies::report`] ([`ReportAnalysis`]), drawn and
+/// written. Reads as the analysis it draws (`report.comparison`, `report.convergence`).
+pub struct Report {
+    analysis: ReportAnalysis,
 }
 
-impl Default for ReportOptions {
-    fn default() -> Self {
-        ReportOptions {
-            split: 0.5,
-            models: drive_studies::PAPER_MODELS
-                .split(',')
-                .map(String::from)
-                .collect(),
-            model: "slip-blr".into(),
-            naive_input_space: None,
-            powertrain_intervals: 3,
-            trajectories: 4,
-            thresholds: [0.01, 0.01],
-            draws: 25,
-            size: (1200, 800),
-            start: drive_traits::StartInfo::default(),
-            uncertainty: drive_models::calibration::Uncertainty::default(),
-            body: None,
-        }
+impl std::ops::Deref for Report {
+    type Target = ReportAnalysis;
+    fn deref(&self) -> &ReportAnalysis {
+        &self.analysis
     }
 }
 
-/// One compared model's fitted parameters, as its parts give them
-/// ([`MotionModel::parameters`]: a plug-in part reports its own).
-#[derive(Debug, Clone, PartialEq)]
-pub struct FittedParameters {
-    /// The model's name in the comparison.
-    pub model: String,
-    /// Its parameters by name, in the order the model lists them.
-    pub parameters: Vec<(String, f64)>,
-}
-
-/// Everything a report holds, computed once and then written.
-pub struct Report {
-    /// Dataset and robot names.
-    pub dataset: String,
-    /// The options used.
-    pub options: ReportOptions,
-    /// The models compared (eq. 8).
-    pub comparison: Comparison,
-    /// The convergence of the analysed model (Fig. 7).
-    pub convergence: Convergence,
-    /// The protocol comparison on the recorded data, or why it could not run.
-    pub protocols: Result<RegionComparison, String>,
-    /// Each compared model's fitted parameters, in the comparison's order.
-    pub fitted: Vec<FittedParameters>,
-    /// Fig. 1 data.
-    pub input_space: InputSpaceFigure,
-    /// Fig. 3 data.
-    pub powertrain: PowertrainTrace,
-    /// Trajectory figure data.
-    pub trajectories: Vec<Trajectory>,
-    /// Calibration of the BLR models.
-    pub calibration: Vec<Calibration>,
-    /// The terrain's unpredictability (energy-based, T-FR 2025).
-    pub unpredictability: drive_eval::Unpredictability,
-    vehicle: Arc<dyn CommandModel>,
-    dt: f64,
+impl From<ReportAnalysis> for Report {
+    fn from(analysis: ReportAnalysis) -> Self {
+        Report { analysis }
+    }
 }
 
 /// A negative log-likelihood for reading: plain below 10^4, scientific above (an
@@ -204,111 +108,14 @@ pub(crate) fn register_font() {
 }
 
 impl Report {
-    /// Fits and evaluates everything the report shows, with the models of `registries`.
-    pub fn build(
-        registries: &Registries,
-        data: &Dataset,
-        options: &ReportOptions,
-    ) -> Result<Report, ReportError> {
-        let specs: Vec<_> = registries
-            .models()
-            .resolve_list(&options.models)?
-            .into_iter()
-            .map(|s| s.with_uncertainty(options.uncertainty, options.start))
-            .collect();
-        let comparison = compare_specs(data, options.split, &specs)?;
-        let (train, eval) = split_by_interval(data, options.split)?;
-        let model = registries
-            .model(&options.model)?
-            .with_uncertainty(options.uncertainty, options.start);
-        let convergence = convergence(data, options.split, options.thresholds, &model)?;
-        let protocols = compare_regions(
-            registries,
-            data,
-            &RegionStudy {
-                split: options.split,
-                draws: options.draws,
-                model: options.model.clone(),
-                ..RegionStudy::default()
-            },
-        )
-        .map_err(|e| e.to_string());
-        let fitted = comparison
-            .models
-            .iter()
-            .filter_map(|m| {
-                m.fitted.as_deref().map(|f| FittedParameters {
-                    model: m.name.clone(),
-                    parameters: f.parameters(),
-                })
-            })
-            .collect();
-        let input_space = analysis::input_space(&data.all(), options.naive_input_space.clone())
-            .ok_or(ReportError::Empty)?;
-        // The powertrain figure draws the analysed model's own powertrain (a plug-in's
-        // included), from the comparison's fit when the model is compared.
-        let compared = comparison
-            .models
-            .iter()
-            .find(|m| m.name == options.model)
-            .and_then(|m| m.fitted.as_deref());
-        let own;
-        let analysed: &dyn MotionModel = match compared {
-            Some(m) => m,
-            None => {
-                own = model.fit(&train).map_err(|reason| ReportError::Fit {
-                    model: options.model.clone(),
-                    reason,
-                })?;
-                own.as_ref()
-            }
-        };
-        let (label, modeled): (String, &dyn Powertrain) = match analysed.powertrain() {
-            Some(p) => (
-                format!(
-                    "{} ({})",
-                    model.powertrain.as_deref().unwrap_or("its powertrain"),
-                    options.model
-                ),
-                p,
-            ),
-            None => (
-                format!("commanded ({} has no powertrain)", options.model),
-                &CommandedPowertrain,
-            ),
-        };
-        let powertrain =
-            analysis::powertrain_trace(&eval, &label, modeled, options.powertrain_intervals);
-        let models: Vec<(&str, &dyn MotionModel)> = comparison
-            .models
-            .iter()
-            .filter_map(|m| m.fitted.as_deref().map(|f| (m.name.as_str(), f)))
-            .collect();
-        let trajectories = analysis::trajectories(&eval, &models, options.trajectories);
-        let calibration = models
-            .iter()
-            .filter_map(|(name, m)| analysis::calibration(name, *m, &eval, options.start))
-            .collect();
-        let unpredictability = drive_eval::unpredictability(
-            data,
-            options.body.as_ref().map(|b| b.1),
-            &drive_eval::UnpredictabilityConfig::default(),
-        );
-        Ok(Report {
-            dataset: format!("{} ({})", data.robot.name, data.robot.robot),
-            unpredictability,
-            options: options.clone(),
-            comparison,
-            convergence,
-            protocols,
-            fitted,
-            input_space,
-            powertrain,
-            trajectories,
-            calibration,
-            vehicle: Arc::clone(&data.robot.vehicle),
-            dt: data.robot.dt(),
-        })
+    /// The report of `analysis` (computed by [`ReportAnalysis::build`]).
+    pub fn new(analysis: ReportAnalysis) -> Self {
+        Report { analysis }
+    }
+
+    /// The analyses drawn.
+    pub fn analysis(&self) -> &ReportAnalysis {
+        &self.analysis
     }
 
     /// Writes `report.md` and every figure as PNG and SVG into `dir` (created if missing),

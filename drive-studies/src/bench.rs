@@ -171,7 +171,8 @@ pub fn terrain_known(terrain: &str) -> bool {
     !(t.is_empty() || t.starts_with("unknown"))
 }
 
-fn median(values: &[f64]) -> Option<f64> {
+/// The median of the finite values ([`drive_traits::median`]), `None` when there are none.
+fn finite_median(values: &[f64]) -> Option<f64> {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     (!v.is_empty()).then(|| drive_traits::median(&mut v))
 }
@@ -228,8 +229,8 @@ fn error_growth(
             thirds.push(UnpredictabilityBin {
                 unpredictability: [first.0, last.0],
                 windows: part.len(),
-                translational_median_m: median(&trans).unwrap_or(f64::NAN),
-                rotational_median_rad: median(&rot).unwrap_or(f64::NAN),
+                translational_median_m: finite_median(&trans).unwrap_or(f64::NAN),
+                rotational_median_rad: finite_median(&rot).unwrap_or(f64::NAN),
             });
         }
     }
@@ -498,8 +499,8 @@ fn summarize_transfer(model: &str, cells: &[TransferCell]) -> TransferSummary {
         let r: Vec<f64> = of.iter().map(|c| c.loss_rotational_percent).collect();
         TransferGroup {
             pairs: of.len(),
-            median_loss_translational_percent: median(&t),
-            median_loss_rotational_percent: median(&r),
+            median_loss_translational_percent: finite_median(&t),
+            median_loss_rotational_percent: finite_median(&r),
         }
     };
     TransferSummary {

@@ -35,6 +35,7 @@ mod matrix;
 mod protocols;
 mod regions;
 mod registries;
+pub mod report;
 mod twin_check;
 
 /// The models compared by default (`drive eval`, `report`, Python's `compare`): the paper's

@@ -602,8 +602,9 @@ pub fn compare_protocols(
     })
 }
 
-/// The median of `values` (NaN when there are none).
-pub(crate) fn median(values: impl IntoIterator<Item = f64>) -> f64 {
+/// The median of `values` ([`drive_traits::median`]'s, through the summary), NaN when there
+/// are none.
+pub(crate) fn median_or_nan(values: impl IntoIterator<Item = f64>) -> f64 {
     Summary::of(values).map_or(f64::NAN, |s| s.median)
 }
 
@@ -613,7 +614,7 @@ fn row(
     (robot, terrain, driving_s, test, sampler): (&RobotSpec, &Terrain, f64, &String, &String),
 ) -> ProtocolRow {
     let pooled = |cells: &[&ProtocolCell], pick: fn(&(usize, usize, f64, f64)) -> f64| {
-        median(cells.iter().flat_map(|c| c.errors.iter().map(pick)))
+        median_or_nan(cells.iter().flat_map(|c| c.errors.iter().map(pick)))
     };
     // Paired by seed and test run: the reference and this sampler's models on the same
     // test windows, whole intervals resampled.

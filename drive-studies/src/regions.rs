@@ -3,7 +3,7 @@
 //! models trained on as many intervals drawn from all of J, all evaluated on the same
 //! evaluation part.
 
-use crate::protocols::median;
+use crate::protocols::median_or_nan;
 use crate::{run_cells, ExperimentError, Registries, Setting};
 use drive_eval::{improvement_percent, split_by_interval, Mrmse, Summary};
 use drive_traits::{Dataset, Input, Window, WindowSet};
@@ -278,8 +278,8 @@ pub fn compare_regions(
             ]
         };
         let (ut, ur) = (
-            median(uniform_t.iter().copied()),
-            median(uniform_r.iter().copied()),
+            median_or_nan(uniform_t.iter().copied()),
+            median_or_nan(uniform_r.iter().copied()),
         );
         results.push(RegionResult {
             region: name.to_string(),

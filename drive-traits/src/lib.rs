@@ -21,7 +21,9 @@
 //! [`typetag`] and [`nalgebra`] so that a plug-in needs no other dependency.
 //!
 //! The dataset types ([`Window`], [`RobotDescription`], [`WindowSet`]) are what every
-//! loader produces and every learner and metric consumes.
+//! loader produces and every learner and metric consumes. The robots ([`robot`]: a
+//! vehicle with its limits, rates and acceleration limits, the presets and robot files)
+//! are what the protocol, the simulators and the controllers run.
 
 #![warn(missing_docs)]
 
@@ -35,6 +37,7 @@ mod motion;
 mod pose;
 mod powertrain;
 mod registry;
+pub mod robot;
 mod sampler;
 mod slip;
 mod stats;

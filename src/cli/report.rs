@@ -97,7 +97,9 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         },
         ..Default::default()
     };
-    let report = crate::report::Report::build(registries, &dataset, &options)?;
+    // The studies fit and evaluate; the report only draws and writes.
+    let analysis = crate::studies::report::ReportAnalysis::build(registries, &dataset, &options)?;
+    let report = crate::report::Report::new(analysis);
     let files = report.stage(&mut outputs, &args.out)?;
     outputs.publish()?;
     if let Err(reason) = &report.protocols {

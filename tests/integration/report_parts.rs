@@ -5,6 +5,7 @@
 
 use drive::report::{Report, ReportOptions};
 use drive::serde::{Deserialize, Serialize};
+use drive::studies::report::ReportAnalysis;
 use drive::studies::Registries;
 use drive::traits::{FitError, Input, Powertrain, PowertrainLearner, Tagged, WindowSet};
 use drive::typetag;
@@ -82,7 +83,7 @@ fn the_report_shows_a_plug_in_powertrains_own_parameters_and_response() {
         draws: 2,
         ..ReportOptions::default()
     };
-    let report = Report::build(&registries, &data, &options).unwrap();
+    let report = Report::new(ReportAnalysis::build(&registries, &data, &options).unwrap());
 
     // The parameters as the plug-in lists them, next to slip-BLR's own.
     let fitted = report

@@ -304,9 +304,21 @@ impl Calibrator {
         }
         let chi2 = chi2_2(self.level);
         let model_size = |r: &Row| r.x[FEATURES - 1].exp();
-        let by_model = self.difficulties(&position, folds_count, chi2, Region::Area, model_size);
-        let model_scale = self.scales(&mut by_model.scores.clone(), chi2);
-        let model_area = mean_areas(&position, &by_model, &model_scale, 1.0, model_size);
+        // The three fits below are independent: the model's shape and the yaw on other
+        // threads beside the heading shape (the same numbers, sooner).
+        let by_model_shape = || {
+            let by_model =
+                self.difficulties(&position, folds_count, chi2, Region::Area, model_size);
+            let model_scale = self.scales(&mut by_model.scores.clone(), chi2);
+            let model_area = mean_areas(&position, &by_model, &model_scale, 1.0, model_size);
+            (by_model, model_scale, model_area)
+        };
+        // The yaw interval's width grows with the root of its variance.
+        let yaw_fit = || {
+            self.difficulties(&yaw, folds_count, chi2_1(self.level), Region::Width, |r| {
+                (0.5 * r.x[FEATURES - 1]).exp()
+            })
+        };
         // The same with the errors' own shape in the predicted heading's frame.
         // Each held-out error is scored under the shape estimated without its own fold
         // (as the difficulty: no error shapes its own region); the shape kept is estimated
@@ -322,38 +334,46 @@ impl Calibrator {
             });
             error_shape(kept, self.shape_floor).unwrap_or(UNIT_SHAPE)
         };
-        let heading_shape: Vec<[f64; 3]> = (0..n)
-            .into_par_iter()
-            .map(|k| {
-                if k == 0 {
-                    UNIT_SHAPE
-                } else {
-                    shape_of(k, None)
-                }
-            })
-            .collect();
-        let by_heading_rows: Vec<Vec<Row>> = (0..n)
-            .into_par_iter()
-            .map(|k| {
-                if k == 0 {
-                    return position[0].clone();
-                }
-                let out_of_fold: Vec<[f64; 3]> =
-                    (0..folds_count).map(|f| shape_of(k, Some(f))).collect();
-                position[k]
-                    .iter()
-                    .zip(&along_across[k])
-                    .map(|(r, u)| Row {
-                        score: shape_score(u, &out_of_fold[r.fold]),
-                        ..*r
-                    })
-                    .collect()
-            })
-            .collect();
-        let by_heading =
-            self.difficulties(&by_heading_rows, folds_count, chi2, Region::Area, |_| 1.0);
-        let heading_scale = self.scales(&mut by_heading.scores.clone(), chi2);
-        let heading_area = mean_areas(&by_heading_rows, &by_heading, &heading_scale, 1.0, |_| 1.0);
+        let by_heading_shape = || {
+            let heading_shape: Vec<[f64; 3]> = (0..n)
+                .into_par_iter()
+                .map(|k| {
+                    if k == 0 {
+                        UNIT_SHAPE
+                    } else {
+                        shape_of(k, None)
+                    }
+                })
+                .collect();
+            let by_heading_rows: Vec<Vec<Row>> = (0..n)
+                .into_par_iter()
+                .map(|k| {
+                    if k == 0 {
+                        return position[0].clone();
+                    }
+                    let out_of_fold: Vec<[f64; 3]> =
+                        (0..folds_count).map(|f| shape_of(k, Some(f))).collect();
+                    position[k]
+                        .iter()
+                        .zip(&along_across[k])
+                        .map(|(r, u)| Row {
+                            score: shape_score(u, &out_of_fold[r.fold]),
+                            ..*r
+                        })
+                        .collect()
+                })
+                .collect();
+            let by_heading =
+                self.difficulties(&by_heading_rows, folds_count, chi2, Region::Area, |_| 1.0);
+            let heading_scale = self.scales(&mut by_heading.scores.clone(), chi2);
+            let heading_area =
+                mean_areas(&by_heading_rows, &by_heading, &heading_scale, 1.0, |_| 1.0);
+            (heading_shape, by_heading, heading_scale, heading_area)
+        };
+        let (
+            (by_model, model_scale, model_area),
+            ((heading_shape, by_heading, heading_scale, heading_area), mut yaw_fit),
+        ) = rayon::join(by_model_shape, || rayon::join(by_heading_shape, yaw_fit));
         // The shape whose regions are smaller, step by step (geometric mean of the ratios),
         // at the same calibrated coverage.
         let log_ratio: f64 = heading_area
@@ -367,11 +387,6 @@ impl Calibrator {
         } else {
             (by_model, model_scale, Vec::new())
         };
-        // The yaw interval's width grows with the root of its variance.
-        let mut yaw_fit =
-            self.difficulties(&yaw, folds_count, chi2_1(self.level), Region::Width, |r| {
-                (0.5 * r.x[FEATURES - 1]).exp()
-            });
         let calibration = HorizonCalibration {
             level: self.level,
             shape_floor: self.shape_floor,
@@ -597,6 +612,11 @@ struct StepSumsOfFolds<'a> {
 fn gather_sums(rows: &[Vec<Row>], folds: usize) -> Vec<StepSumsOfFolds<'_>> {
     use rayon::prelude::*;
     let n = rows.len();
+    // Each row's log score, computed once for the many sums it enters.
+    let logs: Vec<Vec<f64>> = rows
+        .iter()
+        .map(|step| step.iter().map(|r| r.score.ln()).collect())
+        .collect();
     (0..n)
         .into_par_iter()
         .map(|k| {
@@ -607,7 +627,10 @@ fn gather_sums(rows: &[Vec<Row>], folds: usize) -> Vec<StepSumsOfFolds<'_>> {
                 };
             }
             let (lo, hi) = neighbour_steps(k, n);
-            let pooled = || rows[lo..=hi].iter().flatten();
+            let pooled = || {
+                let logs = logs[lo..=hi].iter().flatten().copied();
+                rows[lo..=hi].iter().flatten().zip(logs)
+            };
             StepSumsOfFolds {
                 out_of_fold: (0..folds)
                     .map(|f| StepSums::new(pooled(), Some(f)))

@@ -264,8 +264,9 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
-/// The median of `v`, 0 when it has none.
-fn median(mut v: Vec<f64>) -> f64 {
+/// The median of `v` ([`drive_traits::median`]), 0 when it has none (a noise or a share
+/// the data cannot tell is taken as none).
+fn median_or_zero(mut v: Vec<f64>) -> f64 {
     let m = drive_traits::median(&mut v);
     if m.is_finite() {
         m
@@ -735,14 +736,14 @@ pub fn sim_fit_with_contact_spread(
     let (icp_noise, icp_jitter) = localization_noise(data);
     let sensors = Sensors {
         icp_mount: localization_mount(data),
-        encoder_noise: median(enc),
-        icp_rate_hz: (data.robot.rate_hz * (1.0 - median(held)))
+        encoder_noise: median_or_zero(enc),
+        icp_rate_hz: (data.robot.rate_hz * (1.0 - median_or_zero(held)))
             .clamp(MIN_ICP_RATE_HZ, data.robot.rate_hz),
         icp_noise,
         icp_latency: 0.0,
         icp_jitter: icp_jitter.min(MAX_ICP_JITTER_S),
-        imu_noise: median(imu_sd),
-        imu_bias: median(imu_bias),
+        imu_noise: median_or_zero(imu_sd),
+        imu_bias: median_or_zero(imu_bias),
         icp_gaps: localization_gaps(data),
     };
     let protocol = fit_protocol(data, &g);

@@ -100,7 +100,7 @@ pub(super) fn localization_noise(data: &Dataset) -> ([f64; 2], f64) {
             .copied()
             .filter(|&(x, y)| y <= 3.0 * (first[0] + first[1] * x)),
     );
-    let position_var = median(
+    let position_var = median_or_zero(
         position_rows
             .iter()
             .map(|&(x, y)| (y - timing_var * x).max(0.0) / 2.0)

@@ -106,7 +106,7 @@ pub(super) fn fit_turn_stall(data: &Dataset) -> (TurnStallFit, BTreeSet<usize>) 
         .collect();
     let continued: Vec<f64> = judged.iter().filter(|j| j.0).map(|j| j.1).collect();
     let followed_share = if continued.len() >= MIN_CONTINUED_TURNS {
-        median(continued.clone())
+        median_or_zero(continued.clone())
     } else {
         f64::NAN
     };
@@ -117,7 +117,7 @@ pub(super) fn fit_turn_stall(data: &Dataset) -> (TurnStallFit, BTreeSet<usize>) 
     let stall =
         (followed_share > 0.0 && stalled_starts.len() >= MIN_STALLED_STARTS).then(|| TurnStall {
             probability: stalled_starts.len() as f64 / starts.len() as f64,
-            share: (median(stalled_starts.clone()) / followed_share).clamp(0.0, 1.0),
+            share: (median_or_zero(stalled_starts.clone()) / followed_share).clamp(0.0, 1.0),
         });
     let stalled_intervals = if stall.is_some() {
         judged

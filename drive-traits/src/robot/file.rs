@@ -28,14 +28,11 @@ struct RobotFile {
     max_linear_acceleration: Option<f64>,
     #[serde(default)]
     max_angular_acceleration: Option<f64>,
-    #[serde(default, deserialize_with = "drive_traits::exact::option_axes")]
+    #[serde(default, deserialize_with = "crate::exact::option_axes")]
     input_rate_limits: Option<Vec<f64>>,
-    #[serde(default, deserialize_with = "drive_traits::exact::option_array")]
+    #[serde(default, deserialize_with = "crate::exact::option_array")]
     wheel_limits: Option<[f64; 2]>,
-    #[serde(
-        default,
-        deserialize_with = "drive_traits::exact::option_min_max_pairs"
-    )]
+    #[serde(default, deserialize_with = "crate::exact::option_min_max_pairs")]
     input_limits: Option<Vec<[f64; 2]>>,
     #[serde(default)]
     tracked: bool,
@@ -62,7 +59,7 @@ impl RobotSpec {
             message,
         };
         let f: RobotFile = toml::from_str(text).map_err(|e| {
-            parse(drive_traits::exact::parse_message(
+            parse(crate::exact::parse_message(
                 text,
                 e.message(),
                 e.span().map(|s| s.start),
@@ -304,7 +301,7 @@ impl RobotSpec {
     pub fn load(robots: &Registry<RobotSpec>, name_or_path: &str) -> Result<RobotSpec, RobotError> {
         if Self::file_of(name_or_path).is_some() {
             // A robot file is a few lines of TOML.
-            let text = drive_traits::files::read_text(std::path::Path::new(name_or_path), 1 << 20)
+            let text = crate::files::read_text(std::path::Path::new(name_or_path), 1 << 20)
                 .map_err(|e| RobotError::Parse {
                     file: name_or_path.into(),
                     message: e.to_string(),
@@ -328,7 +325,7 @@ impl RobotSpec {
     /// named like a robot does not hide it).
     ///
     /// ```
-    /// use drive_samplers::RobotSpec;
+    /// use drive_traits::robot::RobotSpec;
     /// assert!(RobotSpec::file_of("husky").is_none());
     /// assert!(RobotSpec::file_of("robots/mine.toml").is_some());
     /// ```

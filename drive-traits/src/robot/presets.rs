@@ -96,7 +96,7 @@ pub fn builtin_robots() -> Registry<RobotSpec> {
 /// the yaw rate's through the lever `l_x + l_y`).
 ///
 /// ```
-/// let base = drive_samplers::ridgeback();
+/// let base = drive_traits::robot::ridgeback();
 /// assert_eq!(base.vehicle.input_dim(), 3);
 /// let j = base.input_space();
 /// assert_eq!((j.dim(), j.max.x, j.max.y), (3, 1.1, 1.1));
@@ -135,7 +135,7 @@ pub fn ridgeback() -> RobotSpec {
 /// limit of one top speed per second (5 m/s^2), the rule of the other presets.
 ///
 /// ```
-/// let car = drive_samplers::autorally();
+/// let car = drive_traits::robot::autorally();
 /// assert_eq!(car.vehicle.geometry()[0], ("wheelbase", 0.57));
 /// let j = car.input_space();
 /// assert_eq!((j.max.x, j.max.y), (5.0, 0.3665191429));

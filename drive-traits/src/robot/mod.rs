@@ -2,11 +2,10 @@
 //! acceleration limits, from a TOML file (`file.rs`) or a registered preset (`presets.rs`:
 //! the paper's platforms). This file: the description, its builder and its checks.
 
-use crate::BodyLimits;
-use drive_traits::limits::{self, Short};
-use drive_traits::vehicles::DifferentialDrive;
-use drive_traits::vehicles::{Ackermann, Omnidirectional};
-use drive_traits::{
+use crate::limits::{self, Short};
+use crate::vehicles::DifferentialDrive;
+use crate::vehicles::{Ackermann, Omnidirectional};
+use crate::{
     vehicle_tag, CommandModel, Input, InputSpace, Registry, RegistryError, RegistryItem, Steering,
     Tagged,
 };
@@ -14,8 +13,12 @@ use serde::Deserialize;
 use std::sync::Arc;
 use thiserror::Error;
 
+mod body_limits;
+mod commands;
 mod file;
 mod presets;
+pub use body_limits::BodyLimits;
+pub use commands::{limit_acceleration, next_command, SentCommand};
 pub use presets::{autorally, builtin_robots, ridgeback};
 
 /// Why a robot description is refused.
@@ -68,7 +71,7 @@ pub const MIN_SPEED_MPS: f64 = 1e-3;
 /// A vehicle with steered wheels needs `input_rate_limits`.
 ///
 /// ```
-/// use drive_samplers::{builtin_robots, RobotSpec};
+/// use drive_traits::robot::{builtin_robots, RobotSpec};
 /// let husky = builtin_robots().get("husky").unwrap().part().as_ref().clone();
 /// assert_eq!(husky.vehicle.geometry()[0], ("wheel_radius", 0.165));
 /// let toml = "name = 'mine'\nmass_kg = 30\nmax_speed = 1.5\nmax_linear_acceleration = 1.0\n\
@@ -123,7 +126,7 @@ pub struct RobotSpec {
 /// A robot body's footprint (m): length along its x axis (forward), width along y.
 ///
 /// ```
-/// let husky = drive_samplers::BodySize { length_m: 0.8382, width_m: 0.6604 };
+/// let husky = drive_traits::robot::BodySize { length_m: 0.8382, width_m: 0.6604 };
 /// // A uniform box: I / m = (l^2 + w^2) / 12.
 /// assert!((husky.inertia_per_mass() - 0.0949).abs() < 1e-4);
 /// ```
@@ -155,7 +158,7 @@ impl RobotSpec {
     /// value out of range, or a vehicle that gives no nominal input space.
     ///
     /// ```
-    /// use drive_samplers::RobotSpec;
+    /// use drive_traits::robot::RobotSpec;
     /// use std::sync::Arc;
     /// let wheels = || Arc::new(drive_traits::vehicles::DifferentialDrive::new(0.1, 0.4));
     /// let robot = RobotSpec::new("mine", wheels(), 30.0, 1.5, 1.0, 3.0)
@@ -300,7 +303,7 @@ impl RobotSpec {
     /// (they become infinite): what a car needs for its speed and steering.
     ///
     /// ```
-    /// use drive_samplers::RobotSpec;
+    /// use drive_traits::robot::RobotSpec;
     /// use drive_traits::Input;
     /// use std::sync::Arc;
     /// let car = Arc::new(drive_traits::vehicles::Ackermann::new(0.33, 0.42));
