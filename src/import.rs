@@ -125,7 +125,7 @@ impl Imported {
 pub fn stopping<'a>(findings: &'a [Finding], allow: &[String]) -> Option<&'a Finding> {
     findings
         .iter()
-        .find(|f| f.severity == Severity::Fatal && !allow.iter().any(|a| a == f.check))
+        .find(|f| f.severity == Severity::Fatal && !allow.iter().any(|a| a == f.check.key()))
 }
 
 /// Imports `recording` for `robot` (a registered robot or a robot TOML file): reads it, cuts

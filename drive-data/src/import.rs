@@ -470,7 +470,11 @@ pub fn import_raw(
         windows,
     };
     report.checks = crate::quality::check(&data, config.input_limits.as_ref());
-    if report.checks.iter().any(|f| f.check == "imu-constant") {
+    if report
+        .checks
+        .iter()
+        .any(|f| f.check == crate::quality::Check::ImuConstant)
+    {
         let dt = robot.dt();
         let vehicle = robot.vehicle.as_ref();
         // From each sample and the ones before it only (see yaw_rate_from_localization).

@@ -22,6 +22,7 @@
 mod bag;
 pub mod bundled;
 mod chunk_codecs;
+mod command_csv;
 mod error;
 mod import;
 pub mod output;
@@ -34,6 +35,9 @@ mod window_csv;
 pub use bag::{
     bag_files, read_bag, read_bag_bytes, BagTopics, TopicAssignmentError, MAX_BAG_BYTES,
     MAX_BAG_MESSAGES, MAX_BAG_RECORD_BYTES,
+};
+pub use command_csv::{
+    read_commands, CommandFile, CommandFileError, MAX_COMMANDS, MAX_COMMAND_LINE_BYTES,
 };
 pub use error::{DataError, DataErrorKind, Location};
 pub use import::{import_raw, DropReason, ImportConfig, ImportReport, StepOutcome};

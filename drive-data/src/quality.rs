@@ -3,14 +3,14 @@
 //! file). `drive import` runs them on what it imports, `drive check` on a window CSV.
 //!
 //! ```
-//! use drive_data::quality::{check, Severity};
+//! use drive_data::quality::{check, Check, Severity};
 //! # let csv = "window,phase,k,t,cmd_left,cmd_right,enc_left,enc_right,x,y,yaw,imu_yaw_rate\n\
 //! #            0,transient,0,0,4,4,4,4,0,0,0,0\n0,transient,1,0.5,4,4,4,4,0,0,0,0\n";
 //! # let side = r#"{"name": "t", "rate_hz": 2, "window_len": 2, "wheel_radius": 0.5, "baseline": 1}"#;
 //! // Wheels turning at 4 rad/s (2 m/s) for a window, localization still: wheels in the air?
 //! let data = drive_data::parse_dataset("d.csv", csv, "d.json", side).unwrap();
 //! let findings = check(&data, None);
-//! let stand = findings.iter().find(|f| f.check == "not-moving").unwrap();
+//! let stand = findings.iter().find(|f| f.check == Check::NotMoving).unwrap();
 //! assert_eq!(stand.severity, Severity::Fatal);
 //! ```
 
@@ -39,18 +39,81 @@ impl Severity {
     }
 }
 
+/// The data checks, one function each; a check's key (`not-moving`, ...) is the name
+/// `--allow` takes and the JSON's `check`.
+///
+/// ```
+/// use drive_data::quality::Check;
+/// assert_eq!(Check::NotMoving.key(), "not-moving");
+/// assert_eq!(Check::from_key("encoder-units"), Some(Check::EncoderUnits));
+/// assert_eq!(serde_json::to_string(&Check::ImuConstant).unwrap(), "\"imu-constant\"");
+/// assert_eq!(Check::ALL.len(), drive_data::quality::CHECKS.len());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Check {
+    /// Localization still while the encoders turn, or nothing moving under the commands.
+    NotMoving,
+    /// An IMU yaw rate that never changes.
+    ImuConstant,
+    /// Encoders at zero under commands.
+    EncodersZero,
+    /// Encoders stuck at their noise under commands.
+    EncodersStuck,
+    /// Encoders in another unit than localization (distance or yaw).
+    EncoderUnits,
+    /// A measured input that does not follow its command.
+    EncoderCommand,
+    /// Commands or encoders far beyond the robot description's limits, or another vehicle.
+    OutsideLimits,
+}
+
+impl Check {
+    /// Every check, in [`CHECKS`]' order.
+    pub const ALL: [Check; 7] = [
+        Check::NotMoving,
+        Check::ImuConstant,
+        Check::EncodersZero,
+        Check::EncodersStuck,
+        Check::EncoderUnits,
+        Check::EncoderCommand,
+        Check::OutsideLimits,
+    ];
+
+    /// The check's key, the name `--allow` takes (its entry in [`CHECKS`]).
+    pub fn key(self) -> &'static str {
+        CHECKS[self as usize].0
+    }
+
+    /// What the check looks for, in one line.
+    pub fn describe(self) -> &'static str {
+        CHECKS[self as usize].1
+    }
+
+    /// The check of a key; `None` for no check of that name.
+    pub fn from_key(key: &str) -> Option<Check> {
+        Check::ALL.into_iter().find(|c| c.key() == key)
+    }
+}
+
+impl std::fmt::Display for Check {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.key())
+    }
+}
+
 /// One thing a check found.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Finding {
-    /// The check's key (one of [`CHECKS`]), the name `--allow` takes.
-    pub check: &'static str,
+    /// The check (its key in the JSON, the name `--allow` takes).
+    pub check: Check,
     /// How bad.
     pub severity: Severity,
     /// What was found, in one line.
     pub message: String,
 }
 
-/// The checks, their keys and what they look for.
+/// The checks' keys and what they look for, in [`Check`]'s order.
 pub const CHECKS: [(&str, &str); 7] = [
     (
         "not-moving",
@@ -115,20 +178,49 @@ fn dead_reckoned(data: &Dataset, inputs: &[drive_traits::Input], len: usize) -> 
     ((x * x + y * y).sqrt(), yaw.abs())
 }
 
+/// The windows the checks read (two samples or more) and each one's motion ([`motion`]),
+/// computed once for every check.
+struct Windows<'a> {
+    data: &'a Dataset,
+    windows: Vec<&'a Window>,
+    motions: Vec<(f64, f64, f64, f64)>,
+}
+
 /// Runs every check on `data`; `limits` is the robot description's input space when known
-/// (for `outside-limits`).
+/// (for `outside-limits`). The findings in order: `not-moving`, `imu-constant`,
+/// `encoders-zero`, `encoders-stuck`, `encoder-command`, `encoder-units`, `outside-limits`.
 pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
-    let mut out = Vec::new();
     let windows: Vec<&Window> = data.windows.iter().filter(|w| w.len() >= 2).collect();
     if windows.is_empty() {
-        return out;
+        return Vec::new();
     }
+    let motions = windows.iter().map(|w| motion(data, w)).collect();
+    let w = Windows {
+        data,
+        windows,
+        motions,
+    };
+    let mut out = not_moving(&w);
+    out.extend(imu_constant(&w));
+    out.extend(encoders_silent(&w, Check::EncodersZero));
+    out.extend(encoders_silent(&w, Check::EncodersStuck));
+    out.extend(encoder_command(data, &w.windows));
+    out.extend(encoder_units(&w));
+    if let Some(space) = limits {
+        out.extend(outside_limits(&w, space));
+    }
+    out
+}
+
+/// `not-moving`: the encoders turn and localization does not follow, the commands ask for
+/// motion that neither sees, or nothing is driven at all.
+fn not_moving(w: &Windows<'_>) -> Vec<Finding> {
+    let (data, windows, motions) = (w.data, &w.windows, w.motions.as_slice());
+    let mut out = Vec::new();
     // not-moving: among windows where the encoders imply real motion (0.2 m or 0.2 rad),
     // those where localization saw less than a tenth of it.
-    // Each window's implied and localized motion, once.
-    let motions: Vec<(f64, f64, f64, f64)> = windows.iter().map(|w| motion(data, w)).collect();
     let (mut driven, mut still) = (0usize, 0usize);
-    for (w, &(d, r, moved, turned)) in windows.iter().zip(&motions) {
+    for (w, &(d, r, moved, turned)) in windows.iter().zip(motions) {
         let turned = turned.abs();
         let significant = [(d, moved, 0.2), (r, turned, 0.2)]
             .into_iter()
@@ -160,7 +252,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     // encoders nor localization saw a tenth of it: a robot that never moved (e-stop, motors
     // off) whose encoders and localization read only their noise.
     let (mut asked, mut ignored) = (0usize, 0usize);
-    for (w, &(d, r, moved, turned)) in windows.iter().zip(&motions) {
+    for (w, &(d, r, moved, turned)) in windows.iter().zip(motions) {
         let (cd, cr) = dead_reckoned(data, &w.command, w.len());
         let significant: Vec<(f64, f64, f64)> = [(cd, d, moved), (cr, r, turned.abs())]
             .into_iter()
@@ -180,7 +272,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     if asked > 0 && ignored * 10 >= asked && still * 10 < driven.max(1) {
         let fatal = ignored * 2 > asked;
         out.push(Finding {
-            check: "not-moving",
+            check: Check::NotMoving,
             severity: Severity::fatal_if(fatal),
             message: format!(
                 "in {ignored} of {asked} windows whose commands ask for at least 0.2 m or 0.2 rad of motion, neither the encoders nor localization saw a tenth of it: {}",
@@ -196,7 +288,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     // motion the checks above look at (commands and limits in another unit, or zero).
     if asked == 0 && driven == 0 && motions.iter().all(|m| m.2 < 0.2 && m.3.abs() < 0.2) {
         out.push(Finding {
-            check: "not-moving",
+            check: Check::NotMoving,
             severity: Severity::Fatal,
             message: format!(
                 "in none of the {} windows do the commands, the encoders or localization reach 0.2 m or 0.2 rad of motion: nothing was driven (commands in another unit, or all zero?)",
@@ -207,7 +299,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     if driven > 0 && still * 10 >= driven {
         let fatal = still * 2 > driven;
         out.push(Finding {
-            check: "not-moving",
+            check: Check::NotMoving,
             severity: Severity::fatal_if(fatal),
             message: format!(
                 "in {still} of {driven} windows where the encoders imply at least 0.2 m or 0.2 rad of motion, localization saw less than a tenth of it: {}",
@@ -219,7 +311,12 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
             ),
         });
     }
-    // imu-constant: one value throughout while localization turns.
+    out
+}
+
+/// `imu-constant`: one IMU yaw rate throughout while localization turns.
+fn imu_constant(w: &Windows<'_>) -> Option<Finding> {
+    let (data, windows, motions) = (w.data, &w.windows, w.motions.as_slice());
     let imu: Vec<f64> = windows
         .iter()
         .flat_map(|w| w.imu_yaw_rate.iter().copied())
@@ -228,12 +325,12 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         // How far localization's turning departs from what the constant rate implies.
         let departs = windows
             .iter()
-            .zip(&motions)
+            .zip(motions)
             .map(|(w, m)| (m.3 - first * (w.len() - 1) as f64 * data.robot.dt()).abs())
             .fold(0.0, f64::max);
         if imu.iter().all(|v| *v == first) && departs > 0.2 {
-            out.push(Finding {
-                check: "imu-constant",
+            return Some(Finding {
+                check: Check::ImuConstant,
                 severity: Severity::Warning,
                 message: format!(
                     "the IMU yaw rate is {} rad/s throughout, while localization's turning departs from it by up to {} rad in a window: not recorded?",
@@ -243,62 +340,69 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
             });
         }
     }
-    // encoders-zero and encoders-stuck: windows commanded at a tenth of the largest command
-    // or more, with the encoders exactly zero throughout, or (stuck) not zero but under a
-    // millionth of the largest command throughout.
+    None
+}
+
+/// `encoders-zero` (`which`: the encoders exactly zero) or `encoders-stuck` (not zero but
+/// under a millionth of the largest command) throughout the windows commanded at a tenth of
+/// the largest command or more; any other `which` finds nothing.
+fn encoders_silent(w: &Windows<'_>, which: Check) -> Option<Finding> {
+    let windows = &w.windows;
     let largest = windows
         .iter()
         .flat_map(|w| w.command.iter())
         .map(|u| u.x.abs().max(u.y.abs()))
         .fold(0.0, f64::max);
-    if largest > 0.0 {
-        let commanded: Vec<&&Window> = windows
-            .iter()
-            .filter(|w| {
-                w.command
-                    .iter()
-                    .any(|u| u.x.abs().max(u.y.abs()) >= 0.1 * largest)
-            })
-            .collect();
-        let zero = |w: &Window| w.measured.iter().all(|u| u.x == 0.0 && u.y == 0.0);
-        let tiny = |w: &Window| {
-            !zero(w)
-                && w.measured
-                    .iter()
-                    .all(|u| u.x.abs().max(u.y.abs()) <= 1e-6 * largest)
-        };
-        let zeros = commanded.iter().filter(|w| zero(w)).count();
-        let stuck = commanded.iter().filter(|w| tiny(w)).count();
-        for (count, check, what) in [
-            (zeros, "encoders-zero", "read zero".to_string()),
-            (
-                stuck,
-                "encoders-stuck",
-                format!(
-                    "stay under {} (a millionth of the largest command, {})",
-                    Short(1e-6 * largest),
-                    Short(largest)
-                ),
-            ),
-        ] {
-            if count > 0 && count * 10 >= commanded.len() {
-                out.push(Finding {
-                    check,
-                    severity: Severity::fatal_if(count == commanded.len()),
-                    message: format!(
-                        "the encoders {what} throughout {count} of {} commanded windows: {}",
-                        commanded.len(),
-                        if check == "encoders-zero" {
-                            "not recorded?"
-                        } else {
-                            "stuck, or not recorded?"
-                        }
-                    ),
-                });
-            }
-        }
+    if largest <= 0.0 {
+        return None;
     }
-    out.extend(encoder_command(data, &windows));
+    let commanded: Vec<&&Window> = windows
+        .iter()
+        .filter(|w| {
+            w.command
+                .iter()
+                .any(|u| u.x.abs().max(u.y.abs()) >= 0.1 * largest)
+        })
+        .collect();
+    let zero = |w: &Window| w.measured.iter().all(|u| u.x == 0.0 && u.y == 0.0);
+    let tiny = |w: &Window| {
+        !zero(w)
+            && w.measured
+                .iter()
+                .all(|u| u.x.abs().max(u.y.abs()) <= 1e-6 * largest)
+    };
+    let (count, what, guess) = match which {
+        Check::EncodersZero => (
+            commanded.iter().filter(|w| zero(w)).count(),
+            "read zero".to_string(),
+            "not recorded?",
+        ),
+        Check::EncodersStuck => (
+            commanded.iter().filter(|w| tiny(w)).count(),
+            format!(
+                "stay under {} (a millionth of the largest command, {})",
+                Short(1e-6 * largest),
+                Short(largest)
+            ),
+            "stuck, or not recorded?",
+        ),
+        _ => return None,
+    };
+    (count > 0 && count * 10 >= commanded.len()).then(|| Finding {
+        check: which,
+        severity: Severity::fatal_if(count == commanded.len()),
+        message: format!(
+            "the encoders {what} throughout {count} of {} commanded windows: {guess}",
+            commanded.len(),
+        ),
+    })
+}
+
+/// `encoder-units`: the distance the encoders imply against localization's, and
+/// localization's yaw rate against the encoders'.
+fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
+    let (data, windows, motions) = (w.data, &w.windows, w.motions.as_slice());
+    let mut out = Vec::new();
     // encoder-units: over the windows where localization saw at least 0.2 m, the median ratio
     // of the distance the encoders imply to the one localization saw (0.8-1.05 on the
     // bundled runs, slip included).
@@ -312,7 +416,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         let median = ratios[ratios.len() / 2];
         if !(0.4..=2.5).contains(&median) {
             out.push(Finding {
-                check: "encoder-units",
+                check: Check::EncoderUnits,
                 severity: Severity::Warning,
                 message: format!(
                     "the encoders imply {}x the distance localization saw (median over {} windows): encoders in another unit, or the wrong wheel radius?",
@@ -330,7 +434,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     // Each change over the time since the previous one (a localization slower than the
     // command rate holds its yaw in between).
     let mut seen: Vec<f64> = Vec::new();
-    for w in &windows {
+    for w in windows {
         let mut last = 0;
         for k in 1..w.len() {
             let d = w.pose[k].z - w.pose[last].z;
@@ -354,7 +458,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         let (seen, implied) = (median(&mut seen), median(&mut implied));
         if seen > 5.0 && seen > 5.0 * implied {
             out.push(Finding {
-                check: "encoder-units",
+                check: Check::EncoderUnits,
                 severity: Severity::Warning,
                 message: format!(
                     "localization's yaw turns at a median {} rad/s where it changes, {}x the encoders' median yaw rate: yaw in degrees, or in another unit?",
@@ -364,41 +468,47 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
             });
         }
     }
+    out
+}
+
+/// `outside-limits`: commands or measured inputs beyond three times the robot description's
+/// limit `space` on an axis.
+fn outside_limits(w: &Windows<'_>, space: &InputSpace) -> Vec<Finding> {
+    let (data, windows) = (w.data, &w.windows);
+    let mut out = Vec::new();
     // outside-limits: beyond three times the description's limit on an axis (real runs go
     // past a manufacturer's nominal speed: the bundled Husky data reaches 2.4 times it).
-    if let Some(space) = limits {
-        let axes = data.robot.vehicle.axes();
-        for (i, axis) in axes.iter().enumerate() {
-            let limit = space.min[i].abs().max(space.max[i].abs());
-            for (what, values) in [
-                (
-                    "commands",
-                    windows
-                        .iter()
-                        .flat_map(|w| w.command.iter())
-                        .collect::<Vec<_>>(),
-                ),
-                (
-                    "measured inputs",
-                    windows.iter().flat_map(|w| w.measured.iter()).collect(),
-                ),
-            ] {
-                let peak = values.iter().map(|u| u[i].abs()).fold(0.0, f64::max);
-                if limit > 0.0 && peak > 3.0 * limit {
-                    out.push(Finding {
-                        check: "outside-limits",
-                        severity: Severity::Warning,
-                        message: format!(
-                            "{what} reach {} {} on '{}', {}x the robot description's limit of {}: is it the right robot?",
-                            Short(peak),
-                            axis.unit,
-                            axis.name,
-                            Short((peak / limit * 10.0).round() / 10.0),
-                            Short(limit)
-                        ),
-                    });
-                    break;
-                }
+    let axes = data.robot.vehicle.axes();
+    for (i, axis) in axes.iter().enumerate() {
+        let limit = space.min[i].abs().max(space.max[i].abs());
+        for (what, values) in [
+            (
+                "commands",
+                windows
+                    .iter()
+                    .flat_map(|w| w.command.iter())
+                    .collect::<Vec<_>>(),
+            ),
+            (
+                "measured inputs",
+                windows.iter().flat_map(|w| w.measured.iter()).collect(),
+            ),
+        ] {
+            let peak = values.iter().map(|u| u[i].abs()).fold(0.0, f64::max);
+            if limit > 0.0 && peak > 3.0 * limit {
+                out.push(Finding {
+                    check: Check::OutsideLimits,
+                    severity: Severity::Warning,
+                    message: format!(
+                        "{what} reach {} {} on '{}', {}x the robot description's limit of {}: is it the right robot?",
+                        Short(peak),
+                        axis.unit,
+                        axis.name,
+                        Short((peak / limit * 10.0).round() / 10.0),
+                        Short(limit)
+                    ),
+                });
+                break;
             }
         }
     }
@@ -504,7 +614,7 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
             continue;
         };
         out.push(Finding {
-            check: "encoder-command",
+            check: Check::EncoderCommand,
             severity: Severity::Warning,
             message,
         });
@@ -546,7 +656,7 @@ pub fn vehicle_mismatch(
         _ => a != b,
     };
     differs.then(|| Finding {
-        check: "outside-limits",
+        check: Check::OutsideLimits,
         severity: Severity::Warning,
         message: format!(
             "the data's vehicle {a} is not the robot {robot_name}'s {b}: is it the right robot?"
@@ -653,7 +763,7 @@ mod tests {
         // 4 rad/s for 2 s: the localized yaw wraps twice.
         assert_eq!(check(&spin(4.0, 1.0), None), vec![]);
         let still = check(&spin(4.0, 0.02), None);
-        let stand = still.iter().find(|f| f.check == "not-moving").unwrap();
+        let stand = still.iter().find(|f| f.check == Check::NotMoving).unwrap();
         assert_eq!(stand.severity, Severity::Fatal);
         // The localization's yaw rate follows the spin across the wraps.
         let data = spin(4.0, 1.0);
@@ -693,7 +803,7 @@ mod tests {
         assert_eq!(findings.len(), 1, "{findings:?}");
         assert_eq!(
             (findings[0].check, findings[0].severity),
-            ("not-moving", Severity::Fatal)
+            (Check::NotMoving, Severity::Fatal)
         );
         assert!(findings[0].message.contains("nothing was driven"));
         // Commands of 1e-300 (a limit in another unit): the same, with no infinite gain.

@@ -1,5 +1,6 @@
-//! The outputs of a benchmark ([`drive_studies::Bench`]): CSV tables, a Markdown summary, the
-//! JSON document and one self-contained HTML page whose figures (SVG) are embedded.
+//! The outputs of a benchmark ([`drive_studies::Bench`]): the text the terminal shows, CSV
+//! tables, a Markdown summary, the JSON document and one self-contained HTML page whose
+//! figures (SVG) are embedded.
 //!
 //! | figure | shows |
 //! |---|---|
@@ -14,8 +15,10 @@ use drive_studies::Bench;
 use std::fmt::Write as _;
 
 mod plots;
+mod text;
 pub use plots::figure_svg;
 use plots::{figure_list, numbered};
+pub use text::text;
 
 /// Every file of `drive bench --out` by name, with its content.
 ///

@@ -1,7 +1,7 @@
 //! `drive check`: the data-quality checks of `drive import` on a window CSV.
 
 use super::common::{load, DataArgs};
-use crate::data::quality::{check, to_text, CHECKS};
+use crate::data::quality::{check, to_text, Check, CHECKS};
 use crate::import::stopping;
 use crate::Registries;
 use anyhow::{bail, Result};
@@ -25,7 +25,7 @@ pub struct Args {
 /// `Err` for a name that is not a check's.
 pub fn known_checks(names: &[String]) -> Result<()> {
     for n in names {
-        if !CHECKS.iter().any(|(k, _)| k == n) {
+        if Check::from_key(n).is_none() {
             let keys: Vec<&str> = CHECKS.iter().map(|(k, _)| *k).collect();
             bail!(
                 "--allow: no check {n:?} (the checks are: {})",

@@ -3,11 +3,10 @@
 use super::common::{parse_number, parse_pair, parse_triplet};
 use crate::models::model_file::model_from_json;
 use crate::traits::limits::Exact as Num;
-use crate::traits::limits::Short;
 use crate::traits::{Input, MotionError, Pose, StartState};
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -40,130 +39,6 @@ pub struct Args {
     start_velocity: Option<[f64; 2]>,
 }
 
-/// Longest line of a command file (bytes): a line is three numbers.
-const MAX_COMMAND_LINE_BYTES: u64 = 4096;
-
-/// Most commands of one prediction (`--commands`): about 14 hours at 20 Hz.
-const MAX_COMMANDS: usize = 1_000_000;
-
-/// Reads a command file with the header `t,<columns>` sampled at period `dt`.
-fn read_commands(path: &Path, columns: &[&str], dt: f64) -> Result<(Vec<Input>, f64)> {
-    use std::io::BufRead as _;
-    use std::io::Read as _;
-    let name = path.display().to_string();
-    crate::traits::files::regular(path).with_context(|| format!("reading {name}"))?;
-    let file = std::fs::File::open(path).with_context(|| format!("reading {name}"))?;
-    // Line by line (the file is never held whole), each line capped.
-    let mut reader = std::io::BufReader::new(file);
-    let mut number = 0;
-    let mut failed = false;
-    let mut lines = std::iter::from_fn(|| {
-        if failed {
-            return None;
-        }
-        let mut line = String::new();
-        let read = (&mut reader)
-            .take(MAX_COMMAND_LINE_BYTES + 1)
-            .read_line(&mut line);
-        let i = number;
-        number += 1;
-        match read {
-            Ok(0) => None,
-            Ok(n) if n as u64 > MAX_COMMAND_LINE_BYTES => {
-                failed = true;
-                Some(Err(anyhow::anyhow!(
-                    "{name}, line {}: longer than {MAX_COMMAND_LINE_BYTES} bytes: not a command file",
-                    i + 1
-                )))
-            }
-            Ok(_) => Some(Ok((i, line.trim_end_matches(['\n', '\r']).to_string()))),
-            Err(e) => {
-                failed = true;
-                Some(Err(anyhow::anyhow!("{name}, line {}: cannot read: {e}", i + 1)))
-            }
-        }
-    })
-    .filter(|l| l.as_ref().map_or(true, |(_, l)| !l.trim().is_empty()));
-    let Some(first) = lines.next() else {
-        bail!("{name}: the file is empty")
-    };
-    let (_, header) = first?;
-    let header = header.trim_start_matches('\u{feff}');
-    let expected: Vec<&str> = std::iter::once("t")
-        .chain(columns.iter().copied())
-        .collect();
-    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
-    if cols != expected {
-        bail!(
-            "{name}, line 1: expected the header '{}', found '{header}'",
-            expected.join(",")
-        );
-    }
-    let mut out = Vec::new();
-    let mut t0 = None;
-    for line in lines {
-        let (i, line) = line?;
-        let fields: Vec<&str> = line.split(',').collect();
-        if fields.len() != expected.len() {
-            bail!(
-                "{name}, line {}: {} fields where the header has {}",
-                i + 1,
-                fields.len(),
-                expected.len()
-            );
-        }
-        let mut v = [0.0; 1 + crate::traits::MAX_INPUTS];
-        for (j, f) in fields.iter().enumerate() {
-            let x: f64 = f.trim().parse().map_err(|_| {
-                anyhow::anyhow!(
-                    "{name}, line {}, column '{}': '{}' is not a number",
-                    i + 1,
-                    cols[j],
-                    f.trim()
-                )
-            })?;
-            if !x.is_finite() {
-                bail!(
-                    "{name}, line {}, column '{}': '{}' is not a finite number",
-                    i + 1,
-                    cols[j],
-                    f.trim()
-                );
-            }
-            // As the CSV readers: a value beyond 1e9 is a corrupted number.
-            crate::traits::limits::at_most(
-                &format!("{name}, line {}, column '{}'", i + 1, cols[j]),
-                x.abs(),
-                crate::traits::limits::MAX_ABS_MEASUREMENT,
-                "",
-            )?;
-            v[j] = x;
-        }
-        let t0 = *t0.get_or_insert(v[0]);
-        let expected = t0 + out.len() as f64 * dt;
-        if (v[0] - expected).abs() > 0.5 * dt {
-            bail!(
-                "{name}, line {}, column 't': t = {} but the model's command period is {} s (expected t = {})",
-                i + 1,
-                Short(v[0]),
-                Short(dt),
-                Short(expected)
-            );
-        }
-        if out.len() == MAX_COMMANDS {
-            bail!(
-                "{name}, line {}: more than {MAX_COMMANDS} commands (the limit of one prediction)",
-                i + 1
-            );
-        }
-        out.push(Input::new(v[1], v[2], v[3]));
-    }
-    match t0 {
-        Some(t0) if !out.is_empty() => Ok((out, t0)),
-        _ => bail!("{name}: no command rows"),
-    }
-}
-
 pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
     super::common::stdout_not_an_input(&[
         ("--model", args.model.clone()),
@@ -182,7 +57,8 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
     let axes = robot.vehicle.axes();
     let columns: Vec<&str> = axes.iter().map(|a| a.command_column).collect();
     // The output's t runs on the command file's clock (from its first t).
-    let (cmds, t0) = read_commands(&args.commands, &columns, model.dt())?;
+    let crate::data::CommandFile { commands: cmds, t0 } =
+        crate::data::read_commands(&args.commands, &columns, model.dt())?;
     let pose = args
         .start
         .map_or(Pose::zeros(), |[x, y, yaw]| Pose::new(x, y, yaw));

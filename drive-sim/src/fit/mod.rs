@@ -451,7 +451,10 @@ fn checked_run(
     // before finding that the speeds do not follow the wheels).
     if let Some(f) = drive_data::quality::check(data, None)
         .into_iter()
-        .find(|f| f.severity == drive_data::quality::Severity::Fatal || f.check == "encoder-units")
+        .find(|f| {
+            f.severity == drive_data::quality::Severity::Fatal
+                || f.check == drive_data::quality::Check::EncoderUnits
+        })
     {
         return Err(SimFitError::Unfit(format!("{} ({})", f.message, f.check)));
     }
