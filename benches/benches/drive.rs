@@ -212,6 +212,7 @@ fn control(c: &mut Criterion) {
             robot: husky.clone(),
             to_vehicle: InputMap::identity(),
             speed: 0.5,
+            seed: 0,
         };
         let mut controller = Mppi::default().make(&setup).unwrap();
         let state = ControlState {

@@ -121,6 +121,10 @@ pub struct ControlSetup {
     pub to_vehicle: InputMap,
     /// The path-following speed (m/s); a controller may take its length scale from it.
     pub speed: f64,
+    /// The run's seed: a controller that samples (MPPI) seeds its generator with it and its
+    /// own settings' seed, so that runs of different seeds differ in the controller's
+    /// sampling as well as in the plant's noise (0: its settings' seed alone).
+    pub seed: u64,
 }
 
 impl std::fmt::Debug for ControlSetup {
@@ -129,6 +133,7 @@ impl std::fmt::Debug for ControlSetup {
             .field("model", &self.model.name())
             .field("robot", &self.robot.name)
             .field("speed", &self.speed)
+            .field("seed", &self.seed)
             .finish_non_exhaustive()
     }
 }

@@ -87,7 +87,7 @@ pub struct Mppi {
     pub effort_weight: f64,
     /// Weight of the squared change of the normalised input per step.
     pub smoothness_weight: f64,
-    /// Seed of the sampling noise.
+    /// Seed of the sampling noise (mixed with the run's, [`ControlSetup::seed`]).
     pub seed: u64,
 }
 
@@ -289,7 +289,7 @@ impl MppiController {
             half_range,
             stop,
             length_scale: (setup.speed * 1.0).max(0.1),
-            rng: Xoshiro256PlusPlus::seed_from_u64(config.seed),
+            rng: Xoshiro256PlusPlus::seed_from_u64(sampling_seed(config.seed, setup.seed)),
             plan: vec![stop; h],
             candidates: vec![Input::zeros(); k * h],
             commands: vec![Input::zeros(); k * (h + 1)],
@@ -474,4 +474,23 @@ impl Controller for MppiController {
     fn reset(&mut self) {
         self.plan.fill(self.stop);
     }
+}
+
+/// The seed of the sampling noise: the settings' `own`, mixed with the run's `run` (a
+/// SplitMix64 step of it, so that consecutive run seeds give unrelated streams); `own`
+/// itself for run 0.
+///
+/// ```
+/// # use drive_control::mppi::sampling_seed;
+/// assert_eq!(sampling_seed(7, 0), 7);
+/// assert_ne!(sampling_seed(0, 1), sampling_seed(0, 2));
+/// ```
+pub fn sampling_seed(own: u64, run: u64) -> u64 {
+    if run == 0 {
+        return own;
+    }
+    let mut z = run.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    own ^ z ^ (z >> 31)
 }

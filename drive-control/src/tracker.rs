@@ -144,7 +144,7 @@ const VELOCITY_SPAN_S: f64 = 0.5;
 /// let husky = drive_traits::robot::builtin_robots().get("husky").unwrap().part().as_ref().clone();
 /// let model = Arc::new(ComposedModel { label: "naive".into(), vehicle: husky.vehicle.clone(),
 ///     powertrain: Box::new(CommandedPowertrain), slip: Box::new(NoSlipModel), dt: 0.05 });
-/// let setup = ControlSetup { model, robot: husky.clone(), to_vehicle: InputMap::identity(), speed: 0.5 };
+/// let setup = ControlSetup { model, robot: husky.clone(), to_vehicle: InputMap::identity(), speed: 0.5, seed: 0 };
 /// let path = PathShape::Line.at_scale(1.0).unwrap();
 /// let config = TrackerConfig { start: StartInfo::Encoders, ..TrackerConfig::new(0.5) };
 /// let mut tracker = Tracker::new(&Mppi { samples: 64, ..Mppi::default() }, &setup, path, config, husky.vehicle.clone()).unwrap();

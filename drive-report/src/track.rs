@@ -197,15 +197,121 @@ where
     Ok(())
 }
 
+/// The closed loop as the terminal shows it (`drive track` without `--json`): per training,
+/// path and speed, each model's scores, against the first model and against the powertrain
+/// model, and whether the robot can drive the path at that speed.
+///
+/// ```no_run
+/// # fn demo(result: &drive_studies::TrackResult) {
+/// let text = drive_report::track::text(result);
+/// assert!(text.starts_with("Closed loop: "));
+/// # }
+/// ```
+pub fn text(r: &TrackResult) -> String {
+    let seeds = r
+        .runs
+        .iter()
+        .map(|x| x.seed)
+        .collect::<std::collections::BTreeSet<_>>();
+    let mut s = format!(
+        "Closed loop: {} on {} with the {} controller; top speed on this ground {:.3} m/s (measured on the simulator); preset paths at scale {:.2} m; {} seed{}\n",
+        r.robot,
+        r.terrain,
+        r.controller,
+        r.top_speed_m_s,
+        r.path_scale_m,
+        seeds.len(),
+        if seeds.len() == 1 { "" } else { "s, means over them" }
+    );
+    let mut last = None;
+    for x in &r.summary {
+        let key = (x.train.clone(), x.path.clone(), x.speed_fraction);
+        if last.as_ref() != Some(&key) {
+            let drivable = r
+                .feasibility
+                .iter()
+                .find(|f| f.path == x.path && f.speed_fraction == x.speed_fraction)
+                .map_or(String::new(), |f| match f.yaw_rate_reached_rad_s {
+                    Some(reached) => format!(
+                        "; {}: its sharpest turn needs {:.2} rad/s, the robot reaches {:.2} rad/s at this speed",
+                        if reached >= f.yaw_rate_needed_rad_s {
+                            "drivable"
+                        } else {
+                            "NOT drivable on this ground"
+                        },
+                        f.yaw_rate_needed_rad_s,
+                        reached
+                    ),
+                    None => format!(
+                        "; its sharpest turn needs {:.2} rad/s (what the robot reaches is unknown)",
+                        f.yaw_rate_needed_rad_s
+                    ),
+                });
+            let _ = writeln!(
+                s,
+                "\ntrained on {}, {} at {}% ({:.2} m/s){drivable}",
+                x.train,
+                x.path,
+                drive_traits::limits::Short(100.0 * x.speed_fraction),
+                x.speed_fraction * r.top_speed_m_s
+            );
+            let _ = writeln!(
+                s,
+                "  {:<18} {:>16} {:>10} {:>12} {:>10} {:>9} {:>7} {:>9} {:>10} {:>15}",
+                "model",
+                "cross-track RMS",
+                "max [m]",
+                "heading RMS",
+                "completed",
+                "time [s]",
+                "effort",
+                "weave/m",
+                format!("vs {}", r.models.first().map_or("", String::as_str)),
+                "vs powertrain"
+            );
+            last = Some(key);
+        }
+        let _ = writeln!(
+            s,
+            "  {:<18} {:>14.3} m {:>10.3} {:>8.3} rad {:>9.0}% {:>9} {:>7.2} {:>9.2} {:>10} {:>15}",
+            x.model,
+            x.cross_track_rms_m,
+            x.cross_track_max_m,
+            x.heading_rms_rad,
+            100.0 * x.completed_share,
+            x.duration_s.map_or("-".into(), |d| format!("{d:.1}")),
+            x.effort,
+            x.yaw_rate_sign_changes_per_m,
+            x.improvement_over_first_percent
+                .map_or("-".into(), |p| format!("{p:+.1}%")),
+            x.improvement_over_powertrain_percent
+                .map_or("-".into(), |p| format!("{p:+.1}%"))
+        );
+    }
+    let ticks: Vec<f64> = {
+        let mut t: Vec<f64> = r.runs.iter().map(|x| x.tick_ms_median).collect();
+        t.sort_by(f64::total_cmp);
+        t
+    };
+    if let Some(m) = ticks.get(ticks.len() / 2) {
+        let _ = writeln!(
+            s,
+            "\ncontroller time per tick: median {} ms over the runs (runs in parallel; see BENCHMARKS.md for one core)",
+            drive_traits::limits::Short(*m)
+        );
+    }
+    s
+}
+
 /// Every run, one row each.
 pub fn runs_csv(result: &TrackResult) -> String {
     let mut s = String::from(
-        "model,train,path,speed_fraction,speed_m_s,seed,cross_track_rms_m,cross_track_max_m,heading_rms_rad,completed,duration_s,effort,tick_ms_median,length_m\n",
+        "model,train,path,speed_fraction,speed_m_s,seed,cross_track_rms_m,cross_track_max_m,heading_rms_rad,completed,duration_s,effort,command_change_rms,yaw_rate_sign_changes,yaw_rate_sign_changes_per_m,tick_ms_median,length_m\n",
     );
     for r in &result.runs {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.model,
             csv_text(&r.train),
             csv_text(&r.path),
@@ -218,6 +324,9 @@ pub fn runs_csv(result: &TrackResult) -> String {
             r.completed,
             r.duration_s,
             r.effort,
+            r.command_change_rms,
+            r.yaw_rate_sign_changes,
+            r.yaw_rate_sign_changes_per_m,
             r.tick_ms_median,
             r.length_m
         );
@@ -228,13 +337,13 @@ pub fn runs_csv(result: &TrackResult) -> String {
 /// The summary, one row per model, training, path and speed.
 pub fn summary_csv(result: &TrackResult) -> String {
     let mut s = String::from(
-        "model,train,path,speed_fraction,runs,cross_track_rms_m,cross_track_max_m,heading_rms_rad,completed_share,duration_s,effort,improvement_over_first_percent\n",
+        "model,train,path,speed_fraction,runs,cross_track_rms_m,cross_track_max_m,heading_rms_rad,completed_share,duration_s,effort,command_change_rms,yaw_rate_sign_changes_per_m,feasible,improvement_over_first_percent,improvement_over_powertrain_percent,heading_rms_ratio_to_powertrain\n",
     );
     for r in &result.summary {
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.model,
             csv_text(&r.train),
             csv_text(&r.path),
@@ -246,7 +355,12 @@ pub fn summary_csv(result: &TrackResult) -> String {
             r.completed_share,
             opt(r.duration_s),
             r.effort,
-            opt(r.improvement_over_first_percent)
+            r.command_change_rms,
+            r.yaw_rate_sign_changes_per_m,
+            r.feasible.map_or(String::new(), |f| f.to_string()),
+            opt(r.improvement_over_first_percent),
+            opt(r.improvement_over_powertrain_percent),
+            opt(r.heading_rms_ratio_to_powertrain)
         );
     }
     s
@@ -280,11 +394,11 @@ pub fn markdown(result: &TrackResult) -> String {
         result.top_speed_m_s,
         result.path_scale_m
     );
-    s.push_str("| trained on | path | speed | model | cross-track RMS [m] | max [m] | heading RMS [rad] | completed | time [s] | vs first model |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    s.push_str("| trained on | path | speed | model | cross-track RMS [m] | max [m] | heading RMS [rad] | completed | time [s] | yaw-rate sign changes per m | vs first model | vs powertrain |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for r in &result.summary {
         let _ = writeln!(
             s,
-            "| {} | {} | {:.0}% | {} | {:.3} | {:.3} | {:.3} | {:.0}% | {} | {} |",
+            "| {} | {} | {:.0}% | {} | {:.3} | {:.3} | {:.3} | {:.0}% | {} | {:.2} | {} | {} |",
             esc(&r.train),
             esc(&r.path),
             100.0 * r.speed_fraction,
@@ -294,7 +408,10 @@ pub fn markdown(result: &TrackResult) -> String {
             r.heading_rms_rad,
             100.0 * r.completed_share,
             r.duration_s.map_or("-".into(), |d| format!("{d:.1}")),
+            r.yaw_rate_sign_changes_per_m,
             r.improvement_over_first_percent
+                .map_or("-".into(), |p| format!("{p:+.1}%")),
+            r.improvement_over_powertrain_percent
                 .map_or("-".into(), |p| format!("{p:+.1}%"))
         );
     }

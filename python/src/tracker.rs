@@ -125,6 +125,7 @@ impl Tracker {
             robot: robot.clone(),
             to_vehicle: InputMap::identity(),
             speed,
+            seed: 0,
         };
         let config = TrackerConfig {
             start,

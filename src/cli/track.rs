@@ -4,7 +4,7 @@
 
 use super::common::{emit, outputs_for, parse_number, Progress};
 use crate::control::{MakeController, Mppi, PathShape, ReferencePath};
-use crate::studies::{run_track, PathChoice, TrackResult, TrackStudy, Training};
+use crate::studies::{run_track, PathChoice, TrackStudy, Training};
 use crate::traits::limits;
 use crate::Registries;
 use anyhow::{bail, Context, Result};
@@ -274,7 +274,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     for n in &result.notes {
         super::common::note(format!("note: {n}"));
     }
-    emit(args.json, &result, table)
+    emit(args.json, &result, crate::report::track::text)
 }
 
 /// The controller asked for, with the MPPI settings given.
@@ -313,76 +313,4 @@ fn controller(args: &Args, registries: &Registries) -> Result<Arc<dyn MakeContro
     m.check()
         .map_err(|e| anyhow::anyhow!("{e}").context("--samples, --horizon or --temperature"))?;
     Ok(Arc::new(m))
-}
-
-fn table(r: &TrackResult) -> String {
-    use std::fmt::Write as _;
-    let seeds = r
-        .runs
-        .iter()
-        .map(|x| x.seed)
-        .collect::<std::collections::BTreeSet<_>>();
-    let mut s = format!(
-        "Closed loop: {} on {} with the {} controller; top speed on this ground {:.3} m/s (measured on the simulator); preset paths at scale {:.2} m; {} seed{}\n",
-        r.robot,
-        r.terrain,
-        r.controller,
-        r.top_speed_m_s,
-        r.path_scale_m,
-        seeds.len(),
-        if seeds.len() == 1 { "" } else { "s, means over them" }
-    );
-    let mut last = None;
-    for x in &r.summary {
-        let key = (x.train.clone(), x.path.clone(), x.speed_fraction);
-        if last.as_ref() != Some(&key) {
-            let _ = writeln!(
-                s,
-                "\ntrained on {}, {} at {}% ({:.2} m/s)",
-                x.train,
-                x.path,
-                limits::Short(100.0 * x.speed_fraction),
-                x.speed_fraction * r.top_speed_m_s
-            );
-            let _ = writeln!(
-                s,
-                "  {:<18} {:>16} {:>10} {:>12} {:>10} {:>9} {:>7} {:>10}",
-                "model",
-                "cross-track RMS",
-                "max [m]",
-                "heading RMS",
-                "completed",
-                "time [s]",
-                "effort",
-                format!("vs {}", r.models.first().map_or("", String::as_str))
-            );
-            last = Some(key);
-        }
-        let _ = writeln!(
-            s,
-            "  {:<18} {:>14.3} m {:>10.3} {:>8.3} rad {:>9.0}% {:>9} {:>7.2} {:>10}",
-            x.model,
-            x.cross_track_rms_m,
-            x.cross_track_max_m,
-            x.heading_rms_rad,
-            100.0 * x.completed_share,
-            x.duration_s.map_or("-".into(), |d| format!("{d:.1}")),
-            x.effort,
-            x.improvement_over_first_percent
-                .map_or("-".into(), |p| format!("{p:+.1}%"))
-        );
-    }
-    let ticks: Vec<f64> = {
-        let mut t: Vec<f64> = r.runs.iter().map(|x| x.tick_ms_median).collect();
-        t.sort_by(f64::total_cmp);
-        t
-    };
-    if let Some(m) = ticks.get(ticks.len() / 2) {
-        let _ = writeln!(
-            s,
-            "\ncontroller time per tick: median {} ms over the runs (runs in parallel; see BENCHMARKS.md for one core)",
-            limits::Short(*m)
-        );
-    }
-    s
 }

@@ -267,3 +267,102 @@ fn track_outputs_never_replace_its_inputs() {
     assert!(err.contains("--path"), "{err}");
     assert_eq!(std::fs::read(&path).unwrap(), before);
 }
+
+#[test]
+fn track_compares_with_the_powertrain_model_and_flags_a_path_the_robot_cannot_drive() {
+    let text = ok(&[
+        "track",
+        "--robot",
+        "husky",
+        "--terrain",
+        "examples/husky_twin.toml",
+        "--train-data",
+        "bundled:husky_drive",
+        "--path",
+        "circle,zigzag",
+        "--speed",
+        "0.5",
+        "--models",
+        "slip-blr,powertrain",
+        "--samples",
+        "256",
+        "--seeds",
+        "2",
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    // Every run: its weaving (sign changes of the commanded yaw rate, per metre of the path
+    // covered) and the smoothness of its commands.
+    for r in v["runs"].as_array().unwrap() {
+        let flips = r["yaw_rate_sign_changes"].as_u64().unwrap() as f64;
+        let per_m = f(&r["yaw_rate_sign_changes_per_m"]);
+        if r["completed"] == true {
+            assert!((per_m - flips / f(&r["length_m"])).abs() < 1e-9, "{r}");
+        }
+        assert!(f(&r["command_change_rms"]) >= 0.0, "{r}");
+    }
+    // The two seeds differ (the plant's noise and the controller's sampling).
+    let runs: Vec<&serde_json::Value> = v["runs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["model"] == "slip-blr" && r["path"] == "circle")
+        .collect();
+    assert_eq!(runs.len(), 2);
+    assert_ne!(runs[0]["cross_track_rms_m"], runs[1]["cross_track_rms_m"]);
+    // Whether each path is drivable at this speed on this ground: the circle's turn (its
+    // radius at half the top speed) within what the robot reaches turning hardest, the
+    // zigzag's 120-degree corners (2.09 rad within a second) far beyond this twin's turning.
+    let feasibility = v["feasibility"].as_array().unwrap();
+    assert_eq!(feasibility.len(), 2);
+    let of = |path: &str| {
+        feasibility
+            .iter()
+            .find(|x| x["path"] == path)
+            .unwrap()
+            .clone()
+    };
+    let (circle, zigzag) = (of("circle"), of("zigzag"));
+    assert_eq!(circle["feasible"], true, "{circle}");
+    assert_eq!(zigzag["feasible"], false, "{zigzag}");
+    assert!(f(&zigzag["yaw_rate_needed_rad_s"]) > f(&zigzag["yaw_rate_reached_rad_s"]));
+    let v_m_s = f(&zigzag["speed_m_s"]);
+    assert!(
+        (f(&zigzag["lateral_acceleration_needed_m_s2"])
+            - v_m_s * f(&zigzag["yaw_rate_needed_rad_s"]))
+        .abs()
+            < 1e-9
+    );
+    let notes: Vec<&str> = v["notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap())
+        .collect();
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with("zigzag at 50%") && n.contains("not drivable")),
+        "{notes:?}"
+    );
+    // Each model against the powertrain model (the second here), from the summary's own
+    // numbers, where both reached the end in every run; the powertrain model has none.
+    let summary = v["summary"].as_array().unwrap();
+    for path in ["circle", "zigzag"] {
+        let block: Vec<&serde_json::Value> = summary.iter().filter(|s| s["path"] == path).collect();
+        let pt = block.iter().find(|s| s["model"] == "powertrain").unwrap();
+        let sb = block.iter().find(|s| s["model"] == "slip-blr").unwrap();
+        assert!(pt["improvement_over_powertrain_percent"].is_null());
+        assert_eq!(sb["feasible"], path == "circle", "{sb}");
+        assert!(f(&sb["yaw_rate_sign_changes_per_m"]) >= 0.0);
+        if f(&pt["completed_share"]) == 1.0 && f(&sb["completed_share"]) == 1.0 {
+            let (a, b) = (f(&pt["cross_track_rms_m"]), f(&sb["cross_track_rms_m"]));
+            let got = f(&sb["improvement_over_powertrain_percent"]);
+            assert!((got - 100.0 * (a - b) / a).abs() < 1e-9, "{sb}");
+            let ratio = f(&sb["heading_rms_ratio_to_powertrain"]);
+            assert!((ratio - f(&sb["heading_rms_rad"]) / f(&pt["heading_rms_rad"])).abs() < 1e-9);
+        } else {
+            assert!(sb["improvement_over_powertrain_percent"].is_null(), "{sb}");
+        }
+    }
+}

@@ -33,11 +33,14 @@ use std::sync::Arc;
 use std::time::Instant;
 use thiserror::Error;
 
+mod feasibility;
 mod plant;
 mod results;
 #[cfg(test)]
 mod tests;
 
+use feasibility::*;
+pub use feasibility::{yaw_rate_needed, Feasibility, TURN_SPAN_S};
 use plant::*;
 use results::*;
 
@@ -187,6 +190,14 @@ pub struct TrackRun {
     /// RMS of the commands, normalised by the input space's half-range (0: at its centre,
     /// 1: at its corners).
     pub effort: f64,
+    /// RMS of the change of the normalised command from one tick to the next (the
+    /// smoothness of the control: 0 for a constant command).
+    pub command_change_rms: f64,
+    /// Sign changes of the commanded yaw rate over the run (values within a tenth of its
+    /// RMS of zero not counted): how much the controller weaves.
+    pub yaw_rate_sign_changes: usize,
+    /// [`Self::yaw_rate_sign_changes`] per metre of path covered.
+    pub yaw_rate_sign_changes_per_m: f64,
     /// Median time the controller took per tick (ms).
     pub tick_ms_median: f64,
     /// The path's length (m).
@@ -221,11 +232,26 @@ pub struct TrackSummary {
     pub duration_s: Option<f64>,
     /// Mean effort.
     pub effort: f64,
+    /// Mean of the runs' [`TrackRun::command_change_rms`].
+    pub command_change_rms: f64,
+    /// Mean of the runs' [`TrackRun::yaw_rate_sign_changes_per_m`].
+    pub yaw_rate_sign_changes_per_m: f64,
+    /// Whether the robot can drive this path at this speed on this ground
+    /// ([`Feasibility`]); `None` where the vehicle has no input for the turns it needs.
+    pub feasible: Option<bool>,
     /// How much lower the RMS cross-track error is than the first model's with the same
     /// training, path and speed (%; positive is better), when this is not the first model
     /// and both reached the end in every run (absent otherwise: a run that stops short is
     /// scored on the part of the path it covered).
     pub improvement_over_first_percent: Option<f64>,
+    /// How much lower the RMS cross-track error is than the powertrain model's (FOPDT, no
+    /// slip: `powertrain`) with the same training, path and speed (%; positive is better),
+    /// when the powertrain model is among the models, this is not it and both reached the
+    /// end in every run (see [`Self::feasible`] before reading it as the model's merit).
+    pub improvement_over_powertrain_percent: Option<f64>,
+    /// The mean RMS heading error over the powertrain model's (weaving shows as a ratio
+    /// well above 1), under the same conditions.
+    pub heading_rms_ratio_to_powertrain: Option<f64>,
 }
 
 /// A placed reference path, for figures.
@@ -260,6 +286,8 @@ pub struct TrackResult {
     pub summary: Vec<TrackSummary>,
     /// The paths as placed.
     pub paths: Vec<PlacedPath>,
+    /// Whether each path can be driven at each speed on this ground.
+    pub feasibility: Vec<Feasibility>,
     /// What the reader should know (a run that ended at its time limit, ...).
     pub notes: Vec<String>,
 }
@@ -413,6 +441,28 @@ pub fn run_track(
             }
         }
     }
+    // Whether the robot can drive each path at each speed on this ground: a path it cannot
+    // is reported as such, not scored as the models' fault.
+    let feasible = feasibility(
+        registries,
+        &d,
+        &study.terrain,
+        study.seeds[0],
+        &paths,
+        &study.speeds,
+        top,
+    )?;
+    for f in feasible.iter().filter(|f| f.feasible == Some(false)) {
+        notes.push(format!(
+            "{} at {}% ({} m/s) is not drivable on this ground: its sharpest turn needs {} rad/s of yaw rate ({} m/s^2 lateral), the robot reaches {} rad/s turning as hard as it can at that speed; its errors there are the path's as much as the models'",
+            f.path,
+            Short(100.0 * f.speed_fraction),
+            Short((f.speed_m_s * 100.0).round() / 100.0),
+            Short((f.yaw_rate_needed_rad_s * 100.0).round() / 100.0),
+            Short((f.lateral_acceleration_needed_m_s2 * 100.0).round() / 100.0),
+            Short((f.yaw_rate_reached_rad_s.unwrap_or(0.0) * 100.0).round() / 100.0),
+        ));
+    }
     // The training data: a dataset once, a simulated run per seed.
     let mut sets: Vec<(usize, Option<u64>, Arc<Dataset>)> = Vec::new();
     let mut runs_to_simulate = Vec::new();
@@ -533,7 +583,15 @@ pub fn run_track(
             Short(r.duration_s)
         ));
     }
-    let summary = summarise(study, &runs);
+    // The powertrain model (FOPDT, no slip), when it is among the models: every model is
+    // compared with it (it completes the runs the naive model does not).
+    let powertrain = registries
+        .models()
+        .resolve("powertrain")
+        .ok()
+        .map(|p| p.canonical())
+        .and_then(|c| study.models.iter().position(|m| m.canonical() == c));
+    let summary = summarise(study, &runs, &feasible, powertrain);
     let start = Pose::zeros();
     Ok(TrackResult {
         robot: study.robot.name.clone(),
@@ -552,6 +610,7 @@ pub fn run_track(
                 points: p.placed_at(&start).points().to_vec(),
             })
             .collect(),
+        feasibility: feasible,
         notes,
     })
 }

@@ -149,6 +149,7 @@ pub(super) fn drive(
         robot: d.controller.clone(),
         to_vehicle: d.to_vehicle.clone(),
         speed: plan.speed,
+        seed: plan.seed,
     };
     let config = TrackerConfig {
         start: plan.spec.start,
@@ -171,6 +172,10 @@ pub(super) fn drive(
         (0.0, 0.0, 0.0f64, 0.0, 0.0);
     let mut ticks_ms = Vec::new();
     let mut trajectory = Vec::new();
+    // The commanded yaw rate of every tick (through the controller's vehicle), and the
+    // squared changes of the normalised command from one tick to the next.
+    let mut yaw_rates = Vec::new();
+    let (mut change2, mut previous) = (0.0, None::<Input>);
     let mut m = first;
     let (completed, duration) = loop {
         let obs = Observation {
@@ -200,6 +205,14 @@ pub(super) fn drive(
             .component_div(&half)
             .norm_squared()
             / axes;
+        yaw_rates.push(d.controller.vehicle.body_velocity(&tick.controller_input).z);
+        if let Some(p) = previous {
+            change2 += (tick.controller_input - p)
+                .component_div(&half)
+                .norm_squared()
+                / axes;
+        }
+        previous = Some(tick.controller_input);
         if tick.done {
             break (true, m.t);
         }
@@ -211,6 +224,8 @@ pub(super) fn drive(
     };
     let n = ticks_ms.len() as f64;
     ticks_ms.sort_by(f64::total_cmp);
+    let covered = if completed { path.length() } else { progress };
+    let flips = sign_changes(&yaw_rates);
     Ok(TrackRun {
         model: plan.spec.name.clone(),
         train: plan.train.clone(),
@@ -224,8 +239,33 @@ pub(super) fn drive(
         completed,
         duration_s: duration,
         effort: (effort2 / n).sqrt(),
+        command_change_rms: (change2 / (n - 1.0).max(1.0)).sqrt(),
+        yaw_rate_sign_changes: flips,
+        yaw_rate_sign_changes_per_m: if covered > 0.0 {
+            flips as f64 / covered
+        } else {
+            0.0
+        },
         tick_ms_median: ticks_ms[ticks_ms.len() / 2],
         length_m: path.length(),
         trajectory,
     })
+}
+
+/// How many times `rates` (the commanded yaw rates of a run, one per tick) change sign,
+/// counting only values beyond a tenth of their RMS (a rate that hovers around zero on a
+/// straight does not count as weaving): how much a controller weaves.
+pub(super) fn sign_changes(rates: &[f64]) -> usize {
+    let n = rates.len().max(1) as f64;
+    let rms = (rates.iter().map(|r| r * r).sum::<f64>() / n).sqrt();
+    let band = 0.1 * rms;
+    let mut last = 0.0f64;
+    let mut flips = 0;
+    for &r in rates.iter().filter(|r| r.abs() > band) {
+        if last != 0.0 && r.signum() != last {
+            flips += 1;
+        }
+        last = r.signum();
+    }
+    flips
 }

@@ -47,13 +47,22 @@ pub(super) fn check_data(
     Ok(())
 }
 
-/// Per model, training, path and speed: the runs' means, and the improvement over the
-/// first model.
-pub(super) fn summarise(study: &TrackStudy, runs: &[TrackRun]) -> Vec<TrackSummary> {
+/// Per model, training, path and speed: the runs' means, and the improvements over the
+/// first model and over the powertrain model (the study's model `powertrain`, when there).
+pub(super) fn summarise(
+    study: &TrackStudy,
+    runs: &[TrackRun],
+    feasibility: &[Feasibility],
+    powertrain: Option<usize>,
+) -> Vec<TrackSummary> {
     let mut out: Vec<TrackSummary> = Vec::new();
     for t in &study.training {
         for p in &study.paths {
             for &f in &study.speeds {
+                let feasible = feasibility
+                    .iter()
+                    .find(|x| x.path == p.name() && x.speed_fraction == f)
+                    .and_then(|x| x.feasible);
                 let mut block: Vec<TrackSummary> = Vec::new();
                 for spec in &study.models {
                     let these: Vec<&TrackRun> = runs
@@ -92,7 +101,12 @@ pub(super) fn summarise(study: &TrackStudy, runs: &[TrackRun]) -> Vec<TrackSumma
                         duration_s: (!done.is_empty())
                             .then(|| done.iter().sum::<f64>() / done.len() as f64),
                         effort: mean(|r| r.effort),
+                        command_change_rms: mean(|r| r.command_change_rms),
+                        yaw_rate_sign_changes_per_m: mean(|r| r.yaw_rate_sign_changes_per_m),
+                        feasible,
                         improvement_over_first_percent: None,
+                        improvement_over_powertrain_percent: None,
+                        heading_rms_ratio_to_powertrain: None,
                     });
                 }
                 // Against the first model of the study, when it ran here; only between runs
@@ -106,6 +120,25 @@ pub(super) fn summarise(study: &TrackStudy, runs: &[TrackRun]) -> Vec<TrackSumma
                     for s in block.iter_mut().skip(1) {
                         s.improvement_over_first_percent = (s.completed_share == 1.0)
                             .then(|| 100.0 * (base - s.cross_track_rms_m) / base);
+                    }
+                }
+                // Against the powertrain model, between models that both reached the end in
+                // every run (on a path the robot cannot drive at this speed too: the block
+                // says so, `feasible`, for the reader to weigh).
+                let base = powertrain
+                    .map(|i| &study.models[i].name)
+                    .and_then(|name| block.iter().find(|s| &s.model == name))
+                    .filter(|s| s.completed_share == 1.0)
+                    .map(|s| (s.model.clone(), s.cross_track_rms_m, s.heading_rms_rad));
+                if let Some((name, cross, heading)) = base.filter(|b| b.1 > 0.0) {
+                    for s in block
+                        .iter_mut()
+                        .filter(|s| s.model != name && s.completed_share == 1.0)
+                    {
+                        s.improvement_over_powertrain_percent =
+                            Some(100.0 * (cross - s.cross_track_rms_m) / cross);
+                        s.heading_rms_ratio_to_powertrain =
+                            (heading > 0.0).then(|| s.heading_rms_rad / heading);
                     }
                 }
                 out.extend(block);

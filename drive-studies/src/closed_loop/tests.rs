@@ -34,3 +34,30 @@ fn a_twin_is_commanded_in_its_protocol_geometry() {
         Input::new(-1.0, 1.0, 0.0)
     );
 }
+
+#[test]
+fn sign_changes_count_flips_beyond_a_tenth_of_the_rms() {
+    // +1, -1, +1: two flips; the small values around zero in between do not count.
+    assert_eq!(
+        super::plant::sign_changes(&[1.0, 0.01, -0.02, -1.0, 0.05, 1.0]),
+        2
+    );
+    // A steady turn never flips; nothing at all neither.
+    assert_eq!(super::plant::sign_changes(&[0.5; 40]), 0);
+    assert_eq!(super::plant::sign_changes(&[]), 0);
+    // Dithering around zero with a real turn elsewhere: the dither is within the band.
+    let mut rates = vec![1.0; 20];
+    rates.extend([0.01, -0.01, 0.01, -0.01]);
+    assert_eq!(super::plant::sign_changes(&rates), 0);
+}
+
+#[test]
+fn a_zigzag_needs_its_corner_over_a_second_and_a_line_nothing() {
+    use drive_control::PathShape;
+    let line = PathShape::Line.at_scale(4.0).unwrap();
+    assert!(super::yaw_rate_needed(&line, 1.0) < 1e-9);
+    // The zigzag turns 120 degrees at each corner: 2.09 rad within one second of travel.
+    let zigzag = PathShape::Zigzag.at_scale(4.0).unwrap();
+    let w = super::yaw_rate_needed(&zigzag, 0.5);
+    assert!((w - 2.0 * std::f64::consts::PI / 3.0).abs() < 0.05, "{w}");
+}
