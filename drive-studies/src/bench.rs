@@ -172,7 +172,7 @@ pub fn terrain_known(terrain: &str) -> bool {
 }
 
 /// The median of the finite values ([`drive_traits::median`]), `None` when there are none.
-fn finite_median(values: &[f64]) -> Option<f64> {
+pub(crate) fn finite_median(values: &[f64]) -> Option<f64> {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     (!v.is_empty()).then(|| drive_traits::median(&mut v))
 }

@@ -25,7 +25,8 @@ use drive_samplers::{next_command, RobotSpec, RunnerConfig, SentCommand};
 use drive_sim::{plant_for, scale_difference, Terrain};
 use drive_traits::limits::{Exact, Short};
 use drive_traits::{
-    vehicle_as, vehicle_tag, wrap_angle, Dataset, FitError, Input, MotionModel, Pose, WindowSet,
+    vehicle_as, vehicle_tag, wrap_angle, Dataset, FitError, Input, MotionModel, Phase, Pose,
+    Window, WindowSet,
 };
 use rayon::prelude::*;
 use serde::Serialize;
@@ -183,6 +184,10 @@ pub struct TrackRun {
     pub cross_track_max_m: f64,
     /// RMS heading error against the path's direction (rad).
     pub heading_rms_rad: f64,
+    /// RMS of the angle between the direction the robot moves in (tick to tick) and the
+    /// path's (rad): with [`Self::heading_rms_rad`], tells weaving (both large) from a
+    /// sideslip (the heading off the path, the course on it).
+    pub course_rms_rad: f64,
     /// The end of the path was reached within the time limit.
     pub completed: bool,
     /// Time driven (s): to the end of the path, or to the time limit.
@@ -205,6 +210,11 @@ pub struct TrackRun {
     /// The robot's positions, one per tick (for figures; not in the JSON).
     #[serde(skip)]
     pub trajectory: Vec<[f64; 2]>,
+    /// What the run drove cut into windows of the training data's length (the vehicle's
+    /// commands, the measured inputs, the true poses; not in the JSON): what the models'
+    /// open-loop scores on the controllers' commands are measured on.
+    #[serde(skip)]
+    pub recorded: Vec<Window>,
 }
 
 /// Runs of one model, training, path and speed over the seeds.
@@ -226,6 +236,8 @@ pub struct TrackSummary {
     pub cross_track_max_m: f64,
     /// Mean of the runs' RMS heading error (rad).
     pub heading_rms_rad: f64,
+    /// Mean of the runs' RMS course error (rad, [`TrackRun::course_rms_rad`]).
+    pub course_rms_rad: f64,
     /// Share of the runs that reached the end.
     pub completed_share: f64,
     /// Mean time of the completed runs (s); absent when none completed.
@@ -252,6 +264,14 @@ pub struct TrackSummary {
     /// The mean RMS heading error over the powertrain model's (weaving shows as a ratio
     /// well above 1), under the same conditions.
     pub heading_rms_ratio_to_powertrain: Option<f64>,
+    /// This model's open-loop error on what the controllers drove here: the median
+    /// translational MRMSE (eq. 8, m) of its predictions of the windows cut from every run
+    /// of this training, path and speed (every model's, every seed), from their recorded
+    /// commands. How well it predicts the commands a controller sends, which are not
+    /// DRIVE's held steps. `None` without a whole window.
+    pub open_loop_translational_median_m: Option<f64>,
+    /// The same, rotational (rad).
+    pub open_loop_rotational_median_rad: Option<f64>,
 }
 
 /// A placed reference path, for figures.
@@ -558,6 +578,7 @@ pub fn run_track(
                             time_limit_s: study
                                 .time_limit_s
                                 .unwrap_or(default_time_limit(path.length(), speed)),
+                            window_len: window_len(&sets, i),
                         });
                     }
                 }
@@ -591,7 +612,8 @@ pub fn run_track(
         .ok()
         .map(|p| p.canonical())
         .and_then(|c| study.models.iter().position(|m| m.canonical() == c));
-    let summary = summarise(study, &runs, &feasible, powertrain);
+    let mut summary = summarise(study, &runs, &feasible, powertrain);
+    open_loop_scores(study, &runs, &sets, &fits, &mut summary);
     let start = Pose::zeros();
     Ok(TrackResult {
         robot: study.robot.name.clone(),

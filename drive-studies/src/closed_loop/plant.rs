@@ -125,6 +125,8 @@ pub(super) struct RunPlan<'a> {
     pub(super) speed: f64,
     pub(super) seed: u64,
     pub(super) time_limit_s: f64,
+    /// Samples per window of the training data (the open-loop scores' windows).
+    pub(super) window_len: usize,
 }
 
 /// Drives one run.
@@ -176,6 +178,10 @@ pub(super) fn drive(
     // squared changes of the normalised command from one tick to the next.
     let mut yaw_rates = Vec::new();
     let (mut change2, mut previous) = (0.0, None::<Input>);
+    // What the run drove, tick by tick (the vehicle's commands, the measured inputs, the
+    // true poses, the IMU): cut into windows for the models' open-loop scores.
+    let mut recorded = Recording::default();
+    let (mut course2, mut courses, mut last_position) = (0.0, 0usize, None::<[f64; 2]>);
     let mut m = first;
     let (completed, duration) = loop {
         let obs = Observation {
@@ -201,6 +207,18 @@ pub(super) fn drive(
         cross_max = cross_max.max(near.cross_track.abs());
         let yaw = wrap_angle(truth.z - near.point.heading);
         head2 += yaw * yaw;
+        // The direction the robot moves in (since the last tick) against the path's: a
+        // skid-steer turning with a sideslip angle heads off the path's direction while its
+        // course follows it.
+        if let Some(last) = last_position {
+            let (dx, dy): (f64, f64) = (truth.x - last[0], truth.y - last[1]);
+            if dx.hypot(dy) > 1e-6 {
+                let course = wrap_angle(dy.atan2(dx) - near.point.heading);
+                course2 += course * course;
+                courses += 1;
+            }
+        }
+        last_position = Some([truth.x, truth.y]);
         effort2 += (tick.controller_input - centre)
             .component_div(&half)
             .norm_squared()
@@ -213,6 +231,10 @@ pub(super) fn drive(
                 / axes;
         }
         previous = Some(tick.controller_input);
+        recorded.command.push(tick.command);
+        recorded.measured.push(m.input);
+        recorded.pose.push(truth);
+        recorded.imu.push(m.imu_yaw_rate);
         if tick.done {
             break (true, m.t);
         }
@@ -236,6 +258,7 @@ pub(super) fn drive(
         cross_track_rms_m: (cross2 / n).sqrt(),
         cross_track_max_m: cross_max,
         heading_rms_rad: (head2 / n).sqrt(),
+        course_rms_rad: (course2 / courses.max(1) as f64).sqrt(),
         completed,
         duration_s: duration,
         effort: (effort2 / n).sqrt(),
@@ -249,7 +272,41 @@ pub(super) fn drive(
         tick_ms_median: ticks_ms[ticks_ms.len() / 2],
         length_m: path.length(),
         trajectory,
+        recorded: recorded.windows(plan.window_len),
     })
+}
+
+/// What a run drove, one entry per tick.
+#[derive(Default)]
+pub(super) struct Recording {
+    pub(super) command: Vec<Input>,
+    pub(super) measured: Vec<Input>,
+    pub(super) pose: Vec<Pose>,
+    pub(super) imu: Vec<f64>,
+}
+
+impl Recording {
+    /// Consecutive windows of `len` ticks (the rest dropped): what a model is scored on as
+    /// on DRIVE's windows (eq. 8), here the commands a controller sent.
+    pub(super) fn windows(self, len: usize) -> Vec<Window> {
+        if len < 2 {
+            return Vec::new();
+        }
+        (0..self.command.len() / len)
+            .map(|i| {
+                let r = i * len..(i + 1) * len;
+                Window::new(
+                    i,
+                    i,
+                    Phase::Steady,
+                    self.command[r.clone()].to_vec(),
+                    self.measured[r.clone()].to_vec(),
+                    self.pose[r.clone()].to_vec(),
+                    self.imu[r].to_vec(),
+                )
+            })
+            .collect()
+    }
 }
 
 /// How many times `rates` (the commanded yaw rates of a run, one per tick) change sign,

@@ -97,6 +97,7 @@ pub(super) fn summarise(
                             .map(|r| r.cross_track_max_m)
                             .fold(0.0, f64::max),
                         heading_rms_rad: mean(|r| r.heading_rms_rad),
+                        course_rms_rad: mean(|r| r.course_rms_rad),
                         completed_share: done.len() as f64 / n,
                         duration_s: (!done.is_empty())
                             .then(|| done.iter().sum::<f64>() / done.len() as f64),
@@ -107,6 +108,8 @@ pub(super) fn summarise(
                         improvement_over_first_percent: None,
                         improvement_over_powertrain_percent: None,
                         heading_rms_ratio_to_powertrain: None,
+                        open_loop_translational_median_m: None,
+                        open_loop_rotational_median_rad: None,
                     });
                 }
                 // Against the first model of the study, when it ran here; only between runs
@@ -146,4 +149,59 @@ pub(super) fn summarise(
         }
     }
     out
+}
+
+/// The window length of training `i`'s data (every set of one training has the same).
+pub(super) fn window_len(sets: &[(usize, Option<u64>, Arc<Dataset>)], i: usize) -> usize {
+    sets.iter()
+        .find(|(t, _, _)| *t == i)
+        .map_or(0, |(_, _, d)| d.robot.window_len)
+}
+
+/// Every summary row's open-loop medians: its model (fitted on the row's training, for the
+/// seed of each run) predicting the windows of every run of the row's training, path and
+/// speed, from their recorded commands (eq. 8).
+pub(super) fn open_loop_scores(
+    study: &TrackStudy,
+    runs: &[TrackRun],
+    sets: &[(usize, Option<u64>, Arc<Dataset>)],
+    fits: &[Fitted],
+    summary: &mut [TrackSummary],
+) {
+    summary.par_iter_mut().for_each(|row| {
+        let Some(training) = study.training.iter().position(|t| t.label() == row.train) else {
+            return;
+        };
+        let Some(model) = study.models.iter().position(|m| m.name == row.model) else {
+            return;
+        };
+        let (mut translational, mut rotational) = (Vec::new(), Vec::new());
+        for run in runs.iter().filter(|r| {
+            r.train == row.train && r.path == row.path && r.speed_fraction == row.speed_fraction
+        }) {
+            let fitted = fits.iter().find(|f| {
+                f.training == training
+                    && f.model == model
+                    && (f.seed.is_none() || f.seed == Some(run.seed))
+            });
+            let data = sets
+                .iter()
+                .find(|(t, seed, _)| *t == training && (seed.is_none() || *seed == Some(run.seed)));
+            let (Some(fitted), Some((_, _, data))) = (fitted, data) else {
+                continue;
+            };
+            let set = WindowSet::new(&data.robot, &run.recorded);
+            let report = drive_eval::evaluate_errors(
+                fitted.fitted.as_ref(),
+                &set,
+                study.models[model].start,
+            );
+            for w in &report.windows {
+                translational.push(w.error.translational);
+                rotational.push(w.error.rotational);
+            }
+        }
+        row.open_loop_translational_median_m = crate::bench::finite_median(&translational);
+        row.open_loop_rotational_median_rad = crate::bench::finite_median(&rotational);
+    });
 }

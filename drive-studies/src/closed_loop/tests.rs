@@ -61,3 +61,22 @@ fn a_zigzag_needs_its_corner_over_a_second_and_a_line_nothing() {
     let w = super::yaw_rate_needed(&zigzag, 0.5);
     assert!((w - 2.0 * std::f64::consts::PI / 3.0).abs() < 0.05, "{w}");
 }
+
+#[test]
+fn a_recording_is_cut_into_whole_windows_in_order() {
+    let mut r = super::plant::Recording::default();
+    for k in 0..7 {
+        r.command.push(Input::new(k as f64, 0.0, 0.0));
+        r.measured.push(Input::new(0.0, k as f64, 0.0));
+        r.pose.push(Pose::new(k as f64, 0.0, 0.0));
+        r.imu.push(k as f64);
+    }
+    // Seven ticks in windows of three: two windows (ticks 0-2 and 3-5), the last tick
+    // dropped.
+    let w = r.windows(3);
+    assert_eq!(w.len(), 2);
+    assert_eq!(w[1].command[0].x, 3.0);
+    assert_eq!(w[1].measured[2].y, 5.0);
+    assert_eq!(w[1].pose[0].x, 3.0);
+    assert_eq!(w[1].imu_yaw_rate, vec![3.0, 4.0, 5.0]);
+}
