@@ -45,31 +45,30 @@ pub struct Feasibility {
 /// assert!((w - 1.0 / radius).abs() < 0.05 / radius, "{w} {radius}");
 /// ```
 pub fn yaw_rate_needed(path: &ReferencePath, speed: f64) -> f64 {
+    /// Steps per span.
+    const STEPS: usize = 20;
     let span = speed * TURN_SPAN_S;
     let length = path.length();
     if !(span > 0.0 && length > span) {
         return 0.0;
     }
-    // Every twentieth of the span along the path.
-    let step = span / 20.0;
-    let mut turn = 0.0f64;
-    let mut s = 0.0;
-    while s + span <= length {
-        let a = path.point_at(s);
-        // The heading change along the span, summed in small steps (a span may turn by
-        // more than pi).
-        let mut change = 0.0;
-        let mut heading = a.heading;
-        let mut t = s;
-        while t < s + span {
-            t = (t + step).min(s + span);
-            let h = path.point_at(t).heading;
-            change += wrap_angle(h - heading);
-            heading = h;
-        }
-        turn = turn.max(change.abs());
-        s += step;
+    // The heading every twentieth of the span along the path, unwrapped (a span may turn by
+    // more than pi): the turn over a span is the difference of two of them.
+    let step = span / STEPS as f64;
+    let n = (length / step).floor() as usize;
+    let mut unwrapped = Vec::with_capacity(n + 1);
+    let mut last = path.point_at(0.0).heading;
+    let mut total = 0.0;
+    for k in 0..=n {
+        let h = path.point_at(k as f64 * step).heading;
+        total += wrap_angle(h - last);
+        last = h;
+        unwrapped.push(total);
     }
+    let turn = unwrapped
+        .windows(STEPS + 1)
+        .map(|w| (w[STEPS] - w[0]).abs())
+        .fold(0.0, f64::max);
     turn / TURN_SPAN_S
 }
 
