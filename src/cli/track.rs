@@ -87,6 +87,11 @@ pub struct Args {
     /// Time limit of a run (s); default: twice the path's length at its speed, plus 20 s.
     #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
     time_limit: Option<f64>,
+    /// How far back the controller's predictions start (s, 0 to 10): from the state this
+    /// long ago through the commands sent since, so that the commands still in flight (dead
+    /// time, lag) act in them; 0 starts them from now (default 0.5).
+    #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
+    history: Option<f64>,
     /// Print one JSON object on stdout instead of the tables.
     #[arg(long)]
     json: bool,
@@ -255,6 +260,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         controller_name: args.controller.clone(),
         controller,
         time_limit_s: args.time_limit,
+        history_s: args.history,
     };
     let total = study.models.len()
         * study.training.len()

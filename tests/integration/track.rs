@@ -241,6 +241,11 @@ fn hostile_paths_and_settings_get_clear_errors() {
         (vec!["--speed", "0"], "(0, 1]"),
         (vec!["--speed", "nan"], "not a finite number"),
         (vec!["--time-limit", "-1"], "time limit"),
+        (
+            vec!["--history", "11"],
+            "history 11 s is not a number of seconds in [0, 10]",
+        ),
+        (vec!["--history", "-0.5"], "history -0.5 s"),
         (vec!["--samples", "1"], "samples"),
         (vec!["--horizon", "0"], "horizon"),
         (vec!["--temperature", "0"], "temperature"),

@@ -142,7 +142,8 @@ pub struct TrackStudy {
     pub paths: Vec<PathChoice>,
     /// Speeds along the path, as fractions of the robot's top speed, in (0, 1].
     pub speeds: Vec<f64>,
-    /// Seeds: the plant's noise, and the simulated training runs.
+    /// Seeds: the plant's noise, the controller's sampling ([`ControlSetup::seed`]) and the
+    /// simulated training runs.
     pub seeds: Vec<u64>,
     /// The controller's name, for the results.
     pub controller_name: String,
@@ -151,6 +152,10 @@ pub struct TrackStudy {
     /// Time limit of a run (s), at most [`MAX_RUN_S`]; default: twice the path's length at
     /// its speed, plus 20 s (which must be within [`MAX_RUN_S`]).
     pub time_limit_s: Option<f64>,
+    /// How far back the controller's predictions start (s, in [0, 10]): from the state this
+    /// long ago through the commands sent since ([`TrackerConfig::history_s`]); default
+    /// [`TrackerConfig::new`]'s half second.
+    pub history_s: Option<f64>,
 }
 
 impl std::fmt::Debug for TrackStudy {
@@ -351,6 +356,7 @@ pub const MAX_TRAINING_TOTAL_S: f64 = 36_000.0;
 ///     controller_name: "mppi".into(),
 ///     controller: Arc::clone(r.controllers.get("mppi").unwrap().part()),
 ///     time_limit_s: None,
+///     history_s: None,
 /// };
 /// let result = run_track(&r, &study, &|| {}).unwrap();
 /// assert_eq!(result.runs.len(), 2);
@@ -376,6 +382,14 @@ pub fn run_track(
             return Err(TrackError::Invalid(format!(
                 "speed {} is not a fraction of the robot's top speed in (0, 1]",
                 Exact(f)
+            )));
+        }
+    }
+    if let Some(h) = study.history_s {
+        if !(h.is_finite() && (0.0..=10.0).contains(&h)) {
+            return Err(TrackError::Invalid(format!(
+                "history {} s is not a number of seconds in [0, 10]",
+                Exact(h)
             )));
         }
     }

@@ -153,9 +153,11 @@ pub(super) fn drive(
         speed: plan.speed,
         seed: plan.seed,
     };
+    let defaults = TrackerConfig::new(plan.speed);
     let config = TrackerConfig {
         start: plan.spec.start,
-        ..TrackerConfig::new(plan.speed)
+        history_s: study.history_s.unwrap_or(defaults.history_s),
+        ..defaults
     };
     let mut tracker = Tracker::new(
         study.controller.as_ref(),
