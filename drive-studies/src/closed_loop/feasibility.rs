@@ -112,21 +112,11 @@ fn reached_yaw_rate(
     seed: u64,
     input: Input,
 ) -> Result<f64, TrackError> {
-    let mut plant = plant_for(&registries.simulators, &d.plant, terrain, seed)
-        .map_err(|reason| TrackError::Invalid(format!("simulating {}: {reason}", d.plant.name)))?;
-    let mut sent = SentCommand::default();
-    let ticks = (PROBE_S * d.plant.rate_hz).round() as usize;
-    let span = (PROBE_SPAN_S * d.plant.rate_hz).round() as usize;
-    let mut yaws = Vec::with_capacity(ticks + 1);
-    for _ in 0..=ticks {
-        let m = plant.measure();
-        yaws.push(plant.true_pose().unwrap_or(m.pose).z);
-        let u = next_command(&d.controller, &mut sent, &input);
-        plant.advance(d.to_vehicle.apply(&u));
-    }
-    let turned: f64 = yaws[ticks - span..]
+    let poses = probe(registries, d, terrain, seed, input)?;
+    let (ticks, span) = probe_ticks(d);
+    let turned: f64 = poses[ticks - span..]
         .windows(2)
-        .map(|p| wrap_angle(p[1] - p[0]))
+        .map(|p| wrap_angle(p[1].z - p[0].z))
         .sum();
     Ok(turned / PROBE_SPAN_S)
 }

@@ -88,19 +88,14 @@ pub(super) fn top_speed(
     terrain: &Terrain,
     seed: u64,
 ) -> Result<f64, TrackError> {
-    let mut plant = plant_for(&registries.simulators, &d.plant, terrain, seed)
-        .map_err(|reason| TrackError::Invalid(format!("simulating {}: {reason}", d.plant.name)))?;
-    let target = fastest_straight(&d.controller);
-    let mut sent = SentCommand::default();
-    let ticks = (PROBE_S * d.plant.rate_hz).round() as usize;
-    let span = (PROBE_SPAN_S * d.plant.rate_hz).round() as usize;
-    let mut poses = Vec::with_capacity(ticks + 1);
-    for _ in 0..=ticks {
-        let m = plant.measure();
-        poses.push(plant.true_pose().unwrap_or(m.pose));
-        let u = next_command(&d.controller, &mut sent, &target);
-        plant.advance(d.to_vehicle.apply(&u));
-    }
+    let poses = probe(
+        registries,
+        d,
+        terrain,
+        seed,
+        fastest_straight(&d.controller),
+    )?;
+    let (ticks, span) = probe_ticks(d);
     let (a, b) = (poses[ticks - span], poses[ticks]);
     let speed = (b.x - a.x).hypot(b.y - a.y) / PROBE_SPAN_S;
     if !(speed.is_finite() && speed > 1e-3) {
@@ -112,6 +107,38 @@ pub(super) fn top_speed(
         )));
     }
     Ok(speed)
+}
+
+/// The probe's ticks and the ticks of its measured span at the robot's rate.
+pub(super) fn probe_ticks(d: &Driven) -> (usize, usize) {
+    (
+        (PROBE_S * d.plant.rate_hz).round() as usize,
+        (PROBE_SPAN_S * d.plant.rate_hz).round() as usize,
+    )
+}
+
+/// The plant's true poses, one per tick, holding the controller's `input` for [`PROBE_S`]
+/// from rest within the robot's acceleration limits (what the characterization's probes
+/// do): the top speed's and the feasibility's measurements.
+pub(super) fn probe(
+    registries: &Registries,
+    d: &Driven,
+    terrain: &Terrain,
+    seed: u64,
+    input: Input,
+) -> Result<Vec<Pose>, TrackError> {
+    let mut plant = plant_for(&registries.simulators, &d.plant, terrain, seed)
+        .map_err(|reason| TrackError::Invalid(format!("simulating {}: {reason}", d.plant.name)))?;
+    let mut sent = SentCommand::default();
+    let (ticks, _) = probe_ticks(d);
+    let mut poses = Vec::with_capacity(ticks + 1);
+    for _ in 0..=ticks {
+        let m = plant.measure();
+        poses.push(plant.true_pose().unwrap_or(m.pose));
+        let u = next_command(&d.controller, &mut sent, &input);
+        plant.advance(d.to_vehicle.apply(&u));
+    }
+    Ok(poses)
 }
 
 /// One run's settings.
