@@ -131,6 +131,10 @@ pub enum CommandFileError {
     },
 }
 
+/// How far a command's time may be from the model's grid (`t0 + i dt`), as a share of the
+/// period: the rounding of a printed time, not a command meant for another instant.
+pub const GRID_TOLERANCE: f64 = 0.01;
+
 /// The commands of a command file and the time of the first.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CommandFile {
@@ -141,7 +145,8 @@ pub struct CommandFile {
 }
 
 /// Reads a command file with the header `t,<columns>` sampled at period `dt` (s): each
-/// line's time within half a period of `t0 + i dt`. The file is read line by line (never held
+/// line's time within [`GRID_TOLERANCE`] of a period of `t0 + i dt` (a time further off is
+/// refused, never moved onto the grid). The file is read line by line (never held
 /// whole), each line capped at [`MAX_COMMAND_LINE_BYTES`], at most [`MAX_COMMANDS`] commands.
 ///
 /// ```
@@ -155,6 +160,9 @@ pub struct CommandFile {
 /// std::fs::write(&path, "t,cmd_left,cmd_right\n0,1,2\n0.2,1.5,2\n").unwrap();
 /// let err = drive_data::read_commands(&path, &["cmd_left", "cmd_right"], 0.05).unwrap_err();
 /// assert!(err.to_string().contains("expected t = 0.05"));
+/// // Off by a fifth of a period: refused, not snapped onto the grid.
+/// std::fs::write(&path, "t,cmd_left,cmd_right\n0,1,2\n0.06,1.5,2\n").unwrap();
+/// assert!(drive_data::read_commands(&path, &["cmd_left", "cmd_right"], 0.05).is_err());
 /// std::fs::remove_dir_all(&dir).unwrap();
 /// ```
 pub fn read_commands(
@@ -265,7 +273,7 @@ pub fn read_commands(
         }
         let t0 = *t0.get_or_insert(v[0]);
         let expected = t0 + out.len() as f64 * dt;
-        if (v[0] - expected).abs() > 0.5 * dt {
+        if !((v[0] - expected).abs() <= GRID_TOLERANCE * dt) {
             return Err(CommandFileError::OffGrid {
                 name,
                 line: i + 1,

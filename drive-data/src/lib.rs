@@ -37,7 +37,8 @@ pub use bag::{
     MAX_BAG_MESSAGES, MAX_BAG_RECORD_BYTES,
 };
 pub use command_csv::{
-    read_commands, CommandFile, CommandFileError, MAX_COMMANDS, MAX_COMMAND_LINE_BYTES,
+    read_commands, CommandFile, CommandFileError, GRID_TOLERANCE, MAX_COMMANDS,
+    MAX_COMMAND_LINE_BYTES,
 };
 pub use error::{DataError, DataErrorKind, Location};
 pub use import::{import_raw, DropReason, ImportConfig, ImportReport, StepOutcome};

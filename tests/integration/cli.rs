@@ -1146,6 +1146,33 @@ fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
         .map(|l| l.split(',').nth(1).unwrap())
         .collect();
     assert_eq!(t, ["100", "100.05", "100.1"], "{out}");
+    // A time off the model's grid by more than 1% of a period is refused, named, never
+    // moved onto the grid; within it (a printed time's rounding) it is read as on it.
+    std::fs::write(&commands, "t,cmd_left,cmd_right\n0,1,1\n0.06,1,1\n").unwrap();
+    let err = user_error(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--commands",
+        commands.to_str().unwrap(),
+    ]);
+    assert!(
+        err.contains("c.csv, line 3, column 't': t = 0.06") && err.contains("expected t = 0.05"),
+        "{err}"
+    );
+    std::fs::write(&commands, "t,cmd_left,cmd_right\n0,1,1\n0.0502,1,1\n").unwrap();
+    let out = ok(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--commands",
+        commands.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        out.lines().nth(2).unwrap().split(',').nth(1),
+        Some("0.05"),
+        "{out}"
+    );
 }
 
 #[test]
