@@ -56,6 +56,16 @@ pub enum ModelFileError {
         /// version supported
         supported: u64,
     },
+    /// The file says it is another format (`train` writes `"format": "drive-motion-model"`).
+    #[error(
+        "{file}, field 'format': {found} is not a DRIVE motion model file (\"drive-motion-model\")"
+    )]
+    Format {
+        /// file name
+        file: String,
+        /// the format found, as JSON
+        found: String,
+    },
     /// The model itself does not parse.
     #[error("{file}, field 'model': {message}")]
     Model {
@@ -317,6 +327,23 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
             })
         }
     };
+    // What `train` writes names its format; a version 1 file may predate the field.
+    match obj.get("format") {
+        Some(Value::String(f)) if f == FORMAT_NAME => {}
+        None if version == 1 => {}
+        Some(found) => {
+            return Err(ModelFileError::Format {
+                file: file.into(),
+                found: found.to_string(),
+            })
+        }
+        None => {
+            return Err(ModelFileError::MissingField {
+                file: file.into(),
+                field: "format",
+            })
+        }
+    }
     if version == 1 {
         upgrade_v1(obj).map_err(|message| ModelFileError::Model {
             file: file.into(),
@@ -382,6 +409,23 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
             Some(m) => inner = m,
             None => break,
         }
+    }
+    // A fit writes at most one calibration layer: one inside another would scale the
+    // covariance twice.
+    let calibrated = |v: &Value| v.get("type").and_then(Value::as_str) == Some("calibrated");
+    let mut layer = &model;
+    let mut layers = usize::from(calibrated(layer));
+    while let Some(m) = layer.get("model") {
+        layer = m;
+        layers += usize::from(calibrated(layer));
+    }
+    if layers > 1 {
+        return Err(ModelFileError::Model {
+            file: file.into(),
+            message: format!(
+                "{layers} calibration layers, one inside another: a fit writes at most one (the covariance would be scaled {layers} times)"
+            ),
+        });
     }
     if let Some(calibration) = model.get("calibration") {
         check_calibration(calibration, robot.window_len).map_err(|message| {

@@ -213,6 +213,18 @@ fn cases() -> Vec<Case> {
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "calibration yaw_scale: the scale -2.0 is not a number in [1e-30, 1e30]"] },
         Case { name: "model robot rate", file: File::Model(|m| edit_model(&m, |v| v["robot"]["rate_hz"] = 10.0.into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "not the robot's command period"] },
+        // Issue 63: files `train` never writes.
+        Case { name: "model other format", file: File::Model(|m| edit_model(&m, |v| v["format"] = "another-tool".into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json, field 'format'", "\"another-tool\" is not a DRIVE motion model file"] },
+        Case { name: "model without format", file: File::Model(|m| edit_model(&m, |v| { v.as_object_mut().unwrap().remove("format"); })),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json, field 'format': missing"] },
+        Case { name: "model calibrated twice", file: File::Model(|m| edit_model(&m, |v| {
+                let inner = v["model"].clone();
+                let mut outer = inner.clone();
+                outer["model"] = inner;
+                v["model"] = outer;
+            })),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "2 calibration layers, one inside another"] },
         // Issue 34: model files no fit writes.
         Case { name: "model calibration of another horizon", file: File::Model(|m| edit_model(&m, |v| {
                 for key in ["position_scale", "yaw_scale"] {
