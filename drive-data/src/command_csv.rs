@@ -273,7 +273,8 @@ pub fn read_commands(
         }
         let t0 = *t0.get_or_insert(v[0]);
         let expected = t0 + out.len() as f64 * dt;
-        if !((v[0] - expected).abs() <= GRID_TOLERANCE * dt) {
+        let off = (v[0] - expected).abs();
+        if off.is_nan() || off > GRID_TOLERANCE * dt {
             return Err(CommandFileError::OffGrid {
                 name,
                 line: i + 1,
