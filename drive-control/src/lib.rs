@@ -10,6 +10,7 @@
 #![warn(missing_docs)]
 
 mod controller;
+mod history;
 pub mod mppi;
 pub mod path;
 mod tracker;
@@ -18,6 +19,7 @@ pub use controller::{
     builtin_controllers, stop_input, ControlError, ControlSetup, ControlState, Controller,
     InputMap, MakeController,
 };
+pub use history::{settling_history_s, MAX_HISTORY_S, MIN_HISTORY_S, SETTLED_SHARE};
 pub use mppi::{Mppi, MppiController};
 pub use path::{PathError, PathPoint, PathShape, Projection, ReferencePath};
 pub use tracker::{Observation, Tick, Tracker, TrackerConfig};

@@ -45,24 +45,25 @@ pub struct TrackerConfig {
     pub goal_tolerance: Option<f64>,
     /// How far back the controller's predictions start (s): from the state this long ago
     /// through the commands sent since, so that the commands still in flight (dead time,
-    /// lag) act in them ([`ControlState::past`]); 0 starts them from now.
-    pub history_s: f64,
+    /// lag) act in them ([`ControlState::past`]); 0 starts them from now. `None`: the
+    /// model's powertrain's settling time ([`settling_history_s`](crate::settling_history_s)).
+    pub history_s: Option<f64>,
 }
 
 impl TrackerConfig {
-    /// At `speed` (m/s), the predictions starting from the encoders and the IMU half a
-    /// second back.
+    /// At `speed` (m/s), the predictions starting from the encoders and the IMU, as far
+    /// back as the model's powertrain takes to settle.
     ///
     /// ```
     /// let c = drive_control::TrackerConfig::new(0.5);
-    /// assert_eq!((c.speed, c.history_s), (0.5, 0.5));
+    /// assert_eq!((c.speed, c.history_s), (0.5, None));
     /// ```
     pub fn new(speed: f64) -> Self {
         TrackerConfig {
             speed,
             start: StartInfo::EncodersImu,
             goal_tolerance: None,
-            history_s: 0.5,
+            history_s: None,
         }
     }
 
@@ -203,13 +204,26 @@ impl Tracker {
         let goal_tolerance = config.check_path(&path)?;
         let speed = config.speed;
         let dt = 1.0 / setup.robot.rate_hz;
-        if !(config.history_s.is_finite() && (0.0..=10.0).contains(&config.history_s)) {
-            return Err(ControlError::BadSetting {
-                field: "history_s",
-                message: format!("{} s is not in [0, 10]", config.history_s),
-            });
-        }
-        let history = (config.history_s / dt).round() as usize;
+        let history_s = match config.history_s {
+            Some(h) if h.is_finite() && (0.0..=10.0).contains(&h) => h,
+            Some(h) => {
+                return Err(ControlError::BadSetting {
+                    field: "history_s",
+                    message: format!("{h} s is not in [0, 10]"),
+                })
+            }
+            None => {
+                // Half the way up the input space, from its centre: a step in the model's
+                // (the vehicle's) inputs.
+                let space = setup.robot.input_space();
+                let centre = space.center();
+                let step = setup
+                    .to_vehicle
+                    .apply(&(centre + (space.max - centre) * 0.5));
+                crate::settling_history_s(setup.model.as_ref(), &step)
+            }
+        };
+        let history = (history_s / dt).round() as usize;
         let controller = make.make(setup)?;
         let stop = stop_input(&setup.robot);
         Ok(Tracker {
@@ -219,7 +233,10 @@ impl Tracker {
             to_vehicle: setup.to_vehicle.clone(),
             vehicle,
             path,
-            config,
+            config: TrackerConfig {
+                history_s: Some(history_s),
+                ..config
+            },
             dt,
             progress: 0.0,
             sent: SentCommand::default(),
@@ -234,6 +251,13 @@ impl Tracker {
             done: false,
             stop,
         })
+    }
+
+    /// How far back the controller's predictions start (s): the configured history, or the
+    /// model's settling time when none was configured.
+    pub fn history_s(&self) -> f64 {
+        // Tracker::new always sets it.
+        self.config.history_s.unwrap_or(0.0)
     }
 
     /// The path followed.

@@ -257,7 +257,7 @@ pub fn text(r: &TrackResult) -> String {
             );
             let _ = writeln!(
                 s,
-                "  {:<18} {:>16} {:>10} {:>12} {:>10} {:>9} {:>7} {:>9} {:>10} {:>15}",
+                "  {:<18} {:>16} {:>10} {:>12} {:>10} {:>9} {:>7} {:>9} {:>11} {:>10} {:>15}",
                 "model",
                 "cross-track RMS",
                 "max [m]",
@@ -266,6 +266,7 @@ pub fn text(r: &TrackResult) -> String {
                 "time [s]",
                 "effort",
                 "weave/m",
+                "history [s]",
                 format!("vs {}", r.models.first().map_or("", String::as_str)),
                 "vs powertrain"
             );
@@ -273,7 +274,7 @@ pub fn text(r: &TrackResult) -> String {
         }
         let _ = writeln!(
             s,
-            "  {:<18} {:>14.3} m {:>10.3} {:>8.3} rad {:>9.0}% {:>9} {:>7.2} {:>9.2} {:>10} {:>15}",
+            "  {:<18} {:>14.3} m {:>10.3} {:>8.3} rad {:>9.0}% {:>9} {:>7.2} {:>9.2} {:>11.2} {:>10} {:>15}",
             x.model,
             x.cross_track_rms_m,
             x.cross_track_max_m,
@@ -282,6 +283,7 @@ pub fn text(r: &TrackResult) -> String {
             x.duration_s.map_or("-".into(), |d| format!("{d:.1}")),
             x.effort,
             x.yaw_rate_sign_changes_per_m,
+            x.history_s,
             x.improvement_over_first_percent
                 .map_or("-".into(), |p| format!("{p:+.1}%")),
             x.improvement_over_powertrain_percent
@@ -306,12 +308,12 @@ pub fn text(r: &TrackResult) -> String {
 /// Every run, one row each.
 pub fn runs_csv(result: &TrackResult) -> String {
     let mut s = String::from(
-        "model,train,path,speed_fraction,speed_m_s,seed,cross_track_rms_m,cross_track_max_m,heading_rms_rad,course_rms_rad,completed,duration_s,effort,command_change_rms,yaw_rate_sign_changes,yaw_rate_sign_changes_per_m,tick_ms_median,length_m\n",
+        "model,train,path,speed_fraction,speed_m_s,seed,cross_track_rms_m,cross_track_max_m,heading_rms_rad,course_rms_rad,completed,duration_s,effort,command_change_rms,yaw_rate_sign_changes,yaw_rate_sign_changes_per_m,tick_ms_median,length_m,history_s\n",
     );
     for r in &result.runs {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.model,
             csv_text(&r.train),
             csv_text(&r.path),
@@ -329,7 +331,8 @@ pub fn runs_csv(result: &TrackResult) -> String {
             r.yaw_rate_sign_changes,
             r.yaw_rate_sign_changes_per_m,
             r.tick_ms_median,
-            r.length_m
+            r.length_m,
+            r.history_s
         );
     }
     s
@@ -338,13 +341,13 @@ pub fn runs_csv(result: &TrackResult) -> String {
 /// The summary, one row per model, training, path and speed.
 pub fn summary_csv(result: &TrackResult) -> String {
     let mut s = String::from(
-        "model,train,path,speed_fraction,runs,cross_track_rms_m,cross_track_max_m,heading_rms_rad,course_rms_rad,completed_share,duration_s,effort,command_change_rms,yaw_rate_sign_changes_per_m,feasible,improvement_over_first_percent,improvement_over_powertrain_percent,heading_rms_ratio_to_powertrain,open_loop_translational_median_m,open_loop_rotational_median_rad\n",
+        "model,train,path,speed_fraction,runs,cross_track_rms_m,cross_track_max_m,heading_rms_rad,course_rms_rad,completed_share,duration_s,effort,command_change_rms,yaw_rate_sign_changes_per_m,feasible,improvement_over_first_percent,improvement_over_powertrain_percent,heading_rms_ratio_to_powertrain,open_loop_translational_median_m,open_loop_rotational_median_rad,history_s\n",
     );
     for r in &result.summary {
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.model,
             csv_text(&r.train),
             csv_text(&r.path),
@@ -364,7 +367,8 @@ pub fn summary_csv(result: &TrackResult) -> String {
             opt(r.improvement_over_powertrain_percent),
             opt(r.heading_rms_ratio_to_powertrain),
             opt(r.open_loop_translational_median_m),
-            opt(r.open_loop_rotational_median_rad)
+            opt(r.open_loop_rotational_median_rad),
+            r.history_s
         );
     }
     s

@@ -58,9 +58,11 @@ impl Tracker {
     /// defaults of `drive track`), on `robot` (a registered name or a robot TOML file: its
     /// input space and acceleration limits bound the commands). `start` is what the
     /// model's predictions start from, as it was fitted ("encoders+imu" by default);
-    /// `history` (s) how far back the predictions start, through the commands sent since.
+    /// `history` (s) how far back the predictions start, through the commands sent since
+    /// (by default the model's powertrain's settling time: its dead time plus two time
+    /// constants for the FOPDT of eq. 3, at least 0.5 s).
     #[new]
-    #[pyo3(signature = (model, robot, path, speed, *, scale=4.0, start=None, samples=None, horizon=None, temperature=None, history=0.5))]
+    #[pyo3(signature = (model, robot, path, speed, *, scale=4.0, start=None, samples=None, horizon=None, temperature=None, history=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -73,7 +75,7 @@ impl Tracker {
         samples: Option<usize>,
         horizon: Option<usize>,
         temperature: Option<f64>,
-        history: f64,
+        history: Option<f64>,
     ) -> PyResult<Self> {
         let model = model.extract::<PyRef<'_, Model>>().map_err(|_| {
             err(format!(

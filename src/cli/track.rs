@@ -89,7 +89,8 @@ pub struct Args {
     time_limit: Option<f64>,
     /// How far back the controller's predictions start (s, 0 to 10): from the state this
     /// long ago through the commands sent since, so that the commands still in flight (dead
-    /// time, lag) act in them; 0 starts them from now (default 0.5).
+    /// time, lag) act in them; 0 starts them from now. Default: each model's powertrain's
+    /// settling time (its dead time plus one time constant for eq. 3's FOPDT; 0.5 to 3 s).
     #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
     history: Option<f64>,
     /// Print one JSON object on stdout instead of the tables.

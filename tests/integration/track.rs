@@ -61,6 +61,47 @@ fn track_json_has_every_field_the_issue_names_and_its_outputs() {
         }
         assert!(s["model"].is_string() && s["path"].is_string());
     }
+    // How far back the predictions start: the naive model has no powertrain dynamics (the
+    // floor, half a second); slip-BLR's FOPDT powertrain settles in its dead time plus one
+    // time constant (the slower side), the first tick at or past it.
+    let model = dir.path().join("slip-blr.json");
+    ok(&[
+        "train",
+        "--data",
+        "bundled:husky_drive",
+        "--model",
+        "slip-blr",
+        "--uncertainty",
+        "paper",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    let settle = m["model"]["powertrain"]["axes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| f(&a["delay"]) + f(&a["time_constant"]))
+        .fold(0.0, f64::max);
+    assert!(settle > 1.0, "{settle}");
+    for (model, rows) in [
+        ("naive", runs),
+        ("slip-blr", runs),
+        ("naive", summary),
+        ("slip-blr", summary),
+    ] {
+        let row = rows.iter().find(|r| r["model"] == model).unwrap();
+        let h = f(&row["history_s"]);
+        if model == "naive" {
+            assert_eq!(h, 0.5, "{row}");
+        } else {
+            assert!(
+                h >= settle - 1e-9 && h < settle + 0.05 + 1e-9,
+                "{h} against {settle}"
+            );
+        }
+    }
     // The top speed is the Husky twin's, measured: its controller caps it near 0.92 m/s.
     let top = f(&v["top_speed_m_s"]);
     assert!((0.7..1.0).contains(&top), "top speed {top}");

@@ -153,8 +153,8 @@ pub struct TrackStudy {
     /// its speed, plus 20 s (which must be within [`MAX_RUN_S`]).
     pub time_limit_s: Option<f64>,
     /// How far back the controller's predictions start (s, in [0, 10]): from the state this
-    /// long ago through the commands sent since ([`TrackerConfig::history_s`]); default
-    /// [`TrackerConfig::new`]'s half second.
+    /// long ago through the commands sent since ([`TrackerConfig::history_s`]); default:
+    /// each model's powertrain's settling time ([`drive_control::settling_history_s`]).
     pub history_s: Option<f64>,
 }
 
@@ -210,6 +210,9 @@ pub struct TrackRun {
     pub yaw_rate_sign_changes_per_m: f64,
     /// Median time the controller took per tick (ms).
     pub tick_ms_median: f64,
+    /// How far back the controller's predictions started (s): the study's history, or
+    /// the model's settling time ([`drive_control::settling_history_s`]).
+    pub history_s: f64,
     /// The path's length (m).
     pub length_m: f64,
     /// The robot's positions, one per tick (for figures; not in the JSON).
@@ -253,6 +256,8 @@ pub struct TrackSummary {
     pub command_change_rms: f64,
     /// Mean of the runs' [`TrackRun::yaw_rate_sign_changes_per_m`].
     pub yaw_rate_sign_changes_per_m: f64,
+    /// Mean over the runs of how far back the controller's predictions started (s).
+    pub history_s: f64,
     /// Whether the robot can drive this path at this speed on this ground
     /// ([`Feasibility`]); `None` where the vehicle has no input for the turns it needs.
     pub feasible: Option<bool>,

@@ -180,11 +180,10 @@ pub(super) fn drive(
         speed: plan.speed,
         seed: plan.seed,
     };
-    let defaults = TrackerConfig::new(plan.speed);
     let config = TrackerConfig {
         start: plan.spec.start,
-        history_s: study.history_s.unwrap_or(defaults.history_s),
-        ..defaults
+        history_s: study.history_s,
+        ..TrackerConfig::new(plan.speed)
     };
     let mut tracker = Tracker::new(
         study.controller.as_ref(),
@@ -194,6 +193,7 @@ pub(super) fn drive(
         Arc::clone(&d.plant.vehicle),
     )
     .map_err(control)?;
+    let history_s = tracker.history_s();
     let space = d.controller.input_space();
     let half = space.scale() * 0.5;
     let axes = space.dim() as f64;
@@ -299,6 +299,7 @@ pub(super) fn drive(
             0.0
         },
         tick_ms_median: ticks_ms[ticks_ms.len() / 2],
+        history_s,
         length_m: path.length(),
         trajectory,
         recorded: recorded.windows(plan.window_len),

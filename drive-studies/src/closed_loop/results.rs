@@ -104,6 +104,7 @@ pub(super) fn summarise(
                         effort: mean(|r| r.effort),
                         command_change_rms: mean(|r| r.command_change_rms),
                         yaw_rate_sign_changes_per_m: mean(|r| r.yaw_rate_sign_changes_per_m),
+                        history_s: mean(|r| r.history_s),
                         feasible,
                         improvement_over_first_percent: None,
                         improvement_over_powertrain_percent: None,

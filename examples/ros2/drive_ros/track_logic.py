@@ -49,7 +49,8 @@ class TrackLogic:
 
     `left_joint`, `right_joint`: the JointState names of the wheels (their velocities are
     read by name); `start`: what the model was fitted to start from; `samples`, `horizon`,
-    `temperature`, `history`: the controller's settings (`drive.Tracker`).
+    `temperature`, `history`: the controller's settings (`drive.Tracker`; a `history` of
+    None or below 0 is the model's powertrain's settling time, `drive track`'s default).
     """
 
     def __init__(
@@ -64,7 +65,7 @@ class TrackLogic:
         samples=1024,
         horizon=40,
         temperature=0.1,
-        history=0.5,
+        history=None,
         deadman_button=0,
         deadman_threshold=0.5,
         joy_timeout=0.5,
@@ -79,6 +80,8 @@ class TrackLogic:
         self.robot = robot
         self.speed = float(speed)
         self.rate_hz = 1.0 / self.model.dt
+        if history is not None and history < 0:
+            history = None
         self.options = dict(
             start=start, samples=samples, horizon=horizon, temperature=temperature, history=history
         )

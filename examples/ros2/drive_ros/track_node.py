@@ -42,7 +42,7 @@ PARAMETERS = {
     "samples": 1024,
     "horizon": 40,
     "temperature": 0.1,
-    "history": 0.5,
+    "history": -1.0,
     "use_joint_states": True,
     "left_joint": "left_wheel",
     "right_joint": "right_wheel",
