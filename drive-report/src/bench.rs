@@ -403,6 +403,14 @@ pub fn markdown(b: &Bench) -> String {
     for skipped in &b.transfer_skipped {
         let _ = writeln!(s, "\nTransfer skipped: {}", md(skipped));
     }
+    for skipped in &b.skipped {
+        let _ = writeln!(
+            s,
+            "\nDataset skipped: {}: {}",
+            md(&skipped.dataset),
+            md(&skipped.reason)
+        );
+    }
     let _ = writeln!(s, "\n## Error against the unpredictability\n");
     let _ = writeln!(
         s,

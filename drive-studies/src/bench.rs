@@ -29,7 +29,7 @@ use thiserror::Error;
 mod results;
 pub use results::{
     Bench, BenchDataset, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,
-    TransferCell, TransferGroup, TransferSummary, UnpredictabilityBin,
+    SkippedDataset, TransferCell, TransferGroup, TransferSummary, UnpredictabilityBin,
 };
 
 /// One dataset of a benchmark, loaded, with its labels.
@@ -67,6 +67,9 @@ pub struct BenchConfig {
     /// evidence in the leaderboard (wins and losses): with a handful of intervals, every
     /// resample draws the same few and the interval collapses to a point.
     pub min_evidence_intervals: usize,
+    /// Rank a dataset the data checks call useless (a fatal finding of
+    /// [`drive_data::quality::check`], as `drive check` exits 1 on) instead of skipping it.
+    pub allow_useless: bool,
 }
 
 impl Default for BenchConfig {
@@ -76,6 +79,7 @@ impl Default for BenchConfig {
             transfer: true,
             unpredictability: UnpredictabilityConfig::default(),
             min_evidence_intervals: 10,
+            allow_useless: false,
         }
     }
 }
@@ -100,6 +104,9 @@ pub enum BenchError {
         /// Why.
         reason: CompareError,
     },
+    /// Every dataset was skipped (each with why).
+    #[error("no dataset could be benchmarked: {0}")]
+    AllSkipped(String),
     /// A transfer fit failed.
     #[error("transfer: fitting {model} on all of '{dataset}': {reason}")]
     TransferFit {
@@ -375,14 +382,56 @@ pub fn run_bench(
             return Err(BenchError::DuplicateModel(a.name.clone()));
         }
     }
-    let datasets: Vec<BenchDataset> = inputs
+    // A dataset the data checks call useless, or on which the models cannot be compared,
+    // is skipped with why; the others go on.
+    let outcomes: Vec<Result<BenchDataset, String>> = inputs
         .par_iter()
         .map(|input| {
-            let d = within(input, specs, config);
+            let d = useless(input, config).map_or_else(
+                || {
+                    within(input, specs, config).map_err(|e| match e {
+                        BenchError::Dataset { reason, .. } => reason.to_string(),
+                        e => e.to_string(),
+                    })
+                },
+                Err,
+            );
             progress();
             d
         })
-        .collect::<Result<_, _>>()?;
+        .collect();
+    let mut datasets = Vec::new();
+    let mut skipped = Vec::new();
+    for (input, outcome) in inputs.iter().zip(outcomes) {
+        match outcome {
+            Ok(d) => datasets.push(d),
+            Err(reason) => skipped.push(SkippedDataset {
+                dataset: input.name.clone(),
+                reason,
+            }),
+        }
+    }
+    if datasets.is_empty() {
+        return Err(BenchError::AllSkipped(
+            skipped
+                .iter()
+                .map(|s| format!("'{}': {}", s.dataset, s.reason))
+                .collect::<Vec<_>>()
+                .join("; "),
+        ));
+    }
+    // The transfer runs between the datasets kept (copied only when one was skipped).
+    let kept: Vec<BenchInput>;
+    let inputs = if skipped.is_empty() {
+        inputs
+    } else {
+        kept = inputs
+            .iter()
+            .filter(|i| !skipped.iter().any(|s| s.dataset == i.name))
+            .cloned()
+            .collect();
+        &kept[..]
+    };
     let (pairs, transfer_skipped) = if config.transfer {
         transfer_pairs(inputs)
     } else {
@@ -406,7 +455,25 @@ pub fn run_bench(
         transfer_summary,
         leaderboard,
         transfer_skipped,
+        skipped,
     })
+}
+
+/// Why `input` is skipped as useless: the data checks' first fatal finding, unless
+/// [`BenchConfig::allow_useless`].
+fn useless(input: &BenchInput, config: &BenchConfig) -> Option<String> {
+    if config.allow_useless {
+        return None;
+    }
+    drive_data::quality::check(&input.data, None)
+        .into_iter()
+        .find(|f| f.severity == drive_data::quality::Severity::Fatal)
+        .map(|f| {
+            format!(
+                "the data checks call it useless: {} ({}; drive check says more, --allow-useless ranks it anyway)",
+                f.message, f.check
+            )
+        })
 }
 
 /// Fits every model on all of each training dataset of `pairs`, scores it on each test

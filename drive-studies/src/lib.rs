@@ -57,7 +57,7 @@ pub const BENCH_MODELS: &str = "naive,powertrain,slip-blr,acc-blr,slip-ipem";
 pub use bench::{
     bench_units, run_bench, terrain_known, Bench, BenchConfig, BenchDataset, BenchError,
     BenchInput, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,
-    TransferCell, TransferGroup, TransferSummary, UnpredictabilityBin,
+    SkippedDataset, TransferCell, TransferGroup, TransferSummary, UnpredictabilityBin,
 };
 pub use closed_loop::{
     run_track, PathChoice, PlacedPath, TrackError, TrackResult, TrackRun, TrackStudy, TrackSummary,

@@ -29,6 +29,10 @@ pub struct Args {
     /// Skip the transfer between datasets of the same robot.
     #[arg(long)]
     no_transfer: bool,
+    /// Rank a dataset the data checks call useless (what `drive check` exits 1 on: a frozen
+    /// localization, a dead encoder, ...) instead of skipping it.
+    #[arg(long)]
+    allow_useless: bool,
     /// Print one JSON object on stdout instead of the tables.
     #[arg(long)]
     json: bool,
@@ -106,6 +110,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let config = BenchConfig {
         split: args.split,
         transfer: !args.no_transfer,
+        allow_useless: args.allow_useless,
         ..BenchConfig::default()
     };
     let progress = Progress::new("bench");

@@ -393,3 +393,77 @@ fn a_dataset_of_few_evaluation_intervals_counts_for_no_win_or_loss() {
         "{text}"
     );
 }
+
+#[test]
+fn a_useless_or_degenerate_dataset_is_skipped_with_why_and_the_suite_goes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The grass run with its localization frozen (what drive check calls not-moving), and
+    // its first three intervals (too few to fit slip-BLR's powertrain on half of them).
+    let mut frozen = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    for w in &mut frozen.windows {
+        for p in &mut w.pose {
+            *p = drive::traits::Pose::zeros();
+        }
+    }
+    drive::data::write_dataset(&frozen, &d.join("frozen.csv")).unwrap();
+    let mut tiny = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    tiny.windows.truncate(9);
+    drive::data::write_dataset(&tiny, &d.join("tiny.csv")).unwrap();
+    let suite = d.join("suite.toml");
+    std::fs::write(
+        &suite,
+        "[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\n\
+         [[dataset]]\npath = \"frozen.csv\"\n\
+         [[dataset]]\npath = \"tiny.csv\"\n\
+         [[dataset]]\nbundled = \"warthog_asphalt_slow_2024-08-08\"\n",
+    )
+    .unwrap();
+    let args = ["bench", "--suite", s(&suite), "--models", "naive,slip-blr"];
+    let v: Value = serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
+    let names: Vec<&str> = v["datasets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+    let skipped = v["skipped"].as_array().unwrap();
+    assert_eq!(skipped.len(), 2, "{skipped:?}");
+    assert_eq!(skipped[0]["dataset"], "frozen");
+    let why = skipped[0]["reason"].as_str().unwrap();
+    assert!(
+        why.contains("useless") && why.contains("not-moving"),
+        "{why}"
+    );
+    assert_eq!(skipped[1]["dataset"], "tiny");
+    assert!(
+        skipped[1]["reason"]
+            .as_str()
+            .unwrap()
+            .contains("degenerate"),
+        "{skipped:?}"
+    );
+    // The transfer runs between the two kept runs only.
+    assert_eq!(v["transfer"].as_array().unwrap().len(), 2 * 2);
+    let text = ok(&[&args[..], &["--no-transfer"]].concat());
+    assert!(
+        text.contains("dataset skipped: frozen: the data checks call it useless"),
+        "{text}"
+    );
+    assert!(text.contains("dataset skipped: tiny: "), "{text}");
+    // --allow-useless ranks the frozen run; a suite of nothing usable fails, saying why.
+    let v: Value = serde_json::from_str(&ok(&[
+        &args[..],
+        &["--json", "--no-transfer", "--allow-useless"],
+    ]
+    .concat()))
+    .unwrap();
+    assert_eq!(v["datasets"].as_array().unwrap().len(), 3);
+    std::fs::write(&suite, "[[dataset]]\npath = \"frozen.csv\"\n").unwrap();
+    let err = user_error(&args);
+    assert!(
+        err.contains("no dataset could be benchmarked: 'frozen': the data checks call it useless"),
+        "{err}"
+    );
+}

@@ -267,6 +267,13 @@ pub fn text(b: &Bench, transfer: bool) -> String {
     for skipped in &b.transfer_skipped {
         let _ = writeln!(s, "transfer skipped: {skipped}");
     }
+    for skipped in &b.skipped {
+        let _ = writeln!(
+            s,
+            "dataset skipped: {}: {}",
+            skipped.dataset, skipped.reason
+        );
+    }
     // Cells are padded to their column: no trailing blanks.
     s.lines().map(str::trim_end).collect::<Vec<_>>().join("\n") + "\n"
 }

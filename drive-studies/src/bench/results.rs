@@ -267,4 +267,17 @@ pub struct Bench {
     pub leaderboard: Vec<LeaderboardRow>,
     /// Ordered pairs of the same robot skipped (another rate or vehicle), with why.
     pub transfer_skipped: Vec<String>,
+    /// Datasets skipped (the data checks call them useless, or the models cannot be
+    /// compared on them), with why; absent from the JSON when none was.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub skipped: Vec<SkippedDataset>,
+}
+
+/// A dataset a benchmark skipped, and why.
+#[derive(Debug, Clone, Serialize)]
+pub struct SkippedDataset {
+    /// The dataset's name.
+    pub dataset: String,
+    /// Why it was skipped.
+    pub reason: String,
 }
