@@ -97,6 +97,12 @@ fn wrong_arguments_are_statuses_with_messages() {
             drive_model_from_json(junk.as_ptr().cast(), junk.len(), &mut out),
             DRIVE_ERROR_FILE
         );
+        assert!(last_error().contains("'format'"), "{}", last_error());
+        let junk = "{\"format\": \"drive-motion-model\", \"format_version\": 2}";
+        assert_eq!(
+            drive_model_from_json(junk.as_ptr().cast(), junk.len(), &mut out),
+            DRIVE_ERROR_FILE
+        );
         assert!(last_error().contains("robot"), "{}", last_error());
         assert!(out.is_null());
         // NULL models.

@@ -257,6 +257,21 @@ pub fn stage_dataset(
             DataErrorKind::Io(e.to_string()),
         )
     })?;
+    // What is written can be read back: a text field the reader refuses (a terrain with a
+    // tab or of 300 characters, a name with a control character) is refused here, before
+    // anything is written, with the reader's words.
+    if let Err(e) = parse_sidecar(&side.display().to_string(), &sidecar) {
+        return Err(DataError::new(
+            Location::file(&side.display().to_string()),
+            DataErrorKind::Write(format!(
+                "it would not be read back ({}{}): nothing written",
+                e.location
+                    .field
+                    .map_or(String::new(), |f| format!("field '{f}': ")),
+                e.kind
+            )),
+        ));
+    }
     outputs.write(csv, text).map_err(|e| write_error(csv, e))?;
     outputs
         .write(&side, sidecar)

@@ -144,6 +144,8 @@ fn cases() -> Vec<Case> {
         // Robot TOML.
         Case { name: "robot negative baseline", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = -0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),
             args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["robot.toml, field 'vehicle'", "baseline = -0.5", "positive"] },
+        Case { name: "robot name with an escape sequence", file: File::Robot("name = \"a\\u001b[31mb\"\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = 0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),
+            args: &["simulate", "--robot", "{robot}", "--terrain", "tile", "--duration", "40", "--out", "{out}"], says: &["robot.toml, field 'name'", "holds a control character"] },
         Case { name: "robot unknown field", file: File::Robot("name = 'r'\nmass_kg = 50\nwheel_radius = 0.1\nbaseline = 0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\ntop_speed = 3\n"),
             args: &["protocol", "--robot", "{robot}", "--intervals", "2", "--out", "{out}"], says: &["robot.toml", "unknown field `top_speed`"] },
         Case { name: "robot missing field", file: File::Robot("name = 'r'\nmass_kg = 50\nbaseline = 0.5\nmax_speed = 1\nmax_linear_acceleration = 1\nmax_angular_acceleration = 2\n"),

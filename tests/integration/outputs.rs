@@ -699,3 +699,69 @@ fn a_standard_error_that_cannot_be_written_is_no_panic() {
         assert_eq!(out.status.code(), Some(code), "{command}");
     }
 }
+
+#[test]
+fn a_dataset_whose_text_fields_the_reader_refuses_is_never_written() {
+    let dir = tempfile::tempdir().unwrap();
+    // A simulated raw log to import.
+    let logs = tempfile::tempdir().unwrap();
+    let raw = s(&logs.path().join("raw.csv"));
+    ok(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        "snow",
+        "--duration",
+        "60",
+        "--seed",
+        "1",
+        "--out",
+        &s(&logs.path().join("sim.csv")),
+        "--raw-out",
+        &raw,
+    ]);
+    let raw = raw.as_str();
+    let out = dir.path().join("run.csv");
+    let long = "x".repeat(300);
+    // A terrain with a tab, or of 300 characters: `eval` would refuse the sidecar; `import`
+    // refuses to write it, with the reader's words, and leaves nothing.
+    for (terrain, says) in [
+        ("wet\tgrass", "field 'terrain': holds a control character"),
+        (long.as_str(), "terrain (characters)"),
+    ] {
+        let err = user_error(&[
+            "import",
+            "--raw",
+            raw,
+            "--robot",
+            "husky",
+            "--terrain",
+            terrain,
+            "--out",
+            &s(&out),
+        ]);
+        assert!(
+            err.contains("would not be read back") && err.contains(says),
+            "{err}"
+        );
+        assert!(snapshot(dir.path()).is_empty(), "{terrain:?}");
+    }
+    // The same terrain without the tab is written and read back.
+    ok(&[
+        "import",
+        "--raw",
+        raw,
+        "--robot",
+        "husky",
+        "--terrain",
+        "wet grass",
+        "--out",
+        &s(&out),
+    ]);
+    let side: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.with_extension("meta.json")).unwrap())
+            .unwrap();
+    assert_eq!(side["terrain"], "wet grass");
+    ok(&["check", "--data", &s(&out)]);
+}

@@ -343,6 +343,11 @@ impl RobotSpec {
                 message: message.into(),
             })
         };
+        // The name is written into sidecars and printed: no control character (an escape
+        // sequence would reach the terminal raw, and the sidecar's reader refuses it).
+        if self.name.chars().any(char::is_control) {
+            return invalid("name", "holds a control character");
+        }
         let positive: [(&'static str, f64); 3] = [
             ("mass_kg", self.mass_kg),
             ("max_speed", self.max_speed),
