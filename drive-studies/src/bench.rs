@@ -135,6 +135,7 @@ pub fn bench_units(inputs: &[BenchInput], models: usize, config: &BenchConfig) -
 /// The ordered pairs (train, test) of datasets of the same robot that can be compared, and
 /// the pairs skipped with why (other rates or vehicle types, or the same windows).
 fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
+    let prints: Vec<Vec<u64>> = inputs.iter().map(|i| window_prints(&i.data)).collect();
     let mut pairs = Vec::new();
     let mut skipped = Vec::new();
     for (a, ia) in inputs.iter().enumerate() {
@@ -154,14 +155,16 @@ fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
                     crate::vehicle_type(&ia.data),
                     crate::vehicle_type(&ib.data)
                 ))
-            } else if ia.data.windows == ib.data.windows {
-                // One run listed twice (or in two formats): its own windows.
-                Some(
-                    "the same windows (one run listed twice?): each model would be scored on windows it was fitted on"
-                        .to_string(),
-                )
             } else {
-                None
+                // One run listed twice, in two formats, or with a part of itself: its own
+                // windows, by content.
+                let shared = shared_windows(&prints[a], &prints[b]);
+                let smaller = prints[a].len().min(prints[b].len());
+                (shared > 0 && shared * SAME_RUN_SHARE_DENOMINATOR >= smaller).then(|| {
+                    format!(
+                        "the same windows ({shared} of the {smaller} of the one with fewer are also in the other: one run listed twice, in two formats, or with a part of itself?): each model would be scored on windows it was fitted on"
+                    )
+                })
             };
             match why {
                 None => pairs.push((a, b)),
@@ -170,6 +173,54 @@ fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
         }
     }
     (pairs, skipped)
+}
+
+/// Two datasets are the same run when at least one in this many of the windows of the one
+/// with fewer are also in the other (a tenth: two real runs share none).
+const SAME_RUN_SHARE_DENOMINATOR: usize = 10;
+
+/// A fingerprint of each window's content (commands, measured inputs, poses, each rounded to
+/// 1e-6): equal for a window read from a raw log and from its imported window CSV (equal to
+/// 1e-15), different for windows of two runs. Sorted.
+fn window_prints(data: &Dataset) -> Vec<u64> {
+    use std::hash::{Hash, Hasher};
+    let mut prints: Vec<u64> = data
+        .windows
+        .iter()
+        .map(|w| {
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            let values = w
+                .command
+                .iter()
+                .chain(&w.measured)
+                .flat_map(|u| u.iter())
+                .chain(w.pose.iter().flat_map(|p| p.iter()));
+            for v in values {
+                // Rounded to 1e-6 (a value beyond i64 saturates, as is fine for a print).
+                ((v * 1e6).round() as i64).hash(&mut h);
+            }
+            h.finish()
+        })
+        .collect();
+    prints.sort_unstable();
+    prints
+}
+
+/// How many fingerprints of `a` are also in `b` (both sorted), counted once each.
+fn shared_windows(a: &[u64], b: &[u64]) -> usize {
+    let (mut i, mut j, mut n) = (0, 0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].cmp(&b[j]) {
+            std::cmp::Ordering::Less => i += 1,
+            std::cmp::Ordering::Greater => j += 1,
+            std::cmp::Ordering::Equal => {
+                n += 1;
+                i += 1;
+                j += 1;
+            }
+        }
+    }
+    n
 }
 
 /// Whether a terrain label is known (not empty, not `unknown...`).

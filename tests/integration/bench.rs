@@ -467,3 +467,78 @@ fn a_useless_or_degenerate_dataset_is_skipped_with_why_and_the_suite_goes_on() {
         "{err}"
     );
 }
+
+#[test]
+fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pair() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    // Its first half, and a copy whose positions moved by 1e-15 (a raw log and its
+    // imported window CSV differ so).
+    let mut half = run.clone();
+    half.windows.truncate(run.windows.len() / 2);
+    drive::data::write_dataset(&half, &d.join("half.csv")).unwrap();
+    let mut copy = run.clone();
+    for w in &mut copy.windows {
+        for p in &mut w.pose {
+            p.x += 1e-15;
+        }
+    }
+    drive::data::write_dataset(&copy, &d.join("copy.csv")).unwrap();
+    let suite = d.join("suite.toml");
+    std::fs::write(
+        &suite,
+        "[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\nname = \"run\"\n\
+         [[dataset]]\npath = \"half.csv\"\n\
+         [[dataset]]\npath = \"copy.csv\"\n\
+         [[dataset]]\nbundled = \"warthog_asphalt_slow_2024-08-08\"\nname = \"other\"\n",
+    )
+    .unwrap();
+    let v: Value = serde_json::from_str(&ok(&[
+        "bench",
+        "--suite",
+        s(&suite),
+        "--models",
+        "naive",
+        "--json",
+    ]))
+    .unwrap();
+    let skipped: Vec<&str> = v["transfer_skipped"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_str().unwrap())
+        .collect();
+    for pair in [
+        "run -> half",
+        "half -> run",
+        "run -> copy",
+        "copy -> run",
+        "half -> copy",
+        "copy -> half",
+    ] {
+        assert!(
+            skipped
+                .iter()
+                .any(|x| x.starts_with(pair) && x.contains("the same windows")),
+            "{pair}: {skipped:?}"
+        );
+    }
+    // Each of the three with the other run: both ways, none skipped.
+    let pairs: Vec<(String, String)> = v["transfer"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            (
+                c["train"].as_str().unwrap().to_string(),
+                c["test"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    assert_eq!(pairs.len(), 6, "{pairs:?}");
+    assert!(
+        pairs.iter().all(|(a, b)| a == "other" || b == "other"),
+        "{pairs:?}"
+    );
+}
