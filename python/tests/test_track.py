@@ -117,6 +117,10 @@ def test_tracker_errors_are_drive_errors(model_file):
         drive.Tracker("slip-blr", "husky", "line", 0.5)
     with pytest.raises(drive.DriveError, match="samples"):
         drive.Tracker(model, "husky", "line", 0.5, samples=1)
+    with pytest.raises(drive.DriveError, match="history"):
+        drive.Tracker(model, "husky", "line", 0.5, history=11.0)
+    # No history given (None): the model's powertrain's settling time, as in drive track.
+    drive.Tracker(model, "husky", "line", 0.5, history=None, samples=64)
     tracker = drive.Tracker(model, "husky", "line", 0.5, scale=2.0, samples=64)
     assert tracker.length == pytest.approx(12.0)
     with pytest.raises(drive.DriveError, match="no localization"):
