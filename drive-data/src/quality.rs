@@ -405,7 +405,8 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
     let mut out = Vec::new();
     // encoder-units: over the windows where localization saw at least 0.2 m, the median ratio
     // of the distance the encoders imply to the one localization saw (0.8-1.05 on the
-    // bundled runs, slip included).
+    // bundled runs, slip included). Beyond a factor of 5 either way no slip explains it: a
+    // model trained on such encoders is wrong by that factor, so the finding is fatal.
     let mut ratios: Vec<f64> = motions
         .iter()
         .filter(|m| m.2 >= 0.2)
@@ -417,7 +418,7 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
         if !(0.4..=2.5).contains(&median) {
             out.push(Finding {
                 check: Check::EncoderUnits,
-                severity: Severity::Warning,
+                severity: Severity::fatal_if(!(0.2..=5.0).contains(&median)),
                 message: format!(
                     "the encoders imply {}x the distance localization saw (median over {} windows): encoders in another unit, or the wrong wheel radius?",
                     Short((median * 1000.0).round() / 1000.0),

@@ -10,7 +10,7 @@ use drive_eval::{evaluate_model_from, ModelReport};
 use drive_models::ModelSpec;
 use drive_samplers::{build_sampler, RobotSpec, RunnerConfig, SamplerContext, SamplerError};
 use drive_sim::{simulate, Simulation, SimulationConfig, Terrain};
-use drive_traits::{FitError, Input, InputSampler, MotionModel, WindowSet};
+use drive_traits::{Dataset, FitError, Input, InputSampler, MotionModel, WindowSet};
 use rayon::prelude::*;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
@@ -188,19 +188,24 @@ pub fn simulate_run(registries: &Registries, run: &SimRun) -> Result<Simulation,
     if let Some(e) = failed {
         return Err(sampler_error(e));
     }
-    // A run nothing can be learned from (a robot that cannot move: a wheel limit or a
-    // friction of 1e-300 in a twin file) is refused here rather than scored as all-zero
-    // errors by every command that simulates.
-    if let Some(f) = drive_data::quality::check(&result.dataset, None)
+    usable(&run.label(), &result.dataset)?;
+    Ok(result)
+}
+
+/// A simulated run nothing can be learned from (a robot that cannot move: a wheel limit or
+/// a friction of 1e-300 in a twin file) is refused, rather than scored as all-zero errors by
+/// every command that simulates: the data checks' first fatal finding on it.
+pub(crate) fn usable(run: &str, dataset: &Dataset) -> Result<(), ExperimentError> {
+    match drive_data::quality::check(dataset, None)
         .into_iter()
         .find(|f| f.severity == drive_data::quality::Severity::Fatal)
     {
-        return Err(ExperimentError::Unusable {
-            run: run.label(),
+        Some(f) => Err(ExperimentError::Unusable {
+            run: run.to_string(),
             finding: format!("{} ({})", f.message, f.check),
-        });
+        }),
+        None => Ok(()),
     }
-    Ok(result)
 }
 
 /// Runs every simulation in parallel (rayon), in order; `progress` is called after each.

@@ -335,8 +335,11 @@ fn replay_run(
         },
         events: Vec::new(),
     };
+    let label = config.name.clone();
     let factory = move |_| Box::new(sampler.clone()) as Box<dyn InputSampler>;
-    Ok(drive_sim::simulate(config, &registries.simulators, factory, None)?.dataset)
+    let dataset = drive_sim::simulate(config, &registries.simulators, factory, None)?.dataset;
+    crate::experiment::usable(&label, &dataset)?;
+    Ok(dataset)
 }
 
 /// One evaluation window's translational and rotational errors (eq. 8) and its interval.

@@ -30,6 +30,45 @@ pub struct DataArgs {
     pub frame: String,
 }
 
+/// Whether a command fits and scores on data the data checks call useless.
+#[derive(clap::Args)]
+pub struct UselessArg {
+    /// Fit and score on data the data checks call useless (what `drive check` exits 1 on: a
+    /// frozen localization, a dead encoder, encoders in another unit, ...) instead of
+    /// refusing it.
+    #[arg(long)]
+    pub allow_useless: bool,
+}
+
+/// Refuses `data` (named `name`) when the data checks call it useless (their first fatal
+/// finding, named), unless `allow`: then the findings are said on stderr.
+pub fn refuse_useless(data: &Dataset, name: &str, allow: bool) -> Result<()> {
+    if allow {
+        note_quality(data, true);
+        return Ok(());
+    }
+    if let Some(f) = crate::data::quality::check(data, None)
+        .into_iter()
+        .find(|f| f.severity == crate::data::quality::Severity::Fatal)
+    {
+        anyhow::bail!(
+            "{name}: the data checks call it useless: {} ({}; drive check says more; --allow-useless fits and scores on it anyway)",
+            f.message,
+            f.check
+        );
+    }
+    Ok(())
+}
+
+/// The name of the data `args` loads, for messages.
+pub fn data_name(args: &DataArgs) -> String {
+    args.data
+        .as_ref()
+        .map_or(crate::bundled::HUSKY_CSV_NAME.to_string(), |p| {
+            p.display().to_string()
+        })
+}
+
 /// The models a command compares.
 #[derive(clap::Args)]
 pub struct ModelsArg {

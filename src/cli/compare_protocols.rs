@@ -58,6 +58,8 @@ pub struct Args {
     real: bool,
     #[command(flatten)]
     data: DataArgs,
+    #[command(flatten)]
+    useless: super::common::UselessArg,
     /// With --real: fraction of the intervals the regions are taken from.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     split: f64,
@@ -80,6 +82,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             ..Default::default()
         };
         let data = load(registries, &args.data)?;
+        super::common::refuse_useless(
+            &data,
+            &super::common::data_name(&args.data),
+            args.useless.allow_useless,
+        )?;
         recorded(registries, &data, &study, args.json)
     } else {
         simulated(args, registries)

@@ -8,6 +8,8 @@ use anyhow::{bail, Result};
 pub struct Args {
     #[command(flatten)]
     data: DataArgs,
+    #[command(flatten)]
+    useless: super::common::UselessArg,
     /// Fraction of the intervals whose prefixes are trained on; the rest evaluates.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     split: f64,
@@ -58,6 +60,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         );
     }
     let dataset = load(registries, &args.data)?;
+    super::common::refuse_useless(
+        &dataset,
+        &super::common::data_name(&args.data),
+        args.useless.allow_useless,
+    )?;
     let config = crate::studies::ConvergenceConfig {
         split: args.split,
         thresholds,

@@ -12,6 +12,8 @@ use std::path::PathBuf;
 pub struct Args {
     #[command(flatten)]
     data: DataArgs,
+    #[command(flatten)]
+    useless: super::common::UselessArg,
     /// Fraction of the DRIVE intervals (in recording order) used for training.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     split: f64,
@@ -84,7 +86,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         args.powertrain.as_deref(),
     )?)?;
     let dataset = load(registries, &args.data)?;
-    super::common::note_quality(&dataset, true);
+    super::common::refuse_useless(
+        &dataset,
+        &super::common::data_name(&args.data),
+        args.useless.allow_useless,
+    )?;
+    super::common::note_quality(&dataset, false);
     let cmp = compare_specs(&dataset, args.split, &specs)?;
     // Figures from a handful of intervals are printed, and said to be so.
     let evidence = crate::studies::BenchConfig::default().min_evidence_intervals;

@@ -10,6 +10,8 @@ use std::path::PathBuf;
 pub struct Args {
     #[command(flatten)]
     data: DataArgs,
+    #[command(flatten)]
+    useless: super::common::UselessArg,
     /// Output folder (created if missing).
     #[arg(long)]
     out: PathBuf,
@@ -48,6 +50,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     crate::studies::check_names(&registries.models().resolve_list(&models)?)?;
     registries.model(&args.model)?;
     let dataset = load(registries, &args.data)?;
+    super::common::refuse_useless(
+        &dataset,
+        &super::common::data_name(&args.data),
+        args.useless.allow_useless,
+    )?;
     let robot = args
         .robot
         .as_deref()

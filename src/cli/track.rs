@@ -93,6 +93,8 @@ pub struct Args {
     /// settling time (its dead time plus one time constant for eq. 3's FOPDT; 0.5 to 3 s).
     #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
     history: Option<f64>,
+    #[command(flatten)]
+    useless: super::common::UselessArg,
     /// Print one JSON object on stdout instead of the tables.
     #[arg(long)]
     json: bool,
@@ -204,6 +206,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         registries
             .check_vehicle(dataset.robot.vehicle.as_ref())
             .with_context(|| format!("{}: the data's vehicle", d.display()))?;
+        super::common::refuse_useless(
+            &dataset,
+            &format!("--train-data {}", d.display()),
+            args.useless.allow_useless,
+        )?;
         training.push(Training::Data {
             name: d.display().to_string(),
             dataset: Arc::new(dataset),

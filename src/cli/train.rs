@@ -11,6 +11,8 @@ use std::path::PathBuf;
 pub struct Args {
     #[command(flatten)]
     data: DataArgs,
+    #[command(flatten)]
+    useless: super::common::UselessArg,
     /// Model to fit: a model name (slip-blr, slip-blr+rate-limited, ...; see drive list).
     #[arg(long)]
     model: String,
@@ -31,6 +33,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .apply(vec![registries.model(&args.model)?])?
         .remove(0);
     let dataset = load(registries, &args.data)?;
+    super::common::refuse_useless(
+        &dataset,
+        &super::common::data_name(&args.data),
+        args.useless.allow_useless,
+    )?;
     let train = match args.split {
         Some(f) => crate::eval::split_by_interval(&dataset, f)?.0,
         None => WindowSet::new(&dataset.robot, &dataset.windows),

@@ -3,7 +3,7 @@
 
 use crate::common;
 
-use common::{drive, ok};
+use common::{drive, ok, user_error};
 use std::path::Path;
 
 /// An edit of a raw log row: the fields, and the position of a column by name.
@@ -217,8 +217,10 @@ fn a_robot_that_never_moved_and_encoders_in_another_unit_are_flagged() {
             f[col(c)] = format!("{}", v * 1e-3);
         }
     });
+    // Off by more than a factor of 5 no slip explains: fatal (a model trained on them would
+    // be wrong by that factor), refused unless allowed.
     let (code, json, err) = import(&milli, "husky", &dir.path().join("m.csv"), &[]);
-    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(code, Some(1), "{err}");
     // Both the distance (encoder-units) and the gain on each side's commands
     // (encoder-command) say so.
     assert_eq!(
@@ -226,7 +228,7 @@ fn a_robot_that_never_moved_and_encoders_in_another_unit_are_flagged() {
         vec![
             ("encoder-command".into(), "warning".into()),
             ("encoder-command".into(), "warning".into()),
-            ("encoder-units".into(), "warning".into())
+            ("encoder-units".into(), "fatal".into())
         ],
         "{json}"
     );
@@ -301,4 +303,63 @@ fn a_log_of_another_robot_is_flagged() {
         &[],
     );
     assert!(checks(&json).is_empty(), "{json}");
+}
+
+#[test]
+fn every_command_that_fits_or_scores_refuses_data_the_checks_call_useless_unless_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    // The bundled grass run with its localization frozen (fatal: not-moving).
+    let mut frozen = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    for w in &mut frozen.windows {
+        for p in &mut w.pose {
+            *p = drive::traits::Pose::zeros();
+        }
+    }
+    let csv = dir.path().join("frozen.csv");
+    drive::data::write_dataset(&frozen, &csv).unwrap();
+    let csv = csv.display().to_string();
+    let model = dir.path().join("m.json").display().to_string();
+    let report = dir.path().join("report").display().to_string();
+    for args in [
+        vec!["eval", "--data", &csv],
+        vec![
+            "train", "--data", &csv, "--model", "slip-blr", "--out", &model,
+        ],
+        vec!["report", "--data", &csv, "--out", &report],
+        vec!["converge", "--data", &csv],
+        vec!["compare-protocols", "--real", "--data", &csv],
+        vec![
+            "track",
+            "--robot",
+            "warthog",
+            "--terrain",
+            "gravel",
+            "--train-data",
+            &csv,
+            "--models",
+            "naive",
+            "--path",
+            "line",
+        ],
+    ] {
+        let err = user_error(&args);
+        assert!(
+            err.contains("the data checks call it useless") && err.contains("(not-moving;"),
+            "{args:?}: {err}"
+        );
+        assert!(err.contains("--allow-useless"), "{err}");
+    }
+    assert!(!std::path::Path::new(&model).exists());
+    // Allowed, the command runs and says what the checks found.
+    let out = drive(&[
+        "eval",
+        "--data",
+        &csv,
+        "--models",
+        "naive",
+        "--allow-useless",
+    ]);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("which drive check calls fatal"), "{err}");
 }

@@ -789,3 +789,74 @@ fn a_fitted_twin_runs_in_simulate_and_is_refused_where_it_does_not_apply() {
     let err = user_error(&["sim-fit", "--robot", "husky", "--out", &a, "--name", ""]);
     assert!(err.contains("--name"), "{err}");
 }
+
+#[test]
+fn a_twin_is_checked_only_on_data_a_fit_accepts_and_an_immobile_twin_is_refused() {
+    // The fit's own refusals, asked before checking a given twin (no fit runs): encoder
+    // columns swapped, a mirrored localization.
+    let data = run(&generator(), 30, 1);
+    drive::sim::check_real_run(&data, &husky()).unwrap();
+    let mut swapped = data.clone();
+    for w in &mut swapped.windows {
+        for m in &mut w.measured {
+            *m = drive::traits::Input::new(m.y, m.x, m.z);
+        }
+    }
+    let err = drive::sim::check_real_run(&swapped, &husky()).unwrap_err();
+    assert!(err.to_string().contains("encoder columns swapped"), "{err}");
+    let mut mirrored = data.clone();
+    for w in &mut mirrored.windows {
+        for p in &mut w.pose {
+            p.y = -p.y;
+            p.z = -p.z;
+        }
+        for r in &mut w.imu_yaw_rate {
+            *r = -*r;
+        }
+    }
+    let err = drive::sim::check_real_run(&mirrored, &husky()).unwrap_err();
+    assert!(err.to_string().contains("mirrored"), "{err}");
+    // Through the command line: sim-fit --twin on the mirrored run is refused so, with or
+    // without --allow-poor-twin.
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("mirrored.csv");
+    drive::data::write_dataset(&mirrored, &csv).unwrap();
+    let twin = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/husky_twin.toml");
+    let err = user_error(&[
+        "sim-fit",
+        "--data",
+        csv.to_str().unwrap(),
+        "--robot",
+        "husky",
+        "--twin",
+        twin,
+        "--allow-poor-twin",
+        "--check-seeds",
+        "1",
+    ]);
+    assert!(err.contains("mirrored"), "{err}");
+    // A twin whose wheels cannot turn (a wheel limit of 1e-300): its replayed runs are
+    // refused as the data checks refuse a robot that does not move, never scored as zeros.
+    let text = std::fs::read_to_string(twin).unwrap();
+    let limit = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("wheel_limit"))
+        .unwrap()
+        .to_string();
+    let frozen = dir.path().join("frozen.toml");
+    std::fs::write(&frozen, text.replace(&limit, "wheel_limit = 1e-300")).unwrap();
+    let err = user_error(&[
+        "sim-fit",
+        "--robot",
+        "husky",
+        "--twin",
+        frozen.to_str().unwrap(),
+        "--allow-poor-twin",
+        "--check-seeds",
+        "1",
+    ]);
+    assert!(
+        err.contains("not-moving") || err.contains("encoders-zero"),
+        "{err}"
+    );
+}

@@ -388,9 +388,12 @@ fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
 /// the robot's geometry is the data's, the data has at least 12 steady windows and 6
 /// transient windows after a previous interval, none of the quality checks' fatal findings
 /// (a frozen localization, a dead encoder, ...) nor encoders and localization in different
-/// units, and its steady windows drive more than they turn in place. [`sim_fit`] starts
-/// with it; `drive sim-fit --twin` asks it before checking a given twin, so that a checked
-/// twin is refused on the data a fit is refused on.
+/// units, its steady windows drive more than they turn in place, enough of its turns were
+/// followed by the wheels, its steady encoder speeds follow the commands (the controller
+/// stage of the fit: not swapped, sign-flipped or in other units) and its localization moves
+/// the way the wheels drive (not mirrored). [`sim_fit`] asks the same; `drive sim-fit
+/// --twin` asks it before checking a given twin, so that a checked twin is refused on the
+/// data a fit is refused on.
 ///
 /// ```
 /// use drive_sim::{check_real_run, SimFitError};
@@ -414,7 +417,112 @@ fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
 /// assert!(matches!(check_real_run(&data, &husky), Err(SimFitError::TooFew { .. })));
 /// ```
 pub fn check_real_run(data: &Dataset, robot: &RobotSpec) -> Result<(), SimFitError> {
-    checked_run(data, robot).map(|_| ())
+    let (g, steady, transients) = checked_run(data, robot)?;
+    let (_, followed, _) = followed_runs(data, &steady, &transients)?;
+    controller_stage(&g, &followed)?;
+    check_direction(&steady, &g)
+}
+
+/// Stage 0: the turns the ground held at their start ([`fit_turn_stall`]), and the steady
+/// and transient windows of the turns the wheels followed (the controller's and the
+/// powertrain's data); refuses too few of them.
+fn followed_runs(
+    data: &Dataset,
+    steady: &[Steady],
+    transients: &[Transient],
+) -> Result<(TurnStallFit, Vec<Steady>, Vec<Transient>), SimFitError> {
+    let (turn_stall, stalled) = fit_turn_stall(data);
+    let followed: Vec<Steady> = steady
+        .iter()
+        .filter(|s| !stalled.contains(&s.interval))
+        .copied()
+        .collect();
+    // A transient replays the previous interval's command through the dead time: not one
+    // that stalled either.
+    let followed_transients: Vec<Transient> = transients
+        .iter()
+        .filter(|t| {
+            !stalled.contains(&t.interval)
+                && !t
+                    .interval
+                    .checked_sub(1)
+                    .is_some_and(|p| stalled.contains(&p))
+        })
+        .cloned()
+        .collect();
+    at_least(&[
+        (
+            "steady windows of turns the wheels followed",
+            "controller",
+            followed.len(),
+            12,
+        ),
+        (
+            "transient windows of turns the wheels followed",
+            "powertrain",
+            followed_transients.len(),
+            6,
+        ),
+    ])?;
+    Ok((turn_stall, followed, followed_transients))
+}
+
+/// Stage 1: the controller's parameters from regression slopes and the largest speeds
+/// measured, and its RMS miss (rad/s); refuses steady encoder speeds that do not follow the
+/// commands (swapped or sign-flipped encoder columns, other units).
+fn controller_stage(
+    g: &DifferentialDrive,
+    followed: &[Steady],
+) -> Result<(Vec<f64>, f64), SimFitError> {
+    let body = |u: Input| wheel_body(g, u);
+    let slope = |i: usize| {
+        let (mut xy, mut xx) = (0.0, 0.0);
+        for s in followed {
+            let (c, e) = (body(s.command)[i], body(s.encoders)[i]);
+            xy += c * e;
+            xx += c * c;
+        }
+        (xy / xx.max(1e-12)).clamp(0.05, 20.0)
+    };
+    let top = |i: usize| {
+        followed
+            .iter()
+            .map(|s| body(s.encoders)[i].abs())
+            .fold(1e-3, f64::max)
+    };
+    let wheel_top = followed
+        .iter()
+        .map(|s| s.encoders.x.abs().max(s.encoders.y.abs()))
+        .fold(1e-3, f64::max);
+    let start = vec![
+        slope(0).ln(),
+        slope(1).ln(),
+        (1.05 * top(0)).ln(),
+        (1.05 * top(1)).ln(),
+        (1.02 * wheel_top).ln(),
+        1.0,
+    ];
+    let cp = ControllerProblem {
+        steady: followed,
+        geometry: g.clone(),
+    };
+    let p = minimize(
+        cp.clone(),
+        start,
+        &[0.1, 0.1, 0.1, 0.1, 0.05, 0.03],
+        2000,
+        "controller",
+    )?;
+    let controller_rms = cp.cost(&p).map_or(f64::NAN, f64::sqrt);
+    let encoder_spread = spread_of(followed.iter().flat_map(|s| [s.encoders.x, s.encoders.y]));
+    // NaN counts as a miss.
+    if controller_rms.is_nan() || controller_rms > 0.5 * encoder_spread {
+        return Err(SimFitError::Unfit(format!(
+            "the steady encoder speeds do not follow the commands (the controller's fit misses by {:.3} rad/s RMS, of a spread of {:.3} rad/s): are the encoder columns swapped, or in other units?",
+            controller_rms, encoder_spread
+        )));
+    }
+    Ok((p, controller_rms))
 }
 
 /// [`check_real_run`], with the data's geometry and its steady and transient windows.
@@ -535,88 +643,9 @@ pub fn sim_fit_with_contact_spread(
     let dt = 1.0 / data.robot.rate_hz;
     // 0. The turns the ground held at their start: the commands the wheels followed are
     // the controller's and the powertrain's data (all of them when no stall is fitted).
-    let (turn_stall, stalled) = fit_turn_stall(data);
-    let followed: Vec<Steady> = steady
-        .iter()
-        .filter(|s| !stalled.contains(&s.interval))
-        .copied()
-        .collect();
-    // A transient replays the previous interval's command through the dead time: not one
-    // that stalled either.
-    let followed_transients: Vec<Transient> = transients
-        .iter()
-        .filter(|t| {
-            !stalled.contains(&t.interval)
-                && !t
-                    .interval
-                    .checked_sub(1)
-                    .is_some_and(|p| stalled.contains(&p))
-        })
-        .cloned()
-        .collect();
-    at_least(&[
-        (
-            "steady windows of turns the wheels followed",
-            "controller",
-            followed.len(),
-            12,
-        ),
-        (
-            "transient windows of turns the wheels followed",
-            "powertrain",
-            followed_transients.len(),
-            6,
-        ),
-    ])?;
+    let (turn_stall, followed, followed_transients) = followed_runs(data, &steady, &transients)?;
     // 1. Controller, from regression slopes and the largest speeds measured.
-    let body = |u: Input| wheel_body(&g, u);
-    let slope = |i: usize| {
-        let (mut xy, mut xx) = (0.0, 0.0);
-        for s in &followed {
-            let (c, e) = (body(s.command)[i], body(s.encoders)[i]);
-            xy += c * e;
-            xx += c * c;
-        }
-        (xy / xx.max(1e-12)).clamp(0.05, 20.0)
-    };
-    let top = |i: usize| {
-        followed
-            .iter()
-            .map(|s| body(s.encoders)[i].abs())
-            .fold(1e-3, f64::max)
-    };
-    let wheel_top = followed
-        .iter()
-        .map(|s| s.encoders.x.abs().max(s.encoders.y.abs()))
-        .fold(1e-3, f64::max);
-    let start = vec![
-        slope(0).ln(),
-        slope(1).ln(),
-        (1.05 * top(0)).ln(),
-        (1.05 * top(1)).ln(),
-        (1.02 * wheel_top).ln(),
-        1.0,
-    ];
-    let cp = ControllerProblem {
-        steady: &followed,
-        geometry: g.clone(),
-    };
-    let p = minimize(
-        cp.clone(),
-        start,
-        &[0.1, 0.1, 0.1, 0.1, 0.05, 0.03],
-        2000,
-        "controller",
-    )?;
-    let controller_rms = cp.cost(&p).map_or(f64::NAN, f64::sqrt);
-    let encoder_spread = spread_of(followed.iter().flat_map(|s| [s.encoders.x, s.encoders.y]));
-    // NaN counts as a miss.
-    if controller_rms.is_nan() || controller_rms > 0.5 * encoder_spread {
-        return Err(SimFitError::Unfit(format!(
-            "the steady encoder speeds do not follow the commands (the controller's fit misses by {:.3} rad/s RMS, of a spread of {:.3} rad/s): are the encoder columns swapped, or in other units?",
-            controller_rms, encoder_spread
-        )));
-    }
+    let (p, controller_rms) = controller_stage(&g, &followed)?;
     let (controller, limit, right) = controller_of(&p);
     // 2. Powertrain: a coarse grid, then Nelder-Mead.
     let pp = PowertrainProblem {
