@@ -53,6 +53,13 @@ pub enum OutputError {
         /// What went wrong.
         reason: String,
     },
+    /// Another run kept publishing into the same directory for longer than
+    /// [`PUBLISH_WAIT_S`] (nothing was published).
+    #[error("cannot write into {}: another run has been writing there for over {PUBLISH_WAIT_S} s (its lock {}); nothing written", .dir.display(), .dir.join(PUBLISH_LOCK).display())]
+    Busy {
+        /// The directory.
+        dir: PathBuf,
+    },
     /// A staged file could not be moved into place.
     #[error("cannot write {}: {reason}{}", .path.display(), published_note(.published))]
     Publish {
@@ -355,6 +362,20 @@ impl Outputs {
 
     /// Moves every staged file into place, in the order staged; returns the targets.
     pub fn publish(mut self) -> Result<Vec<PathBuf>, OutputError> {
+        // One run publishes into a directory at a time: two runs writing one output leave
+        // one run's whole set, never a mix (held until the end of this call).
+        let mut dirs: Vec<PathBuf> = self
+            .staged
+            .iter()
+            .filter(|f| f.kind == Destination::File)
+            .filter_map(|f| f.destination.parent().map(Path::to_path_buf))
+            .collect();
+        dirs.sort();
+        dirs.dedup();
+        let mut locks = Vec::new();
+        for dir in &dirs {
+            locks.push(PublishLock::take(dir)?);
+        }
         let staged = std::mem::take(&mut self.staged);
         let mut published = Vec::new();
         let mut pending = staged.into_iter();
@@ -386,6 +407,60 @@ impl Outputs {
         }
         self.created_dirs.clear();
         Ok(published)
+    }
+}
+
+/// The lock file a run holds in a directory while it publishes its outputs there.
+pub const PUBLISH_LOCK: &str = ".drive-publish.lock";
+/// How long a run waits for another's publishing in the same directory (s).
+pub const PUBLISH_WAIT_S: u64 = 30;
+/// A lock older than this (s) is a crashed run's, and is taken over: publishing takes
+/// milliseconds.
+const PUBLISH_STALE_S: u64 = 120;
+
+/// A directory's publish lock, removed when dropped.
+struct PublishLock(Option<PathBuf>);
+
+impl PublishLock {
+    /// Takes `dir`'s lock, waiting up to [`PUBLISH_WAIT_S`] for another run's; a directory
+    /// where no lock can be created (read-only, absent) gets none: the renames then say why.
+    fn take(dir: &Path) -> Result<PublishLock, OutputError> {
+        let path = dir.join(PUBLISH_LOCK);
+        let start = std::time::Instant::now();
+        loop {
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&path)
+            {
+                Ok(_) => return Ok(PublishLock(Some(path))),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    let age = std::fs::metadata(&path)
+                        .and_then(|m| m.modified())
+                        .ok()
+                        .and_then(|t| t.elapsed().ok());
+                    if age.is_some_and(|a| a.as_secs() > PUBLISH_STALE_S) {
+                        let _ = std::fs::remove_file(&path);
+                        continue;
+                    }
+                    if start.elapsed().as_secs() >= PUBLISH_WAIT_S {
+                        return Err(OutputError::Busy {
+                            dir: dir.to_path_buf(),
+                        });
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(2));
+                }
+                Err(_) => return Ok(PublishLock(None)),
+            }
+        }
+    }
+}
+
+impl Drop for PublishLock {
+    fn drop(&mut self) {
+        if let Some(path) = &self.0 {
+            let _ = std::fs::remove_file(path);
+        }
     }
 }
 
@@ -548,5 +623,92 @@ mod tests {
         assert_eq!(std::fs::read_to_string(&a).unwrap(), "new a");
         assert_eq!(std::fs::read_to_string(&b).unwrap(), "new b");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn two_runs_publishing_into_one_directory_take_turns_and_leave_one_runs_set() {
+        let dir = tempfile::tempdir().unwrap();
+        let names = ["bench.json", "bench.md", "datasets.csv", "windows.csv"];
+        let read = |dir: &Path| -> Vec<String> {
+            names
+                .iter()
+                .map(|n| std::fs::read_to_string(dir.join(n)).unwrap_or_default())
+                .collect()
+        };
+        // Four runs at once, each publishing the four files with its own number (staged
+        // together, then published together, round after round), while a reader looks
+        // between publishes (holding the lock as a run does): it always finds one run's
+        // whole set.
+        let rounds = 30;
+        let barrier = std::sync::Arc::new(std::sync::Barrier::new(4));
+        let runs: Vec<_> = (0..4)
+            .map(|run| {
+                let dir = dir.path().to_path_buf();
+                let barrier = barrier.clone();
+                std::thread::spawn(move || {
+                    for _ in 0..rounds {
+                        let mut outputs = Outputs::new(&[]);
+                        for name in names {
+                            outputs
+                                .write(&dir.join(name), format!("run {run}"))
+                                .unwrap();
+                        }
+                        barrier.wait();
+                        outputs.publish().unwrap();
+                        barrier.wait();
+                    }
+                })
+            })
+            .collect();
+        let mut looked = 0;
+        while !runs.iter().all(|r| r.is_finished()) || looked == 0 {
+            let _lock = PublishLock::take(dir.path()).unwrap();
+            let seen = read(dir.path());
+            assert!(
+                seen.iter().all(|x| x == &seen[0]) || seen.iter().all(String::is_empty),
+                "{seen:?}"
+            );
+            looked += 1;
+        }
+        for r in runs {
+            r.join().unwrap();
+        }
+        let last = read(dir.path());
+        assert!(last.iter().all(|x| x == &last[0]), "{last:?}");
+        assert!(!dir.path().join(PUBLISH_LOCK).exists());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), names.len());
+    }
+
+    #[test]
+    fn a_crashed_runs_lock_is_taken_over_and_a_held_one_waited_for() {
+        let dir = tempfile::tempdir().unwrap();
+        let lock = dir.path().join(PUBLISH_LOCK);
+        // A lock from a run that crashed long ago.
+        let file = std::fs::File::create(&lock).unwrap();
+        let old = std::time::SystemTime::now() - std::time::Duration::from_secs(3600);
+        file.set_modified(old).unwrap();
+        let mut outputs = Outputs::new(&[]);
+        outputs.write(&dir.path().join("a.csv"), "a").unwrap();
+        outputs.publish().unwrap();
+        assert!(!lock.exists());
+        // A lock held by a run still publishing: waited for, then taken.
+        std::fs::File::create(&lock).unwrap();
+        let release = {
+            let lock = lock.clone();
+            std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_millis(200));
+                std::fs::remove_file(lock).unwrap();
+            })
+        };
+        let mut outputs = Outputs::new(&[]);
+        outputs.write(&dir.path().join("a.csv"), "b").unwrap();
+        let start = std::time::Instant::now();
+        outputs.publish().unwrap();
+        assert!(start.elapsed() >= std::time::Duration::from_millis(150));
+        release.join().unwrap();
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("a.csv")).unwrap(),
+            "b"
+        );
     }
 }

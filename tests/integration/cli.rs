@@ -1324,9 +1324,25 @@ fn eval_on_a_handful_of_intervals_says_its_figures_are_no_evidence() {
         err.contains("(imu-constant; drive check says more)"),
         "{err}"
     );
-    // A frozen localization: whatever a model's fit then fails on, the finding comes first.
+    // A frozen localization: refused, the finding named; with --allow-useless scored, the
+    // finding said first.
     let frozen = edited("frozen.csv", &["x", "y", "yaw"], "0");
     let out = drive(&["eval", "--data", &frozen, "--split", "0.2"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success()
+            && err.contains("the data checks call it useless")
+            && err.contains("(not-moving; drive check says more"),
+        "{err}"
+    );
+    let out = drive(&[
+        "eval",
+        "--data",
+        &frozen,
+        "--split",
+        "0.2",
+        "--allow-useless",
+    ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains("(not-moving, which drive check calls fatal; drive check says more)"),
