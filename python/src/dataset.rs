@@ -225,10 +225,13 @@ pub(crate) fn import_recording(
 }
 
 /// The bundled Husky dataset (`path` None) or a window CSV with its sidecar beside it (or
-/// at `sidecar`).
+/// at `sidecar`). What the data checks (`drive check`) find in it is raised as a
+/// `UserWarning` each, naming the check (`not-moving`, `encoder-units`, ...) and whether it
+/// calls the data useless: `warnings.simplefilter("error")` turns them into errors.
 #[pyfunction]
 #[pyo3(signature = (path=None, sidecar=None))]
 pub(crate) fn load_dataset(
+    py: Python<'_>,
     path: Option<&Bound<'_, PyAny>>,
     sidecar: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Dataset> {
@@ -245,6 +248,21 @@ pub(crate) fn load_dataset(
         Some(p) => drive::data::read_dataset(&p, sidecar.as_deref()),
     }
     .map_err(err)?;
+    let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+    for f in drive::data::quality::check(&inner, None) {
+        let fatal = if f.severity == drive::data::quality::Severity::Fatal {
+            ", which drive check calls fatal: the command line refuses such data without --allow-useless"
+        } else {
+            ""
+        };
+        let message = std::ffi::CString::new(format!(
+            "{}: {} ({}{fatal})",
+            inner.robot.name, f.message, f.check
+        ))
+        // A finding's text holds no NUL (the checks write it).
+        .unwrap_or_default();
+        PyErr::warn(py, &category, &message, 1)?;
+    }
     Ok(Dataset {
         inner,
         import_report: None,

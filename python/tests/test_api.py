@@ -497,3 +497,20 @@ def test_a_three_input_base_predicts_as_the_command_line_in_single_and_batch(tmp
     with pytest.raises(drive.DriveError, match="3 numbers"):
         runner.tick(t=0.05, encoder=(0.0, 0.0), pose=None, deadman=True)
     assert len(command) == 3 and len(command.inputs) == 3
+
+
+def test_the_data_checks_findings_are_python_warnings(tmp_path):
+    """What `drive check` finds in a window CSV is a UserWarning on load, naming the check;
+    the bundled Husky run passes every check (no warning)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        husky = drive.load_dataset()
+    frozen = tmp_path / "frozen.csv"
+    df = husky.to_pandas()
+    for column in ("x", "y", "yaw"):
+        df[column] = 0.0
+    drive.Dataset.from_pandas(df, husky.meta).save(frozen)
+    with pytest.warns(UserWarning, match=r"\(not-moving, which drive check calls fatal"):
+        drive.load_dataset(frozen)
