@@ -131,15 +131,16 @@ pub(crate) fn per_window_columns<'py>(
 /// `drive bench --json` as a JSON text: the models (default: naive, powertrain, slip-blr,
 /// acc-blr, slip-ipem) on every dataset of the suite file `suite` (every bundled dataset when
 /// None), each split at `split`, with the transfer between runs of one robot unless
-/// `transfer` is false.
+/// `transfer` is false; datasets the data checks call useless ranked when `allow_useless`.
 #[pyfunction]
-#[pyo3(signature = (suite=None, models=None, split=0.5, transfer=true))]
+#[pyo3(signature = (suite=None, models=None, split=0.5, transfer=true, allow_useless=false))]
 pub(crate) fn bench_json(
     py: Python<'_>,
     suite: Option<&Bound<'_, PyAny>>,
     models: Option<&Bound<'_, PyAny>>,
     split: f64,
     transfer: bool,
+    allow_useless: bool,
 ) -> PyResult<String> {
     let suite = suite
         .filter(|p| !p.is_none())
@@ -176,6 +177,7 @@ pub(crate) fn bench_json(
         let config = drive::studies::BenchConfig {
             split,
             transfer,
+            allow_useless,
             ..Default::default()
         };
         let bench = drive::studies::run_bench(&inputs, &specs, &config, &|| {})

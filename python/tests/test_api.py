@@ -514,3 +514,25 @@ def test_the_data_checks_findings_are_python_warnings(tmp_path):
     drive.Dataset.from_pandas(df, husky.meta).save(frozen)
     with pytest.warns(UserWarning, match=r"\(not-moving, which drive check calls fatal"):
         drive.load_dataset(frozen)
+
+
+def test_bench_skips_a_useless_dataset_as_the_command_line_does(tmp_path):
+    """A frozen localization in a suite: skipped with why (as `drive bench`), the other run
+    ranked; `allow_useless=True` ranks both."""
+    pd = pytest.importorskip("pandas")  # noqa: F841
+    grass = drive.load_dataset("bundled:warthog_grass_2024-08-08")
+    df = grass.to_pandas()
+    for column in ("x", "y", "yaw"):
+        df[column] = 0.0
+    drive.Dataset.from_pandas(df, grass.meta).save(tmp_path / "frozen.csv")
+    suite = tmp_path / "suite.toml"
+    suite.write_text('[[dataset]]\nbundled = "warthog_grass_2024-08-08"\n[[dataset]]\npath = "frozen.csv"\n')
+    got = drive.bench(suite, models="naive", transfer=False)
+    expected = json.loads(cli("bench", "--suite", suite, "--json", "--models", "naive", "--no-transfer").stdout)
+    assert [d["name"] for d in got["datasets"]] == [d["name"] for d in expected["datasets"]]
+    assert [s["dataset"] for s in got["skipped"]] == ["frozen"] == [s["dataset"] for s in expected["skipped"]]
+    assert "not-moving" in got["skipped"][0]["reason"]
+    allowed = drive.bench(suite, models="naive", transfer=False, allow_useless=True)
+    assert len(allowed["datasets"]) == 2 and "skipped" not in allowed
+    with pytest.raises(drive.DriveError, match="allow_useless"):
+        drive.bench(suite, models="naive", allow_useless="yes")

@@ -290,16 +290,23 @@ def evaluate(dataset, models=None, split=0.5, start=None):
     return _json.loads(_evaluate_json(dataset, models, float(split), start))
 
 
-def bench(suite=None, models=None, split=0.5, transfer=True):
+def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False):
     """The benchmark of `drive bench --json`, as a dict: the models (default: naive,
     powertrain, slip-blr, acc-blr, slip-ipem) on every dataset of the suite file `suite` (a
     path to a TOML file; every bundled dataset when None), each dataset's first `split` of
     the intervals training; the transfer between runs of the same robot unless `transfer` is
-    False; the terrain's unpredictability; the leaderboard."""
+    False; the terrain's unpredictability; the leaderboard. A dataset the data checks call
+    useless, or one no model can be fitted on, is skipped (`skipped`, with why) unless
+    `allow_useless` (`--allow-useless`) ranks the useless ones."""
     models = _model_names(models, split)
-    if not isinstance(transfer, bool):
-        raise DriveError(f"transfer must be True or False, got {transfer!r}")
-    return _json.loads(_reading(lambda: _bench_json(suite, models, float(split), transfer), suite))
+    for name, flag in (("transfer", transfer), ("allow_useless", allow_useless)):
+        if not isinstance(flag, bool):
+            raise DriveError(f"{name} must be True or False, got {flag!r}")
+    return _json.loads(
+        _reading(
+            lambda: _bench_json(suite, models, float(split), transfer, allow_useless), suite
+        )
+    )
 
 
 class Measurements:
