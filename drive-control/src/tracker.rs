@@ -233,10 +233,7 @@ impl Tracker {
             to_vehicle: setup.to_vehicle.clone(),
             vehicle,
             path,
-            config: TrackerConfig {
-                history_s: Some(history_s),
-                ..config
-            },
+            config,
             dt,
             progress: 0.0,
             sent: SentCommand::default(),
@@ -254,10 +251,9 @@ impl Tracker {
     }
 
     /// How far back the controller's predictions start (s): the configured history, or the
-    /// model's settling time when none was configured.
+    /// model's settling time when none was configured, in whole ticks.
     pub fn history_s(&self) -> f64 {
-        // Tracker::new always sets it.
-        self.config.history_s.unwrap_or(0.0)
+        self.history as f64 * self.dt
     }
 
     /// The path followed.

@@ -41,21 +41,24 @@ pub struct UselessArg {
 }
 
 /// Refuses `data` (named `name`) when the data checks call it useless (their first fatal
-/// finding, named), unless `allow`: then the findings are said on stderr.
-pub fn refuse_useless(data: &Dataset, name: &str, allow: bool) -> Result<()> {
-    if allow {
-        note_quality(data, true);
-        return Ok(());
-    }
-    if let Some(f) = crate::data::quality::check(data, None)
-        .into_iter()
-        .find(|f| f.severity == crate::data::quality::Severity::Fatal)
-    {
+/// finding, named), unless `allow`; says the findings on stderr once ([`note_quality`]'s
+/// lines): every one when allowed, the warnings also when `with_warnings`.
+pub fn refuse_useless(data: &Dataset, name: &str, allow: bool, with_warnings: bool) -> Result<()> {
+    let findings = crate::data::quality::check(data, None);
+    let fatal =
+        |f: &&crate::data::quality::Finding| f.severity == crate::data::quality::Severity::Fatal;
+    if let (false, Some(f)) = (allow, findings.iter().find(fatal)) {
         anyhow::bail!(
             "{name}: the data checks call it useless: {} ({}; drive check says more; --allow-useless fits and scores on it anyway)",
             f.message,
             f.check
         );
+    }
+    for f in findings
+        .iter()
+        .filter(|f| allow || with_warnings && !fatal(f))
+    {
+        say_finding(data, f);
     }
     Ok(())
 }
@@ -310,16 +313,7 @@ pub fn load(registries: &crate::Registries, args: &DataArgs) -> Result<Dataset> 
     let data = load_unchecked(args)?;
     registries
         .check_vehicle(data.robot.vehicle.as_ref())
-        .map_err(|e| {
-            anyhow::anyhow!(
-                "{}: the data's vehicle: {e}",
-                args.data
-                    .as_ref()
-                    .map_or(crate::bundled::HUSKY_CSV_NAME.to_string(), |p| p
-                        .display()
-                        .to_string())
-            )
-        })?;
+        .map_err(|e| anyhow::anyhow!("{}: the data's vehicle: {e}", data_name(args)))?;
     Ok(data)
 }
 
@@ -333,18 +327,23 @@ pub fn note_quality(data: &Dataset, with_fatal: bool) {
         .into_iter()
         .filter(|f| with_fatal || f.severity == crate::data::quality::Severity::Warning)
     {
-        let fatal = if f.severity == crate::data::quality::Severity::Fatal {
-            ", which drive check calls fatal"
-        } else {
-            ""
-        };
-        say!(
-            "note: {}: {} ({}{fatal}; drive check says more)",
-            data.robot.name,
-            f.message,
-            f.check
-        );
+        say_finding(data, &f);
     }
+}
+
+/// One finding of the data checks on stderr, as a note.
+fn say_finding(data: &Dataset, f: &crate::data::quality::Finding) {
+    let fatal = if f.severity == crate::data::quality::Severity::Fatal {
+        ", which drive check calls fatal"
+    } else {
+        ""
+    };
+    say!(
+        "note: {}: {} ({}{fatal}; drive check says more)",
+        data.robot.name,
+        f.message,
+        f.check
+    );
 }
 
 /// [`load`] without the registry check.

@@ -90,8 +90,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &dataset,
         &super::common::data_name(&args.data),
         args.useless.allow_useless,
+        true,
     )?;
-    super::common::note_quality(&dataset, false);
     let cmp = compare_specs(&dataset, args.split, &specs)?;
     // Figures from a handful of intervals are printed, and said to be so.
     let evidence = crate::studies::BenchConfig::default().min_evidence_intervals;

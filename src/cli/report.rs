@@ -54,6 +54,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &dataset,
         &super::common::data_name(&args.data),
         args.useless.allow_useless,
+        false,
     )?;
     let robot = args
         .robot

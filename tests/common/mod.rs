@@ -67,3 +67,15 @@ pub fn user_error(args: &[&str]) -> String {
     assert!(out.stdout.is_empty());
     err
 }
+
+/// Writes the bundled grass run with its localization frozen (every pose at the origin:
+/// what `drive check` calls `not-moving`, fatal) as the window CSV `csv` and its sidecar.
+pub fn write_frozen_grass_run(csv: &std::path::Path) {
+    let mut frozen = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    for w in &mut frozen.windows {
+        for p in &mut w.pose {
+            *p = drive::traits::Pose::zeros();
+        }
+    }
+    drive::data::write_dataset(&frozen, csv).unwrap();
+}

@@ -400,13 +400,7 @@ fn a_useless_or_degenerate_dataset_is_skipped_with_why_and_the_suite_goes_on() {
     let d = dir.path();
     // The grass run with its localization frozen (what drive check calls not-moving), and
     // its first three intervals (too few to fit slip-BLR's powertrain on half of them).
-    let mut frozen = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
-    for w in &mut frozen.windows {
-        for p in &mut w.pose {
-            *p = drive::traits::Pose::zeros();
-        }
-    }
-    drive::data::write_dataset(&frozen, &d.join("frozen.csv")).unwrap();
+    common::write_frozen_grass_run(&d.join("frozen.csv"));
     let mut tiny = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
     tiny.windows.truncate(9);
     drive::data::write_dataset(&tiny, &d.join("tiny.csv")).unwrap();

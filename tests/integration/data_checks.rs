@@ -309,14 +309,8 @@ fn a_log_of_another_robot_is_flagged() {
 fn every_command_that_fits_or_scores_refuses_data_the_checks_call_useless_unless_allowed() {
     let dir = tempfile::tempdir().unwrap();
     // The bundled grass run with its localization frozen (fatal: not-moving).
-    let mut frozen = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
-    for w in &mut frozen.windows {
-        for p in &mut w.pose {
-            *p = drive::traits::Pose::zeros();
-        }
-    }
     let csv = dir.path().join("frozen.csv");
-    drive::data::write_dataset(&frozen, &csv).unwrap();
+    common::write_frozen_grass_run(&csv);
     let csv = csv.display().to_string();
     let model = dir.path().join("m.json").display().to_string();
     let report = dir.path().join("report").display().to_string();

@@ -721,8 +721,22 @@ fn a_dataset_whose_text_fields_the_reader_refuses_is_never_written() {
         "--raw-out",
         &raw,
     ]);
-    let raw = raw.as_str();
-    let out = dir.path().join("run.csv");
+    let out = s(&dir.path().join("run.csv"));
+    let import = |terrain: &str| -> Vec<String> {
+        [
+            "import",
+            "--raw",
+            &raw,
+            "--robot",
+            "husky",
+            "--terrain",
+            terrain,
+            "--out",
+            &out,
+        ]
+        .map(String::from)
+        .to_vec()
+    };
     let long = "x".repeat(300);
     // A terrain with a tab, or of 300 characters: `eval` would refuse the sidecar; `import`
     // refuses to write it, with the reader's words, and leaves nothing.
@@ -730,17 +744,8 @@ fn a_dataset_whose_text_fields_the_reader_refuses_is_never_written() {
         ("wet\tgrass", "field 'terrain': holds a control character"),
         (long.as_str(), "terrain (characters)"),
     ] {
-        let err = user_error(&[
-            "import",
-            "--raw",
-            raw,
-            "--robot",
-            "husky",
-            "--terrain",
-            terrain,
-            "--out",
-            &s(&out),
-        ]);
+        let args = import(terrain);
+        let err = user_error(&args.iter().map(String::as_str).collect::<Vec<_>>());
         assert!(
             err.contains("would not be read back") && err.contains(says),
             "{err}"
@@ -748,20 +753,12 @@ fn a_dataset_whose_text_fields_the_reader_refuses_is_never_written() {
         assert!(snapshot(dir.path()).is_empty(), "{terrain:?}");
     }
     // The same terrain without the tab is written and read back.
-    ok(&[
-        "import",
-        "--raw",
-        raw,
-        "--robot",
-        "husky",
-        "--terrain",
-        "wet grass",
-        "--out",
-        &s(&out),
-    ]);
+    let args = import("wet grass");
+    ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let out = Path::new(&out);
     let side: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.with_extension("meta.json")).unwrap())
             .unwrap();
     assert_eq!(side["terrain"], "wet grass");
-    ok(&["check", "--data", &s(&out)]);
+    ok(&["check", "--data", &s(out)]);
 }
