@@ -127,7 +127,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "#,
     )?;
     let plan = sweep.plan(&registries, &|source| match source.bundled.as_deref() {
-        Some("husky") => drive::bundled::husky().map_err(|e| e.to_string()),
+        Some("husky") => drive::bundled::husky().map_err(Into::into),
         _ => Err("this example knows the bundled Husky data only".into()),
     })?;
     let result = run_matrix(&plan, &registries, &|_, _| {})?;

@@ -443,11 +443,18 @@ where
     })
 }
 
+/// A command-line value that is not the numbers its flag takes.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct BadNumbers(pub String);
+
 /// `N` comma-separated finite numbers.
-pub fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
+pub fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], BadNumbers> {
     let parts: Vec<&str> = s.split(',').collect();
     if parts.len() != N {
-        return Err(format!("expected {N} comma-separated numbers, got '{s}'"));
+        return Err(BadNumbers(format!(
+            "expected {N} comma-separated numbers, got '{s}'"
+        )));
     }
     let mut out = [0.0; N];
     for (o, p) in out.iter_mut().zip(parts) {
@@ -456,22 +463,22 @@ pub fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
             .parse::<f64>()
             .ok()
             .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("'{p}' is not a finite number"))?;
+            .ok_or_else(|| BadNumbers(format!("'{p}' is not a finite number")))?;
     }
     Ok(out)
 }
 
 /// One finite number.
-pub fn parse_number(s: &str) -> Result<f64, String> {
+pub fn parse_number(s: &str) -> Result<f64, BadNumbers> {
     s.trim()
         .parse::<f64>()
         .ok()
         .filter(|v| v.is_finite())
-        .ok_or_else(|| format!("'{s}' is not a finite number"))
+        .ok_or_else(|| BadNumbers(format!("'{s}' is not a finite number")))
 }
 
 /// Two comma-separated numbers.
-pub fn parse_pair(s: &str) -> Result<[f64; 2], String> {
+pub fn parse_pair(s: &str) -> Result<[f64; 2], BadNumbers> {
     parse_numbers::<2>(s)
 }
 
@@ -497,12 +504,12 @@ impl AxisValues {
 }
 
 /// Two or three comma-separated numbers: one per input axis.
-pub fn parse_axes(s: &str) -> Result<AxisValues, String> {
+pub fn parse_axes(s: &str) -> Result<AxisValues, BadNumbers> {
     let parts: Vec<&str> = s.split(',').collect();
     if !(2..=crate::traits::MAX_INPUTS).contains(&parts.len()) {
-        return Err(format!(
+        return Err(BadNumbers(format!(
             "expected one number per input axis (2 or 3, comma-separated), got '{s}'"
-        ));
+        )));
     }
     parts
         .iter()
@@ -512,7 +519,7 @@ pub fn parse_axes(s: &str) -> Result<AxisValues, String> {
 }
 
 /// Three comma-separated numbers.
-pub fn parse_triplet(s: &str) -> Result<[f64; 3], String> {
+pub fn parse_triplet(s: &str) -> Result<[f64; 3], BadNumbers> {
     parse_numbers::<3>(s)
 }
 

@@ -18,7 +18,8 @@ mod sweep;
 pub use drive_eval::BootstrapConfig;
 pub use run::run_matrix;
 pub use sweep::{
-    DatasetSource, FrameChoice, MatrixError, SimulatedPlan, SimulatedSweep, SweepFile,
+    DatasetLoadError, DatasetSource, FrameChoice, MatrixError, SimulatedPlan, SimulatedSweep,
+    SweepFile,
 };
 
 use drive_eval::{Mrmse, Summary};

@@ -13,6 +13,10 @@ use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use thiserror::Error;
 
+/// Why a sweep's dataset loader ([`SweepFile::plan`]) could not give a dataset: any error (a
+/// file's, a name's), said in [`MatrixError::Dataset`].
+pub type DatasetLoadError = Box<dyn std::error::Error + Send + Sync>;
+
 /// Why a sweep cannot run.
 #[derive(Debug, Error)]
 pub enum MatrixError {
@@ -226,7 +230,7 @@ impl SweepFile {
     pub fn plan(
         &self,
         registries: &Registries,
-        load: &dyn Fn(&DatasetSource) -> Result<Dataset, String>,
+        load: &dyn Fn(&DatasetSource) -> Result<Dataset, DatasetLoadError>,
     ) -> Result<Matrix, MatrixError> {
         let invalid = |s: String| MatrixError::Invalid(s);
         let models = registries.models();
@@ -376,7 +380,7 @@ impl SweepFile {
             }
             let mut data = load(source).map_err(|reason| MatrixError::Dataset {
                 name: label.clone(),
-                reason,
+                reason: reason.to_string(),
             })?;
             if source.frame == FrameChoice::Corrected {
                 data.to_first_sample_frame();

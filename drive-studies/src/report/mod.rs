@@ -5,8 +5,8 @@
 pub mod analysis;
 
 use crate::{
-    compare_regions, compare_specs, convergence, Comparison, Convergence, RegionComparison,
-    RegionStudy, Registries,
+    compare_regions, compare_specs, convergence, Comparison, Convergence, ExperimentError,
+    RegionComparison, RegionStudy, Registries,
 };
 use analysis::{Calibration, InputSpaceFigure, PowertrainTrace, Trajectory};
 use drive_eval::split_by_interval;
@@ -113,7 +113,7 @@ pub struct ReportAnalysis {
     /// The convergence of the analysed model (Fig. 7).
     pub convergence: Convergence,
     /// The protocol comparison on the recorded data, or why it could not run.
-    pub protocols: Result<RegionComparison, String>,
+    pub protocols: Result<RegionComparison, ExperimentError>,
     /// Each compared model's fitted parameters, in the comparison's order.
     pub fitted: Vec<FittedParameters>,
     /// Fig. 1 data.
@@ -168,8 +168,7 @@ impl ReportAnalysis {
                 model: options.model.clone(),
                 ..RegionStudy::default()
             },
-        )
-        .map_err(|e| e.to_string());
+        );
         let fitted = comparison
             .models
             .iter()
