@@ -73,8 +73,8 @@ pub use convergence::{
 };
 pub use experiment::{run_cells, simulate_run, simulate_runs, Cell, Scored, Setting, SimRun};
 pub use matrix::{
-    run_matrix, DatasetSource, FrameChoice, Matrix, MatrixCell, MatrixError, MatrixResult,
-    Scenario, SimulatedPlan, SimulatedSweep, SummaryRow, SweepFile,
+    run_matrix, DatasetLoadError, DatasetSource, FrameChoice, Matrix, MatrixCell, MatrixError,
+    MatrixResult, Scenario, SimulatedPlan, SimulatedSweep, SummaryRow, SweepFile,
 };
 pub use protocols::{
     compare_protocols, intervals_in, simulate_protocol, BestOnTest, ExperimentError, ProtocolCell,
@@ -84,8 +84,8 @@ pub use protocols::{
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use registries::{Catalog, Listed, Registries};
 pub use twin_check::{
-    choose_variability, fit_twin, poor_twin, twin_check, CheckCommands, CheckDistance,
-    ContactSpreadChoice, FittedTwin, ScatterCheck, SpreadTried, TwinCheck, TwinCheckRow,
-    VariabilityChoice, CONTACT_SPREAD_MARGIN, TWIN_CHECK_MODELS, TWIN_TOLERANCE,
-    VARIABILITY_CHOICE_SEEDS,
+    choose_variability, fit_twin, fit_twin_with, poor_twin, twin_check, CheckCommands,
+    CheckDistance, ContactSpreadChoice, ContactSpreads, FittedTwin, ScatterCheck, SpreadTried,
+    TwinCheck, TwinCheckRow, VariabilityChoice, CONTACT_SPREAD_MARGIN, TWIN_CHECK_MODELS,
+    TWIN_TOLERANCE, VARIABILITY_CHOICE_SEEDS,
 };

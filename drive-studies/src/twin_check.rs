@@ -610,7 +610,11 @@ pub struct ContactSpreadChoice {
     pub kept: f64,
     /// True when it is the vehicle's own (the twin file then has none).
     pub vehicle_own: bool,
-    /// The spreads tried, the vehicle's own first: only it when its twin passed.
+    /// True when the spread was chosen among the vehicle's own and
+    /// [`drive_sim::CONTACT_SPREAD_CHOICES`] ([`ContactSpreads::Choose`]); false when only one
+    /// was fitted, as asked ([`ContactSpreads::Own`] or [`ContactSpreads::Given`]).
+    pub chosen: bool,
+    /// The spreads tried, the vehicle's own first (when it was tried).
     pub tried: Vec<SpreadTried>,
     /// Seeds of the twins' runs that chose ([`VARIABILITY_CHOICE_SEEDS`]).
     pub seeds: Vec<u64>,
@@ -625,6 +629,44 @@ pub struct FittedTwin {
     pub variability: Option<VariabilityChoice>,
     /// Which contact spread it keeps.
     pub contact_spread: ContactSpreadChoice,
+}
+
+/// Which contact spreads a twin's fit tries ([`fit_twin_with`]; `drive sim-fit
+/// --contact-spread`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ContactSpreads {
+    /// The vehicle's own and each of [`drive_sim::CONTACT_SPREAD_CHOICES`], the one kept as
+    /// [`fit_twin`] says: four fits.
+    Choose,
+    /// The vehicle's own only: one fit, a quarter of the time.
+    Own,
+    /// This share of the baseline only (within the simulator's range, else refused): one
+    /// fit, kept in the twin file.
+    Given(f64),
+}
+
+impl ContactSpreads {
+    /// Parses `choose`, `own` or a share of the baseline (`drive sim-fit --contact-spread`).
+    ///
+    /// ```
+    /// use drive_studies::ContactSpreads;
+    /// assert_eq!(ContactSpreads::parse("own").unwrap(), ContactSpreads::Own);
+    /// assert_eq!(ContactSpreads::parse("0.75").unwrap(), ContactSpreads::Given(0.75));
+    /// assert!(ContactSpreads::parse("wide").is_err());
+    /// assert!(ContactSpreads::parse("nan").is_err());
+    /// ```
+    pub fn parse(text: &str) -> Result<Self, UnknownName> {
+        match text {
+            "choose" => Ok(Self::Choose),
+            "own" => Ok(Self::Own),
+            _ => match text.parse::<f64>() {
+                Ok(share) if share.is_finite() && share > 0.0 => Ok(Self::Given(share)),
+                _ => Err(UnknownName::from(format!(
+                    "a contact spread is choose, own or a positive share of the baseline, not '{text}'"
+                ))),
+            },
+        }
+    }
 }
 
 /// Fits a twin of `robot` on `data` as `drive sim-fit` does: [`drive_sim::sim_fit`], its
@@ -665,6 +707,38 @@ pub fn fit_twin(
     name: &str,
     models: &[ModelSpec],
 ) -> Result<FittedTwin, ExperimentError> {
+    fit_twin_with(
+        registries,
+        data,
+        robot,
+        name,
+        models,
+        ContactSpreads::Choose,
+    )
+}
+
+/// [`fit_twin`] with the contact spreads to try: [`ContactSpreads::Choose`] is
+/// [`fit_twin`]; [`ContactSpreads::Own`] and [`ContactSpreads::Given`] fit one twin, with
+/// that spread, its variability still chosen and its distance from the real run still
+/// measured (`tried` holds it alone).
+///
+/// ```no_run
+/// use drive_studies::{fit_twin_with, ContactSpreads, Registries, TWIN_CHECK_MODELS};
+/// let r = Registries::builtin();
+/// let data = drive_data::read_dataset("run.csv".as_ref(), None).unwrap();
+/// let robot = r.robot("husky").unwrap();
+/// let models = r.models().resolve_list(&TWIN_CHECK_MODELS).unwrap();
+/// let twin = fit_twin_with(&r, &data, &robot, "my twin", &models, ContactSpreads::Own).unwrap();
+/// assert!(twin.contact_spread.vehicle_own && !twin.contact_spread.chosen);
+/// ```
+pub fn fit_twin_with(
+    registries: &Registries,
+    data: &Dataset,
+    robot: &RobotSpec,
+    name: &str,
+    models: &[ModelSpec],
+    spreads: ContactSpreads,
+) -> Result<FittedTwin, ExperimentError> {
     let seeds = VARIABILITY_CHOICE_SEEDS.to_vec();
     // A twin fitted with the spread (the vehicle's own when `None`), its variability chosen,
     // and its distance from the real run on the choice's seeds.
@@ -694,8 +768,44 @@ pub fn fit_twin(
         Ok((fit, variability, distance))
     };
     let own = drive_sim::VehicleParams::nominal_contact_spread(robot.tracked);
+    if let ContactSpreads::Given(share) = spreads {
+        // One fit with the spread asked for: its refusals stand.
+        let (fit, variability, distance) = attempt(Some(share))?;
+        return Ok(FittedTwin {
+            fit,
+            variability,
+            contact_spread: ContactSpreadChoice {
+                kept: share,
+                vehicle_own: false,
+                chosen: false,
+                tried: vec![SpreadTried {
+                    contact_spread: share,
+                    vehicle_own: false,
+                    distance: Some(distance),
+                    error: None,
+                }],
+                seeds,
+            },
+        });
+    }
+    let others: &[f64] = match spreads {
+        ContactSpreads::Choose => &drive_sim::CONTACT_SPREAD_CHOICES,
+        ContactSpreads::Own | ContactSpreads::Given(_) => &[],
+    };
+    // The spreads' fits are independent: on rayon's threads, each alone (a fit is the same
+    // on any number of threads) and taken below in their order, so the twin is too.
+    let spreads_tried: Vec<Option<f64>> = std::iter::once(None)
+        .chain(others.iter().map(|&s| Some(s)))
+        .collect();
+    let mut attempts = spreads_tried
+        .par_iter()
+        .map(|&s| attempt(s))
+        .collect::<Vec<_>>()
+        .into_iter();
     // The vehicle's own spread: its fit's refusals are the data's, and stand.
-    let (fit, variability, own_distance) = attempt(None)?;
+    let (fit, variability, own_distance) = attempts
+        .next()
+        .expect("spreads_tried starts with the vehicle's own")?;
     let mut best = (None, fit, variability, own_distance);
     let mut tried = vec![SpreadTried {
         contact_spread: own,
@@ -703,8 +813,8 @@ pub fn fit_twin(
         distance: Some(own_distance),
         error: None,
     }];
-    for &spread in &drive_sim::CONTACT_SPREAD_CHOICES {
-        match attempt(Some(spread)) {
+    for (&spread, result) in others.iter().zip(attempts) {
+        match result {
             Ok((fit, variability, distance)) => {
                 tried.push(SpreadTried {
                     contact_spread: spread,
@@ -733,6 +843,7 @@ pub fn fit_twin(
         contact_spread: ContactSpreadChoice {
             kept: spread.unwrap_or(own),
             vehicle_own: spread.is_none(),
+            chosen: spreads == ContactSpreads::Choose,
             tried,
             seeds,
         },

@@ -44,9 +44,10 @@ pub struct Args {
     /// `with` and `without` it, on two runs of its own `seeds`, the real commands replayed;
     /// absent with --twin or when no variability was fitted), and `contact_spread_choice`
     /// (the contacts' spread along each side the twin keeps, a share of the baseline: `kept`,
-    /// `vehicle_own`, and each spread `tried` with its `distance`, the same measure on the
-    /// same seeds; another spread than the vehicle's is kept only when its twin comes
-    /// clearly closer; absent with --twin). A twin
+    /// `vehicle_own`, `chosen` (false with --contact-spread own or a share), and each spread
+    /// `tried` with its `distance`, the same measure on the same seeds; another spread than
+    /// the vehicle's is kept only when its twin comes clearly closer; absent with --twin). A
+    /// twin
     /// refused by the check is printed too, with `"written": false`, and the command fails.
     #[arg(long)]
     json: bool,
@@ -67,6 +68,18 @@ pub struct Args {
             .try_map(|name| crate::studies::CheckCommands::parse(&name))
     )]
     check_commands: crate::studies::CheckCommands,
+    /// The contacts' spread along each side the twin's ground is fitted with, a share of
+    /// the baseline: choose (the vehicle's own and 0.6, 0.75 and 1.2, the one whose twin
+    /// comes clearly closer to the real run's model errors kept: four fits), own (the
+    /// vehicle's own only: a quarter of the time) or a share (that one only, kept in the
+    /// twin file).
+    #[arg(
+        long,
+        default_value = "choose",
+        conflicts_with = "twin",
+        value_parser = |s: &str| crate::studies::ContactSpreads::parse(s)
+    )]
+    contact_spread: crate::studies::ContactSpreads,
 }
 
 /// What `drive sim-fit --json` prints.
@@ -158,7 +171,14 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             (terrain, None, None, None)
         }
         None => {
-            let twin = crate::studies::fit_twin(registries, &data, &spec, &name, &models)?;
+            let twin = crate::studies::fit_twin_with(
+                registries,
+                &data,
+                &spec,
+                &name,
+                &models,
+                args.contact_spread,
+            )?;
             (
                 twin.fit.terrain,
                 Some(twin.fit.report),
@@ -487,6 +507,18 @@ fn contact_spread_text(s: &crate::studies::ContactSpreadChoice) -> String {
             e.as_deref().unwrap_or("no reason given")
         ),
     };
+    if !s.chosen {
+        return format!(
+            "contact spread: {:.2} of the baseline ({}, as asked: no other tried); the twin's medians from the real run's on two runs of its own (seeds {seeds}): {}\n",
+            s.kept,
+            if s.vehicle_own {
+                "the vehicle's"
+            } else {
+                "given"
+            },
+            s.tried.iter().map(tried).collect::<Vec<_>>().join("; ")
+        );
+    }
     format!(
         "contact spread: {:.2} of the baseline{}; the twin's medians from the real run's on two runs of its own (seeds {seeds}), with each spread tried: {}\n",
         s.kept,

@@ -334,7 +334,14 @@ fn degenerate_data_is_refused_with_its_reason() {
     assert!(err.to_string().contains("(encoder-units)"), "{err}");
 }
 
+/// The whole `drive sim-fit --robot husky` (about 150 s on two cores, 280 s of CPU: four
+/// ground fits of a 20-minute run, each thousands of simulated runs of its windows) and its
+/// output byte for byte the shipped twin. Too slow for the README's test command (issue 60:
+/// 120 s for every test), so it is ignored there and CI runs it in a stage of its own
+/// (`cargo test --workspace --release -- --ignored`, `.ci/run`); the fit's command-line
+/// output on a short run is checked by the next test.
 #[test]
+#[ignore = "the whole Husky twin fit (150 s): CI runs it with --ignored in its own stage"]
 fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_time() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
@@ -462,6 +469,150 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
         std::fs::read_to_string(shipped).unwrap(),
         "examples/husky_twin.toml is stale: cargo run --release -- sim-fit --robot husky --out examples/husky_twin.toml"
     );
+}
+
+/// `drive sim-fit` on a short run (the bundled Husky's first 90 windows: 30 commands, 3
+/// minutes of driving) with the vehicle's own contact spread only (`--contact-spread own`:
+/// one ground fit instead of four), in about 16 s of CPU: the fit's text names each stage
+/// and the spread as asked, its file is the twin `--twin --json` checks again number for
+/// number, and that check writes the twin or refuses it as its medians say. The whole
+/// Husky fit and its byte-for-byte twin are the test above (CI's own stage).
+#[test]
+fn the_command_line_fits_a_short_run_with_one_contact_spread_and_checks_it_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (csv, a, c) = (path("short.csv"), path("a.toml"), path("c.toml"));
+    let mut short = drive::bundled::load("husky_drive").unwrap();
+    short.windows.truncate(90);
+    drive::data::write_dataset(&short, csv.as_ref()).unwrap();
+    let fitted = common::drive(&[
+        "sim-fit",
+        "--data",
+        &csv,
+        "--robot",
+        "husky",
+        "--out",
+        &a,
+        "--allow-poor-twin",
+        "--check-seeds",
+        "1",
+        "--contact-spread",
+        "own",
+    ]);
+    assert!(fitted.status.success(), "{fitted:?}");
+    let text = String::from_utf8_lossy(&fitted.stdout).to_string();
+    for stage in [
+        "turn stall: ",
+        "controller: ",
+        "powertrain: ",
+        "ground: ",
+        "sensors: ",
+        "twin check (1 runs",
+        "saved to",
+        "wheels around a smooth function of the commands (steady): real ",
+    ] {
+        assert!(text.contains(stage), "{stage} not in\n{text}");
+    }
+    // One spread, the vehicle's, with its distance on the choice's two seeds.
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("contact spread:"))
+        .unwrap();
+    assert!(
+        line.starts_with(
+            "contact spread: 0.90 of the baseline (the vehicle's, as asked: no other tried)"
+        ) && line.contains("(seeds 1000001, 1000002): 0.90 (the vehicle's): ")
+            && !line.contains("0.60"),
+        "{line}"
+    );
+    // The written twin checked again: the same file, the same medians as the fit printed.
+    let checked = common::drive(&[
+        "sim-fit",
+        "--data",
+        &csv,
+        "--robot",
+        "husky",
+        "--twin",
+        &a,
+        "--out",
+        &c,
+        "--json",
+        "--check-seeds",
+        "1",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&checked.stdout).unwrap();
+    assert_eq!(v["fitted"], false);
+    assert!(v.get("contact_spread_choice").is_none());
+    let check = v["check"].as_array().unwrap();
+    let models: Vec<&str> = check.iter().map(|c| c["model"].as_str().unwrap()).collect();
+    assert_eq!(models, ["naive", "powertrain", "slip-blr", "slip-ipem"]);
+    let mut outside = 0;
+    for c in check {
+        for (real, twin) in [
+            ("real_translational_m", "twin_translational_m"),
+            ("real_rotational_rad", "twin_rotational_rad"),
+        ] {
+            let (r, t) = (c[real].as_f64().unwrap(), c[twin].as_f64().unwrap());
+            assert!(r > 0.0 && t > 0.0, "{c}");
+            outside += usize::from(((t - r) / r).abs() > 0.3);
+            assert!(text.contains(&format!("{t:.4}")), "{t:.4} not in\n{text}");
+            assert!(text.contains(&format!("{r:.4}")), "{r:.4} not in\n{text}");
+        }
+    }
+    let written = std::fs::read_to_string(&a).unwrap();
+    let printed: Terrain = serde_json::from_value(v["terrain"].clone()).unwrap();
+    assert_eq!(printed.to_toml(), written, "the checked twin is the file's");
+    // The vehicle's own spread: the file has none.
+    assert!(!written.contains("contact_spread"), "{written}");
+    let poor = v["poor"].as_array().unwrap();
+    assert_eq!(poor.len(), outside, "{v}");
+    assert_eq!(v["written"], poor.is_empty());
+    assert_eq!(checked.status.success(), poor.is_empty());
+    assert_eq!(std::path::Path::new(&c).exists(), poor.is_empty());
+    // A spread is a positive share within the simulator's range, and a fit's choice only.
+    for value in ["wide", "-0.5", "nan"] {
+        let out = common::drive(&[
+            "sim-fit",
+            "--data",
+            &csv,
+            "--robot",
+            "husky",
+            "--out",
+            &c,
+            &format!("--contact-spread={value}"),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success()
+                && err.contains("a contact spread is choose, own or a positive share"),
+            "{value}: {err}"
+        );
+    }
+    let err = user_error(&[
+        "sim-fit",
+        "--data",
+        &csv,
+        "--robot",
+        "husky",
+        "--out",
+        &c,
+        "--contact-spread",
+        "5",
+    ]);
+    assert!(err.contains("outside the simulator's"), "{err}");
+    let out = common::drive(&[
+        "sim-fit",
+        "--data",
+        &csv,
+        "--robot",
+        "husky",
+        "--twin",
+        &a,
+        "--contact-spread",
+        "own",
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot be used with"));
 }
 
 #[test]
