@@ -9,6 +9,7 @@
 //! | baselines | [`baselines`]: acc-BLR | Fig. 6 |
 //! | uncertainty | [`calibration`] (calibrated regions, cross-conformal), [`difficulty`] (the learned difficulty) | eq. 7 |
 //! | batches | [`batch`]: rollouts and stepped states on all cores | |
+//! | adaptation | [`adapt`]: a fitted model's slip corrected online from the ground driven | eq. 5 |
 //! | files | [`model_file`]: model files with the settings a model was fitted with, [`export`] (norlab_controllers' layout) | |
 //!
 //! Learners are unfitted configurations implementing the learner traits of
@@ -19,6 +20,7 @@
 
 use drive_traits::InvalidPart;
 
+pub mod adapt;
 pub mod baselines;
 pub mod batch;
 pub mod blr;

@@ -26,6 +26,7 @@
 
 #![warn(missing_docs)]
 
+pub mod adapt;
 pub mod bench;
 pub mod figures;
 pub mod track;

@@ -12,6 +12,7 @@
 //! | `protocols.rs`, `regions.rs` | data-gathering protocols (Table I) on the simulator and on recorded data |
 //! | `matrix/` | the evaluation matrix: sweep file, run, statistics, outputs |
 //! | `bench.rs` | the benchmark: datasets x models, transfer between runs, leaderboard |
+//! | `adapt.rs` | a prior adapting to a new run's ground against frozen, scratch and own models (`drive adapt`) |
 //! | `twin_check.rs` | a twin fitted (with the simulator's fit) and its runs against its real run |
 //! | `closed_loop/` | a controller with a fitted model driving the simulator along paths (`drive track`) |
 //!
@@ -26,6 +27,7 @@
 
 #![warn(missing_docs)]
 
+mod adapt;
 mod bench;
 pub mod closed_loop;
 mod comparison;
@@ -54,6 +56,10 @@ pub const PAPER_MODELS: &str = "naive,powertrain,slip-blr,acc-blr";
 /// ```
 pub const BENCH_MODELS: &str = "naive,powertrain,slip-blr,acc-blr,slip-ipem";
 
+pub use adapt::{
+    adapt, AdaptPoint, AdaptPrior, AdaptStudy, Adaptation, AdaptiveFit, Extrapolation,
+    ADAPT_MODELS, ADAPT_TIMES_S, EXTRAPOLATION_MARGIN, REFIT_GROWTH, REFIT_MEMORY_WINDOWS,
+};
 pub use bench::{
     bench_units, run_bench, terrain_known, Bench, BenchConfig, BenchDataset, BenchError,
     BenchInput, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,

@@ -37,6 +37,7 @@ macro_rules! outln {
     };
 }
 
+mod adapt;
 mod bench;
 mod check;
 mod common;
@@ -120,6 +121,11 @@ enum Command {
     /// leaderboard; tables on stdout, --json, or --out DIR with CSV, Markdown and an HTML
     /// page.
     Bench(bench::Args),
+    /// Adapt a model fitted on other ground (a model file, or a dataset to fit one on) to a
+    /// target run: its training half streamed in time order into the adaptive model, which
+    /// is scored on its evaluation half after 0, 15, 30, 60, 120 and 240 s, beside the prior
+    /// alone (frozen), a fit from scratch on the same seconds and the target's own fit.
+    Adapt(adapt::Args),
     /// Follow paths in closed loop: each model inside a model-predictive controller (MPPI)
     /// driving the simulated robot (a preset terrain or a twin of a real run) along a line,
     /// circle, figure-eight, zigzag or a path file; cross-track and heading errors,
@@ -199,6 +205,7 @@ where
             Command::Matrix(a) => matrix::run(&a, registries),
             Command::Report(a) => report::run(&a, registries),
             Command::Bench(a) => bench::run(&a, registries),
+            Command::Adapt(a) => adapt::run(&a, registries),
             Command::Track(a) => track::run(&a, registries),
             Command::Predict(a) => predict::run(&a, registries),
             Command::Export(a) => export::run(&a, registries),

@@ -4,6 +4,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod adapt;
 mod bad_input;
 mod bags;
 mod batch;

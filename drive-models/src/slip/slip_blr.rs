@@ -212,7 +212,7 @@ impl SlipBasis {
     }
 
     /// Appends the slip inputs of `f` to the three regressions' design rows.
-    fn push(self, f: &BodyVelocity, xs: &mut [Vec<f64>; 3]) {
+    pub(crate) fn push(self, f: &BodyVelocity, xs: &mut [Vec<f64>; 3]) {
         match self {
             SlipBasis::SkidSteer => {
                 let s = slip_inputs(f);

@@ -1,0 +1,447 @@
+//! Adaptation to new ground (`drive adapt`, issue 61): a prior fitted elsewhere, fed the
+//! target run's training half in time order ([`drive_models::adapt::SlipAdapter`]), scored
+//! on the target's evaluation half after t seconds of it, beside the prior alone
+//! (`frozen`), a model fitted from scratch on the same t seconds (`scratch`) and one fitted
+//! on the whole training half (`own`).
+
+use crate::{ExperimentError, Registries};
+use drive_eval::{evaluate_errors, split_by_interval};
+use drive_models::adapt::{composed_of, AdapterConfig, PrequentialRecord, SlipAdapter};
+use drive_models::calibration::Uncertainty;
+use drive_models::ModelSpec;
+use drive_traits::{Dataset, MotionModel, WindowSet};
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// The times (s of the target's training half) after which the adapted model is scored.
+pub const ADAPT_TIMES_S: [f64; 6] = [0.0, 15.0, 30.0, 60.0, 120.0, 240.0];
+
+/// The models adapted by default (`drive adapt --models`), comma-separated.
+pub const ADAPT_MODELS: &str = "slip-blr,slip-ipem";
+
+/// A target command beyond this share of the prior's largest commanded speed or yaw rate
+/// is extrapolation ([`Extrapolation`]).
+pub const EXTRAPOLATION_MARGIN: f64 = 1.1;
+
+/// Where the prior comes from.
+pub enum AdaptPrior<'a> {
+    /// Fitted on every window of a dataset (each model listed).
+    Data(&'a Dataset),
+    /// A fitted model (a model file's): the only model adapted.
+    Model(Box<dyn MotionModel>),
+}
+
+/// The settings of an adaptation study ([`adapt`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdaptStudy {
+    /// The target's share of intervals for its training half (the rest is scored on).
+    pub split: f64,
+    /// Seconds of the training half after which the models are scored (those beyond the
+    /// half are left out).
+    pub times_s: Vec<f64>,
+    /// The adapter's settings (its start is each model's own).
+    pub config: AdapterConfig,
+}
+
+impl Default for AdaptStudy {
+    fn default() -> Self {
+        AdaptStudy {
+            split: 0.5,
+            times_s: ADAPT_TIMES_S.to_vec(),
+            config: AdapterConfig::default(),
+        }
+    }
+}
+
+/// One point of a curve: a model's eq. 8 medians over the target's evaluation half.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AdaptPoint {
+    /// The model adapted (`slip-blr`).
+    pub learner: String,
+    /// `adaptive`, `frozen`, `scratch` or `own`.
+    pub model: &'static str,
+    /// Seconds of the target's training half seen.
+    pub t_s: f64,
+    /// Median translational error (eq. 8), m; `None` when no model could be fitted.
+    pub translational_median_m: Option<f64>,
+    /// Median rotational error (eq. 8), rad.
+    pub rotational_median_rad: Option<f64>,
+    /// For `adaptive`: whether the detector found the ground changed (a correction kept).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ground_changed: Option<bool>,
+    /// Why there is no model (`scratch` at t = 0, a fit refused on too few windows).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+}
+
+/// How far the target's commands go beyond the prior's: there the prior extrapolates, and
+/// what adaptation corrects is not the ground alone.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Extrapolation {
+    /// The largest commanded forward speed (m/s) and yaw rate (rad/s) of the prior's data.
+    pub prior_max: [f64; 2],
+    /// The same of the target's training half.
+    pub target_max: [f64; 2],
+    /// The target's training windows with a command beyond [`EXTRAPOLATION_MARGIN`] times
+    /// the prior's largest (forward speed or yaw rate).
+    pub windows_beyond: usize,
+    /// Their share of the training half.
+    pub share_beyond: f64,
+}
+
+/// The most windows of the ground driven an [`AdaptiveFit`] keeps for its refits (the
+/// last ones: 6 minutes of 2 s windows).
+pub const REFIT_MEMORY_WINDOWS: usize = 180;
+
+/// Growth of the windows driven, since the last refit, that refits (as
+/// [`drive_models::GrowingFit`]): the refits cost `O(n)` in all, not one per window.
+pub const REFIT_GROWTH: f64 = 1.5;
+
+/// A prior adapting to the ground it drives on, for any composed model: its slip corrected
+/// online ([`SlipAdapter`]) and, beside it, the model refitted from scratch on the windows
+/// driven (once [`drive_models::adapt::MIN_INTERVALS`] intervals are in, then each time
+/// they grew by [`REFIT_GROWTH`], on the last [`REFIT_MEMORY_WINDOWS`]). Each interval is
+/// predicted by both before either learns from it (eq. 8 errors of its windows); the refit
+/// takes over once it predicted the recent intervals better beyond their spread
+/// ([`PrequentialRecord`]), as the correction takes over from the prior.
+pub struct AdaptiveFit {
+    spec: ModelSpec,
+    robot: drive_traits::RobotDescription,
+    adapter: SlipAdapter,
+    selection_s: f64,
+    /// The windows driven and kept for the refits.
+    seen: Vec<drive_traits::Window>,
+    /// The interval being driven: its windows, and the corrected prior before it.
+    pending: Vec<drive_traits::Window>,
+    before: Option<drive_models::ComposedModel>,
+    refit: Option<(drive_models::ComposedModel, usize)>,
+    refit_record: PrequentialRecord,
+    intervals: usize,
+    driven: usize,
+}
+
+impl AdaptiveFit {
+    /// Adapts `prior` (a composed model) with the learner `spec` for the refits, on
+    /// `robot`'s data.
+    pub fn new(
+        prior: drive_models::ComposedModel,
+        spec: &ModelSpec,
+        robot: &drive_traits::RobotDescription,
+        config: AdapterConfig,
+    ) -> Self {
+        AdaptiveFit {
+            spec: spec.clone(),
+            robot: robot.clone(),
+            adapter: SlipAdapter::new(prior, robot, config),
+            selection_s: config.selection_s,
+            seen: Vec::new(),
+            pending: Vec::new(),
+            before: None,
+            refit: None,
+            refit_record: PrequentialRecord::default(),
+            intervals: 0,
+            driven: 0,
+        }
+    }
+
+    /// Adds one window just driven (in time order).
+    pub fn add(&mut self, window: &drive_traits::Window) {
+        if self
+            .pending
+            .last()
+            .is_some_and(|w| w.interval != window.interval)
+        {
+            self.commit();
+        }
+        if self.pending.is_empty() {
+            self.before = Some(self.adapter.model());
+        }
+        self.adapter.add(&WindowSet {
+            robot: &self.robot,
+            windows: vec![window],
+        });
+        self.pending.push(window.clone());
+        self.driven += 1;
+    }
+
+    /// Scores the interval just completed with the corrected prior and the refit as they
+    /// were before it, then refits when the data has grown enough.
+    fn commit(&mut self) {
+        let pending = std::mem::take(&mut self.pending);
+        let span: f64 = pending.len() as f64 * self.robot.window_len as f64 / self.robot.rate_hz;
+        if let (Some(before), Some((refit, _))) = (&self.before, &self.refit) {
+            let set = WindowSet::new(&self.robot, &pending);
+            let start = self.spec.start;
+            let (a, b) = (
+                evaluate_errors(before, &set, start),
+                evaluate_errors(refit, &set, start),
+            );
+            let mean_log_ratio = a
+                .windows
+                .iter()
+                .zip(&b.windows)
+                .map(|(a, b)| {
+                    let r = |x: f64, y: f64| (x.max(1e-9) / y.max(1e-9)).ln();
+                    0.5 * (r(a.error.translational, b.error.translational)
+                        + r(a.error.rotational, b.error.rotational))
+                })
+                .sum::<f64>()
+                / a.windows.len().max(1) as f64;
+            let keep = (-span / self.selection_s.max(1e-9)).exp();
+            self.refit_record.add(mean_log_ratio, keep);
+        }
+        self.intervals += 1;
+        self.seen.extend(pending);
+        if self.seen.len() > REFIT_MEMORY_WINDOWS {
+            let extra = self.seen.len() - REFIT_MEMORY_WINDOWS;
+            self.seen.drain(..extra);
+        }
+        let grown = self
+            .refit
+            .as_ref()
+            .is_none_or(|(_, n)| self.driven as f64 >= REFIT_GROWTH * *n as f64);
+        if self.intervals >= drive_models::adapt::MIN_INTERVALS && grown {
+            let fitted = self
+                .spec
+                .fit(&WindowSet::new(&self.robot, &self.seen))
+                .ok()
+                .and_then(|m| composed_of(m.as_ref()));
+            if let Some(m) = fitted {
+                self.refit = Some((m, self.driven));
+            }
+        }
+    }
+
+    /// Whether the ground looks changed: the prior's slip corrected, or the refit kept.
+    pub fn changed(&self) -> bool {
+        self.adapter.changed() || self.refit_kept()
+    }
+
+    /// True when the refit predicted the recent intervals better than the corrected prior.
+    pub fn refit_kept(&self) -> bool {
+        self.refit.is_some()
+            && self
+                .refit_record
+                .significant_at(drive_models::adapt::KEEP_Z_ONE)
+                .is_some()
+    }
+
+    /// The adapted model now: the refit where it is kept, else the corrected prior.
+    pub fn model(&self) -> drive_models::ComposedModel {
+        match &self.refit {
+            Some((m, _)) if self.refit_kept() => m.clone(),
+            _ => self.adapter.model(),
+        }
+    }
+}
+
+/// An adaptation study's result ([`adapt`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Adaptation {
+    /// The prior's name (its dataset, or its model).
+    pub prior: String,
+    /// The target dataset's name.
+    pub target: String,
+    /// The target's training share.
+    pub split: f64,
+    /// Seconds in the target's training half.
+    pub train_s: f64,
+    /// Windows of the target's evaluation half.
+    pub evaluation_windows: usize,
+    /// Every learner's four curves, point by point (`frozen` and `own` repeated at every t).
+    pub curve: Vec<AdaptPoint>,
+    /// Where the target's commands leave the prior's; `None` for a model-file prior (its
+    /// training data is not known).
+    pub extrapolation: Option<Extrapolation>,
+}
+
+/// The largest |forward speed| and |yaw rate| commanded in `windows`.
+fn commanded_max(windows: &WindowSet<'_>) -> [f64; 2] {
+    let vehicle = windows.robot.vehicle.as_ref();
+    let mut m = [0.0f64; 2];
+    for w in &windows.windows {
+        for u in &w.command {
+            let f = vehicle.body_velocity(u);
+            m[0] = m[0].max(f.x.abs());
+            m[1] = m[1].max(f.z.abs());
+        }
+    }
+    m
+}
+
+/// Adapts each model of `models` (or the prior model alone) to `target`: the target's
+/// training half streamed in time order into an [`AdaptiveFit`], scored on its evaluation
+/// half after each of `study.times_s` beside the prior alone (`frozen`), a fit from scratch
+/// on the same seconds (`scratch`) and the fit on the whole half (`own`). Models are fitted with the paper's uncertainty (the study scores
+/// eq. 8 errors only).
+///
+/// ```no_run
+/// use drive_studies::{adapt, AdaptPrior, AdaptStudy, Registries};
+/// let r = Registries::builtin();
+/// let prior = drive_data::bundled::load("warthog_asphalt_a").unwrap();
+/// let target = drive_data::bundled::load("warthog_grass_2024-08-08").unwrap();
+/// let models = r.models().resolve_list(&["slip-blr"]).unwrap();
+/// let a = adapt(&r, &AdaptPrior::Data(&prior), &target, &models, &AdaptStudy::default()).unwrap();
+/// for p in &a.curve {
+///     println!("{} {} {} s: {:?} m", p.learner, p.model, p.t_s, p.translational_median_m);
+/// }
+/// ```
+pub fn adapt(
+    registries: &Registries,
+    prior: &AdaptPrior<'_>,
+    target: &Dataset,
+    models: &[ModelSpec],
+    study: &AdaptStudy,
+) -> Result<Adaptation, ExperimentError> {
+    let _ = registries;
+    if models.is_empty() {
+        return Err(ExperimentError::Empty("models"));
+    }
+    let (train, eval) = split_by_interval(target, study.split)
+        .map_err(|e| ExperimentError::NotEnoughData(e.to_string()))?;
+    let window_s = target.robot.window_len as f64 / target.robot.rate_hz;
+    let train_s = train.windows.len() as f64 * window_s;
+    let mut times: Vec<f64> = study
+        .times_s
+        .iter()
+        .copied()
+        .filter(|t| t.is_finite() && *t >= 0.0 && *t <= train_s + 1e-9)
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times.dedup();
+    let seen = |t: f64| ((t / window_s) + 1e-9).floor() as usize;
+    let score = |model: &dyn MotionModel, start| {
+        let report = evaluate_errors(model, &eval, start);
+        (
+            report.translational(None).map(|s| s.median),
+            report.rotational(None).map(|s| s.median),
+        )
+    };
+    let mut curve = Vec::new();
+    for spec in models {
+        let spec = spec
+            .clone()
+            .with_uncertainty(Uncertainty::Paper, spec.start);
+        let fit = |windows: &WindowSet<'_>| {
+            spec.fit(windows).map_err(|reason| ExperimentError::Fit {
+                model: spec.name.clone(),
+                data: target.robot.name.clone(),
+                reason,
+            })
+        };
+        let fitted;
+        let prior_model: &dyn MotionModel = match prior {
+            AdaptPrior::Data(data) => {
+                fitted = fit(&data.all())?;
+                fitted.as_ref()
+            }
+            AdaptPrior::Model(m) => m.as_ref(),
+        };
+        let composed = composed_of(prior_model).ok_or_else(|| {
+            ExperimentError::NotEnoughData(format!(
+                "{}: only a model composed of a powertrain and a slip model adapts",
+                prior_model.name()
+            ))
+        })?;
+        let own = fit(&train)?;
+        let frozen_scores = score(prior_model, spec.start);
+        let own_scores = score(own.as_ref(), spec.start);
+        // The adapted model after each time: the windows streamed one at a time.
+        let mut adaptive = AdaptiveFit::new(
+            composed,
+            &spec,
+            &target.robot,
+            AdapterConfig {
+                start: spec.start,
+                ..study.config
+            },
+        );
+        let mut adapted = Vec::new();
+        let mut fed = 0;
+        for &t in &times {
+            let n = seen(t).min(train.windows.len());
+            while fed < n {
+                adaptive.add(train.windows[fed]);
+                fed += 1;
+            }
+            adapted.push((adaptive.model(), adaptive.changed()));
+        }
+        // The scratch fits are independent: on rayon's threads.
+        let scratch: Vec<Result<Box<dyn MotionModel>, String>> = times
+            .par_iter()
+            .map(|&t| {
+                let n = seen(t).min(train.windows.len());
+                if n == 0 {
+                    return Err("no window yet".to_string());
+                }
+                fit(&WindowSet {
+                    robot: &target.robot,
+                    windows: train.windows[..n].to_vec(),
+                })
+                .map_err(|e| e.to_string())
+            })
+            .collect();
+        let learner = spec.name.clone();
+        for (i, &t) in times.iter().enumerate() {
+            let point = |model: &'static str, scores: (Option<f64>, Option<f64>)| AdaptPoint {
+                learner: learner.clone(),
+                model,
+                t_s: t,
+                translational_median_m: scores.0,
+                rotational_median_rad: scores.1,
+                ground_changed: None,
+                note: None,
+            };
+            let (model, changed) = &adapted[i];
+            curve.push(AdaptPoint {
+                ground_changed: Some(*changed),
+                ..point("adaptive", score(model, spec.start))
+            });
+            curve.push(point("frozen", frozen_scores));
+            curve.push(match &scratch[i] {
+                Ok(m) => point("scratch", score(m.as_ref(), spec.start)),
+                Err(why) => AdaptPoint {
+                    note: Some(why.clone()),
+                    ..point("scratch", (None, None))
+                },
+            });
+            curve.push(point("own", own_scores));
+        }
+    }
+    let extrapolation = match prior {
+        AdaptPrior::Data(data) => {
+            let prior_max = commanded_max(&data.all());
+            let beyond =
+                |f: [f64; 2]| (0..2).any(|a| f[a] > EXTRAPOLATION_MARGIN * prior_max[a] + 1e-9);
+            let windows_beyond = train
+                .windows
+                .iter()
+                .filter(|w| {
+                    beyond(commanded_max(&WindowSet {
+                        robot: &target.robot,
+                        windows: vec![**w],
+                    }))
+                })
+                .count();
+            Some(Extrapolation {
+                prior_max,
+                target_max: commanded_max(&train),
+                windows_beyond,
+                share_beyond: windows_beyond as f64 / train.windows.len().max(1) as f64,
+            })
+        }
+        AdaptPrior::Model(_) => None,
+    };
+    Ok(Adaptation {
+        prior: match prior {
+            AdaptPrior::Data(d) => d.robot.name.clone(),
+            AdaptPrior::Model(m) => m.name(),
+        },
+        target: target.robot.name.clone(),
+        split: study.split,
+        train_s,
+        evaluation_windows: eval.windows.len(),
+        curve,
+        extrapolation,
+    })
+}

@@ -1,0 +1,221 @@
+//! `drive adapt`: a prior fitted on other ground adapting to a target run, against the
+//! prior alone, a fit from scratch and the target's own fit (issue 61).
+
+use super::common::{data_name, emit, load, outputs_for, DataArgs};
+use crate::Registries;
+use anyhow::{Context, Result};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The target run (window CSV or bundled:NAME): its training half streamed into the
+    /// adaptive model in time order, its evaluation half scored on.
+    #[command(flatten)]
+    data: DataArgs,
+    #[command(flatten)]
+    useless: super::common::UselessArg,
+    /// The prior: a model file (`drive train --out`, ending in .json) adapted as it is, or
+    /// a dataset (a window CSV or bundled:NAME) each model of --models is fitted on (all
+    /// its windows).
+    #[arg(long)]
+    prior: String,
+    /// The models adapted, comma-separated (see drive list); with a model-file prior, the
+    /// model fitted from scratch and on the target's own training half beside it (default:
+    /// the file's model).
+    #[arg(long, value_delimiter = ',')]
+    models: Option<Vec<String>>,
+    /// Fraction of the target's intervals in its training half; the rest is scored on.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
+    split: f64,
+    /// Seconds of the training half after which the models are scored, comma-separated
+    /// (those beyond the half are left out).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0,15,30,60,120,240",
+        allow_hyphen_values = true
+    )]
+    times: Vec<f64>,
+    /// Print one JSON object on stdout: `curve` (one entry per learner, model and time:
+    /// `learner`, `model` (adaptive, frozen, scratch or own), `t_s`,
+    /// `translational_median_m`, `rotational_median_rad`, for adaptive `ground_changed`,
+    /// and `note` where no model could be fitted), `extrapolation` (the prior's and the
+    /// target's largest commanded speed and yaw rate, and the target's training windows
+    /// beyond the prior's), `prior`, `target`, `split`, `train_s`, `evaluation_windows`.
+    #[arg(long)]
+    json: bool,
+    /// Also write DIR/adapt.json, DIR/curve.csv and the curves' figure DIR/curves.png and
+    /// .svg.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    if !(args.split > 0.0 && args.split < 1.0) {
+        anyhow::bail!("--split must be within (0, 1), got {}", args.split);
+    }
+    crate::traits::limits::at_most("--times", args.times.len() as f64, 100.0, "")?;
+    if let Some(t) = args.times.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
+        anyhow::bail!("--times are seconds from 0 on, got {t}");
+    }
+    let target = load(registries, &args.data)?;
+    let target_name = data_name(&args.data);
+    super::common::refuse_useless(&target, &target_name, args.useless.allow_useless, false)?;
+    let prior_path = PathBuf::from(&args.prior);
+    let is_model_file = args.prior.to_ascii_lowercase().ends_with(".json");
+    let prior_data;
+    let (prior, names): (crate::studies::AdaptPrior<'_>, Vec<String>) = if is_model_file {
+        let text = crate::traits::files::read_text(
+            &prior_path,
+            crate::models::model_file::MAX_MODEL_FILE_BYTES,
+        )
+        .with_context(|| format!("reading {}", args.prior))?;
+        let file = crate::models::model_file::read_model_file(&args.prior, &text)?;
+        let names = match &args.models {
+            Some(m) if m.len() != 1 => anyhow::bail!(
+                "--prior {} is one model: --models names the one fitted from scratch and on the target beside it, not {}",
+                args.prior,
+                m.len()
+            ),
+            Some(m) => m.clone(),
+            None => vec![file.model.name()],
+        };
+        (crate::studies::AdaptPrior::Model(file.model), names)
+    } else {
+        let prior_args = DataArgs {
+            data: Some(prior_path.clone()),
+            sidecar: None,
+            frame: args.data.frame.clone(),
+        };
+        prior_data =
+            load(registries, &prior_args).with_context(|| format!("--prior {}", args.prior))?;
+        super::common::refuse_useless(&prior_data, &args.prior, args.useless.allow_useless, false)?;
+        let names = args.models.clone().unwrap_or_else(|| {
+            crate::studies::ADAPT_MODELS
+                .split(',')
+                .map(String::from)
+                .collect()
+        });
+        (crate::studies::AdaptPrior::Data(&prior_data), names)
+    };
+    let names: Vec<&str> = super::common::names(&names);
+    let specs = registries.models().resolve_list(&names)?;
+    let files = ["adapt.json", "curve.csv", "curves.png", "curves.svg"];
+    let outputs = match &args.out {
+        Some(dir) => {
+            let planned: Vec<(String, PathBuf)> = files
+                .iter()
+                .map(|f| (format!("{f} in --out"), dir.join(f)))
+                .collect();
+            let mut all: Vec<(&str, &std::path::Path)> = vec![("--out", dir.as_path())];
+            all.extend(planned.iter().map(|(r, p)| (r.as_str(), p.as_path())));
+            let mut inputs = vec![("--prior", prior_path.clone())];
+            if let Some(d) = &args.data.data {
+                inputs.push(("--data", d.clone()));
+            }
+            Some(outputs_for(&inputs, &all)?)
+        }
+        None => None,
+    };
+    let study = crate::studies::AdaptStudy {
+        split: args.split,
+        times_s: args.times.clone(),
+        ..Default::default()
+    };
+    let result = crate::studies::adapt(registries, &prior, &target, &specs, &study)?;
+    if let (Some(mut outputs), Some(dir)) = (outputs, &args.out) {
+        crate::report::adapt::stage(&result, &mut outputs, dir)?;
+        outputs.publish()?;
+    }
+    emit(args.json, &result, text)?;
+    if let Some(dir) = &args.out {
+        say!("adapt: {} files written to {}", files.len(), dir.display());
+    }
+    Ok(())
+}
+
+/// The text table: per learner, each time's four models (translational / rotational
+/// median), then the extrapolation note.
+fn text(r: &crate::studies::Adaptation) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "adaptation of {} to {} (training half {:.0} s, split {}; eq. 8 medians over its {} evaluation windows, m / rad)",
+        r.prior, r.target, r.train_s, r.split, r.evaluation_windows
+    );
+    let cell = |p: Option<&crate::studies::AdaptPoint>| match p {
+        Some(p) => match (p.translational_median_m, p.rotational_median_rad) {
+            (Some(t), Some(w)) => format!("{t:.4} / {w:.4}"),
+            _ => "-".to_string(),
+        },
+        None => "-".to_string(),
+    };
+    let mut learners: Vec<&str> = Vec::new();
+    for p in &r.curve {
+        if !learners.contains(&p.learner.as_str()) {
+            learners.push(&p.learner);
+        }
+    }
+    for learner in learners {
+        let _ = writeln!(
+            s,
+            "\n{learner}\n  {:>6}  {:<17}  {:<17}  {:<17}  {:<17}  ground changed",
+            "t [s]", "adaptive", "frozen", "scratch", "own"
+        );
+        let mut times: Vec<f64> = r
+            .curve
+            .iter()
+            .filter(|p| p.learner == learner)
+            .map(|p| p.t_s)
+            .collect();
+        times.dedup();
+        for t in times {
+            let at = |model: &str| {
+                r.curve
+                    .iter()
+                    .find(|p| p.learner == learner && p.model == model && p.t_s == t)
+            };
+            let changed = at("adaptive")
+                .and_then(|p| p.ground_changed)
+                .map_or("-", |c| if c { "yes" } else { "no" });
+            let _ = writeln!(
+                s,
+                "  {t:>6.0}  {:<17}  {:<17}  {:<17}  {:<17}  {changed}",
+                cell(at("adaptive")),
+                cell(at("frozen")),
+                cell(at("scratch")),
+                cell(at("own"))
+            );
+        }
+    }
+    match &r.extrapolation {
+        Some(e) if e.windows_beyond > 0 => {
+            let _ = writeln!(
+                s,
+                "\nnote: {} of the target's {:.0} s of training windows ({:.0}%) command more than {} times the prior's largest forward speed or yaw rate (prior {:.2} m/s and {:.2} rad/s, target {:.2} and {:.2}): there the prior extrapolates, and adaptation corrects more than the ground",
+                e.windows_beyond,
+                r.train_s,
+                100.0 * e.share_beyond,
+                crate::studies::EXTRAPOLATION_MARGIN,
+                e.prior_max[0],
+                e.prior_max[1],
+                e.target_max[0],
+                e.target_max[1]
+            );
+        }
+        Some(_) => {
+            let _ = writeln!(
+                s,
+                "\nthe target's commands stay within the prior's (no extrapolation)"
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "\nnote: the prior is a model file: whether the target's commands leave its training data is not known"
+            );
+        }
+    }
+    s
+}

@@ -1,0 +1,218 @@
+//! `drive adapt` (issue 61): a prior fitted on other ground adapting to a target run, its
+//! curves beside the prior alone, a fit from scratch and the target's own fit.
+
+use crate::common;
+use serde_json::Value;
+
+/// The curve's points of `learner` and `model`, in time order.
+fn points<'a>(v: &'a Value, learner: &str, model: &str) -> Vec<&'a Value> {
+    v["curve"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|p| p["learner"] == learner && p["model"] == model)
+        .collect()
+}
+
+#[test]
+fn adapt_prints_every_learner_model_and_time_and_starts_from_the_prior() {
+    let out = common::ok(&[
+        "adapt",
+        "--prior",
+        "bundled:warthog_asphalt_a",
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--json",
+    ]);
+    let v: Value = serde_json::from_str(&out).unwrap();
+    // The grass run's training half is 90 s: 120 and 240 s are beyond it.
+    assert_eq!(v["train_s"], 90.0);
+    assert_eq!(v["prior"], "warthog-asphalt-a");
+    for learner in ["slip-blr", "slip-ipem"] {
+        for model in ["adaptive", "frozen", "scratch", "own"] {
+            let p = points(&v, learner, model);
+            let times: Vec<f64> = p.iter().map(|p| p["t_s"].as_f64().unwrap()).collect();
+            assert_eq!(times, [0.0, 15.0, 30.0, 60.0], "{learner} {model}");
+        }
+        let (adaptive, frozen) = (
+            points(&v, learner, "adaptive"),
+            points(&v, learner, "frozen"),
+        );
+        // Before any driving the adaptive model is the prior, number for number.
+        for key in ["translational_median_m", "rotational_median_rad"] {
+            assert_eq!(adaptive[0][key], frozen[0][key]);
+            assert!(adaptive[0][key].as_f64().unwrap() > 0.0);
+        }
+        assert_eq!(adaptive[0]["ground_changed"], false);
+        // The prior and the own fit do not depend on t.
+        for model in ["frozen", "own"] {
+            let p = points(&v, learner, model);
+            assert!(p
+                .iter()
+                .all(|q| q["translational_median_m"] == p[0]["translational_median_m"]));
+            assert!(p.iter().all(|q| q.get("ground_changed").is_none()));
+        }
+        // No scratch model without data, and why.
+        let scratch = points(&v, learner, "scratch");
+        assert!(scratch[0]["translational_median_m"].is_null());
+        assert_eq!(scratch[0]["note"], "no window yet");
+        assert!(scratch[3]["translational_median_m"].as_f64().unwrap() > 0.0);
+    }
+    let e = &v["extrapolation"];
+    for key in ["prior_max", "target_max"] {
+        let m = e[key].as_array().unwrap();
+        assert!(
+            m.len() == 2 && m.iter().all(|x| x.as_f64().unwrap() > 0.0),
+            "{e}"
+        );
+    }
+    let share = e["share_beyond"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&share));
+    // The text: one table per learner, the four models and the detector.
+    let text = common::ok(&[
+        "adapt",
+        "--prior",
+        "bundled:warthog_asphalt_a",
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--models",
+        "slip-blr",
+        "--times",
+        "0,30",
+    ]);
+    assert!(
+        text.starts_with("adaptation of warthog-asphalt-a to warthog-grass-2024-08-08"),
+        "{text}"
+    );
+    assert!(
+        text.contains("adaptive") && text.contains("scratch") && text.contains("ground changed"),
+        "{text}"
+    );
+    assert!(!text.contains("slip-ipem"), "{text}");
+}
+
+#[test]
+fn adapt_takes_a_model_file_as_its_prior_and_writes_its_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("prior.json");
+    let out_dir = dir.path().join("out");
+    let model = model.to_str().unwrap();
+    common::ok(&[
+        "train",
+        "--model",
+        "slip-blr",
+        "--data",
+        "bundled:warthog_asphalt_a",
+        "--out",
+        model,
+    ]);
+    let out = common::ok(&[
+        "adapt",
+        "--prior",
+        model,
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--times",
+        "0,60",
+        "--json",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    let v: Value = serde_json::from_str(&out).unwrap();
+    // The file's model is the one adapted; its training data is not known.
+    let learners: std::collections::BTreeSet<&str> = v["curve"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["learner"].as_str().unwrap())
+        .collect();
+    assert_eq!(learners.len(), 1, "{learners:?}");
+    assert!(v["extrapolation"].is_null());
+    for f in ["adapt.json", "curve.csv", "curves.png", "curves.svg"] {
+        assert!(out_dir.join(f).is_file(), "{f}");
+    }
+    let written: Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("adapt.json")).unwrap())
+            .unwrap();
+    assert_eq!(written, v);
+    let csv = std::fs::read_to_string(out_dir.join("curve.csv")).unwrap();
+    assert!(csv.starts_with("learner,model,t_s,translational_median_m,rotational_median_rad"));
+    assert_eq!(csv.lines().count(), 1 + 2 * 4);
+    // A model file is one model: one name beside it, not two.
+    let err = common::user_error(&[
+        "adapt",
+        "--prior",
+        model,
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--models",
+        "slip-blr,slip-ipem",
+    ]);
+    assert!(err.contains("is one model"), "{err}");
+    let err = common::user_error(&["adapt", "--prior", model, "--times", "-5"]);
+    assert!(err.contains("--times"), "{err}");
+}
+
+/// On simulated ground the truth is known: a prior fitted on gravel and a target driven on
+/// the same gravel (another seed) is never made worse by more than 5%; on snow, the
+/// adaptive model detects the change and, after 60 s, predicts better than the prior.
+#[test]
+fn adaptation_follows_a_change_of_ground_and_leaves_the_same_ground_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |terrain: &str, seed: &str| {
+        let csv = dir.path().join(format!("{terrain}{seed}.csv"));
+        common::ok(&[
+            "simulate",
+            "--robot",
+            "husky",
+            "--terrain",
+            terrain,
+            "--duration",
+            "300",
+            "--seed",
+            seed,
+            "--out",
+            csv.to_str().unwrap(),
+        ]);
+        csv.to_str().unwrap().to_string()
+    };
+    let (gravel, gravel_again, snow) = (run("gravel", "2"), run("gravel", "3"), run("snow", "1"));
+    let adapt = |target: &str| -> Value {
+        serde_json::from_str(&common::ok(&[
+            "adapt", "--prior", &gravel, "--data", target, "--json",
+        ]))
+        .unwrap()
+    };
+    let same = adapt(&gravel_again);
+    for learner in ["slip-blr", "slip-ipem"] {
+        let (adaptive, frozen) = (
+            points(&same, learner, "adaptive"),
+            points(&same, learner, "frozen"),
+        );
+        for (a, f) in adaptive.iter().zip(&frozen) {
+            for key in ["translational_median_m", "rotational_median_rad"] {
+                let (a, f) = (a[key].as_f64().unwrap(), f[key].as_f64().unwrap());
+                assert!(
+                    a <= 1.05 * f,
+                    "{learner} at {} s: {a} against the prior's {f}",
+                    adaptive[0]["t_s"]
+                );
+            }
+        }
+    }
+    let changed = adapt(&snow);
+    let at = |model: &str, t: f64| {
+        points(&changed, "slip-ipem", model)
+            .into_iter()
+            .find(|p| p["t_s"] == t)
+            .unwrap()
+            .clone()
+    };
+    let (adaptive, frozen) = (at("adaptive", 60.0), at("frozen", 60.0));
+    assert_eq!(adaptive["ground_changed"], true, "{adaptive}");
+    assert!(
+        adaptive["translational_median_m"].as_f64().unwrap()
+            < 0.9 * frozen["translational_median_m"].as_f64().unwrap(),
+        "{adaptive} against {frozen}"
+    );
+}
