@@ -272,7 +272,7 @@ fn converge(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, load, train, eval, predict, batch, ipem, converge, control, step);
+criterion_group!(benches, load, train, eval, predict, batch, ipem, converge, control, step, adapt);
 criterion_main!(benches);
 
 /// The step API (issue 59): a batch of states stepped one command at a time, at Nav2 MPPI's
@@ -407,6 +407,45 @@ fn step(c: &mut Criterion) {
             |b| {
                 b.iter(|| {
                     step_batch_parallel(stepper.as_ref(), black_box(&mut batch), &one, 512).unwrap()
+                })
+            },
+        );
+    }
+}
+
+/// Adaptation (issue 61): a prior fitted on the bundled Husky's training half, the 60 first
+/// windows of its evaluation half added one at a time to its slip correction (one core;
+/// per window: the time / 60).
+fn adapt(c: &mut Criterion) {
+    use drive::models::adapt::{AdapterConfig, SlipAdapter};
+    use drive::traits::WindowSet;
+    let data = drive::bundled::husky().unwrap();
+    let (train, eval) = split_by_interval(&data, 0.5).unwrap();
+    for (name, learner) in [
+        ("slip-blr", slip_blr()),
+        (
+            "slip-ipem",
+            Composed::new(Fopdt::default(), SlipIpem::default()),
+        ),
+    ] {
+        let prior = learner.fit(&train).unwrap();
+        let windows: Vec<WindowSet<'_>> = eval.windows[..60]
+            .iter()
+            .map(|w| WindowSet {
+                robot: &data.robot,
+                windows: vec![*w],
+            })
+            .collect();
+        c.bench_function(
+            &format!("adapt/{name} slip correction, 60 windows added one at a time"),
+            |b| {
+                b.iter(|| {
+                    let mut a =
+                        SlipAdapter::new(prior.clone(), &data.robot, AdapterConfig::default());
+                    for w in &windows {
+                        a.add(black_box(w));
+                    }
+                    a.model()
                 })
             },
         );

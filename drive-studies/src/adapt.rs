@@ -28,7 +28,7 @@ pub enum AdaptPrior<'a> {
     /// Fitted on every window of a dataset (each model listed).
     Data(&'a Dataset),
     /// A fitted model (a model file's): the only model adapted.
-    Model(Box<dyn MotionModel>),
+    Model(&'a dyn MotionModel),
 }
 
 /// The settings of an adaptation study ([`adapt`]).
@@ -335,7 +335,7 @@ pub fn adapt(
                 fitted = fit(&data.all())?;
                 fitted.as_ref()
             }
-            AdaptPrior::Model(m) => m.as_ref(),
+            AdaptPrior::Model(m) => *m,
         };
         let composed = composed_of(prior_model).ok_or_else(|| {
             ExperimentError::NotEnoughData(format!(

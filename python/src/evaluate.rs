@@ -186,3 +186,87 @@ pub(crate) fn bench_json(
     });
     result.map_err(err)
 }
+
+/// `drive adapt --json` as a JSON text: `prior` (a fitted `drive.Model`, adapted as it is, or
+/// a `drive.Dataset` each model of `models` is fitted on) adapting to `data`'s training half
+/// (its first `split` of the intervals), scored on the rest after each of `times` seconds
+/// (default 0, 15, 30, 60, 120, 240) beside the prior alone, a fit from scratch and the own
+/// fit.
+#[pyfunction]
+#[pyo3(signature = (prior, data, models=None, split=0.5, times=None))]
+pub(crate) fn adapt_json(
+    py: Python<'_>,
+    prior: &Bound<'_, PyAny>,
+    data: &Bound<'_, PyAny>,
+    models: Option<&Bound<'_, PyAny>>,
+    split: f64,
+    times: Option<Vec<f64>>,
+) -> PyResult<String> {
+    let target = dataset_of(data)?;
+    if !(split > 0.0 && split < 1.0) {
+        return Err(err(format!(
+            "split {split} must lie strictly between 0 and 1"
+        )));
+    }
+    let times = times.unwrap_or_else(|| drive::studies::ADAPT_TIMES_S.to_vec());
+    if times.len() > 100 || times.iter().any(|t| !(t.is_finite() && *t >= 0.0)) {
+        return Err(err(
+            "times must be at most 100 seconds from 0 on (finite, not negative)",
+        ));
+    }
+    let names = model_names(models)?;
+    let prior_model = prior.extract::<PyRef<'_, crate::model::Model>>().ok();
+    let prior_data = if prior_model.is_some() {
+        None
+    } else {
+        Some(dataset_of(prior).map_err(|_| {
+            err(format!(
+                "prior must be a drive.Model (fitted or loaded) or a drive.Dataset, got {}",
+                type_name(prior)
+            ))
+        })?)
+    };
+    let model_name = prior_model.as_ref().map(|m| m.model.name());
+    let names = match (names, &model_name) {
+        (Some(n), Some(_)) if n.len() != 1 => {
+            return Err(err(
+                "a model prior is one model: models names the one fitted from scratch and on the target beside it",
+            ))
+        }
+        (Some(n), _) => n,
+        (None, Some(name)) => vec![name.clone()],
+        (None, None) => drive::studies::ADAPT_MODELS
+            .split(',')
+            .map(String::from)
+            .collect(),
+    };
+    if names.is_empty() {
+        return Err(err("models is empty"));
+    }
+    let model = prior_model
+        .as_ref()
+        .map(|m| std::sync::Arc::clone(&m.model));
+    let prior_inner = prior_data.as_ref().map(|d| &d.inner);
+    let target = &target.inner;
+    py.detach(|| -> Result<String, String> {
+        let registries = Registries::builtin();
+        let specs = registries
+            .models()
+            .resolve_list(&names)
+            .map_err(|e| e.to_string())?;
+        let prior = match (&model, prior_inner) {
+            (Some(m), _) => drive::studies::AdaptPrior::Model(m.as_ref()),
+            (None, Some(d)) => drive::studies::AdaptPrior::Data(d),
+            (None, None) => return Err("no prior".to_string()),
+        };
+        let study = drive::studies::AdaptStudy {
+            split,
+            times_s: times,
+            ..Default::default()
+        };
+        let result = drive::studies::adapt(&registries, &prior, target, &specs, &study)
+            .map_err(|e| e.to_string())?;
+        serde_json::to_string(&result).map_err(|e| e.to_string())
+    })
+    .map_err(err)
+}

@@ -44,6 +44,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dataset::load_dataset, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate::evaluate_json, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate::bench_json, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate::adapt_json, m)?)?;
     m.add_function(wrap_pyfunction!(model::fit, m)?)?;
     m.add_function(wrap_pyfunction!(model::load_model, m)?)?;
     m.add_function(wrap_pyfunction!(model::_model_from_json, m)?)?;

@@ -78,6 +78,38 @@ def test_bench_equals_drive_bench_json(tmp_path):
         drive.bench(bad)
 
 
+def test_adapt_equals_drive_adapt_json(tmp_path):
+    """drive.adapt with a dataset prior and with a fitted model as the prior: the dicts of
+    `drive adapt --json` with the same prior (a dataset, a model file)."""
+    prior = drive.load_dataset("bundled:warthog_asphalt_a")
+    target = drive.load_dataset("bundled:warthog_grass_2024-08-08")
+    expected = json.loads(
+        cli(
+            "adapt", "--prior", "bundled:warthog_asphalt_a",
+            "--data", "bundled:warthog_grass_2024-08-08",
+            "--models", "slip-blr", "--times", "0,30,60", "--json",
+        ).stdout
+    )
+    got = drive.adapt(prior, target, models="slip-blr", times=[0, 30, 60])
+    close(got, expected)
+    assert {p["model"] for p in got["curve"]} == {"adaptive", "frozen", "scratch", "own"}
+    # A fitted model as the prior: the same as its model file given to the command line.
+    model = drive.fit(prior, "slip-blr")
+    path = tmp_path / "prior.json"
+    model.save(path)
+    expected = json.loads(
+        cli("adapt", "--prior", path, "--data", "bundled:warthog_grass_2024-08-08",
+            "--times", "0,60", "--json").stdout
+    )
+    got = drive.adapt(model, target, times=[0, 60])
+    close(got, expected)
+    assert got["extrapolation"] is None
+    with pytest.raises(drive.DriveError, match="prior must be"):
+        drive.adapt("bundled:warthog_asphalt_a", target)
+    with pytest.raises(drive.DriveError, match="one model"):
+        drive.adapt(model, target, models="slip-blr,slip-ipem")
+
+
 def test_from_pandas_equals_the_files(husky, tmp_path):
     pd = pytest.importorskip("pandas")
     df = pd.read_csv(ROOT / "data" / "husky_drive.csv.gz")

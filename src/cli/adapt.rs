@@ -65,13 +65,15 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let prior_path = PathBuf::from(&args.prior);
     let is_model_file = args.prior.to_ascii_lowercase().ends_with(".json");
     let prior_data;
+    let prior_file;
     let (prior, names): (crate::studies::AdaptPrior<'_>, Vec<String>) = if is_model_file {
         let text = crate::traits::files::read_text(
             &prior_path,
             crate::models::model_file::MAX_MODEL_FILE_BYTES,
         )
         .with_context(|| format!("reading {}", args.prior))?;
-        let file = crate::models::model_file::read_model_file(&args.prior, &text)?;
+        prior_file = crate::models::model_file::read_model_file(&args.prior, &text)?;
+        let file = &prior_file;
         let names = match &args.models {
             Some(m) if m.len() != 1 => anyhow::bail!(
                 "--prior {} is one model: --models names the one fitted from scratch and on the target beside it, not {}",
@@ -81,7 +83,10 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             Some(m) => m.clone(),
             None => vec![file.model.name()],
         };
-        (crate::studies::AdaptPrior::Model(file.model), names)
+        (
+            crate::studies::AdaptPrior::Model(file.model.as_ref()),
+            names,
+        )
     } else {
         let prior_args = DataArgs {
             data: Some(prior_path.clone()),

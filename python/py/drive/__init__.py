@@ -39,6 +39,7 @@ from collections.abc import Mapping as _Mapping
 
 from . import _native
 from ._native import Command, Dataset, DriveError, Model, State, Tracker, fit
+from ._native import adapt_json as _adapt_json
 from ._native import bench_json as _bench_json
 from ._native import evaluate_json as _evaluate_json
 from ._mppi import MppiDynamics
@@ -255,6 +256,7 @@ __all__ = [
     "ProtocolRunner",
     "State",
     "Tracker",
+    "adapt",
     "bench",
     "evaluate",
     "fit",
@@ -307,6 +309,20 @@ def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False
             lambda: _bench_json(suite, models, float(split), transfer, allow_useless), suite
         )
     )
+
+
+def adapt(prior, data, models=None, split=0.5, times=None):
+    """`drive adapt --json` as a dict: `prior` (a fitted or loaded `drive.Model`, adapted as
+    it is, or a `drive.Dataset` on which each model of `models`, default slip-blr and
+    slip-ipem, is fitted) adapting to the dataset `data`: its first `split` of the intervals
+    streamed in time order into the adaptive model, scored on the rest after each of `times`
+    seconds (default 0, 15, 30, 60, 120, 240) beside the prior alone (`frozen`), a fit from
+    scratch on the same seconds (`scratch`) and the fit on the whole half (`own`); `curve`
+    holds one entry per learner, model and time (docs/adaptation.md)."""
+    models = _model_names(models, split)
+    if times is not None:
+        times = [float(t) for t in times]
+    return _json.loads(_adapt_json(prior, data, models, float(split), times))
 
 
 class Measurements:
