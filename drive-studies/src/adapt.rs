@@ -97,13 +97,17 @@ pub const REFIT_MEMORY_WINDOWS: usize = 180;
 /// [`drive_models::GrowingFit`]): the refits cost `O(n)` in all, not one per window.
 pub const REFIT_GROWTH: f64 = 1.5;
 
+/// The fewest intervals a refit is scored on before it may take over.
+pub const REFIT_MIN_SCORED: usize = 3;
+
 /// A prior adapting to the ground it drives on, for any composed model: its slip corrected
 /// online ([`SlipAdapter`]) and, beside it, the model refitted from scratch on the windows
 /// driven (once [`drive_models::adapt::MIN_INTERVALS`] intervals are in, then each time
 /// they grew by [`REFIT_GROWTH`], on the last [`REFIT_MEMORY_WINDOWS`]). Each interval is
-/// predicted by both before either learns from it (eq. 8 errors of its windows); the refit
-/// takes over once it predicted the recent intervals better beyond their spread
-/// ([`PrequentialRecord`]), as the correction takes over from the prior.
+/// predicted by both before either learns from it (eq. 8 errors of its windows); each refit
+/// takes over once it predicted at least [`REFIT_MIN_SCORED`] intervals since it was made
+/// better beyond their spread ([`PrequentialRecord`]), as the correction takes over from the
+/// prior.
 pub struct AdaptiveFit {
     spec: ModelSpec,
     robot: drive_traits::RobotDescription,
@@ -116,6 +120,8 @@ pub struct AdaptiveFit {
     before: Option<drive_models::ComposedModel>,
     refit: Option<(drive_models::ComposedModel, usize)>,
     refit_record: PrequentialRecord,
+    /// Intervals the current refit was scored on.
+    refit_scored: usize,
     intervals: usize,
     driven: usize,
 }
@@ -139,6 +145,7 @@ impl AdaptiveFit {
             before: None,
             refit: None,
             refit_record: PrequentialRecord::default(),
+            refit_scored: 0,
             intervals: 0,
             driven: 0,
         }
@@ -189,6 +196,7 @@ impl AdaptiveFit {
                 / a.windows.len().max(1) as f64;
             let keep = (-span / self.selection_s.max(1e-9)).exp();
             self.refit_record.add(mean_log_ratio, keep);
+            self.refit_scored += 1;
         }
         self.intervals += 1;
         self.seen.extend(pending);
@@ -207,7 +215,10 @@ impl AdaptiveFit {
                 .ok()
                 .and_then(|m| composed_of(m.as_ref()));
             if let Some(m) = fitted {
+                // A new refit proves itself afresh: the record was the previous one's.
                 self.refit = Some((m, self.driven));
+                self.refit_record = PrequentialRecord::default();
+                self.refit_scored = 0;
             }
         }
     }
@@ -220,6 +231,7 @@ impl AdaptiveFit {
     /// True when the refit predicted the recent intervals better than the corrected prior.
     pub fn refit_kept(&self) -> bool {
         self.refit.is_some()
+            && self.refit_scored >= REFIT_MIN_SCORED
             && self
                 .refit_record
                 .significant_at(drive_models::adapt::KEEP_Z_ONE)

@@ -59,6 +59,7 @@ pub const BENCH_MODELS: &str = "naive,powertrain,slip-blr,acc-blr,slip-ipem";
 pub use adapt::{
     adapt, AdaptPoint, AdaptPrior, AdaptStudy, Adaptation, AdaptiveFit, Extrapolation,
     ADAPT_MODELS, ADAPT_TIMES_S, EXTRAPOLATION_MARGIN, REFIT_GROWTH, REFIT_MEMORY_WINDOWS,
+    REFIT_MIN_SCORED,
 };
 pub use bench::{
     bench_units, run_bench, terrain_known, Bench, BenchConfig, BenchDataset, BenchError,
