@@ -53,8 +53,8 @@ pub fn stage(
 ///
 /// ```
 /// # use drive_studies::{Adaptation, AdaptPoint};
-/// let a = Adaptation { prior: "a".into(), target: "b".into(), split: 0.5, train_s: 60.0,
-///     evaluation_windows: 30, extrapolation: None,
+/// let a = Adaptation { prior: "a".into(), target: "b".into(), split: 0.5, train_s: 60.0, train_windows: 30,
+///     evaluation_windows: 30, extrapolation: None, notes: Vec::new(),
 ///     curve: vec![AdaptPoint { learner: "slip-blr".into(), model: "frozen", t_s: 0.0,
 ///         translational_median_m: Some(0.25), rotational_median_rad: Some(0.5),
 ///         ground_changed: None, note: None }] };

@@ -78,12 +78,20 @@ pub struct AdaptPoint {
 /// what adaptation corrects is not the ground alone.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Extrapolation {
-    /// The largest commanded forward speed (m/s) and yaw rate (rad/s) of the prior's data.
+    /// The largest |commanded forward speed| (m/s) and |yaw rate| (rad/s) of the prior's
+    /// data.
     pub prior_max: [f64; 2],
     /// The same of the target's training half.
     pub target_max: [f64; 2],
-    /// The target's training windows with a command beyond [`EXTRAPOLATION_MARGIN`] times
-    /// the prior's largest (forward speed or yaw rate).
+    /// The prior's commanded body velocities, per axis (forward, lateral m/s; yaw rad/s):
+    /// `[min, max]`.
+    pub prior_range: [[f64; 2]; 3],
+    /// The same of the target's training half.
+    pub target_range: [[f64; 2]; 3],
+    /// The target's training windows with a command beyond the prior's in some axis and
+    /// direction (beyond [`EXTRAPOLATION_MARGIN`] times the prior's largest that way, or
+    /// that way at all where the prior never went: driving backward when it only drove
+    /// forward).
     pub windows_beyond: usize,
     /// Their share of the training half.
     pub share_beyond: f64,
@@ -258,6 +266,8 @@ pub struct Adaptation {
     pub split: f64,
     /// Seconds in the target's training half.
     pub train_s: f64,
+    /// Windows in the target's training half.
+    pub train_windows: usize,
     /// Windows of the target's evaluation half.
     pub evaluation_windows: usize,
     /// Every learner's four curves, point by point (`frozen` and `own` repeated at every t).
@@ -265,20 +275,48 @@ pub struct Adaptation {
     /// Where the target's commands leave the prior's; `None` for a model-file prior (its
     /// training data is not known).
     pub extrapolation: Option<Extrapolation>,
+    /// What the numbers should be read with (the prior's vehicle geometry other than the
+    /// target's, ...).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
-/// The largest |forward speed| and |yaw rate| commanded in `windows`.
-fn commanded_max(windows: &WindowSet<'_>) -> [f64; 2] {
+/// The commanded body velocities' `[min, max]` per axis over `windows`.
+fn commanded_range(windows: &WindowSet<'_>) -> [[f64; 2]; 3] {
     let vehicle = windows.robot.vehicle.as_ref();
-    let mut m = [0.0f64; 2];
+    let mut r = [[0.0f64; 2]; 3];
     for w in &windows.windows {
         for u in &w.command {
             let f = vehicle.body_velocity(u);
-            m[0] = m[0].max(f.x.abs());
-            m[1] = m[1].max(f.z.abs());
+            for (a, v) in r.iter_mut().zip([f.x, f.y, f.z]) {
+                if v.is_finite() {
+                    a[0] = a[0].min(v);
+                    a[1] = a[1].max(v);
+                }
+            }
         }
     }
-    m
+    r
+}
+
+/// Whether the range `got` leaves `within` in some axis and direction: beyond
+/// [`EXTRAPOLATION_MARGIN`] times the prior's extreme that way, where it went that way
+/// (more than 2% of its largest either way); any way at all where it did not.
+fn beyond(got: &[[f64; 2]; 3], within: &[[f64; 2]; 3]) -> bool {
+    got.iter().zip(within).any(|(g, w)| {
+        let scale = w[0].abs().max(w[1].abs());
+        let floor = 0.02 * scale + 1e-6;
+        let (lo, hi) = (
+            (EXTRAPOLATION_MARGIN * w[0]).min(-floor),
+            (EXTRAPOLATION_MARGIN * w[1]).max(floor),
+        );
+        g[0] < lo || g[1] > hi
+    })
+}
+
+/// The vehicle's saved form, to tell two geometries apart.
+fn vehicle_json(v: &dyn drive_traits::CommandModel) -> String {
+    serde_json::to_string(v).unwrap_or_default()
 }
 
 /// Adapts each model of `models` (or the prior model alone) to `target`: the target's
@@ -305,9 +343,94 @@ pub fn adapt(
     models: &[ModelSpec],
     study: &AdaptStudy,
 ) -> Result<Adaptation, ExperimentError> {
-    let _ = registries;
     if models.is_empty() {
         return Err(ExperimentError::Empty("models"));
+    }
+    for (i, m) in models.iter().enumerate() {
+        if models[..i].iter().any(|o| o.canonical() == m.canonical()) {
+            return Err(ExperimentError::Incompatible(format!(
+                "{} is listed twice among the models (as {})",
+                m.canonical(),
+                m.name
+            )));
+        }
+    }
+    let mut notes = Vec::new();
+    let incompatible = |what: String| Err(ExperimentError::Incompatible(what));
+    let target_vehicle = target.robot.vehicle.as_ref();
+    match prior {
+        AdaptPrior::Data(data) => {
+            let (p, t) = (&data.robot, &target.robot);
+            if p.rate_hz != t.rate_hz || p.window_len != t.window_len {
+                return incompatible(format!(
+                    "the prior's data is {} Hz x {} samples per window, the target's {} Hz x {}: a model of one does not predict the other",
+                    p.rate_hz, p.window_len, t.rate_hz, t.window_len
+                ));
+            }
+            let (a, b) = (crate::vehicle_type(data), crate::vehicle_type(target));
+            if a != b {
+                return incompatible(format!(
+                    "the prior's vehicle type is {a}, the target's {b}: adaptation follows a change of ground, not of vehicle"
+                ));
+            }
+            if vehicle_json(p.vehicle.as_ref()) != vehicle_json(target_vehicle) {
+                notes.push(format!(
+                    "the prior's vehicle ({}) is not the target's ({}): the prior predicts with its own geometry",
+                    vehicle_json(p.vehicle.as_ref()),
+                    vehicle_json(target_vehicle)
+                ));
+            }
+            let (pa, pb) = (
+                crate::bench::window_prints(data),
+                crate::bench::window_prints(target),
+            );
+            let shared = crate::bench::shared_windows(&pa, &pb);
+            let smaller = pa.len().min(pb.len());
+            if shared > 0 && shared * crate::bench::SAME_RUN_SHARE_DENOMINATOR >= smaller {
+                return incompatible(format!(
+                    "the prior's data holds the target's own windows ({shared} of the {smaller} of the one with fewer are in both): the prior would be scored on windows it was fitted on"
+                ));
+            }
+        }
+        AdaptPrior::Model(m) => {
+            let dt = target.robot.dt();
+            if (m.dt() - dt).abs() > 1e-9 * dt {
+                return incompatible(format!(
+                    "the prior model steps {} s, the target's data {} s",
+                    m.dt(),
+                    dt
+                ));
+            }
+            if let Some(c) = composed_of(*m) {
+                let (a, b) = (
+                    drive_traits::vehicle_tag(c.vehicle.as_ref()).unwrap_or_default(),
+                    drive_traits::vehicle_tag(target_vehicle).unwrap_or_default(),
+                );
+                if a != b {
+                    return incompatible(format!(
+                        "the prior model's vehicle type is {a}, the target's {b}: adaptation follows a change of ground, not of vehicle"
+                    ));
+                }
+                if vehicle_json(c.vehicle.as_ref()) != vehicle_json(target_vehicle) {
+                    notes.push(format!(
+                        "the prior model's vehicle ({}) is not the target's ({}): the prior predicts with its own geometry",
+                        vehicle_json(c.vehicle.as_ref()),
+                        vehicle_json(target_vehicle)
+                    ));
+                }
+            }
+            // The model fitted from scratch, on the target and refitted beside it is the
+            // prior's own kind.
+            if let Ok(own) = registries.models().resolve(&m.name()) {
+                if let Some(other) = models.iter().find(|s| s.canonical() != own.canonical()) {
+                    return incompatible(format!(
+                        "the prior is a {} model: the models fitted from scratch, on the target and refitted beside it must be the same, not {}",
+                        own.canonical(),
+                        other.name
+                    ));
+                }
+            }
+        }
     }
     let (train, eval) = split_by_interval(target, study.split)
         .map_err(|e| ExperimentError::NotEnoughData(e.to_string()))?;
@@ -321,6 +444,12 @@ pub fn adapt(
         .collect();
     times.sort_by(f64::total_cmp);
     times.dedup();
+    if times.is_empty() {
+        return Err(ExperimentError::NotEnoughData(format!(
+            "no time of {:?} s is within the target's training half of {train_s} s",
+            study.times_s
+        )));
+    }
     let seen = |t: f64| ((t / window_s) + 1e-9).floor() as usize;
     let score = |model: &dyn MotionModel, start| {
         let report = evaluate_errors(model, &eval, start);
@@ -334,17 +463,18 @@ pub fn adapt(
         let spec = spec
             .clone()
             .with_uncertainty(Uncertainty::Paper, spec.start);
-        let fit = |windows: &WindowSet<'_>| {
+        let fit_on = |windows: &WindowSet<'_>, name: &str| {
             spec.fit(windows).map_err(|reason| ExperimentError::Fit {
                 model: spec.name.clone(),
-                data: target.robot.name.clone(),
+                data: name.to_string(),
                 reason,
             })
         };
+        let fit = |windows: &WindowSet<'_>| fit_on(windows, &target.robot.name);
         let fitted;
         let prior_model: &dyn MotionModel = match prior {
             AdaptPrior::Data(data) => {
-                fitted = fit(&data.all())?;
+                fitted = fit_on(&data.all(), &format!("the prior, {}", data.robot.name))?;
                 fitted.as_ref()
             }
             AdaptPrior::Model(m) => *m,
@@ -422,22 +552,25 @@ pub fn adapt(
     }
     let extrapolation = match prior {
         AdaptPrior::Data(data) => {
-            let prior_max = commanded_max(&data.all());
-            let beyond =
-                |f: [f64; 2]| (0..2).any(|a| f[a] > EXTRAPOLATION_MARGIN * prior_max[a] + 1e-9);
+            let prior_range = commanded_range(&data.all());
             let windows_beyond = train
                 .windows
                 .iter()
                 .filter(|w| {
-                    beyond(commanded_max(&WindowSet {
+                    let one = WindowSet {
                         robot: &target.robot,
                         windows: vec![**w],
-                    }))
+                    };
+                    beyond(&commanded_range(&one), &prior_range)
                 })
                 .count();
+            let target_range = commanded_range(&train);
+            let abs_max = |r: &[[f64; 2]; 3], a: usize| r[a][0].abs().max(r[a][1].abs());
             Some(Extrapolation {
-                prior_max,
-                target_max: commanded_max(&train),
+                prior_max: [abs_max(&prior_range, 0), abs_max(&prior_range, 2)],
+                target_max: [abs_max(&target_range, 0), abs_max(&target_range, 2)],
+                prior_range,
+                target_range,
                 windows_beyond,
                 share_beyond: windows_beyond as f64 / train.windows.len().max(1) as f64,
             })
@@ -452,8 +585,10 @@ pub fn adapt(
         target: target.robot.name.clone(),
         split: study.split,
         train_s,
+        train_windows: train.windows.len(),
         evaluation_windows: eval.windows.len(),
         curve,
         extrapolation,
+        notes,
     })
 }

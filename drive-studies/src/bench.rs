@@ -177,12 +177,12 @@ fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
 
 /// Two datasets are the same run when at least one in this many of the windows of the one
 /// with fewer are also in the other (a tenth: two real runs share none).
-const SAME_RUN_SHARE_DENOMINATOR: usize = 10;
+pub(crate) const SAME_RUN_SHARE_DENOMINATOR: usize = 10;
 
 /// A fingerprint of each window's content (commands, measured inputs, poses, each rounded to
 /// 1e-6): equal for a window read from a raw log and from its imported window CSV (equal to
 /// 1e-15), different for windows of two runs. Sorted.
-fn window_prints(data: &Dataset) -> Vec<u64> {
+pub(crate) fn window_prints(data: &Dataset) -> Vec<u64> {
     use std::hash::{Hash, Hasher};
     let mut prints: Vec<u64> = data
         .windows
@@ -207,7 +207,7 @@ fn window_prints(data: &Dataset) -> Vec<u64> {
 }
 
 /// How many fingerprints of `a` are also in `b` (both sorted), counted once each.
-fn shared_windows(a: &[u64], b: &[u64]) -> usize {
+pub(crate) fn shared_windows(a: &[u64], b: &[u64]) -> usize {
     let (mut i, mut j, mut n) = (0, 0, 0);
     while i < a.len() && j < b.len() {
         match a[i].cmp(&b[j]) {

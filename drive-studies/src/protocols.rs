@@ -68,6 +68,10 @@ pub enum ExperimentError {
     /// A data set holds too few windows for the experiment.
     #[error("{0}")]
     NotEnoughData(String),
+    /// Two inputs that cannot be compared (a prior of another vehicle, rate or window
+    /// length than its target, or fitted on the target's own windows).
+    #[error("{0}")]
+    Incompatible(String),
     /// A simulated run is no driving data (the data checks' fatal finding): a robot or
     /// terrain file whose robot cannot move, or a protocol that commands nothing.
     #[error("simulated run {run}: {finding}; check the robot's and the terrain's values")]

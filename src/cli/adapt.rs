@@ -41,8 +41,10 @@ pub struct Args {
     /// `learner`, `model` (adaptive, frozen, scratch or own), `t_s`,
     /// `translational_median_m`, `rotational_median_rad`, for adaptive `ground_changed`,
     /// and `note` where no model could be fitted), `extrapolation` (the prior's and the
-    /// target's largest commanded speed and yaw rate, and the target's training windows
-    /// beyond the prior's), `prior`, `target`, `split`, `train_s`, `evaluation_windows`.
+    /// target's commanded body velocities per axis, `prior_range` and `target_range`, their
+    /// largest forward speed and yaw rate, `prior_max` and `target_max`, and the target's
+    /// training windows beyond the prior's, `windows_beyond` and `share_beyond`), `notes`,
+    /// `prior`, `target`, `split`, `train_s`, `train_windows`, `evaluation_windows`.
     #[arg(long)]
     json: bool,
     /// Also write DIR/adapt.json, DIR/curve.csv and the curves' figure DIR/curves.png and
@@ -118,6 +120,13 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             let mut inputs = vec![("--prior", prior_path.clone())];
             if let Some(d) = &args.data.data {
                 inputs.push(("--data", d.clone()));
+                inputs.push((
+                    "the sidecar of --data",
+                    args.data
+                        .sidecar
+                        .clone()
+                        .unwrap_or_else(|| crate::data::sidecar_to_read(d)),
+                ));
             }
             Some(outputs_for(&inputs, &all)?)
         }
@@ -176,6 +185,7 @@ fn text(r: &crate::studies::Adaptation) -> String {
             .collect();
         times.dedup();
         for t in times {
+            let shown = seconds(t);
             let at = |model: &str| {
                 r.curve
                     .iter()
@@ -186,7 +196,7 @@ fn text(r: &crate::studies::Adaptation) -> String {
                 .map_or("-", |c| if c { "yes" } else { "no" });
             let _ = writeln!(
                 s,
-                "  {t:>6.0}  {:<17}  {:<17}  {:<17}  {:<17}  {changed}",
+                "  {shown:>6}  {:<17}  {:<17}  {:<17}  {:<17}  {changed}",
                 cell(at("adaptive")),
                 cell(at("frozen")),
                 cell(at("scratch")),
@@ -194,19 +204,20 @@ fn text(r: &crate::studies::Adaptation) -> String {
             );
         }
     }
+    for note in &r.notes {
+        let _ = writeln!(s, "\nnote: {note}");
+    }
     match &r.extrapolation {
         Some(e) if e.windows_beyond > 0 => {
             let _ = writeln!(
                 s,
-                "\nnote: {} of the target's {:.0} s of training windows ({:.0}%) command more than {} times the prior's largest forward speed or yaw rate (prior {:.2} m/s and {:.2} rad/s, target {:.2} and {:.2}): there the prior extrapolates, and adaptation corrects more than the ground",
+                "\nnote: {} of the target's {} training windows ({:.0}%) command a body velocity beyond the prior's (more than {} times its largest in some axis and direction, or a direction it never drove; forward speed, lateral speed and yaw rate [min, max]: prior {}, target {}): there the prior extrapolates, and adaptation corrects more than the ground",
                 e.windows_beyond,
-                r.train_s,
+                r.train_windows,
                 100.0 * e.share_beyond,
                 crate::studies::EXTRAPOLATION_MARGIN,
-                e.prior_max[0],
-                e.prior_max[1],
-                e.target_max[0],
-                e.target_max[1]
+                ranges(&e.prior_range),
+                ranges(&e.target_range)
             );
         }
         Some(_) => {
@@ -223,4 +234,23 @@ fn text(r: &crate::studies::Adaptation) -> String {
         }
     }
     s
+}
+
+/// Seconds as given: whole ones without decimals, others with as many as they need (never
+/// "-0").
+fn seconds(t: f64) -> String {
+    let t = t + 0.0;
+    if t.fract() == 0.0 {
+        format!("{t:.0}")
+    } else {
+        format!("{t}")
+    }
+}
+
+/// Per-axis `[min, max]` ranges, two decimals.
+fn ranges(r: &[[f64; 2]; 3]) -> String {
+    r.iter()
+        .map(|[a, b]| format!("[{a:.2}, {b:.2}]"))
+        .collect::<Vec<_>>()
+        .join(" ")
 }

@@ -216,3 +216,120 @@ fn adaptation_follows_a_change_of_ground_and_leaves_the_same_ground_alone() {
         "{adaptive} against {frozen}"
     );
 }
+
+/// What cannot be compared is refused, naming why: a prior of another vehicle type or
+/// rate, a prior fitted on the target's own windows, a model listed twice, a model-file
+/// prior beside another model, no time within the training half, an output over the
+/// target's sidecar. A prior of the same vehicle with another geometry is run, and says so.
+#[test]
+fn adapt_refuses_what_cannot_be_compared_and_notes_another_geometry() {
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let car = at("car.csv");
+    common::ok(&[
+        "simulate",
+        "--robot",
+        "autorally",
+        "--terrain",
+        "gravel",
+        "--duration",
+        "120",
+        "--seed",
+        "1",
+        "--out",
+        &car,
+    ]);
+    let grass = "bundled:warthog_grass_2024-08-08";
+    let err = common::user_error(&["adapt", "--prior", &car, "--data", grass]);
+    assert!(
+        err.contains("vehicle type is ackermann") && err.contains("differential"),
+        "{err}"
+    );
+    let err = common::user_error(&["adapt", "--prior", grass, "--data", grass]);
+    assert!(err.contains("the target's own windows"), "{err}");
+    let err = common::user_error(&[
+        "adapt",
+        "--prior",
+        "bundled:warthog_asphalt_a",
+        "--data",
+        grass,
+        "--models",
+        "slip-blr,slip-blr+fopdt",
+    ]);
+    assert!(err.contains("listed twice"), "{err}");
+    let err = common::user_error(&[
+        "adapt",
+        "--prior",
+        "bundled:warthog_asphalt_a",
+        "--data",
+        grass,
+        "--times",
+        "1000",
+    ]);
+    assert!(
+        err.contains("no time of [1000.0] s is within the target's training half of 90 s"),
+        "{err}"
+    );
+    let model = at("m.json");
+    common::ok(&[
+        "train",
+        "--model",
+        "slip-blr",
+        "--data",
+        "bundled:warthog_asphalt_a",
+        "--out",
+        &model,
+    ]);
+    let err = common::user_error(&[
+        "adapt",
+        "--prior",
+        &model,
+        "--data",
+        grass,
+        "--models",
+        "slip-ipem",
+    ]);
+    assert!(err.contains("the prior is a slip-blr+fopdt model"), "{err}");
+    // --out onto the target's sidecar (given with --sidecar) is refused before anything runs.
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let csv = out.join("run.csv");
+    let mut run = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    run.robot.name = "grass copy".into();
+    drive::data::write_dataset(&run, &csv).unwrap();
+    let sidecar = out.join("adapt.json");
+    std::fs::rename(out.join("run.meta.json"), &sidecar).unwrap();
+    let before = std::fs::read(&sidecar).unwrap();
+    let err = common::user_error(&[
+        "adapt",
+        "--prior",
+        &model,
+        "--data",
+        csv.to_str().unwrap(),
+        "--sidecar",
+        sidecar.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(err.contains("would replace that file"), "{err}");
+    assert_eq!(std::fs::read(&sidecar).unwrap(), before);
+    // The paper's Warthog run as the prior of a doughnut_calib run: another baseline.
+    let v: Value = serde_json::from_str(&common::ok(&[
+        "adapt",
+        "--prior",
+        "bundled:warthog_drive",
+        "--data",
+        grass,
+        "--models",
+        "slip-blr",
+        "--times",
+        "0",
+        "--json",
+    ]))
+    .unwrap();
+    let notes = v["notes"].as_array().unwrap();
+    assert!(
+        notes.len() == 1 && notes[0].as_str().unwrap().contains("1.1652"),
+        "{v}"
+    );
+}
