@@ -91,29 +91,41 @@ pub struct RobotOf {
 }
 
 /// The registered robot whose name is a word of the sidecar's robot text ("Clearpath
-/// Husky" is `husky`), when exactly one is.
+/// Husky" is `husky`; a name with hyphens or underscores, `cmd-vel-robot`, is one word of
+/// the text split at the other characters: "simulated cmd-vel-robot on snow"), when exactly
+/// one is, or one name holds every other found (`warthog-1080` over `warthog` in
+/// "warthog-1080 run").
 ///
 /// ```
-/// let registries = drive::Registries::builtin();
+/// let mut registries = drive::Registries::builtin();
 /// assert_eq!(drive::suite::recognised_robot(&registries, "Clearpath Warthog (wheels)").as_deref(), Some("warthog"));
 /// assert_eq!(drive::suite::recognised_robot(&registries, "my rover"), None);
+/// let mut rover = registries.robot("husky").unwrap();
+/// rover.name = "my-rover".into();
+/// registries.robots.register("my-rover", "a rover", std::sync::Arc::new(rover)).unwrap();
+/// assert_eq!(drive::suite::recognised_robot(&registries, "simulated my-rover on snow").as_deref(), Some("my-rover"));
 /// ```
 pub fn recognised_robot(registries: &Registries, text: &str) -> Option<String> {
-    let words: Vec<String> = text
-        .split(|c: char| !c.is_alphanumeric())
-        .filter(|w| !w.is_empty())
-        .map(str::to_lowercase)
-        .collect();
+    let split = |keep: fn(char) -> bool| -> Vec<String> {
+        text.split(|c: char| !keep(c))
+            .filter(|w| !w.is_empty())
+            .map(str::to_lowercase)
+            .collect()
+    };
+    let mut words = split(char::is_alphanumeric);
+    words.extend(split(|c| c.is_alphanumeric() || c == '-' || c == '_'));
     let found: Vec<&str> = registries
         .robots
         .names()
         .into_iter()
         .filter(|n| words.iter().any(|w| w == &n.to_lowercase()))
         .collect();
-    match found.as_slice() {
-        [one] => Some(one.to_string()),
-        _ => None,
-    }
+    // The longest name found, when it holds every other (a hyphenated name's parts).
+    let longest = found.iter().max_by_key(|n| n.len())?;
+    found
+        .iter()
+        .all(|n| longest.to_lowercase().contains(&n.to_lowercase()))
+        .then(|| longest.to_string())
 }
 
 /// The robot of `data`: `explicit` (a registered robot or a robot file) when given (an

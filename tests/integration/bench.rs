@@ -536,3 +536,35 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
         "{pairs:?}"
     );
 }
+
+/// Issue 62: two simulated runs of a registered robot whose name has hyphens are one robot
+/// (a transfer pair), whatever ground each ran on; before, the sidecar's text was split at
+/// the hyphens and each run became a robot of its own.
+#[test]
+fn runs_of_a_robot_named_with_hyphens_are_one_robot() {
+    let mut registries = drive::Registries::builtin();
+    let mut rover = registries.robot("husky").unwrap();
+    rover.name = "tracked-rover".into();
+    registries
+        .robots
+        .register("tracked-rover", "a rover", std::sync::Arc::new(rover))
+        .unwrap();
+    let run = |terrain: &str, seed: u64| {
+        drive::studies::simulate_protocol(
+            &registries,
+            "tracked-rover",
+            terrain,
+            "uniform",
+            12,
+            seed,
+        )
+        .unwrap()
+        .dataset
+    };
+    let (gravel, snow) = (run("gravel", 1), run("snow", 2));
+    assert_ne!(gravel.robot.robot, snow.robot.robot);
+    for data in [&gravel, &snow] {
+        let of = drive::suite::robot_of(&registries, data, None).unwrap();
+        assert_eq!(of.name, "tracked-rover", "{}", of.source);
+    }
+}
