@@ -480,7 +480,7 @@ pub fn adapt(
             AdaptPrior::Model(m) => *m,
         };
         let composed = composed_of(prior_model).ok_or_else(|| {
-            ExperimentError::NotEnoughData(format!(
+            ExperimentError::Incompatible(format!(
                 "{}: only a model composed of a powertrain and a slip model adapts",
                 prior_model.name()
             ))
