@@ -43,7 +43,9 @@ pub use omni::OmniPlant;
 pub use parameters::{
     fitted_parameters, fitted_parameters_within, FittedParameter, CONTACT_SPREAD_CHOICES,
 };
-pub use plant::{builtin_plants, plant_for, KinematicPlant, MakePlant, Plant, PlantError};
+pub use plant::{
+    builtin_plants, plant_for, simulator_of, KinematicPlant, MakePlant, Plant, PlantError,
+};
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
 pub use sensors::{Instruments, Sensors, ICP_GAP_BINS, ICP_GAP_STEP_S};
 pub use sim::{Measured, Simulator};

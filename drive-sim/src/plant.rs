@@ -174,6 +174,22 @@ pub fn plant_for(
     }
 }
 
+/// Which simulator [`plant_for`] runs for `robot`: the name registered for its vehicle type,
+/// or `None` for the [`KinematicPlant`] stand-in (no simulator registered for it).
+///
+/// ```
+/// use drive_sim::{builtin_plants, simulator_of};
+/// let robot = drive_samplers::RobotSpec::load(&drive_samplers::builtin_robots(), "husky").unwrap();
+/// assert_eq!(simulator_of(&builtin_plants(), &robot).as_deref(), Some("differential"));
+/// // Nothing registered for it: the kinematic stand-in runs.
+/// let none = drive_traits::Registry::<dyn drive_sim::MakePlant>::new("simulator");
+/// assert_eq!(simulator_of(&none, &robot), None);
+/// ```
+pub fn simulator_of(plants: &Registry<dyn MakePlant>, robot: &RobotSpec) -> Option<String> {
+    let tag = vehicle_tag(robot.vehicle.as_ref()).unwrap_or_default();
+    plants.find(&tag).map(|_| tag)
+}
+
 /// A simulator for any vehicle, from its command model alone: not a physics model, a
 /// stand-in that lets a new vehicle run the protocol and the models before it has one.
 ///

@@ -154,5 +154,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         ground.name,
         args.out.display()
     );
+    let tag = crate::traits::vehicle_tag(spec.vehicle.as_ref()).unwrap_or_default();
+    match crate::sim::simulator_of(&registries.simulators, &spec) {
+        Some(name) => say!("simulator: {name} (registered for the vehicle type {tag})"),
+        None => say!(
+            "simulator: kinematic stand-in (no simulator is registered for the vehicle type {tag}: a lag per input axis and a terrain loss on the commanded body velocity, not a physics model)"
+        ),
+    }
     Ok(())
 }

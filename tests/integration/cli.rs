@@ -1349,3 +1349,34 @@ fn eval_on_a_handful_of_intervals_says_its_figures_are_no_evidence() {
         "{err}"
     );
 }
+
+/// Issue 62: `drive simulate` says which simulator ran (the one registered for the robot's
+/// vehicle type).
+#[test]
+fn simulate_says_which_simulator_ran() {
+    let dir = tempfile::tempdir().unwrap();
+    for (robot, simulator) in [("husky", "differential"), ("autorally", "ackermann")] {
+        let csv = dir.path().join(format!("{robot}.csv"));
+        let out = common::drive(&[
+            "simulate",
+            "--robot",
+            robot,
+            "--terrain",
+            "gravel",
+            "--duration",
+            "60",
+            "--seed",
+            "1",
+            "--out",
+            csv.to_str().unwrap(),
+        ]);
+        assert!(out.status.success());
+        let said = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            said.contains(&format!(
+                "simulator: {simulator} (registered for the vehicle type {simulator})"
+            )),
+            "{said}"
+        );
+    }
+}
