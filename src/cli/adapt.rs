@@ -63,7 +63,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     }
     let target = load(registries, &args.data)?;
     let target_name = data_name(&args.data);
-    super::common::refuse_useless(&target, &target_name, args.useless.allow_useless, false)?;
+    let mut useless: Vec<String> =
+        super::common::refuse_useless(&target, &target_name, args.useless.allow_useless, false)?
+            .into_iter()
+            .map(|f| format!("{target_name}, the target: {f}"))
+            .collect();
     let prior_path = PathBuf::from(&args.prior);
     let is_model_file = args.prior.to_ascii_lowercase().ends_with(".json");
     let prior_data;
@@ -97,7 +101,16 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         };
         prior_data =
             load(registries, &prior_args).with_context(|| format!("--prior {}", args.prior))?;
-        super::common::refuse_useless(&prior_data, &args.prior, args.useless.allow_useless, false)?;
+        useless.extend(
+            super::common::refuse_useless(
+                &prior_data,
+                &args.prior,
+                args.useless.allow_useless,
+                false,
+            )?
+            .into_iter()
+            .map(|f| format!("{}, the prior: {f}", args.prior)),
+        );
         let names = args.models.clone().unwrap_or_else(|| {
             crate::studies::ADAPT_MODELS
                 .split(',')
@@ -137,7 +150,14 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         times_s: args.times.clone(),
         ..Default::default()
     };
-    let result = crate::studies::adapt(registries, &prior, &target, &specs, &study)?;
+    let mut result = crate::studies::adapt(registries, &prior, &target, &specs, &study)?;
+    // What the data checks called useless, run anyway with --allow-useless, stays with the
+    // numbers it made.
+    result.notes.extend(
+        useless
+            .into_iter()
+            .map(|f| format!("the data checks call it useless (run with --allow-useless): {f}")),
+    );
     if let (Some(mut outputs), Some(dir)) = (outputs, &args.out) {
         crate::report::adapt::stage(&result, &mut outputs, dir)?;
         outputs.publish()?;

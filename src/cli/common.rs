@@ -42,8 +42,14 @@ pub struct UselessArg {
 
 /// Refuses `data` (named `name`) when the data checks call it useless (their first fatal
 /// finding, named), unless `allow`; says the findings on stderr once ([`note_quality`]'s
-/// lines): every one when allowed, the warnings also when `with_warnings`.
-pub fn refuse_useless(data: &Dataset, name: &str, allow: bool, with_warnings: bool) -> Result<()> {
+/// lines): every one when allowed, the warnings also when `with_warnings`. Returns the fatal
+/// findings let through (`check: message`), for an output that records them.
+pub fn refuse_useless(
+    data: &Dataset,
+    name: &str,
+    allow: bool,
+    with_warnings: bool,
+) -> Result<Vec<String>> {
     let findings = crate::data::quality::check(data, None);
     let fatal =
         |f: &&crate::data::quality::Finding| f.severity == crate::data::quality::Severity::Fatal;
@@ -60,7 +66,11 @@ pub fn refuse_useless(data: &Dataset, name: &str, allow: bool, with_warnings: bo
     {
         say_finding(data, f);
     }
-    Ok(())
+    Ok(findings
+        .iter()
+        .filter(fatal)
+        .map(|f| format!("{}: {}", f.check, f.message))
+        .collect())
 }
 
 /// The name of the data `args` loads, for messages.

@@ -333,3 +333,42 @@ fn adapt_refuses_what_cannot_be_compared_and_notes_another_geometry() {
         "{v}"
     );
 }
+
+/// Data the data checks call useless is refused, and run with --allow-useless only with the
+/// finding kept in the output's `notes` (issue 63's one rule).
+#[test]
+fn useless_data_is_refused_and_when_allowed_noted_in_the_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("frozen.csv");
+    common::write_frozen_grass_run(&csv);
+    let csv = csv.to_str().unwrap();
+    let args = [
+        "adapt",
+        "--prior",
+        "bundled:warthog_asphalt_a",
+        "--data",
+        csv,
+        "--models",
+        "slip-blr",
+        "--times",
+        "0,30",
+        "--json",
+    ];
+    let err = common::user_error(&args);
+    assert!(err.contains("not-moving"), "{err}");
+    let mut allowed = args.to_vec();
+    allowed.push("--allow-useless");
+    let v: Value = serde_json::from_str(&common::ok(&allowed)).unwrap();
+    let notes: Vec<&str> = v["notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap())
+        .collect();
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.contains("the target: not-moving") && n.contains("--allow-useless")),
+        "{notes:?}"
+    );
+}
