@@ -67,16 +67,20 @@ impl SlipCorrection {
 
     /// The additional slip at the commanded body velocity `f`.
     pub fn slip(&self, f: &BodyVelocity) -> BodyVelocity {
-        let mut xs: [Vec<f64>; 3] = Default::default();
-        self.basis.push(f, &mut xs);
-        let d = |i: usize| {
-            xs[i]
-                .iter()
-                .zip(&self.weights[i])
-                .map(|(x, w)| x * w)
-                .sum::<f64>()
-        };
-        BodyVelocity::new(d(0), d(1), d(2))
+        // The basis's inputs in fixed-size arrays: no allocation per sample (this runs at
+        // every step of a rollout).
+        let dot = |x: &[f64], w: &[f64]| x.iter().zip(w).map(|(x, w)| x * w).sum::<f64>();
+        let [wx, wy, ww] = &self.weights;
+        match self.basis {
+            SlipBasis::SkidSteer => {
+                let s = crate::slip::slip_inputs(f);
+                BodyVelocity::new(dot(&s.x, wx), dot(&s.y, wy), dot(&s.yaw, ww))
+            }
+            SlipBasis::Car | SlipBasis::Omnidirectional => {
+                let s = self.basis.pair_inputs(f);
+                BodyVelocity::new(dot(&s.x, wx), dot(&s.y, wy), dot(&s.yaw, ww))
+            }
+        }
     }
 
     /// True when every weight is zero.

@@ -231,7 +231,7 @@ impl SlipBasis {
 
     /// The slip inputs of the bases of two, two and three inputs (car, omnidirectional).
     #[inline]
-    fn pair_inputs(self, f: &BodyVelocity) -> CarSlipInputs {
+    pub(crate) fn pair_inputs(self, f: &BodyVelocity) -> CarSlipInputs {
         match self {
             SlipBasis::Omnidirectional => omni_slip_inputs(f),
             _ => car_slip_inputs(f),
