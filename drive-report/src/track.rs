@@ -223,6 +223,7 @@ pub fn text(r: &TrackResult) -> String {
         seeds.len(),
         if seeds.len() == 1 { "" } else { "s, means over them" }
     );
+    let _ = writeln!(s, "simulator: {}", r.simulator);
     let mut last = None;
     for x in &r.summary {
         let key = (x.train.clone(), x.path.clone(), x.speed_fraction);
@@ -395,10 +396,11 @@ pub fn markdown(result: &TrackResult) -> String {
             .collect::<String>()
     };
     let mut s = format!(
-        "# Closed loop: {} on {}\n\ncontroller {}; top speed on this terrain {:.3} m/s (measured); preset paths at scale {:.2} m\n\n",
+        "# Closed loop: {} on {}\n\ncontroller {}; simulator {}; top speed on this terrain {:.3} m/s (measured); preset paths at scale {:.2} m\n\n",
         esc(&result.robot),
         esc(&result.terrain),
         esc(&result.controller),
+        esc(&result.simulator.to_string()),
         result.top_speed_m_s,
         result.path_scale_m
     );

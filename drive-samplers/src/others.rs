@@ -2,7 +2,7 @@
 //! DRIVE against (Sec. IV-B).
 
 use crate::{BodyLimits, SamplerError};
-use drive_traits::{BodyVelocity, CommandModel, Input, InputSampler, InputSpace};
+use drive_traits::{BodyVelocity, CommandModel, Input, InputSampler, InputSpace, Reach};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use std::sync::Arc;
@@ -85,9 +85,20 @@ struct BodyToInput {
     vehicle: Arc<dyn CommandModel>,
     space: InputSpace,
     limits: Option<BodyLimits>,
+    /// What the vehicle reaches inside J, asked once.
+    reach: Reach,
 }
 
 impl BodyToInput {
+    fn new(space: InputSpace, vehicle: Arc<dyn CommandModel>) -> Self {
+        BodyToInput {
+            reach: vehicle.reach(&space),
+            vehicle,
+            space,
+            limits: None,
+        }
+    }
+
     fn input(&self, v: BodyVelocity) -> Input {
         let v = match &self.limits {
             Some(l) => {
@@ -113,13 +124,29 @@ impl BodyToInput {
     /// move the robot.
     fn check(&self, sampler: &'static str, draws: &[(f64, f64)]) -> Result<(), SamplerError> {
         let (v, w) = self.reach();
+        let vehicle = || {
+            drive_traits::vehicle_tag(self.vehicle.as_ref())
+                .unwrap_or_else(|| format!("{:?}", self.vehicle))
+        };
+        // A sampler whose draws turn needs a yaw rate to draw from, and every sampler a
+        // forward speed: never a schedule that silently drives straight or stands still.
+        let turns = draws.iter().any(|&(_, fw)| fw != 0.0);
+        for (needed, reached, what) in [(true, v, "forward speed"), (turns, w, "yaw rate")] {
+            if needed && (reached.is_nan() || reached <= 1e-9) {
+                return Err(SamplerError::NoReach {
+                    sampler,
+                    vehicle: vehicle(),
+                    what,
+                    reach: Box::new(self.reach),
+                });
+            }
+        }
         for &(fv, fw) in draws {
             let (linear, angular) = (fv * v, fw * w);
             if self.vehicle.input_for_twist(linear, angular).is_none() {
                 return Err(SamplerError::NoInputForTwist {
                     sampler,
-                    vehicle: drive_traits::vehicle_tag(self.vehicle.as_ref())
-                        .unwrap_or_else(|| format!("{:?}", self.vehicle)),
+                    vehicle: vehicle(),
                     linear,
                     angular,
                 });
@@ -128,26 +155,14 @@ impl BodyToInput {
         Ok(())
     }
 
-    /// Top forward speed (all inputs at their maximum, within the controller's linear
-    /// limit) and top yaw rate (first input at its minimum, second at its maximum: turning
-    /// in place for a skid-steer) inside J.
+    /// Top forward speed (within the controller's linear limit) and top yaw rate either
+    /// way inside J, as the vehicle reaches them ([`CommandModel::reach`]).
     fn reach(&self) -> (f64, f64) {
         let fwd = self
-            .vehicle
-            .body_velocity(&self.space.max)
-            .x
-            .abs()
+            .reach
+            .top_speed()
             .min(self.limits.as_ref().map_or(f64::INFINITY, |l| l.max_linear));
-        let turn = self
-            .vehicle
-            .body_velocity(&Input::new(
-                self.space.min.x,
-                self.space.max.y,
-                self.space.max.z,
-            ))
-            .z
-            .abs();
-        (fwd, turn)
+        (fwd, self.reach.top_yaw_rate())
     }
 }
 
@@ -165,11 +180,7 @@ impl LinearSampler {
     /// Over J = `space` for `vehicle`, seeded.
     pub fn new(space: InputSpace, vehicle: Arc<dyn CommandModel>, seed: u64) -> Self {
         LinearSampler {
-            map: BodyToInput {
-                vehicle,
-                space,
-                limits: None,
-            },
+            map: BodyToInput::new(space, vehicle),
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
         }
     }
@@ -219,11 +230,7 @@ impl AngularSampler {
     /// Over J = `space` for `vehicle`, seeded.
     pub fn new(space: InputSpace, vehicle: Arc<dyn CommandModel>, seed: u64) -> Self {
         AngularSampler {
-            map: BodyToInput {
-                vehicle,
-                space,
-                limits: None,
-            },
+            map: BodyToInput::new(space, vehicle),
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
         }
     }

@@ -51,6 +51,19 @@ pub enum SamplerError {
         /// Yaw rate (rad/s).
         angular: f64,
     },
+    /// The vehicle reaches no forward speed or no yaw rate inside the input space, and the
+    /// sampler draws from it (the angular sampler's turns from the top yaw rate).
+    #[error("the {sampler} sampler draws a {what} the vehicle {vehicle} does not reach in its input space (its reach: forward {:.3} m/s, yaw rate {:.3} rad/s left, {:.3} right): sample its input space instead (uniform, grid)", reach.forward.value, reach.left.value, reach.right.value)]
+    NoReach {
+        /// The sampler.
+        sampler: &'static str,
+        /// The vehicle's tag.
+        vehicle: String,
+        /// What is missing (`forward speed`, `yaw rate`).
+        what: &'static str,
+        /// What the vehicle reaches.
+        reach: Box<drive_traits::Reach>,
+    },
     /// No sampler of that name.
     #[error(transparent)]
     Registry(#[from] RegistryError),

@@ -44,7 +44,8 @@ pub use parameters::{
     fitted_parameters, fitted_parameters_within, FittedParameter, CONTACT_SPREAD_CHOICES,
 };
 pub use plant::{
-    builtin_plants, plant_for, simulator_of, KinematicPlant, MakePlant, Plant, PlantError,
+    builtin_plants, plant_for, simulator_of, simulator_used, KinematicPlant, MakePlant, Plant,
+    PlantError, SimulatorUsed,
 };
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
 pub use sensors::{Instruments, Sensors, ICP_GAP_BINS, ICP_GAP_STEP_S};

@@ -190,6 +190,64 @@ pub fn simulator_of(plants: &Registry<dyn MakePlant>, robot: &RobotSpec) -> Opti
     plants.find(&tag).map(|_| tag)
 }
 
+/// Which simulator runs a robot, as every simulating command reports it (text and JSON):
+/// the one registered for its vehicle type, or the kinematic stand-in.
+///
+/// ```
+/// use drive_sim::{builtin_plants, simulator_used};
+/// let robot = drive_samplers::RobotSpec::load(&drive_samplers::builtin_robots(), "husky").unwrap();
+/// let used = simulator_used(&builtin_plants(), &robot);
+/// assert_eq!((used.name.as_str(), used.stand_in), ("differential", false));
+/// let none = drive_traits::Registry::<dyn drive_sim::MakePlant>::new("simulator");
+/// let used = simulator_used(&none, &robot);
+/// assert!(used.stand_in && used.to_string().starts_with("kinematic stand-in"));
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct SimulatorUsed {
+    /// The simulator's registered name, or `kinematic` for the stand-in.
+    pub name: String,
+    /// Whether it is the [`KinematicPlant`] stand-in (no simulator is registered for the
+    /// vehicle type): not a physics model.
+    pub stand_in: bool,
+    /// The vehicle type it was chosen for.
+    pub vehicle: String,
+}
+
+impl std::fmt::Display for SimulatorUsed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.stand_in {
+            write!(
+                f,
+                "kinematic stand-in (no simulator is registered for the vehicle type {}: a lag per input axis and a terrain loss on the commanded body velocity, not a physics model)",
+                self.vehicle
+            )
+        } else {
+            write!(
+                f,
+                "{} (registered for the vehicle type {})",
+                self.name, self.vehicle
+            )
+        }
+    }
+}
+
+/// Which simulator [`plant_for`] runs for `robot`, named.
+pub fn simulator_used(plants: &Registry<dyn MakePlant>, robot: &RobotSpec) -> SimulatorUsed {
+    let vehicle = vehicle_tag(robot.vehicle.as_ref()).unwrap_or_default();
+    match simulator_of(plants, robot) {
+        Some(name) => SimulatorUsed {
+            name,
+            stand_in: false,
+            vehicle,
+        },
+        None => SimulatorUsed {
+            name: "kinematic".into(),
+            stand_in: true,
+            vehicle,
+        },
+    }
+}
+
 /// A simulator for any vehicle, from its command model alone: not a physics model, a
 /// stand-in that lets a new vehicle run the protocol and the models before it has one.
 ///
@@ -197,9 +255,11 @@ pub fn simulator_of(plants: &Registry<dyn MakePlant>, robot: &RobotSpec) -> Opti
 /// time, saturated at the robot's input space; the vehicle's command model gives the
 /// commanded body velocity, of which a terrain-dependent fraction is lost: forward, the
 /// ratio of rolling resistance to traction (`rolling / traction`, 2% on tile to 27% on
-/// snow); in yaw, the share of turning resistance (`lateral / (lateral + traction)`); the
-/// lateral velocity is `-0.1 v_x w` (a drift outwards in turns). The body velocity follows
-/// that target with a 0.2 s lag. Sensors as [`Sensors::default`](crate::Sensors::default); localization at 10 Hz.
+/// snow), and as much of a commanded lateral velocity (a crab); in yaw, the share of
+/// turning resistance (`lateral / (lateral + traction)`); a drift outwards in turns adds
+/// `-0.1 v_x w` sideways. The body velocity follows that target with a 0.2 s lag. Sensors
+/// as [`Sensors::default`](crate::Sensors::default), the encoders' noise on every input
+/// axis; localization at 10 Hz.
 pub struct KinematicPlant {
     robot: RobotSpec,
     terrain: Terrain,
@@ -234,9 +294,15 @@ impl KinematicPlant {
 
 impl Plant for KinematicPlant {
     fn measure(&mut self) -> Measured {
+        // The encoders' noise on every input axis the vehicle has.
         let e = self.instruments.sensors.encoder_noise;
-        self.instruments
-            .measure(self.inputs, &[e, e], self.pose, self.velocity.z)
+        let axes = self.robot.vehicle.input_dim().min(drive_traits::MAX_INPUTS);
+        self.instruments.measure(
+            self.inputs,
+            &[e; drive_traits::MAX_INPUTS][..axes],
+            self.pose,
+            self.velocity.z,
+        )
     }
 
     fn advance(&mut self, command: Input) {
@@ -255,9 +321,10 @@ impl Plant for KinematicPlant {
                 .clamp(&self.instruments.delayed(now, INPUT_DELAY_S));
             self.inputs += (target - self.inputs) * (h / INPUT_LAG_S);
             let f = self.robot.vehicle.body_velocity(&self.inputs);
+            // A commanded sideways velocity (a crab) rolls as a forward one does.
             let goal = BodyVelocity::new(
                 f.x * (1.0 - forward_loss),
-                -0.1 * f.x * f.z,
+                f.y * (1.0 - forward_loss) - 0.1 * f.x * f.z,
                 f.z * (1.0 - yaw_loss),
             );
             self.velocity += (goal - self.velocity) * (h / BODY_LAG_S);

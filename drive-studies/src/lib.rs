@@ -85,8 +85,8 @@ pub use matrix::{
 };
 pub use protocols::{
     compare_protocols, intervals_in, simulate_protocol, BestOnTest, ExperimentError, ProtocolCell,
-    ProtocolComparison, ProtocolRow, ProtocolStudy, ProtocolWinners, WinCount, WinnerBlock,
-    INTERVAL_S, MIXED,
+    ProtocolComparison, ProtocolRow, ProtocolStudy, ProtocolWinners, RobotSimulator, WinCount,
+    WinnerBlock, INTERVAL_S, MIXED,
 };
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use registries::{Catalog, Listed, Registries};

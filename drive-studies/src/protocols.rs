@@ -278,6 +278,17 @@ pub struct ProtocolComparison {
     pub rows: Vec<ProtocolRow>,
     /// Every trained model on every test set, per seed.
     pub cells: Vec<ProtocolCell>,
+    /// The simulator each robot ran on, in the study's robot order.
+    pub simulators: Vec<RobotSimulator>,
+}
+
+/// The simulator a robot of a study ran on.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct RobotSimulator {
+    /// The robot.
+    pub robot: String,
+    /// Its simulator (the one registered for its vehicle type, or the kinematic stand-in).
+    pub simulator: drive_sim::SimulatorUsed,
 }
 
 /// Which training sampler trains the best model (lowest median error) on each test set, per
@@ -336,7 +347,7 @@ impl ProtocolComparison {
     ///
     /// ```
     /// use drive_studies::ProtocolComparison;
-    /// let t = ProtocolComparison { model: "slip-blr".into(), reference: "uniform".into(), test_sets: vec![], test_driving_s: 60.0, rows: vec![], cells: vec![] };
+    /// let t = ProtocolComparison { model: "slip-blr".into(), reference: "uniform".into(), test_sets: vec![], test_driving_s: 60.0, rows: vec![], cells: vec![], simulators: vec![] };
     /// assert!(t.winners().blocks.is_empty() && t.winners().wins.is_empty());
     /// ```
     pub fn winners(&self) -> ProtocolWinners {
@@ -603,6 +614,14 @@ pub fn compare_protocols(
         test_driving_s: study.test_driving_s,
         rows,
         cells,
+        simulators: study
+            .robots
+            .iter()
+            .map(|r| RobotSimulator {
+                robot: r.name.clone(),
+                simulator: drive_sim::simulator_used(&registries.simulators, r),
+            })
+            .collect(),
     })
 }
 

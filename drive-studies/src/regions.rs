@@ -6,7 +6,7 @@
 use crate::protocols::median_or_nan;
 use crate::{run_cells, ExperimentError, Registries, Setting};
 use drive_eval::{improvement_percent, split_by_interval, Mrmse, Summary};
-use drive_traits::{Dataset, Input, Window, WindowSet};
+use drive_traits::{Dataset, Input, InputSpace, Window, WindowSet};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use serde::Serialize;
@@ -158,14 +158,11 @@ pub fn compare_regions(
         |(lo, hi), (_, u)| (lo.inf(u), hi.sup(u)),
     );
     let vehicle = data.robot.vehicle.as_ref();
-    // The fastest forward command, and the left turn of the corner (first axis low, the
-    // others high): a differential drive's turn in place, an omnidirectional base's
-    // largest yaw rate.
-    let top_speed = vehicle.body_velocity(&max).x;
-    let turn_rate = vehicle
-        .body_velocity(&Input::new(min.x, max.y, max.z))
-        .z
-        .abs();
+    // The fastest forward command and the hardest turn inside the box the training
+    // commands span, as the vehicle reaches them (a differential drive's turn in place, a
+    // car's full lock at top speed, a rover's axles steered apart).
+    let reach = InputSpace::new(min, max).map(|space| vehicle.reach(&space));
+    let (top_speed, turn_rate) = reach.map_or((0.0, 0.0), |r| (r.top_speed(), r.top_yaw_rate()));
     if !(top_speed > 0.0 && turn_rate > 0.0) {
         return Err(ExperimentError::NotEnoughData(format!(
             "the training commands span no forward speed or no turn (top speed {top_speed:.3} m/s, turn rate {turn_rate:.3} rad/s)"

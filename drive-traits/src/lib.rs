@@ -36,6 +36,7 @@ pub mod limits;
 mod motion;
 mod pose;
 mod powertrain;
+mod reach;
 mod registry;
 pub mod robot;
 mod sampler;
@@ -59,6 +60,7 @@ pub use pose::{
     PoseCovariance, MAX_INPUTS,
 };
 pub use powertrain::{FitPowertrain, Powertrain, PowertrainLearner, PowertrainStepper};
+pub use reach::{search_reach, Extreme, Reach};
 pub use registry::{
     is_part_name, Entry, Registry, RegistryError, RegistryItem, TagCollision, TagProblem,
 };

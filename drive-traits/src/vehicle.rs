@@ -298,6 +298,16 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
         self.axes().len()
     }
 
+    /// What the vehicle commands at the extremes of the input space `space`: its top
+    /// forward and backward speeds, hardest left and right turns and sideways reach, each
+    /// with an input that gets there. Every part that needs a vehicle's top speed or top
+    /// yaw rate (the human-like samplers, the protocol regions, the report's figures) asks
+    /// it here. The default searches the whole box ([`search_reach`](crate::search_reach));
+    /// a vehicle that knows its extremes in closed form may say so.
+    fn reach(&self, space: &InputSpace) -> crate::Reach {
+        crate::search_reach(self, space)
+    }
+
     /// The manufacturer's (naive) input space for a top speed (m/s), when the geometry
     /// gives one.
     fn nominal_input_space(&self, top_speed: f64) -> Option<InputSpace> {

@@ -286,6 +286,9 @@ fn simulated_table(t: &ProtocolComparison) -> String {
         if seeds == 1 { "" } else { "s" },
         if seeds == 1 { "" } else { " of every seed" },
     );
+    for r in &t.simulators {
+        let _ = writeln!(out, "simulator of {}: {}", r.robot, r.simulator);
+    }
     // One block per robot, terrain and driving time: training samplers down, test sets
     // across.
     let mut blocks: Vec<(&str, &str, f64)> = Vec::new();

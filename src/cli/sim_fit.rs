@@ -97,6 +97,8 @@ struct Output<'a> {
     command_scatter_off: &'a [String],
     written: bool,
     fitted: bool,
+    /// The simulator the twin's check ran on.
+    simulator: crate::sim::SimulatorUsed,
     terrain: &'a crate::sim::Terrain,
     #[serde(skip_serializing_if = "Option::is_none")]
     report: Option<&'a crate::sim::SimFitReport>,
@@ -218,6 +220,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         command_scatter_off: &check.command_scatter_off,
         written,
         fitted: report.is_some(),
+        simulator: crate::sim::simulator_used(&registries.simulators, &spec),
         terrain: &terrain,
         report: report.as_ref(),
         variability_choice: variability_choice.as_ref(),
@@ -271,6 +274,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                 data.robot.name,
             ),
         };
+        text += &format!("simulator: {}\n", o.simulator);
         text += &format!(
             "twin check ({} runs of the twin as long as the real run, seeds {}, {}; each split in halves, eq. 8 medians over the evaluation halves, {} real and {} twin windows):\n",
             o.check_seeds.len(),

@@ -34,6 +34,10 @@ pub struct Args {
     /// 0.5 kB of memory each).
     #[arg(long, allow_negative_numbers = true, default_value_t = crate::traits::limits::MAX_RUN_SAMPLES)]
     max_samples: usize,
+    /// Print one JSON object on stdout (the run's windows, robot, terrain, input space
+    /// and the simulator it ran on) instead of the text.
+    #[arg(long)]
+    json: bool,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
@@ -146,6 +150,23 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             text
         }
     };
+    let simulator = crate::sim::simulator_used(&registries.simulators, &spec);
+    if args.json {
+        let json = serde_json::json!({
+            "windows": run.dataset.windows.len(),
+            "intervals": run.dataset.windows.len() / 3,
+            "robot": spec.name,
+            "terrain": ground.name,
+            "sampler": args.sampler,
+            "seed": args.seed,
+            "input_space": run.characterization.as_ref().map(|c| c.space),
+            "geometry": run.characterization.as_ref().map(|c| c.geometry.clone()),
+            "simulator": simulator,
+            "out": args.out.display().to_string(),
+        });
+        outln!("{json}");
+        return Ok(());
+    }
     say!(
         "{} windows ({} intervals) of {} on {}; input space {space}; saved to {}",
         run.dataset.windows.len(),
@@ -154,12 +175,6 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         ground.name,
         args.out.display()
     );
-    let tag = crate::traits::vehicle_tag(spec.vehicle.as_ref()).unwrap_or_default();
-    match crate::sim::simulator_of(&registries.simulators, &spec) {
-        Some(name) => say!("simulator: {name} (registered for the vehicle type {tag})"),
-        None => say!(
-            "simulator: kinematic stand-in (no simulator is registered for the vehicle type {tag}: a lag per input axis and a terrain loss on the commanded body velocity, not a physics model)"
-        ),
-    }
+    say!("simulator: {simulator}");
     Ok(())
 }

@@ -300,3 +300,157 @@ fn a_vehicle_of_an_unsupported_number_of_inputs_is_refused_at_registration() {
         .register("many-axes", "", Arc::new(Axes(3, 3)))
         .unwrap();
 }
+
+/// A four-wheel-steered rover of wheelbase 1 m commanded in (speed, front steer, rear
+/// steer): its velocity is along the mean of the two axles' steering, its yaw rate the
+/// speed times their difference. The corner of its box where every input is highest is a
+/// pure crab (no yaw at all).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct Rover;
+
+impl Tagged for Rover {
+    const TAG: &'static str = "rover-4ws";
+}
+
+#[typetag::serde(name = "rover-4ws")]
+impl CommandModel for Rover {
+    fn body_velocity(&self, u: &Input) -> BodyVelocity {
+        let (front, rear) = (u.y.tan(), u.z.tan());
+        let heading = (0.5 * (front + rear)).atan();
+        BodyVelocity::new(
+            u.x * heading.cos(),
+            u.x * heading.sin(),
+            u.x * heading.cos() * (front - rear),
+        )
+    }
+    /// Without crabbing: the axles steered opposite, `tan(front) = w / (2 v)`.
+    fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
+        if v.y != 0.0 {
+            return None;
+        }
+        if v.x == 0.0 {
+            return (v.z == 0.0).then(Input::zeros);
+        }
+        let front = (v.z / (2.0 * v.x)).atan();
+        Some(Input::new(v.x, front, -front))
+    }
+    fn axes(&self) -> Vec<InputAxis> {
+        let axis = |name, unit, command_column, measured_column| InputAxis {
+            name,
+            unit,
+            command_column,
+            measured_column,
+        };
+        vec![
+            axis("speed", "m/s", "cmd_speed", "meas_speed"),
+            axis("front", "rad", "cmd_front", "meas_front"),
+            axis("rear", "rad", "cmd_rear", "meas_rear"),
+        ]
+    }
+    fn nominal_input_space(&self, top_speed: f64) -> Option<InputSpace> {
+        InputSpace::new(
+            Input::new(-top_speed, -0.5, -0.5),
+            Input::new(top_speed, 0.5, 0.5),
+        )
+    }
+    fn clone_box(&self) -> Box<dyn CommandModel> {
+        Box::new(self.clone())
+    }
+}
+
+#[test]
+fn the_human_like_samplers_and_the_regions_ask_a_rover_what_it_reaches_not_its_box_corner() {
+    let mut r = Registries::builtin();
+    r.vehicles
+        .register("rover-4ws", "four-wheel steered", Arc::new(Rover))
+        .unwrap();
+    let mut robot: RobotSpec = r.robot("husky").unwrap();
+    robot.name = "rover".into();
+    robot.nominal_input_space = Rover.nominal_input_space(robot.max_speed).unwrap();
+    robot.input_limits = Some(robot.nominal_input_space);
+    robot.vehicle = Arc::new(Rover);
+    (robot.controller_max_linear, robot.controller_max_angular) = (None, None);
+    robot.max_lateral_acceleration = None;
+    let space = robot.nominal_input_space;
+    // Top speed at the box's top corner, and the hardest turn with the axles steered apart
+    // (the corner asked before turned at exactly 0).
+    let reach = Rover.reach(&space);
+    assert!(Rover.body_velocity(&space.max).z.abs() < 1e-12);
+    let top = robot.max_speed;
+    assert!((reach.top_speed() - top).abs() < 1e-9, "{reach:?}");
+    assert!(
+        (reach.top_yaw_rate() - 2.0 * top * 0.5_f64.tan()).abs() < 1e-9,
+        "{reach:?}"
+    );
+    assert_eq!(reach.left.input, Input::new(top, 0.5, -0.5));
+    // The angular sampler steers it, both ways, up to a half of full lock at half speed.
+    let ctx = drive::samplers::SamplerContext::new(&robot, 5);
+    for (sampler, least) in [("angular", 0.15), ("linear", 0.02)] {
+        let mut s = drive::samplers::build_sampler(&r.samplers, sampler, &ctx).unwrap();
+        let steer: Vec<f64> = (0..200).map(|_| s.next_input().y).collect();
+        let (lo, hi) = steer
+            .iter()
+            .fold((0.0_f64, 0.0_f64), |(a, b), &x| (a.min(x), b.max(x)));
+        assert!(hi > least && -lo > least, "{sampler}: {lo} .. {hi}");
+        assert!(hi <= 0.5 && lo >= -0.5, "{sampler}: {lo} .. {hi}");
+    }
+    // A vehicle that only crabs (no yaw rate anywhere in its box) has nothing for the
+    // angular sampler to draw: refused, naming what it lacks.
+    #[derive(Debug, Clone, Serialize, Deserialize)]
+    struct Crab;
+    #[typetag::serde(name = "crab-only")]
+    impl CommandModel for Crab {
+        fn body_velocity(&self, u: &Input) -> BodyVelocity {
+            let v = Rover.body_velocity(&Input::new(u.x, u.y, u.y));
+            BodyVelocity::new(v.x, v.y, 0.0)
+        }
+        fn input_for(&self, v: &BodyVelocity) -> Option<Input> {
+            (v.z == 0.0 && v.y == 0.0).then(|| Input::new(v.x, 0.0, 0.0))
+        }
+        fn axes(&self) -> Vec<InputAxis> {
+            Rover.axes()
+        }
+        fn clone_box(&self) -> Box<dyn CommandModel> {
+            Box::new(self.clone())
+        }
+    }
+    let mut crab = robot.clone();
+    crab.vehicle = Arc::new(Crab);
+    let ctx = drive::samplers::SamplerContext::new(&crab, 5);
+    let e = drive::samplers::build_sampler(&r.samplers, "angular", &ctx)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("angular sampler") && e.contains("yaw rate") && e.contains("crab-only"),
+        "{e}"
+    );
+
+    // The regions of the protocol comparison on its data: the linear region's yaw-rate
+    // bound is a fraction of the rover's real turn rate, not of the crab corner's zero.
+    r.robots
+        .register("rover", "a rover", Arc::new(robot))
+        .unwrap();
+    let data = simulate_protocol(&r, "rover", "gravel", "uniform", 40, 2)
+        .unwrap()
+        .dataset;
+    assert_eq!(data.windows.len(), 120);
+    let table = drive::studies::compare_regions(
+        &r,
+        &data,
+        &drive::studies::RegionStudy {
+            model: "no-slip+commanded".into(),
+            draws: 3,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let linear = &table.regions[0].definition;
+    let bound: f64 = linear
+        .split("<= ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap();
+    assert!(bound > 0.15 * 0.5 * reach.top_yaw_rate(), "{linear}");
+}

@@ -302,6 +302,9 @@ pub struct TrackResult {
     pub terrain: String,
     /// The controller.
     pub controller: String,
+    /// The simulator the robot ran on (the one registered for its vehicle type, or the
+    /// kinematic stand-in).
+    pub simulator: drive_sim::SimulatorUsed,
     /// The robot's top speed on this terrain, as measured (m/s).
     pub top_speed_m_s: f64,
     /// The preset paths' scale (m).
@@ -638,6 +641,7 @@ pub fn run_track(
         robot: study.robot.name.clone(),
         terrain: study.terrain.name.clone(),
         controller: study.controller_name.clone(),
+        simulator: drive_sim::simulator_used(&registries.simulators, &study.robot),
         top_speed_m_s: top,
         path_scale_m: scale,
         models: study.models.iter().map(|m| m.name.clone()).collect(),

@@ -55,22 +55,31 @@ pub(super) fn driven(robot: &RobotSpec, terrain: &Terrain) -> Result<Driven, Tra
 }
 
 /// The input of the controller's space that drives fastest straight ahead: among the
-/// corners, edge midpoints and centre of the box, the largest forward speed, then the
-/// smallest yaw rate.
+/// corners, edge and face midpoints and centre of the box (every axis of it), the largest
+/// forward speed, then the smallest yaw rate.
 pub(super) fn fastest_straight(robot: &RobotSpec) -> Input {
     let j = robot.input_space();
+    let dim = j.dim();
     let (lo, mid, hi) = (j.min, j.center(), j.max);
     let mut best = mid;
     let mut key = (f64::NEG_INFINITY, f64::NEG_INFINITY);
-    for a in [lo.x, mid.x, hi.x] {
-        for b in [lo.y, mid.y, hi.y] {
-            let u = Input::new(a, b, 0.0);
-            let v = robot.vehicle.body_velocity(&u);
-            let k = (v.x, -v.z.abs());
-            if k.0 > key.0 + 1e-9 || ((k.0 - key.0).abs() <= 1e-9 && k.1 > key.1) {
-                key = k;
-                best = u;
+    for index in 0..3usize.pow(dim as u32) {
+        // Axis 0 slowest, as the loops over (first axis, second axis) this replaces.
+        let u = Input::from_fn(|i, _| {
+            if i >= dim {
+                return 0.0;
             }
+            match index / 3usize.pow((dim - 1 - i) as u32) % 3 {
+                0 => lo[i],
+                1 => mid[i],
+                _ => hi[i],
+            }
+        });
+        let v = robot.vehicle.body_velocity(&u);
+        let k = (v.x, -v.z.abs());
+        if k.0 > key.0 + 1e-9 || ((k.0 - key.0).abs() <= 1e-9 && k.1 > key.1) {
+            key = k;
+            best = u;
         }
     }
     best

@@ -140,4 +140,6 @@ pub struct MatrixResult {
     pub cells: Vec<MatrixCell>,
     /// Per scenario and model, seeds pooled.
     pub summary: Vec<SummaryRow>,
+    /// The simulator each simulated robot ran on (empty without simulated runs).
+    pub simulators: Vec<crate::RobotSimulator>,
 }

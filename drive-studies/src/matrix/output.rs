@@ -71,6 +71,9 @@ impl MatrixResult {
             self.bootstrap.resamples,
             self.baseline.start.as_str(),
         );
+        for r in &self.simulators {
+            let _ = writeln!(s, "Simulator of {}: {}.\n", r.robot, r.simulator);
+        }
         let _ = writeln!(
             s,
             "| scenario | model | runs | windows | transl. MRMSE [m] | vs baseline | rot. MRMSE [rad] | vs baseline |"

@@ -164,5 +164,14 @@ pub fn run_matrix(
         bootstrap: matrix.bootstrap,
         cells,
         summary,
+        simulators: matrix
+            .simulated
+            .iter()
+            .flat_map(|plan| &plan.robots)
+            .map(|r| crate::RobotSimulator {
+                robot: r.name.clone(),
+                simulator: drive_sim::simulator_used(&registries.simulators, r),
+            })
+            .collect(),
     })
 }

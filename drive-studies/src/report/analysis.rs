@@ -10,36 +10,125 @@ use serde::Serialize;
 /// a position error `e` is inside the predicted 95% ellipse when `e^T S^-1 e <= CHI2_2_95`.
 pub const CHI2_2_95: f64 = 5.991_464_547_107_979;
 
-/// The corners of an input box mapped to body velocities by the vehicle (eq. 4 for a
-/// differential drive): the polygon a box of inputs spans in the (forward speed, yaw rate)
-/// plane. A two-input box's four corners in turn; for more axes, the convex hull of every
-/// corner's (forward speed, yaw rate), counter-clockwise.
+/// The outline of what a box of inputs commands in the (forward speed, yaw rate) plane,
+/// counter-clockwise, as the vehicle maps it (eq. 4 for a differential drive).
+///
+/// Where the vehicle's map is affine on the box (a differential drive, an omnidirectional
+/// base), the image is the polygon of the box's corners: a two-input box's four corners in
+/// turn, for more axes their convex hull. Otherwise (a car, whose yaw rate is its speed
+/// times its curvature; a four-wheel-steered rover) the corners' hull would draw turns the
+/// vehicle cannot make (a car turning on the spot): the outline is then the upper and lower
+/// envelope of the yaw rate over a dense grid of the box, in 64 bands of forward speed.
+///
+/// ```
+/// use drive_studies::report::analysis::body_polygon;
+/// use drive_traits::vehicles::Ackermann;
+/// use drive_traits::{Input, InputSpace};
+/// let car = Ackermann::new(2.5, 0.5);
+/// let j = InputSpace::new(Input::new(-2.0, -0.5, 0.0), Input::new(5.0, 0.5, 0.0)).unwrap();
+/// let outline = body_polygon(&car, &j);
+/// // Standing still, a car does not turn: the outline is pinched at zero speed.
+/// let near_rest = outline.iter().filter(|v| v.x.abs() < 0.1);
+/// assert!(near_rest.clone().count() > 0 && near_rest.clone().all(|v| v.z.abs() < 0.05));
+/// ```
 pub fn body_polygon(vehicle: &dyn CommandModel, space: &InputSpace) -> Vec<BodyVelocity> {
     let (lo, hi) = (space.min, space.max);
     let dim = space.dim();
-    if dim == 2 {
-        return vec![
-            vehicle.body_velocity(&Input::new(lo.x, lo.y, 0.0)),
-            vehicle.body_velocity(&Input::new(hi.x, lo.y, 0.0)),
-            vehicle.body_velocity(&Input::new(hi.x, hi.y, 0.0)),
-            vehicle.body_velocity(&Input::new(lo.x, hi.y, 0.0)),
-        ];
-    }
+    let corner = |bits: usize| {
+        Input::from_fn(|i, _| {
+            if i >= dim {
+                0.0
+            } else if bits >> i & 1 == 0 {
+                lo[i]
+            } else {
+                hi[i]
+            }
+        })
+    };
     let corners: Vec<BodyVelocity> = (0..1usize << dim)
-        .map(|bits| {
-            let u = Input::from_fn(|i, _| {
-                if i >= dim {
-                    0.0
-                } else if bits >> i & 1 == 0 {
-                    lo[i]
-                } else {
-                    hi[i]
-                }
-            });
+        .map(|bits| vehicle.body_velocity(&corner(bits)))
+        .collect();
+    if !is_affine(vehicle, space, &corners) {
+        return envelope(vehicle, space);
+    }
+    if dim == 2 {
+        return vec![corners[0], corners[1], corners[3], corners[2]];
+    }
+    convex_hull(corners)
+}
+
+/// Whether the vehicle's map is affine on the box: every corner is the first corner plus
+/// the sum of its edges' steps, and the centre the corners' mean (to 1e-9 of their spread).
+fn is_affine(vehicle: &dyn CommandModel, space: &InputSpace, corners: &[BodyVelocity]) -> bool {
+    let spread = corners
+        .iter()
+        .map(|c| (c - corners[0]).amax())
+        .fold(0.0, f64::max)
+        .max(corners[0].amax())
+        .max(f64::MIN_POSITIVE);
+    let close = |a: &BodyVelocity, b: &BodyVelocity| (a - b).amax() <= 1e-9 * spread;
+    let dim = space.dim();
+    let predicted = |bits: usize| {
+        (0..dim)
+            .filter(|i| bits >> i & 1 == 1)
+            .fold(corners[0], |acc, i| acc + (corners[1 << i] - corners[0]))
+    };
+    let mean = corners.iter().sum::<BodyVelocity>() / corners.len() as f64;
+    corners.iter().all(|c| c.iter().all(|x| x.is_finite()))
+        && (0..corners.len()).all(|bits| close(&corners[bits], &predicted(bits)))
+        && close(&vehicle.body_velocity(&space.center()), &mean)
+}
+
+/// The outline of a box's image as the upper and lower envelope of the yaw rate over a
+/// grid of the box (65 points per axis for two inputs, 17 for three), in 64 bands of
+/// forward speed: the upper envelope left to right, then the lower one back.
+fn envelope(vehicle: &dyn CommandModel, space: &InputSpace) -> Vec<BodyVelocity> {
+    const BANDS: usize = 64;
+    let dim = space.dim();
+    let n: usize = if dim == 2 { 65 } else { 17 };
+    let at = |i: usize, k: usize| {
+        if i >= dim {
+            0.0
+        } else if k + 1 == n {
+            space.max[i]
+        } else {
+            space.min[i] + (space.max[i] - space.min[i]) * k as f64 / (n - 1) as f64
+        }
+    };
+    let points: Vec<BodyVelocity> = (0..n.pow(dim as u32))
+        .map(|mut index| {
+            let mut u = Input::zeros();
+            for i in 0..dim {
+                u[i] = at(i, index % n);
+                index /= n;
+            }
             vehicle.body_velocity(&u)
         })
+        .filter(|v| v.x.is_finite() && v.z.is_finite())
         .collect();
-    convex_hull(corners)
+    let (x0, x1) = points
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v.x), b.max(v.x))
+        });
+    if points.len() < 3 || x1 <= x0 {
+        return convex_hull(points);
+    }
+    let mut top: Vec<Option<BodyVelocity>> = vec![None; BANDS];
+    let mut bottom: Vec<Option<BodyVelocity>> = vec![None; BANDS];
+    for v in &points {
+        let band = (((v.x - x0) / (x1 - x0)) * BANDS as f64).floor() as usize;
+        let band = band.min(BANDS - 1);
+        if top[band].is_none_or(|t| v.z > t.z) {
+            top[band] = Some(*v);
+        }
+        if bottom[band].is_none_or(|b| v.z < b.z) {
+            bottom[band] = Some(*v);
+        }
+    }
+    let mut outline: Vec<BodyVelocity> = bottom.into_iter().flatten().collect();
+    outline.extend(top.into_iter().rev().flatten());
+    outline
 }
 
 /// The convex hull of points in the (x, z) plane (monotone chain), counter-clockwise.
