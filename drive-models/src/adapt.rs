@@ -60,8 +60,8 @@ impl SlipCorrection {
     /// No correction.
     pub fn zero(basis: SlipBasis) -> Self {
         SlipCorrection {
-            basis,
             weights: basis.dimensions().map(|k| vec![0.0; k]),
+            basis,
         }
     }
 
@@ -71,7 +71,11 @@ impl SlipCorrection {
         // every step of a rollout).
         let dot = |x: &[f64], w: &[f64]| x.iter().zip(w).map(|(x, w)| x * w).sum::<f64>();
         let [wx, wy, ww] = &self.weights;
-        match self.basis {
+        match &self.basis {
+            SlipBasis::Own(own) => {
+                let rows = own.0.inputs(f);
+                BodyVelocity::new(dot(&rows[0], wx), dot(&rows[1], wy), dot(&rows[2], ww))
+            }
             SlipBasis::SkidSteer => {
                 let s = crate::slip::slip_inputs(f);
                 BodyVelocity::new(dot(&s.x, wx), dot(&s.y, wy), dot(&s.yaw, ww))
@@ -89,6 +93,7 @@ impl SlipCorrection {
     }
 
     fn check(&self) -> Result<(), InvalidPart> {
+        self.basis.check()?;
         for (w, k) in self.weights.iter().zip(self.basis.dimensions()) {
             if w.len() != k {
                 return Err(InvalidPart(format!(
@@ -535,12 +540,12 @@ impl SlipAdapter {
         robot: &drive_traits::RobotDescription,
         config: AdapterConfig,
     ) -> Self {
-        let basis = SlipBasis::for_steering(robot.vehicle.steering());
+        let basis = SlipBasis::for_vehicle(robot.vehicle.as_ref());
         SlipAdapter {
             prior,
             config,
-            basis,
             dims: basis.dimensions().map(Regression::new),
+            basis,
             windows: 0,
             interval: None,
             interval_s: 0.0,
@@ -619,7 +624,7 @@ impl SlipAdapter {
     /// The correction kept now.
     pub fn correction(&self) -> SlipCorrection {
         let strengths = self.strengths();
-        let mut c = SlipCorrection::zero(self.basis);
+        let mut c = SlipCorrection::zero(self.basis.clone());
         for ((weights, strength), dim) in c.weights.iter_mut().zip(strengths).zip(&self.dims) {
             if let Some(s) = strength {
                 *weights = dim.solve(s);

@@ -39,6 +39,10 @@ pub enum FitError {
         /// what is expected
         expected: &'static str,
     },
+    /// A part the fit uses is invalid (a vehicle's own slip basis of unsupported
+    /// dimensions, ...).
+    #[error("{0}")]
+    InvalidPart(String),
     /// The numerical optimizer failed.
     #[error("{what}: the optimizer failed: {reason}")]
     Optimizer {

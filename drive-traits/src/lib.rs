@@ -41,6 +41,7 @@ mod registry;
 pub mod robot;
 mod sampler;
 mod slip;
+mod slip_basis;
 mod stats;
 pub mod step;
 mod tag;
@@ -69,6 +70,7 @@ pub use slip::{
     FitSlip, OnlineSlip, SlipCovarianceStepper, SlipData, SlipLearner, SlipModel, SlipSample,
     SlipStepper, SlipWindow, StatelessSlip,
 };
+pub use slip_basis::{check_slip_features, SlipFeatures, SlipInputRows, MAX_SLIP_INPUTS};
 pub use stats::{median, quantile};
 pub use tag::{PartTag, TagProbe, Tagged};
 pub use vehicle::{

@@ -370,6 +370,13 @@ pub trait CommandModel: std::fmt::Debug + Send + Sync {
         Steering::Skid
     }
 
+    /// The vehicle's own slip-BLR basis (eq. 5), when none of the built-in ones (chosen
+    /// from [`steering`](Self::steering)) describes how it slips: slip-BLR fits it instead
+    /// (see [`SlipFeatures`](crate::SlipFeatures)). `None` by default.
+    fn slip_features(&self) -> Option<Box<dyn crate::SlipFeatures>> {
+        None
+    }
+
     /// The columns of the measured inputs in the DRIVE logger's raw CSV; by default the
     /// window CSV's (the axes' `measured_column`).
     fn logger_measured_columns(&self) -> Vec<&'static str> {

@@ -353,9 +353,112 @@ impl CommandModel for Rover {
             Input::new(top_speed, 0.5, 0.5),
         )
     }
+    /// Its own slip-BLR basis: none of the built-in ones has a crab's own slip.
+    fn slip_features(&self) -> Option<Box<dyn drive::traits::SlipFeatures>> {
+        Some(Box::new(RoverSlip))
+    }
     fn clone_box(&self) -> Box<dyn CommandModel> {
         Box::new(self.clone())
     }
+}
+
+/// The rover's slip inputs: forward `[f_x]`, sideways `[f_y, f_x f_w]` (its crab, and the
+/// drift outwards in turns), in yaw `[f_w, f_y]`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct RoverSlip;
+
+#[typetag::serde(name = "rover-slip")]
+impl drive::traits::SlipFeatures for RoverSlip {
+    fn dimensions(&self) -> [usize; 3] {
+        [1, 2, 2]
+    }
+    fn names(&self) -> [Vec<String>; 3] {
+        [
+            vec!["f_x".into()],
+            vec!["f_y".into(), "f_x f_w".into()],
+            vec!["f_w".into(), "f_y".into()],
+        ]
+    }
+    fn inputs(&self, f: &BodyVelocity) -> drive::traits::SlipInputRows {
+        [
+            [f.x, 0.0, 0.0, 0.0],
+            [f.y, f.x * f.z, 0.0, 0.0],
+            [f.z, f.y, 0.0, 0.0],
+        ]
+    }
+    fn clone_box(&self) -> Box<dyn drive::traits::SlipFeatures> {
+        Box::new(RoverSlip)
+    }
+}
+
+#[test]
+fn a_vehicle_brings_its_own_slip_basis_which_slip_blr_fits_saves_and_steps() {
+    let mut r = Registries::builtin();
+    r.vehicles
+        .register("rover-4ws", "four-wheel steered", Arc::new(Rover))
+        .unwrap();
+    let mut robot: RobotSpec = r.robot("husky").unwrap();
+    robot.name = "rover".into();
+    robot.nominal_input_space = Rover.nominal_input_space(robot.max_speed).unwrap();
+    robot.input_limits = Some(robot.nominal_input_space);
+    robot.vehicle = Arc::new(Rover);
+    (robot.controller_max_linear, robot.controller_max_angular) = (None, None);
+    robot.max_lateral_acceleration = None;
+    r.robots
+        .register("rover", "a rover", Arc::new(robot))
+        .unwrap();
+    let data = simulate_protocol(&r, "rover", "gravel", "uniform", 60, 4)
+        .unwrap()
+        .dataset;
+    let (train, eval) = drive::eval::split_by_interval(&data, 0.5).unwrap();
+    let model = r.model("slip-blr+fopdt").unwrap().fit(&train).unwrap();
+    // Fitted on the vehicle's own basis, named in its parameters and its file.
+    let parameters = model.parameters();
+    let weight = |name: &str| parameters.iter().find(|(n, _)| n == name).map(|p| p.1);
+    assert!(weight("angular slip: w[f_y]").is_some(), "{parameters:?}");
+    // The stand-in keeps the rover's crab: of a commanded sideways velocity, only the
+    // gravel's rolling loss slips (a plant that dropped it would slip all of it, w = 1).
+    let crab = weight("lateral slip: w[f_y]").unwrap();
+    assert!((0.0..0.3).contains(&crab), "{parameters:?}");
+    let json = model_to_json(model.as_ref(), &data.robot).unwrap();
+    assert!(json.contains("\"rover-slip\""), "{json}");
+    let (loaded, robot) = model_from_json("m.json", &json).unwrap();
+    let w = &eval.windows[7];
+    let start = w.start_state(robot.vehicle.as_ref());
+    let predicted = model.predict(&start, &w.command);
+    assert_eq!(loaded.predict(&start, &w.command), predicted);
+    // Stepped one command at a time, natively (not by replay), with the covariance, it
+    // predicts what it rolls out.
+    use drive::traits::step::{layout, StepOptions};
+    let stepper = loaded.stepper(StepOptions::with_covariance(true)).unwrap();
+    assert!(!stepper.is_replay());
+    let (mut poses, mut covariances) = (Vec::new(), Vec::new());
+    loaded
+        .predict_with_covariance_into(&start, &w.command, &mut poses, &mut covariances)
+        .unwrap();
+    let mut state = vec![0.0; stepper.state_len()];
+    stepper.init(&start, &[], &mut state).unwrap();
+    for (k, u) in w.command.iter().enumerate() {
+        let p = layout::pose(&state);
+        assert!(
+            (p - poses[k]).norm() < 1e-9,
+            "step {k}: {p} vs {}",
+            poses[k]
+        );
+        let c = layout::covariance(&state);
+        assert!(
+            (c - covariances[k]).norm() < 1e-9 * (1.0 + c.norm()),
+            "step {k}"
+        );
+        stepper.step(&mut state, u).unwrap();
+    }
+    // Its own basis learns the crab's slip: better than no slip at all.
+    let cmp = compare(&r, &data, 0.5, &["naive", "slip-blr"]).unwrap();
+    let (naive, slip) = (
+        &cmp.models[0].translational_median_m,
+        &cmp.models[1].translational_median_m,
+    );
+    assert!(slip < &(0.7 * naive), "{naive} {slip}");
 }
 
 #[test]

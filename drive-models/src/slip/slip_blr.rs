@@ -1,8 +1,8 @@
 use crate::blr::{BlrPosterior, BlrStatistics, Prior};
 use drive_traits::InvalidPart;
 use drive_traits::{
-    BodyVelocity, BodyVelocityEstimator, FitError, OnlineSlip, RobotDescription, SlipData,
-    SlipLearner, SlipModel, SlipStepper, StartState, Steering, Tagged,
+    BodyVelocity, BodyVelocityEstimator, CommandModel, FitError, OnlineSlip, RobotDescription,
+    SlipData, SlipFeatures, SlipLearner, SlipModel, SlipStepper, StartState, Steering, Tagged,
 };
 use serde::{Deserialize, Serialize};
 
@@ -126,6 +126,8 @@ pub struct CarSlipInputs {
 ///   other translation into it, `f_y f_w` and `f_x f_w` (the centrifugal drift of eq. 5's
 ///   lateral input, in both directions); angular `[f_w, f_y, f_x]`: the scrub of turning,
 ///   and a yaw drift when the base crabs or drives with its weight off centre.
+/// - [`SlipBasis::Own`], a vehicle's own ([`CommandModel::slip_features`]): the slip
+///   inputs it gives ([`SlipFeatures`]), saved in the model file with it.
 ///
 /// ```
 /// use drive_models::slip::SlipBasis;
@@ -134,7 +136,7 @@ pub struct CarSlipInputs {
 /// assert_eq!(SlipBasis::SkidSteer.dimensions(), [1, 1, 3]);
 /// assert_eq!(SlipBasis::Car.inputs()[0], ["f_x", "f_x f_w^2"]);
 /// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SlipBasis {
     /// The paper's basis for a skid-steer (eq. 5, Sec. III-B.2).
@@ -144,6 +146,30 @@ pub enum SlipBasis {
     Car,
     /// A basis for an omnidirectional base (three inputs, lateral motion commanded).
     Omnidirectional,
+    /// A vehicle's own basis ([`CommandModel::slip_features`]).
+    Own(OwnSlipBasis),
+}
+
+/// A vehicle's own slip basis ([`SlipFeatures`]), as [`SlipBasis::Own`] holds it: cloned
+/// and compared by what it saves.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct OwnSlipBasis(pub Box<dyn SlipFeatures>);
+
+impl Clone for OwnSlipBasis {
+    fn clone(&self) -> Self {
+        OwnSlipBasis(self.0.clone_box())
+    }
+}
+
+impl PartialEq for OwnSlipBasis {
+    fn eq(&self, other: &Self) -> bool {
+        // Two bases are the same when they save the same (type tag and fields).
+        match (serde_json::to_value(self), serde_json::to_value(other)) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        }
+    }
 }
 
 impl SlipBasis {
@@ -158,44 +184,65 @@ impl SlipBasis {
         }
     }
 
+    /// The basis for `vehicle`: its own ([`CommandModel::slip_features`]) when it gives
+    /// one, otherwise the one its steering chooses ([`SlipBasis::for_steering`]).
+    pub fn for_vehicle(vehicle: &dyn CommandModel) -> Self {
+        match vehicle.slip_features() {
+            Some(own) => SlipBasis::Own(OwnSlipBasis(own)),
+            None => SlipBasis::for_steering(vehicle.steering()),
+        }
+    }
+
     /// The number of slip inputs of the longitudinal, lateral and angular regressions.
-    pub fn dimensions(self) -> [usize; 3] {
+    pub fn dimensions(&self) -> [usize; 3] {
         match self {
             SlipBasis::SkidSteer => [1, 1, 3],
             SlipBasis::Car | SlipBasis::Omnidirectional => [2, 2, 3],
+            SlipBasis::Own(own) => own.0.dimensions(),
         }
     }
 
     /// The slip inputs of each regression, by name (for reports).
-    pub fn inputs(self) -> [&'static [&'static str]; 3] {
+    pub fn inputs(&self) -> [Vec<String>; 3] {
+        let named = |rows: [&[&str]; 3]| rows.map(|r| r.iter().map(|n| n.to_string()).collect());
         match self {
-            SlipBasis::SkidSteer => [&["f_x"], &["f_x f_w"], &["f_x f_w", "f_x", "f_w"]],
-            SlipBasis::Car => [
+            SlipBasis::SkidSteer => named([&["f_x"], &["f_x f_w"], &["f_x f_w", "f_x", "f_w"]]),
+            SlipBasis::Car => named([
                 &["f_x", "f_x f_w^2"],
                 &["f_w", "|f_x| f_x f_w"],
                 &["f_w", "|f_x| f_x f_w", "f_x"],
-            ],
-            SlipBasis::Omnidirectional => [
+            ]),
+            SlipBasis::Omnidirectional => named([
                 &["f_x", "f_y f_w"],
                 &["f_y", "f_x f_w"],
                 &["f_w", "f_y", "f_x"],
-            ],
+            ]),
+            SlipBasis::Own(own) => own.0.names(),
         }
     }
 
-    /// The basis's name in files and reports.
-    pub fn as_str(self) -> &'static str {
+    /// The basis's name in files and reports (`own` for a vehicle's own).
+    pub fn as_str(&self) -> &'static str {
         match self {
             SlipBasis::SkidSteer => "skid-steer",
             SlipBasis::Car => "car",
             SlipBasis::Omnidirectional => "omnidirectional",
+            SlipBasis::Own(_) => "own",
+        }
+    }
+
+    /// `Err` when a vehicle's own basis has dimensions the regressions cannot take.
+    pub fn check(&self) -> Result<(), InvalidPart> {
+        match self {
+            SlipBasis::Own(own) => drive_traits::check_slip_features(own.0.as_ref()),
+            _ => Ok(()),
         }
     }
 
     /// The three regressions' design rows (slip inputs, row-major) and slip labels over
     /// every sample of `data`, the measured velocities from `velocity`.
     fn design_rows(
-        self,
+        &self,
         data: &SlipData<'_>,
         velocity: &BodyVelocityEstimator,
     ) -> ([Vec<f64>; 3], [Vec<f64>; 3]) {
@@ -212,8 +259,14 @@ impl SlipBasis {
     }
 
     /// Appends the slip inputs of `f` to the three regressions' design rows.
-    pub(crate) fn push(self, f: &BodyVelocity, xs: &mut [Vec<f64>; 3]) {
+    pub(crate) fn push(&self, f: &BodyVelocity, xs: &mut [Vec<f64>; 3]) {
         match self {
+            SlipBasis::Own(own) => {
+                let rows = own.0.inputs(f);
+                for (d, k) in own.0.dimensions().into_iter().enumerate() {
+                    xs[d].extend_from_slice(&rows[d][..k]);
+                }
+            }
             SlipBasis::SkidSteer => {
                 let s = slip_inputs(f);
                 xs[0].extend_from_slice(&s.x);
@@ -231,7 +284,7 @@ impl SlipBasis {
 
     /// The slip inputs of the bases of two, two and three inputs (car, omnidirectional).
     #[inline]
-    pub(crate) fn pair_inputs(self, f: &BodyVelocity) -> CarSlipInputs {
+    pub(crate) fn pair_inputs(&self, f: &BodyVelocity) -> CarSlipInputs {
         match self {
             SlipBasis::Omnidirectional => omni_slip_inputs(f),
             _ => car_slip_inputs(f),
@@ -294,11 +347,13 @@ impl SlipBlr {
     /// The slip inputs of `vehicle`'s data: the learner's, or the vehicle's own.
     fn basis_for(&self, robot: &RobotDescription) -> SlipBasis {
         self.basis
-            .unwrap_or_else(|| SlipBasis::for_steering(robot.vehicle.steering()))
+            .clone()
+            .unwrap_or_else(|| SlipBasis::for_vehicle(robot.vehicle.as_ref()))
     }
 
-    fn validate(&self, basis: SlipBasis) -> Result<(), FitError> {
+    fn validate(&self, basis: &SlipBasis) -> Result<(), FitError> {
         self.velocity.validate()?;
+        basis.check().map_err(|e| FitError::InvalidPart(e.0))?;
         for (prior, k) in self.priors.iter().zip(basis.dimensions()) {
             prior.validate(k)?;
         }
@@ -312,7 +367,7 @@ impl SlipLearner for SlipBlr {
     fn fit(&self, data: &SlipData<'_>) -> Result<SlipBlrModel, FitError> {
         let basis = self.basis_for(data.robot);
         let k = basis.dimensions();
-        self.validate(basis)?;
+        self.validate(&basis)?;
         if data.windows.is_empty() {
             return Err(FitError::EmptyTrainingSet);
         }
@@ -332,8 +387,8 @@ impl SlipLearner for SlipBlr {
         let basis = self.basis_for(robot);
         Some(Box::new(SlipBlrOnline {
             learner: self.clone(),
-            basis,
             statistics: basis.dimensions().map(BlrStatistics::new),
+            basis,
         }))
     }
 }
@@ -368,12 +423,12 @@ impl OnlineSlip for SlipBlrOnline {
     }
 
     fn fitted(&self) -> Result<Box<dyn SlipModel>, FitError> {
-        self.learner.validate(self.basis)?;
+        self.learner.validate(&self.basis)?;
         // No rows: the posterior refuses with the batch fit's reason (0 usable samples).
         let fit =
             |d: usize, name: &str| self.statistics[d].posterior(&self.learner.priors[d], name);
         Ok(Box::new(SlipBlrModel {
-            basis: self.basis,
+            basis: self.basis.clone(),
             slip_x: fit(0, "slip-BLR, longitudinal slip")?,
             slip_y: fit(1, "slip-BLR, lateral slip")?,
             slip_yaw: fit(2, "slip-BLR, angular slip")?,
@@ -418,12 +473,12 @@ impl SlipWeights {
 
 /// slip-BLR stepped: `v = f - g(f)` (eq. 2, 5) with the posterior means, as
 /// [`SlipModel::body_velocities_into`] computes it.
-struct SlipBlrStepper {
+struct SlipBlrStepper<'a> {
     weights: SlipWeights,
-    basis: SlipBasis,
+    model: &'a SlipBlrModel,
 }
 
-impl SlipStepper for SlipBlrStepper {
+impl SlipStepper for SlipBlrStepper<'_> {
     fn state_len(&self) -> usize {
         0
     }
@@ -431,10 +486,11 @@ impl SlipStepper for SlipBlrStepper {
     #[inline]
     fn step(&self, _state: &mut [f64], f: &BodyVelocity) -> BodyVelocity {
         let w = &self.weights;
-        match self.basis {
+        match &self.model.basis {
             SlipBasis::SkidSteer => f - w.skid_steer(&slip_inputs(f)),
             SlipBasis::Car => f - w.car(&car_slip_inputs(f)),
             SlipBasis::Omnidirectional => f - w.car(&omni_slip_inputs(f)),
+            SlipBasis::Own(own) => f - self.model.own_slip(own, f),
         }
     }
 }
@@ -450,7 +506,12 @@ impl SlipBlrModel {
 
     /// The slip inputs of `f` on the model's basis, per regression.
     fn inputs(&self, f: &BodyVelocity) -> [Vec<f64>; 3] {
-        match self.basis {
+        match &self.basis {
+            SlipBasis::Own(own) => {
+                let rows = own.0.inputs(f);
+                let k = own.0.dimensions();
+                [0, 1, 2].map(|d| rows[d][..k[d]].to_vec())
+            }
             SlipBasis::SkidSteer => {
                 let s = slip_inputs(f);
                 [s.x.to_vec(), s.y.to_vec(), s.yaw.to_vec()]
@@ -466,6 +527,23 @@ impl SlipBlrModel {
     /// checked by [`SlipModel::check`] for loaded files; a missing weight reads as NaN so
     /// that a malformed model can never predict plausible numbers (weights beyond the
     /// basis's read as zero and are never used).
+    /// The slip (posterior mean) on a vehicle's own basis: each regression's mean weights
+    /// times its inputs (a missing weight reads as NaN, as in [`Self::weights`]).
+    fn own_slip(&self, own: &OwnSlipBasis, f: &BodyVelocity) -> BodyVelocity {
+        let rows = own.0.inputs(f);
+        let k = own.0.dimensions();
+        let dot = |p: &BlrPosterior, d: usize| {
+            (0..k[d].min(drive_traits::MAX_SLIP_INPUTS))
+                .map(|i| p.mean.get(i).copied().unwrap_or(f64::NAN) * rows[d][i])
+                .sum::<f64>()
+        };
+        BodyVelocity::new(
+            dot(&self.slip_x, 0),
+            dot(&self.slip_y, 1),
+            dot(&self.slip_yaw, 2),
+        )
+    }
+
     fn weights(&self) -> SlipWeights {
         let [kx, ky, _] = self.basis.dimensions();
         let at = |m: &[f64], i: usize, k: usize| {
@@ -491,10 +569,11 @@ impl SlipBlrModel {
 impl SlipModel for SlipBlrModel {
     fn slip(&self, f: &BodyVelocity) -> BodyVelocity {
         let w = self.weights();
-        match self.basis {
+        match &self.basis {
             SlipBasis::SkidSteer => w.skid_steer(&slip_inputs(f)),
             SlipBasis::Car => w.car(&car_slip_inputs(f)),
             SlipBasis::Omnidirectional => w.car(&omni_slip_inputs(f)),
+            SlipBasis::Own(own) => self.own_slip(own, f),
         }
     }
 
@@ -502,7 +581,8 @@ impl SlipModel for SlipBlrModel {
         let w = self.weights();
         out.clear();
         // The basis is chosen once per rollout, each loop has its own.
-        match self.basis {
+        match &self.basis {
+            SlipBasis::Own(own) => out.extend(f.iter().map(|f| f - self.own_slip(own, f))),
             SlipBasis::SkidSteer => out.extend(f.iter().map(|f| f - w.skid_steer(&slip_inputs(f)))),
             SlipBasis::Car => out.extend(f.iter().map(|f| f - w.car(&car_slip_inputs(f)))),
             SlipBasis::Omnidirectional => {
@@ -514,7 +594,15 @@ impl SlipModel for SlipBlrModel {
     /// The Student-t predictive variance of eq. 7 per slip dimension.
     fn slip_variance(&self, f: &BodyVelocity) -> Option<BodyVelocity> {
         let v = |p: &BlrPosterior, x: &[f64]| p.predictive_variance(x);
-        Some(match self.basis {
+        Some(match &self.basis {
+            SlipBasis::Own(_) => {
+                let [x, y, yaw] = self.inputs(f);
+                BodyVelocity::new(
+                    v(&self.slip_x, &x),
+                    v(&self.slip_y, &y),
+                    v(&self.slip_yaw, &yaw),
+                )
+            }
             SlipBasis::SkidSteer => {
                 let s = slip_inputs(f);
                 BodyVelocity::new(
@@ -539,11 +627,12 @@ impl SlipModel for SlipBlrModel {
     fn stepper(&self) -> Option<Box<dyn SlipStepper + '_>> {
         Some(Box::new(SlipBlrStepper {
             weights: self.weights(),
-            basis: self.basis,
+            model: self,
         }))
     }
 
     fn check(&self) -> Result<(), InvalidPart> {
+        self.basis.check()?;
         let [kx, ky, kw] = self.basis.dimensions();
         self.slip_x.check(kx, "slip_x")?;
         self.slip_y.check(ky, "slip_y")?;

@@ -94,15 +94,31 @@ pub fn next_command(robot: &RobotSpec, sent: &mut SentCommand, target: &Input) -
     // The input of the ramped body velocity where the vehicle has one (an omnidirectional
     // base's lateral speed ramps too), else of its forward speed and yaw rate (a Twist:
     // solved for a vehicle whose lateral velocity follows from them). Where the vehicle has
-    // neither, the input moves from the last one towards the target by the share of the
+    // neither, or the Twist would drop a crab, the input moves from the last one towards the target by the share of the
     // body ramp this step covers: the ramp is kept in the inputs, never skipped.
     let exact = if sent.body.y != 0.0 {
         robot.vehicle.input_for(&sent.body)
     } else {
         None
     };
+    // A Twist keeps the target's lateral velocity only when that velocity follows from
+    // its forward speed and yaw rate; a crab of its own (a four-wheel-steered rover's,
+    // whose inverse covers no crab) is ramped in the inputs instead, never dropped.
+    let twist_keeps_lateral = exact.is_some()
+        || target_body.y == 0.0
+        || robot
+            .vehicle
+            .input_for_twist(target_body.x, target_body.z)
+            .is_some_and(|u| {
+                let y = robot.vehicle.body_velocity(&u).y;
+                (y - target_body.y).abs() <= 1e-6 * (1.0 + target_body.y.abs())
+            });
     let u = exact
-        .or_else(|| robot.vehicle.input_for_twist(sent.body.x, sent.body.z))
+        .or_else(|| {
+            twist_keeps_lateral
+                .then(|| robot.vehicle.input_for_twist(sent.body.x, sent.body.z))
+                .flatten()
+        })
         .unwrap_or_else(|| {
             let whole = (target_body - previous).norm();
             let share = if whole > 0.0 {
