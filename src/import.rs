@@ -165,7 +165,9 @@ pub fn import_recording(
         // Poses are re-based on the first sample of each window (position and yaw).
         position_frame: PositionFrame::FirstSample,
         terrain: options.terrain.trim().to_string(),
-    };
+        registered_robot: String::new(),
+    }
+    .with_registered_robot(&spec.name);
     let config = ImportConfig {
         max_gap_s: options.max_gap_s,
         localization_timeout_s: options.localization_timeout_s,

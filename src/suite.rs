@@ -129,7 +129,8 @@ pub fn recognised_robot(registries: &Registries, text: &str) -> Option<String> {
 }
 
 /// The robot of `data`: `explicit` (a registered robot or a robot file) when given (an
-/// error when its vehicle type is not the data's), else the robot recognised in the
+/// error when its vehicle type is not the data's), else the robot the sidecar names
+/// exactly (`registered_robot`, registered or not), else the robot recognised in the
 /// sidecar's robot text ([`recognised_robot`], when its vehicle type is the data's), else
 /// the sidecar's text itself without a body.
 pub fn robot_of(
@@ -154,6 +155,29 @@ pub fn robot_of(
             None => format!("robot {r}"),
         };
         return Ok(of_spec(&spec, from));
+    }
+    // The robot the sidecar names exactly (written by `simulate` and `import`): its
+    // identity whether or not it is registered here.
+    let named = data.robot.registered_robot.as_str();
+    if !named.is_empty() {
+        if let Some(spec) = registries
+            .robots
+            .find(named)
+            .map(|e| e.part().as_ref().clone())
+            .filter(|spec| theirs(spec) == ours)
+        {
+            return Ok(of_spec(
+                &spec,
+                format!("robot {named}, named in the sidecar's registered_robot"),
+            ));
+        }
+        return Ok(RobotOf {
+            name: named.to_string(),
+            body: None,
+            source: format!(
+                "the sidecar's registered_robot {named}, not registered here with this vehicle type: no body size"
+            ),
+        });
     }
     if let Some(name) = recognised_robot(registries, &data.robot.robot) {
         let spec = registries.robot(&name)?;

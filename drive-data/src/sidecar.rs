@@ -251,6 +251,16 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
     if terrain.chars().any(char::is_control) {
         return Err(bad("terrain", "holds a control character".into()));
     }
+    let registered_robot = match required(obj, "registered_robot") {
+        None => String::new(),
+        Some(Value::String(s)) if drive_traits::is_part_name(s) && s.len() <= 200 => s.clone(),
+        Some(v) => {
+            return Err(bad(
+                "registered_robot",
+                format!("expected a registered robot's name (1 to 200 ASCII letters, digits, '-' and '_'), found {v}"),
+            ))
+        }
+    };
     let windows = integer("windows", 0)?;
     let csv = match required(obj, "csv") {
         None => None,
@@ -286,6 +296,7 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
             vehicle,
             position_frame,
             terrain,
+            registered_robot,
         },
         Announced { windows, csv },
     ))
@@ -316,6 +327,9 @@ pub fn sidecar_json(
     });
     if !robot.terrain.is_empty() {
         value["terrain"] = robot.terrain.clone().into();
+    }
+    if !robot.registered_robot.is_empty() {
+        value["registered_robot"] = robot.registered_robot.clone().into();
     }
     if let Some(d) = csv {
         value["csv"] = d.to_json();

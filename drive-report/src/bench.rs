@@ -403,6 +403,15 @@ pub fn markdown(b: &Bench) -> String {
     for skipped in &b.transfer_skipped {
         let _ = writeln!(s, "\nTransfer skipped: {}", md(skipped));
     }
+    for r in &b.transfer_unpaired {
+        let _ = writeln!(
+            s,
+            "\nNo transfer for robot {} ({}): {}",
+            md(&r.robot),
+            md(&r.datasets.join(", ")),
+            md(&r.reason)
+        );
+    }
     for skipped in &b.skipped {
         let _ = writeln!(
             s,

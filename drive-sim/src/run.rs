@@ -202,7 +202,9 @@ pub fn simulate(
         // Poses are re-based on the first sample of each window (position and yaw).
         position_frame: drive_traits::PositionFrame::FirstSample,
         terrain: config.terrain.name.clone(),
-    };
+        registered_robot: String::new(),
+    }
+    .with_registered_robot(&robot.name);
     let active = |t: f64, kind: fn(&Event) -> Option<(f64, f64)>| {
         config
             .events

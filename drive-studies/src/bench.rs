@@ -29,7 +29,8 @@ use thiserror::Error;
 mod results;
 pub use results::{
     Bench, BenchDataset, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,
-    SkippedDataset, TransferCell, TransferGroup, TransferSummary, UnpredictabilityBin,
+    SkippedDataset, TransferCell, TransferGroup, TransferSummary, UnpairedRobot,
+    UnpredictabilityBin,
 };
 
 /// One dataset of a benchmark, loaded, with its labels.
@@ -173,6 +174,38 @@ fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
         }
     }
     (pairs, skipped)
+}
+
+/// Every robot of the benchmark left without a transfer pair, with why: one dataset only,
+/// or every pair of its datasets skipped (`transfer_skipped` says why each).
+fn unpaired_robots(inputs: &[BenchInput], pairs: &[(usize, usize)]) -> Vec<UnpairedRobot> {
+    let mut robots: Vec<&str> = Vec::new();
+    for i in inputs {
+        if !robots.contains(&i.robot.as_str()) {
+            robots.push(&i.robot);
+        }
+    }
+    robots
+        .into_iter()
+        .filter(|r| !pairs.iter().any(|&(a, _)| inputs[a].robot == *r))
+        .map(|robot| {
+            let datasets: Vec<String> = inputs
+                .iter()
+                .filter(|i| i.robot == robot)
+                .map(|i| i.name.clone())
+                .collect();
+            let reason = if datasets.len() == 1 {
+                "only one dataset of this robot: no other run to transfer to".to_string()
+            } else {
+                "every pair of its datasets is skipped (see transfer_skipped)".to_string()
+            };
+            UnpairedRobot {
+                robot: robot.to_string(),
+                datasets,
+                reason,
+            }
+        })
+        .collect()
 }
 
 /// Two datasets are the same run when at least one in this many of the windows of the one
@@ -488,6 +521,11 @@ pub fn run_bench(
     } else {
         (Vec::new(), Vec::new())
     };
+    let transfer_unpaired = if config.transfer {
+        unpaired_robots(inputs, &pairs)
+    } else {
+        Vec::new()
+    };
     let transfer = transfer_cells(inputs, specs, config, &pairs, &datasets, progress)?;
     let transfer_summary = specs
         .iter()
@@ -506,6 +544,7 @@ pub fn run_bench(
         transfer_summary,
         leaderboard,
         transfer_skipped,
+        transfer_unpaired,
         skipped,
     })
 }

@@ -68,6 +68,11 @@ pub struct RobotDescription {
     /// it says nothing).
     #[serde(default)]
     pub terrain: String,
+    /// The registered robot the data was recorded with, by its exact name (the sidecar's
+    /// `registered_robot`, written by `drive simulate` and `drive import --robot`; empty
+    /// when it says nothing): a benchmark pairs the runs of one robot by it.
+    #[serde(default)]
+    pub registered_robot: String,
 }
 
 impl RobotDescription {
@@ -87,7 +92,26 @@ impl RobotDescription {
             vehicle: Arc::new(vehicle),
             position_frame: PositionFrame::default(),
             terrain: String::new(),
+            registered_robot: String::new(),
         }
+    }
+
+    /// The same description recorded with the registered robot `name`, when a sidecar can
+    /// hold it (a part's name of at most 200 characters; otherwise left empty).
+    ///
+    /// ```
+    /// # use drive_traits::{RobotDescription, vehicles::DifferentialDrive};
+    /// let d = RobotDescription::new("run", "my rover", 20.0, 40, DifferentialDrive::new(0.1, 0.5));
+    /// assert_eq!(d.clone().with_registered_robot("my-rover").registered_robot, "my-rover");
+    /// assert_eq!(d.with_registered_robot("my rover").registered_robot, "");
+    /// ```
+    pub fn with_registered_robot(mut self, name: &str) -> Self {
+        self.registered_robot = if crate::is_part_name(name) && name.len() <= 200 {
+            name.to_string()
+        } else {
+            String::new()
+        };
+        self
     }
 
     /// Sample period (s).
@@ -105,6 +129,7 @@ impl PartialEq for RobotDescription {
             && self.window_len == other.window_len
             && self.position_frame == other.position_frame
             && self.terrain == other.terrain
+            && self.registered_robot == other.registered_robot
             && serde_json::to_value(self.vehicle.as_ref()).ok()
                 == serde_json::to_value(other.vehicle.as_ref()).ok()
     }

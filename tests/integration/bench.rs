@@ -568,3 +568,73 @@ fn runs_of_a_robot_named_with_hyphens_are_one_robot() {
         assert_eq!(of.name, "tracked-rover", "{}", of.source);
     }
 }
+
+/// Issue 62: the registered robot's name is written into a simulated run's sidecar and a
+/// benchmark pairs the runs by it exactly, whatever the free robot text says; a robot left
+/// without a pair is listed with why.
+#[test]
+fn runs_are_paired_by_the_registered_robot_their_sidecar_names_and_a_lone_robot_is_listed() {
+    let mut registries = drive::Registries::builtin();
+    let mut rover = registries.robot("husky").unwrap();
+    rover.name = "rover-7".into();
+    registries
+        .robots
+        .register("rover-7", "a rover", std::sync::Arc::new(rover))
+        .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let mut suite = String::new();
+    for (robot, terrain, seed) in [
+        ("rover-7", "gravel", 1),
+        ("rover-7", "snow", 2),
+        ("husky", "tile", 3),
+    ] {
+        let mut data =
+            drive::studies::simulate_protocol(&registries, robot, terrain, "uniform", 12, seed)
+                .unwrap()
+                .dataset;
+        assert_eq!(data.robot.registered_robot, robot);
+        // Free text that names no registered robot, or the wrong one.
+        data.robot.robot = format!("unit {seed} of the husky family");
+        let csv = dir.path().join(format!("{robot}-{terrain}.csv"));
+        drive::data::write_dataset(&data, &csv).unwrap();
+        let sidecar = std::fs::read_to_string(drive::data::sidecar_path(&csv)).unwrap();
+        assert!(
+            sidecar.contains(&format!("\"registered_robot\": \"{robot}\"")),
+            "{sidecar}"
+        );
+        let back = drive::data::read_dataset(&csv, None).unwrap();
+        let of = drive::suite::robot_of(&registries, &back, None).unwrap();
+        assert_eq!(of.name, robot, "{}", of.source);
+        suite += &format!("[[dataset]]\npath = \"{robot}-{terrain}.csv\"\n");
+    }
+    let suite_path = dir.path().join("suite.toml");
+    std::fs::write(&suite_path, suite).unwrap();
+    let status = drive::cli::run_status(
+        [
+            "drive",
+            "bench",
+            "--suite",
+            suite_path.to_str().unwrap(),
+            "--models",
+            "naive",
+            "--json",
+            "--out",
+            dir.path().join("out").to_str().unwrap(),
+        ],
+        &registries,
+    );
+    assert_eq!(status, 0);
+    let bench: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("out").join("bench.json")).unwrap(),
+    )
+    .unwrap();
+    // The two rover runs are one robot (a pair each way); the husky run stands alone.
+    assert_eq!(bench["transfer"].as_array().unwrap().len(), 2, "{bench}");
+    let unpaired = &bench["transfer_unpaired"];
+    assert_eq!(unpaired.as_array().unwrap().len(), 1, "{unpaired}");
+    assert_eq!(unpaired[0]["robot"], "husky");
+    assert!(unpaired[0]["reason"]
+        .as_str()
+        .unwrap()
+        .contains("only one dataset"));
+}

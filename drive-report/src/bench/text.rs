@@ -267,6 +267,15 @@ pub fn text(b: &Bench, transfer: bool) -> String {
     for skipped in &b.transfer_skipped {
         let _ = writeln!(s, "transfer skipped: {skipped}");
     }
+    for r in &b.transfer_unpaired {
+        let _ = writeln!(
+            s,
+            "no transfer for robot {} ({}): {}",
+            r.robot,
+            r.datasets.join(", "),
+            r.reason
+        );
+    }
     for skipped in &b.skipped {
         let _ = writeln!(
             s,

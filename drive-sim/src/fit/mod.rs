@@ -409,6 +409,7 @@ fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
 ///         vehicle: husky.vehicle.clone(),
 ///         position_frame: Default::default(),
 ///         terrain: String::new(),
+///         registered_robot: String::new(),
 ///     },
 ///     windows: Vec::new(),
 /// };
@@ -587,6 +588,7 @@ fn checked_run(
 ///         vehicle: robot.vehicle.clone(),
 ///         position_frame: Default::default(),
 ///         terrain: String::new(),
+///         registered_robot: String::new(),
 ///     },
 ///     windows: Vec::new(),
 /// };
@@ -615,6 +617,7 @@ pub fn sim_fit(data: &Dataset, robot: &RobotSpec, name: &str) -> Result<SimFit, 
 ///         vehicle: robot.vehicle.clone(),
 ///         position_frame: Default::default(),
 ///         terrain: String::new(),
+///         registered_robot: String::new(),
 ///     },
 ///     windows: Vec::new(),
 /// };

@@ -30,6 +30,7 @@ pub struct Scatter {
 ///         vehicle: std::sync::Arc::new(g.clone()),
 ///         position_frame: Default::default(),
 ///         terrain: String::new(),
+///         registered_robot: String::new(),
 ///     },
 ///     windows: Vec::new(),
 /// };
@@ -87,6 +88,7 @@ pub fn scatter(data: &Dataset, g: &DifferentialDrive) -> Option<Scatter> {
 ///     vehicle: std::sync::Arc::new(g.clone()),
 ///     position_frame: Default::default(),
 ///     terrain: String::new(),
+///     registered_robot: String::new(),
 /// };
 /// // Wheels at 80% of every command: a smooth function of it, no scatter around it.
 /// let windows: Vec<Window> = (0..40)
@@ -573,6 +575,7 @@ mod tests {
             vehicle: std::sync::Arc::new(g.clone()),
             position_frame: Default::default(),
             terrain: String::new(),
+            registered_robot: String::new(),
         };
         let commands: Vec<Input> = (0..20)
             .map(|i| Input::new((i % 7) as f64 - 3.0, (i % 4) as f64 * 1.5 - 2.0, 0.0))

@@ -267,6 +267,9 @@ pub struct Bench {
     pub leaderboard: Vec<LeaderboardRow>,
     /// Ordered pairs of the same robot skipped (another rate or vehicle), with why.
     pub transfer_skipped: Vec<String>,
+    /// Robots left without any transfer pair (one dataset, or every pair skipped), with
+    /// why; empty without transfer (`--no-transfer`).
+    pub transfer_unpaired: Vec<UnpairedRobot>,
     /// Datasets skipped (the data checks call them useless, or the models cannot be
     /// compared on them), with why; absent from the JSON when none was.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -279,5 +282,16 @@ pub struct SkippedDataset {
     /// The dataset's name.
     pub dataset: String,
     /// Why it was skipped.
+    pub reason: String,
+}
+
+/// A robot of a benchmark left without a transfer pair.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UnpairedRobot {
+    /// The robot (a registered robot's name, or the sidecar's robot text).
+    pub robot: String,
+    /// Its datasets.
+    pub datasets: Vec<String>,
+    /// Why it has no pair.
     pub reason: String,
 }
