@@ -3,7 +3,6 @@
 use crate::args::path_of;
 use crate::err;
 use drive::traits::Dataset as RustDataset;
-use drive::Registries;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -209,7 +208,7 @@ pub(crate) fn import_recording(
             terrain,
             name: None,
         };
-        import_recording(&Registries::builtin(), &recording, robot, &options)
+        import_recording(crate::registries(), &recording, robot, &options)
             .map_err(|e| e.to_string())
     });
     let imported = imported.map_err(err)?;

@@ -5,7 +5,6 @@ use crate::args::{dataset_of, path_of, short_repr, type_name};
 use crate::err;
 use drive::studies::compare_specs;
 use drive::traits::StartInfo;
-use drive::Registries;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -63,7 +62,7 @@ fn comparison(
     }
     let data = &dataset.inner;
     py.detach(|| {
-        let registries = Registries::builtin();
+        let registries = crate::registries();
         let specs: Vec<_> = registries
             .models()
             .resolve_list(&names)
@@ -161,7 +160,7 @@ pub(crate) fn bench_json(
         )));
     }
     let result = py.detach(|| -> Result<String, String> {
-        let registries = Registries::builtin();
+        let registries = crate::registries();
         let specs = registries
             .models()
             .resolve_list(&names)
@@ -169,9 +168,9 @@ pub(crate) fn bench_json(
         let inputs = match &suite {
             Some(path) => {
                 let entries = drive::data::suite::read_suite(path).map_err(|e| e.to_string())?;
-                drive::suite::load(&registries, &entries)
+                drive::suite::load(registries, &entries)
             }
-            None => drive::suite::bundled(&registries),
+            None => drive::suite::bundled(registries),
         }
         .map_err(|e| e.to_string())?;
         let config = drive::studies::BenchConfig {
@@ -249,7 +248,7 @@ pub(crate) fn adapt_json(
     let prior_inner = prior_data.as_ref().map(|d| &d.inner);
     let target = &target.inner;
     py.detach(|| -> Result<String, String> {
-        let registries = Registries::builtin();
+        let registries = crate::registries();
         let specs = registries
             .models()
             .resolve_list(&names)
@@ -264,7 +263,7 @@ pub(crate) fn adapt_json(
             times_s: times,
             ..Default::default()
         };
-        let result = drive::studies::adapt(&registries, &prior, target, &specs, &study)
+        let result = drive::studies::adapt(registries, &prior, target, &specs, &study)
             .map_err(|e| e.to_string())?;
         serde_json::to_string(&result).map_err(|e| e.to_string())
     })

@@ -4,11 +4,16 @@
 //! command line itself (the `drive` console command). The Python package `drive` (py/drive)
 //! wraps this module; every user error raises `drive.DriveError` with the command line's
 //! message.
+//!
+//! The bindings are also a library: a researcher's crate builds its own Python module with
+//! its parts by calling [`add_to_module`] with its `Registries` (docs/python.md, "Your own
+//! parts from Python"); the `drive` package then runs it when `DRIVE_NATIVE_MODULE` names it.
 
 use drive::Registries;
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use std::sync::OnceLock;
 
 mod args;
 mod dataset;
@@ -29,15 +34,56 @@ pub(crate) fn err(e: impl std::fmt::Display) -> PyErr {
     DriveError::new_err(e.to_string())
 }
 
+/// The parts every call of this module uses: the ones [`add_to_module`] was given.
+static REGISTRIES: OnceLock<Registries> = OnceLock::new();
+
+/// The parts the module was built with (the built-in ones until [`add_to_module`] says
+/// otherwise).
+pub(crate) fn registries() -> &'static Registries {
+    REGISTRIES.get_or_init(Registries::builtin)
+}
+
 /// Runs the `drive` command line in this process on `args` (the program name first) and
 /// returns its exit status: what the `drive` console command of the Python package runs.
 #[pyfunction]
 fn run_cli(py: Python<'_>, args: Vec<std::ffi::OsString>) -> u8 {
-    py.detach(|| drive::cli::run_status(args, &Registries::builtin()))
+    py.detach(|| drive::cli::run_status(args, registries()))
 }
 
+/// Adds the bindings (datasets, evaluation, models, the step API, the protocol runner, the
+/// tracker and the command line) to the Python module `m`, every call of them with the parts
+/// of `registries`: how a researcher's crate builds a Python module holding its own vehicles,
+/// learners, samplers, simulators and robots. One set of parts per process: a second call
+/// with other parts is an error.
+///
+/// ```ignore
+/// // A researcher's crate: `[lib] crate-type = ["cdylib"]`, depending on `drive-python`
+/// // with `default-features = false` (no module of its own) and on its parts.
+/// use pyo3::prelude::*;
+/// #[pymodule]
+/// fn my_parts(m: &Bound<'_, PyModule>) -> PyResult<()> {
+///     drive_python::add_to_module(m, my_crate::registries()?)
+/// }
+/// // In Python: DRIVE_NATIVE_MODULE=my_parts python -c "import drive; ..."
+/// ```
+pub fn add_to_module(m: &Bound<'_, PyModule>, registries: Registries) -> PyResult<()> {
+    if REGISTRIES.set(registries).is_err() {
+        return Err(err(
+            "the DRIVE bindings were already given their parts in this process: one module of parts per process",
+        ));
+    }
+    add_bindings(m)
+}
+
+/// The built-in parts' module, `drive._native` (the `module` feature, on by default; a
+/// researcher's crate that builds its own module turns it off).
+#[cfg(feature = "module")]
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    add_bindings(m)
+}
+
+fn add_bindings(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DriveError", m.py().get_type::<DriveError>())?;
     m.add_class::<dataset::Dataset>()?;
     m.add_class::<model::Model>()?;

@@ -12,7 +12,6 @@ use drive::models::model_file::{model_file_to_json, read_model_file, FitSettings
 use drive::traits::{
     Input, MotionError, MotionModel, Pose, RobotDescription, StartInfo, StartState,
 };
-use drive::Registries;
 use numpy::{
     IntoPyArray, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
     PyUntypedArrayMethods,
@@ -618,7 +617,7 @@ pub(crate) fn fit(
         .filter(|s| !s.is_none())
         .map(|s| number_of("split", "a number between 0 and 1", s))
         .transpose()?;
-    let registries = Registries::builtin();
+    let registries = crate::registries();
     let spec = registries.model(model).map_err(err)?.clone();
     let spec = spec.clone().with_uncertainty(spec.uncertainty, start);
     let data = &dataset.inner;

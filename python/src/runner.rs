@@ -8,7 +8,6 @@ use drive::samplers::{
     RunnerState, SamplerContext, SamplerError, StopReason,
 };
 use drive::traits::{Input, InputSampler, Pose};
-use drive::Registries;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::{Arc, Mutex};
@@ -166,7 +165,7 @@ impl ProtocolRunner {
         stale_timeout: f64,
         characterization_time: f64,
     ) -> PyResult<Self> {
-        let registries = Registries::builtin();
+        let registries = crate::registries();
         let mut spec = registries.robot(robot).map_err(err)?;
         positive("geofence", geofence)?;
         positive("max_duration", max_duration)?;

@@ -10,7 +10,6 @@ use drive::control::{
     TrackerConfig,
 };
 use drive::traits::{vehicle_tag, Pose};
-use drive::Registries;
 use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -89,7 +88,7 @@ impl Tracker {
                 type_name(robot)
             ))
         })?;
-        let robot = Registries::builtin()
+        let robot = crate::registries()
             .robot(&robot_name)
             .map_err(|e| crate::args::read_error(py, &robot_name, e))?;
         let (a, b) = (

@@ -37,6 +37,16 @@ import threading as _threading
 import numpy as _np
 from collections.abc import Mapping as _Mapping
 
+# A researcher's own build of the bindings, holding their parts (docs/python.md, "Your own
+# parts from Python"), stands in for the built-in one when DRIVE_NATIVE_MODULE names it.
+if _os.environ.get("DRIVE_NATIVE_MODULE"):
+    import importlib as _importlib
+    import sys as _sys
+
+    _sys.modules[__name__ + "._native"] = _importlib.import_module(
+        _os.environ["DRIVE_NATIVE_MODULE"]
+    )
+
 from . import _native
 from ._native import Command, Dataset, DriveError, Model, State, Tracker, fit
 from ._native import adapt_json as _adapt_json
