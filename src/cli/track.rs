@@ -48,8 +48,9 @@ pub struct Args {
     /// on the simulator), comma-separated, each in (0, 1].
     #[arg(long, value_delimiter = ',', default_value = "0.5", value_parser = parse_number, allow_hyphen_values = true)]
     speed: Vec<f64>,
-    /// Models, comma-separated (see drive list); the first is the one the others are
-    /// compared with.
+    /// Models, comma-separated (see drive list), or model files (`drive train --out`,
+    /// ending in .json: driven as they are, on every training source); the first is the
+    /// one the others are compared with.
     #[arg(
         long,
         value_delimiter = ',',
@@ -147,15 +148,24 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let robot = registries.robot(&args.robot)?;
     let terrain = registries.terrain(&args.terrain)?;
     let start = crate::traits::StartInfo::parse(&args.start).map_err(anyhow::Error::msg)?;
-    let models: Vec<_> = registries
-        .models()
-        .resolve_list(&args.models)?
-        .into_iter()
-        .map(|s| {
-            let u = s.uncertainty;
-            s.with_uncertainty(u, start)
-        })
-        .collect();
+    // Model names, and model files driven as they are.
+    let mut models = Vec::new();
+    let mut given = Vec::new();
+    let mut model_files = Vec::new();
+    for m in &args.models {
+        if !m.to_ascii_lowercase().ends_with(".json") {
+            // A name (or `all`), in the order given.
+            for s in registries.models().resolve_list(std::slice::from_ref(m))? {
+                let u = s.uncertainty;
+                models.push(s.with_uncertainty(u, start));
+            }
+            continue;
+        }
+        let (spec, model) = model_file(registries, m, &robot)?;
+        given.push((models.len(), model));
+        models.push(spec);
+        model_files.push(PathBuf::from(m));
+    }
     if args.seeds == 0 {
         bail!("--seeds must be at least 1");
     }
@@ -167,6 +177,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if let Some(f) = &args.mppi_config {
         inputs.push(("--mppi-config", f.clone()));
     }
+    inputs.extend(model_files.into_iter().map(|f| ("--models", f)));
     // The paths, presets or files.
     let mut paths = Vec::new();
     for p in &args.path {
@@ -261,6 +272,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         terrain,
         training,
         models,
+        given,
         paths,
         speeds: args.speed.clone(),
         seeds: (0..args.seeds as u64)
@@ -290,6 +302,60 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         super::common::note(format!("note: {n}"));
     }
     emit(args.json, &result, crate::report::track::text)
+}
+
+/// A model file of `--models`: its spec (named by the file, with the start it was fitted
+/// for) and the model, refused when its vehicle type is not the robot's.
+fn model_file(
+    registries: &Registries,
+    file: &str,
+    robot: &crate::samplers::RobotSpec,
+) -> Result<(
+    crate::models::ModelSpec,
+    Arc<dyn crate::traits::MotionModel>,
+)> {
+    let text = crate::traits::files::read_text(
+        Path::new(file),
+        crate::models::model_file::MAX_MODEL_FILE_BYTES,
+    )
+    .with_context(|| format!("reading --models {file}"))?;
+    let read = crate::models::model_file::read_model_file(file, &text)?;
+    registries
+        .check_vehicle(read.robot.vehicle.as_ref())
+        .with_context(|| format!("--models {file}: the model's vehicle"))?;
+    let tag =
+        |v: &dyn crate::traits::CommandModel| crate::traits::vehicle_tag(v).unwrap_or_default();
+    let (theirs, ours) = (
+        tag(read.robot.vehicle.as_ref()),
+        tag(robot.vehicle.as_ref()),
+    );
+    if theirs != ours {
+        bail!(
+            "--models {file}: the model was fitted for a {theirs} vehicle, the robot '{}' is a {ours}: it cannot drive it",
+            robot.name
+        );
+    }
+    let saved = |v: &dyn crate::traits::CommandModel| serde_json::to_value(v).ok();
+    if saved(read.robot.vehicle.as_ref()) != saved(robot.vehicle.as_ref()) {
+        super::common::note(format!(
+            "note: --models {file} was fitted for the geometry of '{}', not the robot '{}''s: it is driven as it is",
+            read.robot.robot, robot.name
+        ));
+    }
+    // The model's parts, as its file names them (or as the model says), with its start.
+    let canonical = read
+        .fitted_with
+        .as_ref()
+        .map_or_else(|| read.model.name(), |f| f.canonical.clone());
+    let mut spec = registries
+        .models()
+        .resolve(&canonical)
+        .with_context(|| format!("--models {file}: its parts {canonical}"))?;
+    spec.name = file.to_string();
+    if let Some(f) = &read.fitted_with {
+        spec = spec.with_uncertainty(f.uncertainty, f.start);
+    }
+    Ok((spec, Arc::from(read.model)))
 }
 
 /// The controller asked for, with the MPPI settings given.

@@ -452,6 +452,11 @@ fn a_vehicle_brings_its_own_slip_basis_which_slip_blr_fits_saves_and_steps() {
         );
         stepper.step(&mut state, u).unwrap();
     }
+    // No twin fit for it (the twin fit is the skid-steer simulator's), refused by name.
+    let e = drive::sim::sim_fit(&data, &r.robot("rover").unwrap(), "twin")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("'rover-4ws'") && e.contains("skid-steer"), "{e}");
     // Its own basis learns the crab's slip: better than no slip at all.
     let cmp = compare(&r, &data, 0.5, &["naive", "slip-blr"]).unwrap();
     let (naive, slip) = (

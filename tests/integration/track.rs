@@ -435,3 +435,69 @@ fn track_compares_with_the_powertrain_model_and_flags_a_path_the_robot_cannot_dr
         }
     }
 }
+
+/// Issue 64: `--models` takes model files too, driven as they are on every training source
+/// (never fitted again), named by their file.
+#[test]
+fn a_model_file_is_driven_as_it_is_beside_models_fitted_on_each_training_source() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("husky-powertrain.json");
+    let file = file.to_str().unwrap();
+    ok(&["train", "--model", "powertrain", "--out", file]);
+    let text = ok(&[
+        "track",
+        "--robot",
+        "husky",
+        "--terrain",
+        "tile",
+        "--train-sampler",
+        "uniform,linear",
+        "--train-duration",
+        "60",
+        "--path",
+        "line",
+        "--speed",
+        "0.5",
+        "--models",
+        &format!("powertrain,{file}"),
+        "--samples",
+        "128",
+        "--time-limit",
+        "4",
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["models"], serde_json::json!(["powertrain", file]));
+    assert_eq!(v["simulator"]["name"], "differential");
+    let runs = v["runs"].as_array().unwrap();
+    assert_eq!(runs.len(), 4);
+    let of = |model: &str, train: &str| {
+        runs.iter()
+            .find(|r| r["model"] == model && r["train"] == train)
+            .unwrap_or_else(|| panic!("no run of {model} trained on {train}"))
+    };
+    // The file's model is the same on both training sources: the same runs, number for
+    // number; the powertrain model is fitted on each, and differs.
+    for field in ["cross_track_rms_m", "heading_rms_rad"] {
+        assert_eq!(
+            of(file, "uniform")[field],
+            of(file, "linear")[field],
+            "{field}"
+        );
+    }
+    assert_ne!(
+        of("powertrain", "uniform")["cross_track_rms_m"],
+        of("powertrain", "linear")["cross_track_rms_m"]
+    );
+    // A file that is not there is named.
+    let e = user_error(&[
+        "track",
+        "--robot",
+        "husky",
+        "--terrain",
+        "tile",
+        "--models",
+        "powertrain,missing-model.json",
+    ]);
+    assert!(e.contains("missing-model.json"), "{e}");
+}

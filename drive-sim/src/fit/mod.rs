@@ -70,8 +70,13 @@ pub use variability::{command_scatter, scatter, Scatter, ScatterFit};
 pub enum SimFitError {
     /// The data's or the robot's vehicle is not a differential drive (the skid-steer
     /// plant's).
-    #[error("sim-fit needs a differential-drive dataset and robot (the skid-steer simulator's); this vehicle is another")]
-    NotDifferential,
+    #[error("sim-fit fits the parameters of the skid-steer simulator (wheel speeds, track geometry, ground contact), so it needs a differential-drive dataset and robot; the {what}'s vehicle is '{vehicle}': a vehicle of another type has no twin fit (its runs still simulate, evaluate, bench and track)")]
+    NotDifferential {
+        /// `data` or `robot`.
+        what: &'static str,
+        /// The vehicle type found.
+        vehicle: String,
+    },
     /// The robot's geometry is not the data's (the twin would run with the robot's).
     #[error("the robot '{robot}' has wheel radius {robot_radius} m and baseline {robot_baseline} m, the data {data_radius} m and {data_baseline} m: give a robot (file) with the data's geometry")]
     Geometry {
@@ -531,10 +536,14 @@ fn checked_run(
     data: &Dataset,
     robot: &RobotSpec,
 ) -> Result<(DifferentialDrive, Vec<Steady>, Vec<Transient>), SimFitError> {
-    let g: DifferentialDrive =
-        vehicle_as(data.robot.vehicle.as_ref()).ok_or(SimFitError::NotDifferential)?;
+    let not = |what, vehicle: &dyn drive_traits::CommandModel| SimFitError::NotDifferential {
+        what,
+        vehicle: drive_traits::vehicle_tag(vehicle).unwrap_or_else(|| format!("{vehicle:?}")),
+    };
+    let g: DifferentialDrive = vehicle_as(data.robot.vehicle.as_ref())
+        .ok_or_else(|| not("data", data.robot.vehicle.as_ref()))?;
     let own: DifferentialDrive =
-        vehicle_as(robot.vehicle.as_ref()).ok_or(SimFitError::NotDifferential)?;
+        vehicle_as(robot.vehicle.as_ref()).ok_or_else(|| not("robot", robot.vehicle.as_ref()))?;
     let off = |a: f64, b: f64| (a - b).abs() > 0.01 * b.abs();
     if off(own.wheel_radius, g.wheel_radius) || off(own.baseline, g.baseline) {
         return Err(SimFitError::Geometry {

@@ -138,6 +138,10 @@ pub struct TrackStudy {
     pub training: Vec<Training>,
     /// The models.
     pub models: Vec<ModelSpec>,
+    /// Models already fitted (model files), by their place in `models`: each is driven as
+    /// it is on every training source, never fitted again (its spec names it and gives its
+    /// start). Its period must be the robot's.
+    pub given: Vec<(usize, Arc<dyn MotionModel>)>,
     /// The paths.
     pub paths: Vec<PathChoice>,
     /// Speeds along the path, as fractions of the robot's top speed, in (0, 1].
@@ -358,6 +362,7 @@ pub const MAX_TRAINING_TOTAL_S: f64 = 36_000.0;
 ///     terrain: r.terrain("gravel").unwrap(),
 ///     training: vec![Training::Protocol { sampler: "uniform".into(), driving_s: 300.0 }],
 ///     models: r.models().resolve_list(&["naive", "slip-blr"]).unwrap(),
+///     given: vec![],
 ///     paths: vec![PathChoice::Preset(PathShape::FigureEight)],
 ///     speeds: vec![0.5],
 ///     seeds: vec![1],
@@ -383,6 +388,30 @@ pub fn run_track(
     ] {
         if empty {
             return Err(TrackError::Invalid(format!("the study has no {what}")));
+        }
+    }
+    for (k, (m, model)) in study.given.iter().enumerate() {
+        let Some(spec) = study.models.get(*m) else {
+            return Err(TrackError::Invalid(format!(
+                "a given model is model {m} of {}",
+                study.models.len()
+            )));
+        };
+        if study.given[..k].iter().any(|(other, _)| other == m) {
+            return Err(TrackError::Invalid(format!(
+                "model '{}' is given twice",
+                spec.name
+            )));
+        }
+        let period = 1.0 / study.robot.rate_hz;
+        if (model.dt() - period).abs() > 1e-9 * period {
+            return Err(TrackError::Invalid(format!(
+                "model '{}' steps every {} s, the robot '{}' commands every {} s: fit it on data of the robot's rate",
+                spec.name,
+                Exact(model.dt()),
+                study.robot.name,
+                Exact(period)
+            )));
         }
     }
     for &f in &study.speeds {
@@ -553,6 +582,15 @@ pub fn run_track(
         })
         .map(|(i, seed, data, m)| {
             let spec = &study.models[m];
+            // A model given fitted is driven as it is.
+            if let Some((_, given)) = study.given.iter().find(|(g, _)| *g == m) {
+                return Ok(Fitted {
+                    training: i,
+                    seed,
+                    model: m,
+                    fitted: Arc::clone(given),
+                });
+            }
             let train = WindowSet {
                 robot: &data.robot,
                 windows: data.windows.iter().collect(),
