@@ -213,6 +213,30 @@ pub(crate) fn import_recording(
     });
     let imported = imported.map_err(err)?;
     let failure = imported.failure(&allow);
+    // What `drive import` prints as notes, and the data checks' findings that do not stop
+    // the import, each a UserWarning (a fatal finding not allowed is the failure instead).
+    if failure.is_none() {
+        let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+        let name = &imported.dataset.robot.name;
+        let texts = imported
+            .report
+            .notes
+            .iter()
+            .map(|n| format!("{name}: {n}"))
+            .chain(imported.report.checks.iter().map(|f| {
+                let allowed = if f.severity == drive::data::quality::Severity::Fatal {
+                    ", which drive check calls fatal: imported because allow names it"
+                } else {
+                    ""
+                };
+                format!("{name}: {} ({}{allowed})", f.message, f.check)
+            }));
+        for text in texts {
+            // The notes and findings hold no NUL (this project writes them).
+            let message = std::ffi::CString::new(text).unwrap_or_default();
+            PyErr::warn(py, &category, &message, 1)?;
+        }
+    }
     let report = imported.report.to_json().to_string();
     Ok((
         Dataset {

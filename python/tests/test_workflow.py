@@ -185,6 +185,30 @@ def test_score_on_another_dataset_and_the_evaluation_half(husky, tmp_path):
         model.score(warthog)
 
 
+def test_import_notes_and_data_check_findings_are_python_warnings(raw_log, tmp_path):
+    # The IMU columns zeroed: the import keeps the log, notes that it takes the yaw rate
+    # from the localization, and the imu-constant check warns; each a UserWarning, as
+    # `drive import` prints them.
+    lines = raw_log.read_text().splitlines()
+    header = lines[0].split(",")
+    imu = [i for i, name in enumerate(header) if name.startswith("imu_")]
+    rows = [",".join("0.0" if i in imu else v for i, v in enumerate(line.split(","))) for line in lines[1:]]
+    zeroed = tmp_path / "imu_zeroed.csv"
+    zeroed.write_text("\n".join([lines[0], *rows]) + "\n")
+    with pytest.warns(UserWarning) as caught:
+        data = drive.import_raw(zeroed, "husky")
+    texts = [str(w.message) for w in caught]
+    assert any("imu-constant" in t for t in texts), texts
+    assert any("yaw rate from localization" in t for t in texts), texts
+    assert len(data) == 33
+    # A clean log warns of nothing.
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        drive.import_raw(raw_log, "husky")
+
+
 def test_predict_rows_and_covariances(husky):
     model = drive.fit(husky, "slip-blr", split=0.5)
     commands = np.tile([3.0, 4.0], (40, 1))
