@@ -338,7 +338,7 @@ fn model_file(
     let saved = |v: &dyn crate::traits::CommandModel| serde_json::to_value(v).ok();
     if saved(read.robot.vehicle.as_ref()) != saved(robot.vehicle.as_ref()) {
         super::common::note(format!(
-            "note: --models {file} was fitted for the geometry of '{}', not the robot '{}''s: it is driven as it is",
+            "note: --models {file} was fitted for the geometry of '{}', not for that of the robot '{}': it is driven as it is",
             read.robot.robot, robot.name
         ));
     }

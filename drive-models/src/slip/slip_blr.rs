@@ -475,7 +475,35 @@ impl SlipWeights {
 /// [`SlipModel::body_velocities_into`] computes it.
 struct SlipBlrStepper<'a> {
     weights: SlipWeights,
+    /// The built-in basis, copied (no indirection per step); `None` for a vehicle's own.
+    builtin: Option<BuiltinBasis>,
     model: &'a SlipBlrModel,
+}
+
+impl SlipBlrStepper<'_> {
+    /// `v[k] = f[k] - g(f[k])` for every k, the basis chosen once.
+    fn each(&self, f: &[BodyVelocity], v: &mut [BodyVelocity]) {
+        let w = &self.weights;
+        let pairs = f.iter().zip(v.iter_mut());
+        match self.builtin {
+            Some(BuiltinBasis::SkidSteer) => {
+                pairs.for_each(|(f, v)| *v = f - w.skid_steer(&slip_inputs(f)))
+            }
+            Some(BuiltinBasis::Car) => pairs.for_each(|(f, v)| *v = f - w.car(&car_slip_inputs(f))),
+            Some(BuiltinBasis::Omnidirectional) => {
+                pairs.for_each(|(f, v)| *v = f - w.car(&omni_slip_inputs(f)))
+            }
+            None => pairs.for_each(|(f, v)| *v = f - self.model.slip(f)),
+        }
+    }
+}
+
+/// A built-in basis, as a stepper reads it at every step.
+#[derive(Debug, Clone, Copy)]
+enum BuiltinBasis {
+    SkidSteer,
+    Car,
+    Omnidirectional,
 }
 
 impl SlipStepper for SlipBlrStepper<'_> {
@@ -486,12 +514,29 @@ impl SlipStepper for SlipBlrStepper<'_> {
     #[inline]
     fn step(&self, _state: &mut [f64], f: &BodyVelocity) -> BodyVelocity {
         let w = &self.weights;
-        match &self.model.basis {
-            SlipBasis::SkidSteer => f - w.skid_steer(&slip_inputs(f)),
-            SlipBasis::Car => f - w.car(&car_slip_inputs(f)),
-            SlipBasis::Omnidirectional => f - w.car(&omni_slip_inputs(f)),
-            SlipBasis::Own(own) => f - self.model.own_slip(own, f),
+        match self.builtin {
+            Some(BuiltinBasis::SkidSteer) => f - w.skid_steer(&slip_inputs(f)),
+            Some(BuiltinBasis::Car) => f - w.car(&car_slip_inputs(f)),
+            Some(BuiltinBasis::Omnidirectional) => f - w.car(&omni_slip_inputs(f)),
+            None => f - self.model.slip(f),
         }
+    }
+
+    /// The basis chosen once for the whole sequence, each loop its own (no state: every
+    /// step is `f - g(f)`).
+    fn step_seq(&self, _state: &mut [f64], f: &[BodyVelocity], v: &mut [BodyVelocity]) {
+        self.each(f, v);
+    }
+
+    /// As [`step_seq`](SlipStepper::step_seq): the states are empty.
+    fn step_many(
+        &self,
+        _states: &mut [f64],
+        _stride: usize,
+        f: &[BodyVelocity],
+        v: &mut [BodyVelocity],
+    ) {
+        self.each(f, v);
     }
 }
 
@@ -527,8 +572,29 @@ impl SlipBlrModel {
     /// checked by [`SlipModel::check`] for loaded files; a missing weight reads as NaN so
     /// that a malformed model can never predict plausible numbers (weights beyond the
     /// basis's read as zero and are never used).
+    /// The built-in basis, `None` for a vehicle's own.
+    fn builtin(&self) -> Option<BuiltinBasis> {
+        match &self.basis {
+            SlipBasis::SkidSteer => Some(BuiltinBasis::SkidSteer),
+            SlipBasis::Car => Some(BuiltinBasis::Car),
+            SlipBasis::Omnidirectional => Some(BuiltinBasis::Omnidirectional),
+            SlipBasis::Own(_) => None,
+        }
+    }
+
+    /// [`SlipModel::body_velocities_into`] on a vehicle's own basis (kept out of the
+    /// built-in bases' loops).
+    #[cold]
+    #[inline(never)]
+    fn own_velocities_into(&self, f: &[BodyVelocity], out: &mut Vec<BodyVelocity>) {
+        out.clear();
+        out.extend(f.iter().map(|f| f - self.slip(f)));
+    }
+
     /// The slip (posterior mean) on a vehicle's own basis: each regression's mean weights
     /// times its inputs (a missing weight reads as NaN, as in [`Self::weights`]).
+    #[cold]
+    #[inline(never)]
     fn own_slip(&self, own: &OwnSlipBasis, f: &BodyVelocity) -> BodyVelocity {
         let rows = own.0.inputs(f);
         let k = own.0.dimensions();
@@ -578,14 +644,18 @@ impl SlipModel for SlipBlrModel {
     }
 
     fn body_velocities_into(&self, f: &[BodyVelocity], out: &mut Vec<BodyVelocity>) {
+        let Some(builtin) = self.builtin() else {
+            return self.own_velocities_into(f, out);
+        };
         let w = self.weights();
         out.clear();
         // The basis is chosen once per rollout, each loop has its own.
-        match &self.basis {
-            SlipBasis::Own(own) => out.extend(f.iter().map(|f| f - self.own_slip(own, f))),
-            SlipBasis::SkidSteer => out.extend(f.iter().map(|f| f - w.skid_steer(&slip_inputs(f)))),
-            SlipBasis::Car => out.extend(f.iter().map(|f| f - w.car(&car_slip_inputs(f)))),
-            SlipBasis::Omnidirectional => {
+        match builtin {
+            BuiltinBasis::SkidSteer => {
+                out.extend(f.iter().map(|f| f - w.skid_steer(&slip_inputs(f))))
+            }
+            BuiltinBasis::Car => out.extend(f.iter().map(|f| f - w.car(&car_slip_inputs(f)))),
+            BuiltinBasis::Omnidirectional => {
                 out.extend(f.iter().map(|f| f - w.car(&omni_slip_inputs(f))))
             }
         }
@@ -627,6 +697,7 @@ impl SlipModel for SlipBlrModel {
     fn stepper(&self) -> Option<Box<dyn SlipStepper + '_>> {
         Some(Box::new(SlipBlrStepper {
             weights: self.weights(),
+            builtin: self.builtin(),
             model: self,
         }))
     }
