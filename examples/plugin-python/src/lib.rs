@@ -5,7 +5,6 @@
 //! `import drive` (and its `drive` console command) run with these parts.
 
 use pyo3::prelude::*;
-use std::sync::Arc;
 
 #[path = "../../plugin/src/tracked.rs"]
 mod tracked;
@@ -13,32 +12,7 @@ mod tracked;
 /// The built-in parts and the tracked robot with its simulator.
 fn registries() -> Result<drive::Registries, drive::traits::RegistryError> {
     let mut r = drive::Registries::builtin();
-    let vehicle = tracked::TrackedVw { max_yaw_rate: 1.2 };
-    r.vehicles.register(
-        "tracked-vw",
-        "a tracked robot commanded in body velocity (v, omega)",
-        Arc::new(vehicle.clone()),
-    )?;
-    r.simulators.register(
-        "tracked-vw",
-        "tracks that lose a terrain share of the speed and skid more the harder they turn",
-        Arc::new(tracked::TrackedPlant::make),
-    )?;
-    let mut robot = r.robot("husky").expect("the husky preset is registered");
-    robot.name = "tracked-robot".into();
-    robot.nominal_input_space = {
-        use drive::traits::CommandModel;
-        // A positive top speed and yaw rate (literals): the box is valid.
-        vehicle
-            .nominal_input_space(robot.max_speed)
-            .expect("positive limits")
-    };
-    robot.vehicle = Arc::new(vehicle);
-    r.robots.register(
-        "tracked-robot",
-        "a 75 kg tracked robot commanded in (v, omega), 1 m/s, 1.2 rad/s",
-        Arc::new(robot),
-    )?;
+    tracked::register(&mut r)?;
     Ok(r)
 }
 

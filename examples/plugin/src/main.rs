@@ -99,34 +99,8 @@ fn registries() -> Result<Registries, drive::traits::RegistryError> {
         "a 900 kg articulated loader, 2 m/s, 40 degrees of articulation",
         Arc::new(robot),
     )?;
-    // A tracked robot with its own simulator: the vehicle, then its plant under the
-    // vehicle's type (a simulator is registered for a registered vehicle only), then a robot.
-    let tracked = tracked::TrackedVw { max_yaw_rate: 1.2 };
-    r.vehicles.register(
-        "tracked-vw",
-        "a tracked robot commanded in body velocity (v, omega)",
-        Arc::new(tracked.clone()),
-    )?;
-    r.simulators.register(
-        "tracked-vw",
-        "tracks that lose a terrain share of the speed and skid more the harder they turn",
-        Arc::new(tracked::TrackedPlant::make),
-    )?;
-    let mut robot = r.robot("husky").expect("the husky preset is registered");
-    robot.name = "tracked-robot".into();
-    robot.nominal_input_space = {
-        use drive::traits::CommandModel;
-        // A positive top speed and yaw rate (literals): the box is valid.
-        tracked
-            .nominal_input_space(robot.max_speed)
-            .expect("positive limits")
-    };
-    robot.vehicle = Arc::new(tracked);
-    r.robots.register(
-        "tracked-robot",
-        "a 75 kg tracked robot commanded in (v, omega), 1 m/s, 1.2 rad/s",
-        Arc::new(robot),
-    )?;
+    // A tracked robot with its own simulator (tracked.rs): the vehicle, its plant, a robot.
+    tracked::register(&mut r)?;
     Ok(r)
 }
 

@@ -13,6 +13,37 @@ use drive::traits::{
     ProbeResult, Tagged,
 };
 use drive::typetag;
+use std::sync::Arc;
+
+/// Registers the vehicle, then its simulator under the vehicle's type (a simulator is
+/// registered for a registered vehicle only), then `tracked-robot`: the Husky's mass, speed
+/// and rates with this vehicle. What the plug-in example and its Python module both call.
+pub fn register(r: &mut drive::Registries) -> Result<(), drive::traits::RegistryError> {
+    let vehicle = TrackedVw { max_yaw_rate: 1.2 };
+    r.vehicles.register(
+        "tracked-vw",
+        "a tracked robot commanded in body velocity (v, omega)",
+        Arc::new(vehicle.clone()),
+    )?;
+    r.simulators.register(
+        "tracked-vw",
+        "tracks that lose a terrain share of the speed and skid more the harder they turn",
+        Arc::new(TrackedPlant::make),
+    )?;
+    let mut robot = r.robot("husky").expect("the husky preset is registered");
+    robot.name = "tracked-robot".into();
+    // A positive top speed and yaw rate (literals): the box is valid.
+    robot.nominal_input_space = vehicle
+        .nominal_input_space(robot.max_speed)
+        .expect("positive limits");
+    robot.vehicle = Arc::new(vehicle);
+    r.robots.register(
+        "tracked-robot",
+        "a 75 kg tracked robot commanded in (v, omega), 1 m/s, 1.2 rad/s",
+        Arc::new(robot),
+    )?;
+    Ok(())
+}
 
 /// A tracked robot commanded in (v, omega), with its top yaw rate.
 #[derive(Debug, Clone, Serialize, Deserialize)]
