@@ -391,8 +391,9 @@ impl drive::traits::SlipFeatures for RoverSlip {
     }
 }
 
-#[test]
-fn a_vehicle_brings_its_own_slip_basis_which_slip_blr_fits_saves_and_steps() {
+/// The built-in parts with the rover registered, and a robot with it (the Husky's mass and
+/// rates, the rover's box as its limits, no controller limits), not yet registered.
+fn rover_registries() -> (Registries, RobotSpec) {
     let mut r = Registries::builtin();
     r.vehicles
         .register("rover-4ws", "four-wheel steered", Arc::new(Rover))
@@ -404,6 +405,12 @@ fn a_vehicle_brings_its_own_slip_basis_which_slip_blr_fits_saves_and_steps() {
     robot.vehicle = Arc::new(Rover);
     (robot.controller_max_linear, robot.controller_max_angular) = (None, None);
     robot.max_lateral_acceleration = None;
+    (r, robot)
+}
+
+#[test]
+fn a_vehicle_brings_its_own_slip_basis_which_slip_blr_fits_saves_and_steps() {
+    let (mut r, robot) = rover_registries();
     r.robots
         .register("rover", "a rover", Arc::new(robot))
         .unwrap();
@@ -468,17 +475,7 @@ fn a_vehicle_brings_its_own_slip_basis_which_slip_blr_fits_saves_and_steps() {
 
 #[test]
 fn the_human_like_samplers_and_the_regions_ask_a_rover_what_it_reaches_not_its_box_corner() {
-    let mut r = Registries::builtin();
-    r.vehicles
-        .register("rover-4ws", "four-wheel steered", Arc::new(Rover))
-        .unwrap();
-    let mut robot: RobotSpec = r.robot("husky").unwrap();
-    robot.name = "rover".into();
-    robot.nominal_input_space = Rover.nominal_input_space(robot.max_speed).unwrap();
-    robot.input_limits = Some(robot.nominal_input_space);
-    robot.vehicle = Arc::new(Rover);
-    (robot.controller_max_linear, robot.controller_max_angular) = (None, None);
-    robot.max_lateral_acceleration = None;
+    let (mut r, robot) = rover_registries();
     let space = robot.nominal_input_space;
     // Top speed at the box's top corner, and the hardest turn with the axles steered apart
     // (the corner asked before turned at exactly 0).
