@@ -31,7 +31,9 @@
 //! extrapolated without limit.
 
 use drive_traits::InvalidPart;
-use drive_traits::{wrap_angle, Pose, PoseCovariance, StartState};
+use drive_traits::{
+    from_total_order_key, total_order_key, wrap_angle, Pose, PoseCovariance, StartState,
+};
 use nalgebra::{SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
@@ -189,7 +191,7 @@ pub fn log_sizes(c: &PoseCovariance) -> (f64, f64) {
 
 /// A fitted difficulty per horizon step: coefficients and the range the difficulty took on
 /// the training windows.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct StepDifficulty {
     /// `beta` (raw feature units; 0 everywhere: no difficulty at the step).
     pub beta: Features,
@@ -270,16 +272,17 @@ pub(crate) struct Row {
 
 /// Least squares of `ln score` on the features of `rows` (excluding the fold `skip`),
 /// with a ridge of strength `ridge` per row on standardized features;
-/// [`StepDifficulty::NONE`] with too few rows. (The calibration gathers the sums once for
-/// every ridge, [`StepSums`]; this one-off form is the tests'.)
+/// [`StepDifficulty::NONE`] with too few rows. (The calibration gathers the sums once and
+/// solves every ridge from them, [`StepSums`]; this one-off form is the tests'.)
 #[cfg(test)]
 pub(crate) fn fit_step<'a>(
     rows: impl Iterator<Item = &'a Row>,
     skip: Option<usize>,
     ridge: f64,
 ) -> StepDifficulty {
-    StepSums::new(rows.map(|r| (r, r.score.ln())), skip)
-        .map_or(StepDifficulty::NONE, |s| s.solve(ridge))
+    let rows = [rows.copied().collect::<Vec<Row>>()];
+    let logs = [rows[0].iter().map(|r| r.score.ln()).collect()];
+    StepSums::new(&rows, &logs, skip).map_or(StepDifficulty::NONE, |s| s.solve(ridge))
 }
 
 /// What [`fit_step`] gathers from its rows before the ridge enters: the rows kept, the
@@ -296,56 +299,68 @@ pub(crate) struct StepSums<'a> {
 }
 
 impl<'a> StepSums<'a> {
-    /// The sums of `rows` without the fold `skip`; `None` with too few rows. Each row comes
-    /// with the logarithm of its score (computed once for the many sums a row enters).
+    /// The sums of the rows of the steps `rows` pooled, without the fold `skip`; `None` with
+    /// too few rows. `logs` holds each row's log score (computed once for the many sums a
+    /// row enters).
     pub(crate) fn new(
-        rows: impl Iterator<Item = (&'a Row, f64)>,
+        rows: &'a [Vec<Row>],
+        logs: &[Vec<f64>],
         skip: Option<usize>,
     ) -> Option<Self> {
-        // The rows fitted on, gathered once.
-        let kept: Vec<(&Row, f64)> = rows
-            .filter(|(r, _)| Some(r.fold) != skip && r.score.is_finite())
-            .collect();
-        let mut scores: Vec<f64> = kept.iter().map(|(r, _)| r.score).collect();
-        if scores.len() < MIN_ROWS {
+        // The rows fitted on, gathered once, step by step.
+        let mut kept: Vec<(&Row, f64)> = Vec::with_capacity(rows.iter().map(Vec::len).sum());
+        for (step, logs) in rows.iter().zip(logs) {
+            for (r, log) in step.iter().zip(logs) {
+                if Some(r.fold) != skip && r.score.is_finite() {
+                    kept.push((r, *log));
+                }
+            }
+        }
+        if kept.len() < MIN_ROWS {
             return None;
         }
         // Scores of 0 (a prediction exactly right) are raised to a thousandth of the
         // median (the middle order statistic: the value a sort puts there).
-        let middle = scores.len() / 2;
-        let (_, median, _) = scores.select_nth_unstable_by(middle, f64::total_cmp);
-        let floor = (*median * 1e-3).max(1e-300);
+        let middle = kept.len() / 2;
+        let mut keys: Vec<i64> = kept.iter().map(|(r, _)| total_order_key(r.score)).collect();
+        let (_, median, _) = keys.select_nth_unstable(middle);
+        let floor = (from_total_order_key(*median) * 1e-3).max(1e-300);
         let log_floor = floor.ln();
-        let n = scores.len() as f64;
+        let n = kept.len() as f64;
+        // Every feature's running sums side by side (each feature's sum in the rows' order,
+        // so the same rounding as one feature at a time); the intercept's are not kept.
         let (mut mean, mut sq) = ([0.0; FEATURES], [0.0; FEATURES]);
         for (r, _) in &kept {
-            for (m, x) in mean.iter_mut().zip(&r.x).skip(1) {
+            for (m, x) in mean.iter_mut().zip(&r.x) {
                 *m += x / n;
             }
         }
+        mean[0] = 0.0;
         for (r, _) in &kept {
-            for ((q, x), m) in sq.iter_mut().zip(&r.x).zip(&mean).skip(1) {
+            for ((q, x), m) in sq.iter_mut().zip(&r.x).zip(&mean) {
                 *q += (x - m).powi(2) / n;
             }
         }
         let sd: Features = std::array::from_fn(|j| if j == 0 { 1.0 } else { sq[j].sqrt() });
-        let used = |j: usize| j == 0 || sd[j] > 1e-9 * (1.0 + mean[j].abs());
-        let mut a = SMatrix::<f64, FEATURES, FEATURES>::zeros();
+        let used: [bool; FEATURES] =
+            std::array::from_fn(|j| j == 0 || sd[j] > 1e-9 * (1.0 + mean[j].abs()));
+        // z z^T over all rows, the whole square (z_i z_j and z_j z_i are the same product,
+        // so its two triangles agree to the bit), and z ln(score).
+        let mut zz = [[0.0; FEATURES]; FEATURES];
         let mut b = SVector::<f64, FEATURES>::zeros();
         for &(r, log_score) in &kept {
-            let z: [f64; FEATURES] = std::array::from_fn(|j| {
-                if j == 0 {
-                    1.0
-                } else if used(j) {
-                    (r.x[j] - mean[j]) / sd[j]
-                } else {
-                    0.0
+            // Every feature standardized side by side, then the intercept's 1 and the unused
+            // features' 0 put in.
+            let mut z: [f64; FEATURES] = std::array::from_fn(|j| (r.x[j] - mean[j]) / sd[j]);
+            for (z, used) in z.iter_mut().zip(&used) {
+                if !used {
+                    *z = 0.0;
                 }
-            });
-            // z z^T, its upper triangle (the lower one is the same products, mirrored below).
-            for i in 0..FEATURES {
-                for j in i..FEATURES {
-                    a[(i, j)] += z[i] * z[j];
+            }
+            z[0] = 1.0;
+            for (row, zi) in zz.iter_mut().zip(&z) {
+                for (a, zj) in row.iter_mut().zip(&z) {
+                    *a += zi * zj;
                 }
             }
             // ln(max(score, floor)), from the logarithm computed once.
@@ -358,11 +373,7 @@ impl<'a> StepSums<'a> {
                 *b += z * log;
             }
         }
-        for i in 0..FEATURES {
-            for j in 0..i {
-                a[(i, j)] = a[(j, i)];
-            }
-        }
+        let a = SMatrix::<f64, FEATURES, FEATURES>::from_fn(|i, j| zz[i.min(j)][i.max(j)]);
         Some(StepSums {
             kept,
             mean,
@@ -373,43 +384,68 @@ impl<'a> StepSums<'a> {
     }
 
     /// The difficulty at ridge strength `ridge`.
+    #[cfg(test)]
     pub(crate) fn solve(&self, ridge: f64) -> StepDifficulty {
+        let [fitted] = self.solve_each(&[ridge]);
+        fitted
+    }
+
+    /// The difficulty at each ridge strength of `ridges` ([`StepDifficulty::NONE`] where
+    /// its normal equations are not positive definite), with one pass over the rows for
+    /// every strength's range.
+    pub(crate) fn solve_each<const R: usize>(&self, ridges: &[f64; R]) -> [StepDifficulty; R] {
         let (mean, sd) = (&self.mean, &self.sd);
         let used = |j: usize| j == 0 || sd[j] > 1e-9 * (1.0 + mean[j].abs());
         let n = self.kept.len() as f64;
-        let mut a = self.a;
-        for j in 0..FEATURES {
-            a[(j, j)] += if j == 0 { 1e-9 } else { ridge * n };
-        }
-        let Some(chol) = a.cholesky() else {
-            return StepDifficulty::NONE;
-        };
-        let g = chol.solve(&self.b);
-        // Back to raw feature units: beta_j = g_j / sd_j, the intercept absorbing the means.
-        let mut beta = [0.0; FEATURES];
-        beta[0] = g[0];
-        for j in 1..FEATURES {
-            if used(j) {
-                beta[j] = g[j] / sd[j];
-                beta[0] -= g[j] * mean[j] / sd[j];
+        let betas: [Option<Features>; R] = std::array::from_fn(|i| {
+            let mut a = self.a;
+            for j in 0..FEATURES {
+                a[(j, j)] += if j == 0 { 1e-9 } else { ridges[i] * n };
+            }
+            let g = a.cholesky()?.solve(&self.b);
+            // Back to raw feature units: beta_j = g_j / sd_j, the intercept absorbing the
+            // means.
+            let mut beta = [0.0; FEATURES];
+            beta[0] = g[0];
+            for j in 1..FEATURES {
+                if used(j) {
+                    beta[j] = g[j] / sd[j];
+                    beta[0] -= g[j] * mean[j] / sd[j];
+                }
+            }
+            Some(beta)
+        });
+        // Each strength's range of beta^T x over the rows fitted on (a strength that failed
+        // computes with zeros, its range unused); a NaN is passed over, as `min` and `max`
+        // do, with one comparison each.
+        let zero = [0.0; FEATURES];
+        let coefficients: [&Features; R] =
+            std::array::from_fn(|i| betas[i].as_ref().unwrap_or(&zero));
+        let (mut lo, mut hi) = ([f64::INFINITY; R], [f64::NEG_INFINITY; R]);
+        for (r, _) in &self.kept {
+            for ((beta, lo), hi) in coefficients.iter().zip(&mut lo).zip(&mut hi) {
+                let v: f64 = beta.iter().zip(&r.x).map(|(b, x)| b * x).sum();
+                if v < *lo {
+                    *lo = v;
+                }
+                if v > *hi {
+                    *hi = v;
+                }
             }
         }
-        let z = |x: &Features| -> f64 { beta.iter().zip(x).map(|(b, x)| b * x).sum() };
-        let (lo, hi) = self
-            .kept
-            .iter()
-            .map(|(r, _)| z(&r.x))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                (lo.min(v), hi.max(v))
-            });
-        let fitted = StepDifficulty {
-            beta,
-            range: [lo.max(-50.0), hi.min(50.0)],
-        };
-        if fitted.check().is_err() {
-            return StepDifficulty::NONE;
-        }
-        fitted
+        std::array::from_fn(|i| {
+            let Some(beta) = betas[i] else {
+                return StepDifficulty::NONE;
+            };
+            let fitted = StepDifficulty {
+                beta,
+                range: [lo[i].max(-50.0), hi[i].min(50.0)],
+            };
+            if fitted.check().is_err() {
+                return StepDifficulty::NONE;
+            }
+            fitted
+        })
     }
 }
 

@@ -71,7 +71,7 @@ pub use slip::{
     SlipStepper, SlipWindow, StatelessSlip,
 };
 pub use slip_basis::{check_slip_features, SlipFeatures, SlipInputRows, MAX_SLIP_INPUTS};
-pub use stats::{median, quantile};
+pub use stats::{from_total_order_key, median, quantile, total_order_key};
 pub use tag::{PartTag, TagProbe, Tagged};
 pub use vehicle::{
     spanned_space, vehicle_as, vehicle_tag, Characterization, CommandModel, InputAxis, InputSpace,

@@ -24,6 +24,28 @@ pub fn median(values: &mut [f64]) -> f64 {
     lower + (upper - lower) * 0.5
 }
 
+/// An integer key ordered as [`f64::total_cmp`] orders the floats (the same transform of
+/// the bits): sorting or selecting on keys gives the same order statistics with integer
+/// comparisons. [`from_total_order_key`] takes a key back to its float, bit for bit.
+///
+/// ```
+/// use drive_traits::{from_total_order_key, total_order_key};
+/// let x = [-1.5, -0.0, 0.0, 2.0, f64::INFINITY];
+/// assert!(x.windows(2).all(|w| total_order_key(w[0]) < total_order_key(w[1])));
+/// assert_eq!(from_total_order_key(total_order_key(-0.0)).to_bits(), (-0.0f64).to_bits());
+/// ```
+pub fn total_order_key(x: f64) -> i64 {
+    let bits = x.to_bits() as i64;
+    bits ^ ((((bits >> 63) as u64) >> 1) as i64)
+}
+
+/// The float whose [`total_order_key`] is `key`.
+pub fn from_total_order_key(key: i64) -> f64 {
+    // The transform flips the low 63 bits of negative numbers only, and keeps the sign
+    // bit: it is its own inverse.
+    f64::from_bits(total_order_key(f64::from_bits(key as u64)) as u64)
+}
+
 /// The `p`-quantile of sorted values by linear interpolation between order statistics
 /// (position `(n - 1) p`, as numpy's default). `None` for no values.
 ///

@@ -53,8 +53,8 @@
 use drive_traits::step::{check_state, layout, StepOptions, Stepper};
 use drive_traits::UnknownName;
 use drive_traits::{
-    limits::Short, wrap_angle, FitError, Input, MotionError, MotionModel, Pose, PoseCovariance,
-    StartInfo, StartState, Tagged, WindowSet,
+    from_total_order_key, limits::Short, total_order_key, wrap_angle, FitError, Input, MotionError,
+    MotionModel, Pose, PoseCovariance, StartInfo, StartState, Tagged, WindowSet,
 };
 use serde::{Deserialize, Serialize};
 
@@ -309,7 +309,7 @@ impl Calibrator {
         let by_model_shape = || {
             let by_model =
                 self.difficulties(&position, folds_count, chi2, Region::Area, model_size);
-            let model_scale = self.scales(&mut by_model.scores.clone(), chi2);
+            let model_scale = self.scales(&by_model.scores, chi2);
             let model_area = mean_areas(&position, &by_model, &model_scale, 1.0, model_size);
             (by_model, model_scale, model_area)
         };
@@ -335,16 +335,6 @@ impl Calibrator {
             error_shape(kept, self.shape_floor).unwrap_or(UNIT_SHAPE)
         };
         let by_heading_shape = || {
-            let heading_shape: Vec<[f64; 3]> = (0..n)
-                .into_par_iter()
-                .map(|k| {
-                    if k == 0 {
-                        UNIT_SHAPE
-                    } else {
-                        shape_of(k, None)
-                    }
-                })
-                .collect();
             let by_heading_rows: Vec<Vec<Row>> = (0..n)
                 .into_par_iter()
                 .map(|k| {
@@ -365,14 +355,14 @@ impl Calibrator {
                 .collect();
             let by_heading =
                 self.difficulties(&by_heading_rows, folds_count, chi2, Region::Area, |_| 1.0);
-            let heading_scale = self.scales(&mut by_heading.scores.clone(), chi2);
+            let heading_scale = self.scales(&by_heading.scores, chi2);
             let heading_area =
                 mean_areas(&by_heading_rows, &by_heading, &heading_scale, 1.0, |_| 1.0);
-            (heading_shape, by_heading, heading_scale, heading_area)
+            (by_heading, heading_scale, heading_area)
         };
         let (
             (by_model, model_scale, model_area),
-            ((heading_shape, by_heading, heading_scale, heading_area), mut yaw_fit),
+            ((by_heading, heading_scale, heading_area), yaw_fit),
         ) = rayon::join(by_model_shape, || rayon::join(by_heading_shape, yaw_fit));
         // The shape whose regions are smaller, step by step (geometric mean of the ratios),
         // at the same calibrated coverage.
@@ -383,6 +373,17 @@ impl Calibrator {
             .map(|(h, m)| (h / m).ln())
             .sum();
         let (position_fit, position_scale, heading_shape) = if log_ratio < 0.0 {
+            // The shape kept, estimated on every fold's errors (only when it is kept).
+            let heading_shape: Vec<[f64; 3]> = (0..n)
+                .into_par_iter()
+                .map(|k| {
+                    if k == 0 {
+                        UNIT_SHAPE
+                    } else {
+                        shape_of(k, None)
+                    }
+                })
+                .collect();
             (by_heading, heading_scale, heading_shape)
         } else {
             (by_model, model_scale, Vec::new())
@@ -392,7 +393,7 @@ impl Calibrator {
             shape_floor: self.shape_floor,
             windows,
             position_scale,
-            yaw_scale: self.scales(&mut yaw_fit.scores, chi2_1(self.level)),
+            yaw_scale: self.scales(&yaw_fit.scores, chi2_1(self.level)),
             position_difficulty: position_fit.difficulty,
             yaw_difficulty: yaw_fit.difficulty,
             heading_shape,
@@ -422,18 +423,20 @@ impl Calibrator {
         size: impl Fn(&Row) -> f64,
     ) -> Difficulties {
         if !self.difficulty {
-            return self.difficulties_with(rows, &[], RIDGES[0]);
+            return self.difficulties_with(rows, &[], &[], 0);
         }
         let power = match region {
             Region::Area => 1.0,
             Region::Width => 0.5,
         };
-        // The rows' sums, gathered once for every ridge strength.
-        let sums = gather_sums(rows, folds);
+        // Each row's log score, computed once for the many sums it enters and every ridge
+        // strength's calibration slope; the rows' sums, gathered once for every strength.
+        let logs = log_scores(rows);
+        let fits = fit_steps(rows, &logs, folds);
         let mut best: Option<(f64, Difficulties)> = None;
-        for ridge in RIDGES {
-            let fit = self.difficulties_with(rows, &sums, ridge);
-            let scale = self.scales(&mut fit.scores.clone(), chi2);
+        for ridge in 0..RIDGES.len() {
+            let fit = self.difficulties_with(rows, &logs, &fits, ridge);
+            let scale = self.scales(&fit.scores, chi2);
             let log_sharpness: f64 = mean_areas(rows, &fit, &scale, power, &size)
                 .iter()
                 .skip(1)
@@ -447,7 +450,7 @@ impl Calibrator {
         match best {
             Some((_, fit)) => fit,
             // Unreachable: RIDGES is not empty, and its first strength sets `best`.
-            None => self.difficulties_with(rows, &sums, RIDGES[0]),
+            None => self.difficulties_with(rows, &logs, &fits, 0),
         }
     }
 
@@ -464,11 +467,15 @@ impl Calibrator {
     /// `gamma = 0` is one size per step. With the slope, a window of twice the difficulty of
     /// another gets, on held-out windows, errors twice as large, so that each kind of
     /// window (transient or steady, slow or fast) keeps close to the level's coverage.
+    ///
+    /// `logs` holds each row's log score, `fits` each step's fits ([`fit_steps`]), and
+    /// `ridge` indexes the strength in [`crate::difficulty::RIDGES`].
     fn difficulties_with(
         &self,
         rows: &[Vec<Row>],
-        sums: &[StepSumsOfFolds<'_>],
-        ridge: f64,
+        logs: &[Vec<f64>],
+        fits: &[StepFits],
+        ridge: usize,
     ) -> Difficulties {
         let n = rows.len();
         let raw = || Difficulties {
@@ -477,7 +484,7 @@ impl Calibrator {
                 .iter()
                 .map(|r| r.iter().map(|r| r.score).collect())
                 .collect(),
-            log_multipliers: rows.iter().map(|r| vec![0.0; r.len()]).collect(),
+            multipliers: rows.iter().map(|r| vec![1.0; r.len()]).collect(),
         };
         if !self.difficulty {
             return raw();
@@ -491,10 +498,8 @@ impl Calibrator {
                 log_d.push(Vec::new());
                 continue;
             }
-            let solve = |s: &Option<StepSums<'_>>| {
-                s.as_ref().map_or(StepDifficulty::NONE, |s| s.solve(ridge))
-            };
-            let out_of_fold: Vec<StepDifficulty> = sums[k].out_of_fold.iter().map(solve).collect();
+            let out_of_fold: Vec<StepDifficulty> =
+                fits[k].out_of_fold.iter().map(|f| f[ridge]).collect();
             // A step where a fold's fit has too few scores has none (its scores would be
             // scaled without the difficulty its regions are then given).
             if out_of_fold.contains(&StepDifficulty::NONE) {
@@ -502,7 +507,7 @@ impl Calibrator {
                 log_d.push(vec![0.0; rows[k].len()]);
                 continue;
             }
-            fitted.push(solve(&sums[k].all));
+            fitted.push(fits[k].all[ridge]);
             log_d.push(
                 rows[k]
                     .iter()
@@ -514,12 +519,13 @@ impl Calibrator {
             return raw();
         }
         let (mut sxy, mut sxx) = (0.0, 0.0);
-        for (step, l) in rows.iter().zip(&log_d).skip(1) {
+        for ((step, l), log_scores) in rows.iter().zip(&log_d).zip(logs).skip(1) {
             let pairs: Vec<(f64, f64)> = step
                 .iter()
                 .zip(l)
-                .filter(|(r, l)| r.score > 0.0 && r.score.is_finite() && l.is_finite())
-                .map(|(r, l)| (*l, r.score.ln()))
+                .zip(log_scores)
+                .filter(|((r, l), _)| r.score > 0.0 && r.score.is_finite() && l.is_finite())
+                .map(|((_, l), log_score)| (*l, *log_score))
                 .collect();
             let m = pairs.len().max(1) as f64;
             let (lx, ly) = pairs
@@ -538,45 +544,39 @@ impl Calibrator {
         if gamma == 0.0 {
             return raw();
         }
-        let log_multipliers: Vec<Vec<f64>> = log_d
+        // Each row's multiplier, exp(gamma ln d) (1 where the step has no difficulty).
+        let multipliers: Vec<Vec<f64>> = log_d
             .iter()
             .zip(rows)
             .map(|(l, step)| {
                 if l.is_empty() {
-                    vec![0.0; step.len()]
+                    vec![1.0; step.len()]
                 } else {
-                    l.iter().map(|l| gamma * l).collect()
+                    l.iter().map(|l| (gamma * l).exp()).collect()
                 }
             })
             .collect();
         let scores = rows
             .iter()
-            .zip(&log_multipliers)
-            .map(|(step, l)| step.iter().zip(l).map(|(r, l)| r.score / l.exp()).collect())
+            .zip(&multipliers)
+            .map(|(step, m)| step.iter().zip(m).map(|(r, m)| r.score / m).collect())
             .collect();
         Difficulties {
             difficulty: fitted.into_iter().map(|d| d.tempered(gamma)).collect(),
             scores,
-            log_multipliers,
+            multipliers,
         }
     }
 
     /// Per step, the conformal quantile of the scores pooled over the steps within 10% of
     /// it, over the chi-square quantile `chi2` (1 at the start and where no score exists).
-    fn scales(&self, scores: &mut [Vec<f64>], chi2: f64) -> Vec<f64> {
+    fn scales(&self, scores: &[Vec<f64>], chi2: f64) -> Vec<f64> {
         let n = scores.len();
-        (0..n)
-            .map(|k| {
-                if k == 0 {
-                    return 1.0;
-                }
-                let (lo, hi) = pooled_steps(k, n);
-                let mut pooled: Vec<f64> = (lo..=hi)
-                    .flat_map(|j| scores[j].iter().copied())
-                    .filter(|s| !s.is_nan())
-                    .collect();
-                conformal_quantile(&mut pooled, self.level).map_or(1.0, |q| q / chi2)
-            })
+        let pools: Vec<(usize, usize)> = (1..n).map(|k| pooled_steps(k, n)).collect();
+        let quantiles = pooled_conformal_quantiles(scores, &pools, self.level);
+        std::iter::once(1.0)
+            .chain(quantiles.iter().map(|q| q.map_or(1.0, |q| q / chi2)))
+            .take(n)
             .collect()
     }
 }
@@ -601,41 +601,43 @@ impl FoldRows {
     }
 }
 
-/// Per step, the sums of its pooled rows ([`neighbour_steps`]) without each fold and with
-/// all of them: what every ridge strength's difficulty is solved from.
-struct StepSumsOfFolds<'a> {
-    out_of_fold: Vec<Option<StepSums<'a>>>,
-    all: Option<StepSums<'a>>,
+/// Per step, the difficulty fitted on its pooled rows ([`neighbour_steps`]) without each
+/// fold and with all of them, at each ridge strength of [`RIDGES`].
+struct StepFits {
+    out_of_fold: Vec<[StepDifficulty; RIDGES.len()]>,
+    all: [StepDifficulty; RIDGES.len()],
 }
 
-/// The sums of every step of `rows` (step 0, the start, has none: an empty entry).
-fn gather_sums(rows: &[Vec<Row>], folds: usize) -> Vec<StepSumsOfFolds<'_>> {
+/// Each row's log score.
+fn log_scores(rows: &[Vec<Row>]) -> Vec<Vec<f64>> {
+    rows.iter()
+        .map(|step| step.iter().map(|r| r.score.ln()).collect())
+        .collect()
+}
+
+/// The fits of every step of `rows` (step 0, the start, has none: [`StepDifficulty::NONE`]),
+/// `logs` holding each row's log score: each pool's sums gathered once, every ridge solved
+/// from them.
+fn fit_steps(rows: &[Vec<Row>], logs: &[Vec<f64>], folds: usize) -> Vec<StepFits> {
     use rayon::prelude::*;
     let n = rows.len();
-    // Each row's log score, computed once for the many sums it enters.
-    let logs: Vec<Vec<f64>> = rows
-        .iter()
-        .map(|step| step.iter().map(|r| r.score.ln()).collect())
-        .collect();
+    let none = [StepDifficulty::NONE; RIDGES.len()];
     (0..n)
         .into_par_iter()
         .map(|k| {
             if k == 0 {
-                return StepSumsOfFolds {
+                return StepFits {
                     out_of_fold: Vec::new(),
-                    all: None,
+                    all: none,
                 };
             }
             let (lo, hi) = neighbour_steps(k, n);
-            let pooled = || {
-                let logs = logs[lo..=hi].iter().flatten().copied();
-                rows[lo..=hi].iter().flatten().zip(logs)
-            };
-            StepSumsOfFolds {
-                out_of_fold: (0..folds)
-                    .map(|f| StepSums::new(pooled(), Some(f)))
-                    .collect(),
-                all: StepSums::new(pooled(), None),
+            let (rows, logs) = (&rows[lo..=hi], &logs[lo..=hi]);
+            let fit =
+                |skip| StepSums::new(rows, logs, skip).map_or(none, |s| s.solve_each(&RIDGES));
+            StepFits {
+                out_of_fold: (0..folds).map(|f| fit(Some(f))).collect(),
+                all: fit(None),
             }
         })
         .collect()

@@ -83,11 +83,11 @@ pub(super) fn neighbour_steps(k: usize, n: usize) -> (usize, usize) {
 }
 
 /// A calibration's difficulty per step, and per step and held-out row its score over its
-/// out-of-fold difficulty and the log of that difficulty.
+/// out-of-fold difficulty and that difficulty as applied (tempered: the score's divisor).
 pub(super) struct Difficulties {
     pub(super) difficulty: Vec<StepDifficulty>,
     pub(super) scores: Vec<Vec<f64>>,
-    pub(super) log_multipliers: Vec<Vec<f64>>,
+    pub(super) multipliers: Vec<Vec<f64>>,
 }
 
 /// Per step, the mean over the held-out rows of the calibrated region's area over
@@ -103,14 +103,18 @@ pub(super) fn mean_areas(
     size: impl Fn(&Row) -> f64,
 ) -> Vec<f64> {
     rows.iter()
-        .zip(&fit.log_multipliers)
+        .zip(&fit.multipliers)
         .zip(scale)
-        .map(|((step, l), s)| {
-            let sum: f64 = step
-                .iter()
-                .zip(l)
-                .map(|(r, l)| (s * l.exp()).powf(power) * size(r))
-                .sum();
+        .map(|((step, m), s)| {
+            // x^1 is x to the bit (a correctly rounded power of an exact result).
+            let sum: f64 = if power == 1.0 {
+                step.iter().zip(m).map(|(r, m)| s * m * size(r)).sum()
+            } else {
+                step.iter()
+                    .zip(m)
+                    .map(|(r, m)| (s * m).powf(power) * size(r))
+                    .sum()
+            };
             sum / step.len() as f64
         })
         .collect()
@@ -139,25 +143,43 @@ pub(super) fn shape_score(u: &[f64; 2], s: &[f64; 3]) -> f64 {
 /// large errors (the hard windows, sized by the difficulty) do not set the shape of all.
 /// `None` with fewer than 3 non-zero errors or all along one line.
 pub(super) fn error_shape<'a>(
-    u: impl Iterator<Item = &'a [f64; 2]> + Clone,
+    u: impl Iterator<Item = &'a [f64; 2]>,
     floor: f64,
 ) -> Option<[f64; 3]> {
     let nonzero =
         move |u: &&[f64; 2]| u[0].is_finite() && u[1].is_finite() && u[0].hypot(u[1]) > 1e-12;
-    // The errors counted, picked once (the iterations visit them in the same order).
-    let kept: Vec<&[f64; 2]> = u.filter(nonzero).collect();
-    if kept.len() < 3 {
+    // The errors counted, picked once (the iterations visit them in the same order), their
+    // two components apart so that each error's weighted products are computed side by side.
+    let (u0, u1): (Vec<f64>, Vec<f64>) = u.filter(nonzero).map(|u| (u[0], u[1])).unzip();
+    if u0.len() < 3 {
         return None;
     }
+    // `m` counted one by one as a float is the count itself (exact below 2^53 errors).
+    let m = u0.len() as f64;
+    let (mut wa, mut wb, mut wd) = (
+        vec![0.0; m as usize],
+        vec![0.0; m as usize],
+        vec![0.0; m as usize],
+    );
     let mut s = UNIT_SHAPE;
     for _ in 0..100 {
-        let (mut a, mut b, mut d, mut m) = (0.0, 0.0, 0.0, 0.0);
-        for u in kept.iter().copied() {
-            let w = 1.0 / shape_score(u, &s);
-            a += w * u[0] * u[0];
-            b += w * u[0] * u[1];
-            d += w * u[1] * u[1];
-            m += 1.0;
+        // Each error's weighted products: independent of the others, so computed as one
+        // vectorizable pass, with the operations of `shape_score` in its order.
+        let [sa, sb, sd] = s;
+        let det = sa * sd - sb * sb;
+        for ((((u0, u1), wa), wb), wd) in u0.iter().zip(&u1).zip(&mut wa).zip(&mut wb).zip(&mut wd)
+        {
+            let w = 1.0 / ((sd * u0 * u0 - 2.0 * sb * u0 * u1 + sa * u1 * u1) / det);
+            *wa = w * u0 * u0;
+            *wb = w * u0 * u1;
+            *wd = w * u1 * u1;
+        }
+        // The sums in the errors' order (the same rounding as one running sum each).
+        let (mut a, mut b, mut d) = (0.0, 0.0, 0.0);
+        for ((wa, wb), wd) in wa.iter().zip(&wb).zip(&wd) {
+            a += wa;
+            b += wb;
+            d += wd;
         }
         let det = (a * d - b * b) / (m * m);
         if !(det > 1e-300 && det.is_finite()) {
@@ -203,6 +225,117 @@ pub fn conformal_quantile(scores: &mut [f64], level: f64) -> Option<f64> {
     let rank = (((n + 1) as f64) * level).ceil() as usize;
     let (_, q, _) = scores.select_nth_unstable_by(rank.clamp(1, n) - 1, f64::total_cmp);
     Some(*q)
+}
+
+/// Where the `ceil((n + 1) level)`-th smallest of `n` scores is found by walking in from
+/// the nearer end: `(true, m)` for the m-th largest, `(false, m)` for the m-th smallest.
+fn conformal_walk(n: usize, level: f64) -> (bool, usize) {
+    let rank = ((((n + 1) as f64) * level).ceil() as usize).clamp(1, n);
+    if rank > n / 2 {
+        (true, n - rank + 1)
+    } else {
+        (false, rank)
+    }
+}
+
+/// [`conformal_quantile`] of each pool `(lo, hi)` of the steps' `scores` (the steps `lo` to
+/// `hi` pooled; NaN left out): the same order statistics, found by walking in from the
+/// nearer end of each pool (a few dozen scores at the usual levels) over the steps' scores
+/// sorted at the ends the walks reach, instead of selecting over every pool.
+pub(super) fn pooled_conformal_quantiles(
+    scores: &[Vec<f64>],
+    pools: &[(usize, usize)],
+    level: f64,
+) -> Vec<Option<f64>> {
+    // The scores as keys ordered as `f64::total_cmp` orders them (integer comparisons).
+    let mut lists: Vec<Vec<i64>> = scores
+        .iter()
+        .map(|step| {
+            step.iter()
+                .filter(|s| !s.is_nan())
+                .map(|s| total_order_key(*s))
+                .collect()
+        })
+        .collect();
+    // How far in from each end of each step's scores the walks of its pools reach.
+    let (mut top, mut bottom) = (vec![0usize; lists.len()], vec![0usize; lists.len()]);
+    for &(lo, hi) in pools {
+        let n = lists[lo..=hi].iter().map(Vec::len).sum();
+        if n == 0 {
+            continue;
+        }
+        let (from_top, m) = conformal_walk(n, level);
+        let reach = if from_top { &mut top } else { &mut bottom };
+        for r in &mut reach[lo..=hi] {
+            *r = (*r).max(m);
+        }
+    }
+    for ((list, top), bottom) in lists.iter_mut().zip(&top).zip(&bottom) {
+        let len = list.len();
+        let (t, b) = ((*top).min(len), (*bottom).min(len));
+        if t + b >= len {
+            list.sort_unstable();
+            continue;
+        }
+        // The t largest at the end, sorted; the b smallest at the start, sorted.
+        if t > 0 {
+            list.select_nth_unstable(len - t);
+            list[len - t..].sort_unstable();
+        }
+        if b > 0 {
+            let rest = &mut list[..len - t];
+            rest.select_nth_unstable(b - 1);
+            rest[..b].sort_unstable();
+        }
+    }
+    pools
+        .iter()
+        .map(|&(lo, hi)| walk_pool(&lists[lo..=hi], level).map(from_total_order_key))
+        .collect()
+}
+
+/// The walk of [`pooled_conformal_quantiles`] over one pool of keys: each list sorted at
+/// least as far in from the end walked as the walk reaches.
+fn walk_pool(lists: &[Vec<i64>], level: f64) -> Option<i64> {
+    let n: usize = lists.iter().map(Vec::len).sum();
+    if n == 0 {
+        return None;
+    }
+    let (from_top, m) = conformal_walk(n, level);
+    let at = |i: usize, taken: usize| {
+        let list = &lists[i];
+        if from_top {
+            list[list.len() - 1 - taken]
+        } else {
+            list[taken]
+        }
+    };
+    // Each list's next key (negated, `!`, when walking up from the smallest): the walk
+    // takes the largest head; `i64::MIN`, the key of no score that is not NaN, once a list
+    // is used up.
+    let head = |i: usize, taken: usize| -> i64 {
+        if taken >= lists[i].len() {
+            i64::MIN
+        } else if from_top {
+            at(i, taken)
+        } else {
+            !at(i, taken)
+        }
+    };
+    let mut taken = vec![0usize; lists.len()];
+    let mut heads: Vec<i64> = (0..lists.len()).map(|i| head(i, 0)).collect();
+    let mut last = None;
+    for _ in 0..m {
+        let (p, _) = heads.iter().enumerate().max_by_key(|(_, h)| **h)?;
+        if heads[p] == i64::MIN {
+            // Unreachable: fewer than n scores have been taken.
+            return None;
+        }
+        last = Some(at(p, taken[p]));
+        taken[p] += 1;
+        heads[p] = head(p, taken[p]);
+    }
+    last
 }
 
 /// The measured minus the predicted pose at each step (yaw unwrapped along the measurement

@@ -432,7 +432,7 @@ fn a_step_whose_fold_fits_lack_scores_has_no_difficulty() {
         StepDifficulty::NONE
     );
     let steps = [Vec::new(), rows.clone()];
-    let fit = Calibrator::default().difficulties_with(&steps, &gather_sums(&steps, 2), 1.0);
+    let fit = fit_at_ridge(&Calibrator::default(), &steps, 1.0);
     assert!(fit.difficulty.is_empty());
     let raw: Vec<f64> = rows.iter().map(|r| r.score).collect();
     assert_eq!(fit.scores[1], raw);
@@ -443,7 +443,7 @@ fn a_step_whose_fold_fits_lack_scores_has_no_difficulty() {
         .map(|(i, r)| Row { fold: i % 2, ..*r })
         .collect();
     let steps = [Vec::new(), balanced];
-    let fit = Calibrator::default().difficulties_with(&steps, &gather_sums(&steps, 2), 1.0);
+    let fit = fit_at_ridge(&Calibrator::default(), &steps, 1.0);
     assert!(fit.difficulty[1].beta[1] > 0.0, "{:?}", fit.difficulty);
 }
 
@@ -474,6 +474,16 @@ fn chi_square_quantiles() {
     assert!((chi2_2(0.5) - 1.386_294_361_119_890_6).abs() < 1e-12);
 }
 
+/// [`Calibrator::difficulties_with`] on two folds' rows at one of the ridge strengths.
+fn fit_at_ridge(c: &Calibrator, rows: &[Vec<Row>], ridge: f64) -> Difficulties {
+    let logs = log_scores(rows);
+    let index = RIDGES
+        .iter()
+        .position(|r| *r == ridge)
+        .expect("one of RIDGES");
+    c.difficulties_with(rows, &logs, &fit_steps(rows, &logs, 2), index)
+}
+
 #[test]
 fn the_ridge_is_chosen_by_held_out_sharpness() {
     // Scores that follow the first feature exactly (ln score = 2 s, with a repeating
@@ -492,14 +502,9 @@ fn the_ridge_is_chosen_by_held_out_sharpness() {
     let rows = [Vec::new(), informative];
     let c = Calibrator::default();
     let chosen = c.difficulties(&rows, 2, chi2_2(0.95), Region::Area, |_| 1.0);
-    let weakest = c.difficulties_with(&rows, &gather_sums(&rows, 2), 0.1);
+    let weakest = fit_at_ridge(&c, &rows, 0.1);
     assert_eq!(chosen.difficulty, weakest.difficulty);
-    assert!(
-        chosen.difficulty[1].beta[1]
-            > c.difficulties_with(&rows, &gather_sums(&rows, 2), 1.0)
-                .difficulty[1]
-                .beta[1]
-    );
+    assert!(chosen.difficulty[1].beta[1] > fit_at_ridge(&c, &rows, 1.0).difficulty[1].beta[1]);
     // A feature that says nothing of the scores (a pattern of period 7 against one of
     // period 10 in the feature): the stronger ridges shrink its spurious coefficient, and
     // no weaker ridge than the default's is chosen.
@@ -512,7 +517,56 @@ fn the_ridge_is_chosen_by_held_out_sharpness() {
         .collect();
     let rows = [Vec::new(), noise];
     let chosen = c.difficulties(&rows, 2, chi2_2(0.95), Region::Width, |_| 1.0);
-    let default = c.difficulties_with(&rows, &gather_sums(&rows, 2), 1.0);
+    let default = fit_at_ridge(&c, &rows, 1.0);
     let slope = |d: &Difficulties| d.difficulty.get(1).map_or(0.0, |s| s.beta[1].abs());
     assert!(slope(&chosen) <= slope(&default), "{:?}", chosen.difficulty);
+}
+
+#[test]
+fn pooled_quantiles_are_the_quantiles_of_the_pools() {
+    // Steps of 0 to 39 scores, with ties, both zeros, infinities and NaN (left out), pooled
+    // over 1 to 9 neighbouring steps, at levels from either end: the same order statistic
+    // as selecting over the whole pool.
+    let values = normals(4000, 7);
+    let mut next = values.iter().copied().cycle();
+    for case in 0..40 {
+        let steps: Vec<Vec<f64>> = (0..12)
+            .map(|i| {
+                let len = (case * 7 + i * 13) % 40;
+                (0..len)
+                    .map(|j| match (case + i + j) % 13 {
+                        0 => 0.0,
+                        1 => -0.0,
+                        2 => 1.0,
+                        3 if case % 5 == 0 => f64::INFINITY,
+                        4 if case % 3 == 0 => f64::NAN,
+                        _ => next.next().unwrap_or(0.5),
+                    })
+                    .collect()
+            })
+            .collect();
+        let pools: Vec<(usize, usize)> = (0..12usize)
+            .map(|k| {
+                let r = (case + k) % 5;
+                (k.saturating_sub(r), (k + r).min(11))
+            })
+            .collect();
+        for level in [0.0, 0.05, 0.3, 0.5, 0.68, 0.9, 0.95, 0.999, 1.0] {
+            let pooled = pooled_conformal_quantiles(&steps, &pools, level);
+            for (&(lo, hi), pooled) in pools.iter().zip(pooled) {
+                let mut pool: Vec<f64> = steps[lo..=hi]
+                    .iter()
+                    .flatten()
+                    .copied()
+                    .filter(|s| !s.is_nan())
+                    .collect();
+                let whole = conformal_quantile(&mut pool, level);
+                assert_eq!(
+                    pooled.map(f64::to_bits),
+                    whole.map(f64::to_bits),
+                    "case {case}, pool {lo}..={hi}, level {level}"
+                );
+            }
+        }
+    }
 }
