@@ -138,7 +138,7 @@ fn close(what: &str, got: f64, want: f64, relative: f64) {
 #[test]
 fn a_twin_of_a_simulated_robot_recovers_what_the_data_can_tell() {
     let truth = generator();
-    let data = run(&truth, 200, 7);
+    let data = run(&truth, 170, 7);
     let fit = sim_fit(&data, &husky(), "twin").unwrap();
     let t = &fit.terrain;
     // No turn held at its start on this ground: none counted, none fitted.
@@ -471,9 +471,9 @@ fn the_command_line_writes_a_twin_that_simulate_runs_and_the_same_twin_every_tim
     );
 }
 
-/// `drive sim-fit` on a short run (the bundled Husky's first 90 windows: 30 commands, 3
+/// `drive sim-fit` on a short run (the bundled Husky's first 60 windows: 20 commands, 2
 /// minutes of driving) with the vehicle's own contact spread only (`--contact-spread own`:
-/// one ground fit instead of four), in about 16 s of CPU: the fit's text names each stage
+/// one ground fit instead of four), in about 8 s: the fit's text names each stage
 /// and the spread as asked, its file is the twin `--twin --json` checks again number for
 /// number, and that check writes the twin or refuses it as its medians say. The whole
 /// Husky fit and its byte-for-byte twin are the test above (CI's own stage).
@@ -483,7 +483,7 @@ fn the_command_line_fits_a_short_run_with_one_contact_spread_and_checks_it_again
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let (csv, a, c) = (path("short.csv"), path("a.toml"), path("c.toml"));
     let mut short = drive::bundled::load("husky_drive").unwrap();
-    short.windows.truncate(90);
+    short.windows.truncate(60);
     drive::data::write_dataset(&short, csv.as_ref()).unwrap();
     let fitted = common::drive(&[
         "sim-fit",
