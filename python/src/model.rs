@@ -503,15 +503,19 @@ impl Model {
     /// fitted for when None), as a dict: `translational_m` and `rotational_rad`
     /// ({"all", "transient", "steady"}: windows, median, iqr), `per_window` (window,
     /// interval, phase, error) and `uncertainty` (the 95% regions' calibration, for a
-    /// model with a covariance).
-    #[pyo3(signature = (dataset, start=None))]
+    /// model with a covariance), and `notes`. A dataset of another geometry of the same
+    /// vehicle type (another calibration of the robot's wheels or baseline) is refused
+    /// unless `allow_other_geometry`, which scores it with the difference as a UserWarning
+    /// and in `notes`.
+    #[pyo3(signature = (dataset, start=None, allow_other_geometry=false))]
     fn score<'py>(
         &self,
         py: Python<'py>,
         dataset: &Bound<'py, PyAny>,
         start: Option<&Bound<'py, PyAny>>,
+        allow_other_geometry: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let text = self.score_json(py, dataset, start)?;
+        let text = self.score_json(py, dataset, start, allow_other_geometry)?;
         py.import("json")?.call_method1("loads", (text,))
     }
 
@@ -519,13 +523,14 @@ impl Model {
     /// vehicle: another run, another terrain), predicting from `start` (the start it was
     /// fitted for when None), as JSON text: the medians and quartiles (all windows and per
     /// phase), the per-window errors, and the 95% regions' calibration for a model with a
-    /// covariance.
-    #[pyo3(signature = (dataset, start=None))]
+    /// covariance; with `allow_other_geometry`, as [`Self::score`].
+    #[pyo3(signature = (dataset, start=None, allow_other_geometry=false))]
     fn score_json(
         &self,
         py: Python<'_>,
         dataset: &Bound<'_, PyAny>,
         start: Option<&Bound<'_, PyAny>>,
+        allow_other_geometry: bool,
     ) -> PyResult<String> {
         let dataset = dataset_of(dataset)?;
         let start = match start.filter(|s| !s.is_none()) {
@@ -550,10 +555,24 @@ impl Model {
             serde_json::to_value(self.robot.vehicle.as_ref()).map_err(err)?,
             serde_json::to_value(data.robot.vehicle.as_ref()).map_err(err)?,
         );
+        let mut notes = Vec::new();
         if a != b {
-            return Err(err(format!(
-                "the model was fitted for the vehicle {a} and the dataset's is {b}: another robot's inputs command other body velocities (fit a model on that robot's data)"
-            )));
+            let difference = geometry_difference(&a, &b);
+            if !allow_other_geometry {
+                return Err(err(format!(
+                    "the model was fitted for the vehicle {a} and the dataset's is {b} ({difference}): another robot's inputs command other body velocities (fit a model on that robot's data, or score across calibrations of one robot with allow_other_geometry=True)"
+                )));
+            }
+            let note = format!(
+                "{}: scored across geometries, the model's against the dataset's: {difference}; the model's inputs command the body velocities of the geometry it was fitted for",
+                data.robot.name
+            );
+            let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+            // The note holds no NUL: the numbers and field names are JSON's, the robot's
+            // name a sidecar's (checked on load).
+            let message = std::ffi::CString::new(note.clone()).unwrap_or_default();
+            PyErr::warn(py, &category, &message, 1)?;
+            notes.push(note);
         }
         if (self.model.dt() - data.robot.dt()).abs() > 1e-9 * data.robot.dt() {
             return Err(err(format!(
@@ -583,6 +602,7 @@ impl Model {
             "rotational_rad": phases(&|p| report.rotational(p)),
             "per_window": report.windows,
             "uncertainty": report.uncertainty,
+            "notes": notes,
         });
         Ok(value.to_string())
     }
@@ -590,6 +610,33 @@ impl Model {
     fn __repr__(&self) -> String {
         format!("Model({:?}, dt={} s)", self.model.name(), self.model.dt())
     }
+}
+
+/// What differs between two vehicles of one type, field by field of their JSON (`baseline
+/// 1.1652 -> 1.08 (-7.3%)`), e.g. two calibrations of one robot.
+fn geometry_difference(ours: &serde_json::Value, theirs: &serde_json::Value) -> String {
+    let (Some(a), Some(b)) = (ours.as_object(), theirs.as_object()) else {
+        return format!("{ours} -> {theirs}");
+    };
+    let mut parts = Vec::new();
+    for (key, x) in a {
+        let y = b.get(key).unwrap_or(&serde_json::Value::Null);
+        if x == y {
+            continue;
+        }
+        match (x.as_f64(), y.as_f64()) {
+            (Some(x), Some(y)) if x != 0.0 => {
+                parts.push(format!("{key} {x} -> {y} ({:+.1}%)", 100.0 * (y - x) / x))
+            }
+            _ => parts.push(format!("{key} {x} -> {y}")),
+        }
+    }
+    for (key, y) in b {
+        if !a.contains_key(key) {
+            parts.push(format!("{key} none -> {y}"));
+        }
+    }
+    parts.join(", ")
 }
 
 /// Fits `model` (a model name, as `drive train --model`) on the dataset's first `split` of

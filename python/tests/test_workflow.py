@@ -181,8 +181,21 @@ def test_score_on_another_dataset_and_the_evaluation_half(husky, tmp_path):
     # too, with other wheels.
     warthog = drive.load_dataset("bundled:warthog_grass_2024-08-08")
     assert warthog.meta["vehicle"]["type"] == husky.meta["vehicle"]["type"]
-    with pytest.raises(drive.DriveError, match="fitted for the vehicle"):
+    with pytest.raises(drive.DriveError, match="fitted for the vehicle") as refused:
         model.score(warthog)
+    # The refusal names what differs, as the scores across geometries do.
+    ours, theirs = husky.meta["vehicle"]["baseline"], warthog.meta["vehicle"]["baseline"]
+    assert f"baseline {ours} -> {theirs}" in str(refused.value), refused.value
+    assert "allow_other_geometry=True" in str(refused.value)
+    # Asked for (two calibrations of one robot, say), it is scored, with the difference as a
+    # UserWarning and in the notes; the same geometry gives none.
+    with pytest.warns(UserWarning, match="scored across geometries") as caught:
+        across = model.score(warthog, allow_other_geometry=True)
+    assert across["windows"] == len(warthog) and across["dataset"] == warthog.name
+    assert across["translational_m"]["all"]["median"] > 0.0
+    assert len(across["notes"]) == 1 and f"baseline {ours} -> {theirs}" in across["notes"][0]
+    assert str(caught[0].message) == across["notes"][0]
+    assert score["notes"] == [] and transfer["notes"] == []
 
 
 def test_import_notes_and_data_check_findings_are_python_warnings(raw_log, tmp_path):
