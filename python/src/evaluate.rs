@@ -3,6 +3,7 @@
 
 use crate::args::{dataset_of, path_of, short_repr, type_name};
 use crate::err;
+use crate::interrupt::interruptible;
 use drive::studies::compare_specs;
 use drive::traits::StartInfo;
 use numpy::IntoPyArray;
@@ -60,8 +61,10 @@ fn comparison(
     if names.is_empty() {
         return Err(err("models is empty"));
     }
-    let data = &dataset.inner;
-    py.detach(|| {
+    // Its own copy of the data for the work's thread (a Ctrl-C returns at once, while the
+    // fits under way finish there).
+    let data = dataset.inner.clone();
+    interruptible(py, None, move |_| {
         let registries = crate::registries();
         let specs: Vec<_> = registries
             .models()
@@ -70,8 +73,8 @@ fn comparison(
             .into_iter()
             .map(|s| s.clone().with_uncertainty(s.uncertainty, start))
             .collect();
-        compare_specs(data, split, &specs).map_err(|e| e.to_string())
-    })
+        compare_specs(&data, split, &specs).map_err(|e| e.to_string())
+    })?
     .map_err(err)
 }
 
@@ -131,8 +134,10 @@ pub(crate) fn per_window_columns<'py>(
 /// acc-blr, slip-ipem) on every dataset of the suite file `suite` (every bundled dataset when
 /// None), each split at `split`, with the transfer between runs of one robot unless
 /// `transfer` is false; datasets the data checks call useless ranked when `allow_useless`.
+/// Stops on Ctrl-C (`KeyboardInterrupt`); `progress(done, total)` is called as the units of
+/// work complete.
 #[pyfunction]
-#[pyo3(signature = (suite=None, models=None, split=0.5, transfer=true, allow_useless=false))]
+#[pyo3(signature = (suite=None, models=None, split=0.5, transfer=true, allow_useless=false, progress=None))]
 pub(crate) fn bench_json(
     py: Python<'_>,
     suite: Option<&Bound<'_, PyAny>>,
@@ -140,6 +145,7 @@ pub(crate) fn bench_json(
     split: f64,
     transfer: bool,
     allow_useless: bool,
+    progress: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<String> {
     let suite = suite
         .filter(|p| !p.is_none())
@@ -159,7 +165,8 @@ pub(crate) fn bench_json(
             "split {split} must lie strictly between 0 and 1"
         )));
     }
-    let result = py.detach(|| -> Result<String, String> {
+    let progress = progress.filter(|p| !p.is_none());
+    let result = interruptible(py, progress, move |ticker| -> Result<String, String> {
         let registries = crate::registries();
         let specs = registries
             .models()
@@ -179,10 +186,11 @@ pub(crate) fn bench_json(
             allow_useless,
             ..Default::default()
         };
-        let bench = drive::studies::run_bench(&inputs, &specs, &config, &|| {})
+        ticker.set_total(drive::studies::bench_units(&inputs, specs.len(), &config));
+        let bench = drive::studies::run_bench(&inputs, &specs, &config, &|| ticker.tick())
             .map_err(|e| e.to_string())?;
         serde_json::to_string(&bench).map_err(|e| e.to_string())
-    });
+    })?;
     result.map_err(err)
 }
 
@@ -245,15 +253,17 @@ pub(crate) fn adapt_json(
     let model = prior_model
         .as_ref()
         .map(|m| std::sync::Arc::clone(&m.model));
-    let prior_inner = prior_data.as_ref().map(|d| &d.inner);
-    let target = &target.inner;
-    py.detach(|| -> Result<String, String> {
+    // The work's thread has its own copies of the data (a Ctrl-C returns at once, while the
+    // fits under way finish there).
+    let prior_inner = prior_data.as_ref().map(|d| d.inner.clone());
+    let target = target.inner.clone();
+    interruptible(py, None, move |_| -> Result<String, String> {
         let registries = crate::registries();
         let specs = registries
             .models()
             .resolve_list(&names)
             .map_err(|e| e.to_string())?;
-        let prior = match (&model, prior_inner) {
+        let prior = match (&model, prior_inner.as_ref()) {
             (Some(m), _) => drive::studies::AdaptPrior::Model(m.as_ref()),
             (None, Some(d)) => drive::studies::AdaptPrior::Data(d),
             (None, None) => return Err("no prior".to_string()),
@@ -263,9 +273,9 @@ pub(crate) fn adapt_json(
             times_s: times,
             ..Default::default()
         };
-        let result = drive::studies::adapt(registries, &prior, target, &specs, &study)
+        let result = drive::studies::adapt(registries, &prior, &target, &specs, &study)
             .map_err(|e| e.to_string())?;
         serde_json::to_string(&result).map_err(|e| e.to_string())
-    })
+    })?
     .map_err(err)
 }

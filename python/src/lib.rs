@@ -18,6 +18,7 @@ use std::sync::OnceLock;
 mod args;
 mod dataset;
 mod evaluate;
+mod interrupt;
 mod model;
 mod runner;
 mod step;
@@ -45,9 +46,13 @@ pub(crate) fn registries() -> &'static Registries {
 
 /// Runs the `drive` command line in this process on `args` (the program name first) and
 /// returns its exit status: what the `drive` console command of the Python package runs.
+/// Ctrl-C raises `KeyboardInterrupt` at once (the command's outputs are published whole or
+/// not at all).
 #[pyfunction]
-fn run_cli(py: Python<'_>, args: Vec<std::ffi::OsString>) -> u8 {
-    py.detach(|| drive::cli::run_status(args, registries()))
+fn run_cli(py: Python<'_>, args: Vec<std::ffi::OsString>) -> PyResult<u8> {
+    interrupt::interruptible(py, None, move |_| {
+        drive::cli::run_status(args, registries())
+    })
 }
 
 /// Adds the bindings (datasets, evaluation, models, the step API, the protocol runner, the

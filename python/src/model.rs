@@ -668,14 +668,18 @@ pub(crate) fn fit(
     let spec = registries.model(model).map_err(err)?.clone();
     let spec = spec.clone().with_uncertainty(spec.uncertainty, start);
     let data = &dataset.inner;
-    let fitted = py.detach(|| -> Result<Box<dyn MotionModel>, String> {
+    // The work's thread has its own copy of the data and the spec (a Ctrl-C returns at once,
+    // while the fit under way finishes there).
+    let (owned, fit_spec, name) = (data.clone(), spec.clone(), model.to_string());
+    let fitted = crate::interrupt::interruptible(py, None, move |_| {
         let train = match split {
-            Some(f) => split_by_interval(data, f).map_err(|e| e.to_string())?.0,
-            None => data.all(),
+            Some(f) => split_by_interval(&owned, f).map_err(|e| e.to_string())?.0,
+            None => owned.all(),
         };
-        spec.fit(&train)
-            .map_err(|e| format!("fitting {model}: {e}"))
-    });
+        fit_spec
+            .fit(&train)
+            .map_err(|e| format!("fitting {name}: {e}"))
+    })?;
     let fitted = fitted.map_err(err)?;
     let training_windows = match split {
         Some(f) => split_by_interval(data, f).map_err(err)?.0.len(),

@@ -67,8 +67,14 @@ def test_bench_equals_drive_bench_json(tmp_path):
     )
     models = "naive,slip-blr,acc-blr"
     expected = json.loads(cli("bench", "--suite", suite, "--json", "--models", models).stdout)
-    got = drive.bench(str(suite), models=models)
+    calls = []
+    got = drive.bench(str(suite), models=models, progress=lambda done, total: calls.append((done, total)))
     close(got, expected)
+    # The progress: units done counted up to the total (several units may come in one call).
+    dones = [d for d, _ in calls]
+    assert dones == sorted(set(dones)) and calls[-1][0] == calls[-1][1] > 2, calls
+    with pytest.raises(drive.DriveError, match="progress must be a callable"):
+        drive.bench(str(suite), models=models, progress="yes")
     assert [d["terrain"] for d in got["datasets"]] == ["grass", "slow asphalt"]
     assert {r["model"] for r in got["leaderboard"]} == set(models.split(","))
     assert 0.0 <= got["datasets"][0]["unpredictability"]["total"]["median"] <= 1.0
@@ -568,3 +574,27 @@ def test_bench_skips_a_useless_dataset_as_the_command_line_does(tmp_path):
     assert len(allowed["datasets"]) == 2 and "skipped" not in allowed
     with pytest.raises(drive.DriveError, match="allow_useless"):
         drive.bench(suite, models="naive", allow_useless="yes")
+
+
+def test_a_long_call_stops_on_ctrl_c_between_units_of_work():
+    """Ctrl-C (SIGINT) during `drive.bench` raises KeyboardInterrupt before the benchmark is
+    done: its work checks the signals between units; an exception from the progress
+    callback stops it likewise."""
+    import signal
+    import threading
+
+    calls = []
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            drive.bench(progress=lambda done, total: calls.append((done, total)))
+    finally:
+        timer.cancel()
+    assert not calls or calls[-1][0] < calls[-1][1], calls
+
+    def stop(done, total):
+        raise RuntimeError(f"stopped at {done} of {total}")
+
+    with pytest.raises(RuntimeError, match="stopped at"):
+        drive.bench(models="naive", transfer=False, progress=stop)

@@ -302,23 +302,65 @@ def evaluate(dataset, models=None, split=0.5, start=None):
     return _json.loads(_evaluate_json(dataset, models, float(split), start))
 
 
-def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False):
+def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False, progress=None):
     """The benchmark of `drive bench --json`, as a dict: the models (default: naive,
     powertrain, slip-blr, acc-blr, slip-ipem) on every dataset of the suite file `suite` (a
     path to a TOML file; every bundled dataset when None), each dataset's first `split` of
     the intervals training; the transfer between runs of the same robot unless `transfer` is
     False; the terrain's unpredictability; the leaderboard. A dataset the data checks call
     useless, or one no model can be fitted on, is skipped (`skipped`, with why) unless
-    `allow_useless` (`--allow-useless`) ranks the useless ones."""
+    `allow_useless` (`--allow-useless`) ranks the useless ones.
+
+    Ctrl-C raises KeyboardInterrupt within a fraction of a second (the work stops at its next
+    unit: a dataset's comparison or a transfer fit). `progress` is a callable given
+    `(done, total)` as units of work complete, or True for a tqdm bar (when tqdm is
+    installed; nothing otherwise)."""
     models = _model_names(models, split)
     for name, flag in (("transfer", transfer), ("allow_useless", allow_useless)):
         if not isinstance(flag, bool):
             raise DriveError(f"{name} must be True or False, got {flag!r}")
-    return _json.loads(
-        _reading(
-            lambda: _bench_json(suite, models, float(split), transfer, allow_useless), suite
+    with _progress(progress, "bench") as report:
+        return _json.loads(
+            _reading(
+                lambda: _bench_json(suite, models, float(split), transfer, allow_useless, report),
+                suite,
+            )
         )
-    )
+
+
+class _progress:
+    """`progress` as a call's progress argument: a callable as it is, True as a tqdm bar
+    (closed on exit; None when tqdm is not installed), None or False as None."""
+
+    def __init__(self, progress, what):
+        self.bar = None
+        if progress is None or progress is False:
+            self.report = None
+        elif progress is True:
+            try:
+                from tqdm.auto import tqdm
+            except ImportError:
+                self.report = None
+            else:
+                self.bar = tqdm(desc=what, unit="unit")
+                self.report = self._tqdm
+        elif callable(progress):
+            self.report = progress
+        else:
+            raise DriveError(f"progress must be a callable, True or None, got {progress!r}")
+
+    def _tqdm(self, done, total):
+        if total and self.bar.total != total:
+            self.bar.total = total
+        self.bar.update(done - self.bar.n)
+
+    def __enter__(self):
+        return self.report
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self.bar.close()
+        return False
 
 
 def adapt(prior, data, models=None, split=0.5, times=None):
