@@ -284,6 +284,30 @@ pub fn compare_specs(
     split: f64,
     specs: &[ModelSpec],
 ) -> Result<Comparison, CompareError> {
+    compare_specs_with_progress(data, split, specs, &|| {})
+}
+
+/// [`compare_specs`], calling `progress` after each model of `specs` is fitted and scored
+/// (for a progress bar, or to stop the work between models).
+///
+/// ```no_run
+/// # fn demo(data: &drive_traits::Dataset) -> Result<(), drive_studies::CompareError> {
+/// use drive_studies::{compare_specs_with_progress, Registries};
+/// let specs = Registries::builtin().models().resolve_list(&["naive", "slip-blr"]).unwrap();
+/// let done = std::sync::atomic::AtomicUsize::new(0);
+/// let tick = || {
+///     done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+/// };
+/// compare_specs_with_progress(data, 0.5, &specs, &tick)?;
+/// assert_eq!(done.into_inner(), 2);
+/// # Ok(()) }
+/// ```
+pub fn compare_specs_with_progress(
+    data: &Dataset,
+    split: f64,
+    specs: &[ModelSpec],
+    progress: &(dyn Fn() + Sync),
+) -> Result<Comparison, CompareError> {
     check_names(specs)?;
     let (train, eval) = split_by_interval(data, split)?;
     // The naive model is the reference of every improvement figure.
@@ -305,7 +329,7 @@ pub fn compare_specs(
         train: train.clone(),
         eval: eval.clone(),
     }];
-    let cells = run_cells(&setting, specs, true, &|| {});
+    let cells = run_cells(&setting, specs, true, progress);
     let mut models = Vec::new();
     for (spec, cell) in specs.iter().zip(cells) {
         let scored = cell.outcome.map_err(|reason| CompareError::Fit {

@@ -71,8 +71,8 @@ pub use closed_loop::{
     Training,
 };
 pub use comparison::{
-    check_names, compare, compare_specs, vehicle_type, CompareError, Comparison, ErrorSummary,
-    ModelResult, PairedImprovement, PhaseSummary,
+    check_names, compare, compare_specs, compare_specs_with_progress, vehicle_type, CompareError,
+    Comparison, ErrorSummary, ModelResult, PairedImprovement, PhaseSummary,
 };
 pub use convergence::{
     convergence, convergence_time, convergence_with, Convergence, ConvergenceConfig,

@@ -4,7 +4,7 @@
 use crate::args::{dataset_of, path_of, short_repr, type_name};
 use crate::err;
 use crate::interrupt::interruptible;
-use drive::studies::compare_specs;
+use drive::studies::compare_specs_with_progress;
 use drive::traits::StartInfo;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
@@ -43,12 +43,14 @@ pub(crate) fn model_names(models: Option<&Bound<'_, PyAny>>) -> PyResult<Option<
 
 /// The models (default: the paper's four) fitted on the first `split` of the dataset's
 /// intervals and scored on the rest, predicting from `start`: `drive eval`'s comparison.
+/// Stops between models on Ctrl-C; `progress(done, total)` after each model.
 fn comparison(
     py: Python<'_>,
     dataset: &Bound<'_, PyAny>,
     models: Option<&Bound<'_, PyAny>>,
     split: f64,
     start: Option<&Bound<'_, PyAny>>,
+    progress: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<drive::studies::Comparison> {
     let dataset = dataset_of(dataset)?;
     let start = start_info_of(start)?;
@@ -61,10 +63,11 @@ fn comparison(
     if names.is_empty() {
         return Err(err("models is empty"));
     }
-    // Its own copy of the data for the work's thread (a Ctrl-C returns at once, while the
-    // fits under way finish there).
+    // Its own copy of the data for the work's thread (a Ctrl-C returns at once, and the
+    // work stops once the fits under way are done).
     let data = dataset.inner.clone();
-    interruptible(py, None, move |_| {
+    let progress = progress.filter(|p| !p.is_none());
+    interruptible(py, progress, move |ticker| {
         let registries = crate::registries();
         let specs: Vec<_> = registries
             .models()
@@ -73,24 +76,27 @@ fn comparison(
             .into_iter()
             .map(|s| s.clone().with_uncertainty(s.uncertainty, start))
             .collect();
-        compare_specs(&data, split, &specs).map_err(|e| e.to_string())
+        ticker.set_total(specs.len());
+        compare_specs_with_progress(&data, split, &specs, &|| ticker.tick())
+            .map_err(|e| e.to_string())
     })?
     .map_err(err)
 }
 
 /// `drive eval --json` as a JSON text: the models (default: the paper's four) fitted on the
 /// first `split` of the intervals and scored on the rest, their predictions starting from
-/// `start` (`drive eval --start`).
+/// `start` (`drive eval --start`); `progress(done, total)` after each model.
 #[pyfunction]
-#[pyo3(signature = (dataset, models=None, split=0.5, start=None))]
+#[pyo3(signature = (dataset, models=None, split=0.5, start=None, progress=None))]
 pub(crate) fn evaluate_json(
     py: Python<'_>,
     dataset: &Bound<'_, PyAny>,
     models: Option<&Bound<'_, PyAny>>,
     split: f64,
     start: Option<&Bound<'_, PyAny>>,
+    progress: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<String> {
-    let cmp = comparison(py, dataset, models, split, start)?;
+    let cmp = comparison(py, dataset, models, split, start, progress)?;
     serde_json::to_string(&cmp).map_err(err)
 }
 
@@ -105,7 +111,7 @@ pub(crate) fn per_window_columns<'py>(
     split: f64,
     start: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let cmp = comparison(py, dataset, models, split, start)?;
+    let cmp = comparison(py, dataset, models, split, start, None)?;
     let rows = cmp
         .models
         .iter()

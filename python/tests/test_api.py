@@ -598,3 +598,10 @@ def test_a_long_call_stops_on_ctrl_c_between_units_of_work():
 
     with pytest.raises(RuntimeError, match="stopped at"):
         drive.bench(models="naive", transfer=False, progress=stop)
+
+
+def test_evaluate_reports_its_progress_model_by_model(husky):
+    calls = []
+    got = drive.evaluate(husky, ["naive", "slip-blr"], progress=lambda d, t: calls.append((d, t)))
+    assert [m["name"] for m in got["models"]] == ["naive", "slip-blr"]
+    assert calls and calls[-1] == (2, 2) and all(t == 2 for _, t in calls), calls

@@ -293,13 +293,16 @@ def _model_names(models, split):
     return None if models is None else list(models)
 
 
-def evaluate(dataset, models=None, split=0.5, start=None):
+def evaluate(dataset, models=None, split=0.5, start=None, progress=None):
     """The models (default: naive, powertrain, slip-blr, acc-blr) fitted on the first
     `split` of the dataset's intervals and scored on the rest, their predictions starting
     from `start` ("encoders", "encoders+imu" (the default) or "encoders+imu+localization",
-    as `drive eval --start`): the same dict as `drive eval --json`."""
+    as `drive eval --start`): the same dict as `drive eval --json`. Ctrl-C raises
+    KeyboardInterrupt at once (the work stops after the models under way); `progress` is a
+    callable given `(done, total)` as models complete, or True for a tqdm bar."""
     models = _model_names(models, split)
-    return _json.loads(_evaluate_json(dataset, models, float(split), start))
+    with _progress(progress, "evaluate") as report:
+        return _json.loads(_evaluate_json(dataset, models, float(split), start, report))
 
 
 def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False, progress=None):
