@@ -110,8 +110,15 @@ fn steps_as_it_predicts(name: &str, model: &dyn MotionModel, cases: &[(StartStat
     }
 }
 
-fn every_model_steps_as_it_predicts(data: &Dataset, uncertainties: &[Uncertainty]) {
-    let (train, _) = split_by_interval(data, 0.5).unwrap();
+/// [`steps_as_it_predicts`] for every registered model fitted with each of `uncertainties`
+/// on the first `train_share` of `data`'s intervals; a calibration asked of a model with a
+/// covariance is made (so that its stepping is the calibrated one).
+fn every_model_steps_as_it_predicts(
+    data: &Dataset,
+    uncertainties: &[Uncertainty],
+    train_share: f64,
+) {
+    let (train, _) = split_by_interval(data, train_share).unwrap();
     // The richest start: slip-ipem's lagging velocity and yaw disturbance both read it.
     let start = StartInfo::EncodersImuLocalization;
     let cases = cases(data, start, 6);
@@ -125,6 +132,17 @@ fn every_model_steps_as_it_predicts(data: &Dataset, uncertainties: &[Uncertainty
                 data.robot.name
             );
             let model = spec.fit(&train).unwrap_or_else(|e| panic!("{name}: {e}"));
+            if uncertainty == Uncertainty::Calibrated {
+                let (start, commands) = &cases[0];
+                let has_covariance = model
+                    .predict_with_covariance_into(start, commands, &mut Vec::new(), &mut Vec::new())
+                    .is_ok();
+                assert!(
+                    !has_covariance || model.typetag_name() == "calibrated",
+                    "{name}: not calibrated ({})",
+                    model.typetag_name()
+                );
+            }
             steps_as_it_predicts(&name, model.as_ref(), &cases);
         }
     }
@@ -132,15 +150,21 @@ fn every_model_steps_as_it_predicts(data: &Dataset, uncertainties: &[Uncertainty
 
 #[test]
 fn every_model_steps_as_it_predicts_on_a_skid_steer() {
+    // Fitted on the first quarter of the intervals (50 of them): enough for every fit and
+    // calibration, half the fitting time of the training half.
     let data = drive::bundled::husky().unwrap();
-    every_model_steps_as_it_predicts(&data, &[Uncertainty::Paper, Uncertainty::Calibrated]);
+    every_model_steps_as_it_predicts(&data, &[Uncertainty::Paper, Uncertainty::Calibrated], 0.25);
 }
 
 #[test]
 fn every_model_steps_as_it_predicts_on_a_car_and_an_omnidirectional_base() {
     for robot in ["autorally", "ridgeback"] {
         let data = simulated(robot, 150);
-        every_model_steps_as_it_predicts(&data, &[Uncertainty::Paper, Uncertainty::Calibrated]);
+        every_model_steps_as_it_predicts(
+            &data,
+            &[Uncertainty::Paper, Uncertainty::Calibrated],
+            0.5,
+        );
     }
 }
 
