@@ -14,8 +14,10 @@ use crate::ReportError;
 use drive_studies::Bench;
 use std::fmt::Write as _;
 
+mod adaptation;
 mod plots;
 mod text;
+pub use adaptation::adapt_csv;
 pub use plots::figure_svg;
 use plots::{figure_list, numbered};
 pub use text::text;
@@ -29,7 +31,7 @@ pub use text::text;
 /// # Ok(()) }
 /// ```
 pub fn files(bench: &Bench) -> Result<Vec<(&'static str, String)>, ReportError> {
-    Ok(vec![
+    let mut files = vec![
         ("bench.md", markdown(bench)),
         ("bench.html", html(bench)?),
         ("datasets.csv", datasets_csv(bench)),
@@ -41,7 +43,11 @@ pub fn files(bench: &Bench) -> Result<Vec<(&'static str, String)>, ReportError> 
             serde_json::to_string_pretty(bench).map_err(|e| ReportError::Draw(e.to_string()))?
                 + "\n",
         ),
-    ])
+    ];
+    if let Some(a) = &bench.adaptation {
+        files.push(("adapt.csv", adapt_csv(a)));
+    }
+    Ok(files)
 }
 
 /// A CSV field: quoted when it holds a comma, a quote or a line break.
@@ -251,14 +257,29 @@ pub fn markdown(b: &Bench) -> String {
         "Mean rank over the datasets (translational and rotational ranks averaged, 1 best); wins: datasets where the model beats slip-BLR with the interval above 0 in both, in translation, in rotation; losses: datasets where slip-BLR beats it in either (only datasets of {} evaluation intervals or more count: with fewer, every resample draws the same few); ratio: geometric mean of the median's ratio to slip-BLR's; growth: mean over the datasets of the Spearman correlation of a window's error with its unpredictability.\n",
         b.min_evidence_intervals
     );
+    // With the adaptation track: its adaptive model over its own fit after 60 s.
+    let adapted = b.adaptation.is_some();
     let _ = writeln!(
         s,
-        "| # | model | mean rank | wins (both / t / r) | losses | ratio t | ratio r | growth t | growth r |\n|---|---|---|---|---|---|---|---|---|"
+        "| # | model | mean rank | wins (both / t / r) | losses | ratio t | ratio r | growth t | growth r |{}\n|---|---|---|---|---|---|---|---|---|{}",
+        if adapted { " adapted / own, 60 s |" } else { "" },
+        if adapted { "---|" } else { "" }
     );
     for (i, r) in b.leaderboard.iter().enumerate() {
+        let adapt_cell = if adapted {
+            format!(
+                " {} |",
+                r.adaptive_over_own_60s.map_or("-".into(), |a| format!(
+                    "{:.3} / {:.3}",
+                    a.translational, a.rotational
+                ))
+            )
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             s,
-            "| {} | {} | {:.2} | {} / {} / {} | {} | {:.3} | {:.3} | {} | {} |",
+            "| {} | {} | {:.2} | {} / {} / {} | {} | {:.3} | {:.3} | {} | {} |{adapt_cell}",
             i + 1,
             r.model,
             r.mean_rank,
@@ -419,6 +440,9 @@ pub fn markdown(b: &Bench) -> String {
             md(&skipped.dataset),
             md(&skipped.reason)
         );
+    }
+    if let Some(a) = &b.adaptation {
+        s.push_str(&adaptation::markdown(a, md));
     }
     let _ = writeln!(s, "\n## Error against the unpredictability\n");
     let _ = writeln!(

@@ -343,6 +343,18 @@ pub fn adapt(
     models: &[ModelSpec],
     study: &AdaptStudy,
 ) -> Result<Adaptation, ExperimentError> {
+    adapt_with(Some(registries), prior, target, models, study)
+}
+
+/// [`adapt`]; `registries` tells a model-file prior's own kind (to refuse other models
+/// beside it), and is not needed for a dataset's prior.
+pub(crate) fn adapt_with(
+    registries: Option<&Registries>,
+    prior: &AdaptPrior<'_>,
+    target: &Dataset,
+    models: &[ModelSpec],
+    study: &AdaptStudy,
+) -> Result<Adaptation, ExperimentError> {
     if models.is_empty() {
         return Err(ExperimentError::Empty("models"));
     }
@@ -421,7 +433,7 @@ pub fn adapt(
             }
             // The model fitted from scratch, on the target and refitted beside it is the
             // prior's own kind.
-            if let Ok(own) = registries.models().resolve(&m.name()) {
+            if let Some(Ok(own)) = registries.map(|r| r.models().resolve(&m.name())) {
                 if let Some(other) = models.iter().find(|s| s.canonical() != own.canonical()) {
                     return incompatible(format!(
                         "the prior is a {} model: the models fitted from scratch, on the target and refitted beside it must be the same, not {}",

@@ -26,7 +26,9 @@ use rayon::prelude::*;
 use std::collections::{BTreeMap, HashMap};
 use thiserror::Error;
 
+mod adaptation;
 mod results;
+pub use adaptation::{AdaptPair, AdaptSummary, BenchAdaptation, LEADERBOARD_ADAPT_T_S};
 pub use results::{
     Bench, BenchDataset, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,
     SkippedDataset, TransferCell, TransferGroup, TransferSummary, UnpairedRobot,
@@ -71,6 +73,9 @@ pub struct BenchConfig {
     /// Rank a dataset the data checks call useless (a fatal finding of
     /// [`drive_data::quality::check`], as `drive check` exits 1 on) instead of skipping it.
     pub allow_useless: bool,
+    /// Run the adaptation track (`drive bench --adapt`) with these settings: every model
+    /// fitted on one run adapting to another of the same robot, as `drive adapt`.
+    pub adapt: Option<crate::AdaptStudy>,
 }
 
 impl Default for BenchConfig {
@@ -81,6 +86,7 @@ impl Default for BenchConfig {
             unpredictability: UnpredictabilityConfig::default(),
             min_evidence_intervals: 10,
             allow_useless: false,
+            adapt: None,
         }
     }
 }
@@ -123,14 +129,22 @@ pub enum BenchError {
 /// The work units of a benchmark (for a progress bar): one per dataset's comparison, one
 /// per transfer fit, one per transfer score.
 pub fn bench_units(inputs: &[BenchInput], models: usize, config: &BenchConfig) -> usize {
-    if !config.transfer {
+    if !config.transfer && config.adapt.is_none() {
         return inputs.len();
     }
     let pairs = transfer_pairs(inputs).0;
+    let adapted = if config.adapt.is_some() {
+        pairs.len() * models
+    } else {
+        0
+    };
+    if !config.transfer {
+        return inputs.len() + adapted;
+    }
     let mut trained: Vec<usize> = pairs.iter().map(|p| p.0).collect();
     trained.sort_unstable();
     trained.dedup();
-    inputs.len() + (trained.len() + pairs.len()) * models
+    inputs.len() + (trained.len() + pairs.len()) * models + adapted
 }
 
 /// The ordered pairs (train, test) of datasets of the same robot that can be compared, and
@@ -516,8 +530,17 @@ pub fn run_bench(
             .collect();
         &kept[..]
     };
-    let (pairs, transfer_skipped) = if config.transfer {
+    let (pairs, transfer_skipped) = if config.transfer || config.adapt.is_some() {
         transfer_pairs(inputs)
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    let adaptation = config
+        .adapt
+        .as_ref()
+        .map(|study| adaptation::adaptation(inputs, specs, study, &pairs, progress));
+    let (pairs, transfer_skipped) = if config.transfer {
+        (pairs, transfer_skipped)
     } else {
         (Vec::new(), Vec::new())
     };
@@ -531,7 +554,7 @@ pub fn run_bench(
         .iter()
         .map(|spec| summarize_transfer(&spec.name, &transfer))
         .collect();
-    let leaderboard = leaderboard(specs, &datasets);
+    let leaderboard = leaderboard(specs, &datasets, adaptation.as_ref());
     Ok(Bench {
         split: config.split,
         model_names: specs.iter().map(|s| s.name.clone()).collect(),
@@ -546,6 +569,7 @@ pub fn run_bench(
         transfer_skipped,
         transfer_unpaired,
         skipped,
+        adaptation,
     })
 }
 
@@ -675,7 +699,11 @@ fn summarize_transfer(model: &str, cells: &[TransferCell]) -> TransferSummary {
     }
 }
 
-fn leaderboard(specs: &[ModelSpec], datasets: &[BenchDataset]) -> Vec<LeaderboardRow> {
+fn leaderboard(
+    specs: &[ModelSpec],
+    datasets: &[BenchDataset],
+    adaptation: Option<&BenchAdaptation>,
+) -> Vec<LeaderboardRow> {
     let mut rows: Vec<LeaderboardRow> = specs
         .iter()
         .enumerate()
@@ -733,6 +761,12 @@ fn leaderboard(specs: &[ModelSpec], datasets: &[BenchDataset]) -> Vec<Leaderboar
                             .collect(),
                     ),
                 ],
+                adaptive_over_own_60s: adaptation.and_then(|a| {
+                    a.summary
+                        .iter()
+                        .find(|s| s.model == spec.name && s.t_s == LEADERBOARD_ADAPT_T_S)
+                        .and_then(|s| s.adaptive_over_own)
+                }),
             }
         })
         .collect();

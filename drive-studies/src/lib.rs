@@ -62,9 +62,10 @@ pub use adapt::{
     REFIT_MIN_SCORED,
 };
 pub use bench::{
-    bench_units, run_bench, terrain_known, Bench, BenchConfig, BenchDataset, BenchError,
-    BenchInput, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,
-    SkippedDataset, TransferCell, TransferGroup, TransferSummary, UnpredictabilityBin,
+    bench_units, run_bench, terrain_known, AdaptPair, AdaptSummary, Bench, BenchAdaptation,
+    BenchConfig, BenchDataset, BenchError, BenchInput, BenchModel, BenchUnpredictability,
+    ErrorGrowth, LeaderboardRow, Ratio, SkippedDataset, TransferCell, TransferGroup,
+    TransferSummary, UnpredictabilityBin, LEADERBOARD_ADAPT_T_S,
 };
 pub use closed_loop::{
     run_track, PathChoice, PlacedPath, TrackError, TrackResult, TrackRun, TrackStudy, TrackSummary,

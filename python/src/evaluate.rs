@@ -141,9 +141,11 @@ pub(crate) fn per_window_columns<'py>(
 /// None), each split at `split`, with the transfer between runs of one robot unless
 /// `transfer` is false; datasets the data checks call useless ranked when `allow_useless`.
 /// Stops on Ctrl-C (`KeyboardInterrupt`); `progress(done, total)` is called as the units of
-/// work complete.
+/// work complete. `adapt` (seconds of each target's training half) runs the adaptation
+/// track (`--adapt --adapt-times`).
 #[pyfunction]
-#[pyo3(signature = (suite=None, models=None, split=0.5, transfer=true, allow_useless=false, progress=None))]
+#[pyo3(signature = (suite=None, models=None, split=0.5, transfer=true, allow_useless=false, progress=None, adapt=None))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn bench_json(
     py: Python<'_>,
     suite: Option<&Bound<'_, PyAny>>,
@@ -152,7 +154,15 @@ pub(crate) fn bench_json(
     transfer: bool,
     allow_useless: bool,
     progress: Option<&Bound<'_, PyAny>>,
+    adapt: Option<Vec<f64>>,
 ) -> PyResult<String> {
+    if let Some(times) = &adapt {
+        if times.len() > 100 || times.iter().any(|t| !(t.is_finite() && *t >= 0.0)) {
+            return Err(err(
+                "adapt must be at most 100 seconds from 0 on (finite, not negative)",
+            ));
+        }
+    }
     let suite = suite
         .filter(|p| !p.is_none())
         .map(|p| path_of("suite", p))
@@ -190,6 +200,11 @@ pub(crate) fn bench_json(
             split,
             transfer,
             allow_useless,
+            adapt: adapt.map(|times_s| drive::studies::AdaptStudy {
+                split,
+                times_s,
+                ..Default::default()
+            }),
             ..Default::default()
         };
         ticker.set_total(drive::studies::bench_units(&inputs, specs.len(), &config));

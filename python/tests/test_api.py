@@ -84,6 +84,26 @@ def test_bench_equals_drive_bench_json(tmp_path):
         drive.bench(bad)
 
 
+def test_bench_adapt_equals_drive_bench_adapt(tmp_path):
+    suite = tmp_path / "suite.toml"
+    suite.write_text(
+        '[[dataset]]\nbundled = "warthog_grass_2024-08-08"\n'
+        '[[dataset]]\nbundled = "warthog_asphalt_slow_2024-08-08"\n'
+    )
+    expected = json.loads(
+        cli(
+            "bench", "--suite", suite, "--json", "--models", "slip-blr", "--no-transfer",
+            "--adapt", "--adapt-times", "0,30",
+        ).stdout
+    )
+    got = drive.bench(str(suite), models="slip-blr", transfer=False, adapt=[0, 30])
+    close(got, expected)
+    assert len(got["adaptation"]["pairs"]) == 2
+    assert "adaptation" not in drive.bench(str(suite), models="slip-blr", transfer=False)
+    with pytest.raises(drive.DriveError, match="adapt must be"):
+        drive.bench(str(suite), models="slip-blr", adapt="yes")
+
+
 def test_adapt_equals_drive_adapt_json(tmp_path):
     """drive.adapt with a dataset prior and with a fitted model as the prior: the dicts of
     `drive adapt --json` with the same prior (a dataset, a model file)."""

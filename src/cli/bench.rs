@@ -33,6 +33,23 @@ pub struct Args {
     /// localization, a dead encoder, ...) instead of skipping it.
     #[arg(long)]
     allow_useless: bool,
+    /// Also run the adaptation track: for every ordered pair of runs of one robot, each
+    /// model fitted on all of the first adapts to the second as `drive adapt` (its training
+    /// half streamed in time order, its evaluation half scored after each of
+    /// --adapt-times); the JSON's `adaptation` and the leaderboard's
+    /// `adaptive_over_own_60s`. Models that are not composed of a powertrain and a slip
+    /// model are listed as skipped.
+    #[arg(long)]
+    adapt: bool,
+    /// The adaptation track's times, s of each target's training half, comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0,15,30,60,120,240",
+        allow_hyphen_values = true,
+        requires = "adapt"
+    )]
+    adapt_times: Vec<f64>,
     /// Print one JSON object on stdout instead of the tables.
     #[arg(long)]
     json: bool,
@@ -53,6 +70,9 @@ const FILES: [&str; 7] = [
     "windows.csv",
     "bench.json",
 ];
+
+/// The file of `--out` the adaptation track adds (`--adapt`).
+const ADAPT_FILE: &str = "adapt.csv";
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let entries = match &args.suite {
@@ -89,7 +109,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let files: Vec<PathBuf> = args
         .out
         .iter()
-        .flat_map(|dir| FILES.iter().map(move |f| dir.join(f)))
+        .flat_map(|dir| {
+            FILES
+                .iter()
+                .chain(args.adapt.then_some(&ADAPT_FILE))
+                .map(move |f| dir.join(f))
+        })
         .collect();
     let mut planned: Vec<(&str, &Path)> = Vec::new();
     if let Some(dir) = &args.out {
@@ -107,10 +132,23 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         Some(e) => crate::suite::load(registries, e)?,
         None => crate::suite::bundled(registries)?,
     };
+    crate::traits::limits::at_most("--adapt-times", args.adapt_times.len() as f64, 100.0, "")?;
+    if let Some(t) = args
+        .adapt_times
+        .iter()
+        .find(|t| !(t.is_finite() && **t >= 0.0))
+    {
+        bail!("--adapt-times are seconds from 0 on, got {t}");
+    }
     let config = BenchConfig {
         split: args.split,
         transfer: !args.no_transfer,
         allow_useless: args.allow_useless,
+        adapt: args.adapt.then(|| crate::studies::AdaptStudy {
+            split: args.split,
+            times_s: args.adapt_times.clone(),
+            ..Default::default()
+        }),
         ..BenchConfig::default()
     };
     let progress = Progress::new("bench");
@@ -138,7 +176,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             bench.model_names.len(),
             progress.start.elapsed().as_secs_f64(),
             dir.display(),
-            FILES.join(", ")
+            FILES
+                .iter()
+                .chain(bench.adaptation.is_some().then_some(&ADAPT_FILE))
+                .copied()
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     }
     Ok(())

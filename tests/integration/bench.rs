@@ -638,3 +638,118 @@ fn runs_are_paired_by_the_registered_robot_their_sidecar_names_and_a_lone_robot_
         .unwrap()
         .contains("only one dataset"));
 }
+
+#[test]
+fn the_adaptation_track_gives_each_pair_the_curves_of_drive_adapt_and_names_what_cannot_adapt() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let suite = d.join("suite.toml");
+    std::fs::write(
+        &suite,
+        "[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\n\
+         [[dataset]]\nbundled = \"warthog_asphalt_slow_2024-08-08\"\n",
+    )
+    .unwrap();
+    let out = d.join("out");
+    let v: Value = serde_json::from_str(&ok(&[
+        "bench",
+        "--suite",
+        s(&suite),
+        "--models",
+        "slip-blr,acc-blr",
+        "--no-transfer",
+        "--adapt",
+        "--adapt-times",
+        "0,30,60",
+        "--json",
+        "--out",
+        s(&out),
+    ]))
+    .unwrap();
+    assert!(out.join("adapt.csv").is_file());
+    let a = &v["adaptation"];
+    // Both ordered pairs, slip-BLR only: acc-BLR is not composed of a powertrain and a slip
+    // model, and is named once.
+    let pairs = a["pairs"].as_array().unwrap();
+    assert_eq!(pairs.len(), 2, "{a}");
+    let skipped = a["skipped"].as_array().unwrap();
+    assert_eq!(skipped.len(), 1, "{skipped:?}");
+    assert!(skipped[0].as_str().unwrap().starts_with("acc-blr: "));
+    // Each pair's curves are those of drive adapt on the same two runs.
+    for p in pairs {
+        let (prior, target) = (p["prior"].as_str().unwrap(), p["target"].as_str().unwrap());
+        let alone: Value = serde_json::from_str(&ok(&[
+            "adapt",
+            "--prior",
+            &format!("bundled:{prior}"),
+            "--data",
+            &format!("bundled:{target}"),
+            "--models",
+            "slip-blr",
+            "--times",
+            "0,30,60",
+            "--json",
+        ]))
+        .unwrap();
+        assert_eq!(p["curve"], alone["curve"], "{prior} -> {target}");
+        assert_eq!(p["same_terrain"], false);
+    }
+    // The summary: the medians over the pairs of each pair's ratios; at t = 0 the adaptive
+    // model is the prior.
+    let ratio = |p: &Value, t: f64, of: &str, axis: &str| {
+        let at = |m: &str| {
+            p["curve"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|c| c["model"] == m && c["t_s"].as_f64() == Some(t))
+                .unwrap()[axis]
+                .as_f64()
+                .unwrap()
+        };
+        at("adaptive") / at(of)
+    };
+    let summary = a["summary"].as_array().unwrap();
+    assert_eq!(summary.len(), 3);
+    for row in summary {
+        assert_eq!(row["model"], "slip-blr");
+        assert_eq!(row["pairs"], 2);
+        let t = row["t_s"].as_f64().unwrap();
+        for (field, axis) in [
+            ("translational", "translational_median_m"),
+            ("rotational", "rotational_median_rad"),
+        ] {
+            let want = 0.5 * (ratio(&pairs[0], t, "own", axis) + ratio(&pairs[1], t, "own", axis));
+            let got = row["adaptive_over_own"][field].as_f64().unwrap();
+            assert!((got - want).abs() < 1e-12, "{t} {field}: {got} {want}");
+        }
+        if t == 0.0 {
+            assert_eq!(row["adaptive_over_frozen"]["translational"], 1.0);
+            assert!(row["adaptive_over_scratch"].is_null());
+        }
+    }
+    // The leaderboard quotes the ratio to the own fit after 60 s.
+    let board = v["leaderboard"].as_array().unwrap();
+    let blr = board.iter().find(|r| r["model"] == "slip-blr").unwrap();
+    assert_eq!(
+        blr["adaptive_over_own_60s"],
+        summary[2]["adaptive_over_own"]
+    );
+    let acc = board.iter().find(|r| r["model"] == "acc-blr").unwrap();
+    assert!(acc.get("adaptive_over_own_60s").is_none());
+    // Without --adapt, no trace of the track.
+    let plain = ok(&[
+        "bench",
+        "--suite",
+        s(&suite),
+        "--models",
+        "slip-blr",
+        "--no-transfer",
+        "--json",
+    ]);
+    assert!(!plain.contains("adapt"), "{plain}");
+    // --adapt-times without --adapt is refused, naming what it needs.
+    let alone = common::drive(&["bench", "--adapt-times", "0,30"]);
+    assert!(!alone.status.success());
+    assert!(String::from_utf8_lossy(&alone.stderr).contains("--adapt"));
+}

@@ -206,22 +206,44 @@ pub fn text(b: &Bench, transfer: bool) -> String {
             );
         }
     }
+    if let Some(a) = &b.adaptation {
+        s.push_str(&super::adaptation::text(a));
+    }
     let _ = writeln!(
         s,
         "\nleaderboard over {} datasets: mean rank (1 best; translational and rotational ranks averaged), datasets where the model beats slip-BLR with the 95% interval above 0 (both / translation / rotation) or loses to it (datasets of {} evaluation intervals or more), geometric mean of the median's ratio to slip-BLR's, mean Spearman correlation of the window errors with the windows' unpredictability",
         b.datasets.len(),
         b.min_evidence_intervals
     );
+    let adapted = b.adaptation.is_some();
     let _ = writeln!(
         s,
-        "  {:<mw$}{:>9}  {:>14}  {:>6}  {:>8}  {:>8}  {:>13}",
-        "model", "mean rank", "wins (b/t/r)", "losses", "ratio t", "ratio r", "growth t / r"
+        "  {:<mw$}{:>9}  {:>14}  {:>6}  {:>8}  {:>8}  {:>13}{}",
+        "model",
+        "mean rank",
+        "wins (b/t/r)",
+        "losses",
+        "ratio t",
+        "ratio r",
+        "growth t / r",
+        if adapted { "  adapted / own, 60 s" } else { "" }
     );
     for r in &b.leaderboard {
         let growth = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:+.2}"));
+        let adapt_cell = if adapted {
+            format!(
+                "  {}",
+                r.adaptive_over_own_60s.map_or("-".into(), |a| format!(
+                    "{:.3} / {:.3}",
+                    a.translational, a.rotational
+                ))
+            )
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             s,
-            "  {:<mw$}{:>9.2}  {:>14}  {:>6}  {:>8.3}  {:>8.3}  {:>13}",
+            "  {:<mw$}{:>9.2}  {:>14}  {:>6}  {:>8.3}  {:>8.3}  {:>13}{adapt_cell}",
             r.model,
             r.mean_rank,
             format!(

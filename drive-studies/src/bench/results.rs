@@ -244,6 +244,11 @@ pub struct LeaderboardRow {
     /// Mean over the datasets of the Spearman correlation of its window errors with the
     /// windows' unpredictability (translational, rotational).
     pub error_growth_spearman: [Option<f64>; 2],
+    /// With the adaptation track (`drive bench --adapt`): the median over the pairs of its
+    /// adapted model's error over the model fitted on the target run itself, after 60 s
+    /// of the target's driving; absent without the track or where no pair reaches 60 s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptive_over_own_60s: Option<Ratio>,
 }
 
 /// A benchmark's results.
@@ -274,6 +279,9 @@ pub struct Bench {
     /// compared on them), with why; absent from the JSON when none was.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub skipped: Vec<SkippedDataset>,
+    /// The adaptation track (`drive bench --adapt`); absent from the JSON without it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptation: Option<super::BenchAdaptation>,
 }
 
 /// A dataset a benchmark skipped, and why.

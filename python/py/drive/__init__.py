@@ -305,7 +305,7 @@ def evaluate(dataset, models=None, split=0.5, start=None, progress=None):
         return _json.loads(_evaluate_json(dataset, models, float(split), start, report))
 
 
-def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False, progress=None):
+def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False, progress=None, adapt=False):
     """The benchmark of `drive bench --json`, as a dict: the models (default: naive,
     powertrain, slip-blr, acc-blr, slip-ipem) on every dataset of the suite file `suite` (a
     path to a TOML file; every bundled dataset when None), each dataset's first `split` of
@@ -317,15 +317,30 @@ def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False
     Ctrl-C raises KeyboardInterrupt within a fraction of a second (the work stops at its next
     unit: a dataset's comparison or a transfer fit). `progress` is a callable given
     `(done, total)` as units of work complete, or True for a tqdm bar (when tqdm is
-    installed; nothing otherwise)."""
+    installed; nothing otherwise).
+
+    `adapt` runs the adaptation track (`drive bench --adapt`, the dict's `adaptation`):
+    True for the times 0, 15, 30, 60, 120 and 240 s, or a sequence of seconds of each
+    target's training half."""
     models = _model_names(models, split)
     for name, flag in (("transfer", transfer), ("allow_useless", allow_useless)):
         if not isinstance(flag, bool):
             raise DriveError(f"{name} must be True or False, got {flag!r}")
+    if adapt is True:
+        adapt = [0.0, 15.0, 30.0, 60.0, 120.0, 240.0]
+    elif adapt is False or adapt is None:
+        adapt = None
+    elif isinstance(adapt, (str, bytes)) or not hasattr(adapt, "__iter__"):
+        raise DriveError(f"adapt must be True, False or a sequence of seconds, got {adapt!r}")
+    else:
+        try:
+            adapt = [float(t) for t in adapt]
+        except (TypeError, ValueError):
+            raise DriveError(f"adapt must be True, False or a sequence of seconds, got {adapt!r}") from None
     with _progress(progress, "bench") as report:
         return _json.loads(
             _reading(
-                lambda: _bench_json(suite, models, float(split), transfer, allow_useless, report),
+                lambda: _bench_json(suite, models, float(split), transfer, allow_useless, report, adapt),
                 suite,
             )
         )
