@@ -224,6 +224,22 @@ pub fn text(r: &TrackResult) -> String {
         if seeds.len() == 1 { "" } else { "s, means over them" }
     );
     let _ = writeln!(s, "simulator: {}", r.simulator);
+    let changes = !r.ground_changes.is_empty();
+    if changes {
+        let _ = writeln!(
+            s,
+            "ground along the path: {}{}; after change: the cross-track RMS from the first change on",
+            r.terrain,
+            r.ground_changes
+                .iter()
+                .map(|c| format!(
+                    ", then {} from {}% of the path",
+                    c.terrain,
+                    drive_traits::limits::Short(100.0 * c.at)
+                ))
+                .collect::<String>()
+        );
+    }
     let mut last = None;
     for x in &r.summary {
         let key = (x.train.clone(), x.path.clone(), x.speed_fraction);
@@ -271,6 +287,10 @@ pub fn text(r: &TrackResult) -> String {
                 format!("vs {}", r.models.first().map_or("", String::as_str)),
                 "vs powertrain"
             );
+            if changes {
+                s.pop();
+                s.push_str("   after change\n");
+            }
             last = Some(key);
         }
         let _ = writeln!(
@@ -290,6 +310,15 @@ pub fn text(r: &TrackResult) -> String {
             x.improvement_over_powertrain_percent
                 .map_or("-".into(), |p| format!("{p:+.1}%"))
         );
+        if changes {
+            s.pop();
+            let _ = writeln!(
+                s,
+                " {:>12}",
+                x.cross_track_rms_after_change_m
+                    .map_or("-".into(), |v| format!("{v:.3} m"))
+            );
+        }
     }
     let ticks: Vec<f64> = {
         let mut t: Vec<f64> = r.runs.iter().map(|x| x.tick_ms_median).collect();

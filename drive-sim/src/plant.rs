@@ -41,6 +41,17 @@ pub trait Plant: Send {
     fn true_pose(&self) -> Option<Pose> {
         None
     }
+    /// Drives on from now on `ground` (a ground that changes along the way: `drive track
+    /// --terrains`): its grip, slip and resistances replace the plant's, while the robot
+    /// (its powertrain, controller, sensors and contact spread, a twin's included) stays
+    /// the one the plant was made with. An error for a plant that keeps one ground (the
+    /// default), saying so.
+    fn change_ground(&mut self, ground: &Terrain) -> Result<(), String> {
+        Err(format!(
+            "this simulator keeps the ground it was made with (cannot drive onto '{}')",
+            ground.name
+        ))
+    }
 }
 
 /// Builds the plant of a robot on a terrain, seeded: what the simulator registry holds, by

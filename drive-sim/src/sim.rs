@@ -211,4 +211,25 @@ impl Plant for Simulator {
     fn true_pose(&self) -> Option<Pose> {
         Some(self.instruments.mounted(&self.state.pose))
     }
+    fn change_ground(&mut self, ground: &Terrain) -> Result<(), String> {
+        let t = &mut self.terrain;
+        t.name.clone_from(&ground.name);
+        t.traction = ground.traction;
+        t.slip_modulus = ground.slip_modulus;
+        t.lateral_slip_modulus = ground.lateral_slip_modulus;
+        t.lateral = ground.lateral;
+        t.rolling = ground.rolling;
+        t.variability = ground.variability;
+        t.turn_stall = ground.turn_stall;
+        self.ground.clone_from(&self.terrain);
+        // The new ground's grip drawn from its processes' stationary distributions, as a
+        // plant made on it starts.
+        let rng = &mut self.grip_rng;
+        self.grip = ground.variability.map_or([0.0; 3], |v| {
+            v.deviations().map(|sd| sd * standard_normal(rng))
+        });
+        let seed = standard_normal(rng).to_bits();
+        self.stall = ground.turn_stall.map(|s| StallState::new(s, seed));
+        Ok(())
+    }
 }

@@ -68,8 +68,8 @@ pub use bench::{
     TransferSummary, UnpredictabilityBin, LEADERBOARD_ADAPT_T_S,
 };
 pub use closed_loop::{
-    run_track, PathChoice, PlacedPath, TrackError, TrackResult, TrackRun, TrackStudy, TrackSummary,
-    Training,
+    run_track, GroundChange, GroundChangeAt, PathChoice, PlacedPath, TrackError, TrackResult,
+    TrackRun, TrackStudy, TrackSummary, Training,
 };
 pub use comparison::{
     check_names, compare, compare_specs, compare_specs_with_progress, vehicle_type, CompareError,

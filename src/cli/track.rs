@@ -23,6 +23,12 @@ pub struct Args {
     /// The ground: a registered terrain, or a twin's terrain file (`drive sim-fit`).
     #[arg(long, default_value = "gravel")]
     terrain: String,
+    /// A ground that changes along the path, comma-separated (registered terrains or
+    /// twins' terrain files): the path cut into as many equal stretches, the first
+    /// driven on the first ground (the robot's, as --terrain), each next one on the next.
+    /// The JSON's runs and summary add `cross_track_rms_after_change_m`.
+    #[arg(long, value_delimiter = ',', conflicts_with = "terrain")]
+    terrains: Vec<String>,
     /// Window CSVs (or bundled:NAME) to fit the models on, every window of each,
     /// comma-separated; recorded with the robot.
     #[arg(long, value_delimiter = ',')]
@@ -146,7 +152,26 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         );
     }
     let robot = registries.robot(&args.robot)?;
-    let terrain = registries.terrain(&args.terrain)?;
+    if args.terrains.len() == 1 {
+        bail!(
+            "--terrains {} names one ground: give the grounds the path crosses, in order (two or more), or use --terrain",
+            args.terrains[0]
+        );
+    }
+    let terrain = registries.terrain(args.terrains.first().unwrap_or(&args.terrain))?;
+    let stretches = args.terrains.len();
+    let ground_changes = args
+        .terrains
+        .iter()
+        .enumerate()
+        .skip(1)
+        .map(|(i, name)| {
+            Ok(crate::studies::GroundChange {
+                at: i as f64 / stretches as f64,
+                terrain: registries.terrain(name)?,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
     let start = crate::traits::StartInfo::parse(&args.start).map_err(anyhow::Error::msg)?;
     // Model names, and model files driven as they are.
     let mut models = Vec::new();
@@ -174,6 +199,9 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let mut inputs: Vec<(&'static str, PathBuf)> = Vec::new();
     inputs.extend(super::common::robot_input(&args.robot));
     inputs.extend(super::common::terrain_input("--terrain", &args.terrain));
+    for t in &args.terrains {
+        inputs.extend(super::common::terrain_input("--terrains", t));
+    }
     if let Some(f) = &args.mppi_config {
         inputs.push(("--mppi-config", f.clone()));
     }
@@ -282,6 +310,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         controller,
         time_limit_s: args.time_limit,
         history_s: args.history,
+        ground_changes,
     };
     let total = study.models.len()
         * study.training.len()

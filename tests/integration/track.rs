@@ -501,3 +501,76 @@ fn a_model_file_is_driven_as_it_is_beside_models_fitted_on_each_training_source(
     ]);
     assert!(e.contains("missing-model.json"), "{e}");
 }
+
+#[test]
+fn a_ground_that_changes_along_the_path_is_driven_and_scored_after_the_change() {
+    let track = |terrains: &str| -> serde_json::Value {
+        serde_json::from_str(&ok(&[
+            "track",
+            "--terrains",
+            terrains,
+            "--train-data",
+            "bundled:husky_drive",
+            "--path",
+            "line",
+            "--models",
+            "powertrain",
+            "--json",
+        ]))
+        .unwrap()
+    };
+    let changed = track("tile,snow");
+    assert_eq!(changed["terrain"], "tile");
+    assert_eq!(
+        changed["ground_changes"],
+        serde_json::json!([{"at": 0.5, "terrain": "snow"}])
+    );
+    let run = &changed["runs"][0];
+    let after = run["cross_track_rms_after_change_m"].as_f64().unwrap();
+    assert!(after.is_finite() && after >= 0.0, "{run}");
+    assert_eq!(
+        changed["summary"][0]["cross_track_rms_after_change_m"].as_f64(),
+        Some(after)
+    );
+    // The ground does change (the same model drives otherwise after it); without a
+    // change, no trace of one.
+    let plain: serde_json::Value = serde_json::from_str(&ok(&[
+        "track",
+        "--terrain",
+        "tile",
+        "--train-data",
+        "bundled:husky_drive",
+        "--path",
+        "line",
+        "--models",
+        "powertrain",
+        "--json",
+    ]))
+    .unwrap();
+    assert_ne!(
+        run["cross_track_rms_m"],
+        plain["runs"][0]["cross_track_rms_m"]
+    );
+    assert_eq!(run["model"], plain["runs"][0]["model"]);
+    assert!(plain.get("ground_changes").is_none());
+    assert!(plain["runs"][0]
+        .get("cross_track_rms_after_change_m")
+        .is_none());
+    // One ground is not a change; a simulator that keeps its ground says so.
+    let err = user_error(&["track", "--terrains", "snow"]);
+    assert!(err.contains("two or more"), "{err}");
+    let err = user_error(&[
+        "track",
+        "--robot",
+        "autorally",
+        "--terrains",
+        "tile,snow",
+        "--train-duration",
+        "30",
+        "--path",
+        "line",
+        "--models",
+        "powertrain",
+    ]);
+    assert!(err.contains("keeps the ground"), "{err}");
+}

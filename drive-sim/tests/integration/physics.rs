@@ -254,3 +254,52 @@ fn terrain_files_round_trip_and_refuse_bad_values() {
     let err = Terrain::load(&terrains, "mud").unwrap_err().to_string();
     assert!(err.contains("mud") && err.contains("tile"), "{err}");
 }
+
+#[test]
+fn a_plant_driven_onto_another_ground_drives_as_one_made_on_it_and_keeps_its_robot() {
+    use drive_sim::Plant;
+    let (robot, g) = husky();
+    let (gravel, snow) = (
+        Terrain::preset("gravel").unwrap(),
+        Terrain::preset("snow").unwrap(),
+    );
+    // A turn held: the yaw rate a ground lets the robot reach differs most between grounds.
+    let turn = Input::new(2.0, 6.0, 0.0);
+    let yaw_over_last_2_s = |sim: &mut Simulator| {
+        let a = sim.true_pose().unwrap().z;
+        hold(sim, turn, 2.0);
+        (sim.true_pose().unwrap().z - a) / 2.0
+    };
+    let mut stays = Simulator::new(&robot, &g, gravel.clone(), 3);
+    let mut changes = Simulator::new(&robot, &g, gravel.clone(), 3);
+    let mut made_on_snow = Simulator::new(&robot, &g, snow.clone(), 3);
+    hold(&mut stays, turn, 4.0);
+    hold(&mut changes, turn, 4.0);
+    changes.change_ground(&snow).unwrap();
+    assert_eq!(changes.terrain.name, "snow");
+    hold(&mut stays, turn, 6.0);
+    hold(&mut changes, turn, 6.0);
+    hold(&mut made_on_snow, turn, 10.0);
+    let (on_gravel, changed, on_snow) = (
+        yaw_over_last_2_s(&mut stays),
+        yaw_over_last_2_s(&mut changes),
+        yaw_over_last_2_s(&mut made_on_snow),
+    );
+    assert!(
+        (on_gravel - on_snow).abs() > 0.05 * on_gravel.abs(),
+        "the presets should turn differently: {on_gravel} {on_snow}"
+    );
+    assert!(
+        (changed - on_snow).abs() < 0.2 * (on_gravel - on_snow).abs(),
+        "changed onto snow {changed}, made on snow {on_snow}, gravel {on_gravel}"
+    );
+    // A twin's robot stays the twin's: its powertrain is kept across the change.
+    let mut twin = gravel.clone();
+    let mut slow = drive_sim::PowertrainParams::for_robot(&robot, g.wheel_radius);
+    slow.wheel_limit = 3.0;
+    twin.powertrain = Some(slow);
+    let mut sim = Simulator::new(&robot, &g, twin, 3);
+    sim.change_ground(&snow).unwrap();
+    assert_eq!(sim.params.powertrain.wheel_limit, 3.0);
+    assert_eq!(sim.terrain.powertrain.map(|p| p.wheel_limit), Some(3.0));
+}

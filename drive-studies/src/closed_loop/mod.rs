@@ -160,6 +160,30 @@ pub struct TrackStudy {
     /// long ago through the commands sent since ([`TrackerConfig::history_s`]); default:
     /// each model's powertrain's settling time ([`drive_control::settling_history_s`]).
     pub history_s: Option<f64>,
+    /// Where the ground changes along the path (`drive track --terrains`), in order: the
+    /// robot drives onto each change's ground once it has covered that share of the path
+    /// ([`drive_sim::Plant::change_ground`]). Empty: `terrain` all along. The top speed and
+    /// the feasibility are measured on `terrain`, the first stretch's.
+    pub ground_changes: Vec<GroundChange>,
+}
+
+/// A change of ground along a path.
+#[derive(Debug, Clone)]
+pub struct GroundChange {
+    /// The share of the path's length covered where the ground changes, in (0, 1).
+    pub at: f64,
+    /// The ground from there on (a preset or a twin's ground; the robot stays the first
+    /// terrain's).
+    pub terrain: Terrain,
+}
+
+/// Where a run's ground changed, in the results.
+#[derive(Debug, Clone, Serialize)]
+pub struct GroundChangeAt {
+    /// The share of the path's length covered where it changes.
+    pub at: f64,
+    /// The ground's name from there on.
+    pub terrain: String,
 }
 
 impl std::fmt::Debug for TrackStudy {
@@ -212,6 +236,10 @@ pub struct TrackRun {
     pub yaw_rate_sign_changes: usize,
     /// [`Self::yaw_rate_sign_changes`] per metre of path covered.
     pub yaw_rate_sign_changes_per_m: f64,
+    /// With a ground that changes along the path: the RMS cross-track error (m) from the
+    /// first change on (absent without a change, or when the run never reached it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cross_track_rms_after_change_m: Option<f64>,
     /// Median time the controller took per tick (ms).
     pub tick_ms_median: f64,
     /// How far back the controller's predictions started (s): the study's history, or
@@ -262,6 +290,11 @@ pub struct TrackSummary {
     pub yaw_rate_sign_changes_per_m: f64,
     /// Mean over the runs of how far back the controller's predictions started (s).
     pub history_s: f64,
+    /// With a ground that changes along the path: the mean over the runs of
+    /// [`TrackRun::cross_track_rms_after_change_m`] (absent unless every run reached the
+    /// change).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cross_track_rms_after_change_m: Option<f64>,
     /// Whether the robot can drive this path at this speed on this ground
     /// ([`Feasibility`]); `None` where the vehicle has no input for the turns it needs.
     pub feasible: Option<bool>,
@@ -327,6 +360,9 @@ pub struct TrackResult {
     pub feasibility: Vec<Feasibility>,
     /// What the reader should know (a run that ended at its time limit, ...).
     pub notes: Vec<String>,
+    /// Where the ground changes along the path (`--terrains`); absent when it does not.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub ground_changes: Vec<GroundChangeAt>,
 }
 
 /// A model fitted on one training set (of a seed, for a simulated one).
@@ -370,6 +406,7 @@ pub const MAX_TRAINING_TOTAL_S: f64 = 36_000.0;
 ///     controller: Arc::clone(r.controllers.get("mppi").unwrap().part()),
 ///     time_limit_s: None,
 ///     history_s: None,
+///     ground_changes: vec![],
 /// };
 /// let result = run_track(&r, &study, &|| {}).unwrap();
 /// assert_eq!(result.runs.len(), 2);
@@ -430,6 +467,16 @@ pub fn run_track(
             )));
         }
     }
+    let mut last = 0.0;
+    for c in &study.ground_changes {
+        if !(c.at.is_finite() && c.at > last && c.at < 1.0) {
+            return Err(TrackError::Invalid(format!(
+                "the ground changes at {} of the path: each change must come after the one before, within (0, 1)",
+                Exact(c.at)
+            )));
+        }
+        last = c.at;
+    }
     if let Some(t) = study.time_limit_s {
         if !(t.is_finite() && t > 0.0 && t <= MAX_RUN_S) {
             return Err(TrackError::Invalid(format!(
@@ -476,6 +523,20 @@ pub fn run_track(
     )
     .map_err(ExperimentError::from)?;
     let d = driven(&study.robot, &study.terrain)?;
+    // A plant that keeps its ground is refused before anything is simulated.
+    if let Some(c) = study.ground_changes.first() {
+        let simulating =
+            |reason: String| TrackError::Invalid(format!("simulating {}: {reason}", d.plant.name));
+        plant_for(
+            &registries.simulators,
+            &d.plant,
+            &study.terrain,
+            study.seeds[0],
+        )
+        .map_err(|e| simulating(e.to_string()))?
+        .change_ground(&c.terrain)
+        .map_err(simulating)?;
+    }
     let mut notes = Vec::new();
     for t in &study.training {
         if let Training::Data { name, dataset } = t {
@@ -695,6 +756,14 @@ pub fn run_track(
             .collect(),
         feasibility: feasible,
         notes,
+        ground_changes: study
+            .ground_changes
+            .iter()
+            .map(|c| GroundChangeAt {
+                at: c.at,
+                terrain: c.terrain.name.clone(),
+            })
+            .collect(),
     })
 }
 

@@ -220,6 +220,9 @@ pub(super) fn drive(
     // true poses, the IMU): cut into windows for the models' open-loop scores.
     let mut recorded = Recording::default();
     let (mut course2, mut courses, mut last_position) = (0.0, 0usize, None::<[f64; 2]>);
+    // The ground's changes along the path: the next to come, and whether one came.
+    let (mut next_change, mut changed) = (0usize, false);
+    let (mut after2, mut after_n) = (0.0, 0usize);
     let mut m = first;
     let (completed, duration) = loop {
         let obs = Observation {
@@ -242,6 +245,21 @@ pub(super) fn drive(
         );
         progress = near.point.s;
         cross2 += near.cross_track * near.cross_track;
+        while let Some(c) = study
+            .ground_changes
+            .get(next_change)
+            .filter(|c| progress >= c.at * path.length())
+        {
+            plant.change_ground(&c.terrain).map_err(|reason| {
+                TrackError::Invalid(format!("simulating {}: {reason}", d.plant.name))
+            })?;
+            changed = true;
+            next_change += 1;
+        }
+        if changed {
+            after2 += near.cross_track * near.cross_track;
+            after_n += 1;
+        }
         cross_max = cross_max.max(near.cross_track.abs());
         let yaw = wrap_angle(truth.z - near.point.heading);
         head2 += yaw * yaw;
@@ -307,6 +325,7 @@ pub(super) fn drive(
         } else {
             0.0
         },
+        cross_track_rms_after_change_m: (after_n > 0).then(|| (after2 / after_n as f64).sqrt()),
         tick_ms_median: ticks_ms[ticks_ms.len() / 2],
         history_s,
         length_m: path.length(),

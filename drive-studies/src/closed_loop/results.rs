@@ -105,6 +105,11 @@ pub(super) fn summarise(
                         command_change_rms: mean(|r| r.command_change_rms),
                         yaw_rate_sign_changes_per_m: mean(|r| r.yaw_rate_sign_changes_per_m),
                         history_s: mean(|r| r.history_s),
+                        cross_track_rms_after_change_m: these
+                            .iter()
+                            .map(|r| r.cross_track_rms_after_change_m)
+                            .sum::<Option<f64>>()
+                            .map(|total| total / n),
                         feasible,
                         improvement_over_first_percent: None,
                         improvement_over_powertrain_percent: None,
