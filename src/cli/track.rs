@@ -100,6 +100,12 @@ pub struct Args {
     /// settling time (its dead time plus one time constant for eq. 3's FOPDT; 0.5 to 3 s).
     #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
     history: Option<f64>,
+    /// Beside each model, the same model adapting to the ground inside the loop (named
+    /// NAME-adaptive): every 2 s window the run drives is fed to `drive adapt`'s adaptive
+    /// model, which the controller predicts with from the next tick on. With --terrains,
+    /// how it follows a change of ground against the frozen model.
+    #[arg(long)]
+    adapt: bool,
     #[command(flatten)]
     useless: super::common::UselessArg,
     /// Print one JSON object on stdout instead of the tables.
@@ -190,6 +196,20 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         given.push((models.len(), model));
         models.push(spec);
         model_files.push(PathBuf::from(m));
+    }
+    // The adaptive copies, after the models as listed.
+    let mut adaptive = Vec::new();
+    if args.adapt {
+        for m in 0..models.len() {
+            let mut copy = models[m].clone();
+            copy.name = format!("{}-adaptive", copy.name);
+            if let Some((_, model)) = given.iter().find(|(g, _)| *g == m) {
+                let model = std::sync::Arc::clone(model);
+                given.push((models.len(), model));
+            }
+            adaptive.push(models.len());
+            models.push(copy);
+        }
     }
     if args.seeds == 0 {
         bail!("--seeds must be at least 1");
@@ -311,6 +331,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         time_limit_s: args.time_limit,
         history_s: args.history,
         ground_changes,
+        adaptive,
     };
     let total = study.models.len()
         * study.training.len()

@@ -34,6 +34,7 @@ use std::sync::Arc;
 use std::time::Instant;
 use thiserror::Error;
 
+mod adaptive;
 mod feasibility;
 mod plant;
 mod results;
@@ -165,6 +166,12 @@ pub struct TrackStudy {
     /// ([`drive_sim::Plant::change_ground`]). Empty: `terrain` all along. The top speed and
     /// the feasibility are measured on `terrain`, the first stretch's.
     pub ground_changes: Vec<GroundChange>,
+    /// The models (by place in `models`) that adapt to the ground inside the loop (`drive
+    /// track --adapt`): each window the run drives is fed, as it completes, to an
+    /// [`crate::AdaptiveFit`] of the fitted model (`drive adapt`'s adaptive model), whose
+    /// model the controller predicts with from the next tick on. Each must be composed of a
+    /// powertrain and a slip model.
+    pub adaptive: Vec<usize>,
 }
 
 /// A change of ground along a path.
@@ -407,6 +414,7 @@ pub const MAX_TRAINING_TOTAL_S: f64 = 36_000.0;
 ///     time_limit_s: None,
 ///     history_s: None,
 ///     ground_changes: vec![],
+///     adaptive: vec![],
 /// };
 /// let result = run_track(&r, &study, &|| {}).unwrap();
 /// assert_eq!(result.runs.len(), 2);
@@ -464,6 +472,14 @@ pub fn run_track(
             return Err(TrackError::Invalid(format!(
                 "history {} s is not a number of seconds in [0, 10]",
                 Exact(h)
+            )));
+        }
+    }
+    for (k, &m) in study.adaptive.iter().enumerate() {
+        if m >= study.models.len() || study.adaptive[..k].contains(&m) {
+            return Err(TrackError::Invalid(format!(
+                "an adaptive model is model {m} of {} (or listed twice)",
+                study.models.len()
             )));
         }
     }
@@ -670,6 +686,17 @@ pub fn run_track(
                 })
         })
         .collect::<Result<_, _>>()?;
+    // A model that adapts in the loop must be composed of a powertrain and a slip model.
+    if let Some(f) = fits.iter().find(|f| {
+        study.adaptive.contains(&f.model)
+            && drive_models::adapt::composed_of(f.fitted.as_ref()).is_none()
+    }) {
+        return Err(TrackError::Invalid(format!(
+            "{} ({}): only a model composed of a powertrain and a slip model adapts in the loop",
+            study.models[f.model].name,
+            f.fitted.name()
+        )));
+    }
     // Every run.
     let mut plans = Vec::new();
     for (i, t) in study.training.iter().enumerate() {
@@ -700,6 +727,15 @@ pub fn run_track(
                                 .time_limit_s
                                 .unwrap_or(default_time_limit(path.length(), speed)),
                             window_len: window_len(&sets, i),
+                            adapt_robot: study
+                                .adaptive
+                                .contains(&m)
+                                .then(|| {
+                                    sets.iter()
+                                        .find(|(t, _, _)| *t == i)
+                                        .map(|(_, _, d)| d.robot.clone())
+                                })
+                                .flatten(),
                         });
                     }
                 }

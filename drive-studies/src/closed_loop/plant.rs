@@ -163,6 +163,9 @@ pub(super) struct RunPlan<'a> {
     pub(super) time_limit_s: f64,
     /// Samples per window of the training data (the open-loop scores' windows).
     pub(super) window_len: usize,
+    /// For a model that adapts in the loop: the training data's robot (the windows driven
+    /// are fed to its [`crate::AdaptiveFit`] as that data's).
+    pub(super) adapt_robot: Option<drive_traits::RobotDescription>,
 }
 
 /// Drives one run.
@@ -182,8 +185,35 @@ pub(super) fn drive(
     let first = plant.measure();
     let start = plant.true_pose().unwrap_or(first.pose);
     let path = plan.path.placed_at(&start);
+    // A model that adapts in the loop: the controller holds the adapted model now.
+    let mut in_loop = match &plan.adapt_robot {
+        None => None,
+        Some(robot) => {
+            let prior = drive_models::adapt::composed_of(plan.model.as_ref()).ok_or_else(|| {
+                TrackError::Invalid(format!(
+                    "{}: only a model composed of a powertrain and a slip model adapts",
+                    plan.spec.name
+                ))
+            })?;
+            let spec = plan.spec.clone().with_uncertainty(
+                drive_models::calibration::Uncertainty::Paper,
+                plan.spec.start,
+            );
+            let config = drive_models::adapt::AdapterConfig {
+                start: plan.spec.start,
+                ..Default::default()
+            };
+            Some(super::adaptive::InLoop {
+                model: Arc::new(super::adaptive::LoopModel::new(prior.clone())),
+                fit: crate::AdaptiveFit::new(prior, &spec, robot, config),
+            })
+        }
+    };
     let setup = ControlSetup {
-        model: Arc::clone(plan.model),
+        model: match &in_loop {
+            Some(a) => Arc::clone(&a.model) as Arc<dyn MotionModel>,
+            None => Arc::clone(plan.model),
+        },
         robot: d.controller.clone(),
         to_vehicle: d.to_vehicle.clone(),
         speed: plan.speed,
@@ -291,6 +321,13 @@ pub(super) fn drive(
         recorded.measured.push(m.input);
         recorded.pose.push(truth);
         recorded.imu.push(m.imu_yaw_rate);
+        if let Some(a) = in_loop.as_mut() {
+            let len = plan.window_len;
+            let ticks = recorded.command.len();
+            if len >= 2 && ticks % len == 0 {
+                a.add(&recorded.window(ticks / len - 1, len));
+            }
+        }
         if tick.done {
             break (true, m.t);
         }
@@ -351,19 +388,22 @@ impl Recording {
             return Vec::new();
         }
         (0..self.command.len() / len)
-            .map(|i| {
-                let r = i * len..(i + 1) * len;
-                Window::new(
-                    i,
-                    i,
-                    Phase::Steady,
-                    self.command[r.clone()].to_vec(),
-                    self.measured[r.clone()].to_vec(),
-                    self.pose[r.clone()].to_vec(),
-                    self.imu[r].to_vec(),
-                )
-            })
+            .map(|i| self.window(i, len))
             .collect()
+    }
+
+    /// The `i`-th window of `len` ticks (each its own interval), which must be recorded.
+    pub(super) fn window(&self, i: usize, len: usize) -> Window {
+        let r = i * len..(i + 1) * len;
+        Window::new(
+            i,
+            i,
+            Phase::Steady,
+            self.command[r.clone()].to_vec(),
+            self.measured[r.clone()].to_vec(),
+            self.pose[r.clone()].to_vec(),
+            self.imu[r].to_vec(),
+        )
     }
 }
 
