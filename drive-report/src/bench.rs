@@ -267,13 +267,7 @@ pub fn markdown(b: &Bench) -> String {
     );
     for (i, r) in b.leaderboard.iter().enumerate() {
         let adapt_cell = if adapted {
-            format!(
-                " {} |",
-                r.adaptive_over_own_60s.map_or("-".into(), |a| format!(
-                    "{:.3} / {:.3}",
-                    a.translational, a.rotational
-                ))
-            )
+            format!(" {} |", adaptation::ratio(r.adaptive_over_own_60s))
         } else {
             String::new()
         };

@@ -7,7 +7,8 @@ use std::fmt::Write as _;
 
 const INTRO: &str = "adaptation: each model fitted on all of one run adapts to another run of the same robot (its training half streamed in time order, as drive adapt); median over the pairs of the adaptive model's eq. 8 median over the prior alone (frozen), the fit from scratch on the same seconds (scratch) and the fit on the whole training half (own), translational / rotational; worst / frozen: the largest over the pairs of one terrain";
 
-fn ratio(r: Option<Ratio>) -> String {
+/// A ratio's two axes, `-` without one.
+pub(super) fn ratio(r: Option<Ratio>) -> String {
     r.map_or("-".into(), |r| {
         format!("{:.3} / {:.3}", r.translational, r.rotational)
     })

@@ -231,13 +231,7 @@ pub fn text(b: &Bench, transfer: bool) -> String {
     for r in &b.leaderboard {
         let growth = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:+.2}"));
         let adapt_cell = if adapted {
-            format!(
-                "  {}",
-                r.adaptive_over_own_60s.map_or("-".into(), |a| format!(
-                    "{:.3} / {:.3}",
-                    a.translational, a.rotational
-                ))
-            )
+            format!("  {}", super::adaptation::ratio(r.adaptive_over_own_60s))
         } else {
             String::new()
         };
