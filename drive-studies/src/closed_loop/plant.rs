@@ -253,6 +253,7 @@ pub(super) fn drive(
     // The ground's changes along the path: the next to come, and whether one came.
     let (mut next_change, mut changed) = (0usize, false);
     let (mut after2, mut after_n) = (0.0, 0usize);
+    let mut published = None::<Pose>;
     let mut m = first;
     let (completed, duration) = loop {
         let obs = Observation {
@@ -321,11 +322,18 @@ pub(super) fn drive(
         recorded.measured.push(m.input);
         recorded.pose.push(truth);
         recorded.imu.push(m.imu_yaw_rate);
+        // What the robot's localization published last (held between its updates), as a
+        // DRIVE log records it: what a model adapting in the loop learns from, never the
+        // simulator's true pose.
+        if m.fresh_pose {
+            published = Some(m.pose);
+        }
+        recorded.localized.push(published.unwrap_or(m.pose));
         if let Some(a) = in_loop.as_mut() {
             let len = plan.window_len;
             let ticks = recorded.command.len();
             if len >= 2 && ticks % len == 0 {
-                a.add(&recorded.window(ticks / len - 1, len));
+                a.add(&recorded.localized_window(ticks / len - 1, len));
             }
         }
         if tick.done {
@@ -378,6 +386,8 @@ pub(super) struct Recording {
     pub(super) measured: Vec<Input>,
     pub(super) pose: Vec<Pose>,
     pub(super) imu: Vec<f64>,
+    /// The localization's last published pose at each tick (what the robot knows).
+    pub(super) localized: Vec<Pose>,
 }
 
 impl Recording {
@@ -390,6 +400,25 @@ impl Recording {
         (0..self.command.len() / len)
             .map(|i| self.window(i, len))
             .collect()
+    }
+
+    /// The `i`-th window of `len` ticks as a DRIVE log gives it (which must be recorded):
+    /// the localization's poses, re-based to the window's first in its body frame.
+    pub(super) fn localized_window(&self, i: usize, len: usize) -> Window {
+        let r = i * len..(i + 1) * len;
+        let p0 = self.localized[r.start];
+        Window::new(
+            i,
+            i,
+            Phase::Steady,
+            self.command[r.clone()].to_vec(),
+            self.measured[r.clone()].to_vec(),
+            self.localized[r.clone()]
+                .iter()
+                .map(|p| drive_traits::relative_pose(&p0, p))
+                .collect(),
+            self.imu[r].to_vec(),
+        )
     }
 
     /// The `i`-th window of `len` ticks (each its own interval), which must be recorded.
