@@ -87,8 +87,17 @@ fn follow(shape: PathShape, speed: f64, seconds: f64) -> (Vec<Pose>, bool, f64) 
 
 #[test]
 fn a_perfect_model_follows_every_preset_closely() {
-    for shape in PathShape::ALL {
-        let (poses, done, worst) = follow(shape, 0.5, 120.0);
+    // The shapes are independent: followed side by side, checked in their order.
+    let followed: Vec<_> = std::thread::scope(|s| {
+        let runs: Vec<_> = PathShape::ALL
+            .iter()
+            .map(|&shape| s.spawn(move || (shape, follow(shape, 0.5, 120.0))))
+            .collect();
+        runs.into_iter()
+            .map(|run| run.join().expect("a shape's run panicked"))
+            .collect()
+    });
+    for (shape, (poses, done, worst)) in followed {
         let last = poses.last().unwrap();
         eprintln!(
             "{shape:?}: done {done}, {} ticks, worst cross-track {worst:.3} m, end {:?}",

@@ -927,28 +927,27 @@ mod tests {
             }),
             ..twin.clone()
         };
-        // A run of a steady ground, and a twin whose ground varies wildly: dropped.
+        // A run of a steady ground, and a twin whose ground varies wildly: dropped. A run
+        // of that varying ground, and the same twin: kept. No variability, nothing to
+        // choose. The three cases are independent: run side by side.
         let steady = Terrain {
             variability: None,
             ..twin.clone()
         };
-        let choice = choose_variability(&r, &run_of(&steady), &robot, &wild, &models)
-            .unwrap()
-            .unwrap();
+        let choose = |run: &Terrain, twin: &Terrain| {
+            choose_variability(&r, &run_of(run), &robot, twin, &models).unwrap()
+        };
+        let (dropped, (kept, none)) = rayon::join(
+            || choose(&steady, &wild),
+            || rayon::join(|| choose(&wild, &wild), || choose(&steady, &steady)),
+        );
+        let choice = dropped.unwrap();
         assert!(!choice.kept, "{choice:?}");
         assert!(choice.without.mean_off_percent < choice.with.mean_off_percent);
         assert_eq!(choice.seeds, VARIABILITY_CHOICE_SEEDS);
-        // A run of that varying ground, and the same twin: kept.
-        let choice = choose_variability(&r, &run_of(&wild), &robot, &wild, &models)
-            .unwrap()
-            .unwrap();
+        let choice = kept.unwrap();
         assert!(choice.kept, "{choice:?}");
-        // No variability, nothing to choose.
-        assert!(
-            choose_variability(&r, &run_of(&steady), &robot, &steady, &models)
-                .unwrap()
-                .is_none()
-        );
+        assert!(none.is_none());
     }
 
     #[test]

@@ -79,3 +79,37 @@ pub fn write_frozen_grass_run(csv: &std::path::Path) {
     }
     drive::data::write_dataset(&frozen, csv).unwrap();
 }
+
+/// Every registered combination (its canonical name and the model) fitted with its defaults
+/// on the bundled Husky data's training half (the first half of its intervals), fitted once
+/// for the whole test binary: the fits run side by side on rayon's threads, and every test
+/// that needs one of these models shares them.
+pub fn husky_half_models() -> &'static [(String, Box<dyn drive::traits::MotionModel>)] {
+    use rayon::prelude::*;
+    use std::sync::OnceLock;
+    static MODELS: OnceLock<Vec<(String, Box<dyn drive::traits::MotionModel>)>> = OnceLock::new();
+    MODELS.get_or_init(|| {
+        let data = drive::bundled::husky().unwrap();
+        let (train, _) = drive::eval::split_by_interval(&data, 0.5).unwrap();
+        drive::Registries::builtin()
+            .models()
+            .all()
+            .par_iter()
+            .map(|spec| (spec.canonical(), spec.fit(&train).unwrap()))
+            .collect()
+    })
+}
+
+/// The model `name` (any name the registries resolve) of [`husky_half_models`].
+pub fn husky_half_model(name: &str) -> &'static dyn drive::traits::MotionModel {
+    let canonical = drive::Registries::builtin()
+        .models()
+        .resolve(name)
+        .unwrap()
+        .canonical();
+    let (_, model) = husky_half_models()
+        .iter()
+        .find(|(n, _)| *n == canonical)
+        .unwrap_or_else(|| panic!("{name} ({canonical}) is not a registered combination"));
+    model.as_ref()
+}

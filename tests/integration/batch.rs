@@ -3,12 +3,11 @@
 use drive::eval::split_by_interval;
 use drive::models::batch::predict_batch_parallel;
 use drive::traits::{Input, MotionError, Pose};
-use drive::Registries;
 
 #[test]
 fn batch_and_parallel_batch_equal_single_rollouts_for_every_model() {
     let data = drive::bundled::husky().unwrap();
-    let (train, eval) = split_by_interval(&data, 0.5).unwrap();
+    let (_, eval) = split_by_interval(&data, 0.5).unwrap();
     let vehicle = data.robot.vehicle.as_ref();
     // 1001 sequences: not a multiple of any chunk size, commands perturbed per sequence.
     let (n, horizon) = (1001, 40);
@@ -31,9 +30,7 @@ fn batch_and_parallel_batch_equal_single_rollouts_for_every_model() {
         );
     }
     // Every registered combination of slip learner (or baseline) and powertrain.
-    for spec in Registries::builtin().models().all() {
-        let name = spec.canonical();
-        let model = spec.fit(&train).unwrap();
+    for (name, model) in crate::common::husky_half_models() {
         let mut batch = vec![Pose::zeros(); n * horizon];
         model
             .predict_batch_into(&starts, &commands, horizon, &mut batch)
@@ -66,13 +63,7 @@ fn batch_and_parallel_batch_equal_single_rollouts_for_every_model() {
 
 #[test]
 fn batch_shape_mismatch_is_an_error() {
-    let data = drive::bundled::husky().unwrap();
-    let (train, _) = split_by_interval(&data, 0.5).unwrap();
-    let model = Registries::builtin()
-        .model("slip-blr")
-        .unwrap()
-        .fit(&train)
-        .unwrap();
+    let model = crate::common::husky_half_model("slip-blr");
     let starts = vec![drive::traits::StartState::at_rest(Pose::zeros()); 3];
     let commands = vec![Input::zeros(); 3 * 40];
     let mut short = vec![Pose::zeros(); 3 * 40 - 1];
@@ -90,7 +81,7 @@ fn batch_shape_mismatch_is_an_error() {
         }
     ));
     let err = predict_batch_parallel(
-        model.as_ref(),
+        model,
         &starts,
         &commands[1..],
         40,

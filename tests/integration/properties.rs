@@ -4,9 +4,8 @@
 //! the rotated rollout from yaw zero.
 
 use drive::models::blr::{BlrPosterior, Prior};
-use drive::traits::{wrap_angle, Input, MotionModel, Pose, StartState};
+use drive::traits::{wrap_angle, Input, Pose, StartState};
 use proptest::prelude::*;
-use std::sync::OnceLock;
 
 fn close(a: f64, b: f64, tol: f64) -> bool {
     (a - b).abs() <= tol * (1.0 + a.abs().max(b.abs()))
@@ -82,21 +81,6 @@ proptest! {
     }
 }
 
-/// Every registered combination fitted on the bundled Husky data's training half, once.
-fn models() -> &'static Vec<Box<dyn MotionModel>> {
-    static MODELS: OnceLock<Vec<Box<dyn MotionModel>>> = OnceLock::new();
-    MODELS.get_or_init(|| {
-        let data = drive::bundled::husky().unwrap();
-        let (train, _) = drive::eval::split_by_interval(&data, 0.5).unwrap();
-        drive::Registries::builtin()
-            .models()
-            .all()
-            .iter()
-            .map(|spec| spec.fit(&train).unwrap())
-            .collect()
-    })
-}
-
 fn pose() -> impl Strategy<Value = Pose> {
     (
         -50.0..50.0f64,
@@ -112,7 +96,7 @@ proptest! {
     #[test]
     fn a_robot_at_rest_given_zero_input_stays_put(start in pose(), steps in 1usize..80) {
         let commands = vec![Input::zeros(); steps];
-        for model in models() {
+        for (_, model) in crate::common::husky_half_models() {
             let s = StartState::at_rest(start);
             let poses = model.predict(&s, &commands);
             prop_assert_eq!(poses.len(), steps);
@@ -131,7 +115,7 @@ proptest! {
     ) {
         let commands: Vec<Input> = commands.into_iter().map(|(l, r)| Input::new(l, r, 0.0)).collect();
         let (s, c) = start.z.sin_cos();
-        for model in models() {
+        for (_, model) in crate::common::husky_half_models() {
             // With the IMU's yaw rate or without: what slip-ipem's disturbance reads.
             let at = |pose| {
                 let s = StartState { input: Input::new(wheels.0, wheels.1, 0.0), ..StartState::at_rest(pose) };

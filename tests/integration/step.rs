@@ -171,15 +171,14 @@ fn every_model_steps_as_it_predicts_on_a_car_and_an_omnidirectional_base() {
 #[test]
 fn the_commands_already_sent_act_inside_the_dead_time() {
     let data = drive::bundled::husky().unwrap();
-    let (train, eval) = split_by_interval(&data, 0.5).unwrap();
+    let (_, eval) = split_by_interval(&data, 0.5).unwrap();
     for name in [
         "powertrain",
         "slip-blr",
         "slip-blr+rate-limited",
         "acc-blr+fopdt",
     ] {
-        let spec = Registries::builtin().models().resolve(name).unwrap();
-        let model = spec.fit(&train).unwrap();
+        let model = crate::common::husky_half_model(name);
         let stepper = model.stepper(StepOptions::default()).unwrap();
         let powertrain = model.powertrain().unwrap();
         let w = eval.windows[5];
@@ -233,15 +232,9 @@ fn the_commands_already_sent_act_inside_the_dead_time() {
 #[test]
 fn batches_stepped_in_parallel_equal_states_stepped_one_by_one() {
     let data = drive::bundled::husky().unwrap();
-    let (train, _) = split_by_interval(&data, 0.5).unwrap();
     let cases = cases(&data, StartInfo::EncodersImuLocalization, 37);
     for name in ["slip-blr", "slip-ipem"] {
-        let model = Registries::builtin()
-            .models()
-            .resolve(name)
-            .unwrap()
-            .fit(&train)
-            .unwrap();
+        let model = crate::common::husky_half_model(name);
         let stepper = model.stepper(StepOptions::with_covariance(true)).unwrap();
         let len = stepper.state_len();
         let n = cases.len();
@@ -308,15 +301,8 @@ fn batches_stepped_in_parallel_equal_states_stepped_one_by_one() {
 
 #[test]
 fn a_state_changed_by_hand_never_panics() {
-    let data = drive::bundled::husky().unwrap();
-    let (train, _) = split_by_interval(&data, 0.5).unwrap();
     for name in ["slip-blr", "slip-ipem", "acc-blr", "slip-blr+rate-limited"] {
-        let model = Registries::builtin()
-            .models()
-            .resolve(name)
-            .unwrap()
-            .fit(&train)
-            .unwrap();
+        let model = crate::common::husky_half_model(name);
         let stepper = model.stepper(StepOptions::with_covariance(true)).unwrap();
         for garbage in [f64::NAN, -1.0, 1e300, f64::INFINITY, 7.5] {
             let mut state = vec![garbage; stepper.state_len()];
@@ -336,7 +322,7 @@ fn rollouts_in_pieces_equal_steps_one_by_one_with_a_history() {
     // shorter and longer than the dead time, from a start with commands already sent, leave
     // the same states as steps one by one, number for number.
     let data = drive::bundled::husky().unwrap();
-    let (train, eval) = split_by_interval(&data, 0.5).unwrap();
+    let (_, eval) = split_by_interval(&data, 0.5).unwrap();
     let vehicle = data.robot.vehicle.as_ref();
     for name in [
         "slip-blr",
@@ -345,12 +331,7 @@ fn rollouts_in_pieces_equal_steps_one_by_one_with_a_history() {
         "acc-blr+fopdt",
         "naive",
     ] {
-        let model = Registries::builtin()
-            .models()
-            .resolve(name)
-            .unwrap()
-            .fit(&train)
-            .unwrap();
+        let model = crate::common::husky_half_model(name);
         let stepper = model
             .stepper(StepOptions::with_covariance(name != "naive"))
             .unwrap();

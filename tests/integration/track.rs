@@ -515,6 +515,8 @@ fn a_ground_that_changes_along_the_path_is_driven_and_an_adaptive_model_follows_
             "0.8",
             "--models",
             "powertrain",
+            "--samples",
+            "256",
             "--json",
         ];
         args.extend_from_slice(ground);
@@ -540,7 +542,7 @@ fn a_ground_that_changes_along_the_path_is_driven_and_an_adaptive_model_follows_
         f(&s["cross_track_rms_after_change_m"])
     };
     // Fitted on the real Husky run, frozen, the model misses the snow; adapting to the
-    // windows driven, it follows it (measured: 0.184 m against 0.022 m).
+    // windows driven, it follows it (measured: 0.189 m against 0.023 m).
     let (frozen, adaptive) = (after(0), after(1));
     assert!(adaptive < 0.5 * frozen, "{frozen} {adaptive}");
     // The ground does change (the same frozen model drives otherwise after it); without a
