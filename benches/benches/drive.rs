@@ -214,22 +214,37 @@ fn control(c: &mut Criterion) {
             speed: 0.5,
             seed: 0,
         };
-        let mut controller = Mppi::default().make(&setup).unwrap();
         let state = ControlState {
             now: start,
             sent: Default::default(),
             past: Some((start, &past)),
         };
-        group.bench_function(
-            format!("mppi tick, {name}, 1024 x 40 steps (+10 of history), one core"),
-            |b| {
-                b.iter(|| {
-                    controller
-                        .command(black_box(&state), black_box(&reference))
-                        .unwrap()
-                })
-            },
+        // The candidates scored on their mean poses, then with their predicted variance
+        // (`uncertainty_weight`: every candidate also rolled out with its covariance).
+        let threads = format!(
+            ", the variance rollouts on {} threads",
+            rayon::current_num_threads()
         );
+        for (what, weight, cores) in [
+            ("", 0.0, ", one core"),
+            (" with its variance", 1.0, threads.as_str()),
+        ] {
+            let mppi = Mppi {
+                uncertainty_weight: weight,
+                ..Mppi::default()
+            };
+            let mut controller = mppi.make(&setup).unwrap();
+            group.bench_function(
+                format!("mppi tick{what}, {name}, 1024 x 40 steps (+10 of history){cores}"),
+                |b| {
+                    b.iter(|| {
+                        controller
+                            .command(black_box(&state), black_box(&reference))
+                            .unwrap()
+                    })
+                },
+            );
+        }
     }
     group.finish();
 }

@@ -223,6 +223,12 @@ pub trait Controller: Send {
 
     /// Forgets any plan (the robot was stopped or taken over).
     fn reset(&mut self) {}
+
+    /// What a reader of its results should know about how it controls with this model (a
+    /// setting it cannot apply to it, ...); none by default.
+    fn notes(&self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// Builds a controller for a model and a robot: what the controller registry holds.

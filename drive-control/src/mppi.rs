@@ -22,7 +22,14 @@
 //!    squared heading error times `heading_weight` (the last step both times
 //!    `terminal_weight`); the squared inputs (normalised by the input space's half-range)
 //!    times `effort_weight`; the squared change of the normalised input from step to step
-//!    (from the command sent last) times `smoothness_weight`.
+//!    (from the command sent last) times `smoothness_weight`. With `uncertainty_weight`
+//!    above 0 and a model that carries a predictive covariance
+//!    ([`MotionModel::predict_with_covariance_into`]: a calibrated one), the position and
+//!    heading terms are their expectations under the predicted distribution: each adds
+//!    `uncertainty_weight` times the variance the rollout accumulated since now (the
+//!    position covariance's trace over `l^2`, the heading variance), so that of two
+//!    candidates that end as close to the path, the one the model is surer of costs less
+//!    (`uncertainty_weight = 1`: the expected squared error itself).
 //! 4. **Average** the candidates with weights `exp(-(S - S_min) / lambda)`; `lambda` is
 //!    `temperature` times the spread of this tick's costs (their median minus their
 //!    minimum), so that the same temperature works for a 1 m/s Husky and a 5 m/s Warthog.
@@ -37,10 +44,11 @@ use crate::controller::{
 };
 use drive_traits::limits::Short;
 use drive_traits::robot::{next_command, RobotSpec, SentCommand};
-use drive_traits::{wrap_angle, Input, InputSpace, MotionModel, Pose, StartState};
+use drive_traits::{wrap_angle, Input, InputSpace, MotionModel, Pose, PoseCovariance, StartState};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -89,6 +97,11 @@ pub struct Mppi {
     pub smoothness_weight: f64,
     /// Seed of the sampling noise (mixed with the run's, [`ControlSetup::seed`]).
     pub seed: u64,
+    /// Weight of the predicted variance in the position and heading costs (0: the mean
+    /// poses only; 1: their expected squared errors under the model's predictive
+    /// distribution). A model without a covariance is scored on its mean poses whatever
+    /// this is ([`MppiController::uses_uncertainty`]).
+    pub uncertainty_weight: f64,
 }
 
 impl Default for Mppi {
@@ -105,6 +118,7 @@ impl Default for Mppi {
             effort_weight: 0.01,
             smoothness_weight: 0.2,
             seed: 0,
+            uncertainty_weight: 0.0,
         }
     }
 }
@@ -178,6 +192,7 @@ impl Mppi {
             ("terminal_weight", self.terminal_weight),
             ("effort_weight", self.effort_weight),
             ("smoothness_weight", self.smoothness_weight),
+            ("uncertainty_weight", self.uncertainty_weight),
         ];
         for (field, v) in weights {
             if !(v.is_finite() && (0.0..=1e6).contains(&v)) {
@@ -227,6 +242,12 @@ pub struct MppiController {
     poses: Vec<Pose>,
     costs: Vec<f64>,
     sorted: Vec<f64>,
+    /// Whether the model gives a predictive covariance (asked once, at the start).
+    has_covariance: bool,
+    /// Per candidate and step of the horizon, the position covariance's trace and the
+    /// heading variance accumulated since now (`samples x horizon`; empty unless the
+    /// uncertainty is used).
+    variances: Vec<[f64; 2]>,
 }
 
 impl std::fmt::Debug for MppiController {
@@ -278,6 +299,15 @@ impl MppiController {
         }
         let stop = stop_input(&setup.robot);
         let (k, h) = (config.samples, config.horizon);
+        let has_covariance = setup
+            .model
+            .predict_with_covariance_into(
+                &StartState::at_rest(Pose::zeros()),
+                &[stop; 2],
+                &mut Vec::new(),
+                &mut Vec::new(),
+            )
+            .is_ok();
         Ok(MppiController {
             config,
             dim,
@@ -298,7 +328,66 @@ impl MppiController {
             poses: vec![Pose::zeros(); k * (h + 1)],
             costs: vec![0.0; k],
             sorted: Vec::with_capacity(k),
+            has_covariance,
+            variances: Vec::new(),
         })
+    }
+
+    /// Whether the candidates are scored with the model's predicted variance: an
+    /// `uncertainty_weight` above 0 and a model that gives a covariance.
+    ///
+    /// ```
+    /// use drive_control::{ControlSetup, InputMap, Mppi, MppiController};
+    /// use drive_models::{powertrain::CommandedPowertrain, slip::NoSlipModel, ComposedModel, DifferentialDrive};
+    /// use std::sync::Arc;
+    /// let robot = drive_traits::robot::builtin_robots().get("husky").unwrap().part().as_ref().clone();
+    /// let naive = ComposedModel { label: "naive".into(), vehicle: Arc::new(DifferentialDrive::new(0.165, 0.55)),
+    ///     powertrain: Box::new(CommandedPowertrain), slip: Box::new(NoSlipModel), dt: 0.05 };
+    /// let setup = ControlSetup { model: Arc::new(naive), robot, to_vehicle: InputMap::identity(), speed: 0.5, seed: 0 };
+    /// let asked = Mppi { samples: 8, uncertainty_weight: 1.0, ..Mppi::default() };
+    /// // The naive model has no covariance: scored on its mean poses.
+    /// assert!(!MppiController::new(asked, &setup).unwrap().uses_uncertainty());
+    /// ```
+    pub fn uses_uncertainty(&self) -> bool {
+        self.has_covariance && self.config.uncertainty_weight > 0.0
+    }
+
+    /// [`Self::variances`] of every candidate: each rolled out with its covariance from
+    /// `from`, the variance accumulated since now (the step after the history's `past`
+    /// commands) kept per step of the horizon. The candidates on rayon's threads, each
+    /// alone: the same numbers on any number of threads.
+    fn roll_out_variances(&mut self, from: &StartState, past: usize) -> Result<(), ControlError> {
+        let (k_n, h) = (self.config.samples, self.config.horizon);
+        let len = past + h + 1;
+        self.variances.resize(k_n * h, [0.0; 2]);
+        let (model, commands) = (&self.model, &self.commands);
+        self.variances
+            .par_chunks_mut(h)
+            .zip(commands.par_chunks(len))
+            .try_for_each_init(
+                || (Vec::new(), Vec::new()),
+                |(poses, covariances), (out, candidate)| {
+                    model.predict_with_covariance_into(from, candidate, poses, covariances)?;
+                    let c: &Vec<PoseCovariance> = covariances;
+                    if c.len() != len {
+                        return Err(ControlError::BadState(format!(
+                            "model '{}' gave {} covariances for {len} commands",
+                            model.name(),
+                            c.len()
+                        )));
+                    }
+                    let now = &c[past];
+                    let (trace0, yaw0) = (now[(0, 0)] + now[(1, 1)], now[(2, 2)]);
+                    for (t, v) in out.iter_mut().enumerate() {
+                        let q = &c[past + t + 1];
+                        *v = [
+                            (q[(0, 0)] + q[(1, 1)] - trace0).max(0.0),
+                            (q[(2, 2)] - yaw0).max(0.0),
+                        ];
+                    }
+                    Ok(())
+                },
+            )
     }
 
     /// The current plan (the inputs it expects to send over the horizon).
@@ -371,8 +460,18 @@ impl MppiController {
             let d2 = ((x - r.x).powi(2) + (y - r.y).powi(2)) / l2;
             let yaw = wrap_angle(q.z + turn - r.z);
             let w = if t + 1 == h { c.terminal_weight } else { 1.0 };
+            // The expected squared errors: the mean's plus the predicted variance.
+            let [position_var, yaw_var] = match self.variances.get(k * h + t) {
+                Some(v) if self.uses_uncertainty() => [
+                    c.uncertainty_weight * v[0] / l2,
+                    c.uncertainty_weight * v[1],
+                ],
+                _ => [0.0; 2],
+            };
             let u = (inputs[t] - self.center).component_div(&self.half_range);
-            total += w * (c.position_weight * d2 + c.heading_weight * yaw * yaw)
+            total += w
+                * (c.position_weight * (d2 + position_var)
+                    + c.heading_weight * (yaw * yaw + yaw_var))
                 + c.effort_weight * u.norm_squared()
                 + c.smoothness_weight * (u - previous).norm_squared();
             previous = u;
@@ -430,6 +529,9 @@ impl Controller for MppiController {
         let len = past.len() + h + 1;
         self.model
             .predict_batch_into(&self.starts, &self.commands, len, &mut self.poses)?;
+        if self.uses_uncertainty() {
+            self.roll_out_variances(&from, past.len())?;
+        }
         let last = (sent.input - self.center).component_div(&self.half_range);
         for k in 0..k_n {
             self.costs[k] = self.cost(k, reference, last, &start.pose);
@@ -473,6 +575,17 @@ impl Controller for MppiController {
 
     fn reset(&mut self) {
         self.plan.fill(self.stop);
+    }
+
+    fn notes(&self) -> Vec<String> {
+        if self.config.uncertainty_weight > 0.0 && !self.has_covariance {
+            vec![format!(
+                "the model gives no predictive covariance: MPPI scored its candidates on their mean poses (uncertainty_weight {} has no effect on it)",
+                Short(self.config.uncertainty_weight)
+            )]
+        } else {
+            Vec::new()
+        }
     }
 }
 

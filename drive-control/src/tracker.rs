@@ -250,6 +250,12 @@ impl Tracker {
         })
     }
 
+    /// What the controller says a reader of its results should know
+    /// ([`Controller::notes`](crate::Controller::notes)).
+    pub fn notes(&self) -> Vec<String> {
+        self.controller.notes()
+    }
+
     /// How far back the controller's predictions start (s): the configured history, or the
     /// model's settling time when none was configured, in whole ticks.
     pub fn history_s(&self) -> f64 {

@@ -212,3 +212,123 @@ fn the_run_seed_varies_the_sampling_and_the_same_seed_repeats_it() {
     assert_ne!(first_commands(3), first_commands(4));
     assert_ne!(first_commands(0), first_commands(1));
 }
+
+/// The naive model, with a pose covariance that grows with how hard it is asked to turn:
+/// a model that is unsure of its turns.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
+struct UnsureOfTurns {
+    #[serde(skip)]
+    naive: Option<Arc<dyn MotionModel>>,
+}
+
+#[typetag::serde(name = "unsure-of-turns")]
+impl MotionModel for UnsureOfTurns {
+    fn name(&self) -> String {
+        "unsure-of-turns".into()
+    }
+    fn dt(&self) -> f64 {
+        0.05
+    }
+    fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
+        self.naive
+            .as_ref()
+            .unwrap()
+            .predict_into(start, commands, poses)
+    }
+    fn predict_with_covariance_into(
+        &self,
+        start: &StartState,
+        commands: &[Input],
+        poses: &mut Vec<Pose>,
+        covariances: &mut Vec<drive_traits::PoseCovariance>,
+    ) -> Result<(), drive_traits::MotionError> {
+        self.predict_into(start, commands, poses);
+        covariances.clear();
+        let mut c = drive_traits::PoseCovariance::zeros();
+        for u in commands {
+            covariances.push(c);
+            // Each step's variance: the wheel speed difference's square, in m^2 and rad^2.
+            let turn = (u.y - u.x).powi(2);
+            c += drive_traits::PoseCovariance::from_diagonal(&drive_traits::Pose::new(
+                0.01 * turn,
+                0.01 * turn,
+                0.01 * turn,
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The first `ticks` commands of MPPI weighing the predicted variance by `weight`, with
+/// `model`, on a plant that follows the naive model exactly, along a circle; and the
+/// tracker's notes.
+fn commands_on_a_circle(
+    model: Arc<dyn MotionModel>,
+    weight: f64,
+    ticks: usize,
+) -> (Vec<Input>, Vec<String>) {
+    let robot = husky();
+    let plant = naive(&robot);
+    let setup = ControlSetup {
+        model,
+        robot: robot.clone(),
+        to_vehicle: InputMap::identity(),
+        speed: 0.5,
+        seed: 3,
+    };
+    let config = TrackerConfig {
+        start: StartInfo::Encoders,
+        ..TrackerConfig::new(0.5)
+    };
+    let mppi = Mppi {
+        samples: 256,
+        uncertainty_weight: weight,
+        ..Mppi::default()
+    };
+    let path = PathShape::Circle.at_scale(2.0).unwrap();
+    let mut tracker = Tracker::new(&mppi, &setup, path, config, robot.vehicle.clone()).unwrap();
+    let (mut pose, mut input, mut sent) = (Pose::zeros(), Input::zeros(), Vec::new());
+    for k in 0..ticks {
+        let tick = tracker
+            .tick(&Observation {
+                t: k as f64 * 0.05,
+                input,
+                pose: Some(pose),
+                imu_yaw_rate: None,
+            })
+            .unwrap();
+        let start = StartState::measured(pose, input, robot.vehicle.as_ref());
+        pose = plant.predict(&start, &[tick.command, tick.command])[1];
+        input = tick.command;
+        sent.push(tick.command);
+    }
+    (sent, tracker.notes())
+}
+
+#[test]
+fn the_predicted_variance_steers_away_from_what_the_model_is_unsure_of() {
+    let robot = husky();
+    let unsure: Arc<dyn MotionModel> = Arc::new(UnsureOfTurns {
+        naive: Some(naive(&robot)),
+    });
+    let turning = |commands: &[Input]| -> f64 {
+        commands.iter().map(|u| (u.y - u.x).abs()).sum::<f64>() / commands.len() as f64
+    };
+    // Scored on its mean poses, the unsure model drives as the naive one it predicts as.
+    let (plain, notes) = commands_on_a_circle(Arc::clone(&unsure), 0.0, 60);
+    assert!(notes.is_empty(), "{notes:?}");
+    assert_eq!(plain, commands_on_a_circle(naive(&robot), 0.0, 60).0);
+    // With its variance weighed, it turns less: the turns it is unsure of cost more.
+    let (careful, notes) = commands_on_a_circle(Arc::clone(&unsure), 1.0, 60);
+    assert!(notes.is_empty(), "{notes:?}");
+    let (a, b) = (turning(&plain), turning(&careful));
+    assert!(
+        b < 0.9 * a,
+        "mean wheel speed difference {a} without, {b} with"
+    );
+    // A model without a covariance: the same commands whatever the weight, and a note.
+    let (without, notes) = commands_on_a_circle(naive(&robot), 1.0, 60);
+    assert_eq!(without, plain);
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(notes[0].contains("no predictive covariance"), "{notes:?}");
+}

@@ -53,15 +53,16 @@ impl Tracker {
     /// A tracker of `path` (an (N, 2) array of x, y in the localization's frame, or a preset
     /// name, "line", "circle", "figure8" or "zigzag", of size `scale` m starting at the
     /// origin along +x) at `speed` m/s, with `model` (a `drive.Model`) predicting for the
-    /// MPPI controller (`samples` candidates of `horizon` steps, `temperature`; the
-    /// defaults of `drive track`), on `robot` (a registered name or a robot TOML file: its
+    /// MPPI controller (`samples` candidates of `horizon` steps, `temperature`,
+    /// `uncertainty_weight` on the model's predicted variance; the defaults of `drive
+    /// track`), on `robot` (a registered name or a robot TOML file: its
     /// input space and acceleration limits bound the commands). `start` is what the
     /// model's predictions start from, as it was fitted ("encoders+imu" by default);
     /// `history` (s) how far back the predictions start, through the commands sent since
     /// (by default the model's powertrain's settling time: its dead time plus two time
     /// constants for the FOPDT of eq. 3, at least 0.5 s).
     #[new]
-    #[pyo3(signature = (model, robot, path, speed, *, scale=4.0, start=None, samples=None, horizon=None, temperature=None, history=None))]
+    #[pyo3(signature = (model, robot, path, speed, *, scale=4.0, start=None, samples=None, horizon=None, temperature=None, history=None, uncertainty_weight=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -75,6 +76,7 @@ impl Tracker {
         horizon: Option<usize>,
         temperature: Option<f64>,
         history: Option<f64>,
+        uncertainty_weight: Option<f64>,
     ) -> PyResult<Self> {
         let model = model.extract::<PyRef<'_, Model>>().map_err(|_| {
             err(format!(
@@ -119,6 +121,7 @@ impl Tracker {
             samples: samples.unwrap_or(d.samples),
             horizon: horizon.unwrap_or(d.horizon),
             temperature: temperature.unwrap_or(d.temperature),
+            uncertainty_weight: uncertainty_weight.unwrap_or(d.uncertainty_weight),
             ..d
         };
         let setup = ControlSetup {

@@ -119,6 +119,12 @@ def test_tracker_errors_are_drive_errors(model_file):
         drive.Tracker(model, "husky", "line", 0.5, samples=1)
     with pytest.raises(drive.DriveError, match="history"):
         drive.Tracker(model, "husky", "line", 0.5, history=11.0)
+    with pytest.raises(drive.DriveError, match="uncertainty_weight"):
+        drive.Tracker(model, "husky", "line", 0.5, uncertainty_weight=-1.0)
+    # The model's predicted variance weighed in its costs: a tick plans as usual.
+    weighed = drive.Tracker(model, "husky", "line", 0.5, samples=64, uncertainty_weight=1.0)
+    tick = weighed.tick(0.0, (0.0, 0.0), pose=(0.0, 0.0, 0.0))
+    assert len(tick["command"]) == 2 and all(math.isfinite(u) for u in tick["command"])
     # No history given (None): the model's powertrain's settling time, as in drive track.
     drive.Tracker(model, "husky", "line", 0.5, history=None, samples=64)
     tracker = drive.Tracker(model, "husky", "line", 0.5, scale=2.0, samples=64)

@@ -79,7 +79,8 @@ pub struct Args {
     controller: String,
     /// MPPI settings from a TOML file (any of samples, horizon, temperature, noise,
     /// noise_correlation, position_weight, heading_weight, terminal_weight, effort_weight,
-    /// smoothness_weight, seed; see docs/closed-loop.md); the flags below override it.
+    /// smoothness_weight, uncertainty_weight, seed; see docs/closed-loop.md); the flags below
+    /// override it.
     #[arg(long)]
     mppi_config: Option<PathBuf>,
     /// MPPI: candidate input sequences per tick (default 1024).
@@ -91,6 +92,12 @@ pub struct Args {
     /// MPPI: temperature, relative to the spread of a tick's costs (default 0.1).
     #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
     temperature: Option<f64>,
+    /// MPPI: weight of the predicted variance in the position and heading costs (default 0:
+    /// the mean poses only; 1: the expected squared errors under the model's predictive
+    /// distribution, the calibrated one by default). A model without a covariance is
+    /// scored on its mean poses, and the output says so.
+    #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
+    uncertainty_weight: Option<f64>,
     /// Time limit of a run (s); default: twice the path's length at its speed, plus 20 s.
     #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
     time_limit: Option<f64>,
@@ -415,10 +422,11 @@ fn controller(args: &Args, registries: &Registries) -> Result<Arc<dyn MakeContro
     let tuned = args.samples.is_some()
         || args.horizon.is_some()
         || args.temperature.is_some()
+        || args.uncertainty_weight.is_some()
         || args.mppi_config.is_some();
     if args.controller != "mppi" {
         if tuned {
-            bail!("--mppi-config, --samples, --horizon and --temperature set the built-in mppi controller; controller '{}' takes its own settings", args.controller);
+            bail!("--mppi-config, --samples, --horizon, --temperature and --uncertainty-weight set the built-in mppi controller; controller '{}' takes its own settings", args.controller);
         }
         return Ok(registered);
     }
@@ -439,9 +447,12 @@ fn controller(args: &Args, registries: &Registries) -> Result<Arc<dyn MakeContro
         samples: args.samples.unwrap_or(d.samples),
         horizon: args.horizon.unwrap_or(d.horizon),
         temperature: args.temperature.unwrap_or(d.temperature),
+        uncertainty_weight: args.uncertainty_weight.unwrap_or(d.uncertainty_weight),
         ..d
     };
-    m.check()
-        .map_err(|e| anyhow::anyhow!("{e}").context("--samples, --horizon or --temperature"))?;
+    m.check().map_err(|e| {
+        anyhow::anyhow!("{e}")
+            .context("--samples, --horizon, --temperature or --uncertainty-weight")
+    })?;
     Ok(Arc::new(m))
 }

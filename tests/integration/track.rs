@@ -588,3 +588,52 @@ fn a_ground_that_changes_along_the_path_is_driven_and_an_adaptive_model_follows_
     ]);
     assert!(err.contains("only a model composed"), "{err}");
 }
+
+#[test]
+fn the_predicted_variance_weighs_in_mppi_where_a_model_has_one_and_a_note_says_where_not() {
+    let args = |weight: &'static str| {
+        vec![
+            "track",
+            "--train-data",
+            "bundled:husky_drive",
+            "--path",
+            "line",
+            "--models",
+            "powertrain,slip-blr",
+            "--samples",
+            "64",
+            "--uncertainty-weight",
+            weight,
+            "--json",
+        ]
+    };
+    let run = |weight: &'static str| -> serde_json::Value {
+        serde_json::from_str(&ok(&args(weight))).unwrap()
+    };
+    let (plain, weighed) = (run("0"), run("1"));
+    // The powertrain model (no slip model) has no covariance: driven on its mean poses, the
+    // same run, and said; slip-BLR's calibrated covariance changes its run.
+    let cross = |v: &serde_json::Value, i: usize| v["runs"][i]["cross_track_rms_m"].clone();
+    assert_eq!(plain["runs"][0]["model"], "powertrain");
+    assert_eq!(cross(&plain, 0), cross(&weighed, 0));
+    assert_ne!(cross(&plain, 1), cross(&weighed, 1));
+    let notes = |v: &serde_json::Value| -> Vec<String> {
+        v["notes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|n| n.as_str().unwrap().to_string())
+            .filter(|n| n.contains("covariance"))
+            .collect()
+    };
+    assert!(notes(&plain).is_empty(), "{plain}");
+    assert_eq!(
+        notes(&weighed),
+        ["powertrain: the model gives no predictive covariance: MPPI scored its candidates on their mean poses (uncertainty_weight 1 has no effect on it)"]
+    );
+    let err = user_error(&["track", "--uncertainty-weight", "-1"]);
+    assert!(
+        err.contains("'uncertainty_weight': -1 is not a weight"),
+        "{err}"
+    );
+}

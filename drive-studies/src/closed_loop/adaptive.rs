@@ -4,7 +4,9 @@
 
 use crate::AdaptiveFit;
 use drive_models::ComposedModel;
-use drive_traits::{Input, MotionError, MotionModel, Pose, Powertrain, StartState, Window};
+use drive_traits::{
+    Input, MotionError, MotionModel, Pose, PoseCovariance, Powertrain, StartState, Window,
+};
 use serde::{Deserialize, Serialize};
 use std::sync::RwLock;
 
@@ -56,6 +58,16 @@ impl MotionModel for LoopModel {
     ) -> Result<(), MotionError> {
         self.now()
             .predict_batch_into(starts, commands, horizon, poses)
+    }
+    fn predict_with_covariance_into(
+        &self,
+        start: &StartState,
+        commands: &[Input],
+        poses: &mut Vec<Pose>,
+        covariances: &mut Vec<PoseCovariance>,
+    ) -> Result<(), MotionError> {
+        self.now()
+            .predict_with_covariance_into(start, commands, poses, covariances)
     }
     fn powertrain(&self) -> Option<&dyn Powertrain> {
         self.prior.powertrain()

@@ -742,7 +742,7 @@ pub fn run_track(
             }
         }
     }
-    let runs: Vec<TrackRun> = plans
+    let driven: Vec<(TrackRun, Vec<String>)> = plans
         .par_iter()
         .map(|plan| {
             let run = drive(registries, study, &d, plan);
@@ -750,6 +750,16 @@ pub fn run_track(
             run
         })
         .collect::<Result<_, _>>()?;
+    let mut runs = Vec::with_capacity(driven.len());
+    for (run, said) in driven {
+        // The controller's notes, once each (every run of a model says the same).
+        for note in said {
+            if !notes.contains(&note) {
+                notes.push(note);
+            }
+        }
+        runs.push(run);
+    }
     for r in runs.iter().filter(|r| !r.completed) {
         notes.push(format!(
             "{} ({}) on {} at {}% seed {}: the time limit ({} s) ended the run before the end of the path",

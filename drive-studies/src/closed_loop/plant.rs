@@ -174,7 +174,7 @@ pub(super) fn drive(
     study: &TrackStudy,
     d: &Driven,
     plan: &RunPlan<'_>,
-) -> Result<TrackRun, TrackError> {
+) -> Result<(TrackRun, Vec<String>), TrackError> {
     let control = |reason| TrackError::Control {
         model: plan.spec.name.clone(),
         path: plan.path_name.clone(),
@@ -349,7 +349,12 @@ pub(super) fn drive(
     ticks_ms.sort_by(f64::total_cmp);
     let covered = if completed { path.length() } else { progress };
     let flips = sign_changes(&yaw_rates);
-    Ok(TrackRun {
+    let notes = tracker
+        .notes()
+        .into_iter()
+        .map(|note| format!("{}: {note}", plan.spec.name))
+        .collect();
+    let run = TrackRun {
         model: plan.spec.name.clone(),
         train: plan.train.clone(),
         path: plan.path_name.clone(),
@@ -376,7 +381,8 @@ pub(super) fn drive(
         length_m: path.length(),
         trajectory,
         recorded: recorded.windows(plan.window_len),
-    })
+    };
+    Ok((run, notes))
 }
 
 /// What a run drove, one entry per tick.
