@@ -419,6 +419,30 @@ pub fn take_notes() -> Vec<String> {
     )
 }
 
+/// `text` as it may reach a terminal: control characters other than line breaks and tabs
+/// (an escape sequence in a data file's cell, a path or a flag's value would recolour or
+/// rewrite the user's terminal) and the invisible Unicode formatting characters (zero-width
+/// characters, bidirectional overrides, which reorder what is shown) written as `\u{..}`
+/// escapes. Error messages and notes quote what the user gave.
+pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
+    let hidden = |c: char| {
+        (c.is_control() && c != '\n' && c != '\t')
+            || matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2060}'..='\u{2069}' | '\u{feff}')
+    };
+    if !text.chars().any(hidden) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if hidden(c) {
+            out.push_str(&format!("\\u{{{:x}}}", c as u32));
+        } else {
+            out.push(c);
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
+
 /// Parses the command line; an argument error is reported on one line (clap's own message
 /// without the usage block), help and version are printed as usual.
 pub fn parse<C, I, T>(args: I) -> Result<C, u8>
@@ -448,7 +472,7 @@ where
             .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
             .filter(|l| !l.is_empty())
             .collect();
-        say!("{} (see drive --help)", message.join(" "));
+        say!("{} (see drive --help)", printable(&message.join(" ")));
         2
     })
 }
@@ -557,8 +581,32 @@ impl std::error::Error for ClosedPipe {}
 /// quietly), another failure an error that says so.
 pub fn write_out(args: std::fmt::Arguments<'_>) -> Result<()> {
     use std::io::Write as _;
+    // A control character from the data (a cell, a name) never reaches the terminal raw;
+    // JSON carries none (serde_json escapes them), so its text is unchanged.
+    let text = args.to_string();
+    let text = if text
+        .chars()
+        .any(|c| c.is_control() && c != '\n' && c != '\t')
+    {
+        std::borrow::Cow::Owned(
+            text.chars()
+                .map(|c| {
+                    if c.is_control() && c != '\n' && c != '\t' {
+                        format!("\\u{{{:x}}}", c as u32)
+                    } else {
+                        c.to_string()
+                    }
+                })
+                .collect(),
+        )
+    } else {
+        std::borrow::Cow::Borrowed(text.as_str())
+    };
     let mut stdout = std::io::stdout().lock();
-    match stdout.write_fmt(args).and_then(|()| stdout.flush()) {
+    match stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+    {
         Ok(()) => Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(ClosedPipe.into()),
         Err(e) => Err(anyhow::anyhow!("cannot write to standard output: {e}")),

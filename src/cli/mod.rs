@@ -215,14 +215,14 @@ where
     match result {
         Ok(()) => {
             for line in notes {
-                say!("{line}");
+                say!("{}", common::printable(&line));
             }
             0
         }
         // The reader of our output has gone: nothing more to say.
         Err(e) if e.downcast_ref::<common::ClosedPipe>().is_some() => 0,
         Err(e) => {
-            say!("error: {e:#}");
+            say!("error: {}", common::printable(&format!("{e:#}")));
             1
         }
     }

@@ -427,3 +427,43 @@ fn sweeps_beyond_the_limits_are_refused_before_they_run() {
         assert!(!out.exists(), "{}", out.display());
     }
 }
+
+#[test]
+fn an_escape_sequence_in_a_cell_or_a_value_never_reaches_the_terminal_raw() {
+    let dir = tempfile::tempdir().unwrap();
+    let (csv, sidecar, _, _) = fixtures(dir.path());
+    // A cell holding an escape sequence (it would turn the terminal red), the sidecar kept.
+    let bad = replace_line(&csv, 3, |l| set_field(l, 6, "1\u{1b}[31mRED"));
+    let path = dir.path().join("esc.csv");
+    std::fs::write(&path, bad).unwrap();
+    std::fs::write(dir.path().join("esc.meta.json"), &sidecar).unwrap();
+    let data = path.to_str().unwrap().to_string();
+    for args in [
+        vec!["eval".to_string(), "--data".into(), data.clone()],
+        vec![
+            "eval".into(),
+            "--data".into(),
+            dir.path().join("data.csv").to_str().unwrap().into(),
+            "--models".into(),
+            "naive\u{1b}[31mRED".into(),
+        ],
+        vec![
+            "eval".into(),
+            "--data".into(),
+            "none\u{1b}]0;title\u{7}.csv".into(),
+        ],
+        vec!["track".into(), "--path".into(), "circle\u{202e}".into()],
+    ] {
+        let out = drive(&args);
+        assert!(!out.status.success(), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !err.contains('\u{1b}') && !err.contains('\u{7}') && !err.contains('\u{202e}'),
+            "{args:?}: {err:?}"
+        );
+        assert!(
+            err.contains("\\u{1b}") || err.contains("\\u{202e}"),
+            "{args:?}: {err}"
+        );
+    }
+}
