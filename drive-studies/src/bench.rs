@@ -485,15 +485,19 @@ pub fn run_bench(
     let outcomes: Vec<Result<BenchDataset, String>> = inputs
         .par_iter()
         .map(|input| {
-            let d = useless(input, config).map_or_else(
-                || {
-                    within(input, specs, config).map_err(|e| match e {
-                        BenchError::Dataset { reason, .. } => reason.to_string(),
-                        e => e.to_string(),
-                    })
-                },
-                Err,
-            );
+            let d = checked(input, config).and_then(|findings| {
+                let mut d = within(input, specs, config).map_err(|e| match e {
+                    BenchError::Dataset { reason, .. } => reason.to_string(),
+                    e => e.to_string(),
+                })?;
+                // What the data checks found, beside what loading it noted (once each).
+                for note in findings {
+                    if !d.notes.contains(&note) {
+                        d.notes.push(note);
+                    }
+                }
+                Ok(d)
+            });
             progress();
             d
         })
@@ -573,21 +577,32 @@ pub fn run_bench(
     })
 }
 
-/// Why `input` is skipped as useless: the data checks' first fatal finding, unless
-/// [`BenchConfig::allow_useless`].
-fn useless(input: &BenchInput, config: &BenchConfig) -> Option<String> {
-    if config.allow_useless {
-        return None;
+/// What the data checks find in `input`: `Err` with why it is skipped when one of their
+/// findings is fatal (unless [`BenchConfig::allow_useless`]), else every finding as a note
+/// of the dataset (`check NAME: message`, a fatal one ranked under `--allow-useless` said
+/// so): a number from data the checks doubt is never ranked without a word.
+fn checked(input: &BenchInput, config: &BenchConfig) -> Result<Vec<String>, String> {
+    let findings = drive_data::quality::check(&input.data, None);
+    let fatal = |f: &drive_data::quality::Finding| f.severity == drive_data::quality::Severity::Fatal;
+    if let (false, Some(f)) = (config.allow_useless, findings.iter().find(|f| fatal(f))) {
+        return Err(format!(
+            "the data checks call it useless: {} ({}; drive check says more, --allow-useless ranks it anyway)",
+            f.message, f.check
+        ));
     }
-    drive_data::quality::check(&input.data, None)
-        .into_iter()
-        .find(|f| f.severity == drive_data::quality::Severity::Fatal)
+    Ok(findings
+        .iter()
         .map(|f| {
-            format!(
-                "the data checks call it useless: {} ({}; drive check says more, --allow-useless ranks it anyway)",
-                f.message, f.check
-            )
+            if fatal(f) {
+                format!(
+                    "check {}: {} (drive check calls this fatal: the data is useless; ranked because of --allow-useless)",
+                    f.check, f.message
+                )
+            } else {
+                format!("check {}: {}", f.check, f.message)
+            }
         })
+        .collect())
 }
 
 /// Fits every model on all of each training dataset of `pairs`, scores it on each test

@@ -454,6 +454,21 @@ fn a_useless_or_degenerate_dataset_is_skipped_with_why_and_the_suite_goes_on() {
     .concat()))
     .unwrap();
     assert_eq!(v["datasets"].as_array().unwrap().len(), 3);
+    // Ranked, but never without a word: the finding is the dataset's note.
+    let frozen = v["datasets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|d| d["name"] == "frozen")
+        .unwrap();
+    assert!(
+        frozen["notes"].as_array().unwrap().iter().any(|n| n
+            .as_str()
+            .unwrap()
+            .starts_with("check not-moving: ")
+            && n.as_str().unwrap().contains("ranked because of --allow-useless")),
+        "{frozen}"
+    );
     std::fs::write(&suite, "[[dataset]]\npath = \"frozen.csv\"\n").unwrap();
     let err = user_error(&args);
     assert!(
