@@ -583,7 +583,8 @@ pub fn run_bench(
 /// so): a number from data the checks doubt is never ranked without a word.
 fn checked(input: &BenchInput, config: &BenchConfig) -> Result<Vec<String>, String> {
     let findings = drive_data::quality::check(&input.data, None);
-    let fatal = |f: &drive_data::quality::Finding| f.severity == drive_data::quality::Severity::Fatal;
+    let fatal =
+        |f: &drive_data::quality::Finding| f.severity == drive_data::quality::Severity::Fatal;
     if let (false, Some(f)) = (config.allow_useless, findings.iter().find(|f| fatal(f))) {
         return Err(format!(
             "the data checks call it useless: {} ({}; drive check says more, --allow-useless ranks it anyway)",

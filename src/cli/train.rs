@@ -83,6 +83,16 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     };
     let text = model_file_to_json(model.as_ref(), &dataset.robot, Some(&settings))
         .with_context(|| format!("saving {}", args.model))?;
+    // What train writes, predict, track and adapt read back: a fit the loader would refuse
+    // (degenerate noise from useless data let through, ...) is not written.
+    if let Err(e) =
+        crate::models::model_file::read_model_file(&args.out.display().to_string(), &text)
+    {
+        anyhow::bail!(
+            "the fitted {} is not a model the loader accepts, so it is not written: {e}",
+            args.model
+        );
+    }
     outputs.write(&args.out, text)?;
     outputs.publish()?;
     say!(

@@ -466,7 +466,9 @@ fn a_useless_or_degenerate_dataset_is_skipped_with_why_and_the_suite_goes_on() {
             .as_str()
             .unwrap()
             .starts_with("check not-moving: ")
-            && n.as_str().unwrap().contains("ranked because of --allow-useless")),
+            && n.as_str()
+                .unwrap()
+                .contains("ranked because of --allow-useless")),
         "{frozen}"
     );
     std::fs::write(&suite, "[[dataset]]\npath = \"frozen.csv\"\n").unwrap();

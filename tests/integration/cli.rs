@@ -1348,6 +1348,27 @@ fn eval_on_a_handful_of_intervals_says_its_figures_are_no_evidence() {
         err.contains("(not-moving, which drive check calls fatal; drive check says more)"),
         "{err}"
     );
+    // What train writes, the loader reads: slip-BLR fitted on a frozen localization has no
+    // noise, a model the loader refuses, so it is not written.
+    let model = std::path::Path::new(&frozen).with_file_name("frozen.json");
+    let out = drive(&[
+        "train",
+        "--data",
+        &frozen,
+        "--model",
+        "slip-blr",
+        "--allow-useless",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success()
+            && err.contains("is not a model the loader accepts, so it is not written")
+            && err.contains("must be positive"),
+        "{err}"
+    );
+    assert!(!model.exists());
 }
 
 /// Issue 62: `drive simulate` says which simulator ran (the one registered for the robot's
