@@ -46,6 +46,14 @@ pub enum ModelFileError {
         /// field name
         field: &'static str,
     },
+    /// A top-level field `train` never writes.
+    #[error("{file}, field '{field}': not a field of a model file (one holds format, format_version, fitted_with, robot and model)")]
+    UnknownField {
+        /// file name
+        file: String,
+        /// the field found
+        field: String,
+    },
     /// The format version is not one this build reads.
     #[error("{file}, field 'format_version': version {found} is not supported (this build reads versions 1 to {supported}; a newer file needs a newer drive)")]
     UnsupportedVersion {
@@ -400,6 +408,17 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
         file: file.into(),
         field: "model",
     })?;
+    // What train writes and nothing else: a key it never writes is a file of something else
+    // (or an edit that means something to its author and nothing to this reader).
+    if let Some(key) = obj
+        .keys()
+        .find(|k| !matches!(k.as_str(), "format" | "format_version"))
+    {
+        return Err(ModelFileError::UnknownField {
+            file: file.into(),
+            field: key.clone(),
+        });
+    }
     // A model that carries its vehicle must carry the robot's: the command columns come
     // from the one, the physics from the other. A wrapper (the calibrated model) holds the
     // model it wraps under "model".
@@ -425,6 +444,16 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
             message: format!(
                 "{layers} calibration layers, one inside another: a fit writes at most one (the covariance would be scaled {layers} times)"
             ),
+        });
+    }
+    if layers == 1
+        && fitted_with
+            .as_ref()
+            .is_some_and(|f| f.uncertainty == crate::calibration::Uncertainty::Paper)
+    {
+        return Err(ModelFileError::Model {
+            file: file.into(),
+            message: "fitted_with.uncertainty is \"paper\" (no calibration) but the model is calibrated: a fit writes the one with the other".into(),
         });
     }
     if let Some(calibration) = model.get("calibration") {

@@ -662,6 +662,12 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
             model_from_json("m.json", &newer),
             Err(ModelFileError::UnsupportedVersion { .. })
         ));
+        // A field train never writes.
+        let extra = text.replacen('{', "{\n  \"extra\": 1,", 1);
+        assert!(matches!(
+            model_from_json("m.json", &extra),
+            Err(ModelFileError::UnknownField { ref field, .. }) if field == "extra"
+        ));
         let unversioned = text.replace("\"format_version\": 2,", "");
         assert!(matches!(
             model_from_json("m.json", &unversioned),

@@ -89,4 +89,22 @@ fn train_writes_what_the_model_was_fitted_with_and_a_bad_setting_is_refused() {
         .unwrap()
         .fitted_with
         .is_none());
+    // A calibrated model whose settings say it is not: one or the other was edited.
+    let calibrated = dir.path().join("c.json");
+    ok(&[
+        "train",
+        "--model",
+        "slip-blr",
+        "--split",
+        "0.5",
+        "--out",
+        calibrated.to_str().unwrap(),
+    ]);
+    let mut c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&calibrated).unwrap()).unwrap();
+    assert_eq!(c["fitted_with"]["uncertainty"], "calibrated");
+    assert!(read_model_file("c.json", &c.to_string()).is_ok());
+    c["fitted_with"]["uncertainty"] = serde_json::json!("paper");
+    let e = read_model_file("c.json", &c.to_string()).unwrap_err();
+    assert!(e.to_string().contains("but the model is calibrated"), "{e}");
 }
