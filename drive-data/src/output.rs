@@ -207,7 +207,13 @@ pub struct Outputs {
     inputs: Vec<(String, PathBuf, Identity)>,
     staged: Vec<Staged>,
     created_dirs: Vec<PathBuf>,
+    /// Directories whose whole set of files this command writes ([`Outputs::own`]).
+    owned: Vec<PathBuf>,
 }
+
+/// The file in an output directory that lists the files the last run published there
+/// ([`Outputs::own`]), one name per line.
+pub const OUTPUT_MANIFEST: &str = ".drive-outputs";
 
 static TEMP_COUNTER: AtomicUsize = AtomicUsize::new(0);
 
@@ -228,7 +234,36 @@ impl Outputs {
                 .collect(),
             staged: Vec::new(),
             created_dirs: Vec::new(),
+            owned: Vec::new(),
         }
+    }
+
+    /// Marks `dir` as a directory whose whole set of files this command writes (`--out
+    /// DIR` of bench, report, track, adapt, matrix): on [`Outputs::publish`], the files the
+    /// previous run published there ([`OUTPUT_MANIFEST`]) that this one does not are
+    /// removed, so that the directory holds one run's set (a figure of a training source
+    /// this run does not have, a table of an option it was not given, never stays beside
+    /// the new ones). Files a run of this project did not publish are never touched.
+    ///
+    /// ```
+    /// use drive_data::output::Outputs;
+    /// let dir = tempfile::tempdir().unwrap();
+    /// let out = dir.path().join("out");
+    /// let mut first = Outputs::new(&[]);
+    /// first.own(&out);
+    /// first.write(&out.join("a.csv"), "a\n").unwrap();
+    /// first.write(&out.join("b.csv"), "b\n").unwrap();
+    /// first.publish().unwrap();
+    /// std::fs::write(out.join("mine.txt"), "the user's").unwrap();
+    /// let mut second = Outputs::new(&[]);
+    /// second.own(&out);
+    /// second.write(&out.join("a.csv"), "a2\n").unwrap();
+    /// second.publish().unwrap();
+    /// assert!(!out.join("b.csv").exists()); // the first run's, not this one's
+    /// assert!(out.join("mine.txt").exists()); // never the user's
+    /// ```
+    pub fn own(&mut self, dir: &Path) {
+        self.owned.push(dir.to_path_buf());
     }
 
     /// Checks planned outputs (flag or description, path) against the inputs, the files
@@ -406,8 +441,55 @@ impl Outputs {
             published.push(f.target);
         }
         self.created_dirs.clear();
+        for dir in &self.owned {
+            settle_owned(dir, &published);
+        }
         Ok(published)
     }
+}
+
+/// After a publish into the owned directory `dir` (under its publish lock): removes the
+/// files the previous run's manifest lists that this run did not publish, and writes this
+/// run's manifest. Best effort: a file that cannot be removed stays (it was written by
+/// an earlier run, and is named in no new output).
+fn settle_owned(dir: &Path, published: &[PathBuf]) {
+    let manifest = dir.join(OUTPUT_MANIFEST);
+    let mine: Vec<String> = published
+        .iter()
+        .filter(|p| p.parent().is_some_and(|d| same_dir(d, dir)))
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    if mine.is_empty() {
+        // Nothing of this run's there: the previous set stays as it was.
+        return;
+    }
+    if let Ok(previous) = std::fs::read_to_string(&manifest) {
+        for name in previous.lines() {
+            // A plain file name in this directory only, never a path out of it.
+            let plain = !name.is_empty()
+                && Path::new(name).components().count() == 1
+                && matches!(
+                    Path::new(name).components().next(),
+                    Some(Component::Normal(_))
+                );
+            if plain && !mine.iter().any(|m| m == name) {
+                let stale = dir.join(name);
+                if std::fs::symlink_metadata(&stale).is_ok_and(|m| m.is_file()) {
+                    let _ = std::fs::remove_file(stale);
+                }
+            }
+        }
+    }
+    let _ = std::fs::write(&manifest, mine.join("\n") + "\n");
+}
+
+/// Whether `a` and `b` name one directory (`out` and `./out`).
+fn same_dir(a: &Path, b: &Path) -> bool {
+    a == b
+        || match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+            (Ok(x), Ok(y)) => x == y,
+            _ => false,
+        }
 }
 
 /// The lock file a run holds in a directory while it publishes its outputs there.

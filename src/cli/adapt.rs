@@ -159,6 +159,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             .map(|f| format!("the data checks call it useless (run with --allow-useless): {f}")),
     );
     if let (Some(mut outputs), Some(dir)) = (outputs, &args.out) {
+        outputs.own(dir);
         crate::report::adapt::stage(&result, &mut outputs, dir)?;
         outputs.publish()?;
     }

@@ -160,6 +160,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     progress.bar.finish_and_clear();
     if let Some(dir) = &args.out {
         let written = crate::report::bench::files(&bench)?;
+        outputs.own(dir);
         for (name, content) in written {
             outputs.write(&dir.join(name), content)?;
         }

@@ -119,6 +119,7 @@ pub fn run_with(
     let result = run_matrix(&plan, registries, &|d, t| progress.update(d, t))?;
     progress.bar.finish_and_clear();
     let markdown = result.to_markdown();
+    outputs.own(out);
     outputs.write(&files[0], result.to_csv())?;
     outputs.write(&files[1], serde_json::to_string_pretty(&result)?)?;
     outputs.write(&files[2], &markdown)?;

@@ -108,6 +108,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     // The studies fit and evaluate; the report only draws and writes.
     let analysis = crate::studies::report::ReportAnalysis::build(registries, &dataset, &options)?;
     let report = crate::report::Report::new(analysis);
+    outputs.own(&args.out);
     let files = report.stage(&mut outputs, &args.out)?;
     outputs.publish()?;
     if let Err(reason) = &report.protocols {

@@ -352,6 +352,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     })?;
     progress.bar.finish_and_clear();
     if let Some(dir) = &args.out {
+        outputs.own(dir);
         crate::report::track::stage(&result, &mut outputs, dir)?;
         outputs.publish()?;
     }

@@ -762,3 +762,46 @@ fn a_dataset_whose_text_fields_the_reader_refuses_is_never_written() {
     assert_eq!(side["terrain"], "wet grass");
     ok(&["check", "--data", &s(out)]);
 }
+
+#[test]
+fn an_output_directory_holds_one_runs_set_and_never_loses_a_users_file() {
+    let dir = tempfile::tempdir().unwrap();
+    fixtures(dir.path());
+    let at = |n: &str| s(&dir.path().join(n));
+    let rep = dir.path().join("rep");
+    // A report with a model of a covariance draws its calibration; one without does not.
+    ok(&[
+        "report",
+        "--data",
+        &at("data.csv"),
+        "--models",
+        "naive,slip-blr",
+        "--out",
+        &at("rep"),
+    ]);
+    assert!(rep.join("calibration.png").exists());
+    std::fs::write(rep.join("notes.txt"), "mine").unwrap();
+    ok(&[
+        "report",
+        "--data",
+        &at("data.csv"),
+        "--models",
+        "naive",
+        "--model",
+        "naive",
+        "--out",
+        &at("rep"),
+    ]);
+    // The first run's calibration figures are gone with it: what the directory holds is
+    // the second run's set, and the user's file.
+    assert!(!rep.join("calibration.png").exists());
+    assert!(!rep.join("calibration.svg").exists());
+    assert!(rep.join("report.md").exists());
+    assert_eq!(
+        std::fs::read_to_string(rep.join("notes.txt")).unwrap(),
+        "mine"
+    );
+    let listed = std::fs::read_to_string(rep.join(".drive-outputs")).unwrap();
+    assert!(listed.lines().any(|l| l == "report.md"), "{listed}");
+    assert!(!listed.lines().any(|l| l == "notes.txt"), "{listed}");
+}
