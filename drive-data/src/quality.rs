@@ -66,11 +66,16 @@ pub enum Check {
     EncoderCommand,
     /// Commands or encoders far beyond the robot description's limits, or another vehicle.
     OutsideLimits,
+    /// Localization turning or moving the other way from the encoders (a mirrored frame,
+    /// swapped or sign-flipped encoder columns).
+    Direction,
+    /// One command throughout (the data shows the robot's answer to nothing else).
+    CommandsConstant,
 }
 
 impl Check {
     /// Every check, in [`CHECKS`]' order.
-    pub const ALL: [Check; 7] = [
+    pub const ALL: [Check; 9] = [
         Check::NotMoving,
         Check::ImuConstant,
         Check::EncodersZero,
@@ -78,6 +83,8 @@ impl Check {
         Check::EncoderUnits,
         Check::EncoderCommand,
         Check::OutsideLimits,
+        Check::Direction,
+        Check::CommandsConstant,
     ];
 
     /// The check's key, the name `--allow` takes (its entry in [`CHECKS`]).
@@ -114,7 +121,7 @@ pub struct Finding {
 }
 
 /// The checks' keys and what they look for, in [`Check`]'s order.
-pub const CHECKS: [(&str, &str); 7] = [
+pub const CHECKS: [(&str, &str); 9] = [
     (
         "not-moving",
         "localization still while the encoders turn (wheels off the ground, localization frozen)",
@@ -142,6 +149,14 @@ pub const CHECKS: [(&str, &str); 7] = [
     (
         "outside-limits",
         "commands or encoder speeds beyond three times the robot description's limits (wrong robot file?)",
+    ),
+    (
+        "direction",
+        "localization turning the other way from the encoders in most windows where both turn (a mirrored frame, the encoder columns swapped), or moving backwards where they drive forwards (encoders sign-flipped)",
+    ),
+    (
+        "commands-constant",
+        "one command throughout (the data shows how the robot answers nothing else)",
     ),
 ];
 
@@ -188,7 +203,8 @@ struct Windows<'a> {
 
 /// Runs every check on `data`; `limits` is the robot description's input space when known
 /// (for `outside-limits`). The findings in order: `not-moving`, `imu-constant`,
-/// `encoders-zero`, `encoders-stuck`, `encoder-command`, `encoder-units`, `outside-limits`.
+/// `encoders-zero`, `encoders-stuck`, `encoder-command`, `encoder-units`, `outside-limits`,
+/// `direction`, `commands-constant`.
 pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     let windows: Vec<&Window> = data.windows.iter().filter(|w| w.len() >= 2).collect();
     if windows.is_empty() {
@@ -209,7 +225,95 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     if let Some(space) = limits {
         out.extend(outside_limits(&w, space));
     }
+    out.extend(direction(&w));
+    out.extend(commands_constant(&w));
     out
+}
+
+/// Fewest windows where both the encoders and localization turn (or move) clearly, for
+/// `direction` to judge their agreement.
+const DIRECTION_MIN_WINDOWS: usize = 10;
+/// Most share of those windows that may agree for `direction` to call the two opposed.
+const DIRECTION_MAX_AGREEING: f64 = 0.2;
+
+/// `direction`: in the windows where the encoders imply a clear turn (0.2 rad or more) and
+/// localization saw one (0.1 rad or more), the two turn the same way in under a fifth of
+/// them (a mirrored localization frame, or the encoder columns swapped); or, where the
+/// encoders imply 0.3 m or more of forward or backward travel and localization saw 0.15 m,
+/// localization moved the other way along the robot's heading in over four fifths (encoders
+/// sign-flipped). Fatal: a model fitted on it learns the robot backwards.
+fn direction(w: &Windows<'_>) -> Vec<Finding> {
+    let data = w.data;
+    let dt = data.robot.dt();
+    let (mut turns, mut turns_agree, mut drives, mut drives_agree) =
+        (0usize, 0usize, 0usize, 0usize);
+    for (win, m) in w.windows.iter().zip(&w.motions) {
+        let n = win.len().saturating_sub(1);
+        // The encoders' signed net turn and forward travel (body frame), eq. 4 summed.
+        let (mut yaw, mut forward) = (0.0, 0.0);
+        for u in win.measured.iter().take(n) {
+            let v = data.robot.vehicle.body_velocity(u);
+            yaw += v.z * dt;
+            forward += v.x * dt;
+        }
+        let turned = m.3;
+        if yaw.abs() >= 0.2 && turned.abs() >= 0.1 {
+            turns += 1;
+            turns_agree += usize::from(yaw.signum() == turned.signum());
+        }
+        // Localization's travel along the heading it started the window with.
+        let (first, last) = (win.pose[0], win.pose[n]);
+        let along = (last.x - first.x) * first.z.cos() + (last.y - first.y) * first.z.sin();
+        if forward.abs() >= 0.3 && along.abs() >= 0.15 {
+            drives += 1;
+            drives_agree += usize::from(forward.signum() == along.signum());
+        }
+    }
+    let mut out = Vec::new();
+    let opposed = |n: usize, agree: usize| {
+        n >= DIRECTION_MIN_WINDOWS && (agree as f64) < DIRECTION_MAX_AGREEING * n as f64
+    };
+    if opposed(turns, turns_agree) {
+        out.push(Finding {
+            check: Check::Direction,
+            severity: Severity::Fatal,
+            message: format!(
+                "localization turns the other way from the encoders in {} of {turns} windows where both turn: is the localization mirrored (y and yaw negated), or are the encoder columns swapped?",
+                turns - turns_agree
+            ),
+        });
+    }
+    if opposed(drives, drives_agree) {
+        out.push(Finding {
+            check: Check::Direction,
+            severity: Severity::Fatal,
+            message: format!(
+                "localization moves backwards along the robot's heading where the encoders drive forwards (and the other way) in {} of {drives} windows: are the encoders sign-flipped, or the localization's heading turned half a turn?",
+                drives - drives_agree
+            ),
+        });
+    }
+    out
+}
+
+/// `commands-constant`: every command of every window the same (a warning: the data tells
+/// how the robot answers that one command only).
+fn commands_constant(w: &Windows<'_>) -> Option<Finding> {
+    let mut commands = w.windows.iter().flat_map(|win| win.command.iter());
+    let first = *commands.next()?;
+    if w.windows.len() >= 2 && commands.all(|u| *u == first) {
+        let dim = w.data.robot.vehicle.input_dim().min(first.len());
+        let shown: Vec<String> = (0..dim).map(|i| Short(first[i]).to_string()).collect();
+        return Some(Finding {
+            check: Check::CommandsConstant,
+            severity: Severity::Warning,
+            message: format!(
+                "every window commands the same input ({}): the data shows how the robot answers that command only, a model fitted on it predicts no other",
+                shown.join(", ")
+            ),
+        });
+    }
+    None
 }
 
 /// `not-moving`: the encoders turn and localization does not follow, the commands ask for
@@ -757,6 +861,68 @@ mod tests {
                 vec![rate; 40],
             )],
         }
+    }
+
+    /// Twelve windows of `spin`, alternately left and right at 2 rad/s per side, each
+    /// turning `seen` of it in localization (a negative share: turning the other way).
+    fn spins(seen: f64) -> Dataset {
+        let mut data = spin(2.0, seen);
+        let one = data.windows[0].clone();
+        data.windows = (0..12)
+            .map(|i| {
+                let mut w = one.clone();
+                w.index = i;
+                w.interval = i;
+                if i % 2 == 1 {
+                    w.command
+                        .iter_mut()
+                        .for_each(|u| *u = Input::new(u.y, u.x, 0.0));
+                    w.measured
+                        .iter_mut()
+                        .for_each(|u| *u = Input::new(u.y, u.x, 0.0));
+                    w.pose.iter_mut().for_each(|p| p.z = -p.z);
+                    w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r);
+                }
+                w
+            })
+            .collect();
+        data
+    }
+
+    #[test]
+    fn localization_turning_against_the_encoders_is_fatal_and_one_command_a_warning() {
+        // Each window turns the way its encoders do: nothing found.
+        assert_eq!(check(&spins(1.0), None), vec![]);
+        // Mirrored (or the encoders swapped): every turn the other way.
+        let mirrored = check(&spins(-1.0), None);
+        let f = mirrored
+            .iter()
+            .find(|f| f.check == Check::Direction)
+            .unwrap();
+        assert_eq!(f.severity, Severity::Fatal);
+        assert!(f.message.contains("12 of 12 windows"), "{}", f.message);
+        // One window in three the other way (a spin-out, a glitch): the same way mostly.
+        let mut some = spins(1.0);
+        for w in some.windows.iter_mut().step_by(3) {
+            w.pose.iter_mut().for_each(|p| p.z = -p.z);
+        }
+        assert!(!check(&some, None)
+            .iter()
+            .any(|f| f.check == Check::Direction));
+        // The same spin commanded in every window: the data shows nothing else.
+        let mut one = spins(1.0);
+        let first = one.windows[0].clone();
+        for w in one.windows.iter_mut() {
+            w.command = first.command.clone();
+            w.measured = first.measured.clone();
+            w.pose = first.pose.clone();
+        }
+        let f = check(&one, None)
+            .into_iter()
+            .find(|f| f.check == Check::CommandsConstant)
+            .unwrap();
+        assert_eq!(f.severity, Severity::Warning);
+        assert!(f.message.contains("(-2, 2)"), "{}", f.message);
     }
 
     #[test]
