@@ -150,7 +150,7 @@ pub fn bench_units(inputs: &[BenchInput], models: usize, config: &BenchConfig) -
 /// The ordered pairs (train, test) of datasets of the same robot that can be compared, and
 /// the pairs skipped with why (other rates or vehicle types, or the same windows).
 fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
-    let prints: Vec<Vec<u64>> = inputs.iter().map(|i| window_prints(&i.data)).collect();
+    let prints: Vec<WindowPrints> = inputs.iter().map(|i| window_prints(&i.data)).collect();
     let mut pairs = Vec::new();
     let mut skipped = Vec::new();
     for (a, ia) in inputs.iter().enumerate() {
@@ -226,48 +226,88 @@ fn unpaired_robots(inputs: &[BenchInput], pairs: &[(usize, usize)]) -> Vec<Unpai
 /// with fewer are also in the other (a tenth: two real runs share none).
 pub(crate) const SAME_RUN_SHARE_DENOMINATOR: usize = 10;
 
-/// A fingerprint of each window's content (commands, measured inputs, poses, each rounded to
-/// 1e-6): equal for a window read from a raw log and from its imported window CSV (equal to
-/// 1e-15), different for windows of two runs. Sorted.
-pub(crate) fn window_prints(data: &Dataset) -> Vec<u64> {
-    use std::hash::{Hash, Hasher};
-    let mut prints: Vec<u64> = data
-        .windows
-        .iter()
-        .map(|w| {
-            let mut h = std::collections::hash_map::DefaultHasher::new();
-            let values = w
-                .command
-                .iter()
-                .chain(&w.measured)
-                .flat_map(|u| u.iter())
-                .chain(w.pose.iter().flat_map(|p| p.iter()));
-            for v in values {
-                // Rounded to 1e-6 (a value beyond i64 saturates, as is fine for a print).
-                ((v * 1e6).round() as i64).hash(&mut h);
-            }
-            h.finish()
-        })
-        .collect();
-    prints.sort_unstable();
-    prints
+/// The quantization steps of a window's print: its mean command and mean measured input
+/// per axis (rad/s or m/s), its net motion in its start frame (m, m, rad).
+const PRINT_STEPS: [f64; 3] = [0.02, 0.05, 0.02];
+
+/// Prints of each window's content, by which one run is recognised in another whatever its
+/// file's format, precision or order: per window its mean command and mean measured input
+/// per axis and its net motion in its own start frame (forward, sideways, turn), quantized
+/// ([`PRINT_STEPS`]) on two grids half a step apart, so that a copy rounded to a few
+/// significant digits (or a raw log against its imported window CSV, equal to 1e-15) still
+/// matches on at least one of them; windows where the robot neither was commanded nor moved
+/// by a step carry no identity and have none. Each grid's prints sorted.
+pub(crate) struct WindowPrints {
+    grids: [Vec<u64>; 2],
+    /// For each window with a print, its prints on both grids.
+    windows: Vec<[u64; 2]>,
 }
 
-/// How many fingerprints of `a` are also in `b` (both sorted), counted once each.
-pub(crate) fn shared_windows(a: &[u64], b: &[u64]) -> usize {
-    let (mut i, mut j, mut n) = (0, 0, 0);
-    while i < a.len() && j < b.len() {
-        match a[i].cmp(&b[j]) {
-            std::cmp::Ordering::Less => i += 1,
-            std::cmp::Ordering::Greater => j += 1,
-            std::cmp::Ordering::Equal => {
-                n += 1;
-                i += 1;
-                j += 1;
-            }
+/// [`WindowPrints`] of `data`.
+pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
+    use std::hash::{Hash, Hasher};
+    let mut windows = Vec::new();
+    for w in data.windows.iter().filter(|w| w.len() >= 2) {
+        let n = w.len() as f64;
+        let mean = |inputs: &[drive_traits::Input], i: usize| -> f64 {
+            inputs.iter().map(|u| u[i]).sum::<f64>() / n
+        };
+        let (first, last) = (w.pose[0], w.pose[w.len() - 1]);
+        let (dx, dy) = (last.x - first.x, last.y - first.y);
+        let (sin, cos) = first.z.sin_cos();
+        let turn = w
+            .pose
+            .windows(2)
+            .map(|p| {
+                let d = p[1].z - p[0].z;
+                d.sin().atan2(d.cos())
+            })
+            .sum::<f64>();
+        let mut values: Vec<(f64, f64)> = Vec::with_capacity(9);
+        for i in 0..3 {
+            values.push((mean(&w.command, i), PRINT_STEPS[0]));
+            values.push((mean(&w.measured, i), PRINT_STEPS[0]));
         }
+        values.push((cos * dx + sin * dy, PRINT_STEPS[1]));
+        values.push((-sin * dx + cos * dy, PRINT_STEPS[1]));
+        values.push((turn, PRINT_STEPS[2]));
+        if values.iter().all(|(v, step)| v.abs() < *step)
+            || values.iter().any(|(v, _)| !v.is_finite())
+        {
+            continue;
+        }
+        let print = |offset: f64| {
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            for (v, step) in &values {
+                ((v / step + offset).floor() as i64).hash(&mut h);
+            }
+            h.finish()
+        };
+        windows.push([print(0.0), print(0.5)]);
     }
-    n
+    let mut grids = [
+        windows.iter().map(|p| p[0]).collect::<Vec<_>>(),
+        windows.iter().map(|p| p[1]).collect::<Vec<_>>(),
+    ];
+    grids.iter_mut().for_each(|g| g.sort_unstable());
+    WindowPrints { grids, windows }
+}
+
+impl WindowPrints {
+    /// How many windows have a print.
+    pub(crate) fn len(&self) -> usize {
+        self.windows.len()
+    }
+}
+
+/// How many windows of the one of `a` and `b` with fewer prints are also in the other (on
+/// either grid).
+pub(crate) fn shared_windows(a: &WindowPrints, b: &WindowPrints) -> usize {
+    let (few, many) = if a.len() <= b.len() { (a, b) } else { (b, a) };
+    few.windows
+        .iter()
+        .filter(|p| (0..2).any(|g| many.grids[g].binary_search(&p[g]).is_ok()))
+        .count()
 }
 
 /// Whether a terrain label is known (not empty, not `unknown...`).

@@ -496,12 +496,25 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
         }
     }
     drive::data::write_dataset(&copy, &d.join("copy.csv")).unwrap();
+    // And a copy written with five significant digits (a spreadsheet's export).
+    let five = |v: f64| -> f64 { format!("{v:.4e}").parse().unwrap() };
+    let mut rounded = run.clone();
+    for w in &mut rounded.windows {
+        for u in w.command.iter_mut().chain(w.measured.iter_mut()) {
+            u.iter_mut().for_each(|v| *v = five(*v));
+        }
+        for p in &mut w.pose {
+            p.iter_mut().for_each(|v| *v = five(*v));
+        }
+    }
+    drive::data::write_dataset(&rounded, &d.join("rounded.csv")).unwrap();
     let suite = d.join("suite.toml");
     std::fs::write(
         &suite,
         "[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\nname = \"run\"\n\
          [[dataset]]\npath = \"half.csv\"\n\
          [[dataset]]\npath = \"copy.csv\"\n\
+         [[dataset]]\npath = \"rounded.csv\"\n\
          [[dataset]]\nbundled = \"warthog_asphalt_slow_2024-08-08\"\nname = \"other\"\n",
     )
     .unwrap();
@@ -527,6 +540,9 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
         "copy -> run",
         "half -> copy",
         "copy -> half",
+        "run -> rounded",
+        "rounded -> run",
+        "half -> rounded",
     ] {
         assert!(
             skipped
@@ -535,7 +551,7 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
             "{pair}: {skipped:?}"
         );
     }
-    // Each of the three with the other run: both ways, none skipped.
+    // Each of the four with the other run: both ways, none skipped.
     let pairs: Vec<(String, String)> = v["transfer"]
         .as_array()
         .unwrap()
@@ -547,7 +563,7 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
             )
         })
         .collect();
-    assert_eq!(pairs.len(), 6, "{pairs:?}");
+    assert_eq!(pairs.len(), 8, "{pairs:?}");
     assert!(
         pairs.iter().all(|(a, b)| a == "other" || b == "other"),
         "{pairs:?}"
