@@ -140,7 +140,7 @@ pub const CHECKS: [(&str, &str); 9] = [
     ),
     (
         "encoder-units",
-        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius), or localization's yaw turning over five times faster than the encoders' (yaw in degrees)",
+        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius), or localization's yaw turning over five times faster than the encoders' (yaw in degrees), or turning over 2.5 times what they imply (a baseline too wide)",
     ),
     (
         "encoder-command",
@@ -531,6 +531,31 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
             });
         }
     }
+    // encoder-units, the turn: over the windows where the encoders imply a turn of 0.3 rad
+    // or more, the median ratio of the turn localization saw to it. A skid-steer turns
+    // less than its encoders imply (0.3-0.9 on the bundled runs), a steered vehicle about
+    // as much; over 2.5 times as much, the vehicle's geometry is off (a baseline too wide
+    // in the sidecar or robot file: eq. 4's yaw rate is the wheel speed difference over it).
+    let mut turns: Vec<f64> = motions
+        .iter()
+        .filter(|m| m.1 >= 0.05 && (m.1 >= 0.3 || m.3.abs() >= 0.3))
+        .map(|m| m.3.abs() / m.1)
+        .collect();
+    if turns.len() >= 10 {
+        turns.sort_by(f64::total_cmp);
+        let median = turns[turns.len() / 2];
+        if median > 2.5 {
+            out.push(Finding {
+                check: Check::EncoderUnits,
+                severity: Severity::Warning,
+                message: format!(
+                    "localization turns {}x what the encoders imply (median over {} windows), where a vehicle turns at most as much: a baseline too wide (or a wheel radius too small) in the vehicle's geometry?",
+                    Short((median * 100.0).round() / 100.0),
+                    turns.len()
+                ),
+            });
+        }
+    }
     // encoder-units, the yaw: the localization's yaw rate (median over the samples its yaw
     // changed at) against the encoders' (median over the samples they turn at). A skid-steer's
     // localization turns less than its encoders say; a yaw in degrees, or scaled, turns
@@ -909,6 +934,19 @@ mod tests {
         assert!(!check(&some, None)
             .iter()
             .any(|f| f.check == Check::Direction));
+        // Localization turning three times what the encoders imply: no vehicle does (a
+        // baseline three times too wide).
+        let wide = check(&spins(3.0), None);
+        let f = wide
+            .iter()
+            .find(|f| f.check == Check::EncoderUnits && f.message.contains("baseline too wide"))
+            .unwrap();
+        assert_eq!(f.severity, Severity::Warning);
+        assert!(
+            f.message.contains("turns 3x what the encoders imply"),
+            "{}",
+            f.message
+        );
         // The same spin commanded in every window: the data shows nothing else.
         let mut one = spins(1.0);
         let first = one.windows[0].clone();
