@@ -320,6 +320,16 @@ impl Report {
                 "each window's first sample, like yaw"
             }
         );
+        if !self.data_checks.is_empty() {
+            let _ = writeln!(
+                s,
+                "**The data checks found** (`drive check` says more; the numbers below are read with them):\n"
+            );
+            for f in &self.data_checks {
+                let _ = writeln!(s, "- {f}");
+            }
+            let _ = writeln!(s);
+        }
         let _ = writeln!(s, "## Model comparison (MRMSE over 2 s windows, eq. 8)\n");
         let _ = writeln!(
             s,

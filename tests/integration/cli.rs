@@ -1369,6 +1369,26 @@ fn eval_on_a_handful_of_intervals_says_its_figures_are_no_evidence() {
         "{err}"
     );
     assert!(!model.exists());
+    // A report asked for anyway says it in report.md, beside its numbers.
+    let report = std::path::Path::new(&frozen).with_file_name("frozen-report");
+    let out = drive(&[
+        "report",
+        "--data",
+        &frozen,
+        "--models",
+        "naive",
+        "--model",
+        "naive",
+        "--allow-useless",
+        "--out",
+        report.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    let md = std::fs::read_to_string(report.join("report.md")).unwrap();
+    assert!(
+        md.contains("- check not-moving (fatal: the data is useless): "),
+        "{md}"
+    );
 }
 
 /// Issue 62: `drive simulate` says which simulator ran (the one registered for the robot's

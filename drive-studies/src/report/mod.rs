@@ -130,6 +130,9 @@ pub struct ReportAnalysis {
     pub vehicle: Arc<dyn CommandModel>,
     /// The dataset's sample period (s).
     pub dt: f64,
+    /// What the data checks found (`check NAME (severity): message`; a fatal one means the
+    /// report was asked for anyway, `--allow-useless`): the report says it beside its numbers.
+    pub data_checks: Vec<String>,
 }
 
 impl ReportAnalysis {
@@ -244,6 +247,16 @@ impl ReportAnalysis {
             calibration,
             vehicle: Arc::clone(&data.robot.vehicle),
             dt: data.robot.dt(),
+            data_checks: drive_data::quality::check(data, None)
+                .into_iter()
+                .map(|f| {
+                    let severity = match f.severity {
+                        drive_data::quality::Severity::Fatal => "fatal: the data is useless",
+                        drive_data::quality::Severity::Warning => "warning",
+                    };
+                    format!("check {} ({severity}): {}", f.check, f.message)
+                })
+                .collect(),
         })
     }
 }
