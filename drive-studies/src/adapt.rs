@@ -343,17 +343,46 @@ pub fn adapt(
     models: &[ModelSpec],
     study: &AdaptStudy,
 ) -> Result<Adaptation, ExperimentError> {
-    adapt_with(Some(registries), prior, target, models, study)
+    adapt_with(Some(registries), prior, target, models, study, &|| {})
 }
 
-/// [`adapt`]; `registries` tells a model-file prior's own kind (to refuse other models
-/// beside it), and is not needed for a dataset's prior.
+/// [`adapt`], calling `progress` once per model of `models` as its curve is done (what a
+/// progress bar counts, and where a caller that is asked to stop can).
+///
+/// ```no_run
+/// use drive_studies::{adapt_with_progress, AdaptPrior, AdaptStudy, Registries};
+/// use std::sync::atomic::{AtomicUsize, Ordering};
+/// let r = Registries::builtin();
+/// let prior = drive_data::bundled::load("warthog_asphalt_a").unwrap();
+/// let target = drive_data::bundled::load("warthog_grass_2024-08-08").unwrap();
+/// let models = r.models().resolve_list(&["slip-blr", "slip-ipem"]).unwrap();
+/// let done = AtomicUsize::new(0);
+/// let progress = || {
+///     done.fetch_add(1, Ordering::Relaxed);
+/// };
+/// adapt_with_progress(&r, &AdaptPrior::Data(&prior), &target, &models, &AdaptStudy::default(), &progress).unwrap();
+/// assert_eq!(done.load(Ordering::Relaxed), 2);
+/// ```
+pub fn adapt_with_progress(
+    registries: &Registries,
+    prior: &AdaptPrior<'_>,
+    target: &Dataset,
+    models: &[ModelSpec],
+    study: &AdaptStudy,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Adaptation, ExperimentError> {
+    adapt_with(Some(registries), prior, target, models, study, progress)
+}
+
+/// [`adapt_with_progress`]; `registries` tells a model-file prior's own kind (to refuse
+/// other models beside it), and is not needed for a dataset's prior.
 pub(crate) fn adapt_with(
     registries: Option<&Registries>,
     prior: &AdaptPrior<'_>,
     target: &Dataset,
     models: &[ModelSpec],
     study: &AdaptStudy,
+    progress: &(dyn Fn() + Sync),
 ) -> Result<Adaptation, ExperimentError> {
     if models.is_empty() {
         return Err(ExperimentError::Empty("models"));
@@ -561,6 +590,7 @@ pub(crate) fn adapt_with(
             });
             curve.push(point("own", own_scores));
         }
+        progress();
     }
     let extrapolation = match prior {
         AdaptPrior::Data(data) => {

@@ -219,9 +219,10 @@ pub(crate) fn bench_json(
 /// a `drive.Dataset` each model of `models` is fitted on) adapting to `data`'s training half
 /// (its first `split` of the intervals), scored on the rest after each of `times` seconds
 /// (default 0, 15, 30, 60, 120, 240) beside the prior alone, a fit from scratch and the own
-/// fit.
+/// fit. Stops on Ctrl-C (`KeyboardInterrupt`) between models; `progress(done, total)` after
+/// each model.
 #[pyfunction]
-#[pyo3(signature = (prior, data, models=None, split=0.5, times=None))]
+#[pyo3(signature = (prior, data, models=None, split=0.5, times=None, progress=None))]
 pub(crate) fn adapt_json(
     py: Python<'_>,
     prior: &Bound<'_, PyAny>,
@@ -229,6 +230,7 @@ pub(crate) fn adapt_json(
     models: Option<&Bound<'_, PyAny>>,
     split: f64,
     times: Option<Vec<f64>>,
+    progress: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<String> {
     let target = dataset_of(data)?;
     if !(split > 0.0 && split < 1.0) {
@@ -278,12 +280,14 @@ pub(crate) fn adapt_json(
     // fits under way finish there).
     let prior_inner = prior_data.as_ref().map(|d| d.inner.clone());
     let target = target.inner.clone();
-    interruptible(py, None, move |_| -> Result<String, String> {
+    let progress = progress.filter(|p| !p.is_none());
+    interruptible(py, progress, move |ticker| -> Result<String, String> {
         let registries = crate::registries();
         let specs = registries
             .models()
             .resolve_list(&names)
             .map_err(|e| e.to_string())?;
+        ticker.set_total(specs.len());
         let prior = match (&model, prior_inner.as_ref()) {
             (Some(m), _) => drive::studies::AdaptPrior::Model(m.as_ref()),
             (None, Some(d)) => drive::studies::AdaptPrior::Data(d),
@@ -294,8 +298,15 @@ pub(crate) fn adapt_json(
             times_s: times,
             ..Default::default()
         };
-        let result = drive::studies::adapt(registries, &prior, &target, &specs, &study)
-            .map_err(|e| e.to_string())?;
+        let result = drive::studies::adapt_with_progress(
+            registries,
+            &prior,
+            &target,
+            &specs,
+            &study,
+            &|| ticker.tick(),
+        )
+        .map_err(|e| e.to_string())?;
         serde_json::to_string(&result).map_err(|e| e.to_string())
     })?
     .map_err(err)

@@ -116,9 +116,13 @@ def test_adapt_equals_drive_adapt_json(tmp_path):
             "--models", "slip-blr", "--times", "0,30,60", "--json",
         ).stdout
     )
-    got = drive.adapt(prior, target, models="slip-blr", times=[0, 30, 60])
+    calls = []
+    got = drive.adapt(prior, target, models="slip-blr", times=[0, 30, 60],
+                      progress=lambda done, total: calls.append((done, total)))
     close(got, expected)
     assert {p["model"] for p in got["curve"]} == {"adaptive", "frozen", "scratch", "own"}
+    # Its progress: one unit per model, the last call the whole.
+    assert calls and calls[-1] == (1, 1), calls
     # A fitted model as the prior: the same as its model file given to the command line.
     model = drive.fit(prior, "slip-blr")
     path = tmp_path / "prior.json"

@@ -100,6 +100,7 @@ pub(super) fn adaptation(
                 &ib.data,
                 std::slice::from_ref(spec),
                 study,
+                &|| {},
             );
             progress();
             match done {

@@ -381,18 +381,23 @@ class _progress:
         return False
 
 
-def adapt(prior, data, models=None, split=0.5, times=None):
+def adapt(prior, data, models=None, split=0.5, times=None, progress=None):
     """`drive adapt --json` as a dict: `prior` (a fitted or loaded `drive.Model`, adapted as
     it is, or a `drive.Dataset` on which each model of `models`, default slip-blr and
     slip-ipem, is fitted) adapting to the dataset `data`: its first `split` of the intervals
     streamed in time order into the adaptive model, scored on the rest after each of `times`
     seconds (default 0, 15, 30, 60, 120, 240) beside the prior alone (`frozen`), a fit from
     scratch on the same seconds (`scratch`) and the fit on the whole half (`own`); `curve`
-    holds one entry per learner, model and time (docs/adaptation.md)."""
+    holds one entry per learner, model and time (docs/adaptation.md).
+
+    Ctrl-C raises KeyboardInterrupt within a fraction of a second (the work stops after the
+    model under way). `progress` is a callable given `(done, total)` as each model's curve
+    is done, or True for a tqdm bar (when tqdm is installed; nothing otherwise)."""
     models = _model_names(models, split)
     if times is not None:
         times = [float(t) for t in times]
-    return _json.loads(_adapt_json(prior, data, models, float(split), times))
+    with _progress(progress, "adapt") as report:
+        return _json.loads(_adapt_json(prior, data, models, float(split), times, report))
 
 
 class Measurements:
