@@ -49,6 +49,7 @@ pub const MIN_INTERVALS: usize = 4;
 /// assert!((d.x - 0.1).abs() < 1e-12 && (d.z - 0.1).abs() < 1e-12);
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SlipCorrection {
     /// The slip inputs.
     pub basis: SlipBasis,
@@ -127,6 +128,7 @@ impl SlipCorrection {
 /// assert!((v[0].x - 1.5).abs() < 1e-12); // a quarter of the speed lost on this ground
 /// ```
 #[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CorrectedSlip {
     /// The prior's slip model.
     pub prior: Box<dyn SlipModel>,

@@ -112,6 +112,7 @@ impl Prior {
 /// assert!((post.predict_mean(&[10.0]) - 20.0).abs() < 1e-8);
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct BlrPosterior {
     /// Posterior mean gamma (k).
     pub mean: Vec<f64>,

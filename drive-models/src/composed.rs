@@ -225,6 +225,7 @@ impl Learner for Composed {
 
 /// A fitted composed model: vehicle, powertrain and slip model (eq. 1-5).
 #[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ComposedModel {
     /// The model's name (`slip-blr+fopdt`).
     pub label: String,

@@ -668,6 +668,18 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
             model_from_json("m.json", &extra),
             Err(ModelFileError::UnknownField { ref field, .. }) if field == "extra"
         ));
+        // Nor one inside a part (the powertrain, a slip regression).
+        for part in ["\"powertrain\": {", "\"slip_x\": {"] {
+            if text.contains(part) {
+                let nested = text.replacen(part, &format!("{part}\n  \"extra\": 1,"), 1);
+                // Refused (a unit part, the commanded powertrain, takes no field at all).
+                let err = model_from_json("m.json", &nested).unwrap_err().to_string();
+                assert!(
+                    err.contains("unknown field `extra`") || err.contains("unit struct"),
+                    "{part}: {err}"
+                );
+            }
+        }
         let unversioned = text.replace("\"format_version\": 2,", "");
         assert!(matches!(
             model_from_json("m.json", &unversioned),

@@ -36,6 +36,7 @@ pub struct AccBlr {
 
 /// Fitted acceleration-BLR model.
 #[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct AccBlrModel {
     /// The model's name (`acc-blr+commanded`).
     pub label: String,

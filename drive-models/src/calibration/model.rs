@@ -6,6 +6,7 @@ use drive_traits::InvalidPart;
 
 /// The per-horizon-step scales of a calibrated model's covariance.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct HorizonCalibration {
     /// The coverage calibrated to.
     pub level: f64,
@@ -177,6 +178,7 @@ impl HorizonCalibration {
 /// assert_eq!(model.name(), "unsure");
 /// ```
 #[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CalibratedModel {
     /// The model (its mean prediction and covariance shape).
     pub model: Box<dyn MotionModel>,

@@ -31,6 +31,7 @@ pub const MAX_DEAD_TIME_S: f64 = 60.0;
 
 /// The response of one input axis (one side of a skid-steer): time constant and dead time.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SideResponse {
     /// Time constant tau_c (s).
     pub time_constant: f64,
@@ -125,6 +126,7 @@ fn run_lanes<const L: usize>(
 /// assert!(w[39].y <= 5.0);                                           // saturated right side
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FopdtPowertrain {
     /// The response of each input axis (left and right side for a skid-steer), one per axis
     /// of the vehicle.

@@ -22,6 +22,7 @@ use serde::{Deserialize, Serialize};
 
 /// The response of one input axis: time constant, dead time and rate limit.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RateLimitedResponse {
     /// Time constant tau_c (s).
     pub time_constant: f64,
@@ -111,6 +112,7 @@ impl RateLimitedResponse {
 /// assert!((w[12].x - 4.0 * 0.5).abs() < 1e-12);      // 0.5 s of ramp at 4 rad/s^2
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RateLimitedPowertrain {
     /// The response of each input axis, one per axis of the vehicle.
     pub axes: Vec<RateLimitedResponse>,

@@ -327,6 +327,7 @@ impl SlipBlr {
 
 /// Fitted slip-BLR: the posteriors of the three slip regressions on their basis.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SlipBlrModel {
     /// The slip inputs (the paper's skid-steer basis in files that do not say).
     #[serde(default)]

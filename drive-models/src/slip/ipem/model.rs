@@ -8,6 +8,7 @@ use drive_traits::InvalidPart;
 /// Fitted `slip-ipem`: the slip weights on [`slip_features`] and the uncertainty of its
 /// rollouts.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SlipIpemModel {
     /// The largest commanded speed and yaw rate of the training windows (`s_x`, `s_w`):
     /// the normalization of the slip functions.
