@@ -508,14 +508,24 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
     let (data, windows, motions) = (w.data, &w.windows, w.motions.as_slice());
     let mut out = Vec::new();
     // encoder-units: over the windows where localization saw at least 0.2 m, the median ratio
-    // of the distance the encoders imply to the one localization saw (0.8-1.05 on the
-    // bundled runs, slip included). Beyond a factor of 5 either way no slip explains it: a
+    // of the distance the encoders imply to the one localization saw (1.01-1.08 on the
+    // bundled runs' nearly straight windows, slip included). Beyond a factor of 5 either way no slip explains it: a
     // model trained on such encoders is wrong by that factor, so the finding is fatal.
-    let mut ratios: Vec<f64> = motions
-        .iter()
-        .filter(|m| m.2 >= 0.2)
-        .map(|m| m.0 / m.2)
-        .collect();
+    // The nearly straight windows (localization turned under 0.3 rad) when there are ten (a
+    // net distance through a turn does
+    // not scale with the wheel speeds: three times the speed curls the path three times as
+    // far), else every window.
+    let ratio_of = |straight: bool| -> Vec<f64> {
+        motions
+            .iter()
+            .filter(|m| m.2 >= 0.2 && (!straight || m.3.abs() < 0.3))
+            .map(|m| m.0 / m.2)
+            .collect()
+    };
+    let mut ratios = ratio_of(true);
+    if ratios.len() < 10 {
+        ratios = ratio_of(false);
+    }
     if ratios.len() >= 10 {
         ratios.sort_by(f64::total_cmp);
         let median = ratios[ratios.len() / 2];
@@ -533,15 +543,18 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
     }
     // encoder-units, the turn: over the windows where the encoders imply a turn of 0.3 rad
     // or more, the median ratio of the turn localization saw to it. A skid-steer turns
-    // less than its encoders imply (0.3-0.9 on the bundled runs), a steered vehicle about
-    // as much; over 2.5 times as much, the vehicle's geometry is off (a baseline too wide
-    // in the sidecar or robot file: eq. 4's yaw rate is the wheel speed difference over it).
+    // less than its encoders imply (0.41-0.62 on the bundled runs); over 2.5 times as much,
+    // its geometry is off (a baseline too wide in the sidecar or robot file: eq. 4's yaw
+    // rate is the wheel speed difference over it).
     let mut turns: Vec<f64> = motions
         .iter()
         .filter(|m| m.1 >= 0.05 && (m.1 >= 0.3 || m.3.abs() >= 0.3))
         .map(|m| m.3.abs() / m.1)
         .collect();
-    if turns.len() >= 10 {
+    // A skid-steer only: a car on ice or snow may spin out past what its wheels imply.
+    let skid_steer =
+        drive_traits::vehicle_tag(data.robot.vehicle.as_ref()).as_deref() == Some("differential");
+    if skid_steer && turns.len() >= 10 {
         turns.sort_by(f64::total_cmp);
         let median = turns[turns.len() / 2];
         if median > 2.5 {

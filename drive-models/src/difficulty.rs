@@ -192,6 +192,7 @@ pub fn log_sizes(c: &PoseCovariance) -> (f64, f64) {
 /// A fitted difficulty per horizon step: coefficients and the range the difficulty took on
 /// the training windows.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct StepDifficulty {
     /// `beta` (raw feature units; 0 everywhere: no difficulty at the step).
     pub beta: Features,

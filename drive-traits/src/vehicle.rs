@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 /// assert_eq!(serde_json::to_string(&j).unwrap(), r#"{"min":[-6.8,-6.8],"max":[6.8,6.8]}"#);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct InputSpace {
     /// Lower corner.
     #[serde(with = "crate::input_serde")]

@@ -419,16 +419,19 @@ pub fn take_notes() -> Vec<String> {
     )
 }
 
+/// Whether `c` may not reach a terminal raw: a control character other than a line break
+/// or a tab, or an invisible formatting character (zero-width, bidirectional override).
+fn hidden(c: char) -> bool {
+    (c.is_control() && c != '\n' && c != '\t')
+        || matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2060}'..='\u{2069}' | '\u{feff}')
+}
+
 /// `text` as it may reach a terminal: control characters other than line breaks and tabs
 /// (an escape sequence in a data file's cell, a path or a flag's value would recolour or
 /// rewrite the user's terminal) and the invisible Unicode formatting characters (zero-width
 /// characters, bidirectional overrides, which reorder what is shown) written as `\u{..}`
 /// escapes. Error messages and notes quote what the user gave.
 pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
-    let hidden = |c: char| {
-        (c.is_control() && c != '\n' && c != '\t')
-            || matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2060}'..='\u{2069}' | '\u{feff}')
-    };
     if !text.chars().any(hidden) {
         return std::borrow::Cow::Borrowed(text);
     }
@@ -581,18 +584,17 @@ impl std::error::Error for ClosedPipe {}
 /// quietly), another failure an error that says so.
 pub fn write_out(args: std::fmt::Arguments<'_>) -> Result<()> {
     use std::io::Write as _;
-    // A control character from the data (a cell, a name) never reaches the terminal raw;
-    // JSON carries none (serde_json escapes them), so its text is unchanged.
+    // A control or invisible formatting character from the data (a cell, a name) never
+    // reaches the terminal raw: written as JSON's own escape (`\u202e`), so that a JSON
+    // text keeps its meaning (serde_json writes no raw control character, and the others
+    // decode back to themselves).
     let text = args.to_string();
-    let text = if text
-        .chars()
-        .any(|c| c.is_control() && c != '\n' && c != '\t')
-    {
+    let text = if text.chars().any(hidden) {
         std::borrow::Cow::Owned(
             text.chars()
                 .map(|c| {
-                    if c.is_control() && c != '\n' && c != '\t' {
-                        format!("\\u{{{:x}}}", c as u32)
+                    if hidden(c) {
+                        format!("\\u{:04x}", c as u32)
                     } else {
                         c.to_string()
                     }

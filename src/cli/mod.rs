@@ -26,7 +26,12 @@ macro_rules! out {
 macro_rules! say {
     ($($t:tt)*) => {{
         use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($t)*);
+        // What reaches the terminal quotes paths and data: never a raw control character.
+        let _ = writeln!(
+            std::io::stderr(),
+            "{}",
+            $crate::cli::common::printable(&format!($($t)*))
+        );
     }};
 }
 
@@ -215,14 +220,14 @@ where
     match result {
         Ok(()) => {
             for line in notes {
-                say!("{}", common::printable(&line));
+                say!("{line}");
             }
             0
         }
         // The reader of our output has gone: nothing more to say.
         Err(e) if e.downcast_ref::<common::ClosedPipe>().is_some() => 0,
         Err(e) => {
-            say!("error: {}", common::printable(&format!("{e:#}")));
+            say!("error: {e:#}");
             1
         }
     }

@@ -357,3 +357,30 @@ fn every_command_that_fits_or_scores_refuses_data_the_checks_call_useless_unless
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("which drive check calls fatal"), "{err}");
 }
+
+/// Encoders reading three (and twenty) times the wheels' speed on a simulated Husky that
+/// turns a lot: the distance the encoders imply, through its turns, does not scale with
+/// them; on its nearly straight windows it does, and the check says so.
+#[test]
+fn encoders_reading_more_than_the_wheels_are_flagged_on_a_run_that_turns() {
+    let registries = drive::Registries::builtin();
+    let run = drive::studies::simulate_protocol(&registries, "husky", "tile", "uniform", 50, 11)
+        .unwrap()
+        .dataset;
+    let scaled = |factor: f64| {
+        let mut data = run.clone();
+        for w in &mut data.windows {
+            for u in &mut w.measured {
+                *u *= factor;
+            }
+        }
+        drive::data::quality::check(&data, None)
+            .into_iter()
+            .find(|f| f.check == drive::data::quality::Check::EncoderUnits)
+    };
+    assert_eq!(scaled(1.0), None);
+    let three = scaled(3.0).expect("a finding at 3x");
+    assert_eq!(three.severity, drive::data::quality::Severity::Warning);
+    let twenty = scaled(20.0).expect("a finding at 20x");
+    assert_eq!(twenty.severity, drive::data::quality::Severity::Fatal);
+}
