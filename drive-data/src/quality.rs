@@ -168,14 +168,7 @@ fn motion(data: &Dataset, w: &Window) -> (f64, f64, f64, f64) {
     let (first, last) = (w.pose[0], w.pose[w.len() - 1]);
     let moved = ((last.x - first.x).powi(2) + (last.y - first.y).powi(2)).sqrt();
     // Unwrapped: a fast spin passes +-pi within a window.
-    let turned = w
-        .pose
-        .windows(2)
-        .map(|p| {
-            let d = p[1].z - p[0].z;
-            d.sin().atan2(d.cos())
-        })
-        .sum::<f64>();
+    let turned = drive_traits::net_turn(&w.pose);
     (distance, yaw, moved, turned)
 }
 

@@ -255,14 +255,7 @@ pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
         let (first, last) = (w.pose[0], w.pose[w.len() - 1]);
         let (dx, dy) = (last.x - first.x, last.y - first.y);
         let (sin, cos) = first.z.sin_cos();
-        let turn = w
-            .pose
-            .windows(2)
-            .map(|p| {
-                let d = p[1].z - p[0].z;
-                d.sin().atan2(d.cos())
-            })
-            .sum::<f64>();
+        let turn = drive_traits::net_turn(&w.pose);
         let mut values: Vec<(f64, f64)> = Vec::with_capacity(9);
         for i in 0..3 {
             values.push((mean(&w.command, i), PRINT_STEPS[0]));

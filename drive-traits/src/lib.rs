@@ -57,8 +57,8 @@ pub use error::{CharacterizationError, FitError, InvalidPart, MotionError, Unkno
 pub use learner::{Baseline, Learner};
 pub use motion::{check_step, MotionModel, StartState};
 pub use pose::{
-    euler_step, input_serde, relative_pose, unwrap_angles, wrap_angle, BodyVelocity, Input, Pose,
-    PoseCovariance, MAX_INPUTS,
+    euler_step, input_serde, net_turn, relative_pose, unwrap_angles, wrap_angle, BodyVelocity,
+    Input, Pose, PoseCovariance, MAX_INPUTS,
 };
 pub use powertrain::{FitPowertrain, Powertrain, PowertrainLearner, PowertrainStepper};
 pub use reach::{search_reach, Extreme, Reach};

@@ -78,6 +78,24 @@ pub fn euler_step(q: &Pose, v: &BodyVelocity, dt: f64) -> Pose {
     )
 }
 
+/// The net turn of `poses`' yaw (rad), unwrapped: each step's change taken to the nearest
+/// turn (a fast spin passes +-pi between samples), summed.
+///
+/// ```
+/// use drive_traits::{net_turn, Pose};
+/// let spin: Vec<Pose> = (0..5).map(|k| Pose::new(0.0, 0.0, drive_traits::wrap_angle(k as f64))).collect();
+/// assert!((net_turn(&spin) - 4.0).abs() < 1e-12);
+/// ```
+pub fn net_turn(poses: &[Pose]) -> f64 {
+    poses
+        .windows(2)
+        .map(|p| {
+            let d = p[1].z - p[0].z;
+            d.sin().atan2(d.cos())
+        })
+        .sum::<f64>()
+}
+
 /// Wraps an angle to `[-pi, pi]`.
 ///
 /// ```
