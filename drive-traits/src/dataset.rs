@@ -49,6 +49,8 @@ impl Phase {
 /// assert_eq!(robot.vehicle.axes()[0].command_column, "cmd_v");
 /// ```
 #[derive(Debug, Clone, Serialize, Deserialize)]
+// A model file holds one (drive-models' loader): a key it never writes is refused.
+#[serde(deny_unknown_fields)]
 pub struct RobotDescription {
     /// Dataset name (from the sidecar).
     pub name: String,

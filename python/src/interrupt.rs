@@ -46,6 +46,22 @@ impl Ticker {
     }
 }
 
+/// The command line's observer ([`drive::cli::RunObserver`]) of a call through
+/// [`interruptible`]: its units of work are the ticker's; an interrupted caller stops the
+/// command at its next unit, or before it publishes anything.
+pub(crate) struct Observer(pub(crate) Ticker);
+
+impl drive::cli::RunObserver for Observer {
+    fn unit_done(&self, total: usize) {
+        self.0.set_total(total);
+        self.0.tick();
+    }
+
+    fn before_publish(&self) {
+        self.0.stop_if_asked();
+    }
+}
+
 /// Runs `work` on a thread of its own, without the GIL, and returns its result. Every
 /// 50 ms the calling thread checks Python's signals: an exception a signal handler raises
 /// (`KeyboardInterrupt` for Ctrl-C) is raised at once, and the work stops at its next

@@ -46,12 +46,20 @@ pub(crate) fn registries() -> &'static Registries {
 
 /// Runs the `drive` command line in this process on `args` (the program name first) and
 /// returns its exit status: what the `drive` console command of the Python package runs.
-/// Ctrl-C raises `KeyboardInterrupt` at once (the command's outputs are published whole or
-/// not at all).
+/// Ctrl-C raises `KeyboardInterrupt` at once, and the command, stopped at its next unit of
+/// work or before it writes, leaves no output. `progress(done, total)` as the command's
+/// units of work end (`drive report`'s).
 #[pyfunction]
-fn run_cli(py: Python<'_>, args: Vec<std::ffi::OsString>) -> PyResult<u8> {
-    interrupt::interruptible(py, None, move |_| {
-        drive::cli::run_status(args, registries())
+#[pyo3(signature = (args, progress=None))]
+fn run_cli(
+    py: Python<'_>,
+    args: Vec<std::ffi::OsString>,
+    progress: Option<&Bound<'_, PyAny>>,
+) -> PyResult<u8> {
+    let progress = progress.filter(|p| !p.is_none());
+    interrupt::interruptible(py, progress, move |ticker| {
+        let observer = std::sync::Arc::new(interrupt::Observer(ticker.clone()));
+        drive::cli::run_status_observed(args, registries(), observer)
     })
 }
 

@@ -277,6 +277,26 @@ def test_report_writes_the_command_lines_report(husky, tmp_path):
     assert any(p.suffix == ".png" for p in (tmp_path / "report").iterdir())
 
 
+def test_report_reports_its_progress_and_a_stopped_report_writes_nothing(husky, tmp_path):
+    small = drive.Dataset.from_pandas(husky.to_pandas().query("window < 120"), {**husky.meta, "windows": 120})
+    calls = []
+    drive.report(small, tmp_path / "done", models=["naive", "slip-blr"], progress=lambda d, t: calls.append((d, t)))
+    # Two models' fits and scores, the convergence, the protocol regions, the figures.
+    assert calls and calls[-1] == (5, 5) and all(t == 5 for _, t in calls), calls
+
+    def stop(done, total):
+        raise RuntimeError(f"stopped at {done} of {total}")
+
+    with pytest.raises(RuntimeError, match="stopped at"):
+        drive.report(small, tmp_path / "stopped", models=["naive", "slip-blr"], progress=stop)
+    # The command stops at its next unit of work or before it publishes: nothing is written,
+    # even after the work's thread has had time to end.
+    import time
+
+    time.sleep(3)
+    assert not (tmp_path / "stopped").exists() or not any((tmp_path / "stopped").iterdir())
+
+
 def test_missing_files_of_every_kind_are_file_not_found_errors(husky, raw_log, tmp_path):
     # A CSV without its sidecar, a robot file, a suite file.
     lonely = tmp_path / "lonely.csv"

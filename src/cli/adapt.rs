@@ -161,7 +161,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if let (Some(mut outputs), Some(dir)) = (outputs, &args.out) {
         outputs.own(dir);
         crate::report::adapt::stage(&result, &mut outputs, dir)?;
-        outputs.publish()?;
+        super::common::publish(outputs)?;
     }
     emit(args.json, &result, text)?;
     if let Some(dir) = &args.out {

@@ -164,7 +164,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         for (name, content) in written {
             outputs.write(&dir.join(name), content)?;
         }
-        outputs.publish()?;
+        super::common::publish(outputs)?;
     }
     let transfer = config.transfer;
     emit(args.json, &bench, |b| {

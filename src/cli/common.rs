@@ -398,6 +398,49 @@ pub fn note_legacy_sidecar(csv: &Path, given: Option<&Path>) {
     }
 }
 
+thread_local! {
+    /// The host's observer of the command running on this thread ([`super::run_status_observed`]).
+    static OBSERVER: std::cell::RefCell<Option<std::sync::Arc<dyn super::RunObserver>>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// The observer of the command running on this thread, for as long as it lives.
+pub struct Observing;
+
+impl Observing {
+    /// Makes `observer` the observer of this thread's commands until dropped.
+    pub fn new(observer: std::sync::Arc<dyn super::RunObserver>) -> Self {
+        OBSERVER.with(|o| *o.borrow_mut() = Some(observer));
+        Observing
+    }
+}
+
+impl Drop for Observing {
+    fn drop(&mut self) {
+        OBSERVER.with(|o| *o.borrow_mut() = None);
+    }
+}
+
+/// The running command's progress callback: `progress(total)` as each of its units of work
+/// ends (nothing without a host's observer). Taken on the command's thread; called from any.
+pub fn progress() -> impl Fn(usize) + Sync {
+    let observer = OBSERVER.with(|o| o.borrow().clone());
+    move |total| {
+        if let Some(o) = &observer {
+            o.unit_done(total);
+        }
+    }
+}
+
+/// Publishes the command's staged outputs, after the host's observer (if any) has had its
+/// say: an interrupted host stops the command there, and nothing is written.
+pub fn publish(outputs: Outputs) -> Result<Vec<PathBuf>> {
+    if let Some(o) = OBSERVER.with(|o| o.borrow().clone()) {
+        o.before_publish();
+    }
+    Ok(outputs.publish()?)
+}
+
 /// Notes of the running command, printed on stderr when it succeeds (a failed command's
 /// stderr is its one-line error).
 static NOTES: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());

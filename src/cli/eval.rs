@@ -141,7 +141,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             );
         }
         outputs.write(path, per_window_csv(&cmp))?;
-        outputs.publish()?;
+        super::common::publish(outputs)?;
     }
     emit(args.json, &cmp, table)
 }

@@ -48,7 +48,7 @@ pub fn run(args: &Args, _registries: &crate::Registries) -> Result<()> {
     for (path, bytes) in &export.files {
         outputs.write(&args.out.join(path), bytes)?;
     }
-    outputs.publish()?;
+    super::common::publish(outputs)?;
     for note in &export.notes {
         say!("note: {note}");
     }

@@ -108,7 +108,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     });
     if failure.is_none() {
         stage_dataset(&mut outputs, &data, &args.out)?;
-        outputs.publish()?;
+        super::common::publish(outputs)?;
     }
     if args.json {
         let mut v = report.to_json();

@@ -123,7 +123,7 @@ pub fn run_with(
     outputs.write(&files[0], result.to_csv())?;
     outputs.write(&files[1], serde_json::to_string_pretty(&result)?)?;
     outputs.write(&files[2], &markdown)?;
-    outputs.publish()?;
+    super::common::publish(outputs)?;
     if json {
         outln!("{}", serde_json::to_string(&result)?);
     } else {

@@ -175,6 +175,49 @@ where
     ExitCode::from(run_status(args, registries))
 }
 
+/// What a host that runs the command line in its own process (the Python package's `drive`
+/// console command and `drive.report`) learns of a command's progress, and where it may
+/// stop it.
+///
+/// ```
+/// use std::sync::atomic::{AtomicUsize, Ordering};
+/// use std::sync::Arc;
+/// struct Count(AtomicUsize);
+/// impl drive::cli::RunObserver for Count {
+///     fn unit_done(&self, _total: usize) {
+///         self.0.fetch_add(1, Ordering::Relaxed);
+///     }
+/// }
+/// let count = Arc::new(Count(AtomicUsize::new(0)));
+/// let registries = drive::Registries::builtin();
+/// assert_eq!(drive::cli::run_status_observed(["drive", "list"], &registries, count.clone()), 0);
+/// assert_eq!(count.0.load(Ordering::Relaxed), 0); // `list` has no units of work
+/// ```
+pub trait RunObserver: Send + Sync {
+    /// One more of the running command's `total` units of work is done (`drive report`:
+    /// each model's fit and score, the convergence, the protocol regions, the figures'
+    /// analyses). A host may stop the command here by unwinding.
+    fn unit_done(&self, total: usize);
+
+    /// Called as the command is about to publish its outputs: a host whose user
+    /// interrupted the command stops it here (by unwinding), and nothing is written.
+    fn before_publish(&self) {}
+}
+
+/// [`run_status`] with `observer` told of the command's progress on this thread.
+pub fn run_status_observed<I, T>(
+    args: I,
+    registries: &Registries,
+    observer: std::sync::Arc<dyn RunObserver>,
+) -> u8
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let _observing = common::Observing::new(observer);
+    run_status(args, registries)
+}
+
 /// [`run`] with the exit status as a number: 0 on success, 1 on an error (reported on
 /// standard error), 2 on a command-line usage error. What a host that runs the command line
 /// in its own process (the Python package's `drive` console command) returns.

@@ -58,7 +58,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     )?;
     let rows = schedule(&spec, s.as_mut(), args.intervals);
     outputs.write(&args.out, schedule_csv(&spec, &rows))?;
-    outputs.publish()?;
+    super::common::publish(outputs)?;
     say!(
         "{} commands ({} intervals, {:.0} s at {} Hz) for {} with the {} sampler; saved to {}",
         rows.len(),

@@ -106,11 +106,16 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         ..Default::default()
     };
     // The studies fit and evaluate; the report only draws and writes.
-    let analysis = crate::studies::report::ReportAnalysis::build(registries, &dataset, &options)?;
+    let analysis = crate::studies::report::ReportAnalysis::build_with_progress(
+        registries,
+        &dataset,
+        &options,
+        &super::common::progress(),
+    )?;
     let report = crate::report::Report::new(analysis);
     outputs.own(&args.out);
     let files = report.stage(&mut outputs, &args.out)?;
-    outputs.publish()?;
+    super::common::publish(outputs)?;
     if let Err(reason) = &report.protocols {
         say!("note: no protocol figure: {reason}");
     }

@@ -242,7 +242,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     }
     if let Some(out) = &args.out {
         outputs.write(out, terrain.to_toml())?;
-        outputs.publish()?;
+        super::common::publish(outputs)?;
     }
     if poor {
         super::common::note(format!(

@@ -111,7 +111,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         crate::data::write_raw_log(&run.raw, &columns, &[], &mut text);
         outputs.write(path, text)?;
     }
-    outputs.publish()?;
+    super::common::publish(outputs)?;
     let space = match &run.characterization {
         None => "user-given".to_string(),
         Some(c) => {

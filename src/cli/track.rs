@@ -354,7 +354,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if let Some(dir) = &args.out {
         outputs.own(dir);
         crate::report::track::stage(&result, &mut outputs, dir)?;
-        outputs.publish()?;
+        super::common::publish(outputs)?;
     }
     for n in &result.notes {
         super::common::note(format!("note: {n}"));

@@ -94,7 +94,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         );
     }
     outputs.write(&args.out, text)?;
-    outputs.publish()?;
+    super::common::publish(outputs)?;
     say!(
         "fitted {} ({}) on {} windows of {}; saved to {}",
         args.model,

@@ -227,6 +227,8 @@ fn cases() -> Vec<Case> {
                 v["model"] = outer;
             })),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "2 calibration layers, one inside another"] },
+        Case { name: "model robot with a key train never writes", file: File::Model(|m| edit_model(&m, |v| v["robot"]["wheel_slip"] = 0.2.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "robot", "unknown field `wheel_slip`"] },
         // Issue 34: model files no fit writes.
         Case { name: "model calibration of another horizon", file: File::Model(|m| edit_model(&m, |v| {
                 for key in ["position_scale", "yaw_scale"] {

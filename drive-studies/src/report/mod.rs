@@ -5,8 +5,8 @@
 pub mod analysis;
 
 use crate::{
-    compare_regions, compare_specs, convergence, Comparison, Convergence, ExperimentError,
-    RegionComparison, RegionStudy, Registries,
+    compare_regions, compare_specs_with_progress, convergence, Comparison, Convergence,
+    ExperimentError, RegionComparison, RegionStudy, Registries,
 };
 use analysis::{Calibration, InputSpaceFigure, PowertrainTrace, Trajectory};
 use drive_eval::split_by_interval;
@@ -150,18 +150,45 @@ impl ReportAnalysis {
         data: &Dataset,
         options: &ReportOptions,
     ) -> Result<ReportAnalysis, ReportStudyError> {
+        Self::build_with_progress(registries, data, options, &|_| {})
+    }
+
+    /// [`ReportAnalysis::build`], calling `progress(total)` as each of its `total` units of
+    /// work ends: each compared model's fit and score, the convergence, the protocol
+    /// regions, the figures' analyses (the number of models plus 3). What a host shows a
+    /// long report's progress by, and where it may stop it (a progress call that unwinds
+    /// stops the report there).
+    ///
+    /// ```no_run
+    /// use drive_studies::report::{ReportAnalysis, ReportOptions};
+    /// let registries = drive_studies::Registries::builtin();
+    /// let data = drive_data::read_dataset("run.csv".as_ref(), None).unwrap();
+    /// let options = ReportOptions::default();
+    /// let progress = |total: usize| eprintln!("one more of {total} units done");
+    /// ReportAnalysis::build_with_progress(&registries, &data, &options, &progress).unwrap();
+    /// ```
+    pub fn build_with_progress(
+        registries: &Registries,
+        data: &Dataset,
+        options: &ReportOptions,
+        progress: &(dyn Fn(usize) + Sync),
+    ) -> Result<ReportAnalysis, ReportStudyError> {
         let specs: Vec<_> = registries
             .models()
             .resolve_list(&options.models)?
             .into_iter()
             .map(|s| s.with_uncertainty(options.uncertainty, options.start))
             .collect();
-        let comparison = compare_specs(data, options.split, &specs)?;
+        // The models' fits and scores, the convergence, the regions, the figures.
+        let total = specs.len() + 3;
+        let unit_done = || progress(total);
+        let comparison = compare_specs_with_progress(data, options.split, &specs, &unit_done)?;
         let (train, eval) = split_by_interval(data, options.split)?;
         let model = registries
             .model(&options.model)?
             .with_uncertainty(options.uncertainty, options.start);
         let convergence = convergence(data, options.split, options.thresholds, &model)?;
+        unit_done();
         let protocols = compare_regions(
             registries,
             data,
@@ -172,6 +199,7 @@ impl ReportAnalysis {
                 ..RegionStudy::default()
             },
         );
+        unit_done();
         let fitted = comparison
             .models
             .iter()
@@ -233,6 +261,7 @@ impl ReportAnalysis {
             options.body.as_ref().map(|b| b.1),
             &drive_eval::UnpredictabilityConfig::default(),
         );
+        unit_done();
         Ok(ReportAnalysis {
             dataset: format!("{} ({})", data.robot.name, data.robot.robot),
             unpredictability,

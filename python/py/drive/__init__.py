@@ -193,12 +193,18 @@ def per_window(dataset, models=None, split=0.5, start=None):
     return dict(_native.per_window_columns(dataset, models, float(split), start))
 
 
-def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None):
+def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None, progress=None):
     """`drive report` on `dataset`: report.md and the paper's figures (PNG) in the directory
     `out`, for the models (default: every model of `drive report`) with `model`'s
     uncertainty figures; `robot` (a registered robot or TOML file) for the naive input
     space's figure. Returns the path of report.md; a `DriveError` carries the command
-    line's message."""
+    line's message.
+
+    Ctrl-C raises KeyboardInterrupt within a fraction of a second, and nothing is written to
+    `out` (the report stops at its next unit of work: a model's fit and score, the
+    convergence, the protocol regions, the figures). `progress` is a callable given
+    `(done, total)` as those units complete, or True for a tqdm bar (when tqdm is
+    installed; nothing otherwise)."""
     import tempfile
 
     if not isinstance(dataset, Dataset):
@@ -222,17 +228,18 @@ def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None):
             args += ["--models", ",".join(models)]
         if robot is not None:
             args += ["--robot", _os.fspath(robot)]
-        status, said = _run_capturing_stderr(args, tmp)
+        with _progress(progress, "report") as reporting:
+            status, said = _run_capturing_stderr(args, tmp, reporting)
     if status != 0:
         errors = [line[len("error: "):] for line in said.splitlines() if line.startswith("error: ")]
         raise DriveError(errors[-1] if errors else f"drive report failed: {said.strip()}")
     return _os.path.join(out, "report.md")
 
 
-def _run_capturing_stderr(args, tmp):
+def _run_capturing_stderr(args, tmp, progress=None):
     """The command line run in-process with its standard error (file descriptor 2) read
     back: (exit status, what it said). What it said is passed on to `sys.stderr` on
-    success (its notes)."""
+    success (its notes). `progress(done, total)` as its units of work end."""
     import sys
 
     path = _os.path.join(tmp, "stderr.txt")
@@ -243,7 +250,7 @@ def _run_capturing_stderr(args, tmp):
         with open(path, "wb") as captured:
             _os.dup2(captured.fileno(), 2)
             try:
-                status = _native.run_cli(args)
+                status = _native.run_cli(args, progress)
             finally:
                 _os.dup2(saved, 2)
     finally:
