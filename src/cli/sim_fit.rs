@@ -102,6 +102,10 @@ struct Output<'a> {
     terrain: &'a crate::sim::Terrain,
     #[serde(skip_serializing_if = "Option::is_none")]
     report: Option<&'a crate::sim::SimFitReport>,
+    /// The ground fit of a vehicle of another type than the differential drive (absent
+    /// otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ground_fit: Option<&'a crate::sim::AnyVehicleFitReport>,
     /// Whether the fitted twin kept its variability (absent with --twin, or without one).
     #[serde(skip_serializing_if = "Option::is_none")]
     variability_choice: Option<&'a crate::studies::VariabilityChoice>,
@@ -165,7 +169,38 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     // The twin: fitted on the data (its variability kept, and its contact spread other
     // than the vehicle's, only where that brings the models' errors closer to the real
     // run's: drive_studies::fit_twin), or the one given to check.
+    let differential = |v: &dyn crate::traits::CommandModel| {
+        crate::traits::vehicle_as::<crate::models::DifferentialDrive>(v).is_some()
+    };
+    let skid_steer =
+        differential(data.robot.vehicle.as_ref()) && differential(spec.vehicle.as_ref());
+    if !skid_steer
+        && given.is_none()
+        && args.contact_spread != crate::studies::ContactSpreads::Choose
+    {
+        anyhow::bail!(
+            "--contact-spread is a skid-steer twin's (the contacts along each side); a twin of the vehicle type '{}' fits its ground only",
+            crate::traits::vehicle_tag(data.robot.vehicle.as_ref()).unwrap_or_default()
+        );
+    }
+    // A vehicle of another type: the ground of its own simulator, fitted on the real run's
+    // motion (drive_sim::fit_any_vehicle); the skid-steer fit's stages are a differential
+    // drive's.
+    let ground_fit = match (&given, skid_steer) {
+        (None, false) => Some(crate::sim::fit_any_vehicle(
+            &registries.simulators,
+            &data,
+            &spec,
+            &name,
+        )?),
+        _ => None,
+    };
     let (terrain, report, variability_choice, contact_spread_choice) = match given {
+        None if ground_fit.is_some() => {
+            // Set just above when there is no twin to check and the vehicle is not a skid-steer.
+            let fit = ground_fit.as_ref().expect("a ground fit");
+            (fit.terrain.clone(), None, None, None)
+        }
         // A twin is checked only against data a twin could be fitted on (the same
         // refusals: another robot's geometry, too few windows, a frozen localization, ...).
         Some(terrain) => {
@@ -219,7 +254,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         scatter_off: &check.scatter_off,
         command_scatter_off: &check.command_scatter_off,
         written,
-        fitted: report.is_some(),
+        fitted: report.is_some() || ground_fit.is_some(),
+        ground_fit: ground_fit.as_ref().map(|f| &f.report),
         simulator: crate::sim::simulator_used(&registries.simulators, &spec),
         terrain: &terrain,
         report: report.as_ref(),
@@ -267,6 +303,10 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                 o.variability_choice,
                 o.contact_spread_choice,
             ),
+            None if o.ground_fit.is_some() => {
+                // Matched by this arm's guard.
+                ground_fit_text(t, o.ground_fit.expect("a ground fit"), &data, &saved)
+            }
             None => format!(
                 "twin '{}' ({}) checked against {}, not fitted{saved}\n",
                 t.name,
@@ -476,6 +516,56 @@ fn fit_text(
             r.at_bounds.join(", ")
         );
     }
+    text
+}
+
+/// The text of a ground fit of a vehicle of another type ([`crate::sim::fit_any_vehicle`]).
+fn ground_fit_text(
+    t: &crate::sim::Terrain,
+    r: &crate::sim::AnyVehicleFitReport,
+    data: &crate::traits::Dataset,
+    saved: &str,
+) -> String {
+    let rms = |m: [f64; 3]| format!("{:.3} m/s, {:.3} m/s, {:.3} rad/s", m[0], m[1], m[2]);
+    let mut text = format!(
+        "twin '{}' fitted on {} ({} steady windows, {} intervals compared){saved}: the ground of the {} simulator{}, from the preset '{}'\n",
+        t.name,
+        data.robot.name,
+        r.steady_windows,
+        r.intervals_compared,
+        r.simulator,
+        if r.stand_in {
+            " (the kinematic stand-in: no simulator is registered for this vehicle type)"
+        } else {
+            ""
+        },
+        r.start
+    );
+    text += &format!(
+        "ground: traction {:.3}, lateral {:.3}, rolling {:.3}, slip_modulus {:.3}\n",
+        t.traction, t.lateral, t.rolling, t.slip_modulus
+    );
+    text += &format!(
+        "steady motion, RMS twin minus real per interval (forward, sideways, yaw): {} at the start, {} fitted\n",
+        rms(r.motion_rms_start),
+        rms(r.motion_rms)
+    );
+    if !r.insensitive.is_empty() {
+        text += &format!(
+            "note: not pinned down by the data (the simulator barely responds to it): {}\n",
+            r.insensitive.join(", ")
+        );
+    }
+    if !r.at_bounds.is_empty() {
+        text += &format!(
+            "note: at a bound of its range, not pinned down by the data: {}\n",
+            r.at_bounds.join(", ")
+        );
+    }
+    text += &format!(
+        "not fitted (a twin of this vehicle type fits its ground only): {}\n",
+        r.not_fitted.join("; ")
+    );
     text
 }
 

@@ -459,7 +459,8 @@ fn a_vehicle_brings_its_own_slip_basis_which_slip_blr_fits_saves_and_steps() {
         );
         stepper.step(&mut state, u).unwrap();
     }
-    // No twin fit for it (the twin fit is the skid-steer simulator's), refused by name.
+    // The skid-steer fit is a differential drive's, refused by name (`drive sim-fit`
+    // fits its ground instead: the test below).
     let e = drive::sim::sim_fit(&data, &r.robot("rover").unwrap(), "twin")
         .unwrap_err()
         .to_string();
@@ -558,4 +559,94 @@ fn the_human_like_samplers_and_the_regions_ask_a_rover_what_it_reaches_not_its_b
         .and_then(|s| s.parse().ok())
         .unwrap();
     assert!(bound > 0.15 * 0.5 * reach.top_yaw_rate(), "{linear}");
+}
+
+/// `drive sim-fit` on a vehicle the skid-steer fit does not cover: the rover (no simulator
+/// registered: the kinematic stand-in, named) and the built-in mecanum base. The ground is
+/// fitted on the run's own motion, the twin passes its check and is written, and `--twin`
+/// checks it again on the same refusals a fit makes.
+#[test]
+fn sim_fit_fits_the_ground_of_a_vehicle_of_any_type_and_says_which_simulator() {
+    let (mut r, robot) = rover_registries();
+    r.robots
+        .register("rover", "a rover", Arc::new(robot))
+        .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for (robot, ground, simulator, stand_in) in [
+        ("rover", "snow", "kinematic", true),
+        ("ridgeback", "gravel", "omnidirectional", false),
+    ] {
+        let data = simulate_protocol(&r, robot, ground, "uniform", 40, 5)
+            .unwrap()
+            .dataset;
+        let csv = dir.path().join(format!("{robot}.csv"));
+        drive::data::write_dataset(&data, &csv).unwrap();
+        let twin = dir.path().join(format!("{robot}-twin.toml"));
+        let status = |args: &[&str]| {
+            let mut all = vec!["drive"];
+            all.extend_from_slice(args);
+            drive::cli::run_status(all, &r)
+        };
+        let (csv_s, twin_s) = (csv.to_str().unwrap(), twin.to_str().unwrap());
+        // The fit's result is read back from the twin file and checked again with --twin.
+        assert_eq!(
+            status(&[
+                "sim-fit",
+                "--data",
+                csv_s,
+                "--robot",
+                robot,
+                "--out",
+                twin_s,
+                "--check-seeds",
+                "1"
+            ]),
+            0,
+            "{robot}"
+        );
+        let fitted =
+            drive::sim::Terrain::from_toml("twin", &std::fs::read_to_string(&twin).unwrap())
+                .unwrap();
+        // The ground only: the simulator's own powertrain, controller and sensors.
+        assert!(
+            fitted.powertrain.is_none() && fitted.controller.is_none() && fitted.protocol.is_none()
+        );
+        // The fit itself, from the library: the simulator named, the motion matched.
+        let spec = r.robot(robot).unwrap();
+        let fit = drive::sim::fit_any_vehicle(&r.simulators, &data, &spec, "t").unwrap();
+        assert_eq!(
+            (fit.report.simulator.as_str(), fit.report.stand_in),
+            (simulator, stand_in)
+        );
+        assert!(fit.report.cost <= fit.report.cost_start, "{:?}", fit.report);
+        assert!(fit.report.intervals_compared >= 30, "{:?}", fit.report);
+        // The written twin checked on the same data passes.
+        assert_eq!(
+            status(&[
+                "sim-fit",
+                "--data",
+                csv_s,
+                "--robot",
+                robot,
+                "--twin",
+                twin_s,
+                "--check-seeds",
+                "1"
+            ]),
+            0,
+            "{robot}"
+        );
+        // Another vehicle type's robot is refused, naming both.
+        let other = if robot == "rover" {
+            "ridgeback"
+        } else {
+            "husky"
+        };
+        let e = drive::sim::check_real_run(&data, &r.robot(other).unwrap()).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("give the robot the data was recorded with"),
+            "{e}"
+        );
+    }
 }

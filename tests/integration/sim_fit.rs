@@ -847,7 +847,8 @@ fn a_fitted_twin_runs_in_simulate_and_is_refused_where_it_does_not_apply() {
         &csv,
     ]);
     ok(&["eval", "--data", &csv, "--models", "naive"]);
-    // A car's data has no skid-steer twin; the output never replaces the data.
+    // A car's data is not a Husky's (a car's twin is its ground's: tests/integration/
+    // outside_vehicle.rs); the output never replaces the data.
     let car = path("car.csv");
     ok(&[
         "simulate",
@@ -862,16 +863,11 @@ fn a_fitted_twin_runs_in_simulate_and_is_refused_where_it_does_not_apply() {
         "--out",
         &car,
     ]);
-    let err = user_error(&[
-        "sim-fit",
-        "--data",
-        &car,
-        "--robot",
-        "autorally",
-        "--out",
-        &a,
-    ]);
-    assert!(err.contains("differential"), "{err}");
+    let err = user_error(&["sim-fit", "--data", &car, "--robot", "husky", "--out", &a]);
+    assert!(
+        err.contains("'ackermann'") && err.contains("'differential'"),
+        "{err}"
+    );
     let err = user_error(&["sim-fit", "--data", &csv, "--robot", "husky", "--out", &csv]);
     assert!(err.contains("--out"), "{err}");
     // The twin's protocol is a skid-steer's: refused for another vehicle, and for a

@@ -45,6 +45,7 @@ use drive_traits::{vehicle_as, Dataset, Input, Phase, Pose};
 use serde::Serialize;
 use thiserror::Error;
 
+mod any_vehicle;
 mod controller;
 mod ground;
 mod protocol;
@@ -54,6 +55,7 @@ mod stall;
 mod test_runs;
 mod variability;
 
+pub use any_vehicle::{check_any_vehicle_run, fit_any_vehicle, AnyVehicleFit, AnyVehicleFitReport};
 use controller::*;
 use ground::*;
 use protocol::*;
@@ -70,7 +72,7 @@ pub use variability::{command_scatter, scatter, Scatter, ScatterFit};
 pub enum SimFitError {
     /// The data's or the robot's vehicle is not a differential drive (the skid-steer
     /// plant's).
-    #[error("sim-fit fits the parameters of the skid-steer simulator (wheel speeds, track geometry, ground contact), so it needs a differential-drive dataset and robot; the {what}'s vehicle is '{vehicle}': a vehicle of another type has no twin fit (its runs still simulate, evaluate, bench and track)")]
+    #[error("sim-fit fits the parameters of the skid-steer simulator (wheel speeds, track geometry, ground contact), so it needs a differential-drive dataset and robot; the {what}'s vehicle is '{vehicle}': the twin of a vehicle of another type is its ground's only (fit_any_vehicle, what drive sim-fit runs for it)")]
     NotDifferential {
         /// `data` or `robot`.
         what: &'static str,
@@ -398,7 +400,8 @@ fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
 /// stage of the fit: not swapped, sign-flipped or in other units) and its localization moves
 /// the way the wheels drive (not mirrored). [`sim_fit`] asks the same; `drive sim-fit
 /// --twin` asks it before checking a given twin, so that a checked twin is refused on the
-/// data a fit is refused on.
+/// data a fit is refused on. Data or a robot of another vehicle type than the differential
+/// drive is asked what [`check_any_vehicle_run`] asks (the twin of its ground only).
 ///
 /// ```
 /// use drive_sim::{check_real_run, SimFitError};
@@ -423,6 +426,12 @@ fn extract(data: &Dataset) -> (Vec<Steady>, Vec<Transient>) {
 /// assert!(matches!(check_real_run(&data, &husky), Err(SimFitError::TooFew { .. })));
 /// ```
 pub fn check_real_run(data: &Dataset, robot: &RobotSpec) -> Result<(), SimFitError> {
+    // A vehicle of another type: a twin of its ground only ([`fit_any_vehicle`]).
+    let differential =
+        |v: &dyn drive_traits::CommandModel| vehicle_as::<DifferentialDrive>(v).is_some();
+    if !differential(data.robot.vehicle.as_ref()) || !differential(robot.vehicle.as_ref()) {
+        return check_any_vehicle_run(data, robot).map(|_| ());
+    }
     let (g, steady, transients) = checked_run(data, robot)?;
     let (_, followed, _) = followed_runs(data, &steady, &transients)?;
     controller_stage(&g, &followed)?;
