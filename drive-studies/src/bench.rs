@@ -565,6 +565,13 @@ pub fn run_bench(
             .filter(|i| !skipped.iter().any(|s| s.dataset == i.name))
             .cloned()
             .collect();
+        // The units planned for the skipped datasets (their transfer and adaptation) are
+        // done: there is nothing left of them to do, and a progress bar reaches its total.
+        let planned = bench_units(inputs, specs.len(), config);
+        let left = bench_units(&kept, specs.len(), config) - kept.len();
+        for _ in 0..planned.saturating_sub(inputs.len() + left) {
+            progress();
+        }
         &kept[..]
     };
     let (pairs, transfer_skipped) = if config.transfer || config.adapt.is_some() {

@@ -291,3 +291,22 @@ pub(crate) fn load_dataset(
         import_report: None,
     })
 }
+
+/// `Err` naming the first fatal finding of the data checks (`drive check`) of `data`, as
+/// the command line refuses useless data in every command that fits or scores on it;
+/// `Ok` when `allow` (the command line's `--allow-useless`) or when nothing is fatal.
+pub(crate) fn refuse_useless(data: &RustDataset, what: &str, allow: bool) -> PyResult<()> {
+    if allow {
+        return Ok(());
+    }
+    let fatal = drive::data::quality::check(data, None)
+        .into_iter()
+        .find(|f| f.severity == drive::data::quality::Severity::Fatal);
+    match fatal {
+        Some(f) => Err(err(format!(
+            "{what} '{}': the data checks call it useless: {} ({}; drive check says more; allow_useless=True fits and scores on it anyway)",
+            data.robot.name, f.message, f.check
+        ))),
+        None => Ok(()),
+    }
+}

@@ -51,8 +51,10 @@ fn comparison(
     split: f64,
     start: Option<&Bound<'_, PyAny>>,
     progress: Option<&Bound<'_, PyAny>>,
+    allow_useless: bool,
 ) -> PyResult<drive::studies::Comparison> {
     let dataset = dataset_of(dataset)?;
+    crate::dataset::refuse_useless(&dataset.inner, "the dataset", allow_useless)?;
     let start = start_info_of(start)?;
     let names = model_names(models)?.unwrap_or_else(|| {
         drive::studies::PAPER_MODELS
@@ -85,9 +87,10 @@ fn comparison(
 
 /// `drive eval --json` as a JSON text: the models (default: the paper's four) fitted on the
 /// first `split` of the intervals and scored on the rest, their predictions starting from
-/// `start` (`drive eval --start`); `progress(done, total)` after each model.
+/// `start` (`drive eval --start`); `progress(done, total)` after each model. Data the data
+/// checks call useless is refused unless `allow_useless` (`drive eval --allow-useless`).
 #[pyfunction]
-#[pyo3(signature = (dataset, models=None, split=0.5, start=None, progress=None))]
+#[pyo3(signature = (dataset, models=None, split=0.5, start=None, progress=None, allow_useless=false))]
 pub(crate) fn evaluate_json(
     py: Python<'_>,
     dataset: &Bound<'_, PyAny>,
@@ -95,23 +98,26 @@ pub(crate) fn evaluate_json(
     split: f64,
     start: Option<&Bound<'_, PyAny>>,
     progress: Option<&Bound<'_, PyAny>>,
+    allow_useless: bool,
 ) -> PyResult<String> {
-    let cmp = comparison(py, dataset, models, split, start, progress)?;
+    let cmp = comparison(py, dataset, models, split, start, progress, allow_useless)?;
     serde_json::to_string(&cmp).map_err(err)
 }
 
 /// Per-window errors as `drive eval --per-window` writes them: columns model, window,
-/// interval, phase, translational_m, rotational_rad.
+/// interval, phase, translational_m, rotational_rad. Useless data refused unless
+/// `allow_useless`.
 #[pyfunction]
-#[pyo3(signature = (dataset, models=None, split=0.5, start=None))]
+#[pyo3(signature = (dataset, models=None, split=0.5, start=None, allow_useless=false))]
 pub(crate) fn per_window_columns<'py>(
     py: Python<'py>,
     dataset: &Bound<'py, PyAny>,
     models: Option<&Bound<'py, PyAny>>,
     split: f64,
     start: Option<&Bound<'py, PyAny>>,
+    allow_useless: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let cmp = comparison(py, dataset, models, split, start, None)?;
+    let cmp = comparison(py, dataset, models, split, start, None, allow_useless)?;
     let rows = cmp
         .models
         .iter()
@@ -222,7 +228,8 @@ pub(crate) fn bench_json(
 /// fit. Stops on Ctrl-C (`KeyboardInterrupt`) between models; `progress(done, total)` after
 /// each model.
 #[pyfunction]
-#[pyo3(signature = (prior, data, models=None, split=0.5, times=None, progress=None))]
+#[pyo3(signature = (prior, data, models=None, split=0.5, times=None, progress=None, allow_useless=false))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn adapt_json(
     py: Python<'_>,
     prior: &Bound<'_, PyAny>,
@@ -231,8 +238,10 @@ pub(crate) fn adapt_json(
     split: f64,
     times: Option<Vec<f64>>,
     progress: Option<&Bound<'_, PyAny>>,
+    allow_useless: bool,
 ) -> PyResult<String> {
     let target = dataset_of(data)?;
+    crate::dataset::refuse_useless(&target.inner, "the target", allow_useless)?;
     if !(split > 0.0 && split < 1.0) {
         return Err(err(format!(
             "split {split} must lie strictly between 0 and 1"
@@ -256,6 +265,9 @@ pub(crate) fn adapt_json(
             ))
         })?)
     };
+    if let Some(d) = &prior_data {
+        crate::dataset::refuse_useless(&d.inner, "the prior", allow_useless)?;
+    }
     let model_name = prior_model.as_ref().map(|m| m.model.name());
     let names = match (names, &model_name) {
         (Some(n), Some(_)) if n.len() != 1 => {

@@ -440,10 +440,19 @@ impl Model {
         }
     }
 
-    /// Saves the model as the command line's model file (`drive predict --model`).
+    /// Saves the model as the command line's model file (`drive predict --model`). A model
+    /// the loader would refuse (a fit of useless data, allowed) is not written: a
+    /// `DriveError` says why, as `drive train` does.
     fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
         let path = path_of("path", path)?;
         let text = self.to_json()?;
+        if let Err(e) =
+            drive::models::model_file::read_model_file(&path.display().to_string(), &text)
+        {
+            return Err(err(format!(
+                "the model is not one the loader accepts, so it is not written: {e}"
+            )));
+        }
         std::fs::write(&path, text)
             .map_err(|e| err(format!("{}: cannot write: {e}", path.display())))
     }
@@ -506,16 +515,18 @@ impl Model {
     /// model with a covariance), and `notes`. A dataset of another geometry of the same
     /// vehicle type (another calibration of the robot's wheels or baseline) is refused
     /// unless `allow_other_geometry`, which scores it with the difference as a UserWarning
-    /// and in `notes`.
-    #[pyo3(signature = (dataset, start=None, allow_other_geometry=false))]
+    /// and in `notes`. A dataset the data checks call useless is refused unless
+    /// `allow_useless`.
+    #[pyo3(signature = (dataset, start=None, allow_other_geometry=false, allow_useless=false))]
     fn score<'py>(
         &self,
         py: Python<'py>,
         dataset: &Bound<'py, PyAny>,
         start: Option<&Bound<'py, PyAny>>,
         allow_other_geometry: bool,
+        allow_useless: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let text = self.score_json(py, dataset, start, allow_other_geometry)?;
+        let text = self.score_json(py, dataset, start, allow_other_geometry, allow_useless)?;
         py.import("json")?.call_method1("loads", (text,))
     }
 
@@ -523,16 +534,18 @@ impl Model {
     /// vehicle: another run, another terrain), predicting from `start` (the start it was
     /// fitted for when None), as JSON text: the medians and quartiles (all windows and per
     /// phase), the per-window errors, and the 95% regions' calibration for a model with a
-    /// covariance; with `allow_other_geometry`, as [`Self::score`].
-    #[pyo3(signature = (dataset, start=None, allow_other_geometry=false))]
+    /// covariance; with `allow_other_geometry` and `allow_useless`, as [`Self::score`].
+    #[pyo3(signature = (dataset, start=None, allow_other_geometry=false, allow_useless=false))]
     fn score_json(
         &self,
         py: Python<'_>,
         dataset: &Bound<'_, PyAny>,
         start: Option<&Bound<'_, PyAny>>,
         allow_other_geometry: bool,
+        allow_useless: bool,
     ) -> PyResult<String> {
         let dataset = dataset_of(dataset)?;
+        crate::dataset::refuse_useless(&dataset.inner, "the dataset", allow_useless)?;
         let start = match start.filter(|s| !s.is_none()) {
             Some(s) => start_info_of(Some(s))?,
             None => self.start,
@@ -641,17 +654,20 @@ fn geometry_difference(ours: &serde_json::Value, theirs: &serde_json::Value) -> 
 
 /// Fits `model` (a model name, as `drive train --model`) on the dataset's first `split` of
 /// the intervals (all of them when None), for predictions that start from `start`
-/// (`drive train --start`).
+/// (`drive train --start`). Data the data checks call useless is refused unless
+/// `allow_useless` (`drive train --allow-useless`).
 #[pyfunction]
-#[pyo3(signature = (dataset, model, split=None, start=None))]
+#[pyo3(signature = (dataset, model, split=None, start=None, allow_useless=false))]
 pub(crate) fn fit(
     py: Python<'_>,
     dataset: &Bound<'_, PyAny>,
     model: &Bound<'_, PyAny>,
     split: Option<&Bound<'_, PyAny>>,
     start: Option<&Bound<'_, PyAny>>,
+    allow_useless: bool,
 ) -> PyResult<Model> {
     let dataset = dataset_of(dataset)?;
+    crate::dataset::refuse_useless(&dataset.inner, "the dataset", allow_useless)?;
     let start = start_info_of(start)?;
     let model: String = model.extract().map_err(|_| {
         err(format!(

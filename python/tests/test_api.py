@@ -598,6 +598,47 @@ def test_bench_skips_a_useless_dataset_as_the_command_line_does(tmp_path):
     assert len(allowed["datasets"]) == 2 and "skipped" not in allowed
     with pytest.raises(drive.DriveError, match="allow_useless"):
         drive.bench(suite, models="naive", allow_useless="yes")
+    # With transfer, the skipped run's planned transfer units count as done: a progress bar
+    # ends at its total.
+    calls = []
+    drive.bench(suite, models="naive", progress=lambda d, t: calls.append((d, t)))
+    assert calls and calls[-1][0] == calls[-1][1] > 2, calls
+
+
+def test_every_call_that_fits_or_scores_refuses_useless_data_as_the_command_line_does(tmp_path):
+    """A frozen localization: drive.evaluate, per_window, fit, adapt and Model.score raise
+    DriveError naming the finding (`drive eval`, `train`, `adapt` refuse it), each with
+    `allow_useless=True` to look anyway; a model the loader would refuse is not saved."""
+    import warnings
+
+    grass = drive.load_dataset("bundled:warthog_grass_2024-08-08")
+    df = grass.to_pandas()
+    for column in ("x", "y", "yaw"):
+        df[column] = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        frozen = drive.Dataset.from_pandas(df, grass.meta)
+    model = drive.fit(grass, "naive")
+    for call in (
+        lambda **k: drive.evaluate(frozen, ["naive"], **k),
+        lambda **k: drive.per_window(frozen, ["naive"], **k),
+        lambda **k: drive.fit(frozen, "slip-blr", **k),
+        lambda **k: drive.adapt(grass, frozen, models="slip-blr", times=[0], **k),
+        lambda **k: drive.adapt(frozen, grass, models="slip-blr", times=[0], **k),
+        lambda **k: model.score(frozen, **k),
+    ):
+        with pytest.raises(drive.DriveError, match=r"useless: .*\(not-moving; .*allow_useless=True"):
+            call()
+    assert drive.evaluate(frozen, ["naive"], allow_useless=True)["models"][0]["name"] == "naive"
+    assert model.score(frozen, allow_useless=True)["translational_m"]["all"]["windows"] > 0
+    with pytest.raises(drive.DriveError, match="allow_useless must be True or False"):
+        drive.evaluate(frozen, ["naive"], allow_useless="yes")
+    # slip-BLR on a localization that never moves: a noise of zero, which the loader
+    # refuses, so save refuses to write it (as drive train does).
+    useless = drive.fit(frozen, "slip-blr", allow_useless=True)
+    with pytest.raises(drive.DriveError, match="not one the loader accepts, so it is not written"):
+        useless.save(tmp_path / "useless.json")
+    assert not (tmp_path / "useless.json").exists()
 
 
 def test_a_long_call_stops_on_ctrl_c_between_units_of_work():

@@ -17,10 +17,19 @@ pub struct Args {
     /// Print the JSON document on stdout instead of the Markdown summary.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    useless: super::common::UselessArg,
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
-    run_with(&args.config, &args.out, args.json, registries).map(|_| ())
+    run_checked(
+        &args.config,
+        &args.out,
+        args.json,
+        args.useless.allow_useless,
+        registries,
+    )
+    .map(|_| ())
 }
 
 /// Resolves a sweep's dataset: a bundled name, or a file relative to the sweep file.
@@ -45,6 +54,18 @@ pub fn run_with(
     config: &Path,
     out: &Path,
     json: bool,
+    registries: &Registries,
+) -> Result<MatrixResult> {
+    run_checked(config, out, json, false, registries)
+}
+
+/// [`run_with`], a dataset the data checks call useless refused (naming it and the
+/// finding) unless `allow_useless` (`--allow-useless`).
+fn run_checked(
+    config: &Path,
+    out: &Path,
+    json: bool,
+    allow_useless: bool,
     registries: &Registries,
 ) -> Result<MatrixResult> {
     let name = config.display().to_string();
@@ -103,6 +124,17 @@ pub fn run_with(
         registries
             .check_vehicle(data.robot.vehicle.as_ref())
             .map_err(|e| format!("the data's vehicle: {e}"))?;
+        // The rule of every command that fits and scores: useless data is refused.
+        let fatal = crate::data::quality::check(&data, None)
+            .into_iter()
+            .find(|f| f.severity == crate::data::quality::Severity::Fatal);
+        if let (false, Some(f)) = (allow_useless, fatal) {
+            return Err(format!(
+                "the data checks call it useless: {} ({}; drive check says more; --allow-useless fits and scores on it anyway)",
+                f.message, f.check
+            )
+            .into());
+        }
         Ok(data)
     })?;
     let files = ["matrix.csv", "matrix.json", "summary.md"].map(|f| out.join(f));

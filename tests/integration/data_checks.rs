@@ -314,7 +314,17 @@ fn every_command_that_fits_or_scores_refuses_data_the_checks_call_useless_unless
     let csv = csv.display().to_string();
     let model = dir.path().join("m.json").display().to_string();
     let report = dir.path().join("report").display().to_string();
+    // A sweep of it (a matrix holds datasets as a suite does).
+    let sweep = dir.path().join("sweep.toml");
+    std::fs::write(
+        &sweep,
+        "learners = [\"no-slip\", \"slip-blr\"]\npowertrains = [\"commanded\", \"fopdt\"]\nsplits = [0.5]\n[[datasets]]\nfile = \"frozen.csv\"\n",
+    )
+    .unwrap();
+    let sweep = sweep.display().to_string();
+    let matrix = dir.path().join("matrix").display().to_string();
     for args in [
+        vec!["matrix", "--config", &sweep, "--out", &matrix],
         vec!["eval", "--data", &csv],
         vec![
             "train", "--data", &csv, "--model", "slip-blr", "--out", &model,

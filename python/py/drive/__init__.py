@@ -183,14 +183,14 @@ def import_bag(path, robot, topics=None, *, max_gap=0.25, localization_timeout=0
     return _import(path, robot, True, topics, max_gap, localization_timeout, terrain, allow)
 
 
-def per_window(dataset, models=None, split=0.5, start=None):
+def per_window(dataset, models=None, split=0.5, start=None, allow_useless=False):
     """The errors of each evaluation window, as `drive eval --per-window` writes them: a
     dict of equal-length columns model, window, interval, phase, translational_m,
     rotational_rad (`pandas.DataFrame(drive.per_window(...))`). The models (default:
     naive, powertrain, slip-blr, acc-blr) are fitted on the first `split` of the intervals
     and scored on the rest, predicting from `start`, as `drive.evaluate`."""
     models = _model_names(models, split)
-    return dict(_native.per_window_columns(dataset, models, float(split), start))
+    return dict(_native.per_window_columns(dataset, models, float(split), start, _flag("allow_useless", allow_useless)))
 
 
 def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None, progress=None):
@@ -286,6 +286,13 @@ __all__ = [
 ]
 
 
+def _flag(name, value):
+    """`value` when it is True or False; a `DriveError` naming `name` otherwise."""
+    if not isinstance(value, bool):
+        raise DriveError(f"{name} must be True or False, got {value!r}")
+    return value
+
+
 def _model_names(models, split):
     """`models` (None, a list of names, or one str with commas) as a list of names (None for
     the default), after checking `split` is a number."""
@@ -300,16 +307,19 @@ def _model_names(models, split):
     return None if models is None else list(models)
 
 
-def evaluate(dataset, models=None, split=0.5, start=None, progress=None):
+def evaluate(dataset, models=None, split=0.5, start=None, progress=None, allow_useless=False):
     """The models (default: naive, powertrain, slip-blr, acc-blr) fitted on the first
     `split` of the dataset's intervals and scored on the rest, their predictions starting
     from `start` ("encoders", "encoders+imu" (the default) or "encoders+imu+localization",
     as `drive eval --start`): the same dict as `drive eval --json`. Ctrl-C raises
     KeyboardInterrupt at once (the work stops after the models under way); `progress` is a
-    callable given `(done, total)` as models complete, or True for a tqdm bar."""
+    callable given `(done, total)` as models complete, or True for a tqdm bar. A dataset
+    the data checks call useless (`drive check`'s fatal findings) raises `DriveError`
+    naming the finding unless `allow_useless` (`drive eval --allow-useless`)."""
     models = _model_names(models, split)
+    allow_useless = _flag("allow_useless", allow_useless)
     with _progress(progress, "evaluate") as report:
-        return _json.loads(_evaluate_json(dataset, models, float(split), start, report))
+        return _json.loads(_evaluate_json(dataset, models, float(split), start, report, allow_useless))
 
 
 def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False, progress=None, adapt=False):
@@ -388,7 +398,7 @@ class _progress:
         return False
 
 
-def adapt(prior, data, models=None, split=0.5, times=None, progress=None):
+def adapt(prior, data, models=None, split=0.5, times=None, progress=None, allow_useless=False):
     """`drive adapt --json` as a dict: `prior` (a fitted or loaded `drive.Model`, adapted as
     it is, or a `drive.Dataset` on which each model of `models`, default slip-blr and
     slip-ipem, is fitted) adapting to the dataset `data`: its first `split` of the intervals
@@ -399,12 +409,16 @@ def adapt(prior, data, models=None, split=0.5, times=None, progress=None):
 
     Ctrl-C raises KeyboardInterrupt within a fraction of a second (the work stops after the
     model under way). `progress` is a callable given `(done, total)` as each model's curve
-    is done, or True for a tqdm bar (when tqdm is installed; nothing otherwise)."""
+    is done, or True for a tqdm bar (when tqdm is installed; nothing otherwise). A prior or
+    target dataset the data checks call useless raises `DriveError` naming the finding
+    unless `allow_useless`."""
     models = _model_names(models, split)
     if times is not None:
         times = [float(t) for t in times]
     with _progress(progress, "adapt") as report:
-        return _json.loads(_adapt_json(prior, data, models, float(split), times, report))
+        return _json.loads(
+            _adapt_json(prior, data, models, float(split), times, report, _flag("allow_useless", allow_useless))
+        )
 
 
 class Measurements:
