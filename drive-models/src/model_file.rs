@@ -404,6 +404,29 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
             ),
         });
     }
+    // The robot's text as its sidecar holds it (train copies it from one): no control
+    // character, a registered robot by its part name.
+    for (field, text) in [
+        ("robot.name", &robot.name),
+        ("robot.robot", &robot.robot),
+        ("robot.terrain", &robot.terrain),
+    ] {
+        if text.chars().any(char::is_control) {
+            return Err(ModelFileError::Model {
+                file: file.into(),
+                message: format!("{field} holds a control character (a sidecar cannot)"),
+            });
+        }
+    }
+    let registered = &robot.registered_robot;
+    if !registered.is_empty()
+        && !(drive_traits::is_part_name(registered) && registered.len() <= 200)
+    {
+        return Err(ModelFileError::Model {
+            file: file.into(),
+            message: "robot.registered_robot is not a registered robot's name (1 to 200 ASCII letters, digits, '-' and '_')".into(),
+        });
+    }
     let model = obj.remove("model").ok_or(ModelFileError::MissingField {
         file: file.into(),
         field: "model",
@@ -481,11 +504,29 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
             });
         }
     }
+    // What the model is built of (its learner's and powertrain's types), for its names.
+    let tag = |v: Option<&Value>| {
+        v.and_then(|v| v.get("type"))
+            .and_then(Value::as_str)
+            .map(String::from)
+    };
+    let structure = Structure {
+        kind: tag(Some(inner)),
+        slip: tag(inner.get("slip")),
+        slip_within: inner.get("slip").map(types_within).unwrap_or_default(),
+        powertrain: tag(inner.get("powertrain")),
+    };
     let model: Box<dyn MotionModel> =
         serde_path_to_error::deserialize(&model).map_err(|e| ModelFileError::Model {
             file: file.into(),
             message: at_path("model", &model, &e),
         })?;
+    check_names(&model.name(), &structure, fitted_with.as_ref()).map_err(|message| {
+        ModelFileError::Model {
+            file: file.into(),
+            message,
+        }
+    })?;
     model.check().map_err(|e| ModelFileError::Model {
         file: file.into(),
         message: e.to_string(),
@@ -506,6 +547,110 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
         robot,
         fitted_with,
     })
+}
+
+/// What a model file's model is built of: its type (`composed`, `acc-blr`, ...) and its
+/// slip model's and powertrain's types.
+struct Structure {
+    kind: Option<String>,
+    slip: Option<String>,
+    /// Every type inside the slip model: a wrapper's (an adapted model's `corrected-slip`)
+    /// and the model it wraps.
+    slip_within: Vec<String>,
+    powertrain: Option<String>,
+}
+
+/// Every `type` tag in `v` and the objects inside it.
+fn types_within(v: &Value) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut pending = vec![v];
+    while let Some(v) = pending.pop() {
+        match v {
+            Value::Object(o) => {
+                if let Some(t) = o.get("type").and_then(Value::as_str) {
+                    out.push(t.to_string());
+                }
+                pending.extend(o.values());
+            }
+            Value::Array(a) => pending.extend(a),
+            _ => {}
+        }
+    }
+    out
+}
+
+/// A model file's names against what its model is built of: the model's label is
+/// `fitted_with.canonical` (when the file has one); `fitted_with.model`, where it is a
+/// built-in name, stands for that canonical name (`slip-blr` for `slip-blr+fopdt`); a label
+/// that is a built-in model's name is a model of that model's parts (a slip-BLR fit
+/// relabelled `acc-blr+commanded` is refused). Names of a researcher's parts are checked
+/// against `fitted_with` only: the loader does not know what they are built of.
+fn check_names(
+    label: &str,
+    structure: &Structure,
+    fitted_with: Option<&FitSettings>,
+) -> Result<(), String> {
+    let (p, s, b, a) = (
+        crate::registry::builtin_powertrains(),
+        crate::registry::builtin_slip_learners(),
+        crate::registry::builtin_baselines(),
+        crate::registry::builtin_aliases(),
+    );
+    let models = crate::registry::Models {
+        powertrains: &p,
+        slip_learners: &s,
+        baselines: &b,
+        aliases: &a,
+    };
+    if let Some(f) = fitted_with {
+        if f.canonical != label {
+            return Err(format!(
+                "the model is labelled '{label}' and fitted_with.canonical says '{}': a fit writes the one it is",
+                f.canonical
+            ));
+        }
+        if let Ok(spec) = models.resolve(&f.model) {
+            if spec.canonical() != f.canonical {
+                return Err(format!(
+                    "fitted_with.model '{}' is the model '{}', not '{}' (fitted_with.canonical)",
+                    f.model,
+                    spec.canonical(),
+                    f.canonical
+                ));
+            }
+        }
+    }
+    let Ok(spec) = models.resolve(label) else {
+        return Ok(());
+    };
+    if spec.canonical() != label {
+        // A built-in alias as a label: no fit writes one (labels are canonical names).
+        return Err(format!(
+            "the model is labelled '{label}', a name of '{}': a fit labels a model by its canonical name",
+            spec.canonical()
+        ));
+    }
+    let composed = spec.kind == crate::registry::LearnerKind::Slip;
+    let built = if composed {
+        // An adapted model keeps its prior's label, its slip model wrapped.
+        structure.kind.as_deref() == Some("composed")
+            && structure.slip_within.contains(&spec.learner)
+            && structure.powertrain.as_deref() == spec.powertrain.as_deref()
+    } else {
+        structure.kind.as_deref() == Some(spec.learner.as_str())
+            && structure.powertrain.as_deref() == spec.powertrain.as_deref()
+    };
+    if built {
+        Ok(())
+    } else {
+        let part = |v: &Option<String>| v.clone().unwrap_or_else(|| "none".into());
+        Err(format!(
+            "the model is labelled '{label}' but is built of a {} model (slip {}, powertrain {}): the label is another model's",
+            part(&structure.kind),
+            part(&structure.slip),
+            part(&structure.powertrain)
+        ))
+    }
 }
 
 /// The calibration of a calibrated model file against its robot: as many per-step scales

@@ -227,6 +227,20 @@ fn cases() -> Vec<Case> {
                 v["model"] = outer;
             })),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "2 calibration layers, one inside another"] },
+        // A third outside sweep: a model's names against what it is built of, and text
+        // a sidecar cannot hold.
+        Case { name: "model labelled as another model", file: File::Model(|m| edit_model(&m, |v| {
+                composed(v)["label"] = "acc-blr+commanded".into();
+                v["fitted_with"]["model"] = "acc-blr".into();
+                v["fitted_with"]["canonical"] = "acc-blr+commanded".into();
+            })),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "labelled 'acc-blr+commanded' but is built of a composed model (slip slip-blr, powertrain fopdt)"] },
+        Case { name: "model label not its fitted_with", file: File::Model(|m| edit_model(&m, |v| composed(v)["label"] = "slip-ipem+fopdt".into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "labelled 'slip-ipem+fopdt' and fitted_with.canonical says 'slip-blr+fopdt'"] },
+        Case { name: "model fitted_with contradicting itself", file: File::Model(|m| edit_model(&m, |v| v["fitted_with"]["model"] = "naive".into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "fitted_with.model 'naive' is the model 'no-slip+commanded', not 'slip-blr+fopdt'"] },
+        Case { name: "model robot name with a control character", file: File::Model(|m| edit_model(&m, |v| v["robot"]["name"] = "run\u{1b}[31m".into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "robot.name holds a control character"] },
         Case { name: "model robot with a key train never writes", file: File::Model(|m| edit_model(&m, |v| v["robot"]["wheel_slip"] = 0.2.into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "robot", "unknown field `wheel_slip`"] },
         // Issue 34: model files no fit writes.
