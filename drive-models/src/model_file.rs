@@ -419,9 +419,9 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
         }
     }
     let registered = &robot.registered_robot;
-    if !registered.is_empty()
-        && !(drive_traits::is_part_name(registered) && registered.len() <= 200)
-    {
+    let named =
+        registered.is_empty() || drive_traits::is_part_name(registered) && registered.len() <= 200;
+    if !named {
         return Err(ModelFileError::Model {
             file: file.into(),
             message: "robot.registered_robot is not a registered robot's name (1 to 200 ASCII letters, digits, '-' and '_')".into(),
