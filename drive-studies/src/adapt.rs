@@ -425,9 +425,8 @@ pub(crate) fn adapt_with(
                 crate::bench::window_prints(data),
                 crate::bench::window_prints(target),
             );
-            let shared = crate::bench::shared_windows(&pa, &pb);
-            let smaller = pa.len().min(pb.len());
-            if shared > 0 && shared * crate::bench::SAME_RUN_SHARE_DENOMINATOR >= smaller {
+            let (shared, smaller) = crate::bench::shared_windows(&pa, &pb);
+            if crate::bench::same_run((shared, smaller)) {
                 return incompatible(format!(
                     "the prior's data holds the target's own windows ({shared} of the {smaller} of the one with fewer are in both): the prior would be scored on windows it was fitted on"
                 ));

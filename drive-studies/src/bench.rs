@@ -173,9 +173,8 @@ fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
             } else {
                 // One run listed twice, in two formats, or with a part of itself: its own
                 // windows, by content.
-                let shared = shared_windows(&prints[a], &prints[b]);
-                let smaller = prints[a].len().min(prints[b].len());
-                (shared > 0 && shared * SAME_RUN_SHARE_DENOMINATOR >= smaller).then(|| {
+                let (shared, smaller) = shared_windows(&prints[a], &prints[b]);
+                same_run((shared, smaller)).then(|| {
                     format!(
                         "the same windows ({shared} of the {smaller} of the one with fewer are also in the other: one run listed twice, in two formats, or with a part of itself?): each model would be scored on windows it was fitted on"
                     )
@@ -237,17 +236,35 @@ const PRINT_STEPS: [f64; 3] = [0.02, 0.05, 0.02];
 /// significant digits (or a raw log against its imported window CSV, equal to 1e-15) still
 /// matches on at least one of them; windows where the robot neither was commanded nor moved
 /// by a step carry no identity and have none. Each grid's prints sorted.
+///
+/// A second print holds the localization's track alone: the pose a quarter, half, three
+/// quarters and all of the way through the window, in its start frame, to 0.1 mm and
+/// 0.1 mrad ([`TRACK_STEP`]). Two runs do not share a track to that precision unless one
+/// is a copy of the other, whatever was done to its commands and encoders (a copy with its
+/// encoders recalibrated by a few percent, a bias, its command columns swapped: the same
+/// drive).
 pub(crate) struct WindowPrints {
     grids: [Vec<u64>; 2],
     /// For each window with a print, its prints on both grids.
     windows: Vec<[u64; 2]>,
+    /// The track prints, sorted.
+    tracks: Vec<u64>,
+    /// For each window whose localization moved, its track print.
+    track_windows: Vec<u64>,
 }
+
+/// The quantization of a track print (m and rad).
+const TRACK_STEP: f64 = 1e-4;
 
 /// [`WindowPrints`] of `data`.
 pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
     use std::hash::{Hash, Hasher};
     let mut windows = Vec::new();
+    let mut track_windows = Vec::new();
     for w in data.windows.iter().filter(|w| w.len() >= 2) {
+        if let Some(track) = track_print(w) {
+            track_windows.push(track);
+        }
         let n = w.len() as f64;
         let mean = |inputs: &[drive_traits::Input], i: usize| -> f64 {
             inputs.iter().map(|u| u[i]).sum::<f64>() / n
@@ -283,7 +300,42 @@ pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
         windows.iter().map(|p| p[1]).collect::<Vec<_>>(),
     ];
     grids.iter_mut().for_each(|g| g.sort_unstable());
-    WindowPrints { grids, windows }
+    let mut tracks = track_windows.clone();
+    tracks.sort_unstable();
+    WindowPrints {
+        grids,
+        windows,
+        tracks,
+        track_windows,
+    }
+}
+
+/// The print of a window's localization track ([`WindowPrints`]); `None` when the
+/// localization did not move by a millimetre or a milliradian (a frozen or still track
+/// has no identity).
+fn track_print(w: &drive_traits::Window) -> Option<u64> {
+    use std::hash::{Hash, Hasher};
+    let n = w.pose.len();
+    let first = w.pose[0];
+    let (sin, cos) = first.z.sin_cos();
+    let mut values = Vec::with_capacity(12);
+    for k in [n / 4, n / 2, 3 * n / 4, n - 1] {
+        let p = w.pose[k];
+        let (dx, dy) = (p.x - first.x, p.y - first.y);
+        values.extend([
+            cos * dx + sin * dy,
+            -sin * dx + cos * dy,
+            drive_traits::net_turn(&w.pose[..=k]),
+        ]);
+    }
+    if values.iter().any(|v| !v.is_finite()) || values.iter().all(|v| v.abs() < 1e-3) {
+        return None;
+    }
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for v in &values {
+        ((v / TRACK_STEP).round() as i64).hash(&mut h);
+    }
+    Some(h.finish())
 }
 
 impl WindowPrints {
@@ -294,13 +346,39 @@ impl WindowPrints {
 }
 
 /// How many windows of the one of `a` and `b` with fewer prints are also in the other (on
-/// either grid).
-pub(crate) fn shared_windows(a: &WindowPrints, b: &WindowPrints) -> usize {
+/// either grid), and of how many: by their content, or by their localization's track when
+/// that shares a larger part (a copy with its inputs altered).
+pub(crate) fn shared_windows(a: &WindowPrints, b: &WindowPrints) -> (usize, usize) {
     let (few, many) = if a.len() <= b.len() { (a, b) } else { (b, a) };
-    few.windows
+    let by_content = few
+        .windows
         .iter()
         .filter(|p| (0..2).any(|g| many.grids[g].binary_search(&p[g]).is_ok()))
-        .count()
+        .count();
+    let (few_tracks, many_tracks) = if a.track_windows.len() <= b.track_windows.len() {
+        (a, b)
+    } else {
+        (b, a)
+    };
+    let by_track = few_tracks
+        .track_windows
+        .iter()
+        .filter(|t| many_tracks.tracks.binary_search(t).is_ok())
+        .count();
+    let content = (by_content, few.len());
+    let track = (by_track, few_tracks.track_windows.len());
+    // The larger share (cross-multiplied: either count may be 0).
+    if track.0 * content.1.max(1) > content.0 * track.1.max(1) {
+        track
+    } else {
+        content
+    }
+}
+
+/// Whether two runs' prints say they are one run: at least one in
+/// [`SAME_RUN_SHARE_DENOMINATOR`] of the windows shared ([`shared_windows`]).
+pub(crate) fn same_run(shared: (usize, usize)) -> bool {
+    shared.0 > 0 && shared.0 * SAME_RUN_SHARE_DENOMINATOR >= shared.1
 }
 
 /// Whether a terrain label is known (not empty, not `unknown...`).
