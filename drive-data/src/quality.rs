@@ -152,7 +152,7 @@ pub const CHECKS: [(&str, &str); 9] = [
     ),
     (
         "direction",
-        "localization turning the other way from the encoders in most windows where both turn (a mirrored frame, the encoder columns swapped), or moving backwards where they drive forwards (encoders sign-flipped)",
+        "localization turning the other way from the encoders in most windows where both turn (a mirrored frame, the encoder columns swapped), or moving backwards where they drive forwards (encoders sign-flipped); the same of the commands in the steady windows (command columns swapped or sign-flipped)",
     ),
     (
         "commands-constant",
@@ -234,34 +234,48 @@ const DIRECTION_MAX_AGREEING: f64 = 0.2;
 /// them (a mirrored localization frame, or the encoder columns swapped); or, where the
 /// encoders imply 0.3 m or more of forward or backward travel and localization saw 0.15 m,
 /// localization moved the other way along the robot's heading in over four fifths (encoders
-/// sign-flipped). Fatal: a model fitted on it learns the robot backwards.
+/// sign-flipped). The same of the commands, in the steady windows (where the robot has
+/// answered them): localization turning or driving against them in over four fifths (the
+/// command columns swapped or sign-flipped while the encoders' are not). Fatal: a model
+/// fitted on it learns the robot backwards.
 fn direction(w: &Windows<'_>) -> Vec<Finding> {
     let data = w.data;
     let dt = data.robot.dt();
+    // [encoders, commands]: windows that turn (drive) clearly, and those that agree.
     let (mut turns, mut turns_agree, mut drives, mut drives_agree) =
-        (0usize, 0usize, 0usize, 0usize);
+        ([0usize; 2], [0usize; 2], [0usize; 2], [0usize; 2]);
     for (win, m) in w.windows.iter().zip(&w.motions) {
         let n = win.len().saturating_sub(1);
-        // The encoders' signed net turn and forward travel (body frame), eq. 4 summed.
-        let (mut yaw, mut forward) = (0.0, 0.0);
-        for u in win.measured.iter().take(n) {
-            let v = data.robot.vehicle.body_velocity(u);
-            yaw += v.z * dt;
-            forward += v.x * dt;
-        }
-        let turned = m.3;
-        if yaw.abs() >= 0.2 && turned.abs() >= 0.1 {
-            turns += 1;
-            turns_agree += usize::from(yaw.signum() == turned.signum());
-        }
         // Localization's travel along the heading it started the window with.
         let (first, last) = (win.pose[0], win.pose[n]);
         let along = (last.x - first.x) * first.z.cos() + (last.y - first.y) * first.z.sin();
-        if forward.abs() >= 0.3 && along.abs() >= 0.15 {
-            drives += 1;
-            drives_agree += usize::from(forward.signum() == along.signum());
+        let turned = m.3;
+        let steady = win.phase == drive_traits::Phase::Steady;
+        for (i, inputs) in [&win.measured, &win.command].into_iter().enumerate() {
+            if i == 1 && !steady {
+                continue;
+            }
+            // The inputs' signed net turn and forward travel (body frame), eq. 4 summed.
+            let (mut yaw, mut forward) = (0.0, 0.0);
+            for u in inputs.iter().take(n) {
+                let v = data.robot.vehicle.body_velocity(u);
+                yaw += v.z * dt;
+                forward += v.x * dt;
+            }
+            if yaw.abs() >= 0.2 && turned.abs() >= 0.1 {
+                turns[i] += 1;
+                turns_agree[i] += usize::from(yaw.signum() == turned.signum());
+            }
+            if forward.abs() >= 0.3 && along.abs() >= 0.15 {
+                drives[i] += 1;
+                drives_agree[i] += usize::from(forward.signum() == along.signum());
+            }
         }
     }
+    let (turns_by_command, turns_by_command_agree) = (turns[1], turns_agree[1]);
+    let (drives_by_command, drives_by_command_agree) = (drives[1], drives_agree[1]);
+    let (turns, turns_agree, drives, drives_agree) =
+        (turns[0], turns_agree[0], drives[0], drives_agree[0]);
     let mut out = Vec::new();
     let opposed = |n: usize, agree: usize| {
         n >= DIRECTION_MIN_WINDOWS && (agree as f64) < DIRECTION_MAX_AGREEING * n as f64
@@ -283,6 +297,28 @@ fn direction(w: &Windows<'_>) -> Vec<Finding> {
             message: format!(
                 "localization moves backwards along the robot's heading where the encoders drive forwards (and the other way) in {} of {drives} windows: are the encoders sign-flipped, or the localization's heading turned half a turn?",
                 drives - drives_agree
+            ),
+        });
+    }
+    // The commands, when the encoders agree with localization (else the finding above
+    // already names the cause).
+    if out.is_empty() && opposed(turns_by_command, turns_by_command_agree) {
+        out.push(Finding {
+            check: Check::Direction,
+            severity: Severity::Fatal,
+            message: format!(
+                "the robot turned the other way from its commands in {} of {turns_by_command} steady windows where both turn, while its encoders turned with it: are the command columns swapped?",
+                turns_by_command - turns_by_command_agree
+            ),
+        });
+    }
+    if out.is_empty() && opposed(drives_by_command, drives_by_command_agree) {
+        out.push(Finding {
+            check: Check::Direction,
+            severity: Severity::Fatal,
+            message: format!(
+                "the robot drove backwards where it was commanded forwards (and the other way) in {} of {drives_by_command} steady windows, while its encoders drove with it: are the commands sign-flipped?",
+                drives_by_command - drives_by_command_agree
             ),
         });
     }

@@ -394,3 +394,40 @@ fn encoders_reading_more_than_the_wheels_are_flagged_on_a_run_that_turns() {
     let twenty = scaled(20.0).expect("a finding at 20x");
     assert_eq!(twenty.severity, drive::data::quality::Severity::Fatal);
 }
+
+/// A third outside sweep: a run whose command columns were swapped (left for right) while
+/// its encoders were not turns against its commands in its steady windows; `drive check`
+/// calls it fatal (`direction`) and eval refuses it. The run as recorded passes.
+#[test]
+fn commands_with_their_sides_swapped_are_fatal() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut run = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    let csv = dir.path().join("swapped.csv");
+    for w in &mut run.windows {
+        w.command.iter_mut().for_each(|u| (u.x, u.y) = (u.y, u.x));
+    }
+    drive::data::write_dataset(&run, &csv).unwrap();
+    let csv = csv.display().to_string();
+    let out = drive(&["check", "--data", &csv, "--json"]);
+    assert_eq!(out.status.code(), Some(1));
+    let json = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        checks(&json).contains(&("direction".into(), "fatal".into())),
+        "{json}"
+    );
+    assert!(json.contains("are the command columns swapped?"), "{json}");
+    let err = user_error(&["eval", "--data", &csv, "--models", "naive"]);
+    assert!(err.contains("(direction;"), "{err}");
+    let out = drive(&[
+        "check",
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--json",
+    ]);
+    assert!(
+        !checks(&String::from_utf8_lossy(&out.stdout))
+            .iter()
+            .any(|c| c.0 == "direction"),
+        "the recorded run"
+    );
+}
