@@ -299,25 +299,14 @@ fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput,
                     .filter(|f| f.severity == crate::data::quality::Severity::Warning)
                     .map(|f| format!("check {}: {}", f.check, f.message)),
             );
-            let fatal = report
-                .checks
-                .iter()
-                .find(|f| f.severity == crate::data::quality::Severity::Fatal);
             if let Some(why) = report.nothing_usable() {
                 return Err(SuiteLoadError::Import {
                     name: name.clone(),
                     message: why,
                 });
             }
-            if let Some(f) = fatal {
-                return Err(SuiteLoadError::Import {
-                    name: name.clone(),
-                    message: format!(
-                        "check {}: {} (drive import --allow {} writes it anyway; bench the window CSV)",
-                        f.check, f.message, f.check
-                    ),
-                });
-            }
+            // A fatal finding is the benchmark's to judge, as a window CSV's is: the dataset
+            // is skipped with it (ranked with --allow-useless).
             (data, path.display().to_string())
         }
     };

@@ -471,6 +471,62 @@ fn a_useless_or_degenerate_dataset_is_skipped_with_why_and_the_suite_goes_on() {
                 .contains("ranked because of --allow-useless")),
         "{frozen}"
     );
+    // A raw log whose localization is frozen is skipped the same way (it failed the whole
+    // benchmark, even with --allow-useless).
+    let (sim, raw) = (d.join("sim.csv"), d.join("raw.csv"));
+    ok(&[
+        "simulate",
+        "--robot",
+        "warthog",
+        "--terrain",
+        "gravel",
+        "--duration",
+        "150",
+        "--seed",
+        "3",
+        "--out",
+        s(&sim),
+        "--raw-out",
+        s(&raw),
+    ]);
+    let text = std::fs::read_to_string(&raw).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let frozen_columns: Vec<(usize, &str)> = [
+        ("icp_pos_x", "5"),
+        ("icp_pos_y", "3"),
+        ("icp_quat_z", "0"),
+        ("icp_quat_w", "1"),
+    ]
+    .iter()
+    .map(|(c, v)| (header.iter().position(|h| h == c).unwrap(), *v))
+    .collect();
+    let mut frozen_raw = header.join(",") + "\n";
+    for line in lines {
+        let mut cells: Vec<&str> = line.split(',').collect();
+        for &(i, v) in &frozen_columns {
+            cells[i] = v;
+        }
+        frozen_raw += &(cells.join(",") + "\n");
+    }
+    std::fs::write(d.join("frozen_raw.csv"), frozen_raw).unwrap();
+    std::fs::write(
+        &suite,
+        "[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\n\
+         [[dataset]]\nraw = \"frozen_raw.csv\"\nrobot = \"warthog\"\n",
+    )
+    .unwrap();
+    let v: Value = serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
+    assert_eq!(v["datasets"].as_array().unwrap().len(), 1, "{v}");
+    let skipped = v["skipped"].as_array().unwrap();
+    assert_eq!(skipped[0]["dataset"], "frozen_raw", "{skipped:?}");
+    assert!(
+        skipped[0]["reason"]
+            .as_str()
+            .unwrap()
+            .contains("not-moving"),
+        "{skipped:?}"
+    );
     std::fs::write(&suite, "[[dataset]]\npath = \"frozen.csv\"\n").unwrap();
     let err = user_error(&args);
     assert!(
