@@ -574,7 +574,8 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
     // or more, the median ratio of the turn localization saw to it. A skid-steer turns
     // less than its encoders imply (0.41-0.62 on the bundled runs); over 2.5 times as much,
     // its geometry is off (a baseline too wide in the sidecar or robot file: eq. 4's yaw
-    // rate is the wheel speed difference over it).
+    // rate is the wheel speed difference over it); over 5 times, as for the distance, no
+    // geometry explains it (a yaw in degrees turns 57 times): fatal.
     let mut turns: Vec<f64> = motions
         .iter()
         .filter(|m| m.1 >= 0.05 && (m.1 >= 0.3 || m.3.abs() >= 0.3))
@@ -589,9 +590,9 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
         if median > 2.5 {
             out.push(Finding {
                 check: Check::EncoderUnits,
-                severity: Severity::Warning,
+                severity: Severity::fatal_if(median > 5.0),
                 message: format!(
-                    "localization turns {}x what the encoders imply (median over {} windows), where a vehicle turns at most as much: a baseline too wide (or a wheel radius too small) in the vehicle's geometry?",
+                    "localization turns {}x what the encoders imply (median over {} windows), where a vehicle turns at most as much: a baseline too wide (or a wheel radius too small) in the vehicle's geometry, or a yaw in degrees?",
                     Short((median * 100.0).round() / 100.0),
                     turns.len()
                 ),
@@ -989,6 +990,13 @@ mod tests {
             "{}",
             f.message
         );
+        // Over five times (a yaw in degrees turns 57 times): no geometry explains it, fatal.
+        let degrees = check(&spins(57.3), None);
+        let f = degrees
+            .iter()
+            .find(|f| f.check == Check::EncoderUnits && f.message.contains("a yaw in degrees?"))
+            .unwrap();
+        assert_eq!(f.severity, Severity::Fatal, "{}", f.message);
         // The same spin commanded in every window: the data shows nothing else.
         let mut one = spins(1.0);
         let first = one.windows[0].clone();
