@@ -650,3 +650,148 @@ fn sim_fit_fits_the_ground_of_a_vehicle_of_any_type_and_says_which_simulator() {
         );
     }
 }
+
+/// Issue 62's acceptance, through the whole command line with the outside parts: the
+/// four-wheel-steered rover (no simulator of its own: the kinematic stand-in) and a robot
+/// commanded in (v, omega) as a tracked robot is, each written in this file. Every sampler
+/// plans its protocol (the angular one steers), two runs on two grounds simulate, the twin
+/// of one is fitted, each is evaluated, the two are benchmarked as one robot (a transfer
+/// pair both ways), the robot tracks a path on a model fitted on one, and the report draws.
+#[test]
+fn outside_vehicles_run_every_command_of_the_workflow() {
+    let (mut rover_parts, rover) = rover_registries();
+    rover_parts
+        .robots
+        .register("rover", "a rover", Arc::new(rover))
+        .unwrap();
+    let vehicles = [(rover_parts, "rover"), (registries(), "cmd-vel-robot")];
+    std::thread::scope(|scope| {
+        for (r, robot) in &vehicles {
+            scope.spawn(move || workflow(r, robot));
+        }
+    });
+}
+
+/// The workflow of [`outside_vehicles_run_every_command_of_the_workflow`] for `robot`.
+fn workflow(r: &Registries, robot: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    let run = |args: &[&str]| {
+        let mut all = vec!["drive"];
+        all.extend_from_slice(args);
+        assert_eq!(drive::cli::run_status(all, r), 0, "{robot}: {args:?}");
+    };
+    // Every sampler plans a protocol; the angular one turns (its largest second input, the
+    // rover's front steer or the yaw rate, well away from 0).
+    for sampler in r.samplers.names() {
+        let out = path(&format!("{sampler}.csv"));
+        run(&[
+            "protocol",
+            "--robot",
+            robot,
+            "--sampler",
+            &sampler,
+            "--intervals",
+            "6",
+            "--out",
+            &out,
+        ]);
+        let text = std::fs::read_to_string(&out).unwrap();
+        let second: f64 = text
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(4).unwrap().parse::<f64>().unwrap().abs())
+            .fold(0.0, f64::max);
+        if sampler == "angular" {
+            assert!(
+                second > 0.1,
+                "{robot}: the angular sampler never turns ({second})"
+            );
+        }
+    }
+    // Two runs, two grounds.
+    let (a, b) = (path("gravel.csv"), path("snow.csv"));
+    for (terrain, seed, out) in [("gravel", "1", &a), ("snow", "2", &b)] {
+        run(&[
+            "simulate",
+            "--robot",
+            robot,
+            "--terrain",
+            terrain,
+            "--duration",
+            "150",
+            "--seed",
+            seed,
+            "--out",
+            out,
+        ]);
+    }
+    run(&[
+        "sim-fit",
+        "--data",
+        &a,
+        "--robot",
+        robot,
+        "--out",
+        &path("twin.toml"),
+        "--check-seeds",
+        "1",
+    ]);
+    run(&["eval", "--data", &a, "--models", "naive,slip-blr"]);
+    // The two runs are one robot's: a transfer pair each way.
+    let suite = path("suite.toml");
+    std::fs::write(
+        &suite,
+        format!("[[dataset]]\npath = \"{a}\"\n[[dataset]]\npath = \"{b}\"\n"),
+    )
+    .unwrap();
+    let bench = path("bench");
+    run(&[
+        "bench",
+        "--suite",
+        &suite,
+        "--models",
+        "naive,slip-blr",
+        "--out",
+        &bench,
+    ]);
+    let v: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("bench/bench.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        v["transfer"].as_array().unwrap().len(),
+        2 * 2,
+        "{robot}: {}",
+        v["transfer_skipped"]
+    );
+    run(&[
+        "track",
+        "--robot",
+        robot,
+        "--terrain",
+        "gravel",
+        "--train-data",
+        &a,
+        "--models",
+        "powertrain,slip-blr",
+        "--path",
+        "line",
+        "--speed",
+        "0.5",
+        "--samples",
+        "128",
+        "--out",
+        &path("track"),
+    ]);
+    run(&[
+        "report",
+        "--data",
+        &a,
+        "--models",
+        "naive,slip-blr",
+        "--out",
+        &path("report"),
+    ]);
+    assert!(dir.path().join("report/report.md").exists());
+}
