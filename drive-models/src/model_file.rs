@@ -406,12 +406,21 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
     }
     // The robot's text as its sidecar holds it (train copies it from one): no control
     // character, a registered robot by its part name.
+    if robot.name.trim().is_empty() {
+        return Err(ModelFileError::Model {
+            file: file.into(),
+            message: "robot.name is empty (a sidecar names its dataset)".into(),
+        });
+    }
     for (field, text) in [
         ("robot.name", &robot.name),
         ("robot.robot", &robot.robot),
         ("robot.terrain", &robot.terrain),
     ] {
-        if text.chars().any(char::is_control) {
+        if text
+            .chars()
+            .any(|c| c.is_control() || matches!(c, '\u{2028}' | '\u{2029}'))
+        {
             return Err(ModelFileError::Model {
                 file: file.into(),
                 message: format!("{field} holds a control character (a sidecar cannot)"),
@@ -603,6 +612,15 @@ fn check_names(
         aliases: &a,
     };
     if let Some(f) = fitted_with {
+        // A model's name as `drive train --model` takes it: registered part names joined
+        // by '+' (a researcher's included); nothing else (control characters, spaces).
+        for (field, name) in [("model", &f.model), ("canonical", &f.canonical)] {
+            if !name.split('+').all(drive_traits::is_part_name) || name.len() > 400 {
+                return Err(format!(
+                    "fitted_with.{field} {name:?} is not a model name (registered part names joined by '+')"
+                ));
+            }
+        }
         if f.canonical != label {
             return Err(format!(
                 "the model is labelled '{label}' and fitted_with.canonical says '{}': a fit writes the one it is",

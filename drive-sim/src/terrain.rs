@@ -269,11 +269,15 @@ impl Terrain {
     /// ```
     /// assert!(drive_sim::Terrain::is_valid_name("gravel twin"));
     /// assert!(!drive_sim::Terrain::is_valid_name(" ") && !drive_sim::Terrain::is_valid_name("a\nb"));
+    /// assert!(!drive_sim::Terrain::is_valid_name("a\u{2028}b")); // a line separator
     /// ```
     pub fn is_valid_name(name: &str) -> bool {
         !name.trim().is_empty()
             && name.chars().count() <= 200
-            && !name.chars().any(char::is_control)
+            // Nor a line or paragraph separator (U+2028, U+2029): a name is one line.
+            && !name
+                .chars()
+                .any(|c| c.is_control() || matches!(c, '\u{2028}' | '\u{2029}'))
     }
 
     fn validate(&self, file: &str) -> Result<(), TerrainError> {

@@ -310,3 +310,12 @@ pub(crate) fn refuse_useless(data: &RustDataset, what: &str, allow: bool) -> PyR
         None => Ok(()),
     }
 }
+
+/// Raises `DriveError` naming the first fatal finding of the data checks of `dataset`
+/// unless `allow_useless`: what a call that runs the command line on a temporary copy of
+/// the dataset (`drive.report`) asks first, so that the error names the dataset.
+#[pyfunction]
+pub(crate) fn _refuse_useless(dataset: &Bound<'_, PyAny>, allow_useless: bool) -> PyResult<()> {
+    let dataset = crate::args::dataset_of(dataset)?;
+    refuse_useless(&dataset.inner, "the dataset", allow_useless)
+}

@@ -109,6 +109,7 @@ fn add_bindings(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model::_model_from_json, m)?)?;
     m.add_function(wrap_pyfunction!(dataset::columns_for_sidecar, m)?)?;
     m.add_function(wrap_pyfunction!(run_cli, m)?)?;
+    m.add_function(wrap_pyfunction!(dataset::_refuse_useless, m)?)?;
     m.add_function(wrap_pyfunction!(dataset::import_recording, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate::per_window_columns, m)?)?;
     runner::register(m)?;

@@ -3,6 +3,7 @@
 import gzip
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -626,9 +627,11 @@ def test_every_call_that_fits_or_scores_refuses_useless_data_as_the_command_line
         lambda **k: drive.adapt(grass, frozen, models="slip-blr", times=[0], **k),
         lambda **k: drive.adapt(frozen, grass, models="slip-blr", times=[0], **k),
         lambda **k: model.score(frozen, **k),
+        lambda **k: drive.report(frozen, tmp_path / "report", models=["naive"], **k),
     ):
-        with pytest.raises(drive.DriveError, match=r"useless: .*\(not-moving; .*allow_useless=True"):
+        with pytest.raises(drive.DriveError, match=r"^(the dataset|the prior|the target) '") as refused:
             call()
+        assert re.search(r"useless: .*\(not-moving; .*allow_useless=True", str(refused.value)), refused.value
     assert drive.evaluate(frozen, ["naive"], allow_useless=True)["models"][0]["name"] == "naive"
     assert model.score(frozen, allow_useless=True)["translational_m"]["all"]["windows"] > 0
     with pytest.raises(drive.DriveError, match="allow_useless must be True or False"):

@@ -466,7 +466,7 @@ pub fn take_notes() -> Vec<String> {
 /// or a tab, or an invisible formatting character (zero-width, bidirectional override).
 fn hidden(c: char) -> bool {
     (c.is_control() && c != '\n' && c != '\t')
-        || matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2060}'..='\u{2069}' | '\u{feff}')
+        || matches!(c, '\u{200b}'..='\u{200f}' | '\u{2028}'..='\u{202e}' | '\u{2060}'..='\u{2069}' | '\u{feff}')
 }
 
 /// `text` as it may reach a terminal: control characters other than line breaks and tabs

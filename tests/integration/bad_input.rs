@@ -239,6 +239,10 @@ fn cases() -> Vec<Case> {
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "labelled 'slip-ipem+fopdt' and fitted_with.canonical says 'slip-blr+fopdt'"] },
         Case { name: "model fitted_with contradicting itself", file: File::Model(|m| edit_model(&m, |v| v["fitted_with"]["model"] = "naive".into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "fitted_with.model 'naive' is the model 'no-slip+commanded', not 'slip-blr+fopdt'"] },
+        Case { name: "model fitted_with model no name", file: File::Model(|m| edit_model(&m, |v| v["fitted_with"]["model"] = "slip-blr\nnaive".into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "fitted_with.model \"slip-blr\\nnaive\" is not a model name"] },
+        Case { name: "model robot without a name", file: File::Model(|m| edit_model(&m, |v| v["robot"]["name"] = "".into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "robot.name is empty"] },
         Case { name: "model robot name with a control character", file: File::Model(|m| edit_model(&m, |v| v["robot"]["name"] = "run\u{1b}[31m".into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "robot.name holds a control character"] },
         Case { name: "model robot with a key train never writes", file: File::Model(|m| edit_model(&m, |v| v["robot"]["wheel_slip"] = 0.2.into())),
@@ -469,16 +473,21 @@ fn an_escape_sequence_in_a_cell_or_a_value_never_reaches_the_terminal_raw() {
             "none\u{1b}]0;title\u{7}.csv".into(),
         ],
         vec!["track".into(), "--path".into(), "circle\u{202e}".into()],
+        // A line separator breaks a line in terminals and log viewers that honour it.
+        vec!["track".into(), "--path".into(), "circle\u{2028}x".into()],
     ] {
         let out = drive(&args);
         assert!(!out.status.success(), "{args:?}");
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(
-            !err.contains('\u{1b}') && !err.contains('\u{7}') && !err.contains('\u{202e}'),
+            !err.contains('\u{1b}')
+                && !err.contains('\u{7}')
+                && !err.contains('\u{202e}')
+                && !err.contains('\u{2028}'),
             "{args:?}: {err:?}"
         );
         assert!(
-            err.contains("\\u{1b}") || err.contains("\\u{202e}"),
+            err.contains("\\u{1b}") || err.contains("\\u{202e}") || err.contains("\\u{2028}"),
             "{args:?}: {err}"
         );
     }

@@ -193,7 +193,7 @@ def per_window(dataset, models=None, split=0.5, start=None, allow_useless=False)
     return dict(_native.per_window_columns(dataset, models, float(split), start, _flag("allow_useless", allow_useless)))
 
 
-def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None, progress=None):
+def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None, progress=None, allow_useless=False):
     """`drive report` on `dataset`: report.md and the paper's figures (PNG) in the directory
     `out`, for the models (default: every model of `drive report`) with `model`'s
     uncertainty figures; `robot` (a registered robot or TOML file) for the naive input
@@ -204,7 +204,8 @@ def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None, p
     `out` (the report stops at its next unit of work: a model's fit and score, the
     convergence, the protocol regions, the figures). `progress` is a callable given
     `(done, total)` as those units complete, or True for a tqdm bar (when tqdm is
-    installed; nothing otherwise)."""
+    installed; nothing otherwise). A dataset the data checks call useless raises
+    `DriveError` naming the finding unless `allow_useless` (`drive report --allow-useless`)."""
     import tempfile
 
     if not isinstance(dataset, Dataset):
@@ -220,6 +221,9 @@ def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None, p
     missing = _missing(_robot_file(robot))
     if missing is not None:
         raise DriveFileNotFoundError(f"{missing}: no such robot file", missing)
+    # Refused here, naming the dataset (the command line would name its temporary copy).
+    allow_useless = _flag("allow_useless", allow_useless)
+    _native._refuse_useless(dataset, allow_useless)
     with tempfile.TemporaryDirectory() as tmp:
         csv = _os.path.join(tmp, "data.csv")
         dataset.save(csv)
@@ -228,6 +232,8 @@ def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None, p
             args += ["--models", ",".join(models)]
         if robot is not None:
             args += ["--robot", _os.fspath(robot)]
+        if allow_useless:
+            args.append("--allow-useless")
         with _progress(progress, "report") as reporting:
             status, said = _run_capturing_stderr(args, tmp, reporting)
     if status != 0:

@@ -245,4 +245,5 @@ def report(
     model: str = ...,
     robot: Optional[_Path] = ...,
     progress: Any = ...,
+    allow_useless: bool = ...,
 ) -> str: ...
