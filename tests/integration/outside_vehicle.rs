@@ -690,7 +690,7 @@ fn workflow(r: &Registries, robot: &str) {
             "--robot",
             robot,
             "--sampler",
-            &sampler,
+            sampler,
             "--intervals",
             "6",
             "--out",
