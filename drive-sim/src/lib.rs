@@ -45,15 +45,16 @@ pub use parameters::{
     fitted_parameters, fitted_parameters_within, FittedParameter, CONTACT_SPREAD_CHOICES,
 };
 pub use plant::{
-    builtin_plants, plant_for, simulator_of, simulator_used, KinematicPlant, MakePlant, Plant,
-    PlantError, SimulatorUsed,
+    builtin_plants, plant_for, reads_ground_only, simulator_of, simulator_used, KinematicPlant,
+    MakePlant, Plant, PlantError, SimulatorUsed,
 };
 pub use run::{simulate, Event, SimError, Simulation, SimulationConfig};
 pub use sensors::{Instruments, Sensors, ICP_GAP_BINS, ICP_GAP_STEP_S};
 pub use sim::{Measured, Simulator};
 pub use stall::{TurnStall, CONTINUING_TURN};
 pub use terrain::{
-    builtin_terrains, Terrain, TerrainError, Variability, MAX_CONTACT_SPREAD, MIN_CONTACT_SPREAD,
+    builtin_terrains, FittedVehicle, Terrain, TerrainError, Variability, MAX_CONTACT_SPREAD,
+    MIN_CONTACT_SPREAD,
 };
 pub use twin::{replay_commands, scale_difference, ProtocolSampler, TwinProtocol};
 pub use vehicle::{

@@ -138,11 +138,13 @@ pub fn builtin_plants() -> Registry<dyn MakePlant> {
     let car = |robot: &RobotSpec, terrain: &Terrain, seed: u64| {
         let geometry: Ackermann = vehicle_as(robot.vehicle.as_ref())
             .ok_or("the car simulator needs an ackermann vehicle")?;
+        reads_ground_only("car", terrain)?;
         Ok(Box::new(CarSimulator::new(robot, &geometry, terrain.clone(), seed)) as Box<dyn Plant>)
     };
     let omni = |robot: &RobotSpec, terrain: &Terrain, seed: u64| {
         let _: Omnidirectional = vehicle_as(robot.vehicle.as_ref())
             .ok_or("the omnidirectional simulator needs an omnidirectional vehicle")?;
+        reads_ground_only("omnidirectional", terrain)?;
         Ok(Box::new(OmniPlant::new(robot, terrain, seed)) as Box<dyn Plant>)
     };
     let parts: [(&str, &str, Arc<dyn MakePlant>); 3] = [
@@ -181,7 +183,50 @@ pub fn plant_for(
     let tag = vehicle_tag(robot.vehicle.as_ref()).unwrap_or_default();
     match plants.find(&tag) {
         Some(p) => p.part().make(robot, terrain, seed),
-        None => Ok(Box::new(KinematicPlant::new(robot, terrain, seed))),
+        None => {
+            reads_ground_only("kinematic stand-in", terrain)?;
+            Ok(Box::new(KinematicPlant::new(robot, terrain, seed)))
+        }
+    }
+}
+
+/// `Err` naming the parts of `terrain` a simulator that reads the ground and the sensors
+/// only (the car, the mecanum base, the kinematic stand-in) would ignore: a skid-steer
+/// twin's powertrain, controller, variability, turn stall, contact spread or lateral slip
+/// modulus. A terrain is never driven with parts of it silently left out.
+///
+/// ```
+/// use drive_sim::{builtin_plants, plant_for, Terrain};
+/// let base = drive_traits::robot::ridgeback();
+/// let mut ground = Terrain::preset("gravel").unwrap();
+/// assert!(plant_for(&builtin_plants(), &base, &ground, 1).is_ok());
+/// ground.contact_spread = Some(0.8);
+/// let e = plant_for(&builtin_plants(), &base, &ground, 1).err().unwrap();
+/// assert!(e.contains("contact_spread"), "{e}");
+/// ```
+pub fn reads_ground_only(simulator: &str, terrain: &Terrain) -> Result<(), PlantError> {
+    let unread: Vec<&str> = [
+        ("[powertrain]", terrain.powertrain.is_some()),
+        ("[controller]", terrain.controller.is_some()),
+        ("[variability]", terrain.variability.is_some()),
+        ("[turn_stall]", terrain.turn_stall.is_some()),
+        ("contact_spread", terrain.contact_spread.is_some()),
+        (
+            "lateral_slip_modulus",
+            terrain.lateral_slip_modulus.is_some(),
+        ),
+    ]
+    .into_iter()
+    .filter_map(|(name, given)| given.then_some(name))
+    .collect();
+    if unread.is_empty() {
+        Ok(())
+    } else {
+        Err(PlantError(format!(
+            "the {simulator} simulator reads the terrain's ground (traction, slip_modulus, lateral, rolling) and [sensors] only; terrain '{}' also gives {} (a skid-steer twin's parts), which it would ignore",
+            terrain.name,
+            unread.join(", ")
+        )))
     }
 }
 

@@ -136,6 +136,17 @@ pub fn simulate(
     // A twin samples what its real run sampled, in the protocol's geometry, without
     // characterizing; its commands step or ramp as the real run's did.
     let mut sampler: Box<dyn FnMut(InputSpace) -> Box<dyn InputSampler>> = Box::new(sampler);
+    if let Some(why) = config
+        .terrain
+        .fitted_for
+        .as_ref()
+        .and_then(|f| f.refuses(robot.vehicle.as_ref()))
+    {
+        return Err(SimError::Plant {
+            robot: robot.name.clone(),
+            reason: format!("terrain '{}' cannot drive it: {why}", config.terrain.name),
+        });
+    }
     if let Some(p) = config.terrain.protocol {
         let nominal: DifferentialDrive = vehicle_as(robot.vehicle.as_ref()).ok_or_else(|| {
             SimError::Plant {

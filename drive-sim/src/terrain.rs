@@ -65,6 +65,81 @@ pub struct Terrain {
     /// its commands changed (the characterization is skipped).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub protocol: Option<TwinProtocol>,
+    /// The vehicle a twin of another type than the differential drive was fitted for
+    /// (`drive sim-fit`'s ground fit): a robot of another type or geometry is refused it,
+    /// as a skid-steer twin's protocol refuses another geometry.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fitted_for: Option<FittedVehicle>,
+}
+
+/// The vehicle a twin was fitted for: its type and its geometry as the vehicle writes them.
+///
+/// ```
+/// use drive_sim::FittedVehicle;
+/// let base = drive_traits::robot::ridgeback();
+/// let fitted = FittedVehicle::of(base.vehicle.as_ref());
+/// assert_eq!(fitted.vehicle, "omnidirectional");
+/// assert!(fitted.refuses(base.vehicle.as_ref()).is_none());
+/// let husky = drive_traits::vehicles::DifferentialDrive::new(0.165, 0.55);
+/// assert!(fitted.refuses(&husky).unwrap().contains("'differential'"));
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FittedVehicle {
+    /// The vehicle's type (`omnidirectional`, `ackermann`, a plug-in's).
+    pub vehicle: String,
+    /// Its geometry, as the vehicle serializes itself (JSON text).
+    pub geometry: String,
+}
+
+impl FittedVehicle {
+    /// The record of `vehicle`.
+    pub fn of(vehicle: &dyn drive_traits::CommandModel) -> Self {
+        FittedVehicle {
+            vehicle: drive_traits::vehicle_tag(vehicle).unwrap_or_default(),
+            geometry: serde_json::to_string(vehicle).unwrap_or_default(),
+        }
+    }
+
+    /// Why a twin fitted for this vehicle cannot drive `vehicle`: another type, or a
+    /// geometry more than 1% away in any of its numbers; `None` when it can.
+    pub fn refuses(&self, vehicle: &dyn drive_traits::CommandModel) -> Option<String> {
+        let theirs = drive_traits::vehicle_tag(vehicle).unwrap_or_default();
+        if theirs != self.vehicle {
+            return Some(format!(
+                "it is a twin of a vehicle of type '{}'; this robot's is of type '{theirs}'",
+                self.vehicle
+            ));
+        }
+        let ours: serde_json::Value = serde_json::from_str(&self.geometry).ok()?;
+        let theirs = serde_json::to_value(vehicle).ok()?;
+        (!close(&ours, &theirs)).then(|| {
+            format!(
+                "it is a twin of the vehicle {ours}; this robot's is {theirs} (more than 1% apart)"
+            )
+        })
+    }
+}
+
+/// Whether two vehicles' JSON agree: the same keys and strings, numbers within 1%.
+fn close(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+    use serde_json::Value;
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => {
+            let (x, y) = (
+                x.as_f64().unwrap_or(f64::NAN),
+                y.as_f64().unwrap_or(f64::NAN),
+            );
+            (x - y).abs() <= 0.01 * x.abs().max(y.abs())
+        }
+        (Value::Object(x), Value::Object(y)) => {
+            x.len() == y.len() && x.iter().all(|(k, v)| y.get(k).is_some_and(|w| close(v, w)))
+        }
+        (Value::Array(x), Value::Array(y)) => {
+            x.len() == y.len() && x.iter().zip(y).all(|(v, w)| close(v, w))
+        }
+        _ => a == b,
+    }
 }
 
 /// How the ground varies in time: the traction and lateral friction coefficients and the
@@ -204,6 +279,7 @@ impl Terrain {
             variability: None,
             turn_stall: None,
             protocol: None,
+            fitted_for: None,
         }
     }
 

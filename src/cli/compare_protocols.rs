@@ -187,6 +187,14 @@ fn twins(args: &Args, registries: &Registries) -> Result<()> {
             bail!("--twins takes ROBOT=TWIN.toml pairs; '{pair}' has no '='");
         };
         let twin = registries.terrain(twin)?;
+        if let (None, Some(f)) = (&twin.protocol, &twin.fitted_for) {
+            bail!(
+                "--twins: terrain '{}' is the twin of a vehicle of type '{}', of which drive sim-fit fits the ground only (no protocol of its real run to replay): --twins compares protocols on skid-steer twins; run compare-protocols --robot {robot} --terrain {} instead",
+                twin.name,
+                f.vehicle,
+                pair.split_once('=').map_or("", |p| p.1)
+            );
+        }
         if twin.protocol.is_none() {
             bail!(
                 "--twins: terrain '{}' is not a twin of a real run (it has no protocol); give a file written by drive sim-fit",

@@ -607,10 +607,38 @@ fn sim_fit_fits_the_ground_of_a_vehicle_of_any_type_and_says_which_simulator() {
         let fitted =
             drive::sim::Terrain::from_toml("twin", &std::fs::read_to_string(&twin).unwrap())
                 .unwrap();
-        // The ground only: the simulator's own powertrain, controller and sensors.
+        // The ground only: the simulator's own powertrain, controller and sensors; the
+        // vehicle it is a twin of recorded, and another robot refused it.
         assert!(
             fitted.powertrain.is_none() && fitted.controller.is_none() && fitted.protocol.is_none()
         );
+        let fitted_for = fitted.fitted_for.as_ref().unwrap();
+        let other = r
+            .robot(if robot == "rover" {
+                "ridgeback"
+            } else {
+                "husky"
+            })
+            .unwrap();
+        assert!(fitted_for
+            .refuses(r.robot(robot).unwrap().vehicle.as_ref())
+            .is_none());
+        let why = fitted_for.refuses(other.vehicle.as_ref()).unwrap();
+        assert!(why.contains("it is a twin of a vehicle of type"), "{why}");
+        let moved = dir.path().join(format!("{robot}-elsewhere.csv"));
+        let moved = moved.to_str().unwrap();
+        let args = [
+            "simulate",
+            "--robot",
+            &other.name,
+            "--terrain",
+            twin_s,
+            "--duration",
+            "30",
+            "--out",
+            moved,
+        ];
+        assert_eq!(status(&args), 1, "{robot}: its twin drives another robot");
         // The fit itself, from the library: the simulator named, the motion matched.
         let spec = r.robot(robot).unwrap();
         let fit = drive::sim::fit_any_vehicle(&r.simulators, &data, &spec, "t").unwrap();
@@ -794,4 +822,28 @@ fn workflow(r: &Registries, robot: &str) {
         &path("report"),
     ]);
     assert!(dir.path().join("report/report.md").exists());
+}
+
+/// The report's input-space figure outlines what the rover reaches: at every forward speed
+/// its hardest turn, `2 tan(0.5) v_x` with the axles steered apart (an outside check drew a
+/// sawtooth a fraction of it: the grid's speed levels left bands only crabs reached).
+#[test]
+fn the_report_outlines_a_rover_s_turns_at_every_forward_speed() {
+    let space = Rover.nominal_input_space(1.0).unwrap();
+    let outline = drive::studies::report::analysis::body_polygon(&Rover, &space);
+    let hardest = |v_x: f64| 2.0 * 0.5f64.tan() * v_x.abs();
+    let upper: Vec<_> = outline
+        .iter()
+        .filter(|v| v.z > 0.0 && (0.2..=0.9).contains(&v.x))
+        .collect();
+    assert!(upper.len() >= 20, "{outline:?}");
+    for v in upper {
+        assert!(
+            v.z >= 0.9 * hardest(v.x) && v.z <= hardest(v.x) + 1e-9,
+            "at {:.3} m/s the outline turns at {:.3} rad/s, the rover at {:.3}",
+            v.x,
+            v.z,
+            hardest(v.x)
+        );
+    }
 }

@@ -77,6 +77,7 @@ fn generator() -> Terrain {
             robot_wheel_radius: 0.165,
             robot_baseline: 0.55,
         }),
+        fitted_for: None,
     }
 }
 

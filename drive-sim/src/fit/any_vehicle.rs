@@ -170,6 +170,8 @@ pub fn fit_any_vehicle(
     let x = minimize(problem.clone(), x0, &[0.4; 4], ITERATIONS, "ground")?;
     let mut terrain = problem.terrain(&x);
     terrain.name = name.to_string();
+    // The vehicle it is a twin of: another robot is refused it.
+    terrain.fitted_for = Some(crate::FittedVehicle::of(robot.vehicle.as_ref()));
     let fitted = problem.cost_of(&terrain)?;
     // How much the cost moves with each parameter half again or two thirds of its value.
     let moves: Vec<Terrain> = (0..FITTED.len())

@@ -76,6 +76,7 @@ impl TerrainProblem<'_> {
             variability: None,
             turn_stall: None,
             protocol: None,
+            fitted_for: None,
         }
     }
 

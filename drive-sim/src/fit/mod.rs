@@ -806,6 +806,7 @@ pub fn sim_fit_with_contact_spread(
         controller: Some(controller),
         sensors: Some(sensors),
         protocol: Some(protocol),
+        fitted_for: None,
         turn_stall: turn_stall.stall,
         ..fitted
     };

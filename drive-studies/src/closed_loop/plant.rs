@@ -17,6 +17,17 @@ pub(super) struct Driven {
 /// the real run's node did, and its commands reach the robot with their wheel-speed
 /// difference scaled; otherwise the robot itself.
 pub(super) fn driven(robot: &RobotSpec, terrain: &Terrain) -> Result<Driven, TrackError> {
+    // A twin of another vehicle (a ground fitted for it) drives that vehicle only.
+    if let Some(why) = terrain
+        .fitted_for
+        .as_ref()
+        .and_then(|f| f.refuses(robot.vehicle.as_ref()))
+    {
+        return Err(TrackError::Invalid(format!(
+            "terrain '{}' cannot drive robot '{}': {why}",
+            terrain.name, robot.name
+        )));
+    }
     let Some(p) = terrain.protocol else {
         return Ok(Driven {
             plant: robot.clone(),

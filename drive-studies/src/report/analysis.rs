@@ -80,13 +80,16 @@ fn is_affine(vehicle: &dyn CommandModel, space: &InputSpace, corners: &[BodyVelo
 }
 
 /// The outline of a box's image as the upper and lower envelope of the yaw rate over a
-/// grid of the box (65 points per axis for two inputs, 17 for three), in 64 bands of
-/// forward speed: the upper envelope left to right, then the lower one back.
+/// grid of the box (65 points per axis for two inputs), in 64 bands of forward speed: the
+/// upper envelope left to right, then the lower one back. With three inputs, one grid per
+/// axis, 257 levels along it and 17 along the others (each grid holds the box's faces):
+/// one grid of 17 levels left bands of forward speed that only a four-wheel-steered
+/// rover's crabbing inputs reached (its outline came out a sawtooth, most of its turns
+/// missing).
 fn envelope(vehicle: &dyn CommandModel, space: &InputSpace) -> Vec<BodyVelocity> {
     const BANDS: usize = 64;
     let dim = space.dim();
-    let n: usize = if dim == 2 { 65 } else { 17 };
-    let at = |i: usize, k: usize| {
+    let level = |i: usize, k: usize, n: usize| {
         if i >= dim {
             0.0
         } else if k + 1 == n {
@@ -95,17 +98,30 @@ fn envelope(vehicle: &dyn CommandModel, space: &InputSpace) -> Vec<BodyVelocity>
             space.min[i] + (space.max[i] - space.min[i]) * k as f64 / (n - 1) as f64
         }
     };
-    let points: Vec<BodyVelocity> = (0..n.pow(dim as u32))
-        .map(|mut index| {
+    // (the axis refined, its levels, the others' levels)
+    let grids: Vec<(usize, usize, usize)> = if dim == 2 {
+        vec![(0, 65, 65)]
+    } else {
+        (0..dim).map(|axis| (axis, 257, 17)).collect()
+    };
+    let mut points = Vec::new();
+    for (fine, n_fine, n) in grids {
+        let count: usize = (0..dim)
+            .map(|i| if i == fine { n_fine } else { n })
+            .product();
+        for mut index in 0..count {
             let mut u = Input::zeros();
             for i in 0..dim {
-                u[i] = at(i, index % n);
-                index /= n;
+                let levels = if i == fine { n_fine } else { n };
+                u[i] = level(i, index % levels, levels);
+                index /= levels;
             }
-            vehicle.body_velocity(&u)
-        })
-        .filter(|v| v.x.is_finite() && v.z.is_finite())
-        .collect();
+            let v = vehicle.body_velocity(&u);
+            if v.x.is_finite() && v.z.is_finite() {
+                points.push(v);
+            }
+        }
+    }
     let (x0, x1) = points
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
