@@ -555,6 +555,22 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
     if ratios.len() < 10 {
         ratios = ratio_of(false);
     }
+    // Too few windows where localization saw 0.2 m (positions shrunk to a tenth, in another
+    // unit): the windows where the encoders imply 0.2 m instead, nearly straight by their
+    // own turn when there are ten (a localization that saw nothing at all is not-moving's).
+    if ratios.len() < 10 {
+        let by_encoders = |straight: bool| -> Vec<f64> {
+            motions
+                .iter()
+                .filter(|m| m.0 >= 0.2 && m.2 > 0.0 && (!straight || m.1 < 0.3))
+                .map(|m| m.0 / m.2)
+                .collect()
+        };
+        ratios = by_encoders(true);
+        if ratios.len() < 10 {
+            ratios = by_encoders(false);
+        }
+    }
     if ratios.len() >= 10 {
         ratios.sort_by(f64::total_cmp);
         let median = ratios[ratios.len() / 2];

@@ -431,3 +431,27 @@ fn commands_with_their_sides_swapped_are_fatal() {
         "the recorded run"
     );
 }
+
+/// A fourth outside sweep: localization positions shrunk to a tenth (another unit) left
+/// too few windows where localization saw 0.2 m for the distance ratio, and passed every
+/// check; the windows where the encoders imply 0.2 m now carry it: fatal.
+#[test]
+fn positions_in_another_unit_are_fatal_however_small() {
+    let dir = tempfile::tempdir().unwrap();
+    for factor in [0.1, 0.01] {
+        let mut run = drive::bundled::husky().unwrap();
+        for w in &mut run.windows {
+            for p in &mut w.pose {
+                (p.x, p.y) = (p.x * factor, p.y * factor);
+            }
+        }
+        let csv = dir.path().join(format!("shrunk{factor}.csv"));
+        drive::data::write_dataset(&run, &csv).unwrap();
+        let out = drive(&["check", "--data", csv.to_str().unwrap(), "--json"]);
+        let json = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            checks(&json).contains(&("encoder-units".into(), "fatal".into())),
+            "x{factor}: {json}"
+        );
+    }
+}
