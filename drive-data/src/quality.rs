@@ -419,14 +419,40 @@ fn not_moving(w: &Windows<'_>) -> Vec<Finding> {
     }
     // Nothing driven at all: no window's commands, encoders or localization reach the
     // motion the checks above look at (commands and limits in another unit, or zero).
+    // Unless the robot moved as its commands asked, however slowly (a planetary rover at a
+    // few centimetres a second): localization saw at least a tenth of the distance and the
+    // turn the commands asked for over the run, something was asked, and localization moved
+    // beyond its noise. Then the data holds a slow robot, which the checks above cannot
+    // judge: a warning.
     if asked == 0 && driven == 0 && motions.iter().all(|m| m.2 < 0.2 && m.3.abs() < 0.2) {
+        let (mut commanded, mut seen) = ([0.0f64; 2], [0.0f64; 2]);
+        for (w, m) in windows.iter().zip(motions) {
+            let (cd, cr) = dead_reckoned(data, &w.command, w.len());
+            commanded[0] += cd;
+            commanded[1] += cr;
+            seen[0] += m.2;
+            seen[1] += m.3.abs();
+        }
+        // Above localization's noise: 5 mm or 5 mrad a window on average (a limit in
+        // another unit, 1e-300, moves nothing a sensor sees).
+        let per_window = (seen[0] + seen[1]) / windows.len().max(1) as f64;
+        let slow = commanded.iter().any(|c| *c > 0.0)
+            && per_window >= 0.005
+            && (0..2).all(|i| commanded[i] <= 0.0 || seen[i] >= 0.1 * commanded[i]);
         out.push(Finding {
             check: Check::NotMoving,
-            severity: Severity::Fatal,
-            message: format!(
-                "in none of the {} windows do the commands, the encoders or localization reach 0.2 m or 0.2 rad of motion: nothing was driven (commands in another unit, or all zero?)",
-                windows.len()
-            ),
+            severity: Severity::fatal_if(!slow),
+            message: if slow {
+                format!(
+                    "in none of the {} windows do the commands, the encoders or localization reach 0.2 m or 0.2 rad of motion, though localization moved as the commands asked: a slow robot? (the checks that compare motions need 0.2 m or 0.2 rad to judge, so they looked at nothing)",
+                    windows.len()
+                )
+            } else {
+                format!(
+                    "in none of the {} windows do the commands, the encoders or localization reach 0.2 m or 0.2 rad of motion: nothing was driven (commands in another unit, or all zero?)",
+                    windows.len()
+                )
+            },
         });
     }
     if driven > 0 && still * 10 >= driven {
@@ -1069,14 +1095,26 @@ mod tests {
 
     #[test]
     fn a_run_where_nothing_is_driven_is_useless() {
-        // 0.01 rad/s of spin for 2 s: 0.02 rad, a tenth of what any check looks at.
-        let findings = check(&spin(0.005, 1.0), None);
+        // 0.01 rad/s of spin for 2 s: 0.02 rad, a tenth of what any check looks at, and
+        // localization did not turn.
+        let findings = check(&spin(0.005, 0.0), None);
         assert_eq!(findings.len(), 1, "{findings:?}");
         assert_eq!(
             (findings[0].check, findings[0].severity),
             (Check::NotMoving, Severity::Fatal)
         );
         assert!(findings[0].message.contains("nothing was driven"));
+        // The same spin seen by localization: a slow robot, which moved as asked (a
+        // warning: the other checks cannot judge it).
+        let slow = check(&spin(0.005, 1.0), None);
+        assert_eq!(
+            slow.iter()
+                .map(|f| (f.check, f.severity))
+                .collect::<Vec<_>>(),
+            [(Check::NotMoving, Severity::Warning)],
+            "{slow:?}"
+        );
+        assert!(slow[0].message.contains("a slow robot?"), "{slow:?}");
         // Commands of 1e-300 (a limit in another unit): the same, with no infinite gain.
         let tiny = check(&spin(1e-300, 1.0), None);
         assert!(tiny.iter().all(|f| !f.message.contains("inf")), "{tiny:?}");
