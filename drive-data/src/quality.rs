@@ -793,8 +793,13 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
                 (i, f64::NEG_INFINITY),
                 |best, c| if c.1 > best.1 { c } else { best },
             );
-        // Dead: near zero and not following the commands (a proportional encoder in
-        // another unit is the gain's case below).
+        // Fatal where the column is plainly another's or flipped: a measurement moving
+        // against its own command with a correlation of -0.5 or less, or following
+        // another axis's command (0.7 or more) by 0.5 more than its own (a mecanum base's
+        // forward and sideways columns swapped); a warning where it may be a weak or odd
+        // axis. (A skid-steer's two sides are correlated through the turns: its swapped
+        // sides are `direction`'s.)
+        let plain = (gain < 0.0 && own <= -0.5) || (cross >= 0.7 && cross > own + 0.5);
         let message = if dead * 10 >= n * 9 && own < 0.5 {
             format!(
                 "'{}' stays under a thousandth of its largest command ({} {}) on {dead} of {n} commanded samples: that encoder dead, or not recorded?",
@@ -830,7 +835,7 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         };
         out.push(Finding {
             check: Check::EncoderCommand,
-            severity: Severity::Warning,
+            severity: Severity::fatal_if(plain),
             message,
         });
     }

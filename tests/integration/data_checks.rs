@@ -455,3 +455,47 @@ fn positions_in_another_unit_are_fatal_however_small() {
         );
     }
 }
+
+/// A fourth outside sweep: one flipped or swapped input column was a warning only (a
+/// skid-steer's one command side negated, a mecanum base's sideways axis negated or its
+/// forward and sideways columns swapped); plainly another's or flipped, it is fatal, while
+/// the runs as simulated pass.
+#[test]
+fn one_flipped_or_swapped_input_column_is_fatal() {
+    let registries = drive::Registries::builtin();
+    let base =
+        drive::studies::simulate_protocol(&registries, "ridgeback", "snow", "uniform", 40, 2)
+            .unwrap()
+            .dataset;
+    let grass = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    let edited = |data: &drive::traits::Dataset, edit: &dyn Fn(&mut drive::traits::Window)| {
+        let mut d = data.clone();
+        d.windows.iter_mut().for_each(|w| edit(w));
+        d
+    };
+    let fatal_encoder_command = |d: &drive::traits::Dataset| {
+        drive::data::quality::check(d, None).iter().any(|f| {
+            f.check == drive::data::quality::Check::EncoderCommand
+                && f.severity == drive::data::quality::Severity::Fatal
+        })
+    };
+    assert!(!fatal_encoder_command(&base) && !fatal_encoder_command(&grass));
+    let cases: [(
+        &str,
+        &drive::traits::Dataset,
+        &dyn Fn(&mut drive::traits::Window),
+    ); 3] = [
+        ("left command negated", &grass, &|w| {
+            w.command.iter_mut().for_each(|u| u.x = -u.x)
+        }),
+        ("sideways measured negated", &base, &|w| {
+            w.measured.iter_mut().for_each(|u| u.y = -u.y)
+        }),
+        ("forward and sideways commands swapped", &base, &|w| {
+            w.command.iter_mut().for_each(|u| (u.x, u.y) = (u.y, u.x))
+        }),
+    ];
+    for (what, data, edit) in cases {
+        assert!(fatal_encoder_command(&edited(data, edit)), "{what}");
+    }
+}
