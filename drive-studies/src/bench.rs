@@ -238,32 +238,46 @@ const PRINT_STEPS: [f64; 3] = [0.02, 0.05, 0.02];
 /// by a step carry no identity and have none. Each grid's prints sorted.
 ///
 /// A second print holds the localization's track alone: the pose a quarter, half, three
-/// quarters and all of the way through the window, in its start frame, to 0.1 mm and
-/// 0.1 mrad ([`TRACK_STEP`]). Two runs do not share a track to that precision unless one
-/// is a copy of the other, whatever was done to its commands and encoders (a copy with its
-/// encoders recalibrated by a few percent, a bias, its command columns swapped: the same
-/// drive).
+/// quarters and all of the way through the window, in its start frame; two windows share
+/// it when every one of those values agrees within [`TRACK_TOLERANCE`] (5 mm and 0.5% of
+/// the distance, 5 mrad). Two runs do not share a track so closely unless one is a copy of
+/// the other, whatever was done to its commands and encoders or to its precision (a copy
+/// with its encoders recalibrated by a few percent, its positions written to the
+/// millimetre: the same drive).
 pub(crate) struct WindowPrints {
     grids: [Vec<u64>; 2],
     /// For each window with a print, its prints on both grids.
     windows: Vec<[u64; 2]>,
-    /// The track prints, sorted.
-    tracks: Vec<u64>,
-    /// For each window whose localization moved, its track print.
-    track_windows: Vec<u64>,
+    /// For each window whose localization moved, its track.
+    tracks: Vec<Track>,
+    /// The tracks by their net motion's cell ([`TRACK_CELL`]).
+    track_cells: HashMap<[i64; 3], Vec<usize>>,
 }
 
-/// The quantization of a track print (m and rad).
-const TRACK_STEP: f64 = 1e-4;
+/// A window's localization track: the pose (forward, sideways, turn) at a quarter, half,
+/// three quarters and all of the way through it, in its start frame.
+type Track = [f64; 12];
+
+/// How far two tracks' values may be apart and still be one drive's: 5 mm plus 0.5% of
+/// the distance, and 5 mrad (a copy written to the millimetre, its yaw to the milliradian).
+const TRACK_TOLERANCE: [f64; 3] = [0.005, 0.005, 0.005];
+
+/// The cell of a track's net motion for finding the tracks near it (m, m, rad).
+const TRACK_CELL: f64 = 0.05;
 
 /// [`WindowPrints`] of `data`.
 pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
     use std::hash::{Hash, Hasher};
     let mut windows = Vec::new();
-    let mut track_windows = Vec::new();
+    let mut tracks = Vec::new();
+    let mut track_cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
     for w in data.windows.iter().filter(|w| w.len() >= 2) {
-        if let Some(track) = track_print(w) {
-            track_windows.push(track);
+        if let Some(track) = track_of(w) {
+            track_cells
+                .entry(track_cell(&track))
+                .or_default()
+                .push(tracks.len());
+            tracks.push(track);
         }
         let n = w.len() as f64;
         let mean = |inputs: &[drive_traits::Input], i: usize| -> f64 {
@@ -300,42 +314,67 @@ pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
         windows.iter().map(|p| p[1]).collect::<Vec<_>>(),
     ];
     grids.iter_mut().for_each(|g| g.sort_unstable());
-    let mut tracks = track_windows.clone();
-    tracks.sort_unstable();
     WindowPrints {
         grids,
         windows,
         tracks,
-        track_windows,
+        track_cells,
     }
 }
 
-/// The print of a window's localization track ([`WindowPrints`]); `None` when the
-/// localization did not move by a millimetre or a milliradian (a frozen or still track
-/// has no identity).
-fn track_print(w: &drive_traits::Window) -> Option<u64> {
-    use std::hash::{Hash, Hasher};
+/// The cell of a track's net motion ([`TRACK_CELL`]).
+fn track_cell(t: &Track) -> [i64; 3] {
+    [t[9], t[10], t[11]].map(|v| (v / TRACK_CELL).floor() as i64)
+}
+
+/// Whether two tracks are one drive's ([`TRACK_TOLERANCE`]).
+fn same_track(a: &Track, b: &Track) -> bool {
+    a.iter().zip(b).enumerate().all(|(i, (x, y))| {
+        let axis = i % 3;
+        let scale = if axis == 2 {
+            0.0
+        } else {
+            0.005 * x.abs().max(y.abs())
+        };
+        (x - y).abs() <= TRACK_TOLERANCE[axis] + scale
+    })
+}
+
+/// Whether `prints` holds a track one drive's with `t`: among the tracks of its net
+/// motion's cell and the cells around it.
+fn holds_track(prints: &WindowPrints, t: &Track) -> bool {
+    let [a, b, c] = track_cell(t);
+    (-1..=1).any(|i| {
+        (-1..=1).any(|j| {
+            (-1..=1).any(|k| {
+                prints
+                    .track_cells
+                    .get(&[a + i, b + j, c + k])
+                    .is_some_and(|near| near.iter().any(|&n| same_track(&prints.tracks[n], t)))
+            })
+        })
+    })
+}
+
+/// A window's localization track ([`Track`]); `None` when the localization did not move
+/// by a centimetre or a hundredth of a radian (a frozen or still track, or one within the
+/// tolerance of one, has no identity).
+fn track_of(w: &drive_traits::Window) -> Option<Track> {
     let n = w.pose.len();
     let first = w.pose[0];
     let (sin, cos) = first.z.sin_cos();
-    let mut values = Vec::with_capacity(12);
-    for k in [n / 4, n / 2, 3 * n / 4, n - 1] {
+    let mut values = [0.0; 12];
+    for (slot, k) in [n / 4, n / 2, 3 * n / 4, n - 1].into_iter().enumerate() {
         let p = w.pose[k];
         let (dx, dy) = (p.x - first.x, p.y - first.y);
-        values.extend([
-            cos * dx + sin * dy,
-            -sin * dx + cos * dy,
-            drive_traits::net_turn(&w.pose[..=k]),
-        ]);
+        values[3 * slot] = cos * dx + sin * dy;
+        values[3 * slot + 1] = -sin * dx + cos * dy;
+        values[3 * slot + 2] = drive_traits::net_turn(&w.pose[..=k]);
     }
-    if values.iter().any(|v| !v.is_finite()) || values.iter().all(|v| v.abs() < 1e-3) {
+    if values.iter().any(|v| !v.is_finite()) || values.iter().all(|v| v.abs() < 0.01) {
         return None;
     }
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    for v in &values {
-        ((v / TRACK_STEP).round() as i64).hash(&mut h);
-    }
-    Some(h.finish())
+    Some(values)
 }
 
 impl WindowPrints {
@@ -355,18 +394,18 @@ pub(crate) fn shared_windows(a: &WindowPrints, b: &WindowPrints) -> (usize, usiz
         .iter()
         .filter(|p| (0..2).any(|g| many.grids[g].binary_search(&p[g]).is_ok()))
         .count();
-    let (few_tracks, many_tracks) = if a.track_windows.len() <= b.track_windows.len() {
+    let (few_tracks, many_tracks) = if a.tracks.len() <= b.tracks.len() {
         (a, b)
     } else {
         (b, a)
     };
     let by_track = few_tracks
-        .track_windows
+        .tracks
         .iter()
-        .filter(|t| many_tracks.tracks.binary_search(t).is_ok())
+        .filter(|t| holds_track(many_tracks, t))
         .count();
     let content = (by_content, few.len());
-    let track = (by_track, few_tracks.track_windows.len());
+    let track = (by_track, few_tracks.tracks.len());
     // The larger share (cross-multiplied: either count may be 0).
     if track.0 * content.1.max(1) > content.0 * track.1.max(1) {
         track

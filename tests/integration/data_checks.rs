@@ -470,7 +470,7 @@ fn one_flipped_or_swapped_input_column_is_fatal() {
     let grass = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
     let edited = |data: &drive::traits::Dataset, edit: &dyn Fn(&mut drive::traits::Window)| {
         let mut d = data.clone();
-        d.windows.iter_mut().for_each(|w| edit(w));
+        d.windows.iter_mut().for_each(edit);
         d
     };
     let fatal_encoder_command = |d: &drive::traits::Dataset| {
