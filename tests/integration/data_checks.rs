@@ -480,11 +480,8 @@ fn one_flipped_or_swapped_input_column_is_fatal() {
         })
     };
     assert!(!fatal_encoder_command(&base) && !fatal_encoder_command(&grass));
-    let cases: [(
-        &str,
-        &drive::traits::Dataset,
-        &dyn Fn(&mut drive::traits::Window),
-    ); 3] = [
+    type Edit<'a> = &'a dyn Fn(&mut drive::traits::Window);
+    let cases: [(&str, &drive::traits::Dataset, Edit); 3] = [
         ("left command negated", &grass, &|w| {
             w.command.iter_mut().for_each(|u| u.x = -u.x)
         }),
