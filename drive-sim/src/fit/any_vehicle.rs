@@ -79,7 +79,9 @@ pub struct AnyVehicleFitReport {
     /// The fitted parameters at a bound of their range.
     pub at_bounds: Vec<String>,
     /// The fitted parameters the simulator barely responds to (half again or two thirds of
-    /// the value moves the fit's cost by less than 1%): not pinned down by the data.
+    /// the value moves the fit's cost by less than 1%): not pinned down by the data; and the
+    /// three friction coefficients moved together, when that is so (a simulator that reads
+    /// their ratios only).
     pub insensitive: Vec<String>,
     /// What the twin keeps from the simulator instead of fitting it.
     pub not_fitted: Vec<&'static str>,
@@ -174,11 +176,18 @@ pub fn fit_any_vehicle(
     terrain.fitted_for = Some(crate::FittedVehicle::of(robot.vehicle.as_ref()));
     let fitted = problem.cost_of(&terrain)?;
     // How much the cost moves with each parameter half again or two thirds of its value.
-    let moves: Vec<Terrain> = (0..FITTED.len())
+    // Last, the three friction coefficients together: a simulator that reads their ratios
+    // only (the kinematic stand-in, the mecanum base) pins down those alone.
+    let together = [0, 1, 2];
+    let moves: Vec<Terrain> = (0..=FITTED.len())
         .flat_map(|i| {
             [1.5_f64, 1.0 / 1.5].map(|factor| {
                 let mut y = x.clone();
-                y[i] += factor.ln();
+                if i < FITTED.len() {
+                    y[i] += factor.ln();
+                } else {
+                    together.iter().for_each(|&j| y[j] += factor.ln());
+                }
                 problem.terrain(&y)
             })
         })
@@ -199,6 +208,17 @@ pub fn fit_any_vehicle(
         if most < 0.01 * fitted.value.max(1e-12) {
             insensitive.push((*param).to_string());
         }
+    }
+    let n = FITTED.len();
+    let mut most = 0.0_f64;
+    for cost in &moved[2 * n..2 * n + 2] {
+        let cost = cost.as_ref().map_err(Clone::clone)?;
+        most = most.max((cost.value - fitted.value).abs());
+    }
+    if most < 0.01 * fitted.value.max(1e-12) {
+        insensitive.push(
+            "traction, lateral and rolling together (their ratios alone are pinned down)".into(),
+        );
     }
     let used = simulator_used(plants, robot);
     Ok(AnyVehicleFit {
@@ -528,6 +548,14 @@ mod tests {
         assert!((forward - 0.15).abs() < 0.02, "{forward} {t:?}");
         assert!((turn - 0.15 / 0.55).abs() < 0.03, "{turn} {t:?}");
         assert!(r.insensitive.contains(&"slip_modulus".to_string()), "{r:?}");
+        // It reads the friction coefficients' ratios only: the three together are not
+        // pinned down, and the fit says so.
+        assert!(
+            r.insensitive
+                .iter()
+                .any(|i| i.starts_with("traction, lateral and rolling together")),
+            "{r:?}"
+        );
         assert!(r.cost <= r.cost_start && r.cost_start > 0.0, "{r:?}");
         assert!(r.intervals_compared >= 30, "{r:?}");
     }
