@@ -764,6 +764,8 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
     };
     let mut out = Vec::new();
     let axes = &axes[..axes.len().min(drive_traits::MAX_INPUTS)];
+    let skid_steer =
+        drive_traits::vehicle_tag(data.robot.vehicle.as_ref()).as_deref() == Some("differential");
     for (i, axis) in axes.iter().enumerate() {
         let largest = samples().map(|(c, _)| c[i].abs()).fold(0.0, f64::max);
         if largest <= 0.0 || !largest.is_finite() {
@@ -794,12 +796,16 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
                 |best, c| if c.1 > best.1 { c } else { best },
             );
         // Fatal where the column is plainly another's or flipped: a measurement moving
-        // against its own command with a correlation of -0.5 or less, or following
+        // against its own command (a gain of -0.1 or less; a twin's protocol in another
+        // geometry leaves a wheel barely answering, -0.009) with a correlation of -0.5 or
+        // less, or following
         // another axis's command (0.7 or more) by 0.5 more than its own (a mecanum base's
         // forward and sideways columns swapped); a warning where it may be a weak or odd
         // axis. (A skid-steer's two sides are correlated through the turns: its swapped
-        // sides are `direction`'s.)
-        let plain = (gain < 0.0 && own <= -0.5) || (cross >= 0.7 && cross > own + 0.5);
+        // sides are `direction`'s, and a protocol recorded in another geometry than the
+        // robot's leaves one wheel following the other side's command: no fatal there.)
+        let plain =
+            (gain <= -0.1 && own <= -0.5) || (!skid_steer && cross >= 0.7 && cross > own + 0.5);
         let message = if dead * 10 >= n * 9 && own < 0.5 {
             format!(
                 "'{}' stays under a thousandth of its largest command ({} {}) on {dead} of {n} commanded samples: that encoder dead, or not recorded?",
