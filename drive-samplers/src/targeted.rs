@@ -151,6 +151,10 @@ impl TargetedSampler {
 }
 
 impl InputSampler for TargetedSampler {
+    fn learns_from_windows(&self) -> bool {
+        self.target == Target::SlipVariance
+    }
+
     fn next_input(&mut self) -> Input {
         let warming_up = match self.target {
             Target::SlipVariance => self.seen.len() < WINDOWS_PER_INTERVAL * self.warmup,

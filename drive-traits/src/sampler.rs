@@ -30,6 +30,13 @@ pub trait InputSampler {
     fn observe(&mut self, robot: &RobotDescription, interval: &[Window]) {
         let _ = (robot, interval);
     }
+
+    /// Whether its inputs depend on the windows it observes ([`InputSampler::observe`]):
+    /// a schedule planned offline (`drive protocol`), which observes none, holds what it
+    /// draws before it has seen any, and says so. False by default.
+    fn learns_from_windows(&self) -> bool {
+        false
+    }
 }
 
 /// What a sampler that aims at the model's uncertainty asks of a model: fitted on the windows

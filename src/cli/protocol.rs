@@ -56,6 +56,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &args.sampler,
         &SamplerContext::new(&spec, args.seed),
     )?;
+    if s.learns_from_windows() {
+        say!(
+            "note: the {} sampler chooses each input from the windows driven so far; a schedule planned offline has none, so it holds its warm-up draws throughout (drive simulate, or the protocol runner on the robot, gives it the windows)",
+            args.sampler
+        );
+    }
     let rows = schedule(&spec, s.as_mut(), args.intervals);
     outputs.write(&args.out, schedule_csv(&spec, &rows))?;
     super::common::publish(outputs)?;

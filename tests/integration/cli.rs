@@ -1421,3 +1421,39 @@ fn simulate_says_which_simulator_ran() {
         );
     }
 }
+
+/// An outside check: the targeted sampler, planned offline, held its warm-up draws (the
+/// uniform sampler's) without a word; it now says so, and the coverage one (which needs
+/// no windows) does not.
+#[test]
+fn a_sampler_that_learns_from_windows_says_what_an_offline_schedule_holds() {
+    let dir = tempfile::tempdir().unwrap();
+    for (sampler, says) in [
+        ("targeted", true),
+        ("targeted-coverage", false),
+        ("uniform", false),
+    ] {
+        let out = dir.path().join(format!("{sampler}.csv"));
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_drive"))
+            .args([
+                "protocol",
+                "--robot",
+                "husky",
+                "--sampler",
+                sampler,
+                "--intervals",
+                "3",
+            ])
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{sampler}");
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(
+            err.contains("holds its warm-up draws"),
+            says,
+            "{sampler}: {err}"
+        );
+    }
+}
