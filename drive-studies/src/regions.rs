@@ -90,9 +90,9 @@ pub struct RegionComparison {
     pub eval_windows: usize,
     /// Uniform draws per region.
     pub draws: usize,
-    /// The input space spanned by the training commands, per axis: `[[min, max], [min,
-    /// max]]` (the vehicle's units: rad/s for wheel velocities).
-    pub input_space: [[f64; 2]; 2],
+    /// The input space spanned by the training commands, per input axis of the vehicle:
+    /// `[[min, max], ...]` (the vehicle's units: rad/s for wheel velocities).
+    pub input_space: Vec<[f64; 2]>,
     /// Top forward speed in that space (m/s).
     pub top_speed_m_s: f64,
     /// Turning-in-place yaw rate in that space (rad/s).
@@ -300,7 +300,13 @@ pub fn compare_regions(
         train_intervals: intervals.len(),
         eval_windows: eval.len(),
         draws: study.draws,
-        input_space: [[min.x, max.x], [min.y, max.y]],
+        input_space: (0..data
+            .robot
+            .vehicle
+            .input_dim()
+            .clamp(1, drive_traits::MAX_INPUTS))
+            .map(|i| [min[i], max[i]])
+            .collect(),
         top_speed_m_s: top_speed,
         turn_rate_rad_s: turn_rate,
         regions: results,

@@ -462,15 +462,16 @@ fn recorded_table(t: &RegionComparison) -> String {
     use std::fmt::Write as _;
     let mut out = format!(
         "Protocols compared on recorded data (paper Table I): {} from {}, {} training intervals, {} evaluation windows\n\
-         input space of the training commands [{:.2}, {:.2}] x [{:.2}, {:.2}] (top speed {:.3} m/s, top yaw rate {:.3} rad/s)\n",
+         input space of the training commands {} (top speed {:.3} m/s, top yaw rate {:.3} rad/s)\n",
         t.model,
         t.dataset,
         t.train_intervals,
         t.eval_windows,
-        t.input_space[0][0],
-        t.input_space[0][1],
-        t.input_space[1][0],
-        t.input_space[1][1],
+        t.input_space
+            .iter()
+            .map(|[lo, hi]| format!("[{lo:.2}, {hi:.2}]"))
+            .collect::<Vec<_>>()
+            .join(" x "),
         t.top_speed_m_s,
         t.turn_rate_rad_s,
     );

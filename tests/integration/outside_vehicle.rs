@@ -559,6 +559,9 @@ fn the_human_like_samplers_and_the_regions_ask_a_rover_what_it_reaches_not_its_b
         .and_then(|s| s.parse().ok())
         .unwrap();
     assert!(bound > 0.15 * 0.5 * reach.top_yaw_rate(), "{linear}");
+    // Its input space has all three axes (the rear steer was dropped).
+    assert_eq!(table.input_space.len(), 3, "{:?}", table.input_space);
+    assert!(table.input_space[2][1] > 0.3, "{:?}", table.input_space);
 }
 
 /// `drive sim-fit` on a vehicle the skid-steer fit does not cover: the rover (no simulator
