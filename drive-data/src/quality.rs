@@ -766,6 +766,14 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
     let axes = &axes[..axes.len().min(drive_traits::MAX_INPUTS)];
     let skid_steer =
         drive_traits::vehicle_tag(data.robot.vehicle.as_ref()).as_deref() == Some("differential");
+    // Correlations over fewer commands than this are chance (a run of one or two intervals:
+    // a car's steering servo following its speed command at 0.9): a warning at most.
+    let intervals = {
+        let mut seen: Vec<usize> = windows.iter().map(|w| w.interval).collect();
+        seen.sort_unstable();
+        seen.dedup();
+        seen.len()
+    };
     for (i, axis) in axes.iter().enumerate() {
         let largest = samples().map(|(c, _)| c[i].abs()).fold(0.0, f64::max);
         if largest <= 0.0 || !largest.is_finite() {
@@ -798,14 +806,15 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         // Fatal where the column is plainly another's or flipped: a measurement moving
         // against its own command (a gain of -0.1 or less; a twin's protocol in another
         // geometry leaves a wheel barely answering, -0.009) with a correlation of -0.5 or
-        // less, or following
-        // another axis's command (0.7 or more) by 0.5 more than its own (a mecanum base's
-        // forward and sideways columns swapped); a warning where it may be a weak or odd
-        // axis. (A skid-steer's two sides are correlated through the turns: its swapped
-        // sides are `direction`'s, and a protocol recorded in another geometry than the
-        // robot's leaves one wheel following the other side's command: no fatal there.)
-        let plain =
-            (gain <= -0.1 && own <= -0.5) || (!skid_steer && cross >= 0.7 && cross > own + 0.5);
+        // less, or following another axis's command (0.7 or more) and not its own (under
+        // 0.3: a mecanum base's forward and sideways columns swapped; a short run's few
+        // commands may correlate by chance, so ten intervals at least); a warning where it
+        // may be a weak or odd axis. (A skid-steer's two sides are correlated through the
+        // turns: its swapped sides are `direction`'s, and a protocol recorded in another
+        // geometry than the robot's leaves one wheel following the other side's command:
+        // no fatal there.)
+        let plain = intervals >= 10
+            && ((gain <= -0.1 && own <= -0.5) || (!skid_steer && cross >= 0.7 && own < 0.3));
         let message = if dead * 10 >= n * 9 && own < 0.5 {
             format!(
                 "'{}' stays under a thousandth of its largest command ({} {}) on {dead} of {n} commanded samples: that encoder dead, or not recorded?",

@@ -82,6 +82,9 @@ pub struct Terrain {
 /// assert!(fitted.refuses(base.vehicle.as_ref()).is_none());
 /// let husky = drive_traits::vehicles::DifferentialDrive::new(0.165, 0.55);
 /// assert!(fitted.refuses(&husky).unwrap().contains("'differential'"));
+/// // A record no fit writes drives nothing.
+/// let broken = FittedVehicle { geometry: "notjson".into(), ..fitted };
+/// assert!(broken.refuses(base.vehicle.as_ref()).is_some());
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -111,7 +114,16 @@ impl FittedVehicle {
                 self.vehicle
             ));
         }
-        let ours: serde_json::Value = serde_json::from_str(&self.geometry).ok()?;
+        let ours: serde_json::Value = match serde_json::from_str::<serde_json::Value>(&self.geometry) {
+            Ok(v) if v.get("type").and_then(|t| t.as_str()) == Some(self.vehicle.as_str()) => v,
+            // A record no fit writes cannot say which robots the twin drives: none.
+            _ => {
+                return Some(format!(
+                    "its fitted_for.geometry is not the JSON of a '{}' vehicle (what drive sim-fit writes)",
+                    self.vehicle
+                ))
+            }
+        };
         let theirs = serde_json::to_value(vehicle).ok()?;
         (!close(&ours, &theirs)).then(|| {
             format!(

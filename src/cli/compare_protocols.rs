@@ -189,10 +189,9 @@ fn twins(args: &Args, registries: &Registries) -> Result<()> {
         let twin = registries.terrain(twin)?;
         if let (None, Some(f)) = (&twin.protocol, &twin.fitted_for) {
             bail!(
-                "--twins: terrain '{}' is the twin of a vehicle of type '{}', of which drive sim-fit fits the ground only (no protocol of its real run to replay): --twins compares protocols on skid-steer twins; run compare-protocols --robot {robot} --terrain {} instead",
+                "--twins: terrain '{}' is the twin of a vehicle of type '{}', of which drive sim-fit fits the ground only (no protocol of its real run to replay): --twins compares protocols on skid-steer twins",
                 twin.name,
-                f.vehicle,
-                pair.split_once('=').map_or("", |p| p.1)
+                f.vehicle
             );
         }
         if twin.protocol.is_none() {

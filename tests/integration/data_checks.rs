@@ -495,4 +495,21 @@ fn one_flipped_or_swapped_input_column_is_fatal() {
     for (what, data, edit) in cases {
         assert!(fatal_encoder_command(&edited(data, edit)), "{what}");
     }
+    // A fifth outside sweep: runs of two or three commands, where a car's steering servo
+    // follows its speed command by chance, are no swapped columns (simulate refused them).
+    for seed in 1..=3 {
+        for (robot, intervals) in [("autorally", 2), ("ridgeback", 3)] {
+            let short = drive::studies::simulate_protocol(
+                &registries,
+                robot,
+                "tile",
+                "uniform",
+                intervals,
+                seed,
+            )
+            .unwrap()
+            .dataset;
+            assert!(!fatal_encoder_command(&short), "{robot} seed {seed}");
+        }
+    }
 }

@@ -259,6 +259,16 @@ pub fn check_any_vehicle_run(data: &Dataset, robot: &RobotSpec) -> Result<usize,
             robot.name
         )));
     }
+    // The same type, another geometry: the twin would drive the robot's, not the data's.
+    if let Some(why) =
+        crate::FittedVehicle::of(data.robot.vehicle.as_ref()).refuses(robot.vehicle.as_ref())
+    {
+        return Err(SimFitError::Unfit(format!(
+            "the robot {} is not the data's vehicle: {}; give the robot the data was recorded with",
+            robot.name,
+            why.replace("it is a twin of", "the data is of")
+        )));
+    }
     let steady_windows = data
         .windows
         .iter()
