@@ -136,7 +136,14 @@ fn close(what: &str, got: f64, want: f64, relative: f64) {
     );
 }
 
+/// The whole twin of a simulated robot, every stage against the generator's parameters (35 s
+/// of CPU, nearly all of it the ground stage's thousands of simulated runs of 170
+/// intervals, which the test needs: at 120 the twin's slip-BLR error leaves its tolerance).
+/// Like the Husky twin fit below, it is left out of the README's test command (issue 60:
+/// 120 s for every test) and run by CI's `--ignored` stage; the stages' own tests in
+/// `drive-sim` and the short command-line fit below run with every test.
 #[test]
+#[ignore = "a whole twin fit (35 s of CPU): CI runs it with --ignored in its own stage"]
 fn a_twin_of_a_simulated_robot_recovers_what_the_data_can_tell() {
     let truth = generator();
     let data = run(&truth, 170, 7);
