@@ -18,6 +18,8 @@ use drive_traits::limits::Short;
 use drive_traits::{Dataset, InputSpace, Window};
 use serde::Serialize;
 
+mod localization;
+
 /// How bad a finding is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -71,11 +73,19 @@ pub enum Check {
     Direction,
     /// One command throughout (the data shows the robot's answer to nothing else).
     CommandsConstant,
+    /// Localization's positions moving at an angle from its own heading, or turning against
+    /// its own yaw (a heading from another frame, x and y swapped, one axis negated).
+    LocalizationFrame,
+    /// Localization not following the encoders at all, or following another window's
+    /// (another run's localization, timestamps shifted).
+    LocalizationSync,
+    /// Positions on a coarse grid (world coordinates stored as 32-bit floats).
+    PositionSteps,
 }
 
 impl Check {
     /// Every check, in [`CHECKS`]' order.
-    pub const ALL: [Check; 9] = [
+    pub const ALL: [Check; 12] = [
         Check::NotMoving,
         Check::ImuConstant,
         Check::EncodersZero,
@@ -85,6 +95,9 @@ impl Check {
         Check::OutsideLimits,
         Check::Direction,
         Check::CommandsConstant,
+        Check::LocalizationFrame,
+        Check::LocalizationSync,
+        Check::PositionSteps,
     ];
 
     /// The check's key, the name `--allow` takes (its entry in [`CHECKS`]).
@@ -121,7 +134,7 @@ pub struct Finding {
 }
 
 /// The checks' keys and what they look for, in [`Check`]'s order.
-pub const CHECKS: [(&str, &str); 9] = [
+pub const CHECKS: [(&str, &str); 12] = [
     (
         "not-moving",
         "localization still while the encoders turn (wheels off the ground, localization frozen)",
@@ -140,7 +153,7 @@ pub const CHECKS: [(&str, &str); 9] = [
     ),
     (
         "encoder-units",
-        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius), or localization's yaw turning over five times faster than the encoders' (yaw in degrees), or turning over 2.5 times what they imply (a baseline too wide)",
+        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius), or localization's yaw turning over five times faster than the encoders' (yaw in degrees), or turning over 2.5 times what they imply (a baseline too wide), or an angle input beyond pi (in degrees)",
     ),
     (
         "encoder-command",
@@ -157,6 +170,18 @@ pub const CHECKS: [(&str, &str); 9] = [
     (
         "commands-constant",
         "one command throughout (the data shows how the robot answers nothing else)",
+    ),
+    (
+        "localization-frame",
+        "localization's positions moving at 20 degrees or more from its own heading where the encoders drive along it (a heading from another frame than the positions), at 45 degrees or more either way (x and y swapped, a yaw in degrees), or the path they draw turning against its yaw (y negated alone)",
+    ),
+    (
+        "localization-sync",
+        "localization's travel and turn per window not following the encoders' (correlation under 0.3: another run's localization), or following the window before's or after's better (timestamps shifted by a window)",
+    ),
+    (
+        "position-steps",
+        "positions on a grid of 2 cm or coarser (world coordinates stored as 32-bit floats, or written to few digits): fatal from 10 cm, where the grid is a large part of every error",
     ),
 ];
 
@@ -197,7 +222,8 @@ struct Windows<'a> {
 /// Runs every check on `data`; `limits` is the robot description's input space when known
 /// (for `outside-limits`). The findings in order: `not-moving`, `imu-constant`,
 /// `encoders-zero`, `encoders-stuck`, `encoder-command`, `encoder-units`, `outside-limits`,
-/// `direction`, `commands-constant`.
+/// `direction`, `localization-frame`, `localization-sync`, `position-steps`,
+/// `commands-constant`.
 pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     let windows: Vec<&Window> = data.windows.iter().filter(|w| w.len() >= 2).collect();
     if windows.is_empty() {
@@ -219,6 +245,9 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         out.extend(outside_limits(&w, space));
     }
     out.extend(direction(&w));
+    out.extend(localization::frame(&w));
+    out.extend(localization::sync(&w));
+    out.extend(localization::position_steps(&w));
     out.extend(commands_constant(&w));
     out
 }
@@ -557,6 +586,37 @@ fn encoders_silent(w: &Windows<'_>, which: Check) -> Option<Finding> {
     })
 }
 
+/// Whether every input axis's measurements follow its commands at a least-squares gain
+/// within [0.5, 2] (over the samples commanded at a tenth of the axis's largest command or
+/// more, a hundred at least): the encoders in the commands' unit.
+fn encoders_follow_commands(data: &Dataset, windows: &[&Window]) -> bool {
+    let axes = data
+        .robot
+        .vehicle
+        .axes()
+        .len()
+        .min(drive_traits::MAX_INPUTS);
+    (0..axes).all(|i| {
+        let samples = || {
+            windows
+                .iter()
+                .flat_map(|w| w.command.iter().zip(w.measured.iter()))
+        };
+        let largest = samples().map(|(c, _)| c[i].abs()).fold(0.0, f64::max);
+        if largest <= 0.0 || !largest.is_finite() {
+            return true;
+        }
+        let (mut n, mut cc, mut cm) = (0usize, 0.0, 0.0);
+        for (c, m) in samples().filter(|(c, _)| c[i].abs() >= 0.1 * largest) {
+            let (c, m) = (c[i] / largest, m[i] / largest);
+            n += 1;
+            cc += c * c;
+            cm += c * m;
+        }
+        n < 100 || (0.5..=2.0).contains(&(cm / cc))
+    })
+}
+
 /// `encoder-units`: the distance the encoders imply against localization's, and
 /// localization's yaw rate against the encoders'.
 fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
@@ -600,10 +660,25 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
     if ratios.len() >= 10 {
         ratios.sort_by(f64::total_cmp);
         let median = ratios[ratios.len() / 2];
+        // A unit scales every window alike; wheels spinning on ice spin more in some
+        // windows than others (a simulated car on ice: a median of 7, a quarter of the
+        // windows under 2.5). Fatal when the quartile nearer 1 is beyond the warning's
+        // bound too.
+        let (low, high) = (ratios[ratios.len() / 4], ratios[ratios.len() * 3 / 4]);
+        let consistent = if median > 1.0 { low > 2.5 } else { high < 0.4 };
+        // Wheels spinning on ice follow their commands; encoders in another unit do not
+        // (and positions in another unit scale every window alike, within 30%): under 20
+        // times, with the windows' ratios spread and the encoders at their commands, the
+        // wheels spun.
+        let spun = median > 1.0
+            && median < 20.0
+            && high > 1.3 * low
+            && encoders_follow_commands(data, windows);
+        let consistent = consistent && !spun;
         if !(0.4..=2.5).contains(&median) {
             out.push(Finding {
                 check: Check::EncoderUnits,
-                severity: Severity::fatal_if(!(0.2..=5.0).contains(&median)),
+                severity: Severity::fatal_if(!(0.2..=5.0).contains(&median) && consistent),
                 message: format!(
                     "the encoders imply {}x the distance localization saw (median over {} windows): encoders in another unit, or the wrong wheel radius?",
                     Short((median * 1000.0).round() / 1000.0),
@@ -626,6 +701,24 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
     // A skid-steer only: a car on ice or snow may spin out past what its wheels imply.
     let skid_steer =
         drive_traits::vehicle_tag(data.robot.vehicle.as_ref()).as_deref() == Some("differential");
+    if !skid_steer && turns.len() >= 10 {
+        // Another vehicle turns as its wheels or steering imply, or spins out past it on
+        // ice in some windows: over ten times in the median, no geometry or ground explains
+        // it (a yaw in degrees turns 57 times).
+        turns.sort_by(f64::total_cmp);
+        let median = turns[turns.len() / 2];
+        if median > 10.0 {
+            out.push(Finding {
+                check: Check::EncoderUnits,
+                severity: Severity::Fatal,
+                message: format!(
+                    "localization turns {}x what the encoders imply (median over {} windows): a yaw in degrees?",
+                    Short((median * 100.0).round() / 100.0),
+                    turns.len()
+                ),
+            });
+        }
+    }
     if skid_steer && turns.len() >= 10 {
         turns.sort_by(f64::total_cmp);
         let median = turns[turns.len() / 2];
@@ -639,6 +732,38 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
                     turns.len()
                 ),
             });
+        }
+    }
+    // encoder-units, an angle: an input axis in radians (a steering or articulation
+    // angle) beyond pi on a twentieth of its commanded or measured samples: no angle of a
+    // wheel is, one in degrees is (a steering of 25 degrees).
+    for (i, axis) in data.robot.vehicle.axes().iter().enumerate() {
+        if axis.unit != "rad" || i >= drive_traits::MAX_INPUTS {
+            continue;
+        }
+        for (what, column, pick) in [
+            ("commanded", axis.command_column, 0usize),
+            ("measured", axis.measured_column, 1),
+        ] {
+            let (mut n, mut beyond, mut largest) = (0usize, 0usize, 0.0f64);
+            for w in windows {
+                let values = if pick == 0 { &w.command } else { &w.measured };
+                for u in values {
+                    n += 1;
+                    beyond += usize::from(u[i].abs() > std::f64::consts::PI);
+                    largest = largest.max(u[i].abs());
+                }
+            }
+            if n > 0 && beyond * 20 >= n {
+                out.push(Finding {
+                    check: Check::EncoderUnits,
+                    severity: Severity::Fatal,
+                    message: format!(
+                        "the {what} '{column}' (an angle in rad) is beyond pi on {beyond} of {n} samples (up to {}): an angle in degrees?",
+                        Short(three_digits(largest))
+                    ),
+                });
+            }
         }
     }
     // encoder-units, the yaw: the localization's yaw rate (median over the samples its yaw
@@ -813,8 +938,13 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         // turns: its swapped sides are `direction`'s, and a protocol recorded in another
         // geometry than the robot's leaves one wheel following the other side's command:
         // no fatal there.)
+        // And where it follows its own command closely (0.5 or more) at a gain no unit of
+        // the same kind explains (over 10 or under 0.02: a steering angle in degrees
+        // against its command in radians gives 57 or 0.017).
         let plain = intervals >= 10
-            && ((gain <= -0.1 && own <= -0.5) || (!skid_steer && cross >= 0.7 && own < 0.3));
+            && ((gain <= -0.1 && own <= -0.5)
+                || (!skid_steer && cross >= 0.7 && own < 0.3)
+                || (own >= 0.5 && !(0.02..=10.0).contains(&gain)));
         let message = if dead * 10 >= n * 9 && own < 0.5 {
             format!(
                 "'{}' stays under a thousandth of its largest command ({} {}) on {dead} of {n} commanded samples: that encoder dead, or not recorded?",

@@ -436,6 +436,24 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
             message: "robot.registered_robot is not a registered robot's name (1 to 200 ASCII letters, digits, '-' and '_')".into(),
         });
     }
+    // A built-in robot's name for a robot of another vehicle type (a Husky named on a
+    // mecanum base's model): a fit writes the name of the robot the data was recorded with.
+    if let Some(entry) = drive_traits::robot::builtin_robots().find(registered) {
+        let (theirs, ours) = (
+            drive_traits::vehicle_tag(entry.part().vehicle.as_ref()),
+            drive_traits::vehicle_tag(robot.vehicle.as_ref()),
+        );
+        if theirs != ours {
+            return Err(ModelFileError::Model {
+                file: file.into(),
+                message: format!(
+                    "robot.registered_robot is '{registered}', a robot of vehicle type '{}', and the model's vehicle is of type '{}'",
+                    theirs.unwrap_or_default(),
+                    ours.unwrap_or_default()
+                ),
+            });
+        }
+    }
     let model = obj.remove("model").ok_or(ModelFileError::MissingField {
         file: file.into(),
         field: "model",
@@ -489,7 +507,8 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
         });
     }
     if let Some(calibration) = model.get("calibration") {
-        check_calibration(calibration, robot.window_len).map_err(|message| {
+        let trained = fitted_with.as_ref().map_or(0, |f| f.training_windows);
+        check_calibration(calibration, robot.window_len, trained).map_err(|message| {
             ModelFileError::Model {
                 file: file.into(),
                 message,
@@ -671,10 +690,30 @@ fn check_names(
     }
 }
 
-/// The calibration of a calibrated model file against its robot: as many per-step scales
-/// as the robot's window has samples (what a fit writes), each within
-/// [1 / MAX_CALIBRATION_SCALE, MAX_CALIBRATION_SCALE].
-fn check_calibration(calibration: &Value, window_len: usize) -> Result<(), String> {
+/// The calibration of a calibrated model file against its robot and fit: as many per-step
+/// scales as the robot's window has samples (what a fit writes), each within
+/// [1 / MAX_CALIBRATION_SCALE, MAX_CALIBRATION_SCALE], from as many windows as the fit's
+/// training windows (when the file says).
+fn check_calibration(
+    calibration: &Value,
+    window_len: usize,
+    training_windows: usize,
+) -> Result<(), String> {
+    // The windows its scales come from: every training window is held out once
+    // (cross-conformal), so a fit writes as many as it was trained on.
+    if let Some(windows) = calibration.get("windows").and_then(Value::as_u64) {
+        if windows == 0 {
+            return Err(
+                "calibration windows is 0: a calibration's scales come from held-out windows"
+                    .into(),
+            );
+        }
+        if training_windows > 0 && windows != training_windows as u64 {
+            return Err(format!(
+                "calibration windows is {windows} but fitted_with.training_windows {training_windows}: a fit calibrates on the windows it was trained on"
+            ));
+        }
+    }
     for key in ["position_scale", "yaw_scale"] {
         let Some(scales) = calibration.get(key).and_then(Value::as_array) else {
             continue;

@@ -340,9 +340,21 @@ fn same_track(a: &Track, b: &Track) -> bool {
     })
 }
 
+/// Whether `prints` holds a track one drive's with `t` or with its mirror image (sideways
+/// and turn negated: a copy whose world was mirrored, y, yaw and the sides swapped).
+fn holds_track(prints: &WindowPrints, t: &Track) -> bool {
+    let mut mirrored = *t;
+    for (i, v) in mirrored.iter_mut().enumerate() {
+        if i % 3 != 0 {
+            *v = -*v;
+        }
+    }
+    holds_track_as_is(prints, t) || holds_track_as_is(prints, &mirrored)
+}
+
 /// Whether `prints` holds a track one drive's with `t`: among the tracks of its net
 /// motion's cell and the cells around it.
-fn holds_track(prints: &WindowPrints, t: &Track) -> bool {
+fn holds_track_as_is(prints: &WindowPrints, t: &Track) -> bool {
     let [a, b, c] = track_cell(t);
     (-1..=1).any(|i| {
         (-1..=1).any(|j| {

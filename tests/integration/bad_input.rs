@@ -247,6 +247,14 @@ fn cases() -> Vec<Case> {
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "robot.name holds a control character"] },
         Case { name: "model robot with a key train never writes", file: File::Model(|m| edit_model(&m, |v| v["robot"]["wheel_slip"] = 0.2.into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "robot", "unknown field `wheel_slip`"] },
+        // A sixth outside sweep: a registered robot of another vehicle type, a calibration
+        // from other windows than the fit's.
+        Case { name: "model registered robot of another vehicle type", file: File::Model(|m| edit_model(&m, |v| v["robot"]["registered_robot"] = "autorally".into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "robot.registered_robot is 'autorally', a robot of vehicle type 'ackermann'"] },
+        Case { name: "model calibration of other windows", file: File::Model(|m| edit_model(&m, |v| v["fitted_with"]["training_windows"] = 5.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "but fitted_with.training_windows 5"] },
+        Case { name: "model calibration of no window", file: File::Model(|m| edit_model(&m, |v| v["model"]["calibration"]["windows"] = 0.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "calibration windows is 0"] },
         // Issue 34: model files no fit writes.
         Case { name: "model calibration of another horizon", file: File::Model(|m| edit_model(&m, |v| {
                 for key in ["position_scale", "yaw_scale"] {

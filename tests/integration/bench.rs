@@ -579,6 +579,19 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
             .for_each(|p| p.iter_mut().for_each(|v| *v = mm(*v)));
     }
     drive::data::write_dataset(&recalibrated, &d.join("recalibrated.csv")).unwrap();
+    // And its mirror image (a sixth outside sweep: y, yaw and the IMU negated, the sides
+    // swapped: the same drive, scored as a transfer at -4% both ways before).
+    let mut mirrored = run.clone();
+    for w in &mut mirrored.windows {
+        for u in w.command.iter_mut().chain(w.measured.iter_mut()) {
+            (u.x, u.y) = (u.y, u.x);
+        }
+        for p in &mut w.pose {
+            (p.y, p.z) = (-p.y, -p.z);
+        }
+        w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r);
+    }
+    drive::data::write_dataset(&mirrored, &d.join("mirrored.csv")).unwrap();
     let suite = d.join("suite.toml");
     std::fs::write(
         &suite,
@@ -587,6 +600,7 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
          [[dataset]]\npath = \"copy.csv\"\n\
          [[dataset]]\npath = \"rounded.csv\"\n\
          [[dataset]]\npath = \"recalibrated.csv\"\n\
+         [[dataset]]\npath = \"mirrored.csv\"\n\
          [[dataset]]\nbundled = \"warthog_asphalt_slow_2024-08-08\"\nname = \"other\"\n",
     )
     .unwrap();
@@ -618,6 +632,9 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
         "run -> recalibrated",
         "recalibrated -> run",
         "half -> recalibrated",
+        "run -> mirrored",
+        "mirrored -> run",
+        "half -> mirrored",
     ] {
         assert!(
             skipped
@@ -626,7 +643,7 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
             "{pair}: {skipped:?}"
         );
     }
-    // Each of the five with the other run: both ways, none skipped.
+    // Each of the six with the other run: both ways, none skipped.
     let pairs: Vec<(String, String)> = v["transfer"]
         .as_array()
         .unwrap()
@@ -638,7 +655,7 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
             )
         })
         .collect();
-    assert_eq!(pairs.len(), 10, "{pairs:?}");
+    assert_eq!(pairs.len(), 12, "{pairs:?}");
     assert!(
         pairs.iter().all(|(a, b)| a == "other" || b == "other"),
         "{pairs:?}"

@@ -222,12 +222,13 @@ fn a_robot_that_never_moved_and_encoders_in_another_unit_are_flagged() {
     let (code, json, err) = import(&milli, "husky", &dir.path().join("m.csv"), &[]);
     assert_eq!(code, Some(1), "{err}");
     // Both the distance (encoder-units) and the gain on each side's commands
-    // (encoder-command) say so.
+    // (encoder-command, fatal too: a gain under 0.02 with the encoders following their
+    // commands closely is no robot's) say so.
     assert_eq!(
         checks(&json),
         vec![
-            ("encoder-command".into(), "warning".into()),
-            ("encoder-command".into(), "warning".into()),
+            ("encoder-command".into(), "fatal".into()),
+            ("encoder-command".into(), "fatal".into()),
             ("encoder-units".into(), "fatal".into())
         ],
         "{json}"
@@ -511,5 +512,184 @@ fn one_flipped_or_swapped_input_column_is_fatal() {
             .dataset;
             assert!(!fatal_encoder_command(&short), "{robot} seed {seed}");
         }
+    }
+}
+
+/// A sixth outside sweep: localization whose positions disagree with its own heading (a yaw
+/// offset, y negated alone, x and y swapped), localization of another run or shifted by a
+/// window, positions on a 32-bit float's grid, and angles in degrees on a car or a mecanum
+/// base passed every check. Each is fatal now, naming its check; the runs as simulated (ice
+/// included, where the body slides and the wheels spin) and the bundled runs pass.
+#[test]
+fn localization_at_odds_with_itself_or_the_encoders_is_fatal() {
+    use drive::data::quality::{check, Severity};
+    use drive::traits::{Dataset, Window};
+    let registries = drive::Registries::builtin();
+    let sim = |robot: &str, terrain: &str, sampler: &str, intervals: usize, seed: u64| {
+        drive::studies::simulate_protocol(&registries, robot, terrain, sampler, intervals, seed)
+            .unwrap()
+            .dataset
+    };
+    let fatal = |d: &Dataset| -> Vec<String> {
+        check(d, None)
+            .into_iter()
+            .filter(|f| f.severity == Severity::Fatal)
+            .map(|f| f.check.key().to_string())
+            .collect()
+    };
+    let husky = sim("husky", "gravel", "uniform", 40, 1);
+    let car = sim("autorally", "gravel", "uniform", 40, 1);
+    let mecanum = sim("ridgeback", "snow", "uniform", 40, 1);
+    let grass = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    // Legitimate runs: no fatal finding.
+    let legit = [
+        ("husky", husky.clone()),
+        ("car", car.clone()),
+        ("mecanum", mecanum.clone()),
+        ("grass", grass.clone()),
+        ("warthog on ice", sim("warthog", "ice", "uniform", 20, 1)),
+        (
+            "car on ice, straight",
+            sim("autorally", "ice", "linear", 20, 2),
+        ),
+        (
+            "car on snow, straight",
+            sim("autorally", "snow", "linear", 20, 2),
+        ),
+        (
+            "car on ice, turning",
+            sim("autorally", "ice", "angular", 20, 2),
+        ),
+        ("hd2 on ice", sim("hd2", "ice", "targeted", 20, 1)),
+        (
+            "mecanum crabbing",
+            sim("ridgeback", "snow", "linear", 20, 1),
+        ),
+    ];
+    for (what, d) in &legit {
+        assert_eq!(fatal(d), Vec::<String>::new(), "{what}");
+    }
+    let edited = |d: &Dataset, edit: &dyn Fn(&mut Window)| {
+        let mut d = d.clone();
+        d.windows.iter_mut().for_each(edit);
+        d
+    };
+    let turned = |angle: f64| move |w: &mut Window| w.pose.iter_mut().for_each(|p| p.z += angle);
+    let cases: Vec<(&str, Dataset, &str)> = vec![
+        (
+            "husky, yaw offset 30",
+            edited(&husky, &turned(std::f64::consts::FRAC_PI_6)),
+            "localization-frame",
+        ),
+        (
+            "grass, yaw offset 30",
+            edited(&grass, &turned(std::f64::consts::FRAC_PI_6)),
+            "localization-frame",
+        ),
+        (
+            "car, yaw offset 30",
+            edited(&car, &turned(std::f64::consts::FRAC_PI_6)),
+            "localization-frame",
+        ),
+        (
+            "mecanum, yaw offset 90",
+            edited(&mecanum, &turned(std::f64::consts::FRAC_PI_2)),
+            "localization-frame",
+        ),
+        (
+            "husky, y negated",
+            edited(&husky, &|w| w.pose.iter_mut().for_each(|p| p.y = -p.y)),
+            "localization-frame",
+        ),
+        (
+            "grass, x and y swapped",
+            edited(&grass, &|w| {
+                w.pose.iter_mut().for_each(|p| (p.x, p.y) = (p.y, p.x))
+            }),
+            "localization-frame",
+        ),
+        (
+            "car, yaw in degrees",
+            edited(&car, &|w| {
+                w.pose.iter_mut().for_each(|p| p.z = p.z.to_degrees())
+            }),
+            "encoder-units",
+        ),
+        (
+            "mecanum, sideways columns negated",
+            edited(&mecanum, &|w| {
+                w.command.iter_mut().for_each(|u| u.y = -u.y);
+                w.measured.iter_mut().for_each(|u| u.y = -u.y);
+            }),
+            "direction",
+        ),
+        (
+            "car, measured steering in degrees",
+            edited(&car, &|w| {
+                w.measured.iter_mut().for_each(|u| u.y = u.y.to_degrees())
+            }),
+            "encoder-units",
+        ),
+        (
+            "car, commanded steering in degrees",
+            edited(&car, &|w| {
+                w.command.iter_mut().for_each(|u| u.y = u.y.to_degrees())
+            }),
+            "encoder-units",
+        ),
+        (
+            "husky, positions as 32-bit floats in UTM",
+            edited(&husky, &|w| {
+                w.pose.iter_mut().for_each(|p| {
+                    (p.x, p.y) = (
+                        (p.x + 312_345.0) as f32 as f64,
+                        (p.y + 5_012_345.0) as f32 as f64,
+                    );
+                })
+            }),
+            "position-steps",
+        ),
+    ];
+    for (what, d, key) in &cases {
+        assert!(fatal(d).iter().any(|k| k == key), "{what}: {:?}", fatal(d));
+    }
+    // Localization of another run (another seed), and shifted by one window.
+    for (what, d, seed) in [
+        ("husky", &husky, 2),
+        ("car", &car, 2),
+        ("mecanum", &mecanum, 2),
+    ] {
+        let other = match what {
+            "husky" => sim("husky", "gravel", "uniform", 40, seed),
+            "car" => sim("autorally", "gravel", "uniform", 40, seed),
+            _ => sim("ridgeback", "snow", "uniform", 40, seed),
+        };
+        let mut mixed = d.clone();
+        let n = mixed.windows.len().min(other.windows.len());
+        mixed.windows.truncate(n);
+        for (w, o) in mixed.windows.iter_mut().zip(&other.windows) {
+            w.pose = o.pose.clone();
+        }
+        assert!(
+            fatal(&mixed).iter().any(|k| k == "localization-sync"),
+            "{what} other run: {:?}",
+            fatal(&mixed)
+        );
+        let mut shifted = d.clone();
+        let poses: Vec<_> = shifted
+            .windows
+            .iter()
+            .skip(1)
+            .map(|w| w.pose.clone())
+            .collect();
+        shifted.windows.pop();
+        for (w, p) in shifted.windows.iter_mut().zip(poses) {
+            w.pose = p;
+        }
+        assert!(
+            fatal(&shifted).iter().any(|k| k == "localization-sync"),
+            "{what} shifted: {:?}",
+            fatal(&shifted)
+        );
     }
 }
