@@ -470,6 +470,21 @@ pub fn import_raw(
         windows,
     };
     report.checks = crate::quality::check(&data, config.input_limits.as_ref());
+    // The positions' grid in the log's own world frame: each window is turned into its start
+    // frame, which leaves a world grid off the axes (and unseen by the windows' check).
+    if !report
+        .checks
+        .iter()
+        .any(|f| f.check == crate::quality::Check::PositionSteps)
+    {
+        let world: Vec<[f64; 2]> = rows
+            .iter()
+            .map(|r| [r.position[0], r.position[1]])
+            .collect();
+        report
+            .checks
+            .extend(crate::quality::position_grid(&[world]));
+    }
     if report
         .checks
         .iter()

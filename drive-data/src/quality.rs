@@ -19,6 +19,7 @@ use drive_traits::{Dataset, InputSpace, Window};
 use serde::Serialize;
 
 mod localization;
+pub use localization::position_grid;
 
 /// How bad a finding is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -81,11 +82,15 @@ pub enum Check {
     LocalizationSync,
     /// Positions on a coarse grid (world coordinates stored as 32-bit floats).
     PositionSteps,
+    /// Windows written twice in one dataset (a model would be scored on its own windows).
+    DuplicateWindows,
+    /// An IMU yaw rate against localization's turn: sign flipped, or in another unit.
+    ImuYawRate,
 }
 
 impl Check {
     /// Every check, in [`CHECKS`]' order.
-    pub const ALL: [Check; 12] = [
+    pub const ALL: [Check; 14] = [
         Check::NotMoving,
         Check::ImuConstant,
         Check::EncodersZero,
@@ -98,6 +103,8 @@ impl Check {
         Check::LocalizationFrame,
         Check::LocalizationSync,
         Check::PositionSteps,
+        Check::DuplicateWindows,
+        Check::ImuYawRate,
     ];
 
     /// The check's key, the name `--allow` takes (its entry in [`CHECKS`]).
@@ -134,7 +141,7 @@ pub struct Finding {
 }
 
 /// The checks' keys and what they look for, in [`Check`]'s order.
-pub const CHECKS: [(&str, &str); 12] = [
+pub const CHECKS: [(&str, &str); 14] = [
     (
         "not-moving",
         "localization still while the encoders turn (wheels off the ground, localization frozen)",
@@ -183,6 +190,14 @@ pub const CHECKS: [(&str, &str); 12] = [
         "position-steps",
         "positions on a grid of 2 cm or coarser (world coordinates stored as 32-bit floats, or written to few digits): fatal from 10 cm, where the grid is a large part of every error",
     ),
+    (
+        "duplicate-windows",
+        "windows written twice, bit for bit, in one dataset (the run listed twice, or its windows or intervals repeated): a split would score a model on the windows it was fitted on",
+    ),
+    (
+        "imu-yaw-rate",
+        "the IMU's yaw rate, integrated over each window, against localization's turn: against it (sign flipped) or over five times it (deg/s)",
+    ),
 ];
 
 /// A window's motion as the encoders imply it (dead reckoning of the measured inputs
@@ -223,7 +238,7 @@ struct Windows<'a> {
 /// (for `outside-limits`). The findings in order: `not-moving`, `imu-constant`,
 /// `encoders-zero`, `encoders-stuck`, `encoder-command`, `encoder-units`, `outside-limits`,
 /// `direction`, `localization-frame`, `localization-sync`, `position-steps`,
-/// `commands-constant`.
+/// `duplicate-windows`, `imu-yaw-rate`, `commands-constant`.
 pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     let windows: Vec<&Window> = data.windows.iter().filter(|w| w.len() >= 2).collect();
     if windows.is_empty() {
@@ -248,6 +263,9 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(localization::frame(&w));
     out.extend(localization::sync(&w));
     out.extend(localization::position_steps(&w));
+    out.extend(localization::fixed_axis(&w));
+    out.extend(duplicate_windows(&w));
+    out.extend(imu_yaw_rate(&w));
     out.extend(commands_constant(&w));
     out
 }
@@ -352,6 +370,96 @@ fn direction(w: &Windows<'_>) -> Vec<Finding> {
         });
     }
     out
+}
+
+/// `duplicate-windows`: windows equal bit for bit (commands, measurements, poses, IMU) to
+/// another of the dataset, among those where anything moves. Fatal: no two windows of a
+/// run are the same to the bit, and a split by interval would put one copy in training and
+/// the other in evaluation.
+fn duplicate_windows(w: &Windows<'_>) -> Option<Finding> {
+    use std::collections::HashMap;
+    use std::hash::{Hash, Hasher};
+    let mut seen: HashMap<u64, Vec<usize>> = HashMap::new();
+    let mut repeated = 0usize;
+    for (i, win) in w.windows.iter().enumerate() {
+        let still = win
+            .command
+            .iter()
+            .chain(&win.measured)
+            .all(|u| u.iter().all(|v| *v == 0.0))
+            && win.pose.iter().all(|p| *p == win.pose[0]);
+        if still {
+            continue;
+        }
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        let bits = |v: f64, h: &mut std::collections::hash_map::DefaultHasher| v.to_bits().hash(h);
+        for u in win.command.iter().chain(&win.measured) {
+            u.iter().for_each(|v| bits(*v, &mut h));
+        }
+        for p in &win.pose {
+            p.iter().for_each(|v| bits(*v, &mut h));
+        }
+        win.imu_yaw_rate.iter().for_each(|v| bits(*v, &mut h));
+        let same = seen.entry(h.finish()).or_default();
+        let equal = |j: &usize| {
+            let o = w.windows[*j];
+            o.command == win.command
+                && o.measured == win.measured
+                && o.pose == win.pose
+                && o.imu_yaw_rate == win.imu_yaw_rate
+        };
+        if same.iter().any(equal) {
+            repeated += 1;
+        }
+        same.push(i);
+    }
+    (repeated > 0).then(|| Finding {
+        check: Check::DuplicateWindows,
+        severity: Severity::Fatal,
+        message: format!(
+            "{repeated} of the {} windows repeat another bit for bit: the run listed twice, or its windows or intervals written twice? A split would score the models on windows they were fitted on",
+            w.windows.len()
+        ),
+    })
+}
+
+/// `imu-yaw-rate`: over the windows where localization turned 0.2 rad or more (ten at
+/// least), the least-squares gain of the turn the IMU's yaw rate integrates to on
+/// localization's: -0.5 or less is an IMU against the turn (sign flipped), over 5 an IMU in
+/// deg/s (57); fatal (a model reading the IMU, acc-BLR, learns it backwards or 57 times
+/// over). An IMU that never changes is `imu-constant`'s.
+fn imu_yaw_rate(w: &Windows<'_>) -> Option<Finding> {
+    let dt = w.data.robot.dt();
+    let (mut ii, mut it, mut n) = (0.0, 0.0, 0usize);
+    for (win, m) in w.windows.iter().zip(&w.motions) {
+        if m.3.abs() < 0.2 {
+            continue;
+        }
+        let imu: f64 = win.imu_yaw_rate.iter().take(win.len() - 1).sum::<f64>() * dt;
+        ii += m.3 * m.3;
+        it += m.3 * imu;
+        n += 1;
+    }
+    if n < 10 || ii <= 0.0 {
+        return None;
+    }
+    let gain = it / ii;
+    if gain > -0.5 && gain <= 5.0 {
+        return None;
+    }
+    Some(Finding {
+        check: Check::ImuYawRate,
+        severity: Severity::Fatal,
+        message: format!(
+            "the IMU's yaw rate integrates to {} times the turn localization saw (least squares over {n} windows): {}",
+            Short(three_digits(gain)),
+            if gain < 0.0 {
+                "its sign flipped (or the localization mirrored)?"
+            } else {
+                "in deg/s, or another unit?"
+            }
+        ),
+    })
 }
 
 /// `commands-constant`: every command of every window the same (a warning: the data tells
@@ -586,6 +694,25 @@ fn encoders_silent(w: &Windows<'_>, which: Check) -> Option<Finding> {
     })
 }
 
+/// Whether the body speeds the encoders imply are a ground vehicle's: the 95th percentile
+/// under 40 m/s (encoders and commands both in cm/s reach hundreds).
+fn plausible_speeds(data: &Dataset, windows: &[&Window]) -> bool {
+    let mut speeds: Vec<f64> = windows
+        .iter()
+        .flat_map(|w| w.measured.iter())
+        .map(|u| {
+            let v = data.robot.vehicle.body_velocity(u);
+            v.x.hypot(v.y)
+        })
+        .filter(|v| v.is_finite())
+        .collect();
+    if speeds.is_empty() {
+        return true;
+    }
+    speeds.sort_by(f64::total_cmp);
+    speeds[speeds.len() * 95 / 100] < 40.0
+}
+
 /// Whether every input axis's measurements follow its commands at a least-squares gain
 /// within [0.5, 2] (over the samples commanded at a tenth of the axis's largest command or
 /// more, a hundred at least): the encoders in the commands' unit.
@@ -657,6 +784,15 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
             ratios = by_encoders(false);
         }
     }
+    // Speeds no ground vehicle drives: encoders in cm/s, or another unit (the 95th
+    // percentile of the body speed they imply over 40 m/s). Fatal.
+    if !plausible_speeds(data, windows) {
+        out.push(Finding {
+            check: Check::EncoderUnits,
+            severity: Severity::Fatal,
+            message: "the encoders imply body speeds over 40 m/s on a twentieth of the samples or more: encoders (and commands) in another unit?".into(),
+        });
+    }
     if ratios.len() >= 10 {
         ratios.sort_by(f64::total_cmp);
         let median = ratios[ratios.len() / 2];
@@ -673,7 +809,8 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
         let spun = median > 1.0
             && median < 20.0
             && high > 1.3 * low
-            && encoders_follow_commands(data, windows);
+            && encoders_follow_commands(data, windows)
+            && plausible_speeds(data, windows);
         let consistent = consistent && !spun;
         if !(0.4..=2.5).contains(&median) {
             out.push(Finding {
@@ -797,9 +934,11 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
         };
         let (seen, implied) = (median(&mut seen), median(&mut implied));
         if seen > 5.0 && seen > 5.0 * implied {
+            // Fatal: the documented bound (no localization's yaw changes at a median of 5
+            // rad/s and five times the wheels'; a Warthog's yaw in degrees: 7.35 and 8.4x).
             out.push(Finding {
                 check: Check::EncoderUnits,
-                severity: Severity::Warning,
+                severity: Severity::Fatal,
                 message: format!(
                     "localization's yaw turns at a median {} rad/s where it changes, {}x the encoders' median yaw rate: yaw in degrees, or in another unit?",
                     Short((seen * 100.0).round() / 100.0),
@@ -918,6 +1057,49 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         if n < 100 {
             continue;
         }
+        // The measurement equal to its command to the bit on nearly every sample (the
+        // commands written into the encoder columns: no powertrain answers with no lag and
+        // no noise), or holding one value while its commands vary (stuck, or not recorded).
+        let (mut all, mut equal) = (0usize, 0usize);
+        for (c, m) in samples() {
+            all += 1;
+            equal += usize::from(c[i] == m[i]);
+        }
+        let (low, high) = samples()
+            .filter(|(c, _)| on(c))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, m)| {
+                (lo.min(m[i]), hi.max(m[i]))
+            });
+        let (c_low, c_high) = samples()
+            .filter(|(c, _)| on(c))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (c, _)| {
+                (lo.min(c[i]), hi.max(c[i]))
+            });
+        let commands_vary = c_high - c_low > 1e-3 * largest;
+        if equal * 100 >= all * 99 {
+            out.push(Finding {
+                check: Check::EncoderCommand,
+                severity: Severity::Fatal,
+                message: format!(
+                    "'{}' equals its command '{}' to the bit on {equal} of {all} samples: the commands written into the measured column (no powertrain answers without lag or noise)?",
+                    axis.measured_column, axis.command_column
+                ),
+            });
+            continue;
+        }
+        if commands_vary && high - low <= 1e-9 * largest {
+            out.push(Finding {
+                check: Check::EncoderCommand,
+                severity: Severity::Fatal,
+                message: format!(
+                    "'{}' holds {} throughout {n} samples whose commands '{}' vary: a stuck or unrecorded measurement?",
+                    axis.measured_column,
+                    Short(three_digits(low)),
+                    axis.command_column
+                ),
+            });
+            continue;
+        }
         let gain = cm / cc;
         // The other axis this measurement follows best (a two-input vehicle's other side).
         let own = correlation(i, i, &on);
@@ -938,13 +1120,14 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         // turns: its swapped sides are `direction`'s, and a protocol recorded in another
         // geometry than the robot's leaves one wheel following the other side's command:
         // no fatal there.)
-        // And where it follows its own command closely (0.5 or more) at a gain no unit of
-        // the same kind explains (over 10 or under 0.02: a steering angle in degrees
-        // against its command in radians gives 57 or 0.017).
+        // And where it follows its own command closely (0.5 or more) at a gain no robot's
+        // powertrain explains (over 4, the warning's bound, or under 0.02: encoders in rpm
+        // against commands in rad/s give 9.5, a steering angle in degrees against its
+        // command in radians 57 or 0.017).
         let plain = intervals >= 10
             && ((gain <= -0.1 && own <= -0.5)
                 || (!skid_steer && cross >= 0.7 && own < 0.3)
-                || (own >= 0.5 && !(0.02..=10.0).contains(&gain)));
+                || (own >= 0.5 && !(0.02..=4.0).contains(&gain)));
         let message = if dead * 10 >= n * 9 && own < 0.5 {
             format!(
                 "'{}' stays under a thousandth of its largest command ({} {}) on {dead} of {n} commanded samples: that encoder dead, or not recorded?",
@@ -1109,6 +1292,11 @@ mod tests {
             })
             .collect();
         let u = Input::new(-wheel, wheel, 0.0);
+        // The wheels answer their command within a few hundredths (no powertrain echoes its
+        // command to the bit).
+        let measured = (0..40)
+            .map(|k| u * (1.0 + 0.001 * ((k % 7) as f64 - 3.0)))
+            .collect();
         Dataset {
             robot,
             windows: vec![Window::new(
@@ -1116,7 +1304,7 @@ mod tests {
                 0,
                 Phase::Steady,
                 vec![u; 40],
-                vec![u; 40],
+                measured,
                 pose,
                 vec![rate; 40],
             )],
@@ -1124,13 +1312,15 @@ mod tests {
     }
 
     /// Twelve windows of `spin`, alternately left and right at 2 rad/s per side, each
-    /// turning `seen` of it in localization (a negative share: turning the other way).
+    /// turning `seen` of it in localization (a negative share: turning the other way), each
+    /// spinning a micrometre further along x than the one before (no two windows the same).
     fn spins(seen: f64) -> Dataset {
         let mut data = spin(2.0, seen);
         let one = data.windows[0].clone();
         data.windows = (0..12)
             .map(|i| {
                 let mut w = one.clone();
+                w.pose.iter_mut().for_each(|p| p.x = 1e-6 * i as f64);
                 w.index = i;
                 w.interval = i;
                 if i % 2 == 1 {
@@ -1216,7 +1406,8 @@ mod tests {
         let data = spin(4.0, 1.0);
         let w = &data.windows[0];
         let r = yaw_rate_from_localization(w, None, data.robot.vehicle.as_ref(), 0.05);
-        assert!(r.iter().all(|v| (v - 4.0).abs() < 1e-9), "{r:?}");
+        // (Within the encoders' hundredths where a sample reads them.)
+        assert!(r.iter().all(|v| (v - 4.0).abs() < 0.02), "{r:?}");
     }
 
     #[test]

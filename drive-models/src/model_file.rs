@@ -204,14 +204,51 @@ pub fn model_file_to_json(
     robot: &RobotDescription,
     fitted_with: Option<&FitSettings>,
 ) -> Result<String, serde_json::Error> {
+    // A model that carries an uncertainty and could not be calibrated (too few training
+    // intervals to hold out) has the model's own covariance, the paper's: its file says so.
+    let mut settings = fitted_with.cloned();
+    if let Some(f) = settings.as_mut() {
+        if f.uncertainty != crate::calibration::Uncertainty::Paper
+            && carries_uncertainty(model)
+            && calibration_layers(&serde_json::to_value(model)?) == 0
+        {
+            f.uncertainty = crate::calibration::Uncertainty::Paper;
+        }
+    }
     let file = ModelFileOut {
         format: FORMAT_NAME,
         format_version: MODEL_FORMAT_VERSION,
-        fitted_with,
+        fitted_with: settings.as_ref(),
         robot,
         model,
     };
     Ok(serde_json::to_string_pretty(&file)? + "\n")
+}
+
+/// Whether `model` predicts a pose covariance (the naive and powertrain models do not).
+fn carries_uncertainty(model: &dyn MotionModel) -> bool {
+    let start = drive_traits::StartState::at_rest(drive_traits::Pose::zeros());
+    let (mut poses, mut covariances) = (Vec::new(), Vec::new());
+    model
+        .predict_with_covariance_into(
+            &start,
+            &[drive_traits::Input::zeros(); 2],
+            &mut poses,
+            &mut covariances,
+        )
+        .is_ok()
+}
+
+/// How many calibration layers a saved model holds, one inside another.
+fn calibration_layers(model: &Value) -> usize {
+    let calibrated = |v: &Value| v.get("type").and_then(Value::as_str) == Some("calibrated");
+    let mut layer = model;
+    let mut layers = usize::from(calibrated(layer));
+    while let Some(m) = layer.get("model") {
+        layer = m;
+        layers += usize::from(calibrated(layer));
+    }
+    layers
 }
 
 /// A parse error inside the file's `root` field (whose JSON is `value`), with the path to
@@ -481,13 +518,7 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
     }
     // A fit writes at most one calibration layer: one inside another would scale the
     // covariance twice.
-    let calibrated = |v: &Value| v.get("type").and_then(Value::as_str) == Some("calibrated");
-    let mut layer = &model;
-    let mut layers = usize::from(calibrated(layer));
-    while let Some(m) = layer.get("model") {
-        layer = m;
-        layers += usize::from(calibrated(layer));
-    }
+    let layers = calibration_layers(&model);
     if layers > 1 {
         return Err(ModelFileError::Model {
             file: file.into(),
@@ -549,6 +580,22 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
             file: file.into(),
             message: at_path("model", &model, &e),
         })?;
+    // A model that carries an uncertainty is calibrated unless fitted with the paper's: a
+    // file whose calibration layer was taken away would give covariances a fit never gave.
+    if layers == 0
+        && fitted_with
+            .as_ref()
+            .is_some_and(|f| f.uncertainty != crate::calibration::Uncertainty::Paper)
+        && carries_uncertainty(model.as_ref())
+    {
+        return Err(ModelFileError::Model {
+            file: file.into(),
+            message: format!(
+                "fitted_with.uncertainty is \"{}\" but the model has no calibration layer: a fit calibrates every model that carries an uncertainty (and writes \"paper\" where it could not)",
+                fitted_with.as_ref().map_or("", |f| f.uncertainty.as_str())
+            ),
+        });
+    }
     check_names(&model.name(), &structure, fitted_with.as_ref()).map_err(|message| {
         ModelFileError::Model {
             file: file.into(),

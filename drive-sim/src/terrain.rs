@@ -318,6 +318,19 @@ impl Terrain {
             ),
         })?;
         t.validate(file)?;
+        // A fitted robot's parts ([powertrain], [controller]: a twin's) without the record
+        // of the robot they were fitted for ([protocol], [fitted_for]) would drive any robot
+        // with another's motors: the geometry check lives in that record.
+        if (t.powertrain.is_some() || t.controller.is_some())
+            && t.protocol.is_none()
+            && t.fitted_for.is_none()
+        {
+            return Err(TerrainError::Invalid {
+                file: file.to_string(),
+                field: "protocol",
+                message: "a terrain with a [powertrain] or [controller] section (a twin's, fitted to one robot) needs the [protocol] section that records the robot it was fitted for (its wheel radius and baseline), as drive sim-fit writes it".into(),
+            });
+        }
         Ok(t)
     }
 

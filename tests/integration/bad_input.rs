@@ -255,6 +255,11 @@ fn cases() -> Vec<Case> {
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "but fitted_with.training_windows 5"] },
         Case { name: "model calibration of no window", file: File::Model(|m| edit_model(&m, |v| v["model"]["calibration"]["windows"] = 0.into())),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "calibration windows is 0"] },
+        Case { name: "model calibration layer taken away", file: File::Model(|m| edit_model(&m, |v| {
+                let inner = v["model"]["model"].clone();
+                v["model"] = inner;
+            })),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "fitted_with.uncertainty is \"calibrated\" but the model has no calibration layer"] },
         // Issue 34: model files no fit writes.
         Case { name: "model calibration of another horizon", file: File::Model(|m| edit_model(&m, |v| {
                 for key in ["position_scale", "yaw_scale"] {

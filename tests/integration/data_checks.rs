@@ -650,7 +650,100 @@ fn localization_at_odds_with_itself_or_the_encoders_is_fatal() {
             "position-steps",
         ),
     ];
-    for (what, d, key) in &cases {
+    // A seventh outside sweep: positions rotated alone, a column fixed or copied, windows
+    // written twice, an IMU in deg/s or flipped, units no powertrain explains.
+    let rotated = |angle: f64| {
+        move |w: &mut Window| {
+            let (s, c) = angle.sin_cos();
+            w.pose
+                .iter_mut()
+                .for_each(|p| (p.x, p.y) = (c * p.x - s * p.y, s * p.x + c * p.y));
+        }
+    };
+    let twice = |d: &Dataset| {
+        let mut d = d.clone();
+        let first = d.windows.clone();
+        let intervals = first.iter().map(|w| w.interval).max().unwrap() + 1;
+        d.windows.extend(first.into_iter().map(|mut w| {
+            w.interval += intervals;
+            w
+        }));
+        d
+    };
+    let more: Vec<(&str, Dataset, &str)> = vec![
+        (
+            "husky, positions rotated 30 alone",
+            edited(&husky, &rotated(std::f64::consts::FRAC_PI_6)),
+            "localization-frame",
+        ),
+        (
+            "mecanum, positions rotated 60 alone",
+            edited(&mecanum, &rotated(-std::f64::consts::FRAC_PI_3)),
+            "localization-frame",
+        ),
+        (
+            "husky, y fixed",
+            edited(&husky, &|w| w.pose.iter_mut().for_each(|p| p.y = 0.0)),
+            "localization-frame",
+        ),
+        (
+            "husky, encoders copied from the commands",
+            edited(&husky, &|w| w.measured = w.command.clone()),
+            "encoder-command",
+        ),
+        (
+            "car, one measurement stuck",
+            edited(&car, &|w| w.measured.iter_mut().for_each(|u| u.y = 0.1)),
+            "encoder-command",
+        ),
+        (
+            "husky, the run listed twice",
+            twice(&husky),
+            "duplicate-windows",
+        ),
+        (
+            "grass, the run listed twice",
+            twice(&grass),
+            "duplicate-windows",
+        ),
+        (
+            "husky, IMU in deg/s",
+            edited(&husky, &|w| {
+                w.imu_yaw_rate.iter_mut().for_each(|r| *r = r.to_degrees())
+            }),
+            "imu-yaw-rate",
+        ),
+        (
+            "grass, IMU sign flipped",
+            edited(&grass, &|w| {
+                w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r)
+            }),
+            "imu-yaw-rate",
+        ),
+        (
+            "grass, yaw in degrees",
+            edited(&grass, &|w| {
+                w.pose.iter_mut().for_each(|p| p.z = p.z.to_degrees())
+            }),
+            "encoder-units",
+        ),
+        (
+            "grass, encoders in rpm",
+            edited(&grass, &|w| {
+                w.measured.iter_mut().for_each(|u| *u *= 9.5493)
+            }),
+            "encoder-command",
+        ),
+        (
+            "grass, encoders and commands in cm",
+            edited(&grass, &|w| {
+                w.measured.iter_mut().for_each(|u| *u *= 100.0);
+                w.command.iter_mut().for_each(|u| *u *= 100.0);
+            }),
+            "encoder-units",
+        ),
+    ];
+    for (what, d, key) in cases.iter().chain(&more) {
         assert!(fatal(d).iter().any(|k| k == key), "{what}: {:?}", fatal(d));
     }
     // Localization of another run (another seed), and shifted by one window.
@@ -692,4 +785,25 @@ fn localization_at_odds_with_itself_or_the_encoders_is_fatal() {
             fatal(&shifted)
         );
     }
+}
+
+/// A seventh outside sweep: world coordinates stored as 32-bit floats in a raw log passed
+/// import, each window turned into its own start frame (the grid off the axes). The log's
+/// own positions are checked now.
+#[test]
+fn a_raw_log_with_32_bit_world_coordinates_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = raw_log(dir.path(), "utm.csv", |f, col| {
+        for (c, offset) in [("icp_pos_x", 512_345.0), ("icp_pos_y", 5_012_345.0)] {
+            let v: f64 = f[col(c)].parse().unwrap();
+            f[col(c)] = format!("{}", ((v + offset) as f32) as f64);
+        }
+    });
+    let (code, json, err) = import(&raw, "husky", &dir.path().join("w.csv"), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        checks(&json).contains(&("position-steps".into(), "fatal".into())),
+        "{json}"
+    );
+    assert!(json.contains("steps of 0.5 m"), "{json}");
 }

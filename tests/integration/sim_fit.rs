@@ -792,6 +792,27 @@ fn a_fitted_twin_runs_in_simulate_and_is_refused_where_it_does_not_apply() {
     // and turning resistance scaled together, a quarter each, turn this robot much as before:
     // a skid-steer's turning follows their ratio at these speeds, and that twin's medians
     // stay within 26% of the real run's. The steady scatter, reported, shows it: +100%.)
+    // A seventh outside sweep: the twin with its [protocol] section taken away drove any
+    // differential robot with the Husky's motors; refused now, the section named.
+    let mut bare = Terrain::from_toml("a.toml", &written).unwrap();
+    bare.protocol = None;
+    let bare_file = path("bare.toml");
+    std::fs::write(&bare_file, bare.to_toml()).unwrap();
+    let err = common::user_error(&[
+        "simulate",
+        "--robot",
+        "warthog",
+        "--terrain",
+        &bare_file,
+        "--duration",
+        "60",
+        "--out",
+        &path("bare.csv"),
+    ]);
+    assert!(
+        err.contains("field 'protocol'") && err.contains("needs the [protocol] section"),
+        "{err}"
+    );
     let mut slippery = Terrain::from_toml("a.toml", &written).unwrap();
     slippery.traction *= 0.25;
     let (b, d) = (path("slippery.toml"), path("d.toml"));

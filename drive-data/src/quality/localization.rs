@@ -58,6 +58,57 @@ fn body_travel(data: &Dataset, w: &Window) -> ([f64; 2], [f64; 2], f64) {
     (seen, implied, turn)
 }
 
+/// Per window ([seen forward, sideways, turn], [implied forward, sideways, turn]): the
+/// rotation (degrees) of the least-squares map from the implied travel to the seen one, and
+/// the share of the seen sideways travel's sum of squares that map explains. The implied
+/// sideways travel is a regressor only when it varies (`crabs`). `None` when the implied
+/// forward travel never varies.
+fn travel_rotation(rows: &[([f64; 3], [f64; 3])], crabs: bool) -> Option<(f64, f64)> {
+    // Normal equations of seen[k] = m[k][0] * implied forward + m[k][1] * implied sideways.
+    let (mut ff, mut fs, mut ss) = (0.0, 0.0, 0.0);
+    let (mut fy, mut sy) = ([0.0; 2], [0.0; 2]);
+    for (seen, implied) in rows {
+        let (f, s) = (implied[0], if crabs { implied[1] } else { 0.0 });
+        ff += f * f;
+        fs += f * s;
+        ss += s * s;
+        for k in 0..2 {
+            fy[k] += f * seen[k];
+            sy[k] += s * seen[k];
+        }
+    }
+    let det = ff * ss - fs * fs;
+    let m: [[f64; 2]; 2] = if crabs && det > 1e-12 * ff * ss {
+        std::array::from_fn(|k| {
+            [
+                (ss * fy[k] - fs * sy[k]) / det,
+                (ff * sy[k] - fs * fy[k]) / det,
+            ]
+        })
+    } else if ff > 0.0 {
+        std::array::from_fn(|k| [fy[k] / ff, 0.0])
+    } else {
+        return None;
+    };
+    // m = [[c, d], [a, b]] ~ R(theta) diag(gx, gy): a - d and c + b are (gx + gy) times the
+    // sine and cosine.
+    let rotation = (m[1][0] - m[0][1]).atan2(m[0][0] + m[1][1]).to_degrees();
+    let (mut residual, mut total) = (0.0, 0.0);
+    for (seen, implied) in rows {
+        let s = if crabs { implied[1] } else { 0.0 };
+        residual += (seen[1] - m[1][0] * implied[0] - m[1][1] * s).powi(2);
+        total += seen[1] * seen[1];
+    }
+    Some((
+        rotation,
+        if total > 0.0 {
+            1.0 - residual / total
+        } else {
+            0.0
+        },
+    ))
+}
+
 /// Pearson's correlation of the pairs; 0 when either side does not vary.
 fn correlation(pairs: impl Iterator<Item = (f64, f64)> + Clone) -> f64 {
     let (mut n, mut sa, mut sb) = (0.0, 0.0, 0.0);
@@ -285,6 +336,35 @@ pub(super) fn sync(w: &Windows<'_>) -> Vec<Finding> {
             }];
         }
     }
+    // The linear map from the implied travel (forward, sideways) to the seen one, by least
+    // squares through the origin over every window: a frame turned against the heading by
+    // theta maps it by a rotation (the slips scale each axis), so that the sideways travel
+    // follows the implied forward one. Fatal where that rotation is 20 degrees or more
+    // (0-10 on the bundled and simulated runs, a car sliding on ice 18) and the map explains
+    // the sideways travel (R^2 0.6 or more: 0.81-0.99 for turned frames on firm ground,
+    // 0.53-0.67 on snow and ice; a slide on ice does not follow the wheels, 0.04-0.38 where
+    // the rotation reached 10 degrees or more).
+    if let Some((rotation, explained)) = travel_rotation(&rows, spreads[1][1] >= 0.05) {
+        // And only where localization turns with the encoders (0.9 or more): a car spinning
+        // out on ice moves sideways as its wheels never say, and turns as they never say.
+        let turns_along = own.iter().all(|&(a, r)| a != 2 || r >= 0.9);
+        if rotation.abs() >= OFFSET_DEGREES
+            && rotation.abs() < BACKWARDS_DEGREES
+            && explained >= 0.6
+            && turns_along
+        {
+            return vec![Finding {
+                check: Check::LocalizationFrame,
+                severity: Severity::Fatal,
+                message: format!(
+                    "localization's positions are turned {} degrees from its own heading against the travel the encoders imply (the best linear map over {} windows, explaining {}% of the sideways travel): a heading from another frame than the positions, or the positions rotated alone?",
+                    Short(rotation.round()),
+                    rows.len(),
+                    Short((explained * 100.0).round())
+                ),
+            }];
+        }
+    }
     for (lag, which) in [(-1, "before"), (1, "after")] {
         let shifted: Vec<f64> = own.iter().map(|&(a, _)| at(a, lag)).collect();
         if own
@@ -309,25 +389,67 @@ pub(super) fn sync(w: &Windows<'_>) -> Vec<Finding> {
     Vec::new()
 }
 
+/// `localization-frame`, a lost axis: one position axis that never changes over a hundred
+/// or more steps where the other changes (a column fixed, or not recorded). Fatal.
+pub(super) fn fixed_axis(w: &Windows<'_>) -> Option<Finding> {
+    let mut changes = [0usize; 2];
+    for win in &w.windows {
+        for p in win.pose.windows(2) {
+            changes[0] += usize::from(p[1].x != p[0].x);
+            changes[1] += usize::from(p[1].y != p[0].y);
+        }
+    }
+    let (fixed, moving) = match changes {
+        [0, m] if m >= 100 => ("x", m),
+        [m, 0] if m >= 100 => ("y", m),
+        _ => return None,
+    };
+    Some(Finding {
+        check: Check::LocalizationFrame,
+        severity: Severity::Fatal,
+        message: format!(
+            "localization's {fixed} never changes while the other position moves on {moving} steps: a column fixed, or not recorded?"
+        ),
+    })
+}
+
 /// `position-steps`: on each position axis, the smallest change between two samples that
-/// differ, when at least 20 changes, 95% of them, are whole multiples of it (within 2% of it): a
-/// grid of 2 cm or coarser is a warning, 10 cm or coarser fatal (world coordinates stored as
-/// 32-bit floats: 0.5 m steps at 5,000 km from the origin).
+/// differ, when at least 20 changes, 95% of them, are whole multiples of it (within 2% of
+/// it): a grid of 2 cm or coarser is a warning, 10 cm or coarser fatal (world coordinates
+/// stored as 32-bit floats: 0.5 m steps at 5,000 km from the origin).
 pub(super) fn position_steps(w: &Windows<'_>) -> Option<Finding> {
+    let tracks: Vec<Vec<[f64; 2]>> = w
+        .windows
+        .iter()
+        .map(|win| win.pose.iter().map(|p| [p.x, p.y]).collect())
+        .collect();
+    position_grid(&tracks)
+}
+
+/// The `position-steps` check over tracks of positions (x, y) in their world frame, one after
+/// another: what `drive import` runs on a raw log's positions before each window is turned
+/// into its own start frame (which leaves the grid off the axes).
+///
+/// ```
+/// use drive_data::quality::{position_grid, Severity};
+/// // Positions of a robot driving diagonally, stored as 32-bit floats 5,000 km from the origin.
+/// let track: Vec<[f64; 2]> = (0..200)
+///     .map(|k| {
+///         let d = 0.07 * k as f64;
+///         [(512_345.0 + d) as f32 as f64, (5_012_345.0 + d) as f32 as f64]
+///     })
+///     .collect();
+/// let finding = position_grid(&[track]).unwrap();
+/// assert_eq!(finding.severity, Severity::Fatal);
+/// assert!(finding.message.contains("steps of 0.5 m"));
+/// ```
+pub fn position_grid(tracks: &[Vec<[f64; 2]>]) -> Option<Finding> {
     let mut coarsest: Option<(&str, f64)> = None;
     for (axis, name) in [(0, "x"), (1, "y")] {
-        let steps: Vec<f64> = w
-            .windows
+        let steps: Vec<f64> = tracks
             .iter()
-            .flat_map(|win| win.pose.windows(2))
-            .map(|p| {
-                (if axis == 0 {
-                    p[1].x - p[0].x
-                } else {
-                    p[1].y - p[0].y
-                })
-                .abs()
-            })
+            .flat_map(|t| t.windows(2))
+            .map(|p| (p[1][axis] - p[0][axis]).abs())
             .filter(|d| *d > 0.0 && d.is_finite())
             .collect();
         if steps.len() < 20 {
