@@ -232,6 +232,9 @@ struct Windows<'a> {
     data: &'a Dataset,
     windows: Vec<&'a Window>,
     motions: Vec<(f64, f64, f64, f64)>,
+    /// Each window's travel in the body frame, seen and implied, and the implied turn
+    /// ([`localization::body_travel`]), computed once for the localization checks.
+    travels: Vec<([f64; 2], [f64; 2], f64)>,
 }
 
 /// Runs every check on `data`; `limits` is the robot description's input space when known
@@ -245,10 +248,15 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         return Vec::new();
     }
     let motions = windows.iter().map(|w| motion(data, w)).collect();
+    let travels = windows
+        .iter()
+        .map(|w| localization::body_travel(data, w))
+        .collect();
     let w = Windows {
         data,
         windows,
         motions,
+        travels,
     };
     let mut out = not_moving(&w);
     out.extend(imu_constant(&w));
@@ -378,7 +386,6 @@ fn direction(w: &Windows<'_>) -> Vec<Finding> {
 /// the other in evaluation.
 fn duplicate_windows(w: &Windows<'_>) -> Option<Finding> {
     use std::collections::HashMap;
-    use std::hash::{Hash, Hasher};
     let mut seen: HashMap<u64, Vec<usize>> = HashMap::new();
     let mut repeated = 0usize;
     for (i, win) in w.windows.iter().enumerate() {
@@ -391,16 +398,19 @@ fn duplicate_windows(w: &Windows<'_>) -> Option<Finding> {
         if still {
             continue;
         }
-        let mut h = std::collections::hash_map::DefaultHasher::new();
-        let bits = |v: f64, h: &mut std::collections::hash_map::DefaultHasher| v.to_bits().hash(h);
+        // A multiplicative fold of the values' bits (a few instructions a value: what
+        // `drive train` runs before every fit); equal windows are then compared whole.
+        let mut h = 0u64;
+        let mut fold =
+            |v: f64| h = (h.rotate_left(5) ^ v.to_bits()).wrapping_mul(0x517c_c1b7_2722_0a95);
         for u in win.command.iter().chain(&win.measured) {
-            u.iter().for_each(|v| bits(*v, &mut h));
+            u.iter().for_each(|v| fold(*v));
         }
         for p in &win.pose {
-            p.iter().for_each(|v| bits(*v, &mut h));
+            p.iter().for_each(|v| fold(*v));
         }
-        win.imu_yaw_rate.iter().for_each(|v| bits(*v, &mut h));
-        let same = seen.entry(h.finish()).or_default();
+        win.imu_yaw_rate.iter().for_each(|v| fold(*v));
+        let same = seen.entry(h).or_default();
         let equal = |j: &usize| {
             let o = w.windows[*j];
             o.command == win.command
@@ -709,8 +719,8 @@ fn plausible_speeds(data: &Dataset, windows: &[&Window]) -> bool {
     if speeds.is_empty() {
         return true;
     }
-    speeds.sort_by(f64::total_cmp);
-    speeds[speeds.len() * 95 / 100] < 40.0
+    let k = speeds.len() * 95 / 100;
+    *speeds.select_nth_unstable_by(k, f64::total_cmp).1 < 40.0
 }
 
 /// Whether every input axis's measurements follow its commands at a least-squares gain

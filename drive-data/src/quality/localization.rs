@@ -41,7 +41,7 @@ const STEP_FATAL: f64 = 0.1;
 /// (each step's displacement turned by localization's own heading at its start) and as the
 /// encoders imply it (eq. 4's body velocity times the step), each (forward, sideways); and
 /// the turn the encoders imply.
-fn body_travel(data: &Dataset, w: &Window) -> ([f64; 2], [f64; 2], f64) {
+pub(super) fn body_travel(data: &Dataset, w: &Window) -> ([f64; 2], [f64; 2], f64) {
     let dt = data.robot.dt();
     let (mut seen, mut implied, mut turn) = ([0.0; 2], [0.0; 2], 0.0);
     for k in 0..w.len().saturating_sub(1) {
@@ -151,8 +151,7 @@ fn median(v: &mut [f64]) -> Option<f64> {
 /// robot driving sideways.
 pub(super) fn frame(w: &Windows<'_>) -> Vec<Finding> {
     let (mut signed, mut course, mut course_agree) = (Vec::new(), 0usize, 0usize);
-    for win in &w.windows {
-        let (seen, implied, _) = body_travel(w.data, win);
+    for (win, &(seen, implied, _)) in w.windows.iter().zip(&w.travels) {
         // Nearly straight windows only (localization turned under 0.2 rad): through a turn
         // on a slippery ground the body slides where its heading no longer points (a
         // simulated Warthog on ice, 45 degrees).
@@ -245,11 +244,10 @@ pub(super) fn sync(w: &Windows<'_>) -> Vec<Finding> {
     }
     // Per window: ([seen forward, sideways, turn], [implied ...]).
     let rows: Vec<([f64; 3], [f64; 3])> = w
-        .windows
+        .travels
         .iter()
         .zip(&w.motions)
-        .map(|(win, m)| {
-            let (seen, implied, turn) = body_travel(w.data, win);
+        .map(|(&(seen, implied, turn), m)| {
             ([seen[0], seen[1], m.3], [implied[0], implied[1], turn])
         })
         .collect();
