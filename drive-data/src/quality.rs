@@ -1017,24 +1017,14 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
             .iter()
             .flat_map(|w| w.command.iter().zip(w.measured.iter()))
     };
+    // Pearson's correlation of measured axis `i` with commanded axis `j` over the samples
+    // `on` selects.
     let correlation = |i: usize, j: usize, on: &dyn Fn(&drive_traits::Input) -> bool| {
-        let (mut n, mut sc, mut sm, mut scc, mut smm, mut scm) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        for (c, m) in samples().filter(|(c, _)| on(c)) {
-            let (c, m) = (c[j], m[i]);
-            n += 1.0;
-            sc += c;
-            sm += m;
-            scc += c * c;
-            smm += m * m;
-            scm += c * m;
-        }
-        let cov = scm - sc * sm / n;
-        let (vc, vm) = (scc - sc * sc / n, smm - sm * sm / n);
-        if vc > 0.0 && vm > 0.0 {
-            cov / (vc * vm).sqrt()
-        } else {
-            0.0
-        }
+        localization::correlation(
+            samples()
+                .filter(move |(c, _)| on(c))
+                .map(move |(c, m)| (c[j], m[i])),
+        )
     };
     let mut out = Vec::new();
     let axes = &axes[..axes.len().min(drive_traits::MAX_INPUTS)];

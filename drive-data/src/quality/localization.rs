@@ -110,7 +110,7 @@ fn travel_rotation(rows: &[([f64; 3], [f64; 3])], crabs: bool) -> Option<(f64, f
 }
 
 /// Pearson's correlation of the pairs; 0 when either side does not vary.
-fn correlation(pairs: impl Iterator<Item = (f64, f64)> + Clone) -> f64 {
+pub(super) fn correlation(pairs: impl Iterator<Item = (f64, f64)> + Clone) -> f64 {
     let (mut n, mut sa, mut sb) = (0.0, 0.0, 0.0);
     for (a, b) in pairs.clone() {
         n += 1.0;
@@ -132,12 +132,6 @@ fn correlation(pairs: impl Iterator<Item = (f64, f64)> + Clone) -> f64 {
     } else {
         0.0
     }
-}
-
-/// The median of `v` (sorted in place); `None` when empty.
-fn median(v: &mut [f64]) -> Option<f64> {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied()
 }
 
 /// `localization-frame`: where the encoders imply 0.3 m of travel and localization saw
@@ -188,8 +182,8 @@ pub(super) fn frame(w: &Windows<'_>) -> Vec<Finding> {
     if windows >= MIN_WINDOWS {
         let mut unsigned: Vec<f64> = signed.iter().map(|a| a.abs()).collect();
         let (offset, angle) = (
-            median(&mut signed).unwrap_or(0.0),
-            median(&mut unsigned).unwrap_or(0.0),
+            drive_traits::median(&mut signed),
+            drive_traits::median(&mut unsigned),
         );
         if angle >= BACKWARDS_DEGREES {
             // Moving backwards along the heading: direction's (encoders sign-flipped, the
