@@ -164,7 +164,7 @@ pub const CHECKS: [(&str, &str); 14] = [
     ),
     (
         "encoder-command",
-        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 4 or under 0.1: commands or encoders in another unit)",
+        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 4 or under 0.1: commands or encoders in another unit); on a skid-steer, one side's gain 1.25 times the other's or more (fatal from 1.5: one side scaled)",
     ),
     (
         "outside-limits",
@@ -1010,6 +1010,10 @@ fn outside_limits(w: &Windows<'_>, space: &InputSpace) -> Vec<Finding> {
 /// against its commands (a negative least-squares gain through zero, or following the other
 /// axis's commands better than its own: sign flipped, sides swapped), or a fixed factor
 /// away (a gain over 4 or under 0.1; the bundled runs: 0.42-0.82, the Husky commanded far beyond its limits). At least 100 such samples per axis.
+/// On a skid-steer, also the two sides against each other: each follows its own command
+/// closely, but at gains 1.25 times apart or more (a warning) or 1.5 times (fatal): one
+/// side's encoders or commands scaled (another unit, another wheel's radius). The bundled
+/// runs' sides are 0.94-1.08 of each other.
 fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
     let axes = data.robot.vehicle.axes();
     let samples = || {
@@ -1038,6 +1042,9 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         seen.dedup();
         seen.len()
     };
+    // Per axis, its gain and its correlation with its own command where neither is
+    // suspect on its own (the sides' comparison below).
+    let mut followed: Vec<Option<(f64, f64)>> = vec![None; axes.len()];
     for (i, axis) in axes.iter().enumerate() {
         let largest = samples().map(|(c, _)| c[i].abs()).fold(0.0, f64::max);
         if largest <= 0.0 || !largest.is_finite() {
@@ -1159,6 +1166,7 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
                 Short(three_digits(gain))
             )
         } else {
+            followed[i] = Some((gain, own));
             continue;
         };
         out.push(Finding {
@@ -1166,6 +1174,30 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
             severity: Severity::fatal_if(plain),
             message,
         });
+    }
+    // A skid-steer's two sides answer their commands alike (one powertrain design, one
+    // ground): a side that follows its own command closely at another gain than the other
+    // side is scaled. Unlike a gain against localization, this holds whatever the ground's
+    // slip (on ice the wheels spin at their commands on both sides alike).
+    if let ([Some((left, own_left)), Some((right, own_right))], true) =
+        (followed.as_slice(), skid_steer && intervals >= 10)
+    {
+        let ratio = left / right;
+        let apart = ratio.max(1.0 / ratio);
+        if *own_left >= 0.5 && *own_right >= 0.5 && apart >= 1.25 {
+            out.push(Finding {
+                check: Check::EncoderCommand,
+                severity: Severity::fatal_if(apart >= 1.5),
+                message: format!(
+                    "'{}' follows its commands with a gain of {} and '{}' with {}: the sides {} times apart, where one powertrain on one ground answers both alike (one side's encoders or commands scaled: another unit, another wheel radius)?",
+                    axes[0].measured_column,
+                    Short(three_digits(*left)),
+                    axes[1].measured_column,
+                    Short(three_digits(*right)),
+                    Short(three_digits(apart))
+                ),
+            });
+        }
     }
     out
 }

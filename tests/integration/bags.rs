@@ -104,13 +104,21 @@ fn a_topic_can_be_read_under_another_name() {
         ),
         "{err}"
     );
-    // The left encoder read from the right one's topic: the import runs on other values.
+    // The left encoder read from the right one's topic: the import runs on other values,
+    // which the data checks call useless (the left wheel answering its commands unlike the
+    // right), so it writes them only when told to.
     let swapped = dir.path().join("swapped.csv");
+    let remap = ["--topic", "meas_left_vel=/wheel_vel_right_measured"];
+    let refused = common::drive(&import("--bag", &bag, &swapped, &remap));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(1), "{err}");
+    assert!(err.contains("check encoder-command"), "{err}");
+    assert!(!swapped.exists());
     ok(&import(
         "--bag",
         &bag,
         &swapped,
-        &["--topic", "meas_left_vel=/wheel_vel_right_measured"],
+        &[remap[0], remap[1], "--allow", "encoder-command"],
     ));
     let text = std::fs::read_to_string(&swapped).unwrap();
     let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();

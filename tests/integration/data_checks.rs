@@ -515,6 +515,62 @@ fn one_flipped_or_swapped_input_column_is_fatal() {
     }
 }
 
+/// One side's encoders or commands scaled (2x, 3x, 0.4x: another unit, another wheel's
+/// radius) passed every check on a skid-steer whose slip hides it from localization (the
+/// Husky's yaw rate is a quarter of its wheels'). The sides are compared with each other:
+/// 1.5 times apart is fatal, 1.25 a warning; the bundled runs' sides are within 8%.
+#[test]
+fn one_sides_encoders_or_commands_scaled_are_fatal() {
+    use drive::data::quality::{check, Check, Severity};
+    let husky = drive::bundled::load("husky_drive").unwrap();
+    let severity = |d: &drive::traits::Dataset| {
+        check(d, None)
+            .into_iter()
+            .filter(|f| f.check == Check::EncoderCommand)
+            .map(|f| f.severity)
+            .max_by_key(|s| *s == Severity::Fatal)
+    };
+    assert_eq!(severity(&husky), None);
+    let scaled = |measured: bool, side: usize, factor: f64| {
+        let mut d = husky.clone();
+        for w in &mut d.windows {
+            let column = if measured {
+                &mut w.measured
+            } else {
+                &mut w.command
+            };
+            column.iter_mut().for_each(|u| u[side] *= factor);
+        }
+        d
+    };
+    for (measured, side, factor) in [
+        (true, 0, 2.0),
+        (true, 0, 3.0),
+        (true, 1, 0.4),
+        (false, 0, 2.0),
+        (false, 1, 1.6),
+    ] {
+        assert_eq!(
+            severity(&scaled(measured, side, factor)),
+            Some(Severity::Fatal),
+            "measured {measured} side {side} x{factor}"
+        );
+    }
+    assert_eq!(severity(&scaled(true, 1, 1.35)), Some(Severity::Warning));
+    assert_eq!(severity(&scaled(true, 1, 1.1)), None);
+    // Through the command line, by name.
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("left.csv");
+    drive::data::write_dataset(&scaled(true, 0, 3.0), &csv).unwrap();
+    let out = drive(&["check", "--data", csv.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("encoder-command") && err.contains("3.06 times apart"),
+        "{err}"
+    );
+}
+
 /// A sixth outside sweep: localization whose positions disagree with its own heading (a yaw
 /// offset, y negated alone, x and y swapped), localization of another run or shifted by a
 /// window, positions on a 32-bit float's grid, and angles in degrees on a car or a mecanum
