@@ -571,6 +571,41 @@ fn one_sides_encoders_or_commands_scaled_are_fatal() {
     );
 }
 
+/// An IMU scaled 2.5 times passed every check (the rule was set for deg/s, 57 times); an
+/// IMU and localization both measure the body's rotation (0.93-1.01 of each other on the
+/// bundled runs), so twice or half is fatal now, and 0.75-1.33 the band without a word.
+#[test]
+fn an_imu_scaled_or_reading_little_of_the_turn_is_fatal() {
+    use drive::data::quality::{check, Check, Severity};
+    let husky = drive::bundled::load("husky_drive").unwrap();
+    let severity = |factor: f64| {
+        let mut d = husky.clone();
+        for w in &mut d.windows {
+            w.imu_yaw_rate.iter_mut().for_each(|r| *r *= factor);
+        }
+        check(&d, None)
+            .into_iter()
+            .find(|f| f.check == Check::ImuYawRate)
+            .map(|f| f.severity)
+    };
+    assert_eq!(severity(1.0), None);
+    assert_eq!(severity(1.2), None);
+    for factor in [2.5, 0.3, -1.0, 57.3] {
+        assert_eq!(severity(factor), Some(Severity::Fatal), "x{factor}");
+    }
+    for factor in [1.6, 0.6] {
+        assert_eq!(severity(factor), Some(Severity::Warning), "x{factor}");
+    }
+    // An IMU not recorded (one value throughout) is imu-constant's warning, not this.
+    let mut flat = husky.clone();
+    for w in &mut flat.windows {
+        w.imu_yaw_rate.iter_mut().for_each(|r| *r = 0.0);
+    }
+    let findings = check(&flat, None);
+    assert!(findings.iter().all(|f| f.check != Check::ImuYawRate));
+    assert!(findings.iter().any(|f| f.check == Check::ImuConstant));
+}
+
 /// A sixth outside sweep: localization whose positions disagree with its own heading (a yaw
 /// offset, y negated alone, x and y swapped), localization of another run or shifted by a
 /// window, positions on a 32-bit float's grid, and angles in degrees on a car or a mecanum
