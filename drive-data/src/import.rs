@@ -485,6 +485,19 @@ pub fn import_raw(
             .checks
             .extend(crate::quality::position_grid(&[world]));
     }
+    // A world axis held fixed likewise: in each window's start frame it moves.
+    if !report.checks.iter().any(|f| {
+        f.check == crate::quality::Check::LocalizationFrame
+            && f.severity == crate::quality::Severity::Fatal
+    }) {
+        let world: Vec<[f64; 2]> = rows
+            .iter()
+            .map(|r| [r.position[0], r.position[1]])
+            .collect();
+        report
+            .checks
+            .extend(crate::quality::fixed_position_axis(&[world]));
+    }
     if report
         .checks
         .iter()

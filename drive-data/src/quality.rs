@@ -19,7 +19,7 @@ use drive_traits::{Dataset, InputSpace, Window};
 use serde::Serialize;
 
 mod localization;
-pub use localization::position_grid;
+pub use localization::{fixed_position_axis, position_grid};
 
 /// How bad a finding is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -164,7 +164,7 @@ pub const CHECKS: [(&str, &str); 14] = [
     ),
     (
         "encoder-command",
-        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 4 or under 0.1: commands or encoders in another unit); on a skid-steer, one side's gain 1.25 times the other's or more (fatal from 1.5: one side scaled)",
+        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 4 or under 0.1: commands or encoders in another unit), its command copied (delayed, scaled or with noise, within 0.5%); on a skid-steer, one side's gain 1.25 times the other's or more (fatal from 1.5: one side scaled)",
     ),
     (
         "outside-limits",
@@ -192,7 +192,7 @@ pub const CHECKS: [(&str, &str); 14] = [
     ),
     (
         "duplicate-windows",
-        "windows written twice, bit for bit, in one dataset (the run listed twice, or its windows or intervals repeated): a split would score a model on the windows it was fitted on",
+        "windows written twice in one dataset, bit for bit or within a thousandth of the data's range in every sample (the run listed twice, or its windows or intervals repeated, perhaps rounded or with noise added): a split would score a model on the windows it was fitted on",
     ),
     (
         "imu-yaw-rate",
@@ -381,9 +381,10 @@ fn direction(w: &Windows<'_>) -> Vec<Finding> {
 }
 
 /// `duplicate-windows`: windows equal bit for bit (commands, measurements, poses, IMU) to
-/// another of the dataset, among those where anything moves. Fatal: no two windows of a
-/// run are the same to the bit, and a split by interval would put one copy in training and
-/// the other in evaluation.
+/// another of the dataset, among those where anything moves, or else within a thousandth
+/// of the data's range of another ([`near_duplicates`]). Fatal: no two windows of a run
+/// are the same to the bit, and a split by interval would put one copy in training and the
+/// other in evaluation.
 fn duplicate_windows(w: &Windows<'_>) -> Option<Finding> {
     use std::collections::HashMap;
     let mut seen: HashMap<u64, Vec<usize>> = HashMap::new();
@@ -423,14 +424,117 @@ fn duplicate_windows(w: &Windows<'_>) -> Option<Finding> {
         }
         same.push(i);
     }
-    (repeated > 0).then(|| Finding {
+    if repeated > 0 {
+        return Some(Finding {
+            check: Check::DuplicateWindows,
+            severity: Severity::Fatal,
+            message: format!(
+                "{repeated} of the {} windows repeat another bit for bit: the run listed twice, or its windows or intervals written twice? A split would score the models on windows they were fitted on",
+                w.windows.len()
+            ),
+        });
+    }
+    let near = near_duplicates(&w.windows);
+    (near > 0).then(|| Finding {
         check: Check::DuplicateWindows,
         severity: Severity::Fatal,
         message: format!(
-            "{repeated} of the {} windows repeat another bit for bit: the run listed twice, or its windows or intervals written twice? A split would score the models on windows they were fitted on",
+            "{near} of the {} windows repeat another to within a thousandth of the data's range in every sample (commands, measurements, poses, IMU): the run or its windows written twice, with noise or rounding added? No two windows a robot drives agree that closely; a split would score the models on windows they were fitted on",
             w.windows.len()
         ),
     })
+}
+
+/// The windows equal to another within a thousandth of the dataset's range in every value:
+/// the commands and measurements against the largest command, the positions and headings
+/// against the largest a window travels and turns, the IMU against its largest rate. A
+/// copy with noise or rounding added to it stays within that; two windows a robot drove do
+/// not (their encoders' and localization's noise alone is larger). Windows where neither
+/// the commands, the measurements nor the pose change are left out (a robot at rest repeats
+/// itself). Candidates are found by sorting on the windows' mean measurement, so the cost
+/// is the sort and the few neighbours within tolerance.
+fn near_duplicates(windows: &[&Window]) -> usize {
+    let largest = |f: &dyn Fn(&Window) -> f64| {
+        windows
+            .iter()
+            .map(|w| f(w))
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, f64::max)
+    };
+    let abs_max = |v: &[drive_traits::Input]| {
+        v.iter()
+            .flat_map(|u| u.iter())
+            .fold(0.0f64, |m, x| m.max(x.abs()))
+    };
+    let tol_input = 1e-3 * largest(&|w| abs_max(&w.command).max(abs_max(&w.measured)));
+    let tol_position = 1e-3
+        * largest(&|w| {
+            w.pose
+                .iter()
+                .map(|p| (p.x - w.pose[0].x).hypot(p.y - w.pose[0].y))
+                .fold(0.0, f64::max)
+        });
+    let tol_yaw = 1e-3
+        * largest(&|w| {
+            w.pose
+                .iter()
+                .map(|p| (p.z - w.pose[0].z).abs())
+                .fold(0.0, f64::max)
+        });
+    let tol_imu = 1e-3 * largest(&|w| w.imu_yaw_rate.iter().fold(0.0, |m, r| m.max(r.abs())));
+    if tol_input.is_nan() || tol_input <= 0.0 {
+        return 0;
+    }
+    let moving = |w: &Window| {
+        abs_max(&w.command) > tol_input
+            || abs_max(&w.measured) > tol_input
+            || w.pose
+                .iter()
+                .any(|p| (p.x - w.pose[0].x).hypot(p.y - w.pose[0].y) > tol_position.max(1e-6))
+    };
+    let key = |w: &Window| {
+        w.measured.iter().map(|u| u[0] + u[1]).sum::<f64>() / w.measured.len().max(1) as f64
+    };
+    let mut order: Vec<(f64, usize)> = windows
+        .iter()
+        .enumerate()
+        .filter(|(_, w)| !w.measured.is_empty() && moving(w))
+        .map(|(i, w)| (key(w), i))
+        .filter(|(k, _)| k.is_finite())
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol;
+    let same = |a: &Window, b: &Window| {
+        a.len() == b.len()
+            && a.command
+                .iter()
+                .zip(&b.command)
+                .all(|(x, y)| (0..x.len()).all(|i| close(x[i], y[i], tol_input)))
+            && a.measured
+                .iter()
+                .zip(&b.measured)
+                .all(|(x, y)| (0..x.len()).all(|i| close(x[i], y[i], tol_input)))
+            && a.pose.iter().zip(&b.pose).all(|(p, q)| {
+                (p.x - q.x).hypot(p.y - q.y) <= tol_position && close(p.z, q.z, tol_yaw)
+            })
+            && a.imu_yaw_rate
+                .iter()
+                .zip(&b.imu_yaw_rate)
+                .all(|(x, y)| close(*x, *y, tol_imu) || (x.is_nan() && y.is_nan()))
+    };
+    let mut repeated = vec![false; windows.len()];
+    for (n, &(k, i)) in order.iter().enumerate() {
+        // The mean of two measurements within tol_input of each other is within 2 tol_input.
+        for &(kj, j) in order[n + 1..].iter() {
+            if kj - k > 2.0 * tol_input {
+                break;
+            }
+            if !repeated[j] && same(windows[i], windows[j]) {
+                repeated[j] = true;
+            }
+        }
+    }
+    repeated.iter().filter(|r| **r).count()
 }
 
 /// `imu-yaw-rate`: over the windows where localization turned 0.2 rad or more (ten at
@@ -1109,6 +1213,36 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
             });
             continue;
         }
+        // The measurement a copy of its commands, delayed by a few samples or scaled, with
+        // noise or rounding under 0.5% of its size: a powertrain's answer is no pure
+        // delay (its lag and the transients alone leave far more), nor are encoders that
+        // clean.
+        if let Some((lag, gain, rms)) = commands_copied(windows, i).filter(|_| commands_vary) {
+            let delayed = match lag {
+                0 => String::new(),
+                1 => " delayed by 1 sample".to_string(),
+                k => format!(" delayed by {k} samples"),
+            };
+            let within = if rms < 1e-6 {
+                "exactly".to_string()
+            } else {
+                format!(
+                    "to within {}% of its size",
+                    Short(three_digits(100.0 * rms))
+                )
+            };
+            out.push(Finding {
+                check: Check::EncoderCommand,
+                severity: Severity::Fatal,
+                message: format!(
+                    "'{}' is its command '{}'{delayed} times {}, {within}: the commands copied into the measured column (no powertrain answers with a pure delay and no noise)?",
+                    axis.measured_column,
+                    axis.command_column,
+                    Short(three_digits(gain)),
+                ),
+            });
+            continue;
+        }
         if commands_vary && high - low <= 1e-9 * largest {
             out.push(Finding {
                 check: Check::EncoderCommand,
@@ -1215,6 +1349,40 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         }
     }
     out
+}
+
+/// Whether measured axis `i` is its command delayed by 0 to 10 samples (within each
+/// window) times a gain, to within 0.5% of its RMS: the lag, the least-squares gain
+/// and the relative RMS of what is left, at the best lag. `None` over fewer than 100
+/// samples, or where the measurement is no such copy.
+fn commands_copied(windows: &[&Window], i: usize) -> Option<(usize, f64, f64)> {
+    let mut best: Option<(usize, f64, f64)> = None;
+    for lag in 0..=10usize {
+        let (mut cc, mut cm, mut mm, mut n) = (0.0, 0.0, 0.0, 0usize);
+        for w in windows {
+            for t in lag..w.len() {
+                let (c, m) = (w.command[t - lag][i], w.measured[t][i]);
+                if c.is_finite() && m.is_finite() {
+                    cc += c * c;
+                    cm += c * m;
+                    mm += m * m;
+                    n += 1;
+                }
+            }
+        }
+        if n < 100 || cc <= 0.0 || mm <= 0.0 {
+            continue;
+        }
+        let gain = cm / cc;
+        // What the gain leaves, over the measurement's own size.
+        let left = ((mm - gain * cm).max(0.0) / mm).sqrt();
+        if best.is_none_or(|b| left < b.2) {
+            best = Some((lag, gain, left));
+        }
+    }
+    // The simulator's speed loops come closest: 0.023-0.035 of the measurement left at
+    // their best lag (a car's, a mecanum base's); the bundled runs 0.30-0.70.
+    best.filter(|b| b.2 <= 0.005 && b.1 > 0.0)
 }
 
 /// `x` rounded to three significant digits (a gain of 0.000812, not 0.001).
@@ -1339,10 +1507,10 @@ mod tests {
             })
             .collect();
         let u = Input::new(-wheel, wheel, 0.0);
-        // The wheels answer their command within a few hundredths (no powertrain echoes its
-        // command to the bit).
+        // The wheels answer their command within a few hundredths, on average exactly (no
+        // powertrain echoes its command to the bit, nor within its encoders' noise).
         let measured = (0..40)
-            .map(|k| u * (1.0 + 0.001 * ((k % 7) as f64 - 3.0)))
+            .map(|k| u * (1.0 + if k % 2 == 0 { 0.02 } else { -0.02 }))
             .collect();
         Dataset {
             robot,
@@ -1453,8 +1621,8 @@ mod tests {
         let data = spin(4.0, 1.0);
         let w = &data.windows[0];
         let r = yaw_rate_from_localization(w, None, data.robot.vehicle.as_ref(), 0.05);
-        // (Within the encoders' hundredths where a sample reads them.)
-        assert!(r.iter().all(|v| (v - 4.0).abs() < 0.02), "{r:?}");
+        // (Within the encoders' 2% where a sample reads them.)
+        assert!(r.iter().all(|v| (v - 4.0).abs() < 0.081), "{r:?}");
     }
 
     #[test]

@@ -606,6 +606,171 @@ fn an_imu_scaled_or_reading_little_of_the_turn_is_fatal() {
     assert!(findings.iter().any(|f| f.check == Check::ImuConstant));
 }
 
+/// An eighth outside sweep: a run listed twice and written again to six decimals, or with
+/// noise of 1e-9 to 1e-4 added, passed `duplicate-windows` (bit for bit only) and `eval`
+/// scored the models on their own training windows. Windows within a thousandth of the
+/// data's range of another in every sample are duplicates now; the bundled runs and their
+/// halves side by side are not.
+#[test]
+fn windows_written_twice_with_rounding_or_noise_are_duplicates() {
+    use drive::data::quality::{check, Check};
+    let grass = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    let duplicates = |d: &drive::traits::Dataset| {
+        check(d, None)
+            .into_iter()
+            .find(|f| f.check == Check::DuplicateWindows)
+            .map(|f| f.message)
+    };
+    assert_eq!(duplicates(&grass), None);
+    let twice = |edit: &dyn Fn(f64, usize) -> f64| {
+        let mut d = grass.clone();
+        let n = d.windows.len();
+        let intervals = d.windows.last().map_or(0, |w| w.interval + 1);
+        let mut copies = grass.windows.clone();
+        for (k, w) in copies.iter_mut().enumerate() {
+            w.index += n;
+            w.interval += intervals;
+            let mut i = k;
+            let mut e = |v: &mut f64| {
+                i = i.wrapping_mul(31).wrapping_add(7);
+                *v = edit(*v, i);
+            };
+            w.command
+                .iter_mut()
+                .for_each(|u| u.iter_mut().for_each(&mut e));
+            w.measured
+                .iter_mut()
+                .for_each(|u| u.iter_mut().for_each(&mut e));
+            w.pose
+                .iter_mut()
+                .for_each(|p| p.iter_mut().for_each(&mut e));
+            w.imu_yaw_rate.iter_mut().for_each(&mut e);
+        }
+        d.windows.extend(copies);
+        d
+    };
+    let rounded = twice(&|v, _| (v * 1e6).round() / 1e6);
+    let noisy = twice(&|v, i| v + 1e-4 * ((i % 2001) as f64 / 1000.0 - 1.0));
+    for (what, d) in [("six decimals", rounded), ("noise of 1e-4", noisy)] {
+        let found = duplicates(&d).unwrap_or_else(|| panic!("{what}: no finding"));
+        assert!(
+            found.starts_with(&format!("{} of the", grass.windows.len())),
+            "{what}: {found}"
+        );
+    }
+    // Two different runs of one robot side by side are no duplicates.
+    let mut two = grass.clone();
+    let other = drive::bundled::load("warthog_asphalt_slow_2024-08-08").unwrap();
+    two.windows.extend(other.windows.iter().cloned());
+    assert_eq!(duplicates(&two), None);
+}
+
+/// An eighth outside sweep: encoders that are their commands delayed by a few samples,
+/// scaled by 0.97 or with noise of 1e-3 passed (only a copy equal to the bit was caught),
+/// and the powertrain model then scored as the naive one. A measurement within 0.5% of a
+/// delayed, scaled copy of its command is fatal; the simulator's clean speed loops (2-4%
+/// left) and the bundled runs (30-70%) pass.
+#[test]
+fn encoders_copied_from_their_commands_delayed_scaled_or_noisy_are_fatal() {
+    use drive::data::quality::{check, Check, Severity};
+    let copied = |d: &drive::traits::Dataset| {
+        check(d, None).into_iter().any(|f| {
+            f.check == Check::EncoderCommand
+                && f.severity == Severity::Fatal
+                && f.message.contains("into the measured column")
+        })
+    };
+    let husky = drive::bundled::load("husky_drive").unwrap();
+    let registries = drive::Registries::builtin();
+    let sim = |robot: &str, sampler: &str| {
+        drive::studies::simulate_protocol(&registries, robot, "tile", sampler, 40, 3)
+            .unwrap()
+            .dataset
+    };
+    let (car, mecanum) = (sim("autorally", "uniform"), sim("ridgeback", "linear"));
+    for d in [&husky, &car, &mecanum] {
+        assert!(!copied(d), "{}", d.robot.name);
+    }
+    let edited = |d: &drive::traits::Dataset, lag: usize, gain: f64, noise: f64| {
+        let mut d = d.clone();
+        for w in &mut d.windows {
+            for t in 0..w.len() {
+                let c = w.command[t.saturating_sub(lag)];
+                let wiggle = if t % 2 == 0 { noise } else { -noise };
+                w.measured[t] = c * gain + drive::traits::Input::repeat(wiggle);
+            }
+        }
+        d
+    };
+    for (what, d) in [
+        ("Husky, 2 samples late", edited(&husky, 2, 1.0, 0.0)),
+        ("Husky, x0.97 with noise", edited(&husky, 0, 0.97, 1e-3)),
+        ("car, 4 samples late", edited(&car, 4, 1.0, 1e-4)),
+        ("mecanum, x0.97", edited(&mecanum, 0, 0.97, 0.0)),
+    ] {
+        assert!(copied(&d), "{what}");
+    }
+}
+
+/// An eighth outside sweep: a raw log whose world y (or x) holds its first value throughout
+/// imported without a word on the Warthog (13 of 13 cases): each window is turned into its
+/// start frame, where the fixed world axis moves. `import` reads the raw positions for it.
+#[test]
+fn a_raw_log_with_a_world_axis_fixed_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (base, raw) = (dir.path().join("w.csv"), dir.path().join("w_raw.csv"));
+    ok(&[
+        "simulate",
+        "--robot",
+        "warthog",
+        "--terrain",
+        "tile",
+        "--duration",
+        "120",
+        "--seed",
+        "15",
+        "--out",
+        base.to_str().unwrap(),
+        "--raw-out",
+        raw.to_str().unwrap(),
+    ]);
+    let text = std::fs::read_to_string(&raw).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let y = header.split(',').position(|h| h == "icp_pos_y").unwrap();
+    let mut first = None;
+    let mut out = format!("{header}\n");
+    for line in lines {
+        let mut f: Vec<String> = line.split(',').map(String::from).collect();
+        let held = first.get_or_insert_with(|| f[y].clone()).clone();
+        f[y] = held;
+        out += &(f.join(",") + "\n");
+    }
+    let fixed = dir.path().join("fixed.csv");
+    std::fs::write(&fixed, out).unwrap();
+    let (code, json, err) = import(
+        fixed.to_str().unwrap(),
+        "warthog",
+        &dir.path().join("i.csv"),
+        &[],
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        checks(&json).contains(&("localization-frame".into(), "fatal".into())),
+        "{json}"
+    );
+    assert!(json.contains("localization's y never changes"), "{json}");
+    // The same log as simulated imports clean.
+    let (code, json, err) = import(
+        raw.to_str().unwrap(),
+        "warthog",
+        &dir.path().join("c.csv"),
+        &[],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(checks(&json).is_empty(), "{json}");
+}
+
 /// A sixth outside sweep: localization whose positions disagree with its own heading (a yaw
 /// offset, y negated alone, x and y swapped), localization of another run or shifted by a
 /// window, positions on a 32-bit float's grid, and angles in degrees on a car or a mecanum

@@ -384,12 +384,31 @@ pub(super) fn sync(w: &Windows<'_>) -> Vec<Finding> {
 /// `localization-frame`, a lost axis: one position axis that never changes over a hundred
 /// or more steps where the other changes (a column fixed, or not recorded). Fatal.
 pub(super) fn fixed_axis(w: &Windows<'_>) -> Option<Finding> {
+    let tracks: Vec<Vec<[f64; 2]>> = w
+        .windows
+        .iter()
+        .map(|win| win.pose.iter().map(|p| [p.x, p.y]).collect())
+        .collect();
+    fixed_position_axis(&tracks)
+}
+
+/// The lost-axis rule of `localization-frame` over tracks of positions (x, y) in their world
+/// frame: what `drive import` runs on a raw log's positions, where a world axis fixed
+/// becomes a moving one once each window is turned into its start frame.
+///
+/// ```
+/// use drive_data::quality::{fixed_position_axis, Severity};
+/// // y held at its first value while x moves: a column fixed.
+/// let track: Vec<[f64; 2]> = (0..200).map(|k| [0.01 * k as f64, 3.0]).collect();
+/// let finding = fixed_position_axis(&[track]).unwrap();
+/// assert_eq!(finding.severity, Severity::Fatal);
+/// assert!(finding.message.contains("localization's y never changes"));
+/// ```
+pub fn fixed_position_axis(tracks: &[Vec<[f64; 2]>]) -> Option<Finding> {
     let mut changes = [0usize; 2];
-    for win in &w.windows {
-        for p in win.pose.windows(2) {
-            changes[0] += usize::from(p[1].x != p[0].x);
-            changes[1] += usize::from(p[1].y != p[0].y);
-        }
+    for p in tracks.iter().flat_map(|t| t.windows(2)) {
+        changes[0] += usize::from(p[1][0] != p[0][0]);
+        changes[1] += usize::from(p[1][1] != p[0][1]);
     }
     let (fixed, moving) = match changes {
         [0, m] if m >= 100 => ("x", m),
