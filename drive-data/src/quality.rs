@@ -15,7 +15,7 @@
 //! ```
 
 use drive_traits::limits::Short;
-use drive_traits::{Dataset, InputSpace, Window};
+use drive_traits::{Dataset, InputSpace, Phase, Window};
 use serde::Serialize;
 
 mod localization;
@@ -86,11 +86,13 @@ pub enum Check {
     DuplicateWindows,
     /// An IMU yaw rate against localization's turn: sign flipped, or in another unit.
     ImuYawRate,
+    /// The transient and steady labels against what the wheels do (swapped labels).
+    Phases,
 }
 
 impl Check {
     /// Every check, in [`CHECKS`]' order.
-    pub const ALL: [Check; 14] = [
+    pub const ALL: [Check; 15] = [
         Check::NotMoving,
         Check::ImuConstant,
         Check::EncodersZero,
@@ -105,6 +107,7 @@ impl Check {
         Check::PositionSteps,
         Check::DuplicateWindows,
         Check::ImuYawRate,
+        Check::Phases,
     ];
 
     /// The check's key, the name `--allow` takes (its entry in [`CHECKS`]).
@@ -141,7 +144,7 @@ pub struct Finding {
 }
 
 /// The checks' keys and what they look for, in [`Check`]'s order.
-pub const CHECKS: [(&str, &str); 14] = [
+pub const CHECKS: [(&str, &str); 15] = [
     (
         "not-moving",
         "localization still while the encoders turn (wheels off the ground, localization frozen)",
@@ -164,7 +167,7 @@ pub const CHECKS: [(&str, &str); 14] = [
     ),
     (
         "encoder-command",
-        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 4 or under 0.1: commands or encoders in another unit), its command copied (delayed, scaled or with noise, within 0.5%); on a skid-steer, one side's gain 1.25 times the other's or more (fatal from 1.5: one side scaled)",
+        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 4 or under 0.1: commands or encoders in another unit), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled)",
     ),
     (
         "outside-limits",
@@ -197,6 +200,10 @@ pub const CHECKS: [(&str, &str); 14] = [
     (
         "imu-yaw-rate",
         "the IMU's yaw rate, integrated over each window, against localization's turn: against it (sign flipped), over twice it (scaled, deg/s) or under half of it (lagging, another signal); a warning outside 0.75-1.33 times it",
+    ),
+    (
+        "phases",
+        "the measured inputs changing more over the steady windows than over the transient ones (the phase labels swapped: a split and the per-phase errors would be of the wrong windows)",
     ),
 ];
 
@@ -274,8 +281,52 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(localization::fixed_axis(&w));
     out.extend(duplicate_windows(&w));
     out.extend(imu_yaw_rate(&w));
+    out.extend(phases(&w));
     out.extend(commands_constant(&w));
     out
+}
+
+/// `phases`: the median change of the measured inputs over a window (the mean of its last
+/// five samples against its first five, summed over the input axes), in the steady windows
+/// against the transient ones, ten of each at least. A transient window holds the step to a
+/// new command, a steady one holds it: the bundled runs' steady windows change 0.02-0.07
+/// times as much, the simulator's 0.003-0.07. Steady windows changing as much as transient
+/// ones or more are labels swapped: fatal (the intervals are cut at the transient windows,
+/// and the errors reported per phase would be the other phase's).
+fn phases(w: &Windows<'_>) -> Option<Finding> {
+    let mut change: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    for win in &w.windows {
+        let n = win.measured.len();
+        if n < 10 {
+            continue;
+        }
+        let mean = |s: &[drive_traits::Input]| s.iter().sum::<drive_traits::Input>() / 5.0;
+        let d = (mean(&win.measured[n - 5..]) - mean(&win.measured[..5]))
+            .abs()
+            .sum();
+        if d.is_finite() {
+            change[usize::from(win.phase == drive_traits::Phase::Steady)].push(d);
+        }
+    }
+    let [mut transient, mut steady] = change;
+    if transient.len() < 10 || steady.len() < 10 {
+        return None;
+    }
+    let (t, st) = (
+        drive_traits::median(&mut transient),
+        drive_traits::median(&mut steady),
+    );
+    (st > 0.0 && st >= t).then(|| Finding {
+        check: Check::Phases,
+        severity: Severity::Fatal,
+        message: format!(
+            "the measured inputs change {} over a steady window and {} over a transient one (medians over {} and {} windows; a transient window holds the step to a new command): the phase labels swapped, or the measurements late by a window?",
+            Short(three_digits(st)),
+            Short(three_digits(t)),
+            steady.len(),
+            transient.len()
+        ),
+    })
 }
 
 /// Fewest windows where both the encoders and localization turn (or move) clearly, for
@@ -1129,10 +1180,9 @@ fn outside_limits(w: &Windows<'_>, space: &InputSpace) -> Vec<Finding> {
 /// against its commands (a negative least-squares gain through zero, or following the other
 /// axis's commands better than its own: sign flipped, sides swapped), or a fixed factor
 /// away (a gain over 4 or under 0.1; the bundled runs: 0.42-0.82, the Husky commanded far beyond its limits). At least 100 such samples per axis.
-/// On a skid-steer, also the two sides against each other: each follows its own command
-/// closely, but at gains 1.25 times apart or more (a warning) or 1.5 times (fatal): one
-/// side's encoders or commands scaled (another unit, another wheel's radius). The bundled
-/// runs' sides are 0.94-1.08 of each other.
+/// On a skid-steer, also the two sides against each other, driving straight and over every
+/// command (one side's encoders or commands scaled: another unit, another wheel's radius);
+/// and on every axis, the measurements answering their commands late ([`answered_late`]).
 fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
     let axes = data.robot.vehicle.axes();
     let samples = || {
@@ -1324,13 +1374,107 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
             message,
         });
     }
+    // Only on the axes that follow their commands (a dead or scaled one is said above).
+    let following: Vec<usize> = (0..axes.len()).filter(|&i| followed[i].is_some()).collect();
+    if let Some(f) = answered_late(data, windows, &following) {
+        out.push(f);
+    }
     // A skid-steer's two sides answer their commands alike (one powertrain design, one
     // ground): a side that follows its own command closely at another gain than the other
     // side is scaled. Unlike a gain against localization, this holds whatever the ground's
     // slip (on ice the wheels spin at their commands on both sides alike).
-    if let ([Some((left, own_left)), Some((right, own_right))], true) =
+    // One encoder read for both sides (a topic or column given twice): the two equal to the
+    // bit where their commands differ (a turn's wheels stalling together still differ by
+    // their noise).
+    if skid_steer && axes.len() == 2 {
+        let largest = windows
+            .iter()
+            .flat_map(|w| w.command.iter())
+            .map(|c| c[0].abs().max(c[1].abs()))
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        let (mut turning, mut equal) = (0usize, 0usize);
+        for w in windows {
+            for (c, m) in w.command.iter().zip(&w.measured) {
+                if (c[0] - c[1]).abs() >= 0.1 * largest {
+                    turning += 1;
+                    equal += usize::from(m[0] == m[1]);
+                }
+            }
+        }
+        if turning >= 100 && equal * 10 >= turning * 9 {
+            out.push(Finding {
+                check: Check::EncoderCommand,
+                severity: Severity::Fatal,
+                message: format!(
+                    "'{}' equals '{}' to the bit on {equal} of the {turning} samples whose commands turn: one encoder read for both sides (a topic or column given twice)?",
+                    axes[0].measured_column, axes[1].measured_column
+                ),
+            });
+            return out;
+        }
+    }
+    if let ([Some((gain_left, own_left)), Some((gain_right, own_right))], true) =
         (followed.as_slice(), skid_steer && intervals >= 10)
     {
+        // Over every command, the sides' gains: 2.5 times apart is beyond what a turn's
+        // stalls leave by chance (a Husky twin's 240 s runs: up to 1.6), and a side's
+        // commands scaled shows there (where, driving straight, it leaves few samples).
+        let ratio = gain_left / gain_right;
+        let apart = ratio.max(1.0 / ratio);
+        if *own_left >= 0.5 && *own_right >= 0.5 && apart >= 2.5 {
+            out.push(Finding {
+                check: Check::EncoderCommand,
+                severity: Severity::Fatal,
+                message: format!(
+                    "'{}' follows its commands with a gain of {} and '{}' with {}: the sides {} times apart, where one powertrain on one ground answers both alike (one side's commands or encoders scaled: another unit, another wheel radius)?",
+                    axes[0].measured_column,
+                    Short(three_digits(*gain_left)),
+                    axes[1].measured_column,
+                    Short(three_digits(*gain_right)),
+                    Short(three_digits(apart))
+                ),
+            });
+            return out;
+        }
+        // Where the two sides are commanded alike (driving straight, in the steady windows:
+        // within a fifth of each other, at a fifth of the largest command or more), their
+        // measurements are alike too, whatever the ground and the wheel limits; over every command the gains
+        // differ by chance where a turn's inner wheel stalls (a Husky twin's 240 s runs:
+        // 0.31 against 0.49). Signed by the direction driven; a hundred samples at least.
+        let largest = windows
+            .iter()
+            .flat_map(|w| w.command.iter())
+            .map(|c| c[0].abs().max(c[1].abs()))
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        let (mut sums, mut commanded, mut n) = ([0.0f64; 2], [0.0f64; 2], 0usize);
+        // Steady windows only: in a transient one the sides' lags differ with the turn.
+        for w in windows.iter().filter(|w| w.phase == Phase::Steady) {
+            for (c, m) in w.command.iter().zip(&w.measured) {
+                let top = c[0].abs().max(c[1].abs());
+                if c[0] * c[1] > 0.0
+                    && (c[0] - c[1]).abs() <= 0.2 * top
+                    && top >= 0.2 * largest
+                    && m[0].is_finite()
+                    && m[1].is_finite()
+                {
+                    let sign = c[0].signum();
+                    sums[0] += sign * m[0];
+                    sums[1] += sign * m[1];
+                    commanded[0] += sign * c[0];
+                    commanded[1] += sign * c[1];
+                    n += 1;
+                }
+            }
+        }
+        // Each side's measurement over its command there (the commands a fifth apart at
+        // most: their own ratio taken out).
+        let (left, right) = if n >= 200 && sums[0] > 0.0 && sums[1] > 0.0 {
+            (sums[0] / commanded[0], sums[1] / commanded[1])
+        } else {
+            (f64::NAN, f64::NAN)
+        };
         let ratio = left / right;
         let apart = ratio.max(1.0 / ratio);
         if *own_left >= 0.5 && *own_right >= 0.5 && apart >= 1.25 {
@@ -1338,17 +1482,68 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
                 check: Check::EncoderCommand,
                 severity: Severity::fatal_if(apart >= 1.5),
                 message: format!(
-                    "'{}' follows its commands with a gain of {} and '{}' with {}: the sides {} times apart, where one powertrain on one ground answers both alike (one side's encoders or commands scaled: another unit, another wheel radius)?",
+                    "'{}' answers {} of its commands and '{}' {} where both sides are commanded alike (driving straight): the sides {} times apart, where one powertrain on one ground answers both alike (one side's encoders or commands scaled: another unit, another wheel radius)?",
                     axes[0].measured_column,
-                    Short(three_digits(*left)),
+                    Short(three_digits(left)),
                     axes[1].measured_column,
-                    Short(three_digits(*right)),
+                    Short(three_digits(right)),
                     Short(three_digits(apart))
                 ),
             });
         }
     }
     out
+}
+
+/// The measurements answering their commands late: in the transient windows, on every
+/// axis of `axes` (by index) whose command steps by 30% of its largest or more away from the measurement at the
+/// window's start, the time until the measurement has gone a fifth of the way (the window's
+/// length where it never does); the median over ten such steps at least. The bundled runs
+/// take 0.35-0.65 s, the simulator 0.3-0.9 s (its skid-steers on ice). 1.5 s or more is
+/// fatal, 1.2 s a warning: measurements timestamped late against their commands (or the
+/// commands early), which no wheel velocity loop explains, and every model would learn.
+fn answered_late(data: &Dataset, windows: &[&Window], axes: &[usize]) -> Option<Finding> {
+    let dt = data.robot.dt();
+    let mut rises = Vec::new();
+    for &i in axes {
+        let largest = windows
+            .iter()
+            .flat_map(|w| w.command.iter())
+            .map(|c| c[i].abs())
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        if largest <= 0.0 {
+            continue;
+        }
+        for w in windows.iter().filter(|w| w.phase == Phase::Transient) {
+            let (Some(first), Some(last)) = (w.measured.first(), w.command.last()) else {
+                continue;
+            };
+            let (start, step) = (first[i], last[i] - first[i]);
+            if step.is_nan() || step.abs() < 0.3 * largest {
+                continue;
+            }
+            let k = w
+                .measured
+                .iter()
+                .position(|m| (m[i] - start) * step >= 0.2 * step * step)
+                .unwrap_or(w.len());
+            rises.push(k as f64 * dt);
+        }
+    }
+    if rises.len() < 10 {
+        return None;
+    }
+    let late = drive_traits::median(&mut rises);
+    (late >= 1.2).then(|| Finding {
+        check: Check::EncoderCommand,
+        severity: Severity::fatal_if(late >= 1.5),
+        message: format!(
+            "the measured inputs go a fifth of the way to a new command {} s after it (median over {} steps of the transient windows; 0.35-0.65 s on the bundled runs): measurements timestamped late against their commands, or the commands early?",
+            Short((late * 100.0).round() / 100.0),
+            rises.len()
+        ),
+    })
 }
 
 /// Whether measured axis `i` is its command delayed by 0 to 10 samples (within each

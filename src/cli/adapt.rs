@@ -64,7 +64,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let target = load(registries, &args.data)?;
     let target_name = data_name(&args.data);
     let mut useless: Vec<String> =
-        super::common::refuse_useless(&target, &target_name, args.useless.allow_useless, false)?
+        super::common::refuse_useless(&target, &target_name, args.useless.allow_useless, true)?
             .into_iter()
             .map(|f| format!("{target_name}, the target: {f}"))
             .collect();
@@ -106,7 +106,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                 &prior_data,
                 &args.prior,
                 args.useless.allow_useless,
-                false,
+                true,
             )?
             .into_iter()
             .map(|f| format!("{}, the prior: {f}", args.prior)),

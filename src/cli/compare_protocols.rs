@@ -86,7 +86,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             &data,
             &super::common::data_name(&args.data),
             args.useless.allow_useless,
-            false,
+            true,
         )?;
         recorded(registries, &data, &study, args.json)
     } else {

@@ -64,7 +64,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &dataset,
         &super::common::data_name(&args.data),
         args.useless.allow_useless,
-        false,
+        true,
     )?;
     let config = crate::studies::ConvergenceConfig {
         split: args.split,

@@ -276,7 +276,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             &dataset,
             &format!("--train-data {}", d.display()),
             args.useless.allow_useless,
-            false,
+            true,
         )?;
         training.push(Training::Data {
             name: d.display().to_string(),

@@ -37,7 +37,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &dataset,
         &super::common::data_name(&args.data),
         args.useless.allow_useless,
-        false,
+        true,
     )?;
     let train = match args.split {
         Some(f) => crate::eval::split_by_interval(&dataset, f)?.0,
