@@ -470,33 +470,27 @@ pub fn import_raw(
         windows,
     };
     report.checks = crate::quality::check(&data, config.input_limits.as_ref());
-    // The positions' grid in the log's own world frame: each window is turned into its start
-    // frame, which leaves a world grid off the axes (and unseen by the windows' check).
+    // The positions in the log's own world frame: each window is turned into its start
+    // frame, which leaves a world grid off the axes and moves a fixed world axis (both
+    // unseen by the windows' checks).
+    let world = [rows
+        .iter()
+        .map(|r| [r.position[0], r.position[1]])
+        .collect::<Vec<[f64; 2]>>()];
     if !report
         .checks
         .iter()
         .any(|f| f.check == crate::quality::Check::PositionSteps)
     {
-        let world: Vec<[f64; 2]> = rows
-            .iter()
-            .map(|r| [r.position[0], r.position[1]])
-            .collect();
-        report
-            .checks
-            .extend(crate::quality::position_grid(&[world]));
+        report.checks.extend(crate::quality::position_grid(&world));
     }
-    // A world axis held fixed likewise: in each window's start frame it moves.
     if !report.checks.iter().any(|f| {
         f.check == crate::quality::Check::LocalizationFrame
             && f.severity == crate::quality::Severity::Fatal
     }) {
-        let world: Vec<[f64; 2]> = rows
-            .iter()
-            .map(|r| [r.position[0], r.position[1]])
-            .collect();
         report
             .checks
-            .extend(crate::quality::fixed_position_axis(&[world]));
+            .extend(crate::quality::fixed_position_axis(&world));
     }
     if report
         .checks

@@ -1379,20 +1379,35 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
     if let Some(f) = answered_late(data, windows, &following) {
         out.push(f);
     }
-    // A skid-steer's two sides answer their commands alike (one powertrain design, one
-    // ground): a side that follows its own command closely at another gain than the other
-    // side is scaled. Unlike a gain against localization, this holds whatever the ground's
-    // slip (on ice the wheels spin at their commands on both sides alike).
+    if skid_steer && axes.len() == 2 {
+        sides_compared(windows, axes, &followed, intervals, &mut out);
+    }
+    out
+}
+
+/// A skid-steer's two sides against each other (`encoder-command`): one powertrain design on
+/// one ground answers both alike, whatever the ground's slip (on ice the wheels spin at
+/// their commands on both sides alike), so a side answering otherwise is scaled or another's.
+/// `followed` holds each side's gain and correlation with its own command where neither is
+/// suspect on its own; `intervals` the run's intervals.
+fn sides_compared(
+    windows: &[&Window],
+    axes: &[drive_traits::InputAxis],
+    followed: &[Option<(f64, f64)>],
+    intervals: usize,
+    out: &mut Vec<Finding>,
+) {
+    // The largest command of either side.
+    let largest = windows
+        .iter()
+        .flat_map(|w| w.command.iter())
+        .map(|c| c[0].abs().max(c[1].abs()))
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
     // One encoder read for both sides (a topic or column given twice): the two equal to the
     // bit where their commands differ (a turn's wheels stalling together still differ by
     // their noise).
-    if skid_steer && axes.len() == 2 {
-        let largest = windows
-            .iter()
-            .flat_map(|w| w.command.iter())
-            .map(|c| c[0].abs().max(c[1].abs()))
-            .filter(|v| v.is_finite())
-            .fold(0.0, f64::max);
+    {
         let (mut turning, mut equal) = (0usize, 0usize);
         for w in windows {
             for (c, m) in w.command.iter().zip(&w.measured) {
@@ -1411,11 +1426,11 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
                     axes[0].measured_column, axes[1].measured_column
                 ),
             });
-            return out;
+            return;
         }
     }
     if let ([Some((gain_left, own_left)), Some((gain_right, own_right))], true) =
-        (followed.as_slice(), skid_steer && intervals >= 10)
+        (followed, intervals >= 10)
     {
         // Over every command, the sides' gains: 2.5 times apart is beyond what a turn's
         // stalls leave by chance (a Husky twin's 240 s runs: up to 1.6), and a side's
@@ -1435,19 +1450,14 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
                     Short(three_digits(apart))
                 ),
             });
-            return out;
+            return;
         }
         // Where the two sides are commanded alike (driving straight, in the steady windows:
         // within a fifth of each other, at a fifth of the largest command or more), their
-        // measurements are alike too, whatever the ground and the wheel limits; over every command the gains
-        // differ by chance where a turn's inner wheel stalls (a Husky twin's 240 s runs:
-        // 0.31 against 0.49). Signed by the direction driven; a hundred samples at least.
-        let largest = windows
-            .iter()
-            .flat_map(|w| w.command.iter())
-            .map(|c| c[0].abs().max(c[1].abs()))
-            .filter(|v| v.is_finite())
-            .fold(0.0, f64::max);
+        // measurements are alike too, whatever the ground and the wheel limits; over every
+        // command the gains differ by chance where a turn's inner wheel stalls (a Husky
+        // twin's 240 s runs: 0.31 against 0.49). Signed by the direction driven; 200
+        // samples at least.
         let (mut sums, mut commanded, mut n) = ([0.0f64; 2], [0.0f64; 2], 0usize);
         // Steady windows only: in a transient one the sides' lags differ with the turn.
         for w in windows.iter().filter(|w| w.phase == Phase::Steady) {
@@ -1492,12 +1502,11 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
             });
         }
     }
-    out
 }
 
 /// The measurements answering their commands late: in the transient windows, on every
-/// axis of `axes` (by index) whose command steps by 30% of its largest or more away from the measurement at the
-/// window's start, the time until the measurement has gone a fifth of the way (the window's
+/// axis of `axes` (by index) whose command steps by 30% of its largest or more away from
+/// the measurement at the window's start, the time until the measurement has gone a fifth of the way (the window's
 /// length where it never does); the median over ten such steps at least. The bundled runs
 /// take 0.35-0.65 s, the simulator 0.3-0.9 s (its skid-steers on ice). 1.5 s or more is
 /// fatal, 1.2 s a warning: measurements timestamped late against their commands (or the
