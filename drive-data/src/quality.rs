@@ -277,8 +277,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(direction(&w));
     out.extend(localization::frame(&w));
     out.extend(localization::sync(&w));
-    out.extend(localization::position_steps(&w));
-    out.extend(localization::fixed_axis(&w));
+    out.extend(localization::positions(&w));
     out.extend(duplicate_windows(&w));
     out.extend(imu_yaw_rate(&w));
     out.extend(phases(&w));

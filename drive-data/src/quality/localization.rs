@@ -381,17 +381,6 @@ pub(super) fn sync(w: &Windows<'_>) -> Vec<Finding> {
     Vec::new()
 }
 
-/// `localization-frame`, a lost axis: one position axis that never changes over a hundred
-/// or more steps where the other changes (a column fixed, or not recorded). Fatal.
-pub(super) fn fixed_axis(w: &Windows<'_>) -> Option<Finding> {
-    let tracks: Vec<Vec<[f64; 2]>> = w
-        .windows
-        .iter()
-        .map(|win| win.pose.iter().map(|p| [p.x, p.y]).collect())
-        .collect();
-    fixed_position_axis(&tracks)
-}
-
 /// The lost-axis rule of `localization-frame` over tracks of positions (x, y) in their world
 /// frame: what `drive import` runs on a raw log's positions, where a world axis fixed
 /// becomes a moving one once each window is turned into its start frame.
@@ -424,17 +413,23 @@ pub fn fixed_position_axis(tracks: &[Vec<[f64; 2]>]) -> Option<Finding> {
     })
 }
 
-/// `position-steps`: on each position axis, the smallest change between two samples that
-/// differ, when at least 20 changes, 95% of them, are whole multiples of it (within 2% of
-/// it): a grid of 2 cm or coarser is a warning, 10 cm or coarser fatal (world coordinates
-/// stored as 32-bit floats: 0.5 m steps at 5,000 km from the origin).
-pub(super) fn position_steps(w: &Windows<'_>) -> Option<Finding> {
+/// The checks of the windows' positions as tracks (x, y), one per window, collected once:
+/// `position-steps` (on each position axis, the smallest change between two samples that
+/// differ, when at least 20 changes, 95% of them, are whole multiples of it: a grid of 2 cm
+/// or coarser is a warning, 10 cm or coarser fatal; world coordinates stored as 32-bit
+/// floats give 0.5 m steps at 5,000 km from the origin), then `localization-frame`'s lost
+/// axis (one position axis that never changes over a hundred or more steps where the other
+/// changes: a column fixed, or not recorded; fatal).
+pub(super) fn positions(w: &Windows<'_>) -> Vec<Finding> {
     let tracks: Vec<Vec<[f64; 2]>> = w
         .windows
         .iter()
         .map(|win| win.pose.iter().map(|p| [p.x, p.y]).collect())
         .collect();
     position_grid(&tracks)
+        .into_iter()
+        .chain(fixed_position_axis(&tracks))
+        .collect()
 }
 
 /// The `position-steps` check over tracks of positions (x, y) in their world frame, one after
