@@ -199,7 +199,7 @@ pub const CHECKS: [(&str, &str); 15] = [
     ),
     (
         "imu-yaw-rate",
-        "the IMU's yaw rate, integrated over each window, against localization's turn: against it (sign flipped), over twice it (scaled, deg/s) or under half of it (lagging, another signal); a warning outside 0.75-1.33 times it",
+        "the IMU's yaw rate, integrated over each window, against localization's turn: over twice it (scaled, deg/s), under half of it (lagging, another signal) or against it and scaled; a warning outside 0.75-1.33 times it, and for an IMU read backwards alone (-1.33 to -0.75: the models' start from the IMU turns the wrong way)",
     ),
     (
         "phases",
@@ -590,10 +590,12 @@ fn near_duplicates(windows: &[&Window]) -> usize {
 /// `imu-yaw-rate`: over the windows where localization turned 0.2 rad or more (ten at
 /// least), the least-squares gain of the turn the IMU's yaw rate integrates to on
 /// localization's. Both measure the body's rotation: the bundled runs give 0.93-1.01, the
-/// simulator 1.02-1.07. -0.5 or less is an IMU against the turn (sign flipped), over 2 an
-/// IMU scaled or in another unit (deg/s: 57), under 0.5 one that reads little of the turn
-/// (lagging, or another signal); fatal (a model reading the IMU, slip-ipem or acc-BLR,
-/// learns it backwards or scaled). Outside 0.75-1.33, a warning. An IMU that never changes
+/// simulator 1.02-1.07. Over 2 an IMU scaled or in another unit (deg/s: 57), under 0.5 one
+/// that reads little of the turn (lagging, another signal, or against it and scaled);
+/// fatal (a model reading the IMU, slip-ipem or acc-BLR, starts from it scaled). Outside
+/// 0.75-1.33, a warning; so is -1.33 to -0.75, an IMU read backwards and nothing else (a
+/// real Warthog run on gravel gives -0.98): the data is sound, the models' start from the
+/// IMU is not, and the warning says how to avoid it. An IMU that never changes
 /// is `imu-constant`'s (the models then start from localization).
 fn imu_yaw_rate(w: &Windows<'_>) -> Option<Finding> {
     let dt = w.data.robot.dt();
@@ -621,14 +623,20 @@ fn imu_yaw_rate(w: &Windows<'_>) -> Option<Finding> {
     if imu.all(|v| *v == first) {
         return None;
     }
-    let fatal = gain <= 0.5 || gain > 2.0;
+    // An IMU read backwards, and only that (its negation within the band), is a warning: a
+    // real recording (a Warthog on gravel, -0.98) was logged so, and only the models'
+    // start reads the IMU.
+    let flipped = (-1.0 / 0.75..=-0.75).contains(&gain);
+    let fatal = !flipped && (gain <= 0.5 || gain > 2.0);
     Some(Finding {
         check: Check::ImuYawRate,
         severity: Severity::fatal_if(fatal),
         message: format!(
             "the IMU's yaw rate integrates to {} times the turn localization saw (least squares over {n} windows; both measure the body's rotation): {}",
             Short(three_digits(gain)),
-            if gain < 0.0 {
+            if flipped {
+                "its sign flipped: the models that start from the IMU's yaw rate (slip-ipem, acc-BLR, --start encoders+imu) start turning the wrong way; negate the imu_yaw_rate column, or give --start encoders"
+            } else if gain < 0.0 {
                 "its sign flipped (or the localization mirrored)?"
             } else if gain > 5.0 {
                 "in deg/s, or another unit?"

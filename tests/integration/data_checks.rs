@@ -675,10 +675,11 @@ fn an_imu_scaled_or_reading_little_of_the_turn_is_fatal() {
     };
     assert_eq!(severity(1.0), None);
     assert_eq!(severity(1.2), None);
-    for factor in [2.5, 0.3, -1.0, 57.3] {
+    for factor in [2.5, 0.3, -0.4, -2.5, 57.3] {
         assert_eq!(severity(factor), Some(Severity::Fatal), "x{factor}");
     }
-    for factor in [1.6, 0.6] {
+    // Read backwards and nothing else: a real Warthog run on gravel was logged so (-0.98).
+    for factor in [1.6, 0.6, -1.0] {
         assert_eq!(severity(factor), Some(Severity::Warning), "x{factor}");
     }
     // An IMU not recorded (one value throughout) is imu-constant's warning, not this.
@@ -1122,9 +1123,9 @@ fn localization_at_odds_with_itself_or_the_encoders_is_fatal() {
             "imu-yaw-rate",
         ),
         (
-            "grass, IMU sign flipped",
+            "grass, IMU sign flipped and scaled",
             edited(&grass, &|w| {
-                w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r)
+                w.imu_yaw_rate.iter_mut().for_each(|r| *r = -3.0 * *r)
             }),
             "imu-yaw-rate",
         ),
