@@ -1125,7 +1125,7 @@ fn localization_at_odds_with_itself_or_the_encoders_is_fatal() {
         (
             "grass, IMU sign flipped and scaled",
             edited(&grass, &|w| {
-                w.imu_yaw_rate.iter_mut().for_each(|r| *r = -3.0 * *r)
+                w.imu_yaw_rate.iter_mut().for_each(|r| *r *= -3.0)
             }),
             "imu-yaw-rate",
         ),
