@@ -46,17 +46,17 @@ pub trait Plant: Send {
     /// (its powertrain, controller, sensors and contact spread, a twin's included) stays
     /// the one the plant was made with. An error for a plant that keeps one ground (the
     /// default), saying so.
-    fn change_ground(&mut self, ground: &Terrain) -> Result<(), String> {
-        Err(format!(
+    fn change_ground(&mut self, ground: &Terrain) -> Result<(), PlantError> {
+        Err(PlantError(format!(
             "this simulator keeps the ground it was made with (cannot drive onto '{}')",
             ground.name
-        ))
+        )))
     }
 }
 
 /// Builds the plant of a robot on a terrain, seeded: what the simulator registry holds, by
 /// vehicle type. Implemented for every function or closure `Fn(&RobotSpec, &Terrain, u64)
-/// -> Result<Box<dyn Plant>, String>`.
+/// -> Result<Box<dyn Plant>, PlantError>`.
 ///
 /// ```
 /// use drive_samplers::RobotSpec;

@@ -211,7 +211,7 @@ impl Plant for Simulator {
     fn true_pose(&self) -> Option<Pose> {
         Some(self.instruments.mounted(&self.state.pose))
     }
-    fn change_ground(&mut self, ground: &Terrain) -> Result<(), String> {
+    fn change_ground(&mut self, ground: &Terrain) -> Result<(), crate::PlantError> {
         let t = &mut self.terrain;
         t.name.clone_from(&ground.name);
         t.traction = ground.traction;

@@ -565,7 +565,7 @@ pub fn run_track(
         )
         .map_err(|e| simulating(e.to_string()))?
         .change_ground(&c.terrain)
-        .map_err(simulating)?;
+        .map_err(|e| simulating(e.to_string()))?;
     }
     let mut notes = Vec::new();
     for t in &study.training {
