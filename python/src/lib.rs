@@ -15,6 +15,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::sync::OnceLock;
 
+mod adaptive;
 mod args;
 mod dataset;
 mod evaluate;
@@ -100,6 +101,7 @@ fn add_bindings(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DriveError", m.py().get_type::<DriveError>())?;
     m.add_class::<dataset::Dataset>()?;
     m.add_class::<model::Model>()?;
+    m.add_class::<adaptive::AdaptiveModel>()?;
     m.add_function(wrap_pyfunction!(dataset::load_dataset, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate::evaluate_json, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate::bench_json, m)?)?;

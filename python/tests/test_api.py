@@ -141,6 +141,45 @@ def test_adapt_equals_drive_adapt_json(tmp_path):
         drive.adapt(model, target, models="slip-blr,slip-ipem")
 
 
+def test_an_adaptive_model_fed_the_windows_driven_is_drive_adapts(tmp_path):
+    """drive.AdaptiveModel streamed the target's first 30 and 60 s: the prior itself at 30 s,
+    and at 60 s (the ground changed) the model `drive adapt` scores, to 1e-9; its adapted
+    model saves and loads like any."""
+    pd = pytest.importorskip("pandas")
+    prior = drive.fit(drive.load_dataset("bundled:warthog_asphalt_2024-08-07"), "slip-blr")
+    target = drive.load_dataset("bundled:warthog_asphalt_slow_2024-08-08")
+    expected = drive.adapt(prior, target, times=[30, 60])
+    point = {(p["model"], p["t_s"]): p for p in expected["curve"]}
+    df, meta = target.to_pandas(), target.meta
+    windows = list(dict.fromkeys(df["window"]))
+    train = expected["train_windows"]
+
+    def part(ids):
+        return drive.Dataset.from_pandas(df[df["window"].isin(ids)].copy(), {**meta, "windows": len(ids)})
+
+    evaluation = part(windows[train:])
+    adaptive = drive.AdaptiveModel(prior)
+    assert adaptive.windows == 0 and not adaptive.changed
+    for t, first, last in [(30, 0, 15), (60, 15, 30)]:
+        adaptive.add(part(windows[first:last]))
+        assert adaptive.windows == last
+        assert adaptive.changed == point[("adaptive", t)]["ground_changed"]
+        scores = adaptive.model().score(evaluation)
+        for key, axis in [("translational_median_m", "translational_m"), ("rotational_median_rad", "rotational_rad")]:
+            assert scores[axis]["all"]["median"] == pytest.approx(point[("adaptive", t)][key], rel=1e-9)
+    # This pair's ground changes by 60 s (a correction or a refit drives), not by 30 s.
+    assert not point[("adaptive", 30)]["ground_changed"] and point[("adaptive", 60)]["ground_changed"]
+    assert point[("adaptive", 60)]["translational_median_m"] != point[("frozen", 60)]["translational_median_m"]
+    path = tmp_path / "adapted.json"
+    adaptive.model().save(path)
+    again = drive.load_model(path).score(evaluation)
+    assert again["translational_m"]["all"]["median"] == pytest.approx(point[("adaptive", 60)]["translational_median_m"], rel=1e-9)
+    with pytest.raises(drive.DriveError, match="prior must be"):
+        drive.AdaptiveModel(target)
+    with pytest.raises(drive.DriveError, match="vehicle"):
+        adaptive.add(drive.load_dataset("bundled:husky_drive"))
+
+
 def test_from_pandas_equals_the_files(husky, tmp_path):
     pd = pytest.importorskip("pandas")
     df = pd.read_csv(ROOT / "data" / "husky_drive.csv.gz")

@@ -48,7 +48,7 @@ if _os.environ.get("DRIVE_NATIVE_MODULE"):
     )
 
 from . import _native
-from ._native import Command, Dataset, DriveError, Model, State, Tracker, fit
+from ._native import AdaptiveModel, Command, Dataset, DriveError, Model, State, Tracker, fit
 from ._native import adapt_json as _adapt_json
 from ._native import bench_json as _bench_json
 from ._native import evaluate_json as _evaluate_json
@@ -269,6 +269,7 @@ def _run_capturing_stderr(args, tmp, progress=None):
 
 
 __all__ = [
+    "AdaptiveModel",
     "Command",
     "Dataset",
     "DriveError",
