@@ -246,9 +246,9 @@ impl SlipStepper for CorrectedStepper<'_> {
 pub struct AdapterConfig {
     /// What a prediction starts from (as in the evaluation): the prior's rollouts on the
     /// windows driven start so.
-    #[serde(skip)]
     pub start: StartInfo,
-    /// How the measured body velocities are derived from the poses.
+    /// How the measured body velocities are derived from the poses (not saved: a saved
+    /// adapter, [`SlipAdapter`]'s serde form, has the default).
     #[serde(skip)]
     pub velocity: BodyVelocityEstimator,
     /// The time constant (s) over which the candidates' prequential errors are weighted:
@@ -296,7 +296,8 @@ pub const KEEP_Z_ONE: f64 = 1.645;
 /// }
 /// assert!(noisy.significant().is_none());
 /// ```
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PrequentialRecord {
     /// Sum of w d, of w d^2, of w and of w^2.
     wd: f64,
@@ -338,7 +339,8 @@ impl PrequentialRecord {
 
 /// One body dimension's correction: the weighted sums of its least squares, the rows of the
 /// interval being driven, and each candidate's prequential record.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct Regression {
     k: usize,
     /// X^T X (k x k, row-major), X^T r, and the weight of the samples in them: the
@@ -523,7 +525,12 @@ impl Regression {
 /// let poses = adapter.model().predict(&StartState::at_rest(Pose::zeros()), &[Input::new(10.0, 10.0, 0.0); 11]);
 /// assert!((poses[10].x - 0.8).abs() < 0.02, "{}", poses[10].x); // 0.8 m/s for 1 s
 /// ```
-#[derive(Debug, Clone)]
+///
+/// Its whole state (the prior, the sums behind each candidate correction and their records)
+/// is saved and read back with serde: an adapter read back adapts on as the one saved
+/// (with the default [`AdapterConfig::velocity`]).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SlipAdapter {
     prior: ComposedModel,
     config: AdapterConfig,
@@ -557,6 +564,58 @@ impl SlipAdapter {
     /// The windows added so far.
     pub fn windows(&self) -> usize {
         self.windows
+    }
+
+    /// The prior, as given.
+    pub fn prior(&self) -> &ComposedModel {
+        &self.prior
+    }
+
+    /// Whether an adapter read back (serde) is whole: its prior a valid model, each body
+    /// dimension's sums and records the size of its basis, every number finite and the
+    /// weights not negative. An adapter that fails would misbehave (or panic) in `add`.
+    pub fn check(&self) -> Result<(), InvalidPart> {
+        self.prior.check()?;
+        self.basis.check()?;
+        let bad = |what: &str| Err(InvalidPart(format!("an adaptive state's {what}")));
+        if SlipBasis::for_vehicle(self.prior.vehicle.as_ref()).dimensions()
+            != self.basis.dimensions()
+        {
+            return bad("slip basis is not its vehicle's");
+        }
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        for (r, k) in self.dims.iter().zip(self.basis.dimensions()) {
+            let sized = r.k == k
+                && r.xtx.len() == k * k
+                && r.xtr.len() == k
+                && r.pending_x.len() == r.pending_r.len() * k
+                && r.records.len() == CORRECTION_STRENGTHS.len();
+            if !sized {
+                return bad("sums are not the size of its slip basis");
+            }
+            let records = r.records.iter().flat_map(|p| [p.wd, p.wd2, p.w, p.w2]);
+            if !(finite(&r.xtx)
+                && finite(&r.xtr)
+                && finite(&r.pending_x)
+                && finite(&r.pending_r)
+                && r.weight.is_finite()
+                && r.weight >= 0.0
+                && records.clone().all(f64::is_finite)
+                && r.records.iter().all(|p| p.w >= 0.0 && p.w2 >= 0.0))
+            {
+                return bad("sums or records are not finite (or a weight is negative)");
+            }
+        }
+        let c = &self.config;
+        if !(self.interval_s.is_finite()
+            && self.interval_s >= 0.0
+            && c.selection_s.is_finite()
+            && c.selection_s > 0.0
+            && c.memory_s.is_none_or(|m| m.is_finite() && m > 0.0))
+        {
+            return bad("times are not finite and positive");
+        }
+        Ok(())
     }
 
     /// Adds windows just driven, in time order: each scored by every candidate correction

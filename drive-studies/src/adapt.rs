@@ -132,6 +132,9 @@ pub struct AdaptiveFit {
     refit_scored: usize,
     intervals: usize,
     driven: usize,
+    /// Whether the measured body velocities are the default estimator's (a saved state has
+    /// it: [`AdaptiveFit::save`]).
+    default_velocity: bool,
 }
 
 impl AdaptiveFit {
@@ -156,6 +159,7 @@ impl AdaptiveFit {
             refit_scored: 0,
             intervals: 0,
             driven: 0,
+            default_velocity: config.velocity == drive_traits::BodyVelocityEstimator::default(),
         }
     }
 
@@ -231,6 +235,26 @@ impl AdaptiveFit {
         }
     }
 
+    /// The windows added so far.
+    pub fn windows(&self) -> usize {
+        self.driven
+    }
+
+    /// The robot whose windows it adapts to.
+    pub fn robot(&self) -> &drive_traits::RobotDescription {
+        &self.robot
+    }
+
+    /// What its predictions start from.
+    pub fn start(&self) -> drive_traits::StartInfo {
+        self.spec.start
+    }
+
+    /// The prior, as given.
+    pub fn prior(&self) -> &drive_models::ComposedModel {
+        self.adapter.prior()
+    }
+
     /// Whether the ground looks changed: the prior's slip corrected, or the refit kept.
     pub fn changed(&self) -> bool {
         self.adapter.changed() || self.refit_kept()
@@ -252,6 +276,245 @@ impl AdaptiveFit {
             Some((m, _)) if self.refit_kept() => m.clone(),
             _ => self.adapter.model(),
         }
+    }
+}
+
+/// The format name of a saved adaptive state ([`AdaptiveFit::save`]).
+pub const ADAPTIVE_STATE_FORMAT: &str = "drive-adaptive-state";
+
+/// The largest saved adaptive state read (bytes): [`REFIT_MEMORY_WINDOWS`] windows of a
+/// few hundred samples each and the models, with room to spare.
+pub const MAX_ADAPTIVE_STATE_BYTES: u64 = 256 << 20;
+
+/// A window as a saved state holds it (an IMU sample not given to a model, NaN, as null).
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SavedWindow {
+    index: usize,
+    interval: usize,
+    phase: drive_traits::Phase,
+    command: Vec<drive_traits::Input>,
+    measured: Vec<drive_traits::Input>,
+    pose: Vec<drive_traits::Pose>,
+    imu_yaw_rate: Vec<Option<f64>>,
+    start_velocity: Option<[f64; 2]>,
+}
+
+impl SavedWindow {
+    fn of(w: &drive_traits::Window) -> Self {
+        SavedWindow {
+            index: w.index,
+            interval: w.interval,
+            phase: w.phase,
+            command: w.command.clone(),
+            measured: w.measured.clone(),
+            pose: w.pose.clone(),
+            imu_yaw_rate: w
+                .imu_yaw_rate
+                .iter()
+                .map(|v| v.is_finite().then_some(*v))
+                .collect(),
+            start_velocity: w.start_velocity,
+        }
+    }
+
+    /// The window, or why it is not one (samples of unequal counts, fewer than two, or not
+    /// finite).
+    fn window(self) -> Result<drive_traits::Window, String> {
+        let n = self.command.len();
+        if n < 2 || self.measured.len() != n || self.pose.len() != n || self.imu_yaw_rate.len() != n
+        {
+            return Err(format!(
+                "window {} has unequal sample counts (or fewer than two)",
+                self.index
+            ));
+        }
+        let finite = self
+            .command
+            .iter()
+            .chain(&self.measured)
+            .chain(&self.pose)
+            .flat_map(|v| v.iter())
+            .chain(self.start_velocity.iter().flatten())
+            .all(|v| v.is_finite());
+        if !finite {
+            return Err(format!(
+                "window {} holds a number that is not finite",
+                self.index
+            ));
+        }
+        let imu = self
+            .imu_yaw_rate
+            .iter()
+            .map(|v| v.unwrap_or(f64::NAN))
+            .collect();
+        Ok(drive_traits::Window::new(
+            self.index,
+            self.interval,
+            self.phase,
+            self.command,
+            self.measured,
+            self.pose,
+            imu,
+        )
+        .with_start_velocity(self.start_velocity))
+    }
+}
+
+/// The whole state of an [`AdaptiveFit`], as saved.
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SavedState {
+    format: String,
+    format_version: u32,
+    /// The learner refitted: its registered name, start and uncertainty.
+    model: String,
+    start: drive_traits::StartInfo,
+    uncertainty: Uncertainty,
+    robot: drive_traits::RobotDescription,
+    selection_s: f64,
+    adapter: SlipAdapter,
+    seen: Vec<SavedWindow>,
+    pending: Vec<SavedWindow>,
+    before: Option<drive_models::ComposedModel>,
+    refit: Option<(drive_models::ComposedModel, usize)>,
+    refit_record: PrequentialRecord,
+    refit_scored: usize,
+    intervals: usize,
+    driven: usize,
+}
+
+impl AdaptiveFit {
+    /// The whole adaptive state as JSON (format [`ADAPTIVE_STATE_FORMAT`]): the prior, the
+    /// correction's sums and records, the windows kept for the refits, the refit and its
+    /// record. [`AdaptiveFit::load`] reads it back into a fit that adapts on exactly as this
+    /// one. An error for a fit whose measured velocities are not the default estimator's
+    /// (the state does not hold it).
+    ///
+    /// ```
+    /// use drive_studies::{AdaptiveFit, Registries};
+    /// use drive_models::adapt::{composed_of, AdapterConfig};
+    /// use drive_traits::Learner;
+    /// let registries = Registries::builtin();
+    /// let data = drive_data::bundled::load("warthog_grass_2024-08-08").unwrap();
+    /// let spec = registries.models().resolve("slip-blr").unwrap();
+    /// let prior = composed_of(spec.fit(&data.all()).unwrap().as_ref()).unwrap();
+    /// let mut fit = AdaptiveFit::new(prior, &spec, &data.robot, AdapterConfig::default());
+    /// for w in &data.windows[..30] {
+    ///     fit.add(w);
+    /// }
+    /// let saved = fit.save().unwrap();
+    /// let mut again = AdaptiveFit::load(&saved, &registries).unwrap();
+    /// for w in &data.windows[30..60] {
+    ///     fit.add(w);
+    ///     again.add(w);
+    /// }
+    /// assert_eq!(fit.save().unwrap(), again.save().unwrap());
+    /// ```
+    pub fn save(&self) -> Result<String, ExperimentError> {
+        if !self.default_velocity {
+            return Err(ExperimentError::Incompatible(
+                "an adaptive state is saved with the default body-velocity estimator only".into(),
+            ));
+        }
+        let windows = |w: &[drive_traits::Window]| w.iter().map(SavedWindow::of).collect();
+        let state = SavedState {
+            format: ADAPTIVE_STATE_FORMAT.into(),
+            format_version: 1,
+            model: self.spec.name.clone(),
+            start: self.spec.start,
+            uncertainty: self.spec.uncertainty,
+            robot: self.robot.clone(),
+            selection_s: self.selection_s,
+            adapter: self.adapter.clone(),
+            seen: windows(&self.seen),
+            pending: windows(&self.pending),
+            before: self.before.clone(),
+            refit: self.refit.clone(),
+            refit_record: self.refit_record.clone(),
+            refit_scored: self.refit_scored,
+            intervals: self.intervals,
+            driven: self.driven,
+        };
+        serde_json::to_string(&state)
+            .map_err(|e| ExperimentError::Incompatible(format!("saving the adaptive state: {e}")))
+    }
+
+    /// An adaptive fit from its saved state ([`AdaptiveFit::save`]), its learner resolved in
+    /// `registries`; an error naming what is wrong in a state `save` would not write.
+    pub fn load(text: &str, registries: &Registries) -> Result<AdaptiveFit, ExperimentError> {
+        let bad =
+            |what: String| ExperimentError::Incompatible(format!("an adaptive state: {what}"));
+        let state: SavedState = serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
+        if state.format != ADAPTIVE_STATE_FORMAT || state.format_version != 1 {
+            return Err(bad(format!(
+                "format '{}' version {}, where {ADAPTIVE_STATE_FORMAT} version 1 is read",
+                state.format, state.format_version
+            )));
+        }
+        let spec = registries
+            .models()
+            .resolve(&state.model)?
+            .with_uncertainty(state.uncertainty, state.start);
+        let robot = &state.robot;
+        use drive_traits::limits::{MAX_RATE_HZ, MAX_WINDOW_LEN, MIN_RATE_HZ};
+        if !((MIN_RATE_HZ..=MAX_RATE_HZ).contains(&robot.rate_hz)
+            && (2..=MAX_WINDOW_LEN).contains(&robot.window_len))
+        {
+            return Err(bad(format!(
+                "its robot's rate ({} Hz) or window length ({}) is out of range",
+                robot.rate_hz, robot.window_len
+            )));
+        }
+        robot.vehicle.check().map_err(|e| bad(e.to_string()))?;
+        state.adapter.check().map_err(|e| bad(e.to_string()))?;
+        for m in state
+            .before
+            .iter()
+            .chain(state.refit.iter().map(|(m, _)| m))
+        {
+            m.check().map_err(|e| bad(e.to_string()))?;
+        }
+        if !(state.selection_s.is_finite() && state.selection_s > 0.0) {
+            return Err(bad("its selection time is not finite and positive".into()));
+        }
+        if state.seen.len() > REFIT_MEMORY_WINDOWS {
+            return Err(bad(format!(
+                "{} windows kept for the refits, where at most {REFIT_MEMORY_WINDOWS} are",
+                state.seen.len()
+            )));
+        }
+        let windows = |w: Vec<SavedWindow>| -> Result<Vec<drive_traits::Window>, ExperimentError> {
+            let w: Vec<drive_traits::Window> = w
+                .into_iter()
+                .map(SavedWindow::window)
+                .collect::<Result<_, _>>()
+                .map_err(bad)?;
+            if w.iter().any(|w| w.len() != state.robot.window_len) {
+                return Err(bad(format!(
+                    "a window is not {} samples long, as its robot's",
+                    state.robot.window_len
+                )));
+            }
+            Ok(w)
+        };
+        let seen = windows(state.seen)?;
+        let pending = windows(state.pending)?;
+        Ok(AdaptiveFit {
+            spec,
+            robot: state.robot,
+            adapter: state.adapter,
+            selection_s: state.selection_s,
+            seen,
+            pending,
+            before: state.before,
+            refit: state.refit,
+            refit_record: state.refit_record,
+            refit_scored: state.refit_scored,
+            intervals: state.intervals,
+            driven: state.driven,
+            default_velocity: true,
+        })
     }
 }
 

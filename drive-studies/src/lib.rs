@@ -58,8 +58,8 @@ pub const BENCH_MODELS: &str = "naive,powertrain,slip-blr,acc-blr,slip-ipem";
 
 pub use adapt::{
     adapt, adapt_with_progress, AdaptPoint, AdaptPrior, AdaptStudy, Adaptation, AdaptiveFit,
-    Extrapolation, ADAPT_MODELS, ADAPT_TIMES_S, EXTRAPOLATION_MARGIN, REFIT_GROWTH,
-    REFIT_MEMORY_WINDOWS, REFIT_MIN_SCORED,
+    Extrapolation, ADAPTIVE_STATE_FORMAT, ADAPT_MODELS, ADAPT_TIMES_S, EXTRAPOLATION_MARGIN,
+    MAX_ADAPTIVE_STATE_BYTES, REFIT_GROWTH, REFIT_MEMORY_WINDOWS, REFIT_MIN_SCORED,
 };
 pub use bench::{
     bench_units, run_bench, terrain_known, AdaptPair, AdaptSummary, Bench, BenchAdaptation,

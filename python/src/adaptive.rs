@@ -1,7 +1,7 @@
 //! `drive.AdaptiveModel`: a fitted model that keeps learning from the windows the robot
 //! drives (issue 61; `drive_studies::AdaptiveFit`, docs/adaptation.md).
 
-use crate::args::{dataset_of, type_name};
+use crate::args::{dataset_of, path_of, type_name};
 use crate::err;
 use crate::model::Model;
 use drive::models::adapt::{composed_of, AdapterConfig};
@@ -16,6 +16,8 @@ use pyo3::prelude::*;
 /// correction of its slip, or a refit of the same model on them, predicts better
 /// (`changed`). The prior is a composed model (`drive.fit`, `drive.load_model`: slip-BLR,
 /// slip-ipem, the powertrain model, a plug-in's learner) of the same robot as the data.
+/// `save(path)` writes the whole adaptive state, `AdaptiveModel.load(path)` reads it back to
+/// adapt on.
 ///
 /// ```python
 /// prior = drive.fit(drive.load_dataset("bundled:warthog_asphalt_a"), "slip-blr")
@@ -26,8 +28,17 @@ use pyo3::prelude::*;
 #[pyclass(module = "drive._native", unsendable)]
 pub(crate) struct AdaptiveModel {
     fit: AdaptiveFit,
-    prior: Py<Model>,
-    windows: usize,
+}
+
+impl AdaptiveModel {
+    fn model_of(&self, model: std::sync::Arc<dyn MotionModel>) -> Model {
+        Model {
+            model,
+            robot: self.fit.robot().clone(),
+            start: self.fit.start(),
+            settings: None,
+        }
+    }
 }
 
 #[pymethods]
@@ -35,7 +46,7 @@ impl AdaptiveModel {
     /// Adapts `prior` (a fitted `drive.Model` composed of a powertrain and a slip model); its
     /// refits are the same model, fitted as `drive adapt` fits them.
     #[new]
-    fn new(py: Python<'_>, prior: &Bound<'_, PyAny>) -> PyResult<Self> {
+    fn new(prior: &Bound<'_, PyAny>) -> PyResult<Self> {
         let model: PyRef<'_, Model> = prior.extract().map_err(|_| {
             err(format!(
                 "prior must be a fitted drive.Model (drive.fit, drive.load_model), got {}",
@@ -62,30 +73,16 @@ impl AdaptiveModel {
                 ..AdapterConfig::default()
             },
         );
-        let prior = Py::new(
-            py,
-            Model {
-                model: std::sync::Arc::clone(&model.model),
-                robot: model.robot.clone(),
-                start: model.start,
-                settings: model.settings.clone(),
-            },
-        )?;
-        Ok(AdaptiveModel {
-            fit,
-            prior,
-            windows: 0,
-        })
+        Ok(AdaptiveModel { fit })
     }
 
     /// Learns from `data`'s windows (a `drive.Dataset` of the prior's robot: its rate,
     /// window length and vehicle), in their order: each interval is predicted by every
     /// candidate before it is learned from. Data checks are not run here (they need a run's
     /// worth of windows: see `drive.Dataset` and `drive check`).
-    fn add(&mut self, py: Python<'_>, data: &Bound<'_, PyAny>) -> PyResult<()> {
+    fn add(&mut self, data: &Bound<'_, PyAny>) -> PyResult<()> {
         let data = dataset_of(data)?;
-        let prior = self.prior.borrow(py);
-        let (a, b) = (&prior.robot, &data.inner.robot);
+        let (a, b) = (self.fit.robot(), &data.inner.robot);
         if a.rate_hz != b.rate_hz || a.window_len != b.window_len {
             return Err(err(format!(
                 "the data is {} Hz x {} samples per window, the prior's model {} Hz x {}",
@@ -101,25 +98,16 @@ impl AdaptiveModel {
                 json(a.vehicle.as_ref())
             )));
         }
-        drop(prior);
         for w in &data.inner.windows {
             self.fit.add(w);
-            self.windows += 1;
         }
         Ok(())
     }
 
     /// The adapted model now: the prior itself until a correction or a refit predicts the
     /// windows driven better.
-    fn model(&self, py: Python<'_>) -> PyResult<Model> {
-        let prior = self.prior.borrow(py);
-        let adapted = self.fit.model();
-        Ok(Model {
-            model: std::sync::Arc::new(adapted) as std::sync::Arc<dyn MotionModel>,
-            robot: prior.robot.clone(),
-            start: prior.start,
-            settings: None,
-        })
+    fn model(&self) -> Model {
+        self.model_of(std::sync::Arc::new(self.fit.model()))
     }
 
     /// The detector of a change of ground: whether a correction of the prior's slip, or a
@@ -133,20 +121,42 @@ impl AdaptiveModel {
     /// The windows added so far.
     #[getter]
     fn windows(&self) -> usize {
-        self.windows
+        self.fit.windows()
     }
 
-    /// The prior, as given.
+    /// The prior, as given (its composed model: a calibrated prior's calibration is not
+    /// kept).
     #[getter]
-    fn prior(&self, py: Python<'_>) -> Py<Model> {
-        self.prior.clone_ref(py)
+    fn prior(&self) -> Model {
+        self.model_of(std::sync::Arc::new(self.fit.prior().clone()))
     }
 
-    fn __repr__(&self, py: Python<'_>) -> String {
+    /// Writes the whole adaptive state (JSON, format `drive-adaptive-state`): the prior, the
+    /// correction's sums, the windows kept for the refits and the refit.
+    fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        let path = path_of("path", path)?;
+        let text = self.fit.save().map_err(err)?;
+        std::fs::write(&path, text)
+            .map_err(|e| err(format!("{}: cannot write: {e}", path.display())))
+    }
+
+    /// An adaptive model from its saved state (`save`), to adapt on as the one saved.
+    #[staticmethod]
+    fn load(path: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let path = path_of("path", path)?;
+        let name = path.display().to_string();
+        let text = drive::traits::files::read_text(&path, drive::studies::MAX_ADAPTIVE_STATE_BYTES)
+            .map_err(|e| err(format!("reading {name}: {e}")))?;
+        let fit = AdaptiveFit::load(&text, crate::registries())
+            .map_err(|e| err(format!("{name}: {e}")))?;
+        Ok(AdaptiveModel { fit })
+    }
+
+    fn __repr__(&self) -> String {
         format!(
             "AdaptiveModel(prior={}, windows={}, changed={})",
-            self.prior.borrow(py).model.name(),
-            self.windows,
+            self.fit.prior().name(),
+            self.fit.windows(),
             if self.fit.changed() { "True" } else { "False" }
         )
     }

@@ -174,6 +174,18 @@ def test_an_adaptive_model_fed_the_windows_driven_is_drive_adapts(tmp_path):
     adaptive.model().save(path)
     again = drive.load_model(path).score(evaluation)
     assert again["translational_m"]["all"]["median"] == pytest.approx(point[("adaptive", 60)]["translational_median_m"], rel=1e-9)
+    # Saved after 30 s and read back, it adapts on as the one that went on.
+    halfway = drive.AdaptiveModel(prior)
+    halfway.add(part(windows[:15]))
+    halfway.save(tmp_path / "state.json")
+    resumed = drive.AdaptiveModel.load(tmp_path / "state.json")
+    assert resumed.windows == 15 and "windows=15" in repr(resumed)
+    resumed.add(part(windows[15:30]))
+    assert resumed.changed and resumed.windows == 30
+    assert resumed.model().score(evaluation)["translational_m"]["all"]["median"] == pytest.approx(
+        point[("adaptive", 60)]["translational_median_m"], rel=1e-9)
+    with pytest.raises(drive.DriveError, match="adaptive state"):
+        drive.AdaptiveModel.load(path)  # a model file, not a state
     with pytest.raises(drive.DriveError, match="prior must be"):
         drive.AdaptiveModel(target)
     with pytest.raises(drive.DriveError, match="vehicle"):

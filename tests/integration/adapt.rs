@@ -372,3 +372,67 @@ fn useless_data_is_refused_and_when_allowed_noted_in_the_output() {
         "{notes:?}"
     );
 }
+
+/// The adaptive state saved halfway and read back adapts on exactly as the fit that went on
+/// (slip-ipem's refits included), and a state `save` would not write is refused, never a
+/// panic: sums of the wrong size, another format, a window that is not finite.
+#[test]
+fn an_adaptive_state_saved_and_read_back_adapts_on_as_the_one_that_went_on() {
+    use drive::models::adapt::{composed_of, AdapterConfig};
+    use drive::studies::{AdaptiveFit, Registries};
+    let registries = Registries::builtin();
+    let prior_data = drive::bundled::load("warthog_asphalt_2024-08-07").unwrap();
+    let target = drive::bundled::load("warthog_asphalt_slow_2024-08-08").unwrap();
+    for name in ["slip-blr", "slip-ipem"] {
+        let spec = registries.models().resolve(name).unwrap();
+        let prior = composed_of(spec.fit(&prior_data.all()).unwrap().as_ref()).unwrap();
+        let mut fit = AdaptiveFit::new(prior, &spec, &target.robot, AdapterConfig::default());
+        for w in &target.windows[..40] {
+            fit.add(w);
+        }
+        let saved = fit.save().unwrap();
+        let mut again = AdaptiveFit::load(&saved, &registries).unwrap();
+        assert_eq!(again.save().unwrap(), saved, "{name}");
+        for w in &target.windows[40..80] {
+            fit.add(w);
+            again.add(w);
+        }
+        let json = |f: &AdaptiveFit| serde_json::to_string(&f.model()).unwrap();
+        assert_eq!(json(&fit), json(&again), "{name}");
+        assert_eq!(fit.changed(), again.changed(), "{name}");
+        assert_eq!(fit.save().unwrap(), again.save().unwrap(), "{name}");
+    }
+    // Hostile states.
+    let spec = registries.models().resolve("slip-blr").unwrap();
+    let prior = composed_of(spec.fit(&prior_data.all()).unwrap().as_ref()).unwrap();
+    let mut fit = AdaptiveFit::new(prior, &spec, &target.robot, AdapterConfig::default());
+    for w in &target.windows[..20] {
+        fit.add(w);
+    }
+    let state: Value = serde_json::from_str(&fit.save().unwrap()).unwrap();
+    let refused = |edit: &dyn Fn(&mut Value), why: &str| {
+        let mut s = state.clone();
+        edit(&mut s);
+        let e = AdaptiveFit::load(&s.to_string(), &registries)
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains(why), "{why}: {e}");
+    };
+    refused(
+        &|s| {
+            s["adapter"]["dims"][2]["xtx"].as_array_mut().unwrap().pop();
+        },
+        "not the size of its slip basis",
+    );
+    refused(&|s| s["format"] = "drive-motion-model".into(), "format");
+    refused(
+        &|s| s["seen"][0]["pose"][3][0] = Value::Null,
+        "an adaptive state",
+    );
+    refused(&|s| s["model"] = "no-such-model".into(), "no-such-model");
+    refused(&|s| s["extra"] = 1.into(), "unknown field");
+    refused(
+        &|s| s["seen"][0]["command"].as_array_mut().unwrap().truncate(3),
+        "unequal sample counts",
+    );
+}
