@@ -606,6 +606,11 @@ impl SlipAdapter {
                 return bad("sums or records are not finite (or a weight is negative)");
             }
         }
+        // Counts a robot could reach (they only grow by one per window or interval).
+        let count = |n: usize| n < (1 << 40);
+        if !(count(self.windows) && self.dims.iter().all(|r| count(r.intervals))) {
+            return bad("counts are beyond any robot's driving");
+        }
         let c = &self.config;
         if !(self.interval_s.is_finite()
             && self.interval_s >= 0.0

@@ -475,6 +475,13 @@ impl AdaptiveFit {
         {
             m.check().map_err(|e| bad(e.to_string()))?;
         }
+        let count = |n: usize| n < (1 << 40);
+        let counted = [state.refit_scored, state.intervals, state.driven]
+            .into_iter()
+            .chain(state.refit.as_ref().map(|(_, n)| *n));
+        if !counted.into_iter().all(count) {
+            return Err(bad("its counts are beyond any robot's driving".into()));
+        }
         if !(state.selection_s.is_finite() && state.selection_s > 0.0) {
             return Err(bad("its selection time is not finite and positive".into()));
         }

@@ -431,6 +431,8 @@ fn an_adaptive_state_saved_and_read_back_adapts_on_as_the_one_that_went_on() {
     );
     refused(&|s| s["model"] = "no-such-model".into(), "no-such-model");
     refused(&|s| s["extra"] = 1.into(), "unknown field");
+    refused(&|s| s["driven"] = u64::MAX.into(), "counts");
+    refused(&|s| s["adapter"]["windows"] = u64::MAX.into(), "counts");
     refused(
         &|s| s["seen"][0]["command"].as_array_mut().unwrap().truncate(3),
         "unequal sample counts",
