@@ -32,6 +32,14 @@ use serde::{Deserialize, Serialize};
 pub const CORRECTION_STRENGTHS: [f64; 10] =
     [1e5, 3e4, 1e4, 3e3, 1e3, 300.0, 100.0, 30.0, 10.0, 3.0];
 
+/// The largest slip correction weight read or kept (in magnitude): a correction of a
+/// million times its inputs is no ground's.
+pub const MAX_CORRECTION_WEIGHT: f64 = 1e6;
+
+/// The largest magnitude of an adapter's sums read back (a robot's squared speeds summed
+/// over any driving stay far below it).
+pub const MAX_ADAPTER_SUM: f64 = 1e30;
+
 /// The fewest intervals (commands) scored before a correction may be kept: a correction
 /// learned on fewer commands would extrapolate from them to the whole input space.
 pub const MIN_INTERVALS: usize = 4;
@@ -102,10 +110,12 @@ impl SlipCorrection {
                     w.len()
                 )));
             }
-            if w.iter().any(|v| !v.is_finite()) {
-                return Err(InvalidPart(
-                    "a slip correction's weight is not finite".into(),
-                ));
+            if w.iter()
+                .any(|v| !(v.is_finite() && v.abs() <= MAX_CORRECTION_WEIGHT))
+            {
+                return Err(InvalidPart(format!(
+                    "a slip correction's weight is not finite or beyond {MAX_CORRECTION_WEIGHT:e}"
+                )));
             }
         }
         Ok(())
@@ -323,6 +333,16 @@ impl PrequentialRecord {
     /// strengths and three body dimensions).
     pub fn significant(&self) -> Option<f64> {
         self.significant_at(KEEP_Z)
+    }
+
+    /// Whether its sums are finite and its weights not negative (a record read back).
+    pub fn is_valid(&self) -> bool {
+        [self.wd, self.wd2, self.w, self.w2]
+            .iter()
+            .all(|v| v.is_finite())
+            && self.w >= 0.0
+            && self.w2 >= 0.0
+            && self.wd2 >= 0.0
     }
 
     /// The mean improvement, when it is beyond `z` standard errors.
@@ -577,13 +597,16 @@ impl SlipAdapter {
     pub fn check(&self) -> Result<(), InvalidPart> {
         self.prior.check()?;
         self.basis.check()?;
-        let bad = |what: &str| Err(InvalidPart(format!("an adaptive state's {what}")));
+        let bad = |what: &str| Err(InvalidPart(format!("the adapter's {what}")));
         if SlipBasis::for_vehicle(self.prior.vehicle.as_ref()).dimensions()
             != self.basis.dimensions()
         {
             return bad("slip basis is not its vehicle's");
         }
-        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        let finite = |v: &[f64]| {
+            v.iter()
+                .all(|x| x.is_finite() && x.abs() <= MAX_ADAPTER_SUM)
+        };
         for (r, k) in self.dims.iter().zip(self.basis.dimensions()) {
             let sized = r.k == k
                 && r.xtx.len() == k * k
@@ -593,6 +616,9 @@ impl SlipAdapter {
             if !sized {
                 return bad("sums are not the size of its slip basis");
             }
+            if (0..k).any(|j| r.xtx[j * k + j] < 0.0) {
+                return bad("sums of squares are negative");
+            }
             let records = r.records.iter().flat_map(|p| [p.wd, p.wd2, p.w, p.w2]);
             if !(finite(&r.xtx)
                 && finite(&r.xtr)
@@ -601,9 +627,11 @@ impl SlipAdapter {
                 && r.weight.is_finite()
                 && r.weight >= 0.0
                 && records.clone().all(f64::is_finite)
-                && r.records.iter().all(|p| p.w >= 0.0 && p.w2 >= 0.0))
+                && r.records.iter().all(PrequentialRecord::is_valid))
             {
-                return bad("sums or records are not finite (or a weight is negative)");
+                return bad(&format!(
+                    "sums or records are not finite, beyond {MAX_ADAPTER_SUM:e}, or a weight is negative"
+                ));
             }
         }
         // Counts a robot could reach (they only grow by one per window or interval).
@@ -620,7 +648,13 @@ impl SlipAdapter {
         {
             return bad("times are not finite and positive");
         }
-        Ok(())
+        // The correction it keeps now, as its model would apply it.
+        self.correction().check()
+    }
+
+    /// Its settings.
+    pub fn config(&self) -> &AdapterConfig {
+        &self.config
     }
 
     /// Adds windows just driven, in time order: each scored by every candidate correction

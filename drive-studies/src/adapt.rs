@@ -417,6 +417,10 @@ impl AdaptiveFit {
                 "an adaptive state is saved with the default body-velocity estimator only".into(),
             ));
         }
+        // Never a state load refuses (serde_json writes a number that is not finite as null).
+        self.adapter.check().map_err(|e| {
+            ExperimentError::Incompatible(format!("the adaptive state is not saved: {e}"))
+        })?;
         let windows = |w: &[drive_traits::Window]| w.iter().map(SavedWindow::of).collect();
         let state = SavedState {
             format: ADAPTIVE_STATE_FORMAT.into(),
@@ -445,7 +449,11 @@ impl AdaptiveFit {
     pub fn load(text: &str, registries: &Registries) -> Result<AdaptiveFit, ExperimentError> {
         let bad =
             |what: String| ExperimentError::Incompatible(format!("an adaptive state: {what}"));
-        let state: SavedState = serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
+        // With the path of the field at fault (the file is one line).
+        let mut de = serde_json::Deserializer::from_str(text.trim_start_matches('\u{feff}'));
+        let state: SavedState = serde_path_to_error::deserialize(&mut de)
+            .map_err(|e| bad(format!("{} (at {})", e.inner(), e.path())))?;
+        de.end().map_err(|e| bad(e.to_string()))?;
         if state.format != ADAPTIVE_STATE_FORMAT || state.format_version != 1 {
             return Err(bad(format!(
                 "format '{}' version {}, where {ADAPTIVE_STATE_FORMAT} version 1 is read",
@@ -468,12 +476,53 @@ impl AdaptiveFit {
         }
         robot.vehicle.check().map_err(|e| bad(e.to_string()))?;
         state.adapter.check().map_err(|e| bad(e.to_string()))?;
-        for m in state
-            .before
-            .iter()
-            .chain(state.refit.iter().map(|(m, _)| m))
-        {
+        let prior = state.adapter.prior();
+        // Its parts agree: the learner refitted is the prior's, every model steps at the
+        // robot's rate on its vehicle type, the refit (fitted on the robot's windows) on its
+        // very vehicle, the prior's start is the adapter's.
+        if spec.canonical() != prior.label {
+            return Err(bad(format!(
+                "its learner {} is not its prior's ({})",
+                spec.canonical(),
+                prior.label
+            )));
+        }
+        if state.adapter.config().start != state.start {
+            return Err(bad("its start is not its adapter's".into()));
+        }
+        if !state.refit_record.is_valid() {
+            return Err(bad(
+                "its refit's record is not finite, or a weight is negative".into(),
+            ));
+        }
+        let vehicle =
+            |v: &dyn drive_traits::CommandModel| serde_json::to_string(v).unwrap_or_default();
+        let kind =
+            |v: &dyn drive_traits::CommandModel| drive_traits::vehicle_tag(v).unwrap_or_default();
+        let dt = robot.dt();
+        let models = std::iter::once(prior)
+            .chain(state.before.iter())
+            .chain(state.refit.iter().map(|(m, _)| m));
+        for m in models {
             m.check().map_err(|e| bad(e.to_string()))?;
+            if (m.dt - dt).abs() > 1e-9 * dt {
+                return Err(bad(format!(
+                    "a model steps {} s, its robot's data {dt} s",
+                    m.dt
+                )));
+            }
+            if kind(m.vehicle.as_ref()) != kind(robot.vehicle.as_ref()) {
+                return Err(bad("a model's vehicle type is not its robot's".into()));
+            }
+        }
+        if let Some((refit, _)) = &state.refit {
+            if vehicle(refit.vehicle.as_ref()) != vehicle(robot.vehicle.as_ref())
+                || refit.label != prior.label
+            {
+                return Err(bad(
+                    "its refit is not its learner fitted on its robot's vehicle".into(),
+                ));
+            }
         }
         let count = |n: usize| n < (1 << 40);
         let counted = [state.refit_scored, state.intervals, state.driven]
@@ -507,7 +556,7 @@ impl AdaptiveFit {
         };
         let seen = windows(state.seen)?;
         let pending = windows(state.pending)?;
-        Ok(AdaptiveFit {
+        let fit = AdaptiveFit {
             spec,
             robot: state.robot,
             adapter: state.adapter,
@@ -521,7 +570,18 @@ impl AdaptiveFit {
             intervals: state.intervals,
             driven: state.driven,
             default_velocity: true,
-        })
+        };
+        if fit.driven < fit.seen.len() + fit.pending.len() || fit.adapter.windows() > fit.driven {
+            return Err(bad(format!(
+                "{} windows driven, fewer than it keeps ({} and {}) or than its adapter saw ({})",
+                fit.driven,
+                fit.seen.len(),
+                fit.pending.len(),
+                fit.adapter.windows()
+            )));
+        }
+        fit.model().check().map_err(|e| bad(e.to_string()))?;
+        Ok(fit)
     }
 }
 

@@ -432,6 +432,23 @@ fn an_adaptive_state_saved_and_read_back_adapts_on_as_the_one_that_went_on() {
     refused(&|s| s["model"] = "no-such-model".into(), "no-such-model");
     refused(&|s| s["extra"] = 1.into(), "unknown field");
     refused(&|s| s["driven"] = u64::MAX.into(), "counts");
+    // A second outside sweep: states whose parts disagree loaded and adapted wrongly.
+    refused(&|s| s["model"] = "acc-blr".into(), "is not its prior's");
+    refused(&|s| s["robot"]["rate_hz"] = 10.0.into(), "steps");
+    refused(&|s| s["driven"] = 0.into(), "windows driven");
+    refused(
+        &|s| s["adapter"]["dims"][0]["xtr"][0] = 1e200.into(),
+        "beyond",
+    );
+    refused(
+        &|s| s["adapter"]["dims"][0]["xtx"][0] = (-1.0).into(),
+        "negative",
+    );
+    refused(&|s| s["start"] = "encoders".into(), "start");
+    refused(
+        &|s| s["adapter"]["dims"][0]["weight"] = Value::Null,
+        "adapter.dims[0].weight",
+    );
     refused(&|s| s["adapter"]["windows"] = u64::MAX.into(), "counts");
     refused(
         &|s| s["seen"][0]["command"].as_array_mut().unwrap().truncate(3),
