@@ -495,8 +495,6 @@ impl AdaptiveFit {
                 "its refit's record is not finite, or a weight is negative".into(),
             ));
         }
-        let vehicle =
-            |v: &dyn drive_traits::CommandModel| serde_json::to_string(v).unwrap_or_default();
         let kind =
             |v: &dyn drive_traits::CommandModel| drive_traits::vehicle_tag(v).unwrap_or_default();
         let dt = robot.dt();
@@ -516,7 +514,7 @@ impl AdaptiveFit {
             }
         }
         if let Some((refit, _)) = &state.refit {
-            if vehicle(refit.vehicle.as_ref()) != vehicle(robot.vehicle.as_ref())
+            if vehicle_json(refit.vehicle.as_ref()) != vehicle_json(robot.vehicle.as_ref())
                 || refit.label != prior.label
             {
                 return Err(bad(
