@@ -15,8 +15,10 @@
 //!    ([`MotionModel::predict_batch_into`]). With a history ([`ControlState::past`]), from
 //!    the state of a few ticks ago through the commands sent since, then the candidate:
 //!    the commands still in flight (a dead time, a lagging powertrain) then act in the
-//!    prediction as they will on the robot; the predicted poses are moved rigidly so that
-//!    the prediction of now sits at the current pose estimate.
+//!    prediction as they will on the robot; the body's motion measured now (the IMU's yaw
+//!    rate, the localization's velocity) is the model's state at now
+//!    ([`drive_traits::ObservedMotion`], with `observe_now`), and the predicted poses are
+//!    moved rigidly so that the prediction of now sits at the current pose estimate.
 //! 3. **Score** each: over the horizon, the squared distance to the reference in units of
 //!    the length scale `l = max(speed x 1 s, 0.1 m)` times `position_weight`, plus the
 //!    squared heading error times `heading_weight` (the last step both times
@@ -102,6 +104,11 @@ pub struct Mppi {
     /// distribution). A model without a covariance is scored on its mean poses whatever
     /// this is ([`MppiController::uses_uncertainty`]).
     pub uncertainty_weight: f64,
+    /// Whether a rollout with a history takes the body's motion measured now (the IMU's
+    /// yaw rate, the localization's velocity: what the model starts from) as the model's
+    /// state after the history's commands ([`drive_traits::ObservedMotion`]; slip-ipem's
+    /// lagging body velocity), rather than the state the history's replay ran to.
+    pub observe_now: bool,
 }
 
 impl Default for Mppi {
@@ -119,6 +126,7 @@ impl Default for Mppi {
             smoothness_weight: 0.2,
             seed: 0,
             uncertainty_weight: 0.0,
+            observe_now: true,
         }
     }
 }
@@ -520,6 +528,11 @@ impl Controller for MppiController {
         }
         let (k_n, h) = (self.config.samples, self.config.horizon);
         let (from, past) = match state.past {
+            // What is measured now is the model's state after the commands replayed.
+            Some((s, commands)) if self.config.observe_now => (
+                s.with_observed(commands.len(), start.yaw_rate, start.velocity),
+                commands,
+            ),
             Some((s, commands)) => (s, commands),
             None => (*start, &[][..]),
         };

@@ -332,3 +332,86 @@ fn the_predicted_variance_steers_away_from_what_the_model_is_unsure_of() {
     assert_eq!(notes.len(), 1, "{notes:?}");
     assert!(notes[0].contains("no predictive covariance"), "{notes:?}");
 }
+
+/// The naive model, recording what was observed in every start it is given.
+#[derive(Debug, Default, serde::Serialize, serde::Deserialize)]
+struct RecordsStarts {
+    #[serde(skip)]
+    naive: Option<Arc<dyn MotionModel>>,
+    #[serde(skip)]
+    seen: std::sync::Mutex<Vec<Option<drive_traits::ObservedMotion>>>,
+}
+
+#[typetag::serde(name = "records-starts")]
+impl MotionModel for RecordsStarts {
+    fn name(&self) -> String {
+        "records-starts".into()
+    }
+    fn dt(&self) -> f64 {
+        0.05
+    }
+    fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
+        self.seen.lock().unwrap().push(start.observed);
+        self.naive
+            .as_ref()
+            .unwrap()
+            .predict_into(start, commands, poses)
+    }
+}
+
+#[test]
+fn the_motion_measured_now_is_handed_to_the_rollouts_after_the_history() {
+    use drive_control::{ControlState, Controller, MppiController};
+    use drive_traits::ObservedMotion;
+    let robot = husky();
+    let model = Arc::new(RecordsStarts {
+        naive: Some(naive(&robot)),
+        ..RecordsStarts::default()
+    });
+    let setup = ControlSetup {
+        model: model.clone(),
+        robot: robot.clone(),
+        to_vehicle: InputMap::identity(),
+        speed: 0.5,
+        seed: 1,
+    };
+    let reference: Vec<Pose> = (1..=40)
+        .map(|k| Pose::new(0.025 * k as f64, 0.0, 0.0))
+        .collect();
+    let past_commands = vec![Input::new(1.0, 1.2, 0.0); 12];
+    let past = StartState::at_rest(Pose::zeros()).with_yaw_rate(0.0);
+    let now = StartState::at_rest(Pose::new(0.3, 0.0, 0.1))
+        .with_yaw_rate(0.25)
+        .with_velocity([0.5, 0.01]);
+    let observed = |observe_now: bool, history: bool| {
+        let mppi = Mppi {
+            samples: 8,
+            observe_now,
+            ..Mppi::default()
+        };
+        let mut controller = MppiController::new(mppi, &setup).unwrap();
+        model.seen.lock().unwrap().clear();
+        let state = ControlState {
+            past: history.then_some((past, past_commands.as_slice())),
+            ..ControlState::at(now)
+        };
+        controller.command(&state, &reference).unwrap();
+        let seen = std::mem::take(&mut *model.seen.lock().unwrap());
+        assert_eq!(seen.len(), 8, "one rollout per candidate");
+        assert!(seen.windows(2).all(|w| w[0] == w[1]));
+        seen[0]
+    };
+    // After the 12 commands replayed, the yaw rate and velocity measured now.
+    assert_eq!(
+        observed(true, true),
+        Some(ObservedMotion {
+            step: 12,
+            yaw_rate: Some(0.25),
+            velocity: Some([0.5, 0.01])
+        })
+    );
+    // Not asked, or no history (the rollouts start now, from what is measured now).
+    assert_eq!(observed(false, true), None);
+    assert_eq!(observed(true, false), None);
+    assert!(Mppi::default().observe_now);
+}

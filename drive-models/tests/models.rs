@@ -516,6 +516,7 @@ fn acc_blr_prediction_hand_computed() {
         body_velocity: BodyVelocity::new(0.2, 0.3, 0.0),
         yaw_rate: None,
         velocity: None,
+        observed: None,
     };
     // f = (1, 0, 0) from wheels 10, 10: v0 = 0.2 (lateral dropped), v1 = 0.6, v2 = 0.8.
     let p = m.predict(&start, &[Input::new(10.0, 10.0, 0.0); 4]);
@@ -647,6 +648,7 @@ fn model_files_round_trip_and_refuse_unknown_versions() {
         body_velocity: BodyVelocity::new(0.1, 0.0, 0.1),
         yaw_rate: None,
         velocity: None,
+        observed: None,
     };
     let cmds: Vec<Input> = (0..40)
         .map(|k| Input::new(k as f64 * 0.1, 3.0 - k as f64 * 0.05, 0.0))
@@ -882,6 +884,7 @@ fn a_composed_model_rolls_out_in_batch_as_one_by_one() {
             body_velocity: BodyVelocity::zeros(),
             yaw_rate: None,
             velocity: None,
+            observed: None,
         })
         .collect();
     let commands: Vec<Input> = (0..5 * 20)

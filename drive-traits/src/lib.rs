@@ -55,7 +55,7 @@ pub use dataset::{
 };
 pub use error::{CharacterizationError, FitError, InvalidPart, MotionError, UnknownName};
 pub use learner::{Baseline, Learner};
-pub use motion::{check_step, MotionModel, StartState};
+pub use motion::{check_step, MotionModel, ObservedMotion, StartState};
 pub use pose::{
     euler_step, input_serde, net_turn, relative_pose, unwrap_angles, wrap_angle, BodyVelocity,
     Input, Pose, PoseCovariance, MAX_INPUTS,

@@ -42,6 +42,59 @@ pub struct StartState {
     /// not known. Like `yaw_rate`, never derived from the input: a model whose state is a
     /// velocity may start from it (slip-ipem's lagging body velocity).
     pub velocity: Option<[f64; 2]>,
+    /// The body's motion measured later than the start, at a step of the commands: a
+    /// controller's now, after the commands still in flight that it replays from a while
+    /// back ([`ObservedMotion`]); `None` for a prediction from its start alone.
+    pub observed: Option<ObservedMotion>,
+}
+
+/// The body's motion measured at step `step` of a prediction's commands, later than its
+/// start: where a controller is now, its rollouts starting a while back so that the
+/// commands still in flight (a dead time, a lagging powertrain) act in them.
+///
+/// A model whose state holds the body's velocity takes what is measured there as its state
+/// at that step (slip-ipem's lagging body velocity: the yaw rate the IMU measures, the
+/// velocity the localization measures), as it does at a start; a model whose velocity
+/// follows from its inputs alone ignores it. Without it such a state runs free through
+/// the replayed commands, and a controller's prediction of now turns at a rate the body
+/// is not turning at (docs/closed-loop.md measures the weaving it causes).
+///
+/// ```
+/// use drive_traits::{ObservedMotion, Pose, StartState};
+/// let s = StartState::at_rest(Pose::zeros()).with_observed(20, Some(0.3), None);
+/// assert_eq!(s.observed, Some(ObservedMotion { step: 20, yaw_rate: Some(0.3), velocity: None }));
+/// // Nothing measured, or measured at the start itself: the start says it already.
+/// assert_eq!(StartState::at_rest(Pose::zeros()).with_observed(20, None, None).observed, None);
+/// assert_eq!(StartState::at_rest(Pose::zeros()).with_observed(0, Some(0.3), None).observed, None);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObservedMotion {
+    /// The step of the commands it is measured at: the state after `step` commands,
+    /// before `commands[step]` acts (at least 1).
+    pub step: usize,
+    /// The yaw rate the IMU measures there (rad/s), when known.
+    pub yaw_rate: Option<f64>,
+    /// The body-frame velocity `[x, y]` (m/s) the localization measures there, when known.
+    pub velocity: Option<[f64; 2]>,
+}
+
+impl ObservedMotion {
+    /// The finite measurements of this observation: `None` when none is left.
+    ///
+    /// ```
+    /// use drive_traits::ObservedMotion;
+    /// let o = ObservedMotion { step: 3, yaw_rate: Some(f64::NAN), velocity: Some([1.0, 0.0]) };
+    /// assert_eq!(o.finite(), Some(ObservedMotion { yaw_rate: None, ..o }));
+    /// assert_eq!(ObservedMotion { velocity: Some([f64::INFINITY, 0.0]), ..o }.finite(), None);
+    /// ```
+    pub fn finite(&self) -> Option<ObservedMotion> {
+        let o = ObservedMotion {
+            step: self.step,
+            yaw_rate: self.yaw_rate.filter(|w| w.is_finite()),
+            velocity: self.velocity.filter(|v| v.iter().all(|x| x.is_finite())),
+        };
+        (o.step > 0 && (o.yaw_rate.is_some() || o.velocity.is_some())).then_some(o)
+    }
 }
 
 impl StartState {
@@ -53,6 +106,7 @@ impl StartState {
             body_velocity: BodyVelocity::zeros(),
             yaw_rate: None,
             velocity: None,
+            observed: None,
         }
     }
 
@@ -67,6 +121,24 @@ impl StartState {
     pub fn with_yaw_rate(mut self, yaw_rate: f64) -> Self {
         self.yaw_rate = Some(yaw_rate);
         self.body_velocity.z = yaw_rate;
+        self
+    }
+
+    /// The same start with the body's motion measured at step `step` of the commands
+    /// ([`ObservedMotion`]): none when nothing is measured or `step` is 0 (the start's own
+    /// measurements say that).
+    pub fn with_observed(
+        mut self,
+        step: usize,
+        yaw_rate: Option<f64>,
+        velocity: Option<[f64; 2]>,
+    ) -> Self {
+        self.observed =
+            (step > 0 && (yaw_rate.is_some() || velocity.is_some())).then_some(ObservedMotion {
+                step,
+                yaw_rate,
+                velocity,
+            });
         self
     }
 
@@ -103,6 +175,7 @@ impl StartState {
             body_velocity: vehicle.body_velocity(&input),
             yaw_rate: None,
             velocity: None,
+            observed: None,
         }
     }
 }

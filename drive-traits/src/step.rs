@@ -391,6 +391,7 @@ impl<'a, M: MotionModel + ?Sized> ReplayStepper<'a, M> {
             body_velocity: v3(6),
             yaw_rate: (s[9] != 0.0).then_some(s[10]),
             velocity: (s[11] != 0.0).then_some([s[12], s[13]]),
+            observed: None,
         }
     }
 }

@@ -67,8 +67,8 @@ use argmin::core::{
 use argmin::solver::trustregion::{Dogleg, TrustRegion};
 use drive_traits::limits::{Short, MAX_ABS_MEASUREMENT};
 use drive_traits::{
-    unwrap_angles, wrap_angle, BodyVelocity, FitError, Pose, PoseCovariance, SlipCovarianceStepper,
-    SlipData, SlipLearner, SlipModel, SlipStepper, StartState, Tagged,
+    unwrap_angles, wrap_angle, BodyVelocity, FitError, ObservedMotion, Pose, PoseCovariance,
+    SlipCovarianceStepper, SlipData, SlipLearner, SlipModel, SlipStepper, StartState, Tagged,
 };
 use faer::{Accum, Mat, Par};
 use nalgebra::{Const, DMatrix, DVector, SMatrix, SVector, U1};
@@ -330,6 +330,7 @@ impl SlipIpem {
                         .window
                         .start_velocity
                         .filter(|v| v.iter().all(|x| x.is_finite())),
+                    observed: None,
                 },
             });
         }

@@ -200,6 +200,55 @@ where
     }
 }
 
+impl<Y, T> Body<Y, T>
+where
+    Y: DualNum<f64> + Copy,
+    T: DualNum<f64> + Copy + Mul<Y, Output = T>,
+{
+    /// Takes the body's motion measured before the next step ([`ObservedMotion`]) as the
+    /// lagging velocity's state: the yaw rate measured (less the disturbance still acting,
+    /// so that the model turns at the measured rate), the velocity measured, each only
+    /// when measured and, as at a start, at most the dynamics' limits away from the steady
+    /// velocity `target` (a larger departure is a glitch, not the ground). Before the first
+    /// step there is no state to correct: the start's own measurements set it.
+    #[inline]
+    pub(super) fn observe(
+        &mut self,
+        target: &([T; 2], Y),
+        dynamics: &Dynamics<Y, T>,
+        observed: &ObservedMotion,
+    ) {
+        let Some((mut xy, mut z)) = self.velocity else {
+            return;
+        };
+        // A measurement carries no derivative with respect to the parameters; one clamped
+        // to the limit is the steady velocity's, moved by it.
+        if let Some(w) = observed.yaw_rate {
+            let limit = dynamics.disturbance_limit;
+            let departure = w - target.1.re();
+            let measured = if departure.abs() <= limit {
+                Y::from(w)
+            } else {
+                target.1 + Y::from(limit.copysign(departure))
+            };
+            z = measured - self.disturbance;
+            self.yaw_rate = measured;
+        }
+        if let Some(v) = observed.velocity {
+            let limit = dynamics.velocity_limit;
+            xy = std::array::from_fn(|i| {
+                let departure = v[i] - target.0[i].re();
+                if departure.abs() <= limit {
+                    T::from(v[i])
+                } else {
+                    target.0[i] + T::from(limit.copysign(departure))
+                }
+            });
+        }
+        self.velocity = Some((xy, z));
+    }
+}
+
 /// Euler rollout of eq. 1 over the commanded body velocities `f` from `start`, with the
 /// slip `slip(k)` (x and y, yaw) at each step (`v = f - g`, eq. 2) through the body
 /// dynamics: `visit(k, position_k, yaw_k)` for every `k >= 1`. Generic over the number
@@ -235,6 +284,9 @@ pub(super) fn rollout<Y, T>(
             [T::from(fk.x) - g[0], T::from(fk.y) - g[1]],
             Y::from(fk.z) - gz,
         );
+        if let Some(o) = measured.at(k) {
+            body.observe(&target, dynamics, o);
+        }
         let ([vx, vy], vz) = body.step(target, dynamics, measured, dt);
         let (s, c) = yaw.sin_cos();
         x += (vx * c - vy * s) * dt;
@@ -373,9 +425,12 @@ impl SlipIpemModel {
         let dynamics = self.dynamics();
         let mut body = Body::new();
         out.clear();
-        out.extend(f.iter().map(|f| {
+        out.extend(f.iter().enumerate().map(|(k, f)| {
             let g = slip_of(&theta, &slip_features(f, &self.scale));
             let target = ([f.x - g[0], f.y - g[1]], f.z - g[2]);
+            if let Some(o) = measured.at(k) {
+                body.observe(&target, &dynamics, o);
+            }
             let ([x, y], z) = body.step(target, &dynamics, measured, self.dt);
             BodyVelocity::new(x, y, z)
         }));

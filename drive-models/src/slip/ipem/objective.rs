@@ -46,11 +46,13 @@ impl Track {
 }
 
 /// What a rollout starts from besides the pose, when measured: the yaw rate (the IMU) and
-/// the body's velocity (the localization just before the start), each when finite.
+/// the body's velocity (the localization just before the start), each when finite; and
+/// the body's motion measured at a later step (a controller's now), when there is one.
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Measured {
     pub(super) yaw_rate: Option<f64>,
     pub(super) velocity: Option<[f64; 2]>,
+    pub(super) observed: Option<ObservedMotion>,
 }
 
 impl Measured {
@@ -59,7 +61,14 @@ impl Measured {
         Measured {
             yaw_rate: start.yaw_rate.filter(|w| w.is_finite()),
             velocity: start.velocity.filter(|v| v.iter().all(|x| x.is_finite())),
+            observed: start.observed.and_then(|o| o.finite()),
         }
+    }
+
+    /// What is measured at step `k` after the start (`k >= 1`), when anything is.
+    #[inline]
+    pub(super) fn at(&self, k: usize) -> Option<&ObservedMotion> {
+        self.observed.as_ref().filter(|o| o.step == k)
     }
 }
 

@@ -22,6 +22,9 @@ fn get_measured(s: &[f64]) -> Measured {
     Measured {
         yaw_rate: (s[0] != 0.0).then_some(s[1]),
         velocity: (s[2] != 0.0).then_some([s[3], s[4]]),
+        // A stepper is given no later measurement (the controller's own state estimate is
+        // its to make).
+        observed: None,
     }
 }
 

@@ -416,6 +416,72 @@ fn a_measured_start_yaw_rate_sets_a_decaying_disturbance() {
 }
 
 #[test]
+fn the_motion_observed_at_a_later_step_is_the_lagging_velocity_there() {
+    // A yaw lag of 0.1 per step, a fifth of the x and y's; no disturbance; no transport
+    // (so that x and y follow their own lag only).
+    let (lag_xy, lag_yaw) = ((0.5f64 / 0.5).ln(), (0.1f64 / 0.9).ln());
+    let model = dynamics_only([lag_xy, lag_xy, lag_yaw], [-40.0, 0.0], false);
+    // At rest for 10 steps, then commanded to turn at 1 rad/s and drive at 1 m/s.
+    let mut f = vec![BodyVelocity::zeros(); 10];
+    f.extend(vec![BodyVelocity::new(1.0, 0.0, 1.0); 20]);
+    let start = StartState::at_rest(Pose::zeros());
+    let (mut free, mut v) = (Vec::new(), Vec::new());
+    model.rollout_velocities_into(&start, &f, &mut free);
+    // Running free, step 15 has covered 1 - 0.9^6 of the way to 1 rad/s.
+    assert!((free[15].z - (1.0 - 0.9f64.powi(6))).abs() < 1e-12);
+    // The IMU measures 0.8 rad/s before step 15: the lag goes on from there.
+    let observed = start.with_observed(15, Some(0.8), None);
+    model.rollout_velocities_into(&observed, &f, &mut v);
+    assert_eq!(v[..15], free[..15]);
+    for k in 15..30 {
+        let expected = 1.0 - 0.2 * 0.9f64.powi((k - 14) as i32);
+        assert!(
+            (v[k].z - expected).abs() < 1e-12,
+            "{k}: {} vs {expected}",
+            v[k].z
+        );
+        // x and y, not measured, run as they did.
+        assert_eq!((v[k].x, v[k].y), (free[k].x, free[k].y));
+    }
+    // The localization's velocity before step 12, likewise for x and y.
+    let observed = start.with_observed(12, None, Some([0.2, 0.1]));
+    model.rollout_velocities_into(&observed, &f, &mut v);
+    assert!(
+        (v[12].x - (0.2 + 0.5 * (1.0 - 0.2))).abs() < 1e-12,
+        "{}",
+        v[12].x
+    );
+    assert!((v[12].y - 0.05).abs() < 1e-12, "{}", v[12].y);
+    assert_eq!(v[12].z, free[12].z);
+    // A glitch departs from the steady velocity by at most the limits (scale 1: 1 rad/s
+    // of yaw rate): 2 rad/s, then the lag.
+    let glitch = start.with_observed(15, Some(1e9), None);
+    model.rollout_velocities_into(&glitch, &f, &mut v);
+    assert!((v[15].z - (2.0 - 0.1 * 1.0)).abs() < 1e-12, "{}", v[15].z);
+    // Nothing finite measured, or measured at the start or past the last step: the free run.
+    for o in [
+        start.with_observed(15, Some(f64::NAN), None),
+        start.with_observed(0, Some(0.8), None),
+        start.with_observed(99, Some(0.8), None),
+    ] {
+        model.rollout_velocities_into(&o, &f, &mut v);
+        assert_eq!(v, free);
+    }
+    // The covariance rollout takes it too, and stays finite and symmetric.
+    let mut c = Vec::new();
+    assert!(model.rollout_covariances_into(
+        &start.with_observed(15, Some(0.8), None),
+        &f,
+        0.05,
+        &mut c
+    ));
+    assert_eq!(c.len(), f.len());
+    assert!(c
+        .iter()
+        .all(|c| c.iter().all(|x| x.is_finite()) && (c - c.transpose()).norm() < 1e-12));
+}
+
+#[test]
 fn a_measured_start_velocity_starts_the_lagging_velocity() {
     // Lag 0.25 per step along x and y, none in yaw, no transport (no turning anyway);
     // the start velocity trusted at 0.75.
