@@ -338,12 +338,12 @@ pub fn text(r: &TrackResult) -> String {
 /// Every run, one row each.
 pub fn runs_csv(result: &TrackResult) -> String {
     let mut s = String::from(
-        "model,train,path,speed_fraction,speed_m_s,seed,cross_track_rms_m,cross_track_max_m,heading_rms_rad,course_rms_rad,completed,duration_s,effort,command_change_rms,yaw_rate_sign_changes,yaw_rate_sign_changes_per_m,tick_ms_median,length_m,history_s\n",
+        "model,train,path,speed_fraction,speed_m_s,seed,cross_track_rms_m,cross_track_max_m,heading_rms_rad,course_rms_rad,completed,duration_s,effort,command_change_rms,yaw_rate_sign_changes,yaw_rate_sign_changes_per_m,tick_ms_median,length_m,history_s,speed_kept\n",
     );
     for r in &result.runs {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.model,
             csv_text(&r.train),
             csv_text(&r.path),
@@ -362,7 +362,8 @@ pub fn runs_csv(result: &TrackResult) -> String {
             r.yaw_rate_sign_changes_per_m,
             r.tick_ms_median,
             r.length_m,
-            r.history_s
+            r.history_s,
+            r.speed_kept
         );
     }
     s
@@ -371,13 +372,13 @@ pub fn runs_csv(result: &TrackResult) -> String {
 /// The summary, one row per model, training, path and speed.
 pub fn summary_csv(result: &TrackResult) -> String {
     let mut s = String::from(
-        "model,train,path,speed_fraction,runs,cross_track_rms_m,cross_track_max_m,heading_rms_rad,course_rms_rad,completed_share,duration_s,effort,command_change_rms,yaw_rate_sign_changes_per_m,feasible,improvement_over_first_percent,improvement_over_powertrain_percent,heading_rms_ratio_to_powertrain,open_loop_translational_median_m,open_loop_rotational_median_rad,history_s\n",
+        "model,train,path,speed_fraction,runs,cross_track_rms_m,cross_track_max_m,heading_rms_rad,course_rms_rad,completed_share,duration_s,effort,command_change_rms,yaw_rate_sign_changes_per_m,feasible,improvement_over_first_percent,improvement_over_powertrain_percent,heading_rms_ratio_to_powertrain,open_loop_translational_median_m,open_loop_rotational_median_rad,history_s,speed_kept,speed_kept_ratio_to_powertrain\n",
     );
     for r in &result.summary {
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.model,
             csv_text(&r.train),
             csv_text(&r.path),
@@ -398,7 +399,9 @@ pub fn summary_csv(result: &TrackResult) -> String {
             opt(r.heading_rms_ratio_to_powertrain),
             opt(r.open_loop_translational_median_m),
             opt(r.open_loop_rotational_median_rad),
-            r.history_s
+            r.history_s,
+            r.speed_kept,
+            opt(r.speed_kept_ratio_to_powertrain)
         );
     }
     s

@@ -59,10 +59,12 @@ impl Tracker {
     /// input space and acceleration limits bound the commands). `start` is what the
     /// model's predictions start from, as it was fitted ("encoders+imu" by default);
     /// `history` (s) how far back the predictions start, through the commands sent since
-    /// (by default the model's powertrain's settling time: its dead time plus two time
-    /// constants for the FOPDT of eq. 3, at least 0.5 s).
+    /// (by default the model's powertrain's settling time: its dead time plus one time
+    /// constant for the FOPDT of eq. 3, at least 0.5 s); `observe_now` whether the
+    /// body's motion measured now (the IMU's yaw rate) is the model's state after them
+    /// (True by default, as in `drive track`; slip-ipem's lagging body velocity).
     #[new]
-    #[pyo3(signature = (model, robot, path, speed, *, scale=4.0, start=None, samples=None, horizon=None, temperature=None, history=None, uncertainty_weight=None))]
+    #[pyo3(signature = (model, robot, path, speed, *, scale=4.0, start=None, samples=None, horizon=None, temperature=None, history=None, uncertainty_weight=None, observe_now=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -77,6 +79,7 @@ impl Tracker {
         temperature: Option<f64>,
         history: Option<f64>,
         uncertainty_weight: Option<f64>,
+        observe_now: Option<bool>,
     ) -> PyResult<Self> {
         let model = model.extract::<PyRef<'_, Model>>().map_err(|_| {
             err(format!(
@@ -122,6 +125,7 @@ impl Tracker {
             horizon: horizon.unwrap_or(d.horizon),
             temperature: temperature.unwrap_or(d.temperature),
             uncertainty_weight: uncertainty_weight.unwrap_or(d.uncertainty_weight),
+            observe_now: observe_now.unwrap_or(d.observe_now),
             ..d
         };
         let setup = ControlSetup {

@@ -127,6 +127,10 @@ def test_tracker_errors_are_drive_errors(model_file):
     assert len(tick["command"]) == 2 and all(math.isfinite(u) for u in tick["command"])
     # No history given (None): the model's powertrain's settling time, as in drive track.
     drive.Tracker(model, "husky", "line", 0.5, history=None, samples=64)
+    # The rollouts' state after the history's commands left to run free: a tick plans too.
+    free = drive.Tracker(model, "husky", "line", 0.5, samples=64, observe_now=False)
+    tick = free.tick(0.0, (0.0, 0.0), pose=(0.0, 0.0, 0.0), imu_yaw_rate=0.1)
+    assert all(math.isfinite(u) for u in tick["command"])
     tracker = drive.Tracker(model, "husky", "line", 0.5, scale=2.0, samples=64)
     assert tracker.length == pytest.approx(12.0)
     with pytest.raises(drive.DriveError, match="no localization"):

@@ -354,6 +354,12 @@ fn track_compares_with_the_powertrain_model_and_flags_a_path_the_robot_cannot_dr
             assert!((per_m - flips / f(&r["length_m"])).abs() < 1e-9, "{r}");
         }
         assert!(f(&r["command_change_rms"]) >= 0.0, "{r}");
+        // The speed kept: the path covered over the time driven, over the speed asked.
+        if r["completed"] == true {
+            let kept = f(&r["length_m"]) / f(&r["duration_s"]) / f(&r["speed_m_s"]);
+            assert!((f(&r["speed_kept"]) - kept).abs() < 1e-9, "{r}");
+            assert!(kept > 0.3 && kept < 1.5, "{r}");
+        }
     }
     // The two seeds differ (the plant's noise and the controller's sampling).
     let runs: Vec<&serde_json::Value> = v["runs"]
@@ -415,8 +421,16 @@ fn track_compares_with_the_powertrain_model_and_flags_a_path_the_robot_cannot_dr
             assert!((got - 100.0 * (a - b) / a).abs() < 1e-9, "{sb}");
             let ratio = f(&sb["heading_rms_ratio_to_powertrain"]);
             assert!((ratio - f(&sb["heading_rms_rad"]) / f(&pt["heading_rms_rad"])).abs() < 1e-9);
+            let kept = f(&sb["speed_kept_ratio_to_powertrain"]);
+            assert!((kept - f(&sb["speed_kept"]) / f(&pt["speed_kept"])).abs() < 1e-9);
+            // Kept far from the powertrain model's, a note says the two are of other speeds.
+            let noted = notes.iter().any(|n| {
+                n.starts_with("slip-blr (") && n.contains(&format!("on {path} at 50% kept"))
+            });
+            assert_eq!(noted, !(0.8..=1.25).contains(&kept), "{kept} {notes:?}");
         } else {
             assert!(sb["improvement_over_powertrain_percent"].is_null(), "{sb}");
+            assert!(sb["speed_kept_ratio_to_powertrain"].is_null(), "{sb}");
         }
         // Each model's open-loop error on the windows the controllers drove (eq. 8 on the
         // recorded commands): on this twin, whose yaw rate is a quarter of the commanded

@@ -232,6 +232,10 @@ pub struct TrackRun {
     pub completed: bool,
     /// Time driven (s): to the end of the path, or to the time limit.
     pub duration_s: f64,
+    /// The share of the asked speed the robot kept along the path: the path covered over
+    /// the time driven, over [`Self::speed_m_s`] (1: on time; a robot that crawls keeps
+    /// closer to the path with less to show for it).
+    pub speed_kept: f64,
     /// RMS of the commands, normalised by the input space's half-range (0: at its centre,
     /// 1: at its corners).
     pub effort: f64,
@@ -289,6 +293,8 @@ pub struct TrackSummary {
     pub completed_share: f64,
     /// Mean time of the completed runs (s); absent when none completed.
     pub duration_s: Option<f64>,
+    /// Mean of the runs' [`TrackRun::speed_kept`].
+    pub speed_kept: f64,
     /// Mean effort.
     pub effort: f64,
     /// Mean of the runs' [`TrackRun::command_change_rms`].
@@ -318,6 +324,10 @@ pub struct TrackSummary {
     /// The mean RMS heading error over the powertrain model's (weaving shows as a ratio
     /// well above 1), under the same conditions.
     pub heading_rms_ratio_to_powertrain: Option<f64>,
+    /// The mean share of the asked speed kept over the powertrain model's, under the same
+    /// conditions: far from 1, the two cross-track errors are of different speeds (a note
+    /// says so below a ratio of 0.8 or above 1.25).
+    pub speed_kept_ratio_to_powertrain: Option<f64>,
     /// This model's open-loop error on what the controllers drove here: the median
     /// translational MRMSE (eq. 8, m) of its predictions of the windows cut from every run
     /// of this training, path and speed (every model's, every seed), from their recorded
@@ -793,7 +803,7 @@ pub fn run_track(
         .ok()
         .map(|p| p.canonical())
         .and_then(|c| study.models.iter().position(|m| m.canonical() == c));
-    let mut summary = summarise(study, &runs, &feasible, powertrain);
+    let mut summary = summarise(study, &runs, &feasible, powertrain, &mut notes);
     open_loop_scores(study, &runs, &sets, &fits, &mut summary);
     let start = Pose::zeros();
     Ok(TrackResult {

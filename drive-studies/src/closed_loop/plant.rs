@@ -378,6 +378,11 @@ pub(super) fn drive(
         course_rms_rad: (course2 / courses.max(1) as f64).sqrt(),
         completed,
         duration_s: duration,
+        speed_kept: if duration > 0.0 && plan.speed > 0.0 {
+            covered / duration / plan.speed
+        } else {
+            0.0
+        },
         effort: (effort2 / n).sqrt(),
         command_change_rms: (change2 / (n - 1.0).max(1.0)).sqrt(),
         yaw_rate_sign_changes: flips,

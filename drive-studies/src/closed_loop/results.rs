@@ -47,13 +47,19 @@ pub(super) fn check_data(
     Ok(())
 }
 
+/// The ratios of the speed kept to the powertrain model's within which two models' runs
+/// are of about the same speed (beyond them, a note).
+pub(super) const SPEED_KEPT_ALIKE: (f64, f64) = (0.8, 1.25);
+
 /// Per model, training, path and speed: the runs' means, and the improvements over the
-/// first model and over the powertrain model (the study's model `powertrain`, when there).
+/// first model and over the powertrain model (the study's model `powertrain`, when there);
+/// a note in `notes` where a model kept a speed unlike the powertrain model's.
 pub(super) fn summarise(
     study: &TrackStudy,
     runs: &[TrackRun],
     feasibility: &[Feasibility],
     powertrain: Option<usize>,
+    notes: &mut Vec<String>,
 ) -> Vec<TrackSummary> {
     let mut out: Vec<TrackSummary> = Vec::new();
     for t in &study.training {
@@ -101,6 +107,7 @@ pub(super) fn summarise(
                         completed_share: done.len() as f64 / n,
                         duration_s: (!done.is_empty())
                             .then(|| done.iter().sum::<f64>() / done.len() as f64),
+                        speed_kept: mean(|r| r.speed_kept),
                         effort: mean(|r| r.effort),
                         command_change_rms: mean(|r| r.command_change_rms),
                         yaw_rate_sign_changes_per_m: mean(|r| r.yaw_rate_sign_changes_per_m),
@@ -114,6 +121,7 @@ pub(super) fn summarise(
                         improvement_over_first_percent: None,
                         improvement_over_powertrain_percent: None,
                         heading_rms_ratio_to_powertrain: None,
+                        speed_kept_ratio_to_powertrain: None,
                         open_loop_translational_median_m: None,
                         open_loop_rotational_median_rad: None,
                     });
@@ -138,8 +146,15 @@ pub(super) fn summarise(
                     .map(|i| &study.models[i].name)
                     .and_then(|name| block.iter().find(|s| &s.model == name))
                     .filter(|s| s.completed_share == 1.0)
-                    .map(|s| (s.model.clone(), s.cross_track_rms_m, s.heading_rms_rad));
-                if let Some((name, cross, heading)) = base.filter(|b| b.1 > 0.0) {
+                    .map(|s| {
+                        (
+                            s.model.clone(),
+                            s.cross_track_rms_m,
+                            s.heading_rms_rad,
+                            s.speed_kept,
+                        )
+                    });
+                if let Some((name, cross, heading, kept)) = base.filter(|b| b.1 > 0.0) {
                     for s in block
                         .iter_mut()
                         .filter(|s| s.model != name && s.completed_share == 1.0)
@@ -148,6 +163,23 @@ pub(super) fn summarise(
                             Some(100.0 * (cross - s.cross_track_rms_m) / cross);
                         s.heading_rms_ratio_to_powertrain =
                             (heading > 0.0).then(|| s.heading_rms_rad / heading);
+                        s.speed_kept_ratio_to_powertrain =
+                            (kept > 0.0).then(|| s.speed_kept / kept);
+                        if let Some(ratio) = s
+                            .speed_kept_ratio_to_powertrain
+                            .filter(|r| !(SPEED_KEPT_ALIKE.0..=SPEED_KEPT_ALIKE.1).contains(r))
+                        {
+                            notes.push(format!(
+                                "{} ({}) on {} at {:.0}% kept {:.2} of the asked speed, the powertrain model {:.2} ({:.2}x): their cross-track errors are of different speeds",
+                                s.model,
+                                s.train,
+                                p.name(),
+                                100.0 * f,
+                                s.speed_kept,
+                                kept,
+                                ratio
+                            ));
+                        }
                     }
                 }
                 out.extend(block);
