@@ -166,6 +166,17 @@ pub fn robot_of(
             .map(|e| e.part().as_ref().clone())
             .filter(|spec| theirs(spec) == ours)
         {
+            // A robot file that took a registered robot's name: not that robot's body.
+            let geometry = |v: &dyn crate::traits::CommandModel| serde_json::to_value(v).ok();
+            if geometry(spec.vehicle.as_ref()) != geometry(data.robot.vehicle.as_ref()) {
+                return Ok(RobotOf {
+                    name: named.to_string(),
+                    body: None,
+                    source: format!(
+                        "the sidecar's registered_robot {named}, whose vehicle geometry is not the registered {named}'s (a robot file of that name?): no body size; --robot names the robot"
+                    ),
+                });
+            }
             return Ok(of_spec(
                 &spec,
                 format!("robot {named}, named in the sidecar's registered_robot"),
@@ -243,6 +254,38 @@ pub fn load(
         .par_iter()
         .map(|e| load_entry(registries, e))
         .collect()
+}
+
+/// [`load`], each entry on its own: a benchmark goes on without a dataset that cannot be
+/// read or imported (a NaN cell, a recording whose every interval is dropped) and names it
+/// as skipped, while a suite that names a robot that does not exist is still refused (see
+/// [`SuiteLoadError::skippable`]).
+pub fn load_each(
+    registries: &Registries,
+    entries: &[SuiteEntry],
+) -> Vec<(String, Result<BenchInput, SuiteLoadError>)> {
+    entries
+        .par_iter()
+        .map(|e| (e.name(), load_entry(registries, e)))
+        .collect()
+}
+
+impl SuiteLoadError {
+    /// Whether the error is the dataset's own (its file unreadable, corrupted or with
+    /// nothing usable), so that a benchmark goes on without it; the others (the suite file,
+    /// a robot or vehicle that does not exist) are the suite's configuration.
+    pub fn skippable(&self) -> bool {
+        matches!(self, Self::Data { .. } | Self::Import { .. })
+    }
+
+    /// The reason alone, without the dataset's name.
+    pub fn reason(&self) -> String {
+        match self {
+            Self::Data { reason, .. } => reason.to_string(),
+            Self::Import { message, .. } => message.clone(),
+            e => e.to_string(),
+        }
+    }
 }
 
 fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput, SuiteLoadError> {

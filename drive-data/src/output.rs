@@ -217,6 +217,34 @@ pub const OUTPUT_MANIFEST: &str = ".drive-outputs";
 
 static TEMP_COUNTER: AtomicUsize = AtomicUsize::new(0);
 
+/// Removes from `dir` the temporaries (`.drive-tmp-PID-...`) of runs that no longer exist: a
+/// run killed before it published (SIGKILL runs no cleanup) left them there. A live run's,
+/// this one's included, are kept; where whether a process lives cannot be told (no `/proc`),
+/// nothing is removed.
+fn remove_stale_temporaries(dir: &Path) {
+    let proc_dir = Path::new("/proc");
+    if !proc_dir.join("self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(rest) = name.to_str().and_then(|n| n.strip_prefix(".drive-tmp-")) else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        let file = entry.file_type().is_ok_and(|t| t.is_file());
+        if file && pid != std::process::id() && !proc_dir.join(pid.to_string()).exists() {
+            // Best effort: one that cannot be removed stays, as it was.
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
 impl Outputs {
     /// Outputs of a command whose inputs are `inputs` (flag or description, path); paths
     /// that do not exist are kept too (an output must not take their place either).
@@ -362,6 +390,9 @@ impl Outputs {
             }
         };
         self.create_dir(&dir).map_err(|e| failed(e.to_string()))?;
+        if !direct {
+            remove_stale_temporaries(&dir);
+        }
         let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
         let temp = dir.join(format!(
             ".drive-tmp-{}-{n}-{}",
@@ -585,6 +616,28 @@ impl Drop for Outputs {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 63: a run killed before it published left its temporaries; the next run into
+    /// that directory removes those of runs that no longer exist, and only those.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn temporaries_of_runs_that_no_longer_exist_are_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        // No process has that id (beyond Linux's largest, 4194304).
+        let stale = d.join(".drive-tmp-4294967-0-report.md");
+        let live = d.join(format!(".drive-tmp-{}-99-x.md", std::process::id()));
+        let other = d.join(".drive-tmp-notes.txt");
+        for f in [&stale, &live, &other] {
+            std::fs::write(f, "x").unwrap();
+        }
+        let mut outputs = Outputs::new(&[]);
+        outputs.write(&d.join("out.txt"), "new").unwrap();
+        outputs.publish().unwrap();
+        assert!(!stale.exists());
+        assert!(live.exists() && other.exists());
+        assert_eq!(std::fs::read_to_string(d.join("out.txt")).unwrap(), "new");
+    }
 
     #[test]
     fn an_output_inside_a_file_is_refused_before_any_work() {

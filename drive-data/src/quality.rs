@@ -18,6 +18,13 @@ use drive_traits::limits::Short;
 use drive_traits::{Dataset, InputSpace, Phase, Window};
 use serde::Serialize;
 
+/// `encoder-command`: the least-squares gain of a measured input on its command above which
+/// the encoders are in another unit than the commands (the real runs: 0.42-0.84, a powertrain
+/// saturating below its commands; a powertrain answers a command, it does not keep turning
+/// twice as fast: a wheel's commands in m/s against its encoders in rad/s scale the gain by
+/// 1 / radius, 2.6 on a real Warthog run).
+const MAX_ENCODER_GAIN: f64 = 2.0;
+
 mod localization;
 pub use localization::{fixed_position_axis, position_grid};
 
@@ -88,11 +95,14 @@ pub enum Check {
     ImuYawRate,
     /// The transient and steady labels against what the wheels do (swapped labels).
     Phases,
+    /// Windows out of the order they were recorded in (steady windows holding another
+    /// command than their interval's transient one).
+    WindowOrder,
 }
 
 impl Check {
     /// Every check, in [`CHECKS`]' order.
-    pub const ALL: [Check; 15] = [
+    pub const ALL: [Check; 16] = [
         Check::NotMoving,
         Check::ImuConstant,
         Check::EncodersZero,
@@ -108,6 +118,7 @@ impl Check {
         Check::DuplicateWindows,
         Check::ImuYawRate,
         Check::Phases,
+        Check::WindowOrder,
     ];
 
     /// The check's key, the name `--allow` takes (its entry in [`CHECKS`]).
@@ -144,7 +155,7 @@ pub struct Finding {
 }
 
 /// The checks' keys and what they look for, in [`Check`]'s order.
-pub const CHECKS: [(&str, &str); 15] = [
+pub const CHECKS: [(&str, &str); 16] = [
     (
         "not-moving",
         "localization still while the encoders turn (wheels off the ground, localization frozen)",
@@ -167,7 +178,7 @@ pub const CHECKS: [(&str, &str); 15] = [
     ),
     (
         "encoder-command",
-        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 4 or under 0.1: commands or encoders in another unit), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled)",
+        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 2 or under 0.1: commands or encoders in another unit), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled)",
     ),
     (
         "outside-limits",
@@ -204,6 +215,10 @@ pub const CHECKS: [(&str, &str); 15] = [
     (
         "phases",
         "the measured inputs changing more over the steady windows than over the transient ones (the phase labels swapped: a split and the per-phase errors would be of the wrong windows)",
+    ),
+    (
+        "window-order",
+        "windows out of the order they were recorded in: over half of the steady windows holding another command than the transient window that opens their interval, where the windows hold their commands (windows sorted, reversed or shuffled: the split, the start states and the transient fit would take windows from other moments)",
     ),
 ];
 
@@ -281,8 +296,83 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(duplicate_windows(&w));
     out.extend(imu_yaw_rate(&w));
     out.extend(phases(&w));
+    out.extend(window_order(&w.windows));
     out.extend(commands_constant(&w));
     out
+}
+
+/// `window-order`: a DRIVE interval's transient window ramps to one command (within the
+/// robot's acceleration) that its steady windows hold (the intervals are found from the
+/// phases: each transient window opens one). Where the steady windows hold their commands
+/// (within 1% of the axis's range in nine of ten), fatal when over half of them (ten at
+/// least) hold another command than the one their interval's transient window ends on:
+/// windows sorted, reversed or shuffled (the real runs: 0-5%; a run's windows reversed or
+/// shuffled: 95-99%). A split by interval, the start states (a window's preceding one) and
+/// the transient fit would take windows from other moments of the run.
+fn window_order(windows: &[&Window]) -> Option<Finding> {
+    // Every input axis (a two-input vehicle's third is 0 throughout).
+    let axes = 3;
+    // Each axis's command range over the run (the tolerance's scale).
+    let mut range = [0.0f64; 3];
+    for a in 0..axes {
+        let (lo, hi) = windows
+            .iter()
+            .flat_map(|w| w.command.iter().map(move |u| u[a]))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            });
+        range[a] = (hi - lo).max(0.0);
+    }
+    let tolerance = |a: usize| 0.01 * range[a] + 1e-12;
+    let mean = |w: &Window, a: usize| w.command.iter().map(|u| u[a]).sum::<f64>() / w.len() as f64;
+    let steadies: Vec<&&Window> = windows
+        .iter()
+        .filter(|w| w.phase != Phase::Transient)
+        .collect();
+    let held = steadies
+        .iter()
+        .filter(|w| {
+            (0..axes).all(|a| {
+                let m = mean(w, a);
+                w.command.iter().all(|u| (u[a] - m).abs() <= tolerance(a))
+            })
+        })
+        .count();
+    if held * 10 < steadies.len() * 9 {
+        return None;
+    }
+    let mut opening: Option<(usize, &Window)> = None;
+    let (mut steady, mut other) = (0usize, 0usize);
+    for w in windows {
+        if w.phase == Phase::Transient {
+            opening = Some((w.interval, w));
+            continue;
+        }
+        let Some((interval, transient)) = opening else {
+            continue;
+        };
+        if interval != w.interval {
+            continue;
+        }
+        steady += 1;
+        // The command the transient window ramps to (within the robot's acceleration).
+        let Some(target) = transient.command.last() else {
+            continue;
+        };
+        if (0..axes).any(|a| (mean(w, a) - target[a]).abs() > tolerance(a)) {
+            other += 1;
+        }
+    }
+    if steady < 10 || other * 2 <= steady {
+        return None;
+    }
+    Some(Finding {
+        check: Check::WindowOrder,
+        severity: Severity::Fatal,
+        message: format!(
+            "{other} of {steady} steady windows hold another command than the transient window that opens their interval: the windows are not in the order they were recorded in (sorted, reversed or shuffled?)"
+        ),
+    })
 }
 
 /// `phases`: the median change of the measured inputs over a window (the mean of its last
@@ -1334,13 +1424,14 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         // geometry than the robot's leaves one wheel following the other side's command:
         // no fatal there.)
         // And where it follows its own command closely (0.5 or more) at a gain no robot's
-        // powertrain explains (over 4, the warning's bound, or under 0.02: encoders in rpm
-        // against commands in rad/s give 9.5, a steering angle in degrees against its
-        // command in radians 57 or 0.017).
+        // powertrain explains (over [`MAX_ENCODER_GAIN`], the warning's bound, or under 0.02:
+        // encoders in rpm against commands in rad/s give 9.5, a steering angle in degrees
+        // against its command in radians 57 or 0.017, a Warthog's commands in m/s at the
+        // wheel's rim against encoders in rad/s 2.6).
         let plain = intervals >= 10
             && ((gain <= -0.1 && own <= -0.5)
                 || (!skid_steer && cross >= 0.7 && own < 0.3)
-                || (own >= 0.5 && !(0.02..=4.0).contains(&gain)));
+                || (own >= 0.5 && !(0.02..=MAX_ENCODER_GAIN).contains(&gain)));
         let message = if dead * 10 >= n * 9 && own < 0.5 {
             format!(
                 "'{}' stays under a thousandth of its largest command ({} {}) on {dead} of {n} commanded samples: that encoder dead, or not recorded?",
@@ -1364,7 +1455,7 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
                 axis.command_column,
                 Short((own * 100.0).round() / 100.0)
             )
-        } else if !(0.1..=4.0).contains(&gain) {
+        } else if !(0.1..=MAX_ENCODER_GAIN).contains(&gain) {
             format!(
                 "'{}' follows its commands '{}' with a gain of {} (over {n} commanded samples): commands or encoders in another unit?",
                 axis.measured_column,

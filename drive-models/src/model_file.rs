@@ -127,6 +127,87 @@ pub struct FitSettings {
     /// The training windows.
     #[serde(default)]
     pub training_windows: usize,
+    /// The commands the training windows held, per input axis (`None` in a file written
+    /// before it was kept): a prediction for commands beyond them is noted, not trusted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub commanded: Option<CommandRange>,
+}
+
+/// The least and largest command of each input axis over a model's training windows.
+///
+/// ```
+/// use drive_models::model_file::CommandRange;
+/// let range = CommandRange { min: vec![-1.0, -2.0], max: vec![1.0, 2.0] };
+/// assert_eq!(range.beyond(&[0.5, 2.05]), None); // within 5% of the span
+/// assert_eq!(range.beyond(&[0.5, 3.0]), Some((1, 3.0)));
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CommandRange {
+    /// Per axis, the least command.
+    pub min: Vec<f64>,
+    /// Per axis, the largest command.
+    pub max: Vec<f64>,
+}
+
+impl CommandRange {
+    /// The range of the commands of `windows`; `None` without a command or with one that
+    /// is not finite.
+    pub fn of(windows: &drive_traits::WindowSet<'_>) -> Option<Self> {
+        let axes = windows.robot.vehicle.input_dim();
+        let mut range = CommandRange {
+            min: vec![f64::INFINITY; axes],
+            max: vec![f64::NEG_INFINITY; axes],
+        };
+        for u in windows.windows.iter().flat_map(|w| &w.command) {
+            for i in 0..axes {
+                range.min[i] = range.min[i].min(u[i]);
+                range.max[i] = range.max[i].max(u[i]);
+            }
+        }
+        range
+            .min
+            .iter()
+            .chain(&range.max)
+            .all(|v| v.is_finite())
+            .then_some(range)
+    }
+
+    /// The first axis and value of `command` beyond the range by more than 5% of the axis's
+    /// span (and 1e-9), if any.
+    pub fn beyond(&self, command: &[f64]) -> Option<(usize, f64)> {
+        command
+            .iter()
+            .zip(self.min.iter().zip(&self.max))
+            .enumerate()
+            .find(|(_, (v, (lo, hi)))| {
+                let slack = 0.05 * (*hi - *lo) + 1e-9;
+                **v < *lo - slack || **v > *hi + slack
+            })
+            .map(|(i, (v, _))| (i, *v))
+    }
+
+    /// `Err` unless one finite `min <= max` per axis of `axes`.
+    fn check(&self, axes: usize) -> Result<(), String> {
+        if self.min.len() != axes || self.max.len() != axes {
+            return Err(format!(
+                "fitted_with.commanded has {} and {} values for a vehicle of {axes} input axes",
+                self.min.len(),
+                self.max.len()
+            ));
+        }
+        if !self
+            .min
+            .iter()
+            .zip(&self.max)
+            .all(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo <= hi)
+        {
+            return Err(
+                "fitted_with.commanded is not a range (finite, min <= max) per axis".into(),
+            );
+        }
+        Ok(())
+    }
 }
 
 impl FitSettings {
@@ -140,6 +221,7 @@ impl FitSettings {
             uncertainty,
             split: None,
             training_windows: 0,
+            commanded: None,
         }
     }
 
@@ -616,6 +698,14 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
                 drive_traits::limits::Short(robot.rate_hz)
             ),
         });
+    }
+    if let Some(range) = fitted_with.as_ref().and_then(|f| f.commanded.as_ref()) {
+        range
+            .check(robot.vehicle.input_dim())
+            .map_err(|message| ModelFileError::Model {
+                file: file.into(),
+                message,
+            })?;
     }
     Ok(ModelFile {
         model,

@@ -151,6 +151,32 @@ pub fn bench_units(inputs: &[BenchInput], models: usize, config: &BenchConfig) -
 /// the pairs skipped with why (other rates or vehicle types, or the same windows).
 fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
     let prints: Vec<WindowPrints> = inputs.iter().map(|i| window_prints(&i.data)).collect();
+    // Which datasets are one run, directly (their windows shared) or through another (a run
+    // and two copies altered differently, each the run's but not the other's): groups.
+    let n = inputs.len();
+    let mut shared = vec![None; n * n];
+    let mut group: Vec<usize> = (0..n).collect();
+    fn root(group: &mut [usize], mut i: usize) -> usize {
+        while group[i] != i {
+            group[i] = group[group[i]];
+            i = group[i];
+        }
+        i
+    }
+    for a in 0..n {
+        for b in a + 1..n {
+            if inputs[a].robot != inputs[b].robot {
+                continue;
+            }
+            let found = shared_windows(&prints[a], &prints[b]);
+            if same_run(found) {
+                let (ra, rb) = (root(&mut group, a), root(&mut group, b));
+                group[ra] = rb;
+            }
+            shared[a * n + b] = Some(found);
+            shared[b * n + a] = Some(found);
+        }
+    }
     let mut pairs = Vec::new();
     let mut skipped = Vec::new();
     for (a, ia) in inputs.iter().enumerate() {
@@ -173,12 +199,18 @@ fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
             } else {
                 // One run listed twice, in two formats, or with a part of itself: its own
                 // windows, by content.
-                let (shared, smaller) = shared_windows(&prints[a], &prints[b]);
-                same_run((shared, smaller)).then(|| {
-                    format!(
+                let (shared, smaller) = shared[a * n + b].unwrap_or((0, 0));
+                if same_run((shared, smaller)) {
+                    Some(format!(
                         "the same windows ({shared} of the {smaller} of the one with fewer are also in the other: one run listed twice, in two formats, or with a part of itself?): each model would be scored on windows it was fitted on"
+                    ))
+                } else if root(&mut group, a) == root(&mut group, b) {
+                    Some(
+                        "one run through the others of the suite (each shares its windows with a dataset that shares them with the other: two copies of one run altered differently?): each model would be scored on windows it was fitted on".to_string(),
                     )
-                })
+                } else {
+                    None
+                }
             };
             match why {
                 None => pairs.push((a, b)),
@@ -252,7 +284,29 @@ pub(crate) struct WindowPrints {
     tracks: Vec<Track>,
     /// The tracks by their net motion's cell ([`TRACK_CELL`]).
     track_cells: HashMap<[i64; 3], Vec<usize>>,
+    /// For each window driven, what the robot was sent and sensed of itself ([`Inputs`]).
+    inputs: Vec<Inputs>,
+    /// The inputs by their mean command's cell ([`INPUTS_CELL`]).
+    input_cells: HashMap<[i64; 2], Vec<usize>>,
 }
+
+/// A window's mean command and mean measured input per axis and its mean IMU yaw rate: what
+/// the robot was sent and what it sensed of itself, whatever its localization saw. A copy
+/// whose localization alone was altered (noise added, positions scaled) keeps them.
+type Inputs = [f64; 7];
+
+/// How far two windows' [`Inputs`] may be apart and be one drive's: their means over a
+/// window (40 samples at 20 Hz) of a run and of its copy with noise of 0.03 per sample differ
+/// by 0.007 (one sigma); 0.02 rad/s or m/s on each.
+const INPUTS_TOLERANCE: f64 = 0.02;
+
+/// The cell of a window's mean command (its first two axes) for finding the inputs near it.
+const INPUTS_CELL: f64 = 0.05;
+
+/// The share of windows whose [`Inputs`] agree from which two runs are one (a half): two runs
+/// driven with the same commands (a simulator's same seed on two grounds) share those of
+/// their straight windows, where the ground changes neither the wheels nor the yaw rate.
+const SAME_INPUTS_SHARE: f64 = 0.5;
 
 /// A window's localization track: the pose (forward, sideways, turn) at a quarter, half,
 /// three quarters and all of the way through it, in its start frame.
@@ -271,7 +325,16 @@ pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
     let mut windows = Vec::new();
     let mut tracks = Vec::new();
     let mut track_cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    let mut inputs = Vec::new();
+    let mut input_cells: HashMap<[i64; 2], Vec<usize>> = HashMap::new();
     for w in data.windows.iter().filter(|w| w.len() >= 2) {
+        if let Some(i) = inputs_of(w) {
+            input_cells
+                .entry(inputs_cell(&i))
+                .or_default()
+                .push(inputs.len());
+            inputs.push(i);
+        }
         if let Some(track) = track_of(w) {
             track_cells
                 .entry(track_cell(&track))
@@ -319,7 +382,50 @@ pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
         windows,
         tracks,
         track_cells,
+        inputs,
+        input_cells,
     }
+}
+
+/// A window's [`Inputs`]; `None` when it was neither commanded nor moved its wheels by
+/// [`INPUTS_TOLERANCE`] (a window standing still carries no identity).
+fn inputs_of(w: &drive_traits::Window) -> Option<Inputs> {
+    let n = w.len() as f64;
+    let mut values = [0.0; 7];
+    for axis in 0..3 {
+        values[axis] = w.command.iter().map(|u| u[axis]).sum::<f64>() / n;
+        values[3 + axis] = w.measured.iter().map(|u| u[axis]).sum::<f64>() / n;
+    }
+    values[6] = w.imu_yaw_rate.iter().sum::<f64>() / w.imu_yaw_rate.len().max(1) as f64;
+    (values.iter().all(|v| v.is_finite())
+        && values[..6].iter().any(|v| v.abs() >= INPUTS_TOLERANCE))
+    .then_some(values)
+}
+
+/// The cell of a window's mean command ([`INPUTS_CELL`]).
+fn inputs_cell(i: &Inputs) -> [i64; 2] {
+    [i[0], i[1]].map(|v| (v / INPUTS_CELL).floor() as i64)
+}
+
+/// Whether `prints` holds a window whose [`Inputs`] agree with `i` within
+/// [`INPUTS_TOLERANCE`] on every value.
+fn holds_inputs(prints: &WindowPrints, i: &Inputs) -> bool {
+    let [a, b] = inputs_cell(i);
+    (-1..=1).any(|da| {
+        (-1..=1).any(|db| {
+            prints
+                .input_cells
+                .get(&[a + da, b + db])
+                .is_some_and(|near| {
+                    near.iter().any(|&n| {
+                        prints.inputs[n]
+                            .iter()
+                            .zip(i)
+                            .all(|(x, y)| (x - y).abs() <= INPUTS_TOLERANCE)
+                    })
+                })
+        })
+    })
 }
 
 /// The cell of a track's net motion ([`TRACK_CELL`]).
@@ -419,10 +525,31 @@ pub(crate) fn shared_windows(a: &WindowPrints, b: &WindowPrints) -> (usize, usiz
     let content = (by_content, few.len());
     let track = (by_track, few_tracks.tracks.len());
     // The larger share (cross-multiplied: either count may be 0).
-    if track.0 * content.1.max(1) > content.0 * track.1.max(1) {
+    let larger = if track.0 * content.1.max(1) > content.0 * track.1.max(1) {
         track
     } else {
         content
+    };
+    // What the robot was sent and sensed, in most windows: one drive, whatever was done to
+    // its localization ([`SAME_INPUTS_SHARE`]).
+    let (few_inputs, many_inputs) = if a.inputs.len() <= b.inputs.len() {
+        (a, b)
+    } else {
+        (b, a)
+    };
+    let by_inputs = few_inputs
+        .inputs
+        .iter()
+        .filter(|i| holds_inputs(many_inputs, i))
+        .count();
+    let inputs = (by_inputs, few_inputs.inputs.len());
+    if by_inputs > 0
+        && by_inputs as f64 >= SAME_INPUTS_SHARE * inputs.1 as f64
+        && inputs.0 * larger.1.max(1) > larger.0 * inputs.1.max(1)
+    {
+        inputs
+    } else {
+        larger
     }
 }
 

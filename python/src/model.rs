@@ -8,7 +8,7 @@ use crate::args::{
 use crate::err;
 use crate::evaluate::start_info_of;
 use drive::eval::split_by_interval;
-use drive::models::model_file::{model_file_to_json, read_model_file, FitSettings};
+use drive::models::model_file::{model_file_to_json, read_model_file, CommandRange, FitSettings};
 use drive::traits::{
     Input, MotionError, MotionModel, Pose, RobotDescription, StartInfo, StartState,
 };
@@ -697,9 +697,12 @@ pub(crate) fn fit(
             .map_err(|e| format!("fitting {name}: {e}"))
     })?;
     let fitted = fitted.map_err(err)?;
-    let training_windows = match split {
-        Some(f) => split_by_interval(data, f).map_err(err)?.0.len(),
-        None => data.windows.len(),
+    let (training_windows, commanded) = match split {
+        Some(f) => {
+            let train = split_by_interval(data, f).map_err(err)?.0;
+            (train.len(), CommandRange::of(&train))
+        }
+        None => (data.windows.len(), CommandRange::of(&data.all())),
     };
     Ok(Model {
         model: fitted.into(),
@@ -708,6 +711,7 @@ pub(crate) fn fit(
         settings: Some(FitSettings {
             split,
             training_windows,
+            commanded,
             ..FitSettings::of(&spec)
         }),
     })

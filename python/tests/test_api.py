@@ -632,13 +632,15 @@ def test_the_data_checks_findings_are_python_warnings(tmp_path):
 
 def test_bench_skips_a_useless_dataset_as_the_command_line_does(tmp_path):
     """A frozen localization in a suite: skipped with why (as `drive bench`), the other run
-    ranked; `allow_useless=True` ranks both."""
+    ranked; `allow_useless=True` ranks both. (The frozen run is another run than the one
+    beside it: a copy of that one with its localization alone altered is the same run, and
+    no transfer would be planned between them.)"""
     pd = pytest.importorskip("pandas")  # noqa: F841
-    grass = drive.load_dataset("bundled:warthog_grass_2024-08-08")
-    df = grass.to_pandas()
+    other = drive.load_dataset("bundled:warthog_asphalt_slow_2024-08-08")
+    df = other.to_pandas()
     for column in ("x", "y", "yaw"):
         df[column] = 0.0
-    drive.Dataset.from_pandas(df, grass.meta).save(tmp_path / "frozen.csv")
+    drive.Dataset.from_pandas(df, other.meta).save(tmp_path / "frozen.csv")
     suite = tmp_path / "suite.toml"
     suite.write_text('[[dataset]]\nbundled = "warthog_grass_2024-08-08"\n[[dataset]]\npath = "frozen.csv"\n')
     got = drive.bench(suite, models="naive", transfer=False)

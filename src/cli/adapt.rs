@@ -80,7 +80,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .with_context(|| format!("reading {}", args.prior))?;
         prior_file = crate::models::model_file::read_model_file(&args.prior, &text)?;
         let file = &prior_file;
-        let names = match &args.models {
+        let given = args
+            .models
+            .as_deref()
+            .map(|m| super::common::model_names(registries, m))
+            .transpose()?;
+        let names = match &given {
             Some(m) if m.len() != 1 => anyhow::bail!(
                 "--prior {} is one model: --models names the one fitted from scratch and on the target beside it, not {}",
                 args.prior,
@@ -111,7 +116,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             .into_iter()
             .map(|f| format!("{}, the prior: {f}", args.prior)),
         );
-        let names = args.models.clone().unwrap_or_else(|| {
+        let given = args
+            .models
+            .as_deref()
+            .map(|m| super::common::model_names(registries, m))
+            .transpose()?;
+        let names = given.unwrap_or_else(|| {
             crate::studies::ADAPT_MODELS
                 .split(',')
                 .map(String::from)

@@ -128,8 +128,33 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if !(args.split > 0.0 && args.split < 1.0) {
         bail!("--split {} must lie strictly between 0 and 1", args.split);
     }
+    // A dataset that cannot be read or imported is skipped and named, the others go on.
+    let mut unloaded: Vec<crate::studies::SkippedDataset> = Vec::new();
     let datasets: Vec<BenchInput> = match &entries {
-        Some(e) => crate::suite::load(registries, e)?,
+        Some(e) => {
+            let mut loaded = Vec::new();
+            for (name, outcome) in crate::suite::load_each(registries, e) {
+                match outcome {
+                    Ok(d) => loaded.push(d),
+                    Err(err) if err.skippable() => unloaded.push(crate::studies::SkippedDataset {
+                        dataset: name,
+                        reason: err.reason(),
+                    }),
+                    Err(err) => return Err(err.into()),
+                }
+            }
+            if loaded.is_empty() {
+                bail!(
+                    "no dataset of the suite could be read: {}",
+                    unloaded
+                        .iter()
+                        .map(|s| format!("'{}': {}", s.dataset, s.reason))
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                );
+            }
+            loaded
+        }
         None => crate::suite::bundled(registries)?,
     };
     crate::traits::limits::at_most("--adapt-times", args.adapt_times.len() as f64, 100.0, "")?;
@@ -154,9 +179,21 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let progress = Progress::new("bench");
     let total = bench_units(&datasets, specs.len(), &config);
     let done = AtomicUsize::new(0);
-    let bench = run_bench(&datasets, &specs, &config, &|| {
+    let mut bench = run_bench(&datasets, &specs, &config, &|| {
         progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, total)
+    })
+    .map_err(|e| match (&e, unloaded.is_empty()) {
+        (crate::studies::BenchError::AllSkipped(_), false) => anyhow::anyhow!(
+            "{e}; and unread: {}",
+            unloaded
+                .iter()
+                .map(|s| format!("'{}': {}", s.dataset, s.reason))
+                .collect::<Vec<_>>()
+                .join("; ")
+        ),
+        _ => e.into(),
     })?;
+    bench.skipped.extend(unloaded);
     progress.bar.finish_and_clear();
     if let Some(dir) = &args.out {
         let written = crate::report::bench::files(&bench)?;

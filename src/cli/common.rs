@@ -255,6 +255,65 @@ fn is_stream_file(stream: &std::fs::Metadata, path: &Path) -> bool {
 /// its reader would only say it is empty. The standard error too (`2> run.meta.json`): the
 /// message then lands in that file, which at least says what happened to it.
 pub fn stdout_not_an_input(inputs: &[(&'static str, PathBuf)]) -> Result<()> {
+    streams_not_inputs(inputs)
+}
+
+/// Flags whose value is a file the command writes: its own check names a redirection onto
+/// them (see [`outputs_for`]).
+const OUTPUT_FLAGS: &[&str] = &["--out", "--raw-out", "--per-window"];
+
+/// `Err` when the standard output or error is a file named on the command line `args`
+/// (the command's name first, then its arguments) as an input, or the sidecar of a window
+/// CSV named there: checked before any command parses a file, so that `drive adapt --prior
+/// m.json > m.json` says the shell emptied the model file rather than that its JSON ends
+/// early, and `drive converge --data d.csv >> d.meta.json` is refused before the sidecar is
+/// appended to. Each command checks the files its inputs name in turn (a suite's datasets).
+pub fn streams_not_named_inputs(args: &[OsString]) -> Result<()> {
+    let mut named: Vec<(String, PathBuf)> = Vec::new();
+    let mut flag: Option<String> = None;
+    // A sidecar named by its own flag is that flag's file, not the one beside the CSV.
+    let sidecar_named = args.iter().any(|a| {
+        a.to_string_lossy()
+            .trim_start_matches('-')
+            .contains("sidecar")
+    });
+    // The program and the command's name.
+    for arg in args.iter().skip(2) {
+        let text = arg.to_string_lossy();
+        let (role, value) = match text.split_once('=') {
+            Some((f, v)) if f.starts_with("--") => (Some(f.to_string()), OsString::from(v)),
+            _ if text.starts_with("--") => {
+                flag = Some(text.into_owned());
+                continue;
+            }
+            _ => (flag.take(), arg.clone()),
+        };
+        if role.as_deref().is_some_and(|f| OUTPUT_FLAGS.contains(&f)) {
+            continue;
+        }
+        let path = PathBuf::from(value);
+        // `/dev/stdout` named as a file is the stream itself, never emptied by it.
+        if path.starts_with("/dev") || path.starts_with("/proc") || !path.is_file() {
+            continue;
+        }
+        let role = role.unwrap_or_else(|| "argument".to_string());
+        if !sidecar_named
+            && path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+        {
+            named.push((
+                format!("sidecar of {role}"),
+                crate::data::sidecar_to_read(&path),
+            ));
+        }
+        named.push((role, path));
+    }
+    streams_not_inputs(&named)
+}
+
+/// `Err` when the standard output or error is one of `inputs` (role, path).
+fn streams_not_inputs<R: std::fmt::Display>(inputs: &[(R, PathBuf)]) -> Result<()> {
     #[cfg(unix)]
     for (stream, out) in streams_in_files() {
         if let Some((role, path)) = inputs.iter().find(|(_, p)| is_stream_file(&out, p)) {
@@ -342,7 +401,7 @@ pub fn note_quality(data: &Dataset, with_fatal: bool) {
 }
 
 /// One finding of the data checks on stderr, as a note.
-fn say_finding(data: &Dataset, f: &crate::data::quality::Finding) {
+pub fn say_finding(data: &Dataset, f: &crate::data::quality::Finding) {
     let fatal = if f.severity == crate::data::quality::Severity::Fatal {
         ", which drive check calls fatal"
     } else {
@@ -609,6 +668,20 @@ pub fn names(list: &[String]) -> Vec<&str> {
         .map(|s| s.trim())
         .filter(|s| !s.is_empty())
         .collect()
+}
+
+/// The model names `--models` gives (see [`names`]: trimmed, empty entries dropped), `Err`
+/// when none is left (`--models ''` or `--models ,`): a command never runs on no model and
+/// writes an empty comparison.
+pub fn model_names(registries: &crate::Registries, list: &[String]) -> Result<Vec<String>> {
+    let given: Vec<String> = names(list).into_iter().map(String::from).collect();
+    if given.is_empty() {
+        anyhow::bail!(
+            "--models is empty (the models are: {})",
+            registries.catalog().models.join(", ")
+        );
+    }
+    Ok(given)
 }
 
 /// Standard output was closed by its reader (a pipe into `head`).

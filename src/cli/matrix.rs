@@ -107,6 +107,7 @@ fn run_checked(
         }
     }
     let read = Mutex::new(inputs);
+    let useless: Mutex<Vec<String>> = Mutex::new(Vec::new());
     let plan = sweep.plan(registries, &|s| {
         if let Some(file) = &s.file {
             let csv = base.join(file);
@@ -128,12 +129,28 @@ fn run_checked(
         let fatal = crate::data::quality::check(&data, None)
             .into_iter()
             .find(|f| f.severity == crate::data::quality::Severity::Fatal);
-        if let (false, Some(f)) = (allow_useless, fatal) {
-            return Err(format!(
-                "the data checks call it useless: {} ({}; drive check says more; --allow-useless fits and scores on it anyway)",
-                f.message, f.check
-            )
-            .into());
+        match (allow_useless, fatal) {
+            (false, Some(f)) => {
+                return Err(format!(
+                    "the data checks call it useless: {} ({}; drive check says more; --allow-useless fits and scores on it anyway)",
+                    f.message, f.check
+                )
+                .into());
+            }
+            // Allowed, and said: its figures are scored on data the checks call useless.
+            (true, Some(f)) => {
+                super::common::say_finding(&data, &f);
+                useless
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .push(format!(
+                        "{}: scored although the data checks call it useless ({}: {}); its figures are not evidence of a model's accuracy",
+                        s.label(),
+                        f.check,
+                        f.message
+                    ));
+            }
+            _ => {}
         }
         Ok(data)
     })?;
@@ -148,7 +165,11 @@ fn run_checked(
         ],
     )?;
     let progress = super::common::Progress::new("matrix");
-    let result = run_matrix(&plan, registries, &|d, t| progress.update(d, t))?;
+    let mut result = run_matrix(&plan, registries, &|d, t| progress.update(d, t))?;
+    result.notes = useless.into_inner().unwrap_or_else(|p| p.into_inner());
+    for n in &result.notes {
+        super::common::note(format!("note: {n}"));
+    }
     progress.bar.finish_and_clear();
     let markdown = result.to_markdown();
     outputs.own(out);

@@ -232,7 +232,8 @@ where
     I: IntoIterator<Item = T>,
     T: Into<OsString> + Clone,
 {
-    let cli = match common::parse::<Cli, _, _>(args) {
+    let args: Vec<OsString> = args.into_iter().map(Into::into).collect();
+    let cli = match common::parse::<Cli, _, _>(args.iter().cloned()) {
         Ok(cli) => cli,
         Err(code) => return code,
     };
@@ -240,6 +241,7 @@ where
     let result = registries
         .check_tags()
         .map_err(anyhow::Error::from)
+        .and_then(|()| common::streams_not_named_inputs(&args))
         .and_then(|()| match cli.command {
             Command::Eval(a) => eval::run(&a, registries),
             Command::Train(a) => train::run(&a, registries),

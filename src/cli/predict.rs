@@ -1,7 +1,6 @@
 //! `drive predict`: poses from a saved model and a command sequence.
 
 use super::common::{parse_number, parse_pair, parse_triplet};
-use crate::models::model_file::model_from_json;
 use crate::traits::limits::Exact as Num;
 use crate::traits::{Input, MotionError, Pose, StartState};
 use anyhow::{Context, Result};
@@ -50,7 +49,11 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
         crate::models::model_file::MAX_MODEL_FILE_BYTES,
     )
     .with_context(|| format!("reading {name}"))?;
-    let (model, robot) = model_from_json(&name, &text)?;
+    let crate::models::model_file::ModelFile {
+        model,
+        robot,
+        fitted_with,
+    } = crate::models::model_file::read_model_file(&name, &text)?;
     registries
         .check_vehicle(robot.vehicle.as_ref())
         .with_context(|| format!("{name}: the model's vehicle"))?;
@@ -59,6 +62,7 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
     // The output's t runs on the command file's clock (from its first t).
     let crate::data::CommandFile { commands: cmds, t0 } =
         crate::data::read_commands(&args.commands, &columns, model.dt())?;
+    note_beyond_known(model.as_ref(), fitted_with.as_ref(), &robot, &cmds);
     let pose = args
         .start
         .map_or(Pose::zeros(), |[x, y, yaw]| Pose::new(x, y, yaw));
@@ -149,4 +153,61 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Notes (on stderr) a command beyond what the model knows: the commands of its training
+/// windows (`fitted_with.commanded`), or, in a file that does not keep them, its
+/// powertrain's fitted limits; saying whether the powertrain saturates it (the prediction is
+/// that of its limits) or the model extrapolates.
+fn note_beyond_known(
+    model: &dyn crate::traits::MotionModel,
+    fitted_with: Option<&crate::models::model_file::FitSettings>,
+    robot: &crate::traits::RobotDescription,
+    cmds: &[Input],
+) {
+    use crate::models::model_file::CommandRange;
+    let axes = robot.vehicle.axes();
+    // The powertrain's limits, from its parameters (`axis i min`, `axis i max`).
+    let limits = model.powertrain().and_then(|p| {
+        let params = p.parameters();
+        let find = |key: String| params.iter().find(|(k, _)| *k == key).map(|(_, v)| *v);
+        let min: Option<Vec<f64>> = (0..axes.len())
+            .map(|i| find(format!("axis {i} min")))
+            .collect();
+        let max: Option<Vec<f64>> = (0..axes.len())
+            .map(|i| find(format!("axis {i} max")))
+            .collect();
+        Some(CommandRange {
+            min: min?,
+            max: max?,
+        })
+    });
+    // The training commands first: a DRIVE run commands beyond what its wheels reach, and
+    // the fit learned that saturation.
+    let saturates = limits.is_some();
+    let (range, what) = match (fitted_with.and_then(|f| f.commanded.clone()), limits) {
+        (Some(c), _) => (c, "the commands it was trained on"),
+        (None, Some(l)) => (l, "its powertrain's fitted limits"),
+        (None, None) => return,
+    };
+    let consequence = if saturates {
+        "its powertrain saturates it at its fitted limits"
+    } else {
+        "the model extrapolates beyond its data"
+    };
+    let found = cmds.iter().enumerate().find_map(|(k, u)| {
+        let values: Vec<f64> = (0..axes.len()).map(|i| u[i]).collect();
+        range.beyond(&values).map(|(i, v)| (k, i, v))
+    });
+    if let Some((k, i, v)) = found {
+        let (lo, hi) = (range.min[i], range.max[i]);
+        super::common::note(format!(
+            "note: command {k} holds {} {} on axis '{}', beyond {what} ([{}, {}]): {consequence}; in the robot's units?",
+            crate::traits::limits::Short(v),
+            axes[i].unit,
+            axes[i].command_column,
+            crate::traits::limits::Short(lo),
+            crate::traits::limits::Short(hi)
+        ));
+    }
 }

@@ -1,6 +1,6 @@
 //! `drive report`: report.md and the paper's figures for one dataset.
 
-use super::common::{load, names, DataArgs, ModelsArg};
+use super::common::{load, DataArgs, ModelsArg};
 use crate::traits::vehicle_tag;
 use crate::Registries;
 use anyhow::{bail, Result};
@@ -33,10 +33,7 @@ pub struct Args {
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
-    let models: Vec<String> = names(&args.models.models)
-        .into_iter()
-        .map(String::from)
-        .collect();
+    let models = super::common::model_names(registries, &args.models.models)?;
     let mut inputs = args.data.inputs();
     if let Some(r) = &args.robot {
         inputs.extend(super::common::robot_input(r));

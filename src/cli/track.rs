@@ -136,7 +136,9 @@ fn distinct<T: PartialEq + std::fmt::Display>(flag: &str, items: &[T]) -> Result
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     distinct("--path", &args.path)?;
-    distinct("--models", &args.models)?;
+    // `naive,,slip-blr` and `naive, slip-blr` as every command reads them; none is refused.
+    let model_args = super::common::model_names(registries, &args.models)?;
+    distinct("--models", &model_args)?;
     distinct("--train-sampler", &args.train_sampler)?;
     let speeds: Vec<String> = args.speed.iter().map(|s| s.to_string()).collect();
     distinct("--speed", &speeds)?;
@@ -190,7 +192,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let mut models = Vec::new();
     let mut given = Vec::new();
     let mut model_files = Vec::new();
-    for m in &args.models {
+    for m in &model_args {
         if !m.to_ascii_lowercase().ends_with(".json") {
             // A name (or `all`), in the order given.
             for s in registries.models().resolve_list(std::slice::from_ref(m))? {

@@ -79,6 +79,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let settings = FitSettings {
         split: args.split,
         training_windows: train.len(),
+        commanded: crate::models::model_file::CommandRange::of(&train),
         ..FitSettings::of(&spec)
     };
     let text = model_file_to_json(model.as_ref(), &dataset.robot, Some(&settings))

@@ -527,6 +527,44 @@ fn a_useless_or_degenerate_dataset_is_skipped_with_why_and_the_suite_goes_on() {
             .contains("not-moving"),
         "{skipped:?}"
     );
+    // Issue 63: a dataset that cannot be read (a NaN cell in a window CSV or a raw log)
+    // is skipped and named too; the others are ranked.
+    let nan_cell = |from: &Path, to: &Path, column: &str| {
+        let text = std::fs::read_to_string(from).unwrap();
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        let i = lines[0].split(',').position(|h| h == column).unwrap();
+        let mut cells: Vec<String> = lines[3].split(',').map(String::from).collect();
+        cells[i] = "NaN".into();
+        lines[3] = cells.join(",");
+        std::fs::write(to, lines.join("\n") + "\n").unwrap();
+    };
+    nan_cell(&d.join("tiny.csv"), &d.join("nan.csv"), "x");
+    std::fs::copy(d.join("tiny.meta.json"), d.join("nan.meta.json")).unwrap();
+    nan_cell(&raw, &d.join("nan_raw.csv"), "meas_left_vel");
+    std::fs::write(
+        &suite,
+        "[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\n\
+         [[dataset]]\npath = \"nan.csv\"\n\
+         [[dataset]]\nraw = \"nan_raw.csv\"\nrobot = \"warthog\"\n",
+    )
+    .unwrap();
+    let v: Value = serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
+    assert_eq!(v["datasets"].as_array().unwrap().len(), 1, "{v}");
+    let skipped = v["skipped"].as_array().unwrap();
+    let names: Vec<&str> = skipped
+        .iter()
+        .map(|s| s["dataset"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["nan", "nan_raw"], "{skipped:?}");
+    for s in skipped {
+        assert!(
+            s["reason"]
+                .as_str()
+                .unwrap()
+                .contains("not a finite number"),
+            "{skipped:?}"
+        );
+    }
     std::fs::write(&suite, "[[dataset]]\npath = \"frozen.csv\"\n").unwrap();
     let err = user_error(&args);
     assert!(
@@ -592,6 +630,23 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
         w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r);
     }
     drive::data::write_dataset(&mirrored, &d.join("mirrored.csv")).unwrap();
+    // Issue 63: and a copy whose localization alone was altered (positions doubled, noise of
+    // up to 5 cm on every sample): its commands, encoders and IMU are the run's.
+    let mut relocalized = run.clone();
+    let mut state: u64 = 7;
+    let mut noise = move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.1
+    };
+    for w in &mut relocalized.windows {
+        for p in &mut w.pose {
+            p.x = 2.0 * p.x + noise();
+            p.y = 2.0 * p.y + noise();
+        }
+    }
+    drive::data::write_dataset(&relocalized, &d.join("relocalized.csv")).unwrap();
     let suite = d.join("suite.toml");
     std::fs::write(
         &suite,
@@ -601,6 +656,7 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
          [[dataset]]\npath = \"rounded.csv\"\n\
          [[dataset]]\npath = \"recalibrated.csv\"\n\
          [[dataset]]\npath = \"mirrored.csv\"\n\
+         [[dataset]]\npath = \"relocalized.csv\"\n\
          [[dataset]]\nbundled = \"warthog_asphalt_slow_2024-08-08\"\nname = \"other\"\n",
     )
     .unwrap();
@@ -635,6 +691,9 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
         "run -> mirrored",
         "mirrored -> run",
         "half -> mirrored",
+        "run -> relocalized",
+        "relocalized -> run",
+        "half -> relocalized",
     ] {
         assert!(
             skipped
@@ -643,7 +702,7 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
             "{pair}: {skipped:?}"
         );
     }
-    // Each of the six with the other run: both ways, none skipped.
+    // Each of the seven with the other run: both ways, none skipped.
     let pairs: Vec<(String, String)> = v["transfer"]
         .as_array()
         .unwrap()
@@ -655,7 +714,7 @@ fn a_run_and_a_part_of_itself_or_a_copy_off_by_rounding_are_never_a_transfer_pai
             )
         })
         .collect();
-    assert_eq!(pairs.len(), 12, "{pairs:?}");
+    assert_eq!(pairs.len(), 14, "{pairs:?}");
     assert!(
         pairs.iter().all(|(a, b)| a == "other" || b == "other"),
         "{pairs:?}"
@@ -877,4 +936,56 @@ fn the_adaptation_track_gives_each_pair_the_curves_of_drive_adapt_and_names_what
     let alone = common::drive(&["bench", "--adapt-times", "0,30"]);
     assert!(!alone.status.success());
     assert!(String::from_utf8_lossy(&alone.stderr).contains("--adapt"));
+}
+
+/// Issue 63: a robot file that took a registered robot's name (a Warthog's geometry named
+/// "husky") is not that robot: its data gets no body size from the registered Husky, and the
+/// check says so, rather than the Husky's body silently scaling the total unpredictability.
+#[test]
+fn a_robot_file_named_like_a_registered_robot_is_not_given_its_body() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let warthog = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/warthog_1080.toml"),
+    )
+    .unwrap();
+    let renamed: String = warthog
+        .lines()
+        .map(|l| {
+            if l.starts_with("name =") {
+                "name = \"husky\"".to_string()
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert_ne!(renamed, warthog);
+    std::fs::write(d.join("fake.toml"), renamed).unwrap();
+    let data = d.join("fake.csv");
+    ok(&[
+        "simulate",
+        "--robot",
+        s(&d.join("fake.toml")),
+        "--terrain",
+        "gravel",
+        "--duration",
+        "120",
+        "--seed",
+        "4",
+        "--out",
+        s(&data),
+    ]);
+    let text = ok(&["check", "--data", s(&data)]);
+    assert!(text.contains("no body size"), "{text}");
+    assert!(!text.contains("body of the robot husky"), "{text}");
+    // With the robot named, its own body.
+    let text = ok(&[
+        "check",
+        "--data",
+        s(&data),
+        "--robot",
+        s(&d.join("fake.toml")),
+    ]);
+    assert!(text.contains("(body of the robot file"), "{text}");
 }

@@ -399,6 +399,61 @@ fn train_then_predict_matches_the_library() {
     }
 }
 
+/// Issue 63: a model file keeps the commands it was trained on, and `predict` says so when
+/// it is given commands beyond them (a command in another unit: 1e8 rad/s went through a
+/// naive model to 58,500 km, and through slip-BLR's saturating powertrain without a word).
+#[test]
+fn predict_notes_commands_beyond_what_the_model_was_trained_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, value: f64| {
+        let path = dir.path().join(name);
+        let mut text = String::from("t,cmd_left,cmd_right\n");
+        for k in 0..10 {
+            text += &format!("{},{value},{}\n", k as f64 / 20.0, 1.0);
+        }
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    let (within, beyond) = (write("within.csv", 2.0), write("beyond.csv", 1e8));
+    for name in ["naive", "acc-blr", "slip-blr"] {
+        let file = dir.path().join(format!("{name}.json"));
+        ok(&["train", "--model", name, "--out", file.to_str().unwrap()]);
+        let saved: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+        // The bundled Husky run's commands: about -14.5 to 12.7 rad/s on each side.
+        let range = &saved["fitted_with"]["commanded"];
+        assert!(
+            f(&range["min"][0]) < -14.0 && f(&range["max"][0]) > 12.0,
+            "{range}"
+        );
+        let run = |commands: &Path| {
+            drive(&[
+                "predict",
+                "--model",
+                file.to_str().unwrap(),
+                "--commands",
+                commands.to_str().unwrap(),
+            ])
+        };
+        let out = run(&within);
+        assert!(out.status.success());
+        assert!(!String::from_utf8_lossy(&out.stderr).contains("beyond"));
+        let out = run(&beyond);
+        assert!(out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("command 0 holds 1e8 rad/s on axis 'cmd_left', beyond the commands it was trained on"),
+            "{name}: {err}"
+        );
+        let consequence = if name == "slip-blr" {
+            "its powertrain saturates it"
+        } else {
+            "the model extrapolates beyond its data"
+        };
+        assert!(err.contains(consequence), "{name}: {err}");
+    }
+}
+
 fn write_small_dataset(dir: &Path) -> std::path::PathBuf {
     let csv = dir.join("small.csv");
     let registries = drive::Registries::builtin();

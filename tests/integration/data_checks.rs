@@ -1194,6 +1194,66 @@ fn localization_at_odds_with_itself_or_the_encoders_is_fatal() {
             fatal(&shifted)
         );
     }
+    // Issue 63: on every real run, localization taken from the next window or the previous
+    // one (a neighbour of the same held command explains it almost as well as its own).
+    for run in [
+        "warthog_asphalt_a",
+        "warthog_asphalt_2024-08-07",
+        "husky_drive",
+    ] {
+        let d = drive::bundled::load(run).unwrap();
+        assert!(
+            !fatal(&d).iter().any(|k| k == "localization-sync"),
+            "{run}: {:?}",
+            fatal(&d)
+        );
+        for later in [true, false] {
+            let mut shifted = d.clone();
+            let poses: Vec<_> = shifted.windows.iter().map(|w| w.pose.clone()).collect();
+            if later {
+                shifted.windows.pop();
+                for (w, p) in shifted.windows.iter_mut().zip(poses.into_iter().skip(1)) {
+                    w.pose = p;
+                }
+            } else {
+                shifted.windows.remove(0);
+                for (w, p) in shifted.windows.iter_mut().zip(poses) {
+                    w.pose = p;
+                }
+            }
+            assert!(
+                fatal(&shifted).iter().any(|k| k == "localization-sync"),
+                "{run} shifted (later: {later}): {:?}",
+                fatal(&shifted)
+            );
+        }
+        // Its windows reversed, or shuffled: window-order, and only then.
+        assert!(!fatal(&d).iter().any(|k| k == "window-order"), "{run}");
+        let mut reversed = d.clone();
+        reversed.windows.reverse();
+        let mut shuffled = d.clone();
+        let mut state: u64 = 63;
+        for i in (1..shuffled.windows.len()).rev() {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            shuffled.windows.swap(i, (state >> 33) as usize % (i + 1));
+        }
+        for (what, data) in [("reversed", &mut reversed), ("shuffled", &mut shuffled)] {
+            // Intervals as a reader finds them: each transient window opens one.
+            let phases: Vec<_> = data.windows.iter().map(|w| w.phase).collect();
+            let mut intervals = vec![0; phases.len()];
+            drive::traits::assign_intervals(&phases, &mut intervals);
+            for (w, i) in data.windows.iter_mut().zip(intervals) {
+                w.interval = i;
+            }
+            assert!(
+                fatal(data).iter().any(|k| k == "window-order"),
+                "{run} {what}: {:?}",
+                fatal(data)
+            );
+        }
+    }
 }
 
 /// A seventh outside sweep: world coordinates stored as 32-bit floats in a raw log passed

@@ -638,6 +638,95 @@ fn a_redirect_onto_an_input_is_named() {
     assert_eq!(std::fs::read(&commands).unwrap(), before);
 }
 
+/// Issue 63: every command checks the files named on its command line before it parses
+/// any: a model, a sweep, a robot file or a sidecar emptied by `>` is named as such (not "EOF
+/// while parsing" or "no dataset"), and `>>` onto one is refused before it is appended to.
+#[cfg(unix)]
+#[test]
+fn a_redirect_onto_any_named_input_is_refused_before_it_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    fixtures(dir.path());
+    let at = |n: &str| s(&dir.path().join(n));
+    let robot = dir.path().join("robot.toml");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/warthog_1080.toml"),
+        &robot,
+    )
+    .unwrap();
+    let keep: Vec<(std::path::PathBuf, Vec<u8>)> = ["model.json", "data.meta.json", "sweep.toml"]
+        .iter()
+        .map(|n| dir.path().join(n))
+        .chain([robot.clone()])
+        .map(|p| {
+            let bytes = std::fs::read(&p).unwrap();
+            (p, bytes)
+        })
+        .collect();
+    for redirect in [">", ">>"] {
+        for (command, target, says) in [
+            (
+                format!(
+                    "adapt --prior '{}' --data '{}'",
+                    at("model.json"),
+                    at("data.csv")
+                ),
+                at("model.json"),
+                "the input --prior",
+            ),
+            (
+                format!("converge --data '{}'", at("data.csv")),
+                at("data.meta.json"),
+                "the input sidecar of --data",
+            ),
+            (
+                format!("matrix --config '{}' --out '{}'", at("sweep.toml"), at("m")),
+                at("sweep.toml"),
+                "the input --config",
+            ),
+            (
+                format!("check --data '{}' --robot '{}'", at("data.csv"), s(&robot)),
+                s(&robot),
+                "the input --robot",
+            ),
+        ] {
+            let out = drive_in_shell(&format!("{command} {redirect} '{target}'"));
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{command} {redirect}: {err}");
+            let what = if redirect == ">" {
+                "the shell emptied it before drive started"
+            } else {
+                "the output would be written onto its end"
+            };
+            assert!(
+                err.contains("the standard output is") && err.contains(says) && err.contains(what),
+                "{command} {redirect}: {err}"
+            );
+            if redirect == ">>" {
+                // Nothing was appended.
+                for (path, bytes) in &keep {
+                    assert_eq!(&std::fs::read(path).unwrap(), bytes, "{}", path.display());
+                }
+            }
+        }
+        // What `>` emptied, restored for the next round.
+        for (path, bytes) in &keep {
+            std::fs::write(path, bytes).unwrap();
+        }
+    }
+    // A file the command writes (`--per-window /dev/stdout`) is not an input.
+    let out = drive_in_shell(&format!(
+        "eval --data '{}' --models naive --per-window /dev/stdout > '{}'",
+        at("data.csv"),
+        at("windows.txt")
+    ));
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// Issue 35: a dataset's sidecar is `run.meta.json`, so the JSON of `drive eval --data run.csv
 /// --json > run.json` replaces nothing; a sidecar of earlier releases (`run.json`) is still
 /// read, with a note naming the new name.

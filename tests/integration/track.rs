@@ -651,3 +651,44 @@ fn the_predicted_variance_weighs_in_mppi_where_a_model_has_one_and_a_note_says_w
         "{err}"
     );
 }
+
+/// Issue 63: controller settings that leave the robot standing still (sampling noise of
+/// 1e-300) scored a cross-track error of 0 m without a word; the note says the robot stood
+/// still and its errors are not tracking.
+#[test]
+fn a_robot_that_stood_still_is_said_to_have_stood_still() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("still.toml");
+    std::fs::write(&config, "samples = 8\nnoise = 1e-300\n").unwrap();
+    let out = ok(&[
+        "track",
+        "--robot",
+        "warthog",
+        "--terrain",
+        "gravel",
+        "--path",
+        "line",
+        "--models",
+        "naive",
+        "--seeds",
+        "1",
+        "--train-duration",
+        "60",
+        "--mppi-config",
+        config.to_str().unwrap(),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let notes: Vec<&str> = v["notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap())
+        .collect();
+    assert!(
+        notes.iter().any(|n| n
+            .starts_with("naive (uniform) on line at 50%: the robot kept 0 of the asked speed")
+            && n.contains("stood (almost) still")),
+        "{notes:?}"
+    );
+}

@@ -57,6 +57,15 @@ pub(crate) fn check_step_and_limits(
             "powertrain limits are not a valid box (finite, min <= max)",
         ));
     }
+    // A fit refuses data that never drives an axis: limits of no width describe a robot
+    // that cannot drive it (every command of that axis saturated to one value).
+    if let Some(i) = (0..limits.dim()).find(|&i| limits.max[i] - limits.min[i] <= 0.0) {
+        return Err(InvalidPart::from(format!(
+            "powertrain limits of axis {i} are [{}, {}]: a robot that cannot drive that axis (no fit writes limits of no width)",
+            drive_traits::limits::Short(limits.min[i]),
+            drive_traits::limits::Short(limits.max[i])
+        )));
+    }
     // The limits are measured inputs (wheel velocities, speeds): no fit writes one beyond
     // what the data readers accept.
     let bound = drive_traits::limits::MAX_ABS_MEASUREMENT;

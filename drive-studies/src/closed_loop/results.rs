@@ -47,6 +47,9 @@ pub(super) fn check_data(
     Ok(())
 }
 
+/// The share of the asked speed below which a run's robot stood (almost) still (a note).
+pub(super) const STOOD_STILL: f64 = 0.05;
+
 /// The ratios of the speed kept to the powertrain model's within which two models' runs
 /// are of about the same speed (beyond them, a note).
 pub(super) const SPEED_KEPT_ALIKE: (f64, f64) = (0.8, 1.25);
@@ -125,6 +128,22 @@ pub(super) fn summarise(
                         open_loop_translational_median_m: None,
                         open_loop_rotational_median_rad: None,
                     });
+                }
+                // A robot that barely moved is near its path's start all along: its small
+                // errors are not tracking, and said so (settings that leave the controller
+                // standing still, a model that predicts no motion).
+                for s in block.iter().filter(|s| s.speed_kept < STOOD_STILL) {
+                    notes.push(format!(
+                        "{} ({}) on {} at {:.0}%: the robot kept {} of the asked speed and reached the end in {:.0}% of the runs: it stood (almost) still, and its cross-track {:.3} m and heading {:.3} rad are errors of a robot near the path's start, not of tracking",
+                        s.model,
+                        s.train,
+                        p.name(),
+                        100.0 * f,
+                        Short((s.speed_kept * 1000.0).round() / 1000.0),
+                        100.0 * s.completed_share,
+                        s.cross_track_rms_m,
+                        s.heading_rms_rad
+                    ));
                 }
                 // Against the first model of the study, when it ran here; only between runs
                 // that all reached the end: a robot that stops (or never starts) has a small

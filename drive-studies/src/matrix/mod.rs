@@ -142,4 +142,8 @@ pub struct MatrixResult {
     pub summary: Vec<SummaryRow>,
     /// The simulator each simulated robot ran on (empty without simulated runs).
     pub simulators: Vec<crate::RobotSimulator>,
+    /// What a reader must know of these figures (a dataset the data checks call useless,
+    /// scored because it was allowed); absent from the JSON when there is none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }

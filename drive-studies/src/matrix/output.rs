@@ -109,6 +109,12 @@ impl MatrixResult {
                 imp(r.rotational_improvement, is_base),
             );
         }
+        if !self.notes.is_empty() {
+            let _ = writeln!(s, "\n## Notes\n");
+            for n in &self.notes {
+                let _ = writeln!(s, "- {n}");
+            }
+        }
         let failures: Vec<&MatrixCell> =
             self.cells.iter().filter(|c| c.failure.is_some()).collect();
         if !failures.is_empty() {

@@ -173,5 +173,6 @@ pub fn run_matrix(
                 simulator: drive_sim::simulator_used(&registries.simulators, r),
             })
             .collect(),
+        notes: Vec::new(),
     })
 }
