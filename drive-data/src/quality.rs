@@ -178,7 +178,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "encoder-command",
-        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 2 or under 0.1: commands or encoders in another unit), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled)",
+        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 2 or under 0.1: commands or encoders in another unit), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled); the measured inputs holding one value through four in five steady windows while the commands vary (fatal: the columns exchanged)",
     ),
     (
         "outside-limits",
@@ -297,8 +297,37 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(imu_yaw_rate(&w));
     out.extend(phases(&w));
     out.extend(window_order(&w.windows));
+    out.extend(exchanged(&w.windows));
     out.extend(commands_constant(&w));
     out
+}
+
+/// `encoder-command`: the command and measured columns exchanged. A steady window holds its
+/// command and the wheels answer it with their noise: the real runs' commands hold one value
+/// through 95-100% of their steady windows and their encoders through 0-1%; exchanged, the
+/// other way round (1% and 95%). Fatal where the measured inputs hold one value (bit for
+/// bit, every axis) through four in five steady windows or more (ten at least) and the
+/// commands vary in four in five.
+fn exchanged(windows: &[&Window]) -> Option<Finding> {
+    let steady: Vec<&&Window> = windows
+        .iter()
+        .filter(|w| w.phase != Phase::Transient && w.len() >= 2)
+        .collect();
+    if steady.len() < 10 {
+        return None;
+    }
+    let held = |inputs: &[drive_traits::Input]| inputs.iter().all(|u| *u == inputs[0]);
+    let measured = steady.iter().filter(|w| held(&w.measured)).count();
+    let commands = steady.iter().filter(|w| !held(&w.command)).count();
+    let most = |k: usize| k * 5 >= steady.len() * 4;
+    (most(measured) && most(commands)).then(|| Finding {
+        check: Check::EncoderCommand,
+        severity: Severity::Fatal,
+        message: format!(
+            "the measured inputs hold one value through {measured} of {} steady windows while the commands vary in {commands}: a steady window holds its command and the wheels answer it with their noise; the command and measured columns exchanged?",
+            steady.len()
+        ),
+    })
 }
 
 /// `window-order`: a DRIVE interval's transient window ramps to one command (within the

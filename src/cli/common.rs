@@ -273,9 +273,8 @@ pub fn streams_not_named_inputs(args: &[OsString]) -> Result<()> {
     let mut flag: Option<String> = None;
     // A sidecar named by its own flag is that flag's file, not the one beside the CSV.
     let sidecar_named = args.iter().any(|a| {
-        a.to_string_lossy()
-            .trim_start_matches('-')
-            .contains("sidecar")
+        let a = a.to_string_lossy();
+        a.starts_with("--") && a.contains("sidecar")
     });
     // The program and the command's name.
     for arg in args.iter().skip(2) {

@@ -1227,6 +1227,18 @@ fn localization_at_odds_with_itself_or_the_encoders_is_fatal() {
                 fatal(&shifted)
             );
         }
+        // Its command and measured columns exchanged: encoder-command names it.
+        let mut exchanged = d.clone();
+        for w in &mut exchanged.windows {
+            std::mem::swap(&mut w.command, &mut w.measured);
+        }
+        let found = check(&exchanged, None);
+        assert!(
+            found.iter().any(|f| f.check.key() == "encoder-command"
+                && f.severity == Severity::Fatal
+                && f.message.contains("exchanged")),
+            "{run}: {found:?}"
+        );
         // Its windows reversed, or shuffled: window-order, and only then.
         assert!(!fatal(&d).iter().any(|k| k == "window-order"), "{run}");
         let mut reversed = d.clone();
