@@ -202,6 +202,12 @@ impl ImportReport {
             .steps
             .iter()
             .all(|s| s.outcome == Err(DropReason::LocalizationMissing));
+        // Every interval lasting under a second, where each is 6 s: ros_time in seconds
+        // (the logger writes nanoseconds) makes each last billionths of one.
+        let all_brief = self
+            .steps
+            .iter()
+            .all(|s| matches!(s.outcome, Err(DropReason::TooShort { .. })) && s.lasted_s < 1.0);
         Some(format!(
             "no usable window in {}: all {} intervals dropped ({}){}",
             self.file,
@@ -209,6 +215,8 @@ impl ImportReport {
             reasons.join(", "),
             if all_missing {
                 "; the localization is all zeros throughout (a bench run without localization?)"
+            } else if all_brief {
+                "; every interval lasted under a second where DRIVE holds each command 6 s: ros_time in seconds or milliseconds (the logger writes nanoseconds)?"
             } else {
                 ""
             }

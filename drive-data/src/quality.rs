@@ -214,7 +214,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "phases",
-        "the measured inputs changing more over the steady windows than over the transient ones (the phase labels swapped: a split and the per-phase errors would be of the wrong windows)",
+        "the measured inputs changing more over the steady windows than over the transient ones (the phase labels swapped: a split and the per-phase errors would be of the wrong windows), or no transient window among ten or more (the phase column lost: no interval to split by, no step for the powertrain's fit)",
     ),
     (
         "window-order",
@@ -425,6 +425,23 @@ fn phases(w: &Windows<'_>) -> Option<Finding> {
         if d.is_finite() {
             change[usize::from(win.phase == drive_traits::Phase::Steady)].push(d);
         }
+    }
+    // Not one transient window among many: the intervals (each opened by a transient
+    // window) and the powertrain's fit (on the transient windows) have nothing to go by.
+    let transients = w
+        .windows
+        .iter()
+        .filter(|win| win.phase == drive_traits::Phase::Transient)
+        .count();
+    if transients == 0 && w.windows.len() >= 10 {
+        return Some(Finding {
+            check: Check::Phases,
+            severity: Severity::Fatal,
+            message: format!(
+                "none of the {} windows is a transient one: a DRIVE interval opens with its transient window (the step to a new command), so the data has no interval to split by and no step for the powertrain's fit; the phase column lost or overwritten?",
+                w.windows.len()
+            ),
+        });
     }
     let [mut transient, mut steady] = change;
     if transient.len() < 10 || steady.len() < 10 {
@@ -1869,6 +1886,10 @@ mod tests {
                 w.pose.iter_mut().for_each(|p| p.x = 1e-6 * i as f64);
                 w.index = i;
                 w.interval = i;
+                // Each interval opens with its transient window (none at all is `phases`').
+                if i % 3 == 0 {
+                    w.phase = Phase::Transient;
+                }
                 if i % 2 == 1 {
                     w.command
                         .iter_mut()

@@ -1512,3 +1512,54 @@ fn a_sampler_that_learns_from_windows_says_what_an_offline_schedule_holds() {
         );
     }
 }
+
+/// Issue 63: a raw log whose ros_time is in seconds (the logger writes nanoseconds) had
+/// every interval dropped as "too short" without a hint; the error now names the unit.
+#[test]
+fn a_raw_log_timed_in_seconds_is_named_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    let (sim, raw) = (dir.path().join("sim.csv"), dir.path().join("raw.csv"));
+    ok(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        "gravel",
+        "--duration",
+        "60",
+        "--seed",
+        "1",
+        "--out",
+        sim.to_str().unwrap(),
+        "--raw-out",
+        raw.to_str().unwrap(),
+    ]);
+    let text = std::fs::read_to_string(&raw).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let i = header.split(',').position(|c| c == "ros_time").unwrap();
+    let mut seconds = String::from(header) + "\n";
+    for line in lines {
+        let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+        let ns: f64 = cells[i].parse().unwrap();
+        cells[i] = format!("{}", ns / 1e9);
+        seconds += &(cells.join(",") + "\n");
+    }
+    std::fs::write(&raw, seconds).unwrap();
+    // (Its keep/drop report is printed on stdout before the error.)
+    let out = drive(&[
+        "import",
+        "--raw",
+        raw.to_str().unwrap(),
+        "--robot",
+        "husky",
+        "--out",
+        dir.path().join("out.csv").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("ros_time in seconds or milliseconds (the logger writes nanoseconds)"),
+        "{err}"
+    );
+}

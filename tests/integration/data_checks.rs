@@ -1239,6 +1239,18 @@ fn localization_at_odds_with_itself_or_the_encoders_is_fatal() {
                 && f.message.contains("exchanged")),
             "{run}: {found:?}"
         );
+        // Every window labelled steady (the phase column overwritten): phases names it.
+        let mut steady = d.clone();
+        for w in &mut steady.windows {
+            w.phase = drive::traits::Phase::Steady;
+        }
+        let found = check(&steady, None);
+        assert!(
+            found.iter().any(|f| f.check.key() == "phases"
+                && f.severity == Severity::Fatal
+                && f.message.contains("none of the")),
+            "{run}: {found:?}"
+        );
         // Its windows reversed, or shuffled: window-order, and only then.
         assert!(!fatal(&d).iter().any(|k| k == "window-order"), "{run}");
         let mut reversed = d.clone();
