@@ -113,3 +113,24 @@ pub fn husky_half_model(name: &str) -> &'static dyn drive::traits::MotionModel {
         .unwrap_or_else(|| panic!("{name} ({canonical}) is not a registered combination"));
     model.as_ref()
 }
+
+/// Rewrites column `column` of the CSV file `from` into `to`: each data row's cell becomes
+/// `cell(row, old)` (row 0 the first after the header); the other cells are kept as written.
+pub fn rewrite_csv_column(
+    from: &std::path::Path,
+    to: &std::path::Path,
+    column: &str,
+    mut cell: impl FnMut(usize, &str) -> String,
+) {
+    let text = std::fs::read_to_string(from).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let i = header.split(',').position(|c| c == column).unwrap();
+    let mut out = String::from(header) + "\n";
+    for (row, line) in lines.enumerate() {
+        let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+        cells[i] = cell(row, &cells[i]);
+        out += &(cells.join(",") + "\n");
+    }
+    std::fs::write(to, out).unwrap();
+}

@@ -530,13 +530,13 @@ fn a_useless_or_degenerate_dataset_is_skipped_with_why_and_the_suite_goes_on() {
     // Issue 63: a dataset that cannot be read (a NaN cell in a window CSV or a raw log)
     // is skipped and named too; the others are ranked.
     let nan_cell = |from: &Path, to: &Path, column: &str| {
-        let text = std::fs::read_to_string(from).unwrap();
-        let mut lines: Vec<String> = text.lines().map(String::from).collect();
-        let i = lines[0].split(',').position(|h| h == column).unwrap();
-        let mut cells: Vec<String> = lines[3].split(',').map(String::from).collect();
-        cells[i] = "NaN".into();
-        lines[3] = cells.join(",");
-        std::fs::write(to, lines.join("\n") + "\n").unwrap();
+        common::rewrite_csv_column(from, to, column, |row, old| {
+            if row == 2 {
+                "NaN".into()
+            } else {
+                old.to_string()
+            }
+        });
     };
     nan_cell(&d.join("tiny.csv"), &d.join("nan.csv"), "x");
     std::fs::copy(d.join("tiny.meta.json"), d.join("nan.meta.json")).unwrap();

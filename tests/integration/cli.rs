@@ -1534,18 +1534,9 @@ fn a_raw_log_timed_in_seconds_is_named_as_such() {
         "--raw-out",
         raw.to_str().unwrap(),
     ]);
-    let text = std::fs::read_to_string(&raw).unwrap();
-    let mut lines = text.lines();
-    let header = lines.next().unwrap();
-    let i = header.split(',').position(|c| c == "ros_time").unwrap();
-    let mut seconds = String::from(header) + "\n";
-    for line in lines {
-        let mut cells: Vec<String> = line.split(',').map(String::from).collect();
-        let ns: f64 = cells[i].parse().unwrap();
-        cells[i] = format!("{}", ns / 1e9);
-        seconds += &(cells.join(",") + "\n");
-    }
-    std::fs::write(&raw, seconds).unwrap();
+    common::rewrite_csv_column(&raw, &raw, "ros_time", |_, ns| {
+        format!("{}", ns.parse::<f64>().unwrap() / 1e9)
+    });
     // (Its keep/drop report is printed on stdout before the error.)
     let out = drive(&[
         "import",
