@@ -15,7 +15,7 @@
 //! ```
 
 use drive_traits::limits::Short;
-use drive_traits::{Dataset, InputSpace, Phase, Window};
+use drive_traits::{Dataset, InputSpace, Phase, Pose, Window};
 use serde::Serialize;
 
 /// `encoder-command`: the least-squares gain of a measured input on its command above which
@@ -620,16 +620,36 @@ fn duplicate_windows(w: &Windows<'_>) -> Option<Finding> {
             ),
         });
     }
-    let near = near_duplicates(&w.windows);
-    (near > 0).then(|| Finding {
+    let (near, below_noise) = near_duplicates(&w.windows);
+    if near > 0 {
+        return Some(Finding {
+            check: Check::DuplicateWindows,
+            severity: Severity::Fatal,
+            message: format!(
+                "{near} of the {} windows repeat another to within a thousandth of the data's range in every sample (commands, measurements, poses, IMU): the run or its windows written twice, with noise or rounding added? No two windows a robot drives agree that closely; a split would score the models on windows they were fitted on",
+                w.windows.len()
+            ),
+        });
+    }
+    (below_noise >= MIN_COPIES_BELOW_NOISE.max(w.windows.len() / 100)).then(|| Finding {
         check: Check::DuplicateWindows,
         severity: Severity::Fatal,
         message: format!(
-            "{near} of the {} windows repeat another to within a thousandth of the data's range in every sample (commands, measurements, poses, IMU): the run or its windows written twice, with noise or rounding added? No two windows a robot drives agree that closely; a split would score the models on windows they were fitted on",
-            w.windows.len()
+            "{below_noise} of the {} windows repeat another closer than their sensors' own noise allows: their encoders' and IMU's differences from it are under {} of the noise those signals show within a window (two recordings differ by about 1.4 times it), within a hundredth of the data's range elsewhere: the run or its windows written twice, with noise added? A split would score the models on windows they were fitted on",
+            w.windows.len(),
+            Short(BELOW_NOISE)
         ),
     })
 }
+
+/// How far under the sensors' own noise a window's difference from another must be to be
+/// a copy (see [`near_duplicates`]): two recordings of one motion differ by about 1.4
+/// times the noise; the closest two windows of ten real runs, 0.61 of it.
+const BELOW_NOISE: f64 = 0.4;
+
+/// Copies below the noise that make a run's windows written twice (a coincidence of a
+/// pair or two is not).
+const MIN_COPIES_BELOW_NOISE: usize = 3;
 
 /// The windows equal to another within a thousandth of the dataset's range in every value:
 /// the commands and measurements against the largest command, the positions and headings
@@ -639,7 +659,16 @@ fn duplicate_windows(w: &Windows<'_>) -> Option<Finding> {
 /// the commands, the measurements nor the pose change are left out (a robot at rest repeats
 /// itself). Candidates are found by sorting on the windows' mean measurement, so the cost
 /// is the sort and the few neighbours within tolerance.
-fn near_duplicates(windows: &[&Window]) -> usize {
+///
+/// The second count: the windows within a hundredth of the range of another in every value
+/// whose re-measured signals (each encoder, the IMU) differ from it by less than
+/// [`BELOW_NOISE`] times their own noise (RMS of the difference over the noise that signal
+/// shows within a window: the median over the moving windows of the second differences'
+/// RMS over the square root of 6, which is the standard deviation of white noise). A copy
+/// with noise added differs by that noise alone; two recordings of one motion differ by
+/// both recordings' noise, and the sensors' noise is measured on the data itself, so
+/// noise added at any scale under the data's own is caught.
+fn near_duplicates(windows: &[&Window]) -> (usize, usize) {
     let largest = |f: &dyn Fn(&Window) -> f64| {
         windows
             .iter()
@@ -669,7 +698,7 @@ fn near_duplicates(windows: &[&Window]) -> usize {
         });
     let tol_imu = 1e-3 * largest(&|w| w.imu_yaw_rate.iter().fold(0.0, |m, r| m.max(r.abs())));
     if tol_input.is_nan() || tol_input <= 0.0 {
-        return 0;
+        return (0, 0);
     }
     let moving = |w: &Window| {
         abs_max(&w.command) > tol_input
@@ -708,19 +737,93 @@ fn near_duplicates(windows: &[&Window]) -> usize {
                 .zip(&b.imu_yaw_rate)
                 .all(|(x, y)| close(*x, *y, tol_imu) || (x.is_nan() && y.is_nan()))
     };
+    // The re-measured signals' own noise: each encoder's and the IMU's.
+    let signal = |w: &Window, c: usize| -> Vec<f64> {
+        match c {
+            0 | 1 => w.measured.iter().map(|u| u[c]).collect(),
+            _ => w.imu_yaw_rate.clone(),
+        }
+    };
+    let noise: Vec<f64> = (0..3)
+        .map(|c| {
+            let mut per_window: Vec<f64> = order
+                .iter()
+                .filter_map(|&(_, i)| {
+                    let x = signal(windows[i], c);
+                    let n = x.len().checked_sub(2).filter(|n| *n > 0)?;
+                    let ss: f64 = x
+                        .windows(3)
+                        .map(|t| (t[2] - 2.0 * t[1] + t[0]).powi(2))
+                        .sum();
+                    Some((ss / n as f64 / 6.0).sqrt())
+                })
+                .filter(|v| v.is_finite())
+                .collect();
+            drive_traits::median(&mut per_window)
+        })
+        .collect();
+    let loose = 10.0;
+    let below_noise = |a: &Window, b: &Window| {
+        let mut decisive = false;
+        for (c, &sigma) in noise.iter().enumerate() {
+            if !(sigma.is_finite() && sigma > 0.0) {
+                continue;
+            }
+            let (x, y) = (signal(a, c), signal(b, c));
+            let ss: f64 = x.iter().zip(&y).map(|(p, q)| (p - q) * (p - q)).sum();
+            let rms = (ss / x.len().max(1) as f64).sqrt();
+            if rms.is_nan() || rms >= BELOW_NOISE * sigma {
+                return false;
+            }
+            decisive = true;
+        }
+        decisive
+    };
+    let loosely_same = |a: &Window, b: &Window| {
+        let t = loose * tol_input;
+        // Where the windows end first: two windows a robot drove part there.
+        let ends = |p: Option<&Pose>, q: Option<&Pose>| match (p, q) {
+            (Some(p), Some(q)) => {
+                (p.x - q.x).hypot(p.y - q.y) <= loose * tol_position
+                    && close(p.z, q.z, loose * tol_yaw)
+            }
+            _ => false,
+        };
+        a.len() == b.len()
+            && ends(a.pose.last(), b.pose.last())
+            && a.command
+                .iter()
+                .chain(&a.measured)
+                .zip(b.command.iter().chain(&b.measured))
+                .all(|(x, y)| (0..x.len()).all(|i| close(x[i], y[i], t)))
+            && a.pose.iter().zip(&b.pose).all(|(p, q)| {
+                (p.x - q.x).hypot(p.y - q.y) <= loose * tol_position
+                    && close(p.z, q.z, loose * tol_yaw)
+            })
+    };
     let mut repeated = vec![false; windows.len()];
+    let mut copied = vec![false; windows.len()];
     for (n, &(k, i)) in order.iter().enumerate() {
-        // The mean of two measurements within tol_input of each other is within 2 tol_input.
+        // The mean of two measurements within t of each other is within 2 t.
         for &(kj, j) in order[n + 1..].iter() {
-            if kj - k > 2.0 * tol_input {
+            if kj - k > 2.0 * loose * tol_input {
                 break;
             }
-            if !repeated[j] && same(windows[i], windows[j]) {
+            if repeated[j] {
+                continue;
+            }
+            if kj - k <= 2.0 * tol_input && same(windows[i], windows[j]) {
                 repeated[j] = true;
+            } else if !copied[j]
+                && loosely_same(windows[i], windows[j])
+                && below_noise(windows[i], windows[j])
+            {
+                copied[j] = true;
             }
         }
     }
-    repeated.iter().filter(|r| **r).count()
+    let count = |v: &[bool]| v.iter().filter(|r| **r).count();
+    (count(&repeated), count(&copied))
 }
 
 /// `imu-yaw-rate`: over the windows where localization turned 0.2 rad or more (ten at

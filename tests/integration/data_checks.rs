@@ -751,6 +751,75 @@ fn windows_written_twice_with_rounding_or_noise_are_duplicates() {
     assert_eq!(duplicates(&two), None);
 }
 
+/// A ninth outside sweep: half of a run written again with noise of 3e-3 on every value
+/// (3 mm, 3 mrad, 3 mrad/s) passed, as it is three times the tolerance of a thousandth of
+/// the range, and `eval` scored the models on their training windows. A copy differs from
+/// its original by the noise added alone, two recordings by both recordings' noise: windows
+/// whose encoders and IMU differ from another's by under 0.4 of the noise those signals show
+/// within a window are copies. Every bundled run passes (its two closest windows are 0.61
+/// of it apart); so does a half next to the other half.
+#[test]
+fn windows_written_again_with_noise_under_the_sensors_own_are_duplicates() {
+    use drive::data::quality::{check, Check};
+    let duplicates = |d: &drive::traits::Dataset| {
+        check(d, None)
+            .into_iter()
+            .find(|f| f.check == Check::DuplicateWindows)
+            .map(|f| f.message)
+    };
+    for name in drive::bundled::names() {
+        let run = drive::bundled::load(name).unwrap();
+        assert_eq!(duplicates(&run), None, "{name}");
+    }
+    for name in [
+        "husky_drive",
+        "warthog_grass_2024-08-08",
+        "warthog_asphalt_a",
+    ] {
+        let run = drive::bundled::load(name).unwrap();
+        let half = run.windows.len() / 2;
+        let mut d = run.clone();
+        d.windows.truncate(half);
+        let intervals = d.windows.last().map_or(0, |w| w.interval + 1);
+        let mut i = 1usize;
+        let mut noise = |v: &mut f64| {
+            i = i
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            // Uniform in [-5.2e-3, 5.2e-3]: a standard deviation of 3e-3.
+            *v += 5.2e-3 * (((i >> 33) % 2001) as f64 / 1000.0 - 1.0);
+        };
+        // The half alone is no duplicate of itself.
+        assert_eq!(duplicates(&d), None, "{name}: its first half");
+        let mut copies = d.windows.clone();
+        for w in copies.iter_mut() {
+            w.index += half;
+            w.interval += intervals;
+            w.command
+                .iter_mut()
+                .for_each(|u| u.iter_mut().for_each(&mut noise));
+            w.measured
+                .iter_mut()
+                .for_each(|u| u.iter_mut().for_each(&mut noise));
+            w.pose
+                .iter_mut()
+                .for_each(|p| p.iter_mut().for_each(&mut noise));
+            w.imu_yaw_rate.iter_mut().for_each(&mut noise);
+        }
+        d.windows.extend(copies);
+        let found = duplicates(&d).unwrap_or_else(|| panic!("{name}: no finding"));
+        assert!(
+            found.contains("closer than their sensors' own noise"),
+            "{name}: {found}"
+        );
+        let copied: usize = found.split(' ').next().unwrap().parse().unwrap();
+        assert!(
+            copied * 10 >= half * 9,
+            "{name}: {copied} of {half}: {found}"
+        );
+    }
+}
+
 /// An eighth outside sweep: encoders that are their commands delayed by a few samples,
 /// scaled by 0.97 or with noise of 1e-3 passed (only a copy equal to the bit was caught),
 /// and the powertrain model then scored as the naive one. A measurement within 0.5% of a
