@@ -311,21 +311,63 @@ pub fn streams_not_named_inputs(args: &[OsString]) -> Result<()> {
     streams_not_inputs(&named)
 }
 
-/// `Err` when the standard output or error is one of `inputs` (role, path).
+/// A standard stream redirected onto an input: the message, and where it may be said
+/// without writing into that input (`2>> run.meta.json`: the refusal must not land on the
+/// end of the file it protects).
+#[derive(Debug)]
+pub struct StreamOntoInput {
+    /// What to say.
+    pub message: String,
+    /// The standard error appends to an input: say nothing there.
+    pub stderr_appends_to_input: bool,
+    /// The standard output is an input (emptied or appended to): say nothing there either.
+    pub stdout_is_input: bool,
+}
+
+impl std::fmt::Display for StreamOntoInput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for StreamOntoInput {}
+
+/// `Err` ([`StreamOntoInput`]) when the standard output or error is one of `inputs` (role,
+/// path).
 fn streams_not_inputs<R: std::fmt::Display>(inputs: &[(R, PathBuf)]) -> Result<()> {
     #[cfg(unix)]
-    for (stream, out) in streams_in_files() {
-        if let Some((role, path)) = inputs.iter().find(|(_, p)| is_stream_file(&out, p)) {
-            // `>` empties the file before drive starts; `>>` would write onto its end.
-            let what = if out.len() == 0 {
-                "the shell emptied it before drive started (its content is gone: restore it, or re-create it with the command that wrote it)"
-            } else {
-                "the output would be written onto its end"
-            };
-            anyhow::bail!(
-                "the {stream} is {}, the input {role}: {what}; redirect the output to another file",
-                path.display()
-            );
+    {
+        let streams = streams_in_files();
+        let onto = |name: &str| {
+            streams
+                .iter()
+                .filter(|(stream, _)| *stream == name)
+                .find_map(|(_, out)| {
+                    inputs
+                        .iter()
+                        .find(|(_, p)| is_stream_file(out, p))
+                        .map(|input| (out.len(), input))
+                })
+        };
+        let (stdout, stderr) = (onto("standard output"), onto("standard error"));
+        for (stream, hit) in [("standard output", stdout), ("standard error", stderr)] {
+            if let Some((len, (role, path))) = hit {
+                // `>` empties the file before drive starts; `>>` would write onto its end.
+                let what = if len == 0 {
+                    "the shell emptied it before drive started (its content is gone: restore it, or re-create it with the command that wrote it)"
+                } else {
+                    "the output would be written onto its end"
+                };
+                return Err(StreamOntoInput {
+                    message: format!(
+                        "the {stream} is {}, the input {role}: {what}; redirect the output to another file",
+                        path.display()
+                    ),
+                    stderr_appends_to_input: stderr.is_some_and(|(len, _)| len > 0),
+                    stdout_is_input: stdout.is_some(),
+                }
+                .into());
+            }
         }
     }
     #[cfg(not(unix))]

@@ -727,6 +727,60 @@ fn a_redirect_onto_any_named_input_is_refused_before_it_is_read() {
     );
 }
 
+/// A tenth outside sweep: `eval ... 2>> run.meta.json` (the standard error appended onto an
+/// input) was refused, and the refusal written onto the end of the sidecar it protected,
+/// which then no longer parsed. The refusal now goes to the standard output, or nowhere
+/// when that is an input too (`>> input 2>&1`); the input is left as it was.
+#[cfg(unix)]
+#[test]
+fn a_standard_error_appended_onto_an_input_leaves_it_as_it_was() {
+    let dir = tempfile::tempdir().unwrap();
+    fixtures(dir.path());
+    let at = |n: &str| s(&dir.path().join(n));
+    let keep: Vec<(std::path::PathBuf, Vec<u8>)> = ["model.json", "data.meta.json", "sweep.toml"]
+        .iter()
+        .map(|n| {
+            let p = dir.path().join(n);
+            let bytes = std::fs::read(&p).unwrap();
+            (p, bytes)
+        })
+        .collect();
+    for (command, target, says) in [
+        (
+            format!("eval --data '{}' --models naive", at("data.csv")),
+            at("data.meta.json"),
+            "the input sidecar of --data",
+        ),
+        (
+            format!(
+                "adapt --prior '{}' --data '{}'",
+                at("model.json"),
+                at("data.csv")
+            ),
+            at("model.json"),
+            "the input --prior",
+        ),
+        (
+            format!("matrix --config '{}' --out '{}'", at("sweep.toml"), at("m")),
+            at("sweep.toml"),
+            "the input --config",
+        ),
+    ] {
+        let out = drive_in_shell(&format!("{command} 2>> '{target}'"));
+        let said = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(1), "{command}: {said}");
+        assert!(
+            said.contains("the standard error is") && said.contains(says),
+            "{command}: {said}"
+        );
+        let out = drive_in_shell(&format!("{command} >> '{target}' 2>&1"));
+        assert_eq!(out.status.code(), Some(1), "{command} 2>&1");
+        for (path, bytes) in &keep {
+            assert_eq!(&std::fs::read(path).unwrap(), bytes, "{}", path.display());
+        }
+    }
+}
+
 /// Issue 35: a dataset's sidecar is `run.meta.json`, so the JSON of `drive eval --data run.csv
 /// --json > run.json` replaces nothing; a sidecar of earlier releases (`run.json`) is still
 /// read, with a note naming the new name.

@@ -601,6 +601,29 @@ fn a_ground_that_changes_along_the_path_is_driven_and_an_adaptive_model_follows_
         "--adapt",
     ]);
     assert!(err.contains("only a model composed"), "{err}");
+    // A later ground that is a twin of a robot of another geometry is refused as a first
+    // one is (a tenth outside sweep: the Warthog's twin driven onto by a Husky ran).
+    let twin = format!(
+        "gravel,{}/examples/twins/warthog_asphalt_a.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let err = user_error(&[
+        "track",
+        "--robot",
+        "husky",
+        "--terrains",
+        &twin,
+        "--train-duration",
+        "30",
+        "--path",
+        "line",
+        "--models",
+        "powertrain",
+    ]);
+    assert!(
+        err.contains("cannot drive robot 'husky'") && err.contains("wheel radius 0.3 m"),
+        "{err}"
+    );
 }
 
 #[test]

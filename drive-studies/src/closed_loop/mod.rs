@@ -549,19 +549,10 @@ pub fn run_track(
     )
     .map_err(ExperimentError::from)?;
     let d = driven(&study.robot, &study.terrain)?;
-    // Each ground driven onto, a twin of another vehicle refused as the first is.
+    // Each ground driven onto, a twin of another vehicle or of a robot of another geometry
+    // refused as the first is (the robot and its controller stay the first ground's).
     for c in &study.ground_changes {
-        if let Some(why) = c
-            .terrain
-            .fitted_for
-            .as_ref()
-            .and_then(|f| f.refuses(study.robot.vehicle.as_ref()))
-        {
-            return Err(TrackError::Invalid(format!(
-                "terrain '{}' cannot drive robot '{}': {why}",
-                c.terrain.name, study.robot.name
-            )));
-        }
+        driven(&study.robot, &c.terrain)?;
     }
     // A plant that keeps its ground is refused before anything is simulated.
     if let Some(c) = study.ground_changes.first() {
