@@ -363,7 +363,22 @@ fn load_entry(registries: &Registries, entry: &SuiteEntry) -> Result<BenchInput,
         _ => None,
     };
     let explicit = entry.robot.clone().or(bundled_robot);
-    let robot = robot_of(registries, &data, explicit.as_deref()).map_err(robot_error)?;
+    let mut robot = robot_of(registries, &data, explicit.as_deref()).map_err(robot_error)?;
+    // A robot named for data of another geometry (`robot = "husky"` on a Warthog run): said,
+    // as `check --robot` says it, and its body not taken for the data's.
+    if let Some(spec) = explicit.as_deref().and_then(|r| registries.robot(r).ok()) {
+        if let Some(f) = crate::data::quality::vehicle_mismatch(
+            data.robot.vehicle.as_ref(),
+            spec.vehicle.as_ref(),
+            &spec.name,
+        ) {
+            notes.push(format!("check {}: {}", f.check, f.message));
+            if robot.body.take().is_some() {
+                robot.source =
+                    format!("{}, not of the data's geometry: no body size", robot.source);
+            }
+        }
+    }
     let terrain = entry
         .terrain
         .clone()

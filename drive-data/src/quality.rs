@@ -408,9 +408,10 @@ fn window_order(windows: &[&Window]) -> Option<Finding> {
 /// five samples against its first five, summed over the input axes), in the steady windows
 /// against the transient ones, ten of each at least. A transient window holds the step to a
 /// new command, a steady one holds it: the bundled runs' steady windows change 0.02-0.07
-/// times as much, the simulator's 0.003-0.07. Steady windows changing as much as transient
-/// ones or more are labels swapped: fatal (the intervals are cut at the transient windows,
-/// and the errors reported per phase would be the other phase's).
+/// times as much, the simulator's 0.003-0.1 (the linear-focused sampler's 0.1). Steady
+/// windows changing half as much as transient ones or more ([`PHASES_MAX_RATIO`]) are
+/// labels swapped or drawn at random (0.8-0.9): fatal (the intervals are cut at the
+/// transient windows, and the errors reported per phase would be the other phase's).
 fn phases(w: &Windows<'_>) -> Option<Finding> {
     let mut change: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     for win in &w.windows {
@@ -451,11 +452,11 @@ fn phases(w: &Windows<'_>) -> Option<Finding> {
         drive_traits::median(&mut transient),
         drive_traits::median(&mut steady),
     );
-    (st > 0.0 && st >= t).then(|| Finding {
+    (st > 0.0 && st >= PHASES_MAX_RATIO * t).then(|| Finding {
         check: Check::Phases,
         severity: Severity::Fatal,
         message: format!(
-            "the measured inputs change {} over a steady window and {} over a transient one (medians over {} and {} windows; a transient window holds the step to a new command): the phase labels swapped, or the measurements late by a window?",
+            "the measured inputs change {} over a steady window and {} over a transient one (medians over {} and {} windows; a transient window holds the step to a new command, and a steady window of a DRIVE run changes under a tenth as much): the phase labels swapped, drawn at random, or the measurements late by a window?",
             Short(three_digits(st)),
             Short(three_digits(t)),
             steady.len(),
@@ -463,6 +464,14 @@ fn phases(w: &Windows<'_>) -> Option<Finding> {
         ),
     })
 }
+
+/// The steady windows' median change over the transient windows' from which the phase
+/// labels are wrong (`phases`): five times the largest of 8 real and 213 simulated runs.
+const PHASES_MAX_RATIO: f64 = 0.5;
+
+/// The motion (m, rad) under which a window's commands, encoders and localization are at
+/// rest (`not-moving`'s warning on runs of such windows).
+const REST_MOTION: f64 = 0.02;
 
 /// Fewest windows where both the encoders and localization turn (or move) clearly, for
 /// `direction` to judge their agreement.
@@ -836,7 +845,76 @@ fn near_duplicates(windows: &[&Window]) -> (usize, usize) {
 /// real Warthog run on gravel gives -0.98): the data is sound, the models' start from the
 /// IMU is not, and the warning says how to avoid it. An IMU that never changes
 /// is `imu-constant`'s (the models then start from localization).
+///
+/// And an offset ([`imu_offset`]): the IMU reading a turn where localization saw none.
 fn imu_yaw_rate(w: &Windows<'_>) -> Option<Finding> {
+    let offset = imu_offset(w);
+    if let Some(f) = offset.as_ref().filter(|f| f.severity == Severity::Fatal) {
+        return Some(f.clone());
+    }
+    imu_gain(w).or(offset)
+}
+
+/// Offsets of the IMU (its mean rate where localization saw no turn) against the RMS yaw
+/// rate localization saw, from which they are a warning and fatal: the real runs give 0.03
+/// at most.
+const IMU_OFFSET_WARNING: f64 = 0.1;
+const IMU_OFFSET_FATAL: f64 = 0.3;
+
+/// `imu-yaw-rate`'s offset: a line through each window's mean IMU rate against the yaw
+/// rate localization saw over it (every window with both, ten at least), its intercept
+/// against the RMS of localization's rate (at least 0.1 rad/s: a run that hardly turns
+/// leaves a real gyro's bias of a degree a second or so). The bundled runs and norlab's
+/// sand and gravel runs: 0.03 at most. Over 0.1 a warning, over 0.3 fatal: the models that
+/// start from the IMU (slip-ipem, acc-BLR, `--start encoders+imu`) start turning where the
+/// robot does not (acc-BLR's rotational error 0.09 -> 0.50 rad on the Husky with 1 rad/s
+/// added). An IMU that never changes is `imu-constant`'s.
+fn imu_offset(w: &Windows<'_>) -> Option<Finding> {
+    // An IMU that never changes is `imu-constant`'s (the models then start from
+    // localization instead).
+    let mut imu = w.windows.iter().flat_map(|win| win.imu_yaw_rate.iter());
+    let first = imu.next().copied().unwrap_or(0.0);
+    if imu.all(|v| *v == first) {
+        return None;
+    }
+    let dt = w.data.robot.dt();
+    let (mut n, mut sx, mut sy, mut sxx, mut sxy) = (0usize, 0.0, 0.0, 0.0, 0.0);
+    for (win, m) in w.windows.iter().zip(&w.motions) {
+        let len = win.len();
+        if len < 2 {
+            continue;
+        }
+        let x = m.3 / ((len - 1) as f64 * dt);
+        let y = win.imu_yaw_rate.iter().take(len - 1).sum::<f64>() / (len - 1) as f64;
+        if !(x.is_finite() && y.is_finite()) {
+            continue;
+        }
+        n += 1;
+        (sx, sy, sxx, sxy) = (sx + x, sy + y, sxx + x * x, sxy + x * y);
+    }
+    let nf = n as f64;
+    let var = sxx / nf.max(1.0) - (sx / nf.max(1.0)).powi(2);
+    if n < 10 || var.is_nan() || var <= 0.0 {
+        return None;
+    }
+    let slope = (sxy / nf - sx * sy / (nf * nf)) / var;
+    let offset = sy / nf - slope * sx / nf;
+    let rms = (sxx / nf).sqrt().max(0.1);
+    let ratio = offset.abs() / rms;
+    (ratio >= IMU_OFFSET_WARNING).then(|| Finding {
+        check: Check::ImuYawRate,
+        severity: Severity::fatal_if(ratio >= IMU_OFFSET_FATAL),
+        message: format!(
+            "the IMU reads {} rad/s of yaw rate where localization saw no turn (the offset of a line through the windows' mean rates, {n} windows; {} of the RMS rate localization saw, {} rad/s): a gyro bias, or an offset added? The models that start from the IMU's yaw rate (slip-ipem, acc-BLR, --start encoders+imu) start turning where the robot does not; remove the offset from the imu_yaw_rate column, or give --start encoders",
+            Short(three_digits(offset)),
+            Short(three_digits(ratio)),
+            Short(three_digits(rms))
+        ),
+    })
+}
+
+/// `imu-yaw-rate`'s gain (see [`imu_yaw_rate`]).
+fn imu_gain(w: &Windows<'_>) -> Option<Finding> {
     let dt = w.data.robot.dt();
     let (mut ii, mut it, mut n) = (0.0, 0.0, 0usize);
     for (win, m) in w.windows.iter().zip(&w.motions) {
@@ -964,6 +1042,34 @@ fn not_moving(w: &Windows<'_>) -> Vec<Finding> {
         {
             ignored += 1;
         }
+    }
+    // Windows at rest: nothing commanded, nothing measured, nothing seen (under 2 cm and
+    // 0.02 rad each). A run of them leaves the windows there nothing to predict: every
+    // model's error over them is zero, and a split that takes its evaluation windows from
+    // the run's end compares the models on them (every model 0.000, "+0.0%").
+    let at_rest: Vec<bool> = windows
+        .iter()
+        .zip(motions)
+        .map(|(w, &(d, r, moved, turned))| {
+            let (cd, cr) = dead_reckoned(data, &w.command, w.len());
+            [cd, cr, d, r, moved, turned.abs()]
+                .iter()
+                .all(|v| v.is_finite() && *v < REST_MOTION)
+        })
+        .collect();
+    let resting = at_rest.iter().filter(|r| **r).count();
+    let tail = &at_rest[at_rest.len() - at_rest.len() / 3..];
+    let resting_late = tail.iter().filter(|r| **r).count();
+    if windows.len() >= 10 && (resting * 4 >= windows.len() || resting_late * 2 >= tail.len()) {
+        out.push(Finding {
+            check: Check::NotMoving,
+            severity: Severity::Warning,
+            message: format!(
+                "{resting} of the {} windows ({resting_late} of the last {}, where a split by time takes its evaluation windows) command nothing and do not move (under 2 cm and 0.02 rad commanded, measured and seen): there is nothing to predict there, every model's error is zero on them and the models compared on them tie; the robot parked, or the run's end recorded at rest?",
+                windows.len(),
+                tail.len()
+            ),
+        });
     }
     if asked > 0 && ignored * 10 >= asked && still * 10 < driven.max(1) {
         let fatal = ignored * 2 > asked;
@@ -1538,6 +1644,32 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
                 ),
             });
             continue;
+        }
+        // The command column holding one value while its measurement drives elsewhere
+        // (off that value by more than the value itself on a tenth of the samples; a
+        // start from rest stays between zero and the command): a stuck command column,
+        // or not recorded, and the powertrain would be fitted to commands never sent.
+        if !commands_vary {
+            let held = c_high;
+            let all = samples().count();
+            let away = samples()
+                .filter(|(_, m)| (m[i] - held).abs() > 1.5 * held.abs())
+                .count();
+            if all >= 100 && away * 10 >= all {
+                out.push(Finding {
+                    check: Check::EncoderCommand,
+                    severity: Severity::Fatal,
+                    message: format!(
+                        "'{}' holds {} on every commanded sample while its measurement '{}' is off it by more than one and a half times that on {away} of {all} samples (from {} to {}): a stuck command column, or not recorded?",
+                        axis.command_column,
+                        Short(three_digits(held)),
+                        axis.measured_column,
+                        Short(three_digits(samples().map(|(_, m)| m[i]).fold(f64::INFINITY, f64::min))),
+                        Short(three_digits(samples().map(|(_, m)| m[i]).fold(f64::NEG_INFINITY, f64::max))),
+                    ),
+                });
+                continue;
+            }
         }
         if commands_vary && high - low <= 1e-9 * largest {
             out.push(Finding {

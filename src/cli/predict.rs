@@ -62,7 +62,8 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
     // The output's t runs on the command file's clock (from its first t).
     let crate::data::CommandFile { commands: cmds, t0 } =
         crate::data::read_commands(&args.commands, &columns, model.dt())?;
-    note_beyond_known(model.as_ref(), fitted_with.as_ref(), &robot, &cmds);
+    let known = known_range(model.as_ref(), fitted_with.as_ref(), &robot);
+    note_beyond_known(known.as_ref(), &robot, &cmds);
     let pose = args
         .start
         .map_or(Pose::zeros(), |[x, y, yaw]| Pose::new(x, y, yaw));
@@ -97,6 +98,7 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
             )?;
         }
     }
+    note_start_beyond_known(known.as_ref(), &robot, measured, args.start_velocity);
     let start = StartState::measured(pose, measured, robot.vehicle.as_ref());
     let start = args
         .start_yaw_rate
@@ -159,12 +161,19 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
 /// windows (`fitted_with.commanded`), or, in a file that does not keep them, its
 /// powertrain's fitted limits; saying whether the powertrain saturates it (the prediction is
 /// that of its limits) or the model extrapolates.
-fn note_beyond_known(
+/// The inputs a model knows: the commands it was trained on, else its powertrain's fitted
+/// limits; what they are called, and whether its powertrain saturates beyond them.
+struct Known {
+    range: crate::models::model_file::CommandRange,
+    what: &'static str,
+    saturates: bool,
+}
+
+fn known_range(
     model: &dyn crate::traits::MotionModel,
     fitted_with: Option<&crate::models::model_file::FitSettings>,
     robot: &crate::traits::RobotDescription,
-    cmds: &[Input],
-) {
+) -> Option<Known> {
     use crate::models::model_file::CommandRange;
     let axes = robot.vehicle.axes();
     // The powertrain's limits, from its parameters (`axis i min`, `axis i max`).
@@ -188,9 +197,31 @@ fn note_beyond_known(
     let (range, what) = match (fitted_with.and_then(|f| f.commanded.clone()), limits) {
         (Some(c), _) => (c, "the commands it was trained on"),
         (None, Some(l)) => (l, "its powertrain's fitted limits"),
-        (None, None) => return,
+        (None, None) => return None,
     };
-    let consequence = if saturates {
+    Some(Known {
+        range,
+        what,
+        saturates,
+    })
+}
+
+/// A note when a command lies beyond the inputs the model knows ([`known_range`]).
+fn note_beyond_known(
+    known: Option<&Known>,
+    robot: &crate::traits::RobotDescription,
+    cmds: &[Input],
+) {
+    let Some(Known {
+        range,
+        what,
+        saturates,
+    }) = known
+    else {
+        return;
+    };
+    let axes = robot.vehicle.axes();
+    let consequence = if *saturates {
         "its powertrain saturates it at its fitted limits"
     } else {
         "the model extrapolates beyond its data"
@@ -208,6 +239,62 @@ fn note_beyond_known(
             axes[i].command_column,
             crate::traits::limits::Short(lo),
             crate::traits::limits::Short(hi)
+        ));
+    }
+}
+
+/// A note when the start's measured inputs (`--start-wheels`) lie beyond the inputs the
+/// model knows, or its body velocity (`--start-velocity`) beyond twice the fastest those
+/// inputs drive the vehicle: a start no data showed, from which the model's state runs
+/// wherever its dynamics take it (a wheel at 1e6 rad/s: 1e7 m in two seconds).
+fn note_start_beyond_known(
+    known: Option<&Known>,
+    robot: &crate::traits::RobotDescription,
+    measured: Input,
+    velocity: Option<[f64; 2]>,
+) {
+    use crate::traits::limits::Short;
+    let Some(Known { range, what, .. }) = known else {
+        return;
+    };
+    let axes = robot.vehicle.axes();
+    let values: Vec<f64> = (0..axes.len()).map(|i| measured[i]).collect();
+    if let Some((i, v)) = range.beyond(&values) {
+        super::common::note(format!(
+            "note: --start-wheels holds {} {} on axis '{}', beyond {what} ([{}, {}]): a start no data showed; in the robot's units?",
+            Short(v),
+            axes[i].unit,
+            axes[i].measured_column,
+            Short(range.min[i]),
+            Short(range.max[i])
+        ));
+    }
+    let Some([vx, vy]) = velocity else {
+        return;
+    };
+    // The fastest the known inputs drive the body: over the corners of their box.
+    let n = axes.len();
+    let fastest = (0..1usize << n)
+        .map(|corner| {
+            let u = Input::from_fn(|i, _| {
+                if i >= n {
+                    0.0
+                } else if corner >> i & 1 == 1 {
+                    range.max[i]
+                } else {
+                    range.min[i]
+                }
+            });
+            let b = robot.vehicle.body_velocity(&u);
+            b.x.hypot(b.y)
+        })
+        .fold(0.0, f64::max);
+    let speed = vx.hypot(vy);
+    if fastest.is_finite() && fastest > 0.0 && speed > 2.0 * fastest {
+        super::common::note(format!(
+            "note: --start-velocity is {} m/s, over twice the fastest {what} drive the vehicle ({} m/s): a start no data showed; in m/s?",
+            Short(speed),
+            Short(fastest)
         ));
     }
 }

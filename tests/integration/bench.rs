@@ -291,6 +291,42 @@ fn out_writes_tables_and_a_page_and_never_replaces_an_input() {
     assert_eq!(std::fs::read(&csv_in).unwrap(), before);
 }
 
+/// A tenth outside sweep: `robot = "husky"` on a Warthog run (1.08 m baseline, 0.3 m wheels
+/// against the Husky's 0.55 m and 0.165 m) was taken without a word: the run's
+/// unpredictability computed with the Husky's body. `check --robot` said "is it the right
+/// robot?"; bench says it now, and takes no body of another geometry.
+#[test]
+fn a_robot_named_for_data_of_another_geometry_is_said_and_lends_no_body() {
+    let d = tempfile::tempdir().unwrap();
+    let suite = d.path().join("suite.toml");
+    let json = |text: &str| {
+        std::fs::write(&suite, text).unwrap();
+        let out = common::drive(&["bench", "--suite", s(&suite), "--models", "naive", "--json"]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let named = json("[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\nrobot = \"husky\"\n");
+    let text = named.to_string();
+    assert!(
+        text.contains("is not the robot husky's") && text.contains("is it the right robot?"),
+        "{text}"
+    );
+    assert!(
+        named["datasets"][0]["unpredictability"]["body_source"]
+            .as_str()
+            .is_some_and(|b| b.contains("no body size")),
+        "{}",
+        named["datasets"][0]
+    );
+    // Its own robot (a registered Warthog within a tenth of its geometry): no such note.
+    let own = json("[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\nrobot = \"warthog\"\n");
+    assert!(!own.to_string().contains("right robot"), "{own}");
+}
+
 #[test]
 fn bad_suites_fail_in_one_line() {
     let dir = tempfile::tempdir().unwrap();

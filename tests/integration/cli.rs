@@ -451,6 +451,38 @@ fn predict_notes_commands_beyond_what_the_model_was_trained_on() {
             "the model extrapolates beyond its data"
         };
         assert!(err.contains(consequence), "{name}: {err}");
+        // A start beyond them (a tenth outside sweep: --start-wheels 1e6 went to 1e7 m, and
+        // --start-velocity 1e8 to 1.8e7 m, without a word) is noted; one within is not.
+        let started = |flag: &str, value: &str| {
+            let out = drive(&[
+                "predict",
+                "--model",
+                file.to_str().unwrap(),
+                "--commands",
+                within.to_str().unwrap(),
+                &format!("{flag}={value}"),
+            ]);
+            assert!(out.status.success(), "{name} {flag}");
+            String::from_utf8_lossy(&out.stderr).into_owned()
+        };
+        let err = started("--start-wheels", "1e6,1e6");
+        assert!(
+            err.contains("--start-wheels holds 1e6 rad/s on axis 'enc_left', beyond the commands it was trained on"),
+            "{name}: {err}"
+        );
+        assert!(
+            !started("--start-wheels", "3,4").contains("beyond"),
+            "{name}"
+        );
+        let err = started("--start-velocity", "1e8,0");
+        assert!(
+            err.contains("--start-velocity is 1e8 m/s, over twice the fastest"),
+            "{name}: {err}"
+        );
+        assert!(
+            !started("--start-velocity", "0.5,0").contains("over twice"),
+            "{name}"
+        );
     }
 }
 

@@ -954,6 +954,152 @@ fn swapped_phase_labels_are_fatal() {
     );
 }
 
+/// A tenth outside sweep: phase labels drawn at random (a third transient) passed `phases`
+/// (steady windows changing 0.8-0.9 times as much as transient ones, against 0.02-0.07 on
+/// real runs, and the rule needed 1), and `eval` cut the run into other intervals. Half as
+/// much is fatal now; every bundled run stays under a tenth.
+#[test]
+fn phase_labels_drawn_at_random_are_fatal() {
+    use drive::data::quality::{check, Check, Severity};
+    for name in ["husky_drive", "warthog_asphalt_a"] {
+        let run = drive::bundled::load(name).unwrap();
+        let mut random = run.clone();
+        let mut i = 7usize;
+        for w in &mut random.windows {
+            i = i
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            w.phase = if (i >> 33) % 3 == 0 {
+                drive::traits::Phase::Transient
+            } else {
+                drive::traits::Phase::Steady
+            };
+        }
+        let f = check(&random, None)
+            .into_iter()
+            .find(|f| f.check == Check::Phases)
+            .unwrap_or_else(|| panic!("{name}: no phases finding"));
+        assert_eq!(f.severity, Severity::Fatal, "{name}");
+        assert!(f.message.contains("drawn at random"), "{}", f.message);
+    }
+    for name in drive::bundled::names() {
+        let run = drive::bundled::load(name).unwrap();
+        assert!(
+            check(&run, None).iter().all(|f| f.check != Check::Phases),
+            "{name}"
+        );
+    }
+}
+
+/// A tenth outside sweep: the last 40% of the Husky's windows at rest (nothing commanded,
+/// nothing measured, localization still) passed every check, and eval, report, bench and
+/// converge compared every model at 0.000 ("+0.0%") on evaluation windows four in five of
+/// which held nothing to predict. A quarter of the windows at rest, or half of the last
+/// third, is a warning now (every command that reads data prints it); no bundled run has one.
+#[test]
+fn windows_at_rest_that_leave_nothing_to_predict_are_named() {
+    use drive::data::quality::{check, Check, Severity};
+    let resting = |d: &drive::traits::Dataset| {
+        check(d, None)
+            .into_iter()
+            .find(|f| f.check == Check::NotMoving && f.message.contains("command nothing"))
+    };
+    for name in drive::bundled::names() {
+        let run = drive::bundled::load(name).unwrap();
+        assert_eq!(resting(&run), None, "{name}");
+    }
+    let husky = drive::bundled::load("husky_drive").unwrap();
+    let mut parked = husky.clone();
+    let from = parked.windows.len() * 6 / 10;
+    for w in &mut parked.windows[from..] {
+        w.command.iter_mut().for_each(|c| *c *= 0.0);
+        w.measured.iter_mut().for_each(|m| *m *= 0.0);
+        let first = w.pose[0];
+        w.pose.iter_mut().for_each(|p| *p = first);
+        w.imu_yaw_rate.iter_mut().for_each(|r| *r = 0.0);
+    }
+    let f = resting(&parked).expect("no finding");
+    assert_eq!(f.severity, Severity::Warning);
+    assert!(
+        f.message.starts_with(&format!(
+            "{} of the {} windows",
+            husky.windows.len() - from,
+            husky.windows.len()
+        )),
+        "{}",
+        f.message
+    );
+}
+
+/// A tenth outside sweep: the Husky's IMU with 1 rad/s added passed every check (the gain
+/// of its integrated turn on localization's has no offset), and acc-BLR, which starts from
+/// the IMU, went from 0.09 to 0.50 rad. The IMU's rate where localization saw no turn (the
+/// intercept of a line through the windows' mean rates) over 0.3 of the RMS rate
+/// localization saw is fatal, over 0.1 a warning; the bundled runs give 0.03 at most.
+#[test]
+fn an_imu_offset_is_named() {
+    use drive::data::quality::{check, Check, Severity};
+    let offset = |d: &drive::traits::Dataset| {
+        check(d, None).into_iter().find(|f| {
+            f.check == Check::ImuYawRate && f.message.contains("where localization saw no turn")
+        })
+    };
+    for name in drive::bundled::names() {
+        let run = drive::bundled::load(name).unwrap();
+        assert_eq!(offset(&run), None, "{name}");
+    }
+    let husky = drive::bundled::load("husky_drive").unwrap();
+    let added = |rate: f64| {
+        let mut d = husky.clone();
+        for w in &mut d.windows {
+            w.imu_yaw_rate.iter_mut().for_each(|r| *r += rate);
+        }
+        offset(&d).map(|f| (f.severity, f.message))
+    };
+    let (severity, message) = added(1.0).expect("no finding at 1 rad/s");
+    assert_eq!(severity, Severity::Fatal);
+    assert!(message.starts_with("the IMU reads 1 rad/s"), "{message}");
+    assert_eq!(added(-0.3).map(|f| f.0), Some(Severity::Fatal));
+    assert_eq!(added(0.08).map(|f| f.0), Some(Severity::Warning));
+    assert_eq!(added(0.02), None);
+}
+
+/// A tenth outside sweep: a command column stuck at one value (the Husky's left command at
+/// 2 rad/s throughout, its encoder still driving -7 to 7 rad/s with the real commands)
+/// passed every check, and every model was fitted to commands never sent (the convergence
+/// time 48 s instead of 12 s). A command column that holds one value while its measurement
+/// is off it by more than one and a half times that value on a tenth of the samples is
+/// fatal; a run whose commands are all one input is not.
+#[test]
+fn a_command_column_stuck_while_its_wheel_drives_is_fatal() {
+    use drive::data::quality::{check, Check, Severity};
+    let husky = drive::bundled::load("husky_drive").unwrap();
+    let stuck = |d: &drive::traits::Dataset| {
+        check(d, None)
+            .into_iter()
+            .find(|f| f.check == Check::EncoderCommand && f.message.contains("stuck command"))
+    };
+    assert!(stuck(&husky).is_none());
+    let mut left = husky.clone();
+    for w in &mut left.windows {
+        w.command.iter_mut().for_each(|c| c[0] = 2.0);
+    }
+    let f = stuck(&left).expect("no finding");
+    assert_eq!(f.severity, Severity::Fatal);
+    assert!(f.message.starts_with("'cmd_left' holds 2"), "{}", f.message);
+    // One input held through the whole run, answered: no stuck column.
+    let mut held = husky.clone();
+    for w in &mut held.windows {
+        for (c, m) in w.command.iter_mut().zip(w.measured.iter_mut()) {
+            c[0] = 2.0;
+            c[1] = 3.0;
+            m[0] = 2.0 + 0.1 * (m[0] / 10.0).sin();
+            m[1] = 3.0 + 0.1 * (m[1] / 10.0).sin();
+        }
+    }
+    assert!(stuck(&held).is_none());
+}
+
 /// An eighth outside sweep: encoders 1.2-1.5 s late against both their commands and
 /// localization passed every check, and every model learned the delay (slip-BLR 3.7 times
 /// worse on a simulated Husky). The time the measurements take to go a fifth of the way to
