@@ -113,6 +113,7 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
     if !with_cov {
         model.predict_into(&start, &cmds, &mut poses);
     }
+    note_implausible_speed(known.as_ref(), &robot, model.dt(), &poses);
     // Nothing is printed unless every predicted value is a finite number.
     let covariances: &[_] = if with_cov { &covs } else { &[] };
     if let Some(e) = MotionError::not_finite(&model.name(), model.dt(), &poses, covariances) {
@@ -272,9 +273,25 @@ fn note_start_beyond_known(
     let Some([vx, vy]) = velocity else {
         return;
     };
-    // The fastest the known inputs drive the body: over the corners of their box.
-    let n = axes.len();
-    let fastest = (0..1usize << n)
+    let (fastest, _) = fastest_known(range, robot);
+    let speed = vx.hypot(vy);
+    if fastest.is_finite() && fastest > 0.0 && speed > 2.0 * fastest {
+        super::common::note(format!(
+            "note: --start-velocity is {} m/s, over twice the fastest {what} drive the vehicle ({} m/s): a start no data showed; in m/s?",
+            Short(speed),
+            Short(fastest)
+        ));
+    }
+}
+
+/// The fastest the known inputs drive the body (m/s) and turn it (rad/s): over the corners
+/// of their box.
+fn fastest_known(
+    range: &crate::models::model_file::CommandRange,
+    robot: &crate::traits::RobotDescription,
+) -> (f64, f64) {
+    let n = robot.vehicle.axes().len();
+    (0..1usize << n)
         .map(|corner| {
             let u = Input::from_fn(|i, _| {
                 if i >= n {
@@ -286,15 +303,47 @@ fn note_start_beyond_known(
                 }
             });
             let b = robot.vehicle.body_velocity(&u);
-            b.x.hypot(b.y)
+            (b.x.hypot(b.y), b.z.abs())
         })
-        .fold(0.0, f64::max);
-    let speed = vx.hypot(vy);
-    if fastest.is_finite() && fastest > 0.0 && speed > 2.0 * fastest {
+        .fold((0.0, 0.0), |(v, w), (a, b)| {
+            (f64::max(v, a), f64::max(w, b))
+        })
+}
+
+/// A note when the predicted poses move faster than ten times the fastest the known inputs
+/// drive the vehicle (a model file whose weights were edited to 1e8 went 25,000 km in two
+/// seconds without a word): no robot moves so, whatever its ground.
+fn note_implausible_speed(
+    known: Option<&Known>,
+    robot: &crate::traits::RobotDescription,
+    dt: f64,
+    poses: &[Pose],
+) {
+    use crate::traits::limits::Short;
+    let Some(Known { range, .. }) = known else {
+        return;
+    };
+    let (fastest, turning) = fastest_known(range, robot);
+    if !(fastest.is_finite() && turning.is_finite() && dt > 0.0) {
+        return;
+    }
+    let found = poses.windows(2).enumerate().find_map(|(k, p)| {
+        let speed = (p[1].x - p[0].x).hypot(p[1].y - p[0].y) / dt;
+        // The predicted yaw runs on unwrapped (a turn of 1e6 rad is no small one).
+        let rate = (p[1].z - p[0].z).abs() / dt;
+        if fastest > 0.0 && speed > 10.0 * fastest {
+            Some((k + 1, speed, "m/s", fastest, "drive"))
+        } else if turning > 0.0 && rate > 10.0 * turning {
+            Some((k + 1, rate, "rad/s", turning, "turn"))
+        } else {
+            None
+        }
+    });
+    if let Some((k, value, unit, most, how)) = found {
         super::common::note(format!(
-            "note: --start-velocity is {} m/s, over twice the fastest {what} drive the vehicle ({} m/s): a start no data showed; in m/s?",
-            Short(speed),
-            Short(fastest)
+            "note: the model predicts {} {unit} at step {k}, over ten times the fastest the inputs it knows {how} the vehicle ({} {unit}): no robot moves so; a model file edited, or fitted on data in other units?",
+            Short(value),
+            Short(most)
         ));
     }
 }
