@@ -72,6 +72,8 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let is_model_file = args.prior.to_ascii_lowercase().ends_with(".json");
     let prior_data;
     let prior_file;
+    // The dataset a model file was fitted on: its name and windows.
+    let mut fitted_on: Option<(String, Option<usize>)> = None;
     let (prior, names): (crate::studies::AdaptPrior<'_>, Vec<String>) = if is_model_file {
         let text = crate::traits::files::read_text(
             &prior_path,
@@ -80,6 +82,10 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .with_context(|| format!("reading {}", args.prior))?;
         prior_file = crate::models::model_file::read_model_file(&args.prior, &text)?;
         let file = &prior_file;
+        fitted_on = Some((
+            file.robot.name.clone(),
+            file.fitted_with.as_ref().map(|f| f.training_windows),
+        ));
         let given = args
             .models
             .as_deref()
@@ -161,6 +167,16 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         ..Default::default()
     };
     let mut result = crate::studies::adapt(registries, &prior, &target, &specs, &study)?;
+    super::common::note_few_evaluation(None, result.evaluation_windows);
+    // A model file fitted on a dataset of the target's name: the target itself, most likely,
+    // and `frozen` then scored on windows it was fitted on (a dataset prior is refused so).
+    if let Some((name, windows)) = fitted_on.filter(|(name, _)| *name == target.robot.name) {
+        super::common::note(format!(
+            "note: the prior was fitted on a dataset named as the target is ({name}{}; the target has {} windows): if it is the target itself, `frozen` is scored on windows it was fitted on, and its figures are no transfer",
+            windows.map_or(String::new(), |n| format!(", {n} windows")),
+            target.windows.len()
+        ));
+    }
     // What the data checks called useless, run anyway with --allow-useless, stays with the
     // numbers it made.
     result.notes.extend(

@@ -553,6 +553,24 @@ pub fn note(line: String) {
         .push(line);
 }
 
+/// A note when a study's figures rest on fewer evaluation intervals than `drive bench`
+/// counts a dataset from (as `drive eval` says it): `intervals`, or else the windows
+/// (three a DRIVE interval).
+pub fn note_few_evaluation(intervals: Option<usize>, windows: usize) {
+    let evidence = crate::studies::BenchConfig::default().min_evidence_intervals;
+    let few = match intervals {
+        Some(n) => n < evidence,
+        None => windows < 3 * evidence,
+    };
+    if few {
+        note(format!(
+            "note: {} evaluation window(s){}: the medians rest on too few to be evidence (drive bench counts a dataset from {evidence} evaluation intervals)",
+            windows,
+            intervals.map_or(String::new(), |n| format!(" in {n} interval(s)"))
+        ));
+    }
+}
+
 /// Takes the notes of the running command.
 pub fn take_notes() -> Vec<String> {
     std::mem::take(

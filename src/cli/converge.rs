@@ -92,6 +92,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             spec.name
         );
     }
+    super::common::note_few_evaluation(None, c.eval_windows);
     if args.json {
         outln!("{}", serde_json::to_string(&c)?);
         return Ok(());

@@ -109,6 +109,10 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &options,
         &super::common::progress(),
     )?;
+    super::common::note_few_evaluation(
+        Some(analysis.comparison.eval_intervals),
+        analysis.comparison.eval_windows,
+    );
     let report = crate::report::Report::new(analysis);
     outputs.own(&args.out);
     let files = report.stage(&mut outputs, &args.out)?;

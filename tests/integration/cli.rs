@@ -1614,3 +1614,106 @@ fn a_raw_log_timed_in_seconds_is_named_as_such() {
         "{err}"
     );
 }
+
+/// A tenth outside sweep: `converge`, `adapt` and `report` gave their figures on 1-9
+/// evaluation windows without the note `eval` prints there. They say it now.
+#[test]
+fn converge_adapt_and_report_say_when_their_evaluation_windows_are_too_few() {
+    let few = drive(&[
+        "converge",
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--split",
+        "0.97",
+        "--orders",
+        "2",
+    ]);
+    assert!(few.status.success());
+    let err = String::from_utf8_lossy(&few.stderr);
+    assert!(
+        err.contains("3 evaluation window(s): the medians rest on too few to be evidence"),
+        "{err}"
+    );
+    let enough = drive(&[
+        "converge",
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--orders",
+        "2",
+    ]);
+    assert!(enough.status.success());
+    assert!(!String::from_utf8_lossy(&enough.stderr).contains("too few to be evidence"));
+    let adapted = drive(&[
+        "adapt",
+        "--prior",
+        "bundled:warthog_asphalt_a",
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--split",
+        "0.97",
+        "--times",
+        "0",
+        "--models",
+        "slip-blr",
+    ]);
+    let err = String::from_utf8_lossy(&adapted.stderr);
+    assert!(adapted.status.success(), "{err}");
+    assert!(err.contains("too few to be evidence"), "{err}");
+    let dir = tempfile::tempdir().unwrap();
+    let reported = drive(&[
+        "report",
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--split",
+        "0.9",
+        "--out",
+        dir.path().join("r").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&reported.stderr);
+    assert!(reported.status.success(), "{err}");
+    assert!(
+        err.contains("evaluation window(s) in 3 interval(s): the medians rest on too few"),
+        "{err}"
+    );
+}
+
+/// A tenth outside sweep: `adapt --prior model.json` with a model fitted on the target
+/// itself scored it as a prior (`frozen` on the windows it was fitted on) without a word,
+/// where a dataset prior of the target is refused. A prior fitted on a dataset named as the
+/// target is said to be so.
+#[test]
+fn adapt_says_when_a_model_file_prior_was_fitted_on_a_dataset_named_as_the_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("grass.json");
+    ok(&[
+        "train",
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--model",
+        "slip-blr",
+        "--uncertainty",
+        "paper",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    let adapt = |data: &str| {
+        let out = drive(&[
+            "adapt",
+            "--prior",
+            file.to_str().unwrap(),
+            "--data",
+            data,
+            "--times",
+            "0",
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{err}");
+        err
+    };
+    let itself = adapt("bundled:warthog_grass_2024-08-08");
+    assert!(
+        itself.contains("the prior was fitted on a dataset named as the target is (warthog-grass-2024-08-08, 90 windows; the target has 90 windows)"),
+        "{itself}"
+    );
+    assert!(!adapt("bundled:warthog_asphalt_slow_2024-08-08").contains("named as the target"));
+}
