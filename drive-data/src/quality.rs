@@ -411,7 +411,9 @@ fn window_order(windows: &[&Window]) -> Option<Finding> {
 /// times as much, the simulator's 0.003-0.1 (the linear-focused sampler's 0.1). Steady
 /// windows changing half as much as transient ones or more ([`PHASES_MAX_RATIO`]) are
 /// labels swapped or drawn at random (0.8-0.9): fatal (the intervals are cut at the
-/// transient windows, and the errors reported per phase would be the other phase's).
+/// transient windows, and the errors reported per phase would be the other phase's). So
+/// are intervals of a single window (a tenth of the transient windows followed by another
+/// transient one), and no transient window at all among ten or more.
 fn phases(w: &Windows<'_>) -> Option<Finding> {
     let mut change: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     for win in &w.windows {
@@ -445,22 +447,42 @@ fn phases(w: &Windows<'_>) -> Option<Finding> {
         });
     }
     let [mut transient, mut steady] = change;
-    if transient.len() < 10 || steady.len() < 10 {
-        return None;
+    if transient.len() >= 10 && steady.len() >= 10 {
+        let (t, st) = (
+            drive_traits::median(&mut transient),
+            drive_traits::median(&mut steady),
+        );
+        if st > 0.0 && st >= PHASES_MAX_RATIO * t {
+            return Some(Finding {
+                check: Check::Phases,
+                severity: Severity::Fatal,
+                message: format!(
+                    "the measured inputs change {} over a steady window and {} over a transient one (medians over {} and {} windows; a transient window holds the step to a new command, and a steady window of a DRIVE run changes under a tenth as much): the phase labels swapped, drawn at random, or the measurements late by a window?",
+                    Short(three_digits(st)),
+                    Short(three_digits(t)),
+                    steady.len(),
+                    transient.len()
+                ),
+            });
+        }
     }
-    let (t, st) = (
-        drive_traits::median(&mut transient),
-        drive_traits::median(&mut steady),
-    );
-    (st > 0.0 && st >= PHASES_MAX_RATIO * t).then(|| Finding {
+    // Transient windows followed by another transient window: intervals of one window. A
+    // DRIVE interval is its transient window and then its steady ones (none such on 227 real
+    // and simulated runs); labels drawn at random give a quarter or more, the first steady
+    // window of every interval relabelled transient a half.
+    let single = w
+        .windows
+        .windows(2)
+        .filter(|p| {
+            p[0].phase == drive_traits::Phase::Transient
+                && p[1].phase == drive_traits::Phase::Transient
+        })
+        .count();
+    (transients >= 10 && single * 10 >= transients && single >= 5).then(|| Finding {
         check: Check::Phases,
         severity: Severity::Fatal,
         message: format!(
-            "the measured inputs change {} over a steady window and {} over a transient one (medians over {} and {} windows; a transient window holds the step to a new command, and a steady window of a DRIVE run changes under a tenth as much): the phase labels swapped, drawn at random, or the measurements late by a window?",
-            Short(three_digits(st)),
-            Short(three_digits(t)),
-            steady.len(),
-            transient.len()
+            "{single} of the {transients} transient windows are followed by another transient window: intervals of a single window, where a DRIVE interval is its transient window and then its steady ones; the phase labels shifted, relabelled or drawn at random?"
         ),
     })
 }

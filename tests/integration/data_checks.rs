@@ -981,6 +981,24 @@ fn phase_labels_drawn_at_random_are_fatal() {
             .unwrap_or_else(|| panic!("{name}: no phases finding"));
         assert_eq!(f.severity, Severity::Fatal, "{name}");
         assert!(f.message.contains("drawn at random"), "{}", f.message);
+        // The first steady window of every interval relabelled transient: intervals of a
+        // single window (eval counted twice the run's intervals).
+        let mut relabelled = run.clone();
+        for i in 1..relabelled.windows.len() {
+            if run.windows[i - 1].phase == drive::traits::Phase::Transient {
+                relabelled.windows[i].phase = drive::traits::Phase::Transient;
+            }
+        }
+        let f = check(&relabelled, None)
+            .into_iter()
+            .find(|f| f.check == Check::Phases)
+            .unwrap_or_else(|| panic!("{name}: no phases finding when relabelled"));
+        assert_eq!(f.severity, Severity::Fatal, "{name}");
+        assert!(
+            f.message.contains("intervals of a single window"),
+            "{}",
+            f.message
+        );
     }
     for name in drive::bundled::names() {
         let run = drive::bundled::load(name).unwrap();
