@@ -8,6 +8,9 @@ use drive_traits::{Dataset, Window};
 
 /// Fewest windows a localization check judges on.
 const MIN_WINDOWS: usize = 10;
+/// The interquartile range of the windows' angles (degrees) beyond which a median offset is
+/// a robot sliding, not a yaw offset (see `frame`).
+const OFFSET_SPREAD_DEGREES: f64 = 15.0;
 
 /// `localization-frame`, a constant offset: the median signed angle (degrees) between the
 /// travel localization saw and the one the encoders imply, in the body frame, at or beyond
@@ -189,6 +192,15 @@ pub(super) fn frame(w: &Windows<'_>) -> Vec<Finding> {
     let windows = signed.len();
     if windows >= MIN_WINDOWS {
         let mut unsigned: Vec<f64> = signed.iter().map(|a| a.abs()).collect();
+        // How much the windows agree: a yaw offset turns every window by it (interquartile
+        // range 0.6-2.5 degrees on real runs with 0.4 rad added to the heading), a robot
+        // sliding on ice by what each window's past left it (34 degrees).
+        let spread = {
+            let mut sorted = signed.clone();
+            sorted.sort_by(f64::total_cmp);
+            let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize];
+            at(0.75) - at(0.25)
+        };
         let (offset, angle) = (
             drive_traits::median(&mut signed),
             drive_traits::median(&mut unsigned),
@@ -196,6 +208,16 @@ pub(super) fn frame(w: &Windows<'_>) -> Vec<Finding> {
         if angle >= BACKWARDS_DEGREES {
             // Moving backwards along the heading: direction's (encoders sign-flipped, the
             // heading turned half a turn).
+        } else if offset.abs() >= OFFSET_DEGREES && spread > OFFSET_SPREAD_DEGREES {
+            out.push(Finding {
+                check: Check::LocalizationFrame,
+                severity: Severity::Warning,
+                message: format!(
+                    "localization's positions move {} degrees from where its own heading points, where the encoders drive along it (median over {windows} windows), but scattered ({} degrees between the quartiles; a yaw offset turns every window alike): the robot sliding sideways (ice)?",
+                    Short(offset.round()),
+                    Short(spread.round())
+                ),
+            });
         } else if offset.abs() >= OFFSET_DEGREES {
             out.push(Finding {
                 check: Check::LocalizationFrame,
