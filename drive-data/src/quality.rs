@@ -1945,13 +1945,40 @@ fn answered_late(data: &Dataset, windows: &[&Window], axes: &[usize]) -> Option<
         return None;
     }
     let late = drive_traits::median(&mut rises);
+    // How far the measurements reach of the commands (the least over the axes): commands in
+    // another unit (a forward speed in km/h) ask for steps the wheels never go a fifth of
+    // the way to, which reads as late. A DRIVE run commands beyond what its wheels reach
+    // (the bundled Husky run: 0.47), so only under 0.35 (a Husky's in km/h: 0.29).
+    let reach = axes
+        .iter()
+        .map(|&i| {
+            let most = |f: &dyn Fn(&Window) -> &[drive_traits::Input]| {
+                windows
+                    .iter()
+                    .flat_map(|w| f(w).iter())
+                    .map(|u| u[i].abs())
+                    .filter(|v| v.is_finite())
+                    .fold(0.0, f64::max)
+            };
+            most(&|w| &w.measured) / most(&|w| &w.command)
+        })
+        .filter(|r| r.is_finite())
+        .fold(f64::INFINITY, f64::min);
     (late >= 1.2).then(|| Finding {
         check: Check::EncoderCommand,
         severity: Severity::fatal_if(late >= 1.5),
         message: format!(
-            "the measured inputs go a fifth of the way to a new command {} s after it (median over {} steps of the transient windows; 0.35-0.65 s on the bundled runs): measurements timestamped late against their commands, or the commands early?",
+            "the measured inputs go a fifth of the way to a new command {} s after it (median over {} steps of the transient windows; 0.35-0.65 s on the bundled runs): measurements timestamped late against their commands, or the commands early?{}",
             Short((late * 100.0).round() / 100.0),
-            rises.len()
+            rises.len(),
+            if reach < 0.35 {
+                format!(
+                    " Or the commands in another unit than the measurements: these reach {} of the largest command",
+                    Short(three_digits(reach))
+                )
+            } else {
+                String::new()
+            }
         ),
     })
 }

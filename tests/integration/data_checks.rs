@@ -1155,6 +1155,27 @@ fn encoders_answering_their_commands_late_are_fatal() {
     assert_eq!(late(&delayed(30)), Some(Severity::Fatal));
     assert_eq!(late(&delayed(12)), Some(Severity::Warning));
     assert_eq!(late(&delayed(4)), None);
+    // Commands in another unit (3.6 times: a forward speed in km/h) read as late too; a
+    // tenth outside sweep found the finding named the timestamps only. It names the unit
+    // now where the measurements reach under 0.35 of the largest command (the bundled
+    // Husky run's reach 0.47: DRIVE commands beyond what the wheels reach).
+    let unit = |d: &drive::traits::Dataset| {
+        check(d, None)
+            .into_iter()
+            .find(|f| f.check == Check::EncoderCommand && f.message.contains("of the way"))
+            .map(|f| f.message)
+    };
+    let mut kmh = husky.clone();
+    for w in &mut kmh.windows {
+        w.command.iter_mut().for_each(|c| *c *= 3.6);
+    }
+    let message = unit(&kmh).expect("no finding on commands in km/h");
+    assert!(
+        message.contains("Or the commands in another unit"),
+        "{message}"
+    );
+    let message = unit(&delayed(30)).unwrap();
+    assert!(!message.contains("another unit"), "{message}");
 }
 
 /// A sixth outside sweep: localization whose positions disagree with its own heading (a yaw
