@@ -870,6 +870,13 @@ fn near_duplicates(windows: &[&Window]) -> (usize, usize) {
 ///
 /// And an offset ([`imu_offset`]): the IMU reading a turn where localization saw none.
 fn imu_yaw_rate(w: &Windows<'_>) -> Option<Finding> {
+    // An IMU that never changes is `imu-constant`'s (a warning: the models then start from
+    // localization instead).
+    let mut imu = w.windows.iter().flat_map(|win| win.imu_yaw_rate.iter());
+    let first = imu.next().copied().unwrap_or(0.0);
+    if imu.all(|v| *v == first) {
+        return None;
+    }
     let offset = imu_offset(w);
     if let Some(f) = offset.as_ref().filter(|f| f.severity == Severity::Fatal) {
         return Some(f.clone());
@@ -890,15 +897,8 @@ const IMU_OFFSET_FATAL: f64 = 0.3;
 /// sand and gravel runs: 0.03 at most. Over 0.1 a warning, over 0.3 fatal: the models that
 /// start from the IMU (slip-ipem, acc-BLR, `--start encoders+imu`) start turning where the
 /// robot does not (acc-BLR's rotational error 0.09 -> 0.50 rad on the Husky with 1 rad/s
-/// added). An IMU that never changes is `imu-constant`'s.
+/// added).
 fn imu_offset(w: &Windows<'_>) -> Option<Finding> {
-    // An IMU that never changes is `imu-constant`'s (the models then start from
-    // localization instead).
-    let mut imu = w.windows.iter().flat_map(|win| win.imu_yaw_rate.iter());
-    let first = imu.next().copied().unwrap_or(0.0);
-    if imu.all(|v| *v == first) {
-        return None;
-    }
     let dt = w.data.robot.dt();
     let (mut n, mut sx, mut sy, mut sxx, mut sxy) = (0usize, 0.0, 0.0, 0.0, 0.0);
     for (win, m) in w.windows.iter().zip(&w.motions) {
@@ -953,13 +953,6 @@ fn imu_gain(w: &Windows<'_>) -> Option<Finding> {
     }
     let gain = it / ii;
     if (0.75..=1.0 / 0.75).contains(&gain) {
-        return None;
-    }
-    // An IMU that never changes is imu-constant's (a warning: the models start from
-    // localization instead).
-    let mut imu = w.windows.iter().flat_map(|win| win.imu_yaw_rate.iter());
-    let first = imu.next().copied().unwrap_or(0.0);
-    if imu.all(|v| *v == first) {
         return None;
     }
     // An IMU read backwards, and only that (its negation within the band), is a warning: a

@@ -271,27 +271,23 @@ where
         }
         // The reader of our output has gone: nothing more to say.
         Err(e) if e.downcast_ref::<common::ClosedPipe>().is_some() => 0,
-        // The standard error appends to an input: the refusal goes to the standard output
-        // when that is no input, else nowhere (the exit status says it), never onto the
-        // input's end.
-        Err(e)
-            if e.downcast_ref::<common::StreamOntoInput>()
-                .is_some_and(|s| s.stderr_appends_to_input) =>
-        {
-            if e.downcast_ref::<common::StreamOntoInput>()
-                .is_some_and(|s| !s.stdout_is_input)
-            {
-                use std::io::Write as _;
-                let _ = writeln!(
-                    std::io::stdout(),
-                    "error: {}",
-                    common::printable(&format!("{e:#}"))
-                );
-            }
-            1
-        }
         Err(e) => {
-            say!("error: {e:#}");
+            match e.downcast_ref::<common::StreamOntoInput>() {
+                // The standard error appends to an input: the refusal goes to the standard
+                // output when that is no input, else nowhere (the exit status says it),
+                // never onto the input's end.
+                Some(s) if s.stderr_appends_to_input => {
+                    if !s.stdout_is_input {
+                        use std::io::Write as _;
+                        let _ = writeln!(
+                            std::io::stdout(),
+                            "error: {}",
+                            common::printable(&format!("{e:#}"))
+                        );
+                    }
+                }
+                _ => say!("error: {e:#}"),
+            }
             1
         }
     }
