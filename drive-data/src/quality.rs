@@ -25,7 +25,16 @@ use serde::Serialize;
 /// 1 / radius, 2.6 on a real Warthog run).
 const MAX_ENCODER_GAIN: f64 = 2.0;
 
+/// `encoder-command`: the band of least-squares gains (a measured input on its command) that
+/// real DRIVE runs fall in, with a margin: the bundled and norlab runs 0.42-0.84 (the Husky
+/// commanded far beyond its limits, the lowest), the simulated robots 0.77-1.0. Outside it
+/// (commands scaled by 2.5-3 answer 0.25-0.28, by 0.3 answer 1.4) a warning: commands
+/// scaled or in another unit would fit a powertrain of that gain and a model answering
+/// other commands than the robot's.
+const TYPICAL_ENCODER_GAIN: std::ops::RangeInclusive<f64> = 0.3..=1.25;
+
 mod localization;
+mod steps;
 pub use localization::{fixed_position_axis, position_grid};
 
 /// How bad a finding is.
@@ -178,7 +187,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "encoder-command",
-        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 2 or under 0.1: commands or encoders in another unit), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled); the measured inputs holding one value through four in five steady windows while the commands vary (fatal: the columns exchanged)",
+        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 2 or under 0.1: commands or encoders in another unit; a warning outside 0.3-1.25, where real runs answer 0.42-0.84: commands scaled), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled); the measured inputs holding one value through four in five steady windows while the commands vary (fatal: the columns exchanged)",
     ),
     (
         "outside-limits",
@@ -198,7 +207,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "localization-sync",
-        "localization's travel and turn per window not following the encoders' (correlation under 0.3: another run's localization), or following the window before's or after's better (timestamps shifted by a window)",
+        "localization's travel and turn per window not following the encoders' (correlation under 0.3: another run's localization), or following the window before's or after's better (timestamps shifted by a window); sample by sample, localization equal to the encoders' dead reckoning (wheel odometry: no slip to learn), jumping at one sample of every window (3 times the mean step; fatal from 5), or moving from sample to sample twice what the encoders imply and 0.5 m/s more (noise on every position; fatal from 4 times and 2 m/s)",
     ),
     (
         "position-steps",
@@ -210,7 +219,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "imu-yaw-rate",
-        "the IMU's yaw rate, integrated over each window, against localization's turn: over twice it (scaled, deg/s), under half of it (lagging, another signal) or against it and scaled; a warning outside 0.75-1.33 times it, and for an IMU read backwards alone (-1.33 to -0.75: the models' start from the IMU turns the wrong way)",
+        "the IMU's yaw rate, integrated over each window, against localization's turn: over twice it (scaled, deg/s), under half of it (lagging, another signal) or against it and scaled; a warning outside 0.75-1.33 times it, and for an IMU read backwards alone (-1.33 to -0.75: the models' start from the IMU turns the wrong way), and for one equal to the yaw rate the encoders imply (computed from them, not measured)",
     ),
     (
         "phases",
@@ -293,8 +302,11 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(localization::frame(&w));
     out.extend(localization::sync(&w));
     out.extend(localization::positions(&w));
+    out.extend(steps::written_from_encoders(&w));
+    out.extend(steps::jumps_and_noise(&w));
     out.extend(duplicate_windows(&w));
     out.extend(imu_yaw_rate(&w));
+    out.extend(steps::imu_from_encoders(&w));
     out.extend(phases(&w));
     out.extend(window_order(&w.windows));
     out.extend(exchanged(&w.windows));
@@ -1760,6 +1772,23 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
             )
         } else {
             followed[i] = Some((gain, own));
+            if own >= 0.5 && !TYPICAL_ENCODER_GAIN.contains(&gain) {
+                out.push(Finding {
+                    check: Check::EncoderCommand,
+                    severity: Severity::Warning,
+                    message: format!(
+                        "'{}' answers {} of its commands '{}' (least-squares gain over {n} commanded samples; DRIVE runs of real robots answer 0.42-0.84, simulated ones up to 1.0): commands scaled or in another unit, {}?",
+                        axis.measured_column,
+                        Short(three_digits(gain)),
+                        axis.command_column,
+                        if gain < 1.0 {
+                            "or commanded far beyond what the wheels reach"
+                        } else {
+                            "or a powertrain that overshoots its commands"
+                        }
+                    ),
+                });
+            }
             continue;
         };
         out.push(Finding {

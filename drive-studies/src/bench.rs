@@ -28,6 +28,7 @@ use thiserror::Error;
 
 mod adaptation;
 mod results;
+mod sequence;
 pub use adaptation::{AdaptPair, AdaptSummary, BenchAdaptation, LEADERBOARD_ADAPT_T_S};
 pub use results::{
     Bench, BenchDataset, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,
@@ -288,6 +289,9 @@ pub(crate) struct WindowPrints {
     inputs: Vec<Inputs>,
     /// The inputs by their mean command's cell ([`INPUTS_CELL`]).
     input_cells: HashMap<[i64; 2], Vec<usize>>,
+    /// The windows in recorded order: the sequence of commands one drive keeps through
+    /// noise ([`sequence::one_drive`]).
+    sequence: sequence::Sequence,
 }
 
 /// A window's mean command and mean measured input per axis and its mean IMU yaw rate: what
@@ -384,12 +388,18 @@ pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
         track_cells,
         inputs,
         input_cells,
+        sequence: sequence::Sequence::of(data),
     }
 }
 
 /// A window's [`Inputs`]; `None` when it was neither commanded nor moved its wheels by
 /// [`INPUTS_TOLERANCE`] (a window standing still carries no identity).
 fn inputs_of(w: &drive_traits::Window) -> Option<Inputs> {
+    window_means(w).filter(|values| values[..6].iter().any(|v| v.abs() >= INPUTS_TOLERANCE))
+}
+
+/// A window's [`Inputs`]; `None` where one is not finite.
+fn window_means(w: &drive_traits::Window) -> Option<Inputs> {
     let n = w.len() as f64;
     let mut values = [0.0; 7];
     for axis in 0..3 {
@@ -397,9 +407,7 @@ fn inputs_of(w: &drive_traits::Window) -> Option<Inputs> {
         values[3 + axis] = w.measured.iter().map(|u| u[axis]).sum::<f64>() / n;
     }
     values[6] = w.imu_yaw_rate.iter().sum::<f64>() / w.imu_yaw_rate.len().max(1) as f64;
-    (values.iter().all(|v| v.is_finite())
-        && values[..6].iter().any(|v| v.abs() >= INPUTS_TOLERANCE))
-    .then_some(values)
+    values.iter().all(|v| v.is_finite()).then_some(values)
 }
 
 /// The cell of a window's mean command ([`INPUTS_CELL`]).
@@ -543,13 +551,19 @@ pub(crate) fn shared_windows(a: &WindowPrints, b: &WindowPrints) -> (usize, usiz
         .filter(|i| holds_inputs(many_inputs, i))
         .count();
     let inputs = (by_inputs, few_inputs.inputs.len());
-    if by_inputs > 0
+    let larger = if by_inputs > 0
         && by_inputs as f64 >= SAME_INPUTS_SHARE * inputs.1 as f64
         && inputs.0 * larger.1.max(1) > larger.0 * inputs.1.max(1)
     {
         inputs
     } else {
         larger
+    };
+    // One drive's commands window after window, its IMU off by noise alone: a copy with
+    // noise on every column ([`sequence::one_drive`]).
+    match sequence::one_drive(&a.sequence, &b.sequence, SAME_INPUTS_SHARE) {
+        Some(found) if found.0 * larger.1.max(1) > larger.0 * found.1.max(1) => found,
+        _ => larger,
     }
 }
 

@@ -1,0 +1,240 @@
+//! Localization's motion sample by sample against the encoders' (`localization-sync`):
+//! localization written from the encoders themselves, a jump at one sample of every window,
+//! and noise far beyond the motion; and an IMU written from the encoders (`imu-yaw-rate`).
+//! The window-level checks (travel and turn per window) do not see these: a window's net
+//! motion can be right while every sample is not.
+
+use super::{three_digits, Check, Finding, Severity, Windows};
+use drive_traits::limits::Short;
+
+/// Fewest windows (of the common length) these checks judge on.
+const MIN_WINDOWS: usize = 10;
+/// Fewest moving steps the copies' rule judges on.
+const MIN_STEPS: usize = 200;
+
+/// A copy of the encoders: the share of moving steps whose ratio to the encoders' is the
+/// median ratio to within [`COPY_TOLERANCE`], at or beyond which a signal is computed from
+/// the encoders (real localization holds between its updates and has noise: none of the
+/// bundled, norlab or simulated runs comes near).
+const COPY_SHARE: f64 = 0.9;
+/// See [`COPY_SHARE`]: relative.
+const COPY_TOLERANCE: f64 = 1e-3;
+
+/// A jump at one sample of every window: the mean excess of localization's step at that
+/// sample over the encoders' (localization's holds between its updates spread out), against
+/// the mean step, from which a warning and fatal. The bundled and norlab runs give 0.1-1.4
+/// (their window's first step the largest), simulated runs up to 1.2; a 1 m jump at one
+/// sample of every window 4.7-23 (a car at 5 m/s the least), 0.3 m 0.9-11.5.
+const JUMP_WARNING: f64 = 3.0;
+/// See [`JUMP_WARNING`].
+const JUMP_FATAL: f64 = 5.0;
+/// See [`JUMP_WARNING`]: the excess (m) under which no jump is named (a robot at rest).
+const JUMP_FLOOR: f64 = 0.02;
+
+/// Noise: localization's mean step against the encoders' (holds spread out), from which a
+/// warning and fatal, where the excess is also [`NOISE_SPEED_WARNING`] (m/s) or more. The
+/// bundled, norlab and simulated runs give 0.2-1.12 (slip: a robot moves less than its
+/// wheels); positions with noise of 0.05 m added 0.6-6, 0.3 m 3.4-34.
+const NOISE_RATIO_WARNING: f64 = 2.0;
+/// See [`NOISE_RATIO_WARNING`].
+const NOISE_RATIO_FATAL: f64 = 4.0;
+/// See [`NOISE_RATIO_WARNING`]: the mean excess speed (m/s) from which noise is named (the
+/// real runs: 0.08 at most), and from which fatal.
+const NOISE_SPEED_WARNING: f64 = 0.5;
+/// See [`NOISE_SPEED_WARNING`].
+const NOISE_SPEED_FATAL: f64 = 2.0;
+
+/// Each window's positions with localization's holds spread out: where a position repeats
+/// the one before (localization slower than the log's rate), the positions between two
+/// updates are interpolated, so that each step carries its share of the motion.
+fn spread_holds(x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let n = x.len();
+    let mut updates: Vec<usize> = vec![0];
+    updates.extend((1..n).filter(|&k| x[k] != x[k - 1] || y[k] != y[k - 1]));
+    if *updates.last().unwrap_or(&0) != n - 1 {
+        updates.push(n - 1);
+    }
+    let (mut xs, mut ys) = (x.to_vec(), y.to_vec());
+    for pair in updates.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        for k in a + 1..b {
+            let s = (k - a) as f64 / (b - a) as f64;
+            xs[k] = x[a] + s * (x[b] - x[a]);
+            ys[k] = y[a] + s * (y[b] - y[a]);
+        }
+    }
+    (xs, ys)
+}
+
+/// The jump and noise rules: per sample of the windows' common length, the mean step
+/// localization saw (holds spread out) and the mean step the encoders imply.
+pub(super) fn jumps_and_noise(w: &Windows<'_>) -> Option<Finding> {
+    let data = w.data;
+    let dt = data.robot.dt();
+    // The windows' most common length, and the windows at least that long.
+    let mut lengths: Vec<usize> = w.windows.iter().map(|win| win.len()).collect();
+    lengths.sort_unstable();
+    let len = lengths[lengths.len() / 2];
+    let windows: Vec<_> = w.windows.iter().filter(|win| win.len() >= len).collect();
+    if windows.len() < MIN_WINDOWS || len < 3 {
+        return None;
+    }
+    let (mut seen, mut implied) = (vec![0.0; len - 1], vec![0.0; len - 1]);
+    for win in &windows {
+        let x: Vec<f64> = win.pose[..len].iter().map(|p| p.x).collect();
+        let y: Vec<f64> = win.pose[..len].iter().map(|p| p.y).collect();
+        if x.iter().chain(&y).any(|v| !v.is_finite()) {
+            continue;
+        }
+        let (x, y) = spread_holds(&x, &y);
+        for k in 0..len - 1 {
+            seen[k] += (x[k + 1] - x[k]).hypot(y[k + 1] - y[k]);
+            let v = data.robot.vehicle.body_velocity(&win.measured[k]);
+            implied[k] += v.x.hypot(v.y) * dt;
+        }
+    }
+    let n = windows.len() as f64;
+    seen.iter_mut().for_each(|s| *s /= n);
+    implied.iter_mut().for_each(|s| *s /= n);
+    let steps = (len - 1) as f64;
+    let (seen_mean, implied_mean) = (seen.iter().sum::<f64>() / steps, {
+        implied.iter().sum::<f64>() / steps
+    });
+    if !(seen_mean.is_finite() && implied_mean.is_finite()) || seen_mean <= 0.0 {
+        return None;
+    }
+    let scale = seen_mean.max(implied_mean);
+    let (at, excess) = seen
+        .iter()
+        .zip(&implied)
+        .map(|(s, i)| s - i)
+        .enumerate()
+        .fold(
+            (0, f64::NEG_INFINITY),
+            |b, (k, e)| if e > b.1 { (k, e) } else { b },
+        );
+    let ratio = excess / scale;
+    if excess >= JUMP_FLOOR && ratio >= JUMP_WARNING {
+        return Some(Finding {
+            check: Check::LocalizationSync,
+            severity: Severity::fatal_if(ratio >= JUMP_FATAL),
+            message: format!(
+                "localization jumps between samples {at} and {} of its windows: {} m further on average over {} windows than the encoders imply, {} times the mean step of {} m: a pose at that sample from another source or time (the windows' start written from elsewhere)?",
+                at + 1,
+                Short(three_digits(excess)),
+                windows.len(),
+                Short(three_digits(ratio)),
+                Short(three_digits(scale)),
+            ),
+        });
+    }
+    let speed = (seen_mean - implied_mean) / dt;
+    let ratio = seen_mean / implied_mean.max(f64::MIN_POSITIVE);
+    if ratio >= NOISE_RATIO_WARNING && speed >= NOISE_SPEED_WARNING {
+        return Some(Finding {
+            check: Check::LocalizationSync,
+            severity: Severity::fatal_if(ratio >= NOISE_RATIO_FATAL && speed >= NOISE_SPEED_FATAL),
+            message: format!(
+                "localization's positions move {} m/s from sample to sample on average where the encoders imply {} m/s ({} times, over {} windows): noise of several centimetres or more on every position, which every error measured on it includes?",
+                Short(three_digits(seen_mean / dt)),
+                Short(three_digits(implied_mean / dt)),
+                Short(three_digits(ratio)),
+                windows.len(),
+            ),
+        });
+    }
+    None
+}
+
+/// The share of `pairs` (signal, encoders' value) whose ratio is the median ratio to within
+/// [`COPY_TOLERANCE`], and that median; `None` under [`MIN_STEPS`] pairs.
+fn copied_share(pairs: &[(f64, f64)]) -> Option<(f64, f64)> {
+    if pairs.len() < MIN_STEPS {
+        return None;
+    }
+    let mut ratios: Vec<f64> = pairs.iter().map(|(s, e)| s / e).collect();
+    ratios.sort_by(f64::total_cmp);
+    let median = ratios[ratios.len() / 2];
+    if !median.is_finite() || median <= 0.0 {
+        return None;
+    }
+    let close = ratios
+        .iter()
+        .filter(|r| (*r / median - 1.0).abs() <= COPY_TOLERANCE)
+        .count();
+    Some((close as f64 / ratios.len() as f64, median))
+}
+
+/// Localization's positions (or its heading) the encoders' dead reckoning, to within a
+/// factor: no slip is left to learn, and every slip model learns none. Fatal.
+pub(super) fn written_from_encoders(w: &Windows<'_>) -> Option<Finding> {
+    let data = w.data;
+    let dt = data.robot.dt();
+    let (mut forward, mut turn) = (Vec::new(), Vec::new());
+    for win in &w.windows {
+        for k in 0..win.len() - 1 {
+            let (p, q) = (win.pose[k], win.pose[k + 1]);
+            let v = data.robot.vehicle.body_velocity(&win.measured[k]);
+            let (sin, cos) = p.z.sin_cos();
+            let ahead = cos * (q.x - p.x) + sin * (q.y - p.y);
+            // Moving steps only: a thousandth of a metre or of a radian.
+            if (v.x * dt).abs() >= 1e-3 && ahead.is_finite() {
+                forward.push((ahead, v.x * dt));
+            }
+            let turned = q.z - p.z;
+            if (v.z * dt).abs() >= 1e-3 && turned.abs() < 1.0 {
+                turn.push((turned, v.z * dt));
+            }
+        }
+    }
+    let (share, factor) = copied_share(&forward)?;
+    if share < COPY_SHARE {
+        return None;
+    }
+    let heading = copied_share(&turn)
+        .filter(|(s, _)| *s >= COPY_SHARE)
+        .map(|(_, f)| {
+            format!(
+                ", and its heading's steps equal their turn times {}",
+                Short(three_digits(f))
+            )
+        })
+        .unwrap_or_default();
+    Some(Finding {
+        check: Check::LocalizationSync,
+        severity: Severity::Fatal,
+        message: format!(
+            "localization's steps forward equal the encoders' dead reckoning times {} on {} of {} moving steps (to within {}%){heading}: localization computed from the encoders (wheel odometry), which holds no slip to learn?",
+            Short(three_digits(factor)),
+            (share * forward.len() as f64).round(),
+            forward.len(),
+            Short(COPY_TOLERANCE * 100.0),
+        ),
+    })
+}
+
+/// The IMU's yaw rate the encoders' implied one, to within a factor, on nearly every turning
+/// sample: the models that start from the IMU then take the wheels' turn for the body's. A
+/// warning.
+pub(super) fn imu_from_encoders(w: &Windows<'_>) -> Option<Finding> {
+    let data = w.data;
+    let pairs: Vec<(f64, f64)> = w
+        .windows
+        .iter()
+        .flat_map(|win| win.measured.iter().zip(&win.imu_yaw_rate))
+        .map(|(m, r)| (*r, data.robot.vehicle.body_velocity(m).z))
+        .filter(|(r, z)| z.abs() >= 1e-2 && r.is_finite())
+        .collect();
+    let (share, factor) = copied_share(&pairs)?;
+    (share >= COPY_SHARE).then(|| Finding {
+        check: Check::ImuYawRate,
+        severity: Severity::Warning,
+        message: format!(
+            "the IMU's yaw rate equals the one the encoders imply times {} on {} of {} turning samples (to within {}%): computed from the encoders, not measured? The models that start from the IMU then take the wheels' turn for the body's",
+            Short(three_digits(factor)),
+            (share * pairs.len() as f64).round(),
+            pairs.len(),
+            Short(COPY_TOLERANCE * 100.0),
+        ),
+    })
+}
