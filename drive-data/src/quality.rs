@@ -223,7 +223,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "phases",
-        "the measured inputs changing more over the steady windows than over the transient ones (the phase labels swapped: a split and the per-phase errors would be of the wrong windows), or no transient window among ten or more (the phase column lost: no interval to split by, no step for the powertrain's fit)",
+        "the measured inputs changing more over the steady windows than over the transient ones (the phase labels swapped: a split and the per-phase errors would be of the wrong windows), or steps to a new command opening windows labelled steady (transient labels lost), or no transient window among ten or more (the phase column lost: no interval to split by, no step for the powertrain's fit)",
     ),
     (
         "window-order",
@@ -416,6 +416,46 @@ fn window_order(windows: &[&Window]) -> Option<Finding> {
     })
 }
 
+/// `phases`: the steps to a new command (a window's first command off the last one of the
+/// window before it by a twentieth of the commands' range or more) that open a window
+/// labelled steady. A DRIVE interval opens with its transient window, so a step opening a
+/// steady window is a transient label lost (none on 227 real and simulated runs). Fatal from
+/// a tenth of the steps, five at least: the intervals (cut at the transient windows) would
+/// run into one another, and the powertrain's fit would miss their steps.
+fn steps_on_steady_windows(windows: &[&Window]) -> Option<Finding> {
+    let (low, high) = windows
+        .iter()
+        .flat_map(|w| w.command.iter())
+        .flat_map(|u| u.iter().copied())
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    let step = 0.05 * (high - low);
+    if !(step.is_finite() && step > 0.0) {
+        return None;
+    }
+    let (mut steps, mut on_steady) = (0usize, 0usize);
+    for pair in windows.windows(2) {
+        let (before, window) = (pair[0], pair[1]);
+        let (Some(last), Some(first)) = (before.command.last(), window.command.first()) else {
+            continue;
+        };
+        if window.index != before.index + 1 || !(*first - *last).abs().iter().any(|d| *d >= step) {
+            continue;
+        }
+        steps += 1;
+        on_steady += usize::from(window.phase == drive_traits::Phase::Steady);
+    }
+    (on_steady >= 5 && on_steady * 10 >= steps).then(|| Finding {
+        check: Check::Phases,
+        severity: Severity::Fatal,
+        message: format!(
+            "{on_steady} of the {steps} steps to a new command open a window labelled steady, where a DRIVE interval opens with its transient window: transient labels lost (the intervals would run into one another and the powertrain's fit would miss their steps)?"
+        ),
+    })
+}
+
 /// `phases`: the median change of the measured inputs over a window (the mean of its last
 /// five samples against its first five, summed over the input axes), in the steady windows
 /// against the transient ones, ten of each at least. A transient window holds the step to a
@@ -477,6 +517,9 @@ fn phases(w: &Windows<'_>) -> Option<Finding> {
                 ),
             });
         }
+    }
+    if let Some(f) = steps_on_steady_windows(&w.windows) {
+        return Some(f);
     }
     // Transient windows followed by another transient window: intervals of one window. A
     // DRIVE interval is its transient window and then its steady ones (none such on 227 real
@@ -844,6 +887,13 @@ fn near_duplicates(windows: &[&Window]) -> (usize, usize) {
                     && close(p.z, q.z, loose * tol_yaw)
             })
     };
+    // Driven: commanded or turning its wheels at a fiftieth of the largest or more. A robot
+    // at rest repeats itself closer than its sensors' noise while driving allows (encoders
+    // reading exactly zero, an IMU quieter without vibration): extra intervals at rest are
+    // no copy.
+    let driven = |w: &Window| {
+        abs_max(&w.command) > 20.0 * tol_input || abs_max(&w.measured) > 20.0 * tol_input
+    };
     let mut repeated = vec![false; windows.len()];
     let mut copied = vec![false; windows.len()];
     for (n, &(k, i)) in order.iter().enumerate() {
@@ -858,6 +908,7 @@ fn near_duplicates(windows: &[&Window]) -> (usize, usize) {
             if kj - k <= 2.0 * tol_input && same(windows[i], windows[j]) {
                 repeated[j] = true;
             } else if !copied[j]
+                && driven(windows[j])
                 && loosely_same(windows[i], windows[j])
                 && below_noise(windows[i], windows[j])
             {

@@ -818,6 +818,35 @@ fn windows_written_again_with_noise_under_the_sensors_own_are_duplicates() {
             "{name}: {copied} of {half}: {found}"
         );
     }
+    // An eleventh outside sweep: two intervals at rest in the middle of a run (commands and
+    // encoders at zero, the IMU and positions at their noise at rest) were refused as
+    // windows written twice. A robot at rest repeats itself: no copy.
+    let mut rested = drive::bundled::load("warthog_asphalt_a").unwrap();
+    // The positions' spread in the run's first window (as the sweep wrote them).
+    let first = &rested.windows[0].pose;
+    let mean = first.iter().map(|p| p.x).sum::<f64>() / first.len() as f64;
+    let spread =
+        (first.iter().map(|p| (p.x - mean).powi(2)).sum::<f64>() / first.len() as f64).sqrt();
+    let mut i = 3usize;
+    let mut noise = move |scale: f64| {
+        i = i
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        scale * (((i >> 33) % 2001) as f64 / 1000.0 - 1.0)
+    };
+    for w in &mut rested.windows[150..156] {
+        w.command.iter_mut().for_each(|u| *u *= 0.0);
+        w.measured.iter_mut().for_each(|u| *u *= 0.0);
+        w.imu_yaw_rate.iter_mut().for_each(|r| *r = noise(0.002));
+        for p in &mut w.pose {
+            (p.x, p.y, p.z) = (noise(spread), noise(spread), noise(1e-4));
+        }
+        let start = w.pose[0];
+        for p in &mut w.pose {
+            (p.x, p.y, p.z) = (p.x - start.x, p.y - start.y, p.z - start.z);
+        }
+    }
+    assert_eq!(duplicates(&rested), None);
 }
 
 /// An eighth outside sweep: encoders that are their commands delayed by a few samples,
@@ -952,6 +981,34 @@ fn swapped_phase_labels_are_fatal() {
         "{}",
         f.message
     );
+}
+
+/// An eleventh outside sweep: the transient labels of two intervals in three lost (written
+/// steady) passed every check; eval counted 17 intervals instead of 50 and converge said 53 s
+/// instead of 108. A step to a new command opening a steady window is a transient label lost:
+/// fatal from a tenth of the steps; none on the bundled runs.
+#[test]
+fn transient_labels_lost_are_fatal() {
+    use drive::data::quality::{check, Check, Severity};
+    let lost = |d: &drive::traits::Dataset| {
+        check(d, None)
+            .into_iter()
+            .find(|f| f.check == Check::Phases && f.message.contains("steps to a new command"))
+    };
+    for name in drive::bundled::names() {
+        assert!(
+            lost(&drive::bundled::load(name).unwrap()).is_none(),
+            "{name}"
+        );
+    }
+    let mut run = drive::bundled::load("warthog_asphalt_a").unwrap();
+    for w in &mut run.windows {
+        if w.interval % 3 != 0 {
+            w.phase = drive::traits::Phase::Steady;
+        }
+    }
+    let f = lost(&run).expect("no finding");
+    assert_eq!(f.severity, Severity::Fatal);
 }
 
 /// A tenth outside sweep: phase labels drawn at random (a third transient) passed `phases`
