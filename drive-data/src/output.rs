@@ -435,6 +435,16 @@ impl Outputs {
             .iter()
             .filter(|f| f.kind == Destination::File)
             .filter_map(|f| f.destination.parent().map(Path::to_path_buf))
+            // One directory however it is spelled (`run.csv`'s "" and a link's target's
+            // "/abs/dir"): its lock is taken once, not waited on by this very run.
+            .map(|d| {
+                let d = if d.as_os_str().is_empty() {
+                    PathBuf::from(".")
+                } else {
+                    d
+                };
+                std::fs::canonicalize(&d).unwrap_or(d)
+            })
             .collect();
         dirs.sort();
         dirs.dedup();
@@ -710,6 +720,29 @@ mod tests {
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(left, vec![std::ffi::OsString::from("old.csv")]);
+    }
+
+    /// An eleventh outside sweep: an output through a link beside another output of the same
+    /// directory, spelled otherwise (`--out new.csv`, a link, and its sidecar `new.meta.json`),
+    /// waited 30 s on its own publish lock and then blamed another run.
+    #[cfg(unix)]
+    #[test]
+    fn a_link_beside_another_output_of_its_directory_publishes_at_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real.csv");
+        std::fs::write(&real, "old").unwrap();
+        let link = dir.path().join("link.csv");
+        std::os::unix::fs::symlink("real.csv", &link).unwrap();
+        // The directory also reached through a link to it (as `new.csv` is reached as "").
+        let alias = dir.path().join("alias");
+        std::os::unix::fs::symlink(dir.path(), &alias).unwrap();
+        let mut outputs = Outputs::new(&[]);
+        outputs.write(&alias.join("link.csv"), "new").unwrap();
+        outputs.write(&alias.join("link.meta.json"), "{}").unwrap();
+        let start = std::time::Instant::now();
+        outputs.publish().unwrap();
+        assert!(start.elapsed().as_secs() < PUBLISH_WAIT_S);
+        assert_eq!(std::fs::read_to_string(&real).unwrap(), "new");
     }
 
     #[cfg(unix)]

@@ -231,8 +231,11 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
         }
     };
     for (field, text) in [("name", &name), ("robot", &robot)] {
-        if text.chars().any(char::is_control) {
-            return Err(bad(field, "holds a control character".into()));
+        if limits::breaks_text(text) {
+            return Err(bad(
+                field,
+                "holds a control character or a line separator".into(),
+            ));
         }
     }
     let terrain = match required(obj, "terrain") {
@@ -248,8 +251,11 @@ pub fn parse_sidecar(file: &str, text: &str) -> Result<(RobotDescription, Announ
         "",
     )
     .map_err(|e| bad("terrain", e.to_string()))?;
-    if terrain.chars().any(char::is_control) {
-        return Err(bad("terrain", "holds a control character".into()));
+    if limits::breaks_text(&terrain) {
+        return Err(bad(
+            "terrain",
+            "holds a control character or a line separator".into(),
+        ));
     }
     let registered_robot = match required(obj, "registered_robot") {
         None => String::new(),

@@ -226,7 +226,7 @@ pub fn parse_suite(file: &str, text: &str) -> Result<Vec<SuiteEntry>, SuiteError
                         "{which}: {field} must be non-empty text of at most {most} characters"
                     )));
                 }
-                if v.chars().any(char::is_control) {
+                if drive_traits::limits::breaks_text(v) {
                     return Err(err(format!("{which}: {field} holds a control character")));
                 }
             }

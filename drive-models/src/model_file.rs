@@ -536,13 +536,12 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
         ("robot.robot", &robot.robot),
         ("robot.terrain", &robot.terrain),
     ] {
-        if text
-            .chars()
-            .any(|c| c.is_control() || matches!(c, '\u{2028}' | '\u{2029}'))
-        {
+        if drive_traits::limits::breaks_text(text) {
             return Err(ModelFileError::Model {
                 file: file.into(),
-                message: format!("{field} holds a control character (a sidecar cannot)"),
+                message: format!(
+                    "{field} holds a control character or a line separator (a sidecar cannot)"
+                ),
             });
         }
     }

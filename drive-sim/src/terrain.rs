@@ -376,9 +376,7 @@ impl Terrain {
         !name.trim().is_empty()
             && name.chars().count() <= 200
             // Nor a line or paragraph separator (U+2028, U+2029): a name is one line.
-            && !name
-                .chars()
-                .any(|c| c.is_control() || matches!(c, '\u{2028}' | '\u{2029}'))
+            && !drive_traits::limits::breaks_text(name)
     }
 
     fn validate(&self, file: &str) -> Result<(), TerrainError> {

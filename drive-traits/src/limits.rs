@@ -153,3 +153,20 @@ impl fmt::Display for Short {
         }
     }
 }
+
+/// Whether a free-text field (a robot's, a terrain's or a dataset's name) holds a character
+/// no field of a sidecar, robot or model file may: a control character, or a line or
+/// paragraph separator (U+2028, U+2029), which break a table's line as a newline does. One
+/// rule for every file the tool writes and reads, so that what one command writes the others
+/// read.
+///
+/// ```
+/// use drive_traits::limits::breaks_text;
+/// assert!(breaks_text("wet\tgrass"));
+/// assert!(breaks_text("grav\u{2028}el"));
+/// assert!(!breaks_text("gravel (wet), 2024-08-06"));
+/// ```
+pub fn breaks_text(text: &str) -> bool {
+    text.chars()
+        .any(|c| c.is_control() || matches!(c, '\u{2028}' | '\u{2029}'))
+}

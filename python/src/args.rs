@@ -190,7 +190,10 @@ pub(crate) fn finite(what: &str, v: &[f64]) -> PyResult<()> {
         return Ok(());
     }
     match v.iter().position(|x| !x.is_finite()) {
-        Some(i) => Err(err(format!("{what}: value {i} is not a finite number"))),
+        Some(i) => Err(err(format!(
+            "{what}: entry {i} (counting from 0, row by row) is {}, not a finite number",
+            v[i]
+        ))),
         None => Ok(()),
     }
 }

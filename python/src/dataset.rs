@@ -13,6 +13,9 @@ pub(crate) struct Dataset {
     pub(crate) inner: RustDataset,
     /// The keep/drop report's JSON text, for an imported dataset.
     import_report: Option<String>,
+    /// The files it was read from (the window CSV and its sidecar), which `save` never
+    /// rewrites.
+    read_from: Vec<std::path::PathBuf>,
 }
 
 #[pymethods]
@@ -24,6 +27,7 @@ impl Dataset {
             .map(|inner| Dataset {
                 inner,
                 import_report: None,
+                read_from: Vec::new(),
             })
             .map_err(err)
     }
@@ -119,8 +123,22 @@ impl Dataset {
     /// Writes the dataset as the command line's files: the window CSV at `path` and its
     /// sidecar beside it (`run.csv` -> `run.meta.json`).
     fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        use drive::data::output::Outputs;
         let path = path_of("path", path)?;
-        drive::data::write_dataset(&self.inner, &path).map_err(err)
+        // Never onto the files it was read from: the CSV's columns and the sidecar's fields
+        // it does not keep (calibration steps, the source and licence) would be lost.
+        let read_from: Vec<(&str, &std::path::Path)> = self
+            .read_from
+            .iter()
+            .map(|p| ("(the file this dataset was read from)", p.as_path()))
+            .collect();
+        let mut outputs = Outputs::new(&read_from);
+        let sidecar = drive::data::sidecar_path(&path);
+        outputs
+            .check(&[("path", &path), ("its sidecar", &sidecar)])
+            .map_err(err)?;
+        drive::data::stage_dataset(&mut outputs, &self.inner, &path).map_err(err)?;
+        outputs.publish().map(|_| ()).map_err(err)
     }
 
     /// Number of windows.
@@ -242,6 +260,7 @@ pub(crate) fn import_recording(
         Dataset {
             inner: imported.dataset,
             import_report: Some(report),
+            read_from: vec![path.clone()],
         },
         failure,
     ))
@@ -266,6 +285,17 @@ pub(crate) fn load_dataset(
         .filter(|p| !p.is_none())
         .map(|p| path_of("sidecar", p))
         .transpose()?;
+    let read_from = path
+        .iter()
+        .flat_map(|p| {
+            [
+                p.clone(),
+                sidecar
+                    .clone()
+                    .unwrap_or_else(|| drive::data::sidecar_to_read(p)),
+            ]
+        })
+        .collect();
     let inner = match path {
         None => drive::bundled::husky(),
         Some(p) => drive::data::read_dataset(&p, sidecar.as_deref()),
@@ -289,6 +319,7 @@ pub(crate) fn load_dataset(
     Ok(Dataset {
         inner,
         import_report: None,
+        read_from,
     })
 }
 

@@ -203,6 +203,28 @@ def test_from_pandas_equals_the_files(husky, tmp_path):
         drive.Dataset.from_pandas(df.drop(columns=["yaw"]), meta)
 
 
+def test_a_dataset_is_never_saved_onto_the_files_it_was_read_from(husky, tmp_path):
+    # An eleventh outside sweep: save onto the CSV it was loaded from rewrote it without a
+    # word, losing its calib_step column and the sidecar's source (licence) fields.
+    csv = tmp_path / "run.csv"
+    husky.save(csv)
+    data = drive.load_dataset(csv)
+    before = csv.read_bytes(), csv.with_name("run.meta.json").read_bytes()
+    for target in (csv, str(csv)):
+        with pytest.raises(drive.DriveError, match="the file this dataset was read from"):
+            data.save(target)
+    assert (csv.read_bytes(), csv.with_name("run.meta.json").read_bytes()) == before
+    data.save(tmp_path / "copy.csv")
+    assert len(drive.load_dataset(tmp_path / "copy.csv")) == len(husky)
+
+
+def test_a_number_that_is_not_finite_is_named_by_its_place(husky):
+    # An eleventh outside sweep: "value 3 is not a finite number" read as the value itself.
+    model = drive.fit(husky, model="naive")
+    with pytest.raises(drive.DriveError, match=r"entry 3 \(counting from 0, row by row\) is inf"):
+        model.predict(np.array([[1.0, 2.0], [3.0, np.inf]]))
+
+
 def commands_csv(path, commands, dt):
     rows = ["t,cmd_left,cmd_right"] + [f"{k * dt!r},{float(l)!r},{float(r)!r}" for k, (l, r) in enumerate(commands)]
     path.write_text("\n".join(rows) + "\n")
@@ -286,9 +308,9 @@ def test_the_start_yaw_rate_reaches_slip_ipem_as_on_the_command_line(husky, tmp_
         model.predict(commands, start_yaw_rate="fast")
     # Each start argument is named in its own error.
     for kwargs, says in [
-        ({"start_yaw_rate": float("nan")}, "start_yaw_rate: value 0 is not a finite number"),
-        ({"start_wheels": (0.0, float("inf"))}, "start_wheels: value 1 is not a finite number"),
-        ({"start": (0.0, 0.0, float("nan"))}, "start: value 2 is not a finite number"),
+        ({"start_yaw_rate": float("nan")}, "start_yaw_rate: entry 0 .counting from 0, row by row. is NaN, not a finite number"),
+        ({"start_wheels": (0.0, float("inf"))}, "start_wheels: entry 1 .counting from 0, row by row. is inf, not a finite number"),
+        ({"start": (0.0, 0.0, float("nan"))}, "start: entry 2 .counting from 0, row by row. is NaN, not a finite number"),
         ({"start_yaw_rate": 10**400}, r"got 1000000000.*\(401 characters\)$"),
     ]:
         with pytest.raises(drive.DriveError, match=says):
@@ -319,7 +341,7 @@ def test_the_start_velocity_reaches_slip_ipem_as_on_the_command_line(husky, tmp_
         assert np.array_equal(batch[b], one), b
     with pytest.raises(drive.DriveError, match=r"start_velocities must be a \(5, 2\) array"):
         model.predict_batch(batch_commands, start_velocities=velocities[:2])
-    with pytest.raises(drive.DriveError, match="start_velocity: value 1 is not a finite number"):
+    with pytest.raises(drive.DriveError, match="start_velocity: entry 1 .counting from 0, row by row. is .*, not a finite number"):
         model.predict(commands, start_velocity=(0.0, float("nan")))
     expected = json.loads(cli("eval", "--json", "--models", "slip-ipem", "--start", start).stdout)
     close(drive.evaluate(husky, models=["slip-ipem"], start=start), expected)

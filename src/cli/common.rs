@@ -242,6 +242,24 @@ fn streams_in_files() -> Vec<(&'static str, std::fs::Metadata)> {
     .collect()
 }
 
+/// Whether `path` is where the standard output goes, whatever it is (a file, a pipe, a
+/// terminal; `/dev/stdout`, `/proc/self/fd/1` or the file's own name): by device and inode.
+pub fn is_standard_output(path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        let (Ok(out), Ok(p)) = (std::fs::metadata("/dev/stdout"), std::fs::metadata(path)) else {
+            return false;
+        };
+        out.dev() == p.dev() && out.ino() == p.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        false
+    }
+}
+
 /// Whether `path` is the file `stream` writes to (by device and inode, so that a link or
 /// another path to the same file counts).
 #[cfg(unix)]

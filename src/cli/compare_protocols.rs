@@ -450,11 +450,9 @@ fn recorded(
     study: &RegionStudy,
     json: bool,
 ) -> Result<()> {
-    emit(
-        json,
-        &compare_regions(registries, data, study)?,
-        recorded_table,
-    )
+    let comparison = compare_regions(registries, data, study)?;
+    super::common::note_few_evaluation(None, comparison.eval_windows);
+    emit(json, &comparison, recorded_table)
 }
 
 fn recorded_table(t: &RegionComparison) -> String {

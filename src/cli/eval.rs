@@ -79,6 +79,16 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .iter()
         .map(|p| ("--per-window", p.as_path()))
         .collect();
+    if let Some(path) = args
+        .per_window
+        .as_deref()
+        .filter(|p| args.json && super::common::is_standard_output(p))
+    {
+        bail!(
+            "--per-window {} is the standard output, where --json prints its document: the CSV and the JSON would be mixed; give --per-window a file, or leave out --json",
+            path.display()
+        );
+    }
     let mut outputs = outputs_for(&args.data.inputs(), &planned)?;
     let specs = args.prediction.apply(specs(
         registries,

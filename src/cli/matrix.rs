@@ -167,6 +167,7 @@ fn run_checked(
     let progress = super::common::Progress::new("matrix");
     let mut result = run_matrix(&plan, registries, &|d, t| progress.update(d, t))?;
     result.notes = useless.into_inner().unwrap_or_else(|p| p.into_inner());
+    result.notes.extend(few_evaluation(&result));
     for n in &result.notes {
         super::common::note(format!("note: {n}"));
     }
@@ -195,4 +196,42 @@ fn run_checked(
         out.display()
     );
     Ok(result)
+}
+
+/// The scenarios whose evaluation intervals (pooled over the seeds, counted on the first
+/// model scored there) are too few to be evidence, as `drive eval` and `drive bench` count
+/// them.
+fn few_evaluation(result: &MatrixResult) -> Vec<String> {
+    let evidence = crate::studies::BenchConfig::default().min_evidence_intervals;
+    let mut labels: Vec<String> = Vec::new();
+    for c in &result.cells {
+        let label = c.scenario.label();
+        if !labels.contains(&label) {
+            labels.push(label);
+        }
+    }
+    labels
+        .into_iter()
+        .filter_map(|label| {
+            let cells: Vec<_> = result
+                .cells
+                .iter()
+                .filter(|c| c.scenario.label() == label && c.failure.is_none())
+                .collect();
+            let model = &cells.first()?.model;
+            let (mut intervals, mut windows) = (0usize, 0usize);
+            for c in cells.iter().filter(|c| &c.model == model) {
+                let mut seen = c.intervals.clone();
+                seen.sort_unstable();
+                seen.dedup();
+                intervals += seen.len();
+                windows += c.eval_windows;
+            }
+            (intervals < evidence).then(|| {
+                format!(
+                    "{label}: {windows} evaluation window(s) in {intervals} interval(s): its medians rest on too few to be evidence (drive bench counts a dataset from {evidence} evaluation intervals)"
+                )
+            })
+        })
+        .collect()
 }

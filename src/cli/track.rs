@@ -248,7 +248,13 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
                 inputs.push(("--path", file.to_path_buf()));
                 let text = crate::traits::files::read_text(file, MAX_PATH_FILE_BYTES)
                     .with_context(|| format!("reading --path {p}"))?;
-                paths.push(PathChoice::Given(ReferencePath::from_csv(p, &text)?));
+                // The file's name labels the tables' lines: one line, shown escaped.
+                let label = if crate::traits::limits::breaks_text(p) {
+                    p.escape_debug().to_string()
+                } else {
+                    p.clone()
+                };
+                paths.push(PathChoice::Given(ReferencePath::from_csv(&label, &text)?));
             }
         }
     }

@@ -1677,6 +1677,48 @@ fn converge_adapt_and_report_say_when_their_evaluation_windows_are_too_few() {
     );
 }
 
+/// An eleventh outside sweep: `compare-protocols --real` and `matrix` gave their figures on
+/// 15 evaluation windows without the note the other commands print there. They say it now.
+#[test]
+fn compare_protocols_and_matrix_say_when_their_evaluation_windows_are_too_few() {
+    let few = drive(&[
+        "compare-protocols",
+        "--real",
+        "--data",
+        "bundled:warthog_grass_2024-08-08",
+        "--split",
+        "0.95",
+        "--draws",
+        "2",
+    ]);
+    let err = String::from_utf8_lossy(&few.stderr);
+    assert!(few.status.success(), "{err}");
+    assert!(
+        err.contains("the medians rest on too few to be evidence"),
+        "{err}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = dir.path().join("sweep.toml");
+    std::fs::write(
+        &sweep,
+        "baseline = \"no-slip+fopdt\"\nlearners = [\"no-slip\"]\npowertrains = [\"fopdt\"]\n[simulated]\nrobots = [\"husky\"]\nterrains = [\"gravel\"]\nsamplers = [\"uniform\"]\ndurations = [60]\nseeds = [1]\ntest_duration = 30\n",
+    )
+    .unwrap();
+    let out = drive(&[
+        "matrix",
+        "--config",
+        sweep.to_str().unwrap(),
+        "--out",
+        dir.path().join("m").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("interval(s): its medians rest on too few to be evidence"),
+        "{err}"
+    );
+}
+
 /// A tenth outside sweep: `adapt --prior model.json` with a model fitted on the target
 /// itself scored it as a prior (`frozen` on the windows it was fitted on) without a word,
 /// where a dataset prior of the target is refused. A prior fitted on a dataset named as the

@@ -359,6 +359,13 @@ impl SweepFile {
         let mut datasets: Vec<(String, Dataset)> = Vec::new();
         for source in &self.datasets {
             let label = source.label();
+            // A label is one line of a table: no control character or line separator.
+            if limits::breaks_text(&label) {
+                return Err(invalid(format!(
+                    "dataset {}: its name holds a control character or a line separator (it labels a line of the tables)",
+                    label.escape_debug()
+                )));
+            }
             // Cells are grouped by label: two datasets under one label would be pooled.
             if datasets.iter().any(|(l, _)| *l == label)
                 || (label == "sim" && self.simulated.is_some())

@@ -345,7 +345,7 @@ impl RobotSpec {
         };
         // The name is written into sidecars and printed: no control character (an escape
         // sequence would reach the terminal raw, and the sidecar's reader refuses it).
-        if self.name.chars().any(char::is_control) {
+        if crate::limits::breaks_text(&self.name) {
             return invalid("name", "holds a control character");
         }
         let positive: [(&'static str, f64); 3] = [
