@@ -33,6 +33,7 @@ const MAX_ENCODER_GAIN: f64 = 2.0;
 /// other commands than the robot's.
 const TYPICAL_ENCODER_GAIN: std::ops::RangeInclusive<f64> = 0.3..=1.25;
 
+mod copies;
 mod localization;
 mod steps;
 pub use localization::{fixed_position_axis, position_grid};
@@ -187,7 +188,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "encoder-command",
-        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 2 or under 0.1: commands or encoders in another unit; a warning outside 0.3-1.25, where real runs answer 0.42-0.84: commands scaled), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled); the measured inputs holding one value through four in five steady windows while the commands vary (fatal: the columns exchanged)",
+        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 2 or under 0.1: commands or encoders in another unit; a warning outside 0.3-1.25, where real runs answer 0.42-0.84: commands scaled), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled); the measured inputs holding one value through four in five steady windows while the commands vary (fatal: the columns exchanged); on a skid-steer, the two commands equal to the bit where the wheels turn the robot (fatal: one command written for both sides)",
     ),
     (
         "outside-limits",
@@ -207,7 +208,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "localization-sync",
-        "localization's travel and turn per window not following the encoders' (correlation under 0.3: another run's localization), or following the window before's or after's better (timestamps shifted by a window); sample by sample, localization equal to the encoders' dead reckoning (wheel odometry: no slip to learn), jumping at one sample of every window (3 times the mean step; fatal from 5), or moving from sample to sample twice what the encoders imply and 0.5 m/s more (noise on every position; fatal from 4 times and 2 m/s)",
+        "localization's travel and turn per window not following the encoders' (correlation under 0.3: another run's localization), or following the window before's or after's better (timestamps shifted by a window); sample by sample, localization equal to the encoders' dead reckoning (wheel odometry: no slip to learn), jumping at one sample of every window (3 times the mean step; fatal from 5), or moving from sample to sample twice what the encoders imply and 0.5 m/s more (noise on every position; fatal from 4 times and 2 m/s), or moving where the encoders imply no path (drifting)",
     ),
     (
         "position-steps",
@@ -215,7 +216,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "duplicate-windows",
-        "windows written twice in one dataset, bit for bit or within a thousandth of the data's range in every sample (the run listed twice, or its windows or intervals repeated, perhaps rounded or with noise added): a split would score a model on the windows it was fitted on",
+        "windows written twice in one dataset, bit for bit or within a thousandth of the data's range in every sample (the run listed twice, or its windows or intervals repeated, perhaps rounded or with noise added), or a fifth of them agreeing in their mean inputs with the window a constant number of places later (the run written again, re-cut a few samples later): a split would score a model on the windows it was fitted on",
     ),
     (
         "imu-yaw-rate",
@@ -304,6 +305,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(localization::positions(&w));
     out.extend(steps::written_from_encoders(&w));
     out.extend(steps::jumps_and_noise(&w));
+    out.extend(steps::drifting(&w));
     out.extend(duplicate_windows(&w));
     out.extend(imu_yaw_rate(&w));
     out.extend(steps::imu_from_encoders(&w));
@@ -416,8 +418,8 @@ fn window_order(windows: &[&Window]) -> Option<Finding> {
     })
 }
 
-/// `phases`: the steps to a new command (a window's first command off the last one of the
-/// window before it by a twentieth of the commands' range or more) that open a window
+/// `phases`: the steps to a new command (a window's first five commands' mean off the last
+/// five's of the window before it by a twentieth of the commands' range or more) that open a window
 /// labelled steady. A DRIVE interval opens with its transient window, so a step opening a
 /// steady window is a transient label lost (none on 227 real and simulated runs). Fatal from
 /// a tenth of the steps, five at least: the intervals (cut at the transient windows) would
@@ -438,10 +440,15 @@ fn steps_on_steady_windows(windows: &[&Window]) -> Option<Finding> {
     let (mut steps, mut on_steady) = (0usize, 0usize);
     for pair in windows.windows(2) {
         let (before, window) = (pair[0], pair[1]);
-        let (Some(last), Some(first)) = (before.command.last(), window.command.first()) else {
+        // The means of the five samples each side of the boundary (a command column with
+        // noise on every sample steps by none).
+        let (n, m) = (before.command.len(), window.command.len());
+        if n < 5 || m < 5 {
             continue;
-        };
-        if window.index != before.index + 1 || !(*first - *last).abs().iter().any(|d| *d >= step) {
+        }
+        let mean = |s: &[drive_traits::Input]| s.iter().sum::<drive_traits::Input>() / 5.0;
+        let (last, first) = (mean(&before.command[n - 5..]), mean(&window.command[..5]));
+        if window.index != before.index + 1 || !(first - last).abs().iter().any(|d| *d >= step) {
             continue;
         }
         steps += 1;
@@ -717,7 +724,10 @@ fn duplicate_windows(w: &Windows<'_>) -> Option<Finding> {
             ),
         });
     }
-    (below_noise >= MIN_COPIES_BELOW_NOISE.max(w.windows.len() / 100)).then(|| Finding {
+    if below_noise < MIN_COPIES_BELOW_NOISE.max(w.windows.len() / 100) {
+        return copies::shifted_copies(&w.windows);
+    }
+    Some(Finding {
         check: Check::DuplicateWindows,
         severity: Severity::Fatal,
         message: format!(
@@ -1902,6 +1912,35 @@ fn sides_compared(
             });
             return;
         }
+        // And one command written for both sides (the mirror case): the two commands equal
+        // to the bit where the wheels turn the robot (their measurements a tenth of the
+        // largest apart): a DRIVE run's commands turn as its wheels do.
+        let measured = windows
+            .iter()
+            .flat_map(|w| w.measured.iter())
+            .map(|m| m[0].abs().max(m[1].abs()))
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        let (mut turning, mut equal) = (0usize, 0usize);
+        for w in windows {
+            for (c, m) in w.command.iter().zip(&w.measured) {
+                if (m[0] - m[1]).abs() >= 0.1 * measured {
+                    turning += 1;
+                    equal += usize::from(c[0] == c[1]);
+                }
+            }
+        }
+        if turning >= 100 && equal * 10 >= turning * 9 {
+            out.push(Finding {
+                check: Check::EncoderCommand,
+                severity: Severity::Fatal,
+                message: format!(
+                    "'{}' equals '{}' to the bit on {equal} of the {turning} samples whose wheels turn the robot: one command written for both sides (a column given twice)?",
+                    axes[0].command_column, axes[1].command_column
+                ),
+            });
+            return;
+        }
     }
     if let ([Some((gain_left, own_left)), Some((gain_right, own_right))], true) =
         (followed, intervals >= 10)
@@ -2231,7 +2270,7 @@ mod tests {
         }
     }
 
-    /// Twelve windows of `spin`, alternately left and right at 2 rad/s per side, each
+    /// Twelve windows of `spin`, four intervals of three spinning left and right in turn at 2 rad/s per side, each
     /// turning `seen` of it in localization (a negative share: turning the other way), each
     /// spinning a micrometre further along x than the one before (no two windows the same).
     fn spins(seen: f64) -> Dataset {
@@ -2242,12 +2281,13 @@ mod tests {
                 let mut w = one.clone();
                 w.pose.iter_mut().for_each(|p| p.x = 1e-6 * i as f64);
                 w.index = i;
-                w.interval = i;
-                // Each interval opens with its transient window (none at all is `phases`').
+                // Intervals of three windows, each opening with its transient window (none
+                // at all is `phases`'), the steps to a new command at their start.
+                w.interval = i / 3;
                 if i % 3 == 0 {
                     w.phase = Phase::Transient;
                 }
-                if i % 2 == 1 {
+                if (i / 3) % 2 == 1 {
                     w.command
                         .iter_mut()
                         .for_each(|u| *u = Input::new(u.y, u.x, 0.0));

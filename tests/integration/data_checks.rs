@@ -849,6 +849,55 @@ fn windows_written_again_with_noise_under_the_sensors_own_are_duplicates() {
     assert_eq!(duplicates(&rested), None);
 }
 
+/// An eleventh outside sweep: a run appended again with each window cut 1-5 samples later
+/// (no window then equal to another, sample for sample) passed, and eval scored the models on
+/// a copy of their training windows. The copy's windows agree with the run's at one
+/// constant offset: fatal.
+#[test]
+fn a_run_written_again_re_cut_a_few_samples_later_is_a_duplicate() {
+    use drive::data::quality::{check, Check, Severity};
+    let shifted = |d: &drive::traits::Dataset| {
+        check(d, None)
+            .into_iter()
+            .find(|f| f.check == Check::DuplicateWindows && f.message.contains("places later"))
+    };
+    for name in drive::bundled::names() {
+        assert!(
+            shifted(&drive::bundled::load(name).unwrap()).is_none(),
+            "{name}"
+        );
+    }
+    let run = drive::bundled::load("warthog_asphalt_a").unwrap();
+    let (n, intervals) = (run.windows.len(), run.interval_count());
+    let mut twice = run.clone();
+    for pair in run.windows.windows(2) {
+        let (w, next) = (&pair[0], &pair[1]);
+        let mut copy = w.clone();
+        let cut = |a: &[drive::traits::Input], b: &[drive::traits::Input]| {
+            a[3..].iter().chain(&b[..3]).copied().collect::<Vec<_>>()
+        };
+        copy.command = cut(&w.command, &next.command);
+        copy.measured = cut(&w.measured, &next.measured);
+        copy.imu_yaw_rate = w.imu_yaw_rate[3..]
+            .iter()
+            .chain(&next.imu_yaw_rate[..3])
+            .copied()
+            .collect();
+        let last = *w.pose.last().unwrap();
+        copy.pose = w.pose[3..].iter().copied().chain([last; 3]).collect();
+        copy.index += n;
+        copy.interval += intervals;
+        twice.windows.push(copy);
+    }
+    let f = shifted(&twice).expect("no finding");
+    assert_eq!(f.severity, Severity::Fatal);
+    assert!(
+        f.message.contains(&format!("the window {n} places later")),
+        "{}",
+        f.message
+    );
+}
+
 /// An eighth outside sweep: encoders that are their commands delayed by a few samples,
 /// scaled by 0.97 or with noise of 1e-3 passed (only a copy equal to the bit was caught),
 /// and the powertrain model then scored as the naive one. A measurement within 0.5% of a
@@ -1258,6 +1307,70 @@ fn localization_written_from_the_encoders_jumping_or_noisy_is_named() {
         }
     }
     assert_eq!(named(&noisy, kinds[2]), Some(Severity::Fatal));
+}
+
+/// An eleventh outside sweep: one side's command column written from the other's (the
+/// encoders untouched) gave only a warning naming another cause ("sign flipped, or sides
+/// swapped?", or none at all), then a fit error or wrong figures. The mirror of one encoder
+/// read for both sides, and fatal as that is.
+#[test]
+fn one_command_written_for_both_sides_is_fatal() {
+    use drive::data::quality::{check, Check, Severity};
+    let copied = |d: &drive::traits::Dataset| {
+        check(d, None).into_iter().find(|f| {
+            f.check == Check::EncoderCommand && f.message.contains("one command written for both")
+        })
+    };
+    for name in drive::bundled::names() {
+        assert!(
+            copied(&drive::bundled::load(name).unwrap()).is_none(),
+            "{name}"
+        );
+    }
+    for name in ["husky_drive", "warthog_drive"] {
+        let mut run = drive::bundled::load(name).unwrap();
+        for w in &mut run.windows {
+            w.command.iter_mut().for_each(|c| c[0] = c[1]);
+        }
+        let f = copied(&run).unwrap_or_else(|| panic!("{name}: no finding"));
+        assert_eq!(f.severity, Severity::Fatal);
+        assert!(
+            f.message.starts_with("'cmd_left' equals 'cmd_right'"),
+            "{}",
+            f.message
+        );
+    }
+}
+
+/// An eleventh outside sweep: localization drifting 0.5 m/s forwards in every window's frame
+/// (a metre a window where the robot stands or spins in place) passed every check, and
+/// slip-BLR's error rose from 0.14 to 0.47 m. Localization moving where the encoders imply
+/// no path is named: fatal at that drift.
+#[test]
+fn localization_drifting_where_the_robot_stands_is_named() {
+    use drive::data::quality::{check, Check, Severity};
+    let drift = |d: &drive::traits::Dataset| {
+        check(d, None)
+            .into_iter()
+            .find(|f| f.check == Check::LocalizationSync && f.message.contains("moves a median"))
+    };
+    for name in drive::bundled::names() {
+        assert!(
+            drift(&drive::bundled::load(name).unwrap()).is_none(),
+            "{name}"
+        );
+    }
+    let mut run = drive::bundled::load("husky_drive").unwrap();
+    let dt = run.robot.dt();
+    for w in &mut run.windows {
+        let heading = w.pose[0].z;
+        for (k, p) in w.pose.iter_mut().enumerate() {
+            p.x += 0.5 * k as f64 * dt * heading.cos();
+            p.y += 0.5 * k as f64 * dt * heading.sin();
+        }
+    }
+    let f = drift(&run).expect("no finding");
+    assert_eq!(f.severity, Severity::Fatal);
 }
 
 /// A tenth outside sweep: a command column stuck at one value (the Husky's left command at
