@@ -486,7 +486,7 @@ def test_protocol_runner_errors_are_the_command_lines():
         ({"t": 0.0, "deadman": True, "encoder": "12"}, "encoder must be 2 numbers"),
         ({"t": 0.0, "deadman": True, "pose": "345"}, "pose must be 3 numbers"),
         ({"t": 0.0, "deadman": True, "encoder": (0, 0, 0)}, "encoder must be 2 numbers"),
-        ({"t": 0.0, "deadman": True, "pose": (0, float("nan"), 0)}, "pose: value 1 is not a finite"),
+        ({"t": 0.0, "deadman": True, "pose": (0, float("nan"), 0)}, "pose: entry 1 .counting from 0, row by row. is NaN, not a finite"),
         ({"t": float("inf"), "deadman": True}, "t must be a finite time"),
     ]:
         with pytest.raises(drive.DriveError, match=match):

@@ -98,8 +98,58 @@ impl HorizonCalibration {
     /// ([`crate::difficulty::motion_features`]; unused without a difficulty) and whose
     /// predicted heading at `k` is `yaw` (unused without a heading shape). With a heading
     /// shape, the position block is that shape turned to `yaw` and scaled, and the position
-    /// is uncorrelated with the yaw.
+    /// is uncorrelated with the yaw; beyond the calibrated horizon that block is held at
+    /// the last step's size: [`HorizonCalibration::apply_beyond`] grows it with the model's
+    /// own covariance.
     pub fn apply(&self, k: usize, c: &PoseCovariance, x: &Features, yaw: f64) -> PoseCovariance {
+        self.apply_grown(k, c, x, yaw, 1.0)
+    }
+
+    /// The last step the scales were calibrated at (the horizon of the held-out windows).
+    pub fn last_step(&self) -> usize {
+        self.position_scale.len() - 1
+    }
+
+    /// The size of a covariance's position block (the square root of its determinant, m^2),
+    /// floored as the calibration floors it: what the model's own uncertainty grows by.
+    pub fn position_size(&self, c: &PoseCovariance) -> f64 {
+        let f = floored(c, self.shape_floor);
+        (f[(0, 0)] * f[(1, 1)] - f[(0, 1)] * f[(1, 0)])
+            .max(0.0)
+            .sqrt()
+    }
+
+    /// [`apply`](Self::apply) at a step `k` beyond the calibrated horizon, where the model's
+    /// own position covariance had the size `at_last` ([`position_size`](Self::position_size))
+    /// at the last calibrated step: a heading-shaped position block grows from the last
+    /// step's calibrated size as the model's own does (held at the last step's size, a
+    /// prediction 10 s ahead was given the region of one 2 s ahead, its heading's variance
+    /// 13.8 rad^2); without a heading shape the model's own covariance grows already.
+    pub fn apply_beyond(
+        &self,
+        k: usize,
+        c: &PoseCovariance,
+        x: &Features,
+        yaw: f64,
+        at_last: f64,
+    ) -> PoseCovariance {
+        let now = self.position_size(c);
+        let growth = if k > self.last_step() && at_last > 0.0 && now.is_finite() {
+            (now / at_last).max(1.0)
+        } else {
+            1.0
+        };
+        self.apply_grown(k, c, x, yaw, growth)
+    }
+
+    fn apply_grown(
+        &self,
+        k: usize,
+        c: &PoseCovariance,
+        x: &Features,
+        yaw: f64,
+        growth: f64,
+    ) -> PoseCovariance {
         if k == 0 {
             return *c;
         }
@@ -123,6 +173,7 @@ impl HorizonCalibration {
             let xx = c * c * a - 2.0 * c * s * b + s * s * d;
             let xy = c * s * (a - d) + (c * c - s * s) * b;
             let yy = s * s * a + 2.0 * c * s * b + c * c * d;
+            let sp = sp * growth;
             out[(0, 0)] = sp * xx;
             out[(0, 1)] = sp * xy;
             out[(1, 0)] = sp * xy;
@@ -253,13 +304,17 @@ impl MotionModel for CalibratedModel {
             .predict_with_covariance_into(start, commands, poses, covariances)?;
         // The difficulty's features walked along the prediction (no buffer per call).
         let mut walk = FeatureWalk::new(start, self.model.dt());
+        let last = self.calibration.last_step();
+        let at_last = covariances
+            .get(last)
+            .map_or(0.0, |c| self.calibration.position_size(c));
         for (k, c) in covariances.iter_mut().enumerate() {
             let x = match (k, poses.get(k)) {
                 (1.., Some(p)) if self.calibration.has_difficulty() => walk.step(&poses[k - 1], p),
                 _ => [0.0; FEATURES],
             };
             let yaw = poses.get(k).map_or(start.pose.z, |p| p.z);
-            *c = self.calibration.apply(k, c, &x, yaw);
+            *c = self.calibration.apply_beyond(k, c, &x, yaw, at_last);
         }
         Ok(())
     }
@@ -275,7 +330,9 @@ struct CalibratedStepper<'a> {
 }
 
 const WALK: usize = layout::HEADER;
-const INNER: usize = WALK + FeatureWalk::NUMBERS;
+/// The model's own position size at the last calibrated step (0 before it).
+const AT_LAST: usize = WALK + FeatureWalk::NUMBERS;
+const INNER: usize = AT_LAST + 1;
 
 impl Stepper for CalibratedStepper<'_> {
     fn state_len(&self) -> usize {
@@ -316,9 +373,13 @@ impl Stepper for CalibratedStepper<'_> {
         } else {
             [0.0; FEATURES]
         };
+        let own = layout::covariance(inner);
+        if k == self.calibration.last_step() {
+            outer[AT_LAST] = self.calibration.position_size(&own);
+        }
         let c = self
             .calibration
-            .apply(k, &layout::covariance(inner), &x, after.z);
+            .apply_beyond(k, &own, &x, after.z, outer[AT_LAST]);
         outer[..layout::HEADER].copy_from_slice(&inner[..layout::HEADER]);
         layout::write_covariance(outer, &c);
         Ok(())

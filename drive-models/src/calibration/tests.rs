@@ -412,6 +412,41 @@ fn a_heading_shape_turns_with_the_predicted_heading() {
     assert!(bad.check().unwrap_err().contains("determinant 1"));
 }
 
+/// An eleventh outside sweep: a heading-shaped position region was held at the last
+/// calibrated step's size beyond the calibrated horizon (slip-ipem 10 s ahead: 1.3 m^2 while
+/// its heading's variance reached 13.8 rad^2). Beyond it, the region grows as the model's own
+/// position covariance does since that step; within it, nothing changes.
+#[test]
+fn a_heading_shaped_region_grows_beyond_the_calibrated_horizon_with_the_model() {
+    let calibration = HorizonCalibration {
+        level: 0.95,
+        shape_floor: 0.01,
+        windows: 10,
+        position_scale: vec![1.0, 2.0],
+        yaw_scale: vec![1.0, 3.0],
+        position_difficulty: vec![],
+        yaw_difficulty: vec![],
+        heading_shape: vec![UNIT_SHAPE, [4.0, 0.0, 0.25]],
+    };
+    let x = [0.0; FEATURES];
+    let at_last = calibration.position_size(&PoseCovariance::identity());
+    assert!((at_last - 1.0).abs() < 1e-12);
+    // The model's own position covariance 9 times larger (size 9) at step 5.
+    let grown = PoseCovariance::from_diagonal(&nalgebra::Vector3::new(9.0, 9.0, 1.0));
+    let beyond = calibration.apply_beyond(5, &grown, &x, 0.0, at_last);
+    assert!((beyond[(0, 0)] - 8.0 * 9.0).abs() < 1e-9, "{beyond}");
+    // Held where the model's own shrank; unchanged within the horizon.
+    let shrunk = PoseCovariance::identity() * 0.5;
+    assert_eq!(
+        calibration.apply_beyond(5, &shrunk, &x, 0.0, at_last),
+        calibration.apply(5, &shrunk, &x, 0.0)
+    );
+    assert_eq!(
+        calibration.apply_beyond(1, &grown, &x, 0.0, at_last),
+        calibration.apply(1, &grown, &x, 0.0)
+    );
+}
+
 #[test]
 fn a_step_whose_fold_fits_lack_scores_has_no_difficulty() {
     // Scores that grow with the speed feature, 100 in fold 0 and 10 in fold 1: the fit
