@@ -184,7 +184,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "encoder-units",
-        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius), or localization's yaw turning over five times faster than the encoders' (yaw in degrees), or turning over 2.5 times what they imply (a baseline too wide), or an angle input beyond pi (in degrees)",
+        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius), or localization's yaw turning over five times faster than the encoders' (yaw in degrees), or turning over 2.5 times what they imply (a baseline too wide), or an angle input beyond pi (in degrees), or the encoders driving one way where the commands drive no travel (an offset on them)",
     ),
     (
         "encoder-command",
@@ -306,6 +306,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(steps::written_from_encoders(&w));
     out.extend(steps::jumps_and_noise(&w));
     out.extend(steps::drifting(&w));
+    out.extend(steps::encoder_offset(&w));
     out.extend(duplicate_windows(&w));
     out.extend(imu_yaw_rate(&w));
     out.extend(steps::imu_from_encoders(&w));

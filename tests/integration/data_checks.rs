@@ -1373,6 +1373,35 @@ fn localization_drifting_where_the_robot_stands_is_named() {
     assert_eq!(f.severity, Severity::Fatal);
 }
 
+/// An eleventh outside sweep: encoders with an offset (1-2 rad/s added to both) passed every
+/// check, and slip-BLR's error on the grass run rose from 0.09 to 0.24 m. Where the commands
+/// drive no travel the wheels drive none: the median travel the encoders imply there, one
+/// way, is an offset, fatal from 0.15 of the largest window's travel.
+#[test]
+fn encoders_with_an_offset_are_named() {
+    use drive::data::quality::{check, Check, Severity};
+    let offset = |d: &drive::traits::Dataset| {
+        check(d, None).into_iter().find(|f| {
+            f.check == Check::EncoderUnits && f.message.contains("an offset on the encoders")
+        })
+    };
+    for name in drive::bundled::names() {
+        assert!(
+            offset(&drive::bundled::load(name).unwrap()).is_none(),
+            "{name}"
+        );
+    }
+    let mut run = drive::bundled::load("husky_drive").unwrap();
+    for w in &mut run.windows {
+        w.measured.iter_mut().for_each(|m| {
+            m[0] += 1.0;
+            m[1] += 1.0;
+        });
+    }
+    let f = offset(&run).expect("no finding");
+    assert_eq!(f.severity, Severity::Fatal);
+}
+
 /// A tenth outside sweep: a command column stuck at one value (the Husky's left command at
 /// 2 rad/s throughout, its encoder still driving -7 to 7 rad/s with the real commands)
 /// passed every check, and every model was fitted to commands never sent (the convergence
