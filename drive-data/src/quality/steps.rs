@@ -1,8 +1,10 @@
 //! Localization's motion sample by sample against the encoders' (`localization-sync`):
 //! localization written from the encoders themselves, a jump at one sample of every window,
-//! and noise far beyond the motion; and an IMU written from the encoders (`imu-yaw-rate`).
-//! The window-level checks (travel and turn per window) do not see these: a window's net
-//! motion can be right while every sample is not.
+//! noise far beyond the motion, and a drift where the encoders drive none; an IMU written
+//! from the encoders (`imu-yaw-rate`); and encoders with an offset (`encoder-units`). The
+//! window-level checks (travel and turn per window against one another) do not see these:
+//! a window's net motion can follow the encoders' while every sample, or every window's
+//! start, is off.
 
 use super::{three_digits, Check, Finding, Severity, Windows};
 use drive_traits::limits::Short;
