@@ -1891,53 +1891,29 @@ fn sides_compared(
         .fold(0.0, f64::max);
     // One encoder read for both sides (a topic or column given twice): the two equal to the
     // bit where their commands differ (a turn's wheels stalling together still differ by
-    // their noise).
-    {
-        let (mut turning, mut equal) = (0usize, 0usize);
-        for w in windows {
-            for (c, m) in w.command.iter().zip(&w.measured) {
-                if (c[0] - c[1]).abs() >= 0.1 * largest {
-                    turning += 1;
-                    equal += usize::from(m[0] == m[1]);
-                }
-            }
-        }
+    // their noise). And one command written for both sides (the mirror case): the two
+    // commands equal to the bit where the wheels turn the robot (their measurements a tenth
+    // of the largest apart): a DRIVE run's commands turn as its wheels do.
+    for (columns, turning_by, says) in [
+        (
+            [&axes[0].measured_column, &axes[1].measured_column],
+            Column::Command,
+            "whose commands turn: one encoder read for both sides (a topic or column given twice)?",
+        ),
+        (
+            [&axes[0].command_column, &axes[1].command_column],
+            Column::Measured,
+            "whose wheels turn the robot: one command written for both sides (a column given twice)?",
+        ),
+    ] {
+        let (equal, turning) = sides_equal(windows, turning_by);
         if turning >= 100 && equal * 10 >= turning * 9 {
             out.push(Finding {
                 check: Check::EncoderCommand,
                 severity: Severity::Fatal,
                 message: format!(
-                    "'{}' equals '{}' to the bit on {equal} of the {turning} samples whose commands turn: one encoder read for both sides (a topic or column given twice)?",
-                    axes[0].measured_column, axes[1].measured_column
-                ),
-            });
-            return;
-        }
-        // And one command written for both sides (the mirror case): the two commands equal
-        // to the bit where the wheels turn the robot (their measurements a tenth of the
-        // largest apart): a DRIVE run's commands turn as its wheels do.
-        let measured = windows
-            .iter()
-            .flat_map(|w| w.measured.iter())
-            .map(|m| m[0].abs().max(m[1].abs()))
-            .filter(|v| v.is_finite())
-            .fold(0.0, f64::max);
-        let (mut turning, mut equal) = (0usize, 0usize);
-        for w in windows {
-            for (c, m) in w.command.iter().zip(&w.measured) {
-                if (m[0] - m[1]).abs() >= 0.1 * measured {
-                    turning += 1;
-                    equal += usize::from(c[0] == c[1]);
-                }
-            }
-        }
-        if turning >= 100 && equal * 10 >= turning * 9 {
-            out.push(Finding {
-                check: Check::EncoderCommand,
-                severity: Severity::Fatal,
-                message: format!(
-                    "'{}' equals '{}' to the bit on {equal} of the {turning} samples whose wheels turn the robot: one command written for both sides (a column given twice)?",
-                    axes[0].command_column, axes[1].command_column
+                    "'{}' equals '{}' to the bit on {equal} of the {turning} samples {says}",
+                    columns[0], columns[1]
                 ),
             });
             return;
@@ -2016,6 +1992,45 @@ fn sides_compared(
             });
         }
     }
+}
+
+/// Which of a skid-steer's two columns [`sides_equal`] reads the turn from.
+#[derive(Clone, Copy)]
+enum Column {
+    Command,
+    Measured,
+}
+
+/// Over the samples where the `turning_by` column's two sides are a tenth of its largest
+/// value apart (the robot turning), how many hold the other column's two sides equal to
+/// the bit, and of how many.
+fn sides_equal(windows: &[&Window], turning_by: Column) -> (usize, usize) {
+    fn pick(w: &Window, c: Column) -> &[drive_traits::Input] {
+        match c {
+            Column::Command => &w.command,
+            Column::Measured => &w.measured,
+        }
+    }
+    let other = match turning_by {
+        Column::Command => Column::Measured,
+        Column::Measured => Column::Command,
+    };
+    let largest = windows
+        .iter()
+        .flat_map(|w| pick(w, turning_by))
+        .map(|u| u[0].abs().max(u[1].abs()))
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let (mut turning, mut equal) = (0usize, 0usize);
+    for w in windows {
+        for (t, e) in pick(w, turning_by).iter().zip(pick(w, other)) {
+            if (t[0] - t[1]).abs() >= 0.1 * largest {
+                turning += 1;
+                equal += usize::from(e[0] == e[1]);
+            }
+        }
+    }
+    (equal, turning)
 }
 
 /// The measurements answering their commands late: in the transient windows, on every

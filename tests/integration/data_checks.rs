@@ -1340,6 +1340,21 @@ fn one_command_written_for_both_sides_is_fatal() {
             f.message
         );
     }
+    // Its mirror: one encoder read for both sides.
+    let mut run = drive::bundled::load("husky_drive").unwrap();
+    for w in &mut run.windows {
+        w.measured.iter_mut().for_each(|m| m[0] = m[1]);
+    }
+    let f = check(&run, None)
+        .into_iter()
+        .find(|f| f.message.contains("one encoder read for both sides"))
+        .expect("no finding");
+    assert_eq!(f.severity, Severity::Fatal);
+    assert!(
+        f.message.starts_with("'enc_left' equals 'enc_right'"),
+        "{}",
+        f.message
+    );
 }
 
 /// An eleventh outside sweep: localization drifting 0.5 m/s forwards in every window's frame
