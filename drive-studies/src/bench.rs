@@ -331,8 +331,12 @@ pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
     let mut track_cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
     let mut inputs = Vec::new();
     let mut input_cells: HashMap<[i64; 2], Vec<usize>> = HashMap::new();
+    // Every window's means in order, for the sequence (computed once, for both prints).
+    let mut means = Vec::new();
     for w in data.windows.iter().filter(|w| w.len() >= 2) {
-        if let Some(i) = inputs_of(w) {
+        let mean = window_means(w);
+        means.push(mean);
+        if let Some(i) = mean.filter(driven) {
             input_cells
                 .entry(inputs_cell(&i))
                 .or_default()
@@ -388,14 +392,14 @@ pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
         track_cells,
         inputs,
         input_cells,
-        sequence: sequence::Sequence::of(data),
+        sequence: sequence::Sequence::of(data, means),
     }
 }
 
-/// A window's [`Inputs`]; `None` when it was neither commanded nor moved its wheels by
+/// Whether a window's [`Inputs`] say it was commanded or moved its wheels by
 /// [`INPUTS_TOLERANCE`] (a window standing still carries no identity).
-fn inputs_of(w: &drive_traits::Window) -> Option<Inputs> {
-    window_means(w).filter(|values| values[..6].iter().any(|v| v.abs() >= INPUTS_TOLERANCE))
+fn driven(values: &Inputs) -> bool {
+    values[..6].iter().any(|v| v.abs() >= INPUTS_TOLERANCE)
 }
 
 /// A window's [`Inputs`]; `None` where one is not finite.

@@ -247,11 +247,7 @@ fn streams_in_files() -> Vec<(&'static str, std::fs::Metadata)> {
 pub fn is_standard_output(path: &Path) -> bool {
     #[cfg(unix)]
     {
-        use std::os::unix::fs::MetadataExt as _;
-        let (Ok(out), Ok(p)) = (std::fs::metadata("/dev/stdout"), std::fs::metadata(path)) else {
-            return false;
-        };
-        out.dev() == p.dev() && out.ino() == p.ino()
+        std::fs::metadata("/dev/stdout").is_ok_and(|out| is_stream_file(&out, path))
     }
     #[cfg(not(unix))]
     {

@@ -383,9 +383,10 @@ fn tylers_shape_ignores_the_errors_sizes() {
     assert!((0.0098..0.0101).contains(&(thin[2] / thin[0])), "{thin:?}");
 }
 
-#[test]
-fn a_heading_shape_turns_with_the_predicted_heading() {
-    let calibration = HorizonCalibration {
+/// Two steps: the start, and a step scaled 2 (position) and 3 (yaw) whose region is four
+/// times longer along the heading than across it.
+fn heading_shaped() -> HorizonCalibration {
+    HorizonCalibration {
         level: 0.95,
         shape_floor: 0.01,
         windows: 10,
@@ -394,7 +395,12 @@ fn a_heading_shape_turns_with_the_predicted_heading() {
         position_difficulty: vec![],
         yaw_difficulty: vec![],
         heading_shape: vec![UNIT_SHAPE, [4.0, 0.0, 0.25]],
-    };
+    }
+}
+
+#[test]
+fn a_heading_shape_turns_with_the_predicted_heading() {
+    let calibration = heading_shaped();
     assert_eq!(calibration.check(), Ok(()));
     let c = PoseCovariance::identity();
     let x = [0.0; FEATURES];
@@ -418,16 +424,7 @@ fn a_heading_shape_turns_with_the_predicted_heading() {
 /// position covariance does since that step; within it, nothing changes.
 #[test]
 fn a_heading_shaped_region_grows_beyond_the_calibrated_horizon_with_the_model() {
-    let calibration = HorizonCalibration {
-        level: 0.95,
-        shape_floor: 0.01,
-        windows: 10,
-        position_scale: vec![1.0, 2.0],
-        yaw_scale: vec![1.0, 3.0],
-        position_difficulty: vec![],
-        yaw_difficulty: vec![],
-        heading_shape: vec![UNIT_SHAPE, [4.0, 0.0, 0.25]],
-    };
+    let calibration = heading_shaped();
     let x = [0.0; FEATURES];
     let at_last = calibration.position_size(&PoseCovariance::identity());
     assert!((at_last - 1.0).abs() < 1e-12);

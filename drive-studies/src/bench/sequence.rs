@@ -21,8 +21,9 @@ pub(crate) struct Sequence {
 }
 
 impl Sequence {
-    /// The sequence of `data`'s windows of two samples or more.
-    pub(crate) fn of(data: &Dataset) -> Sequence {
+    /// The sequence of `data`'s windows of two samples or more, whose [`Inputs`] are
+    /// `means` (in the same order: [`super::window_means`]).
+    pub(crate) fn of(data: &Dataset, means: Vec<Option<Inputs>>) -> Sequence {
         let windows: Vec<&drive_traits::Window> =
             data.windows.iter().filter(|w| w.len() >= 2).collect();
         let (mut squares, mut n) = (0.0, 0usize);
@@ -38,7 +39,7 @@ impl Sequence {
         let mut lengths: Vec<usize> = windows.iter().map(|w| w.len()).collect();
         lengths.sort_unstable();
         Sequence {
-            windows: windows.iter().map(|w| super::window_means(w)).collect(),
+            windows: means,
             imu_noise: if n > 0 {
                 (squares / n as f64 / 6.0).sqrt()
             } else {
