@@ -35,6 +35,7 @@ const TYPICAL_ENCODER_GAIN: std::ops::RangeInclusive<f64> = 0.3..=1.25;
 
 mod copies;
 mod localization;
+mod parts;
 mod steps;
 pub use localization::{fixed_position_axis, position_grid};
 
@@ -184,11 +185,11 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "encoder-units",
-        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius), or localization's yaw turning over five times faster than the encoders' (yaw in degrees), or turning over 2.5 times what they imply (a baseline too wide), or an angle input beyond pi (in degrees), or the encoders driving one way where the commands drive no travel (an offset on them)",
+        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius), or localization's yaw turning over five times faster than the encoders' (yaw in degrees), or turning over 2.5 times what they imply (a baseline too wide), or an angle input beyond pi (in degrees), or the encoders driving one way where the commands drive no travel (an offset on them), or turning one way in the steady windows where the commands turn little, beyond what they turn (an offset on one side, or on a yaw-rate input)",
     ),
     (
         "encoder-command",
-        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 2 or under 0.1: commands or encoders in another unit; a warning outside 0.3-1.25, where real runs answer 0.42-0.84: commands scaled), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled); the measured inputs holding one value through four in five steady windows while the commands vary (fatal: the columns exchanged); on a skid-steer, the two commands equal to the bit where the wheels turn the robot (fatal: one command written for both sides)",
+        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 2 or under 0.1: commands or encoders in another unit; a warning outside 0.3-1.25, where real runs answer 0.42-0.84: commands scaled), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled); the measured inputs holding one value through four in five steady windows while the commands vary (fatal: the columns exchanged); on a skid-steer, the two commands equal to the bit where the wheels turn the robot (fatal: one command written for both sides), or the commanded forward speed following the yaw rate the encoders imply and the commanded yaw rate their forward speed (fatal: a log's cmd_vel linear and angular columns read for each other)",
     ),
     (
         "outside-limits",
@@ -314,6 +315,8 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(window_order(&w.windows));
     out.extend(exchanged(&w.windows));
     out.extend(commands_constant(&w));
+    let in_parts = parts::parts(&w, &out);
+    out.extend(in_parts);
     out
 }
 
@@ -1372,6 +1375,13 @@ fn encoders_follow_commands(data: &Dataset, windows: &[&Window]) -> bool {
 /// `encoder-units`: the distance the encoders imply against localization's, and
 /// localization's yaw rate against the encoders'.
 fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
+    encoder_units_in(w, true)
+}
+
+/// [`encoder_units`] on the whole run (`whole`), or on a part of it ([`parts`]): there the
+/// distance and the turn against localization's, not the speeds, the angles' units or
+/// localization's yaw rate sample by sample, which read the whole run.
+fn encoder_units_in(w: &Windows<'_>, whole: bool) -> Vec<Finding> {
     let (data, windows, motions) = (w.data, &w.windows, w.motions.as_slice());
     let mut out = Vec::new();
     // encoder-units: over the windows where localization saw at least 0.2 m, the median ratio
@@ -1411,7 +1421,7 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
     }
     // Speeds no ground vehicle drives: encoders in cm/s, or another unit (the 95th
     // percentile of the body speed they imply over 40 m/s). Fatal.
-    if !plausible_speeds(data, windows) {
+    if whole && !plausible_speeds(data, windows) {
         out.push(Finding {
             check: Check::EncoderUnits,
             severity: Severity::Fatal,
@@ -1495,6 +1505,9 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
                 ),
             });
         }
+    }
+    if !whole {
+        return out;
     }
     // encoder-units, an angle: an input axis in radians (a steering or articulation
     // angle) beyond pi on a twentieth of its commanded or measured samples: no angle of a
@@ -1629,20 +1642,19 @@ fn outside_limits(w: &Windows<'_>, space: &InputSpace) -> Vec<Finding> {
 /// command (one side's encoders or commands scaled: another unit, another wheel's radius);
 /// and on every axis, the measurements answering their commands late ([`answered_late`]).
 fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
+    encoder_command_in(data, windows, true)
+}
+
+/// [`encoder_command`] on the whole run (`whole`), or on a part of it ([`parts`]): there
+/// only the per-axis rules a corruption of that part breaks (a measurement dead, stuck,
+/// flipped, another's or in another unit), not the copies, the sides' comparison or the
+/// delay, which read the whole run.
+fn encoder_command_in(data: &Dataset, windows: &[&Window], whole: bool) -> Vec<Finding> {
     let axes = data.robot.vehicle.axes();
     let samples = || {
         windows
             .iter()
             .flat_map(|w| w.command.iter().zip(w.measured.iter()))
-    };
-    // Pearson's correlation of measured axis `i` with commanded axis `j` over the samples
-    // `on` selects.
-    let correlation = |i: usize, j: usize, on: &dyn Fn(&drive_traits::Input) -> bool| {
-        localization::correlation(
-            samples()
-                .filter(move |(c, _)| on(c))
-                .map(move |(c, m)| (c[j], m[i])),
-        )
     };
     let mut out = Vec::new();
     let axes = &axes[..axes.len().min(drive_traits::MAX_INPUTS)];
@@ -1656,6 +1668,13 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         seen.dedup();
         seen.len()
     };
+    if whole && skid_steer && intervals >= 10 {
+        if let Some(f) = body_axes_exchanged(data, windows) {
+            // The wheels' findings below would be its consequences, each naming a wrong
+            // cause.
+            return vec![f];
+        }
+    }
     // Per axis, its gain and its correlation with its own command where neither is
     // suspect on its own (the sides' comparison below).
     let mut followed: Vec<Option<(f64, f64)>> = vec![None; axes.len()];
@@ -1664,16 +1683,34 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         if largest <= 0.0 || !largest.is_finite() {
             continue;
         }
+        // One pass over the samples for every statistic of the axis below: over the
+        // commanded ones (a tenth of the largest command or more) the gain's sums, the
+        // measurement's and the command's ranges and the sums of its correlations with
+        // every axis's command; over all, the samples equal to their command.
         let on = |c: &drive_traits::Input| c[i].abs() >= 0.1 * largest;
         let (mut n, mut dead, mut cc, mut cm) = (0usize, 0usize, 0.0, 0.0);
-        for (c, m) in samples().filter(|(c, _)| on(c)) {
+        let (mut all, mut equal) = (0usize, 0usize);
+        let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
+        let (mut c_low, mut c_high) = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut with = vec![Correlation::default(); axes.len()];
+        for (c, m) in samples() {
+            all += 1;
+            equal += usize::from(c[i] == m[i]);
+            if !on(c) {
+                continue;
+            }
             n += 1;
             dead += usize::from(m[i].abs() <= 1e-3 * largest);
+            (low, high) = (low.min(m[i]), high.max(m[i]));
+            (c_low, c_high) = (c_low.min(c[i]), c_high.max(c[i]));
             // Scaled by the largest command, so that tiny commands (1e-300) do not
             // underflow to a gain of infinity.
-            let (c, m) = (c[i] / largest, m[i] / largest);
-            cc += c * c;
-            cm += c * m;
+            let (ci, mi) = (c[i] / largest, m[i] / largest);
+            cc += ci * ci;
+            cm += ci * mi;
+            for (j, sums) in with.iter_mut().enumerate() {
+                sums.add(c[j] / largest, mi);
+            }
         }
         if n < 100 {
             continue;
@@ -1681,21 +1718,6 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         // The measurement equal to its command to the bit on nearly every sample (the
         // commands written into the encoder columns: no powertrain answers with no lag and
         // no noise), or holding one value while its commands vary (stuck, or not recorded).
-        let (mut all, mut equal) = (0usize, 0usize);
-        for (c, m) in samples() {
-            all += 1;
-            equal += usize::from(c[i] == m[i]);
-        }
-        let (low, high) = samples()
-            .filter(|(c, _)| on(c))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, m)| {
-                (lo.min(m[i]), hi.max(m[i]))
-            });
-        let (c_low, c_high) = samples()
-            .filter(|(c, _)| on(c))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (c, _)| {
-                (lo.min(c[i]), hi.max(c[i]))
-            });
         let commands_vary = c_high - c_low > 1e-3 * largest;
         if equal * 100 >= all * 99 {
             out.push(Finding {
@@ -1712,7 +1734,10 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         // noise or rounding under 0.5% of its size: a powertrain's answer is no pure
         // delay (its lag and the transients alone leave far more), nor are encoders that
         // clean.
-        if let Some((lag, gain, rms)) = commands_copied(windows, i).filter(|_| commands_vary) {
+        let copied = (whole && commands_vary)
+            .then(|| commands_copied(windows, i))
+            .flatten();
+        if let Some((lag, gain, rms)) = copied {
             let delayed = match lag {
                 0 => String::new(),
                 1 => " delayed by 1 sample".to_string(),
@@ -1779,10 +1804,10 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         }
         let gain = cm / cc;
         // The other axis this measurement follows best (a two-input vehicle's other side).
-        let own = correlation(i, i, &on);
+        let own = with[i].value();
         let (other, cross) = (0..axes.len())
             .filter(|&j| j != i)
-            .map(|j| (j, correlation(i, j, &on)))
+            .map(|j| (j, with[j].value()))
             .fold(
                 (i, f64::NEG_INFINITY),
                 |best, c| if c.1 > best.1 { c } else { best },
@@ -1863,6 +1888,9 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
             message,
         });
     }
+    if !whole {
+        return out;
+    }
     // Only on the axes that follow their commands (a dead or scaled one is said above).
     let following: Vec<usize> = (0..axes.len()).filter(|&i| followed[i].is_some()).collect();
     if let Some(f) = answered_late(data, windows, &following) {
@@ -1872,6 +1900,119 @@ fn encoder_command(data: &Dataset, windows: &[&Window]) -> Vec<Finding> {
         sides_compared(windows, axes, &followed, intervals, &mut out);
     }
     out
+}
+
+/// Pearson's correlation of pairs `(a, b)` from sums gathered in one pass (the pairs scaled
+/// to order one by the caller); 0 when either side does not vary.
+#[derive(Debug, Clone, Copy, Default)]
+struct Correlation {
+    n: f64,
+    a: f64,
+    b: f64,
+    aa: f64,
+    bb: f64,
+    ab: f64,
+}
+
+impl Correlation {
+    /// Adds the pair `(a, b)`.
+    #[inline]
+    fn add(&mut self, a: f64, b: f64) {
+        self.n += 1.0;
+        self.a += a;
+        self.b += b;
+        self.aa += a * a;
+        self.bb += b * b;
+        self.ab += a * b;
+    }
+
+    /// The correlation of the pairs added.
+    fn value(&self) -> f64 {
+        if self.n < 2.0 {
+            return 0.0;
+        }
+        let var_a = self.aa - self.a * self.a / self.n;
+        let var_b = self.bb - self.b * self.b / self.n;
+        let cov = self.ab - self.a * self.b / self.n;
+        // A side constant to rounding: its variance a vanishing share of its square.
+        if var_a <= 1e-12 * self.aa || var_b <= 1e-12 * self.bb {
+            return 0.0;
+        }
+        (cov / (var_a * var_b).sqrt()).clamp(-1.0, 1.0)
+    }
+}
+
+/// `encoder-command`, on a skid-steer: the commanded forward speed and yaw rate exchanged
+/// (a log's `cmd_vel` linear and angular columns read for each other before they were turned
+/// into wheel commands). The body velocity the commands ask for (eq. 4) against the one the
+/// encoders imply: exchanged, each commanded axis follows the other measured axis (a
+/// correlation of 0.5 or more) and not its own (under 0.3), and no one side's command is
+/// sign-flipped (which looks alike but for the axes' scales). Real runs: 0.8 or more on
+/// their own axes. Fatal; the wheels' own findings, each a consequence naming another cause
+/// (a side moving against its commands, answering late), are not said.
+fn body_axes_exchanged(data: &Dataset, windows: &[&Window]) -> Option<Finding> {
+    let vehicle = &data.robot.vehicle;
+    // Each sample's commanded and implied body velocity, computed once for the four
+    // correlations.
+    let body: Vec<[f64; 4]> = windows
+        .iter()
+        .flat_map(|w| w.command.iter().zip(&w.measured))
+        .map(|(c, m)| {
+            let (f, v) = (vehicle.body_velocity(c), vehicle.body_velocity(m));
+            [f.x, f.z, v.x, v.z]
+        })
+        .collect();
+    let corr = |a: usize, b: usize| localization::correlation(body.iter().map(|r| (r[a], r[b])));
+    let (own_x, own_z) = (corr(0, 2), corr(1, 3));
+    let (x_as_z, z_as_x) = (corr(0, 3), corr(1, 2));
+    let exchanged = x_as_z >= 0.5 && z_as_x >= 0.5 && own_x < 0.3 && own_z < 0.3;
+    if !exchanged {
+        return None;
+    }
+    // One side's command sign-flipped looks the same through eq. 4 (its sum and difference
+    // exchanged), and so does the exchange itself once that side is negated back: but the
+    // exchange also scales the forward speed by half the baseline and the yaw rate by its
+    // inverse, so that the two axes' gains then differ by the baseline squared over four
+    // (13 on a Husky, 3.4 on a Warthog), where a side flipped keeps them alike (a gain under
+    // twice the other's: the wheels' findings say it). A vehicle whose baseline is near 2 m
+    // tells them apart no further.
+    let side = |i: usize| {
+        localization::correlation(
+            windows
+                .iter()
+                .flat_map(|w| w.command.iter().zip(&w.measured))
+                .map(|(c, m)| (c[i], m[i])),
+        )
+    };
+    if let Some(flipped) = (0..2).find(|&i| side(i) <= -0.5) {
+        let (mut fx, mut fz) = ([0.0; 2], [0.0; 2]);
+        for w in windows {
+            for (c, m) in w.command.iter().zip(&w.measured) {
+                let mut c = *c;
+                c[flipped] = -c[flipped];
+                let (f, v) = (vehicle.body_velocity(&c), vehicle.body_velocity(m));
+                fx = [fx[0] + f.x * f.x, fx[1] + f.x * v.x];
+                fz = [fz[0] + f.z * f.z, fz[1] + f.z * v.z];
+            }
+        }
+        let (gx, gz) = (fx[1] / fx[0], fz[1] / fz[0]);
+        let ratio = (gz / gx).abs();
+        if ratio.is_finite() && (0.5..=2.0).contains(&ratio) {
+            return None;
+        }
+    }
+    let two = |x: f64| Short((x * 100.0).round() / 100.0);
+    Some(Finding {
+        check: Check::EncoderCommand,
+        severity: Severity::Fatal,
+        message: format!(
+            "the commanded forward speed follows the yaw rate the encoders imply (correlation {}) and the commanded yaw rate their forward speed ({}), each far less its own ({} and {}): the commands' forward speed and yaw rate exchanged (a log's cmd_vel linear and angular columns read for each other)?",
+            two(x_as_z),
+            two(z_as_x),
+            two(own_x),
+            two(own_z)
+        ),
+    })
 }
 
 /// A skid-steer's two sides against each other (`encoder-command`): one powertrain design on

@@ -1429,6 +1429,27 @@ fn encoders_with_an_offset_are_named() {
     }
     let f = offset(&run).expect("no finding");
     assert_eq!(f.severity, Severity::Fatal);
+    // One side's encoder offset (the sweep's HD2 and mecanum cases) turns where the
+    // commands turn none: 2 rad/s on the Husky's left side, fatal; 1 rad/s, a warning.
+    let turn = |d: &drive::traits::Dataset| {
+        check(d, None)
+            .into_iter()
+            .find(|f| f.check == Check::EncoderUnits && f.message.contains("median turn"))
+    };
+    for name in drive::bundled::names() {
+        assert!(
+            turn(&drive::bundled::load(name).unwrap()).is_none(),
+            "{name}"
+        );
+    }
+    for (added, severity) in [(2.0, Severity::Fatal), (1.0, Severity::Warning)] {
+        let mut run = drive::bundled::load("husky_drive").unwrap();
+        for w in &mut run.windows {
+            w.measured.iter_mut().for_each(|m| m[0] += added);
+        }
+        let f = turn(&run).expect("no finding");
+        assert_eq!(f.severity, severity, "{added}: {}", f.message);
+    }
 }
 
 /// A tenth outside sweep: a command column stuck at one value (the Husky's left command at
@@ -1933,4 +1954,134 @@ fn a_robot_sliding_on_ice_is_no_yaw_offset() {
     let said = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(0), "{said}");
     assert!(said.contains("the robot sliding sideways (ice)?"), "{said}");
+}
+
+/// The eleventh outside sweep's N2: a corruption confined to half of a run (its encoder
+/// columns swapped from the middle on, one command negated, the encoders scaled 3x) passed
+/// every check, the other half's windows outvoting it in the whole run's statistics. The
+/// consistency checks now run on each half and third of the run too: a part's fatal finding
+/// is fatal, the part named. A run that drives from one ground onto another (two real runs
+/// of one robot joined halfway) is no corruption: its columns agree with each other in
+/// either part.
+#[test]
+fn a_corruption_in_half_of_a_run_is_fatal_and_named() {
+    use drive::data::quality::{check, Severity};
+    let part_fatal = |d: &drive::traits::Dataset| -> Vec<String> {
+        check(d, None)
+            .into_iter()
+            .filter(|f| f.severity == Severity::Fatal)
+            .map(|f| format!("{}: {}", f.check, f.message))
+            .collect()
+    };
+    type Edit = fn(&mut drive::traits::Window);
+    let cases: [(&str, &str, Edit); 3] = [
+        ("husky_drive", "encoders swapped", |w| {
+            w.measured.iter_mut().for_each(|u| (u.x, u.y) = (u.y, u.x))
+        }),
+        ("warthog_grass_2024-08-08", "left command negated", |w| {
+            w.command.iter_mut().for_each(|u| u.x = -u.x)
+        }),
+        ("warthog_asphalt_2024-08-07", "encoders scaled 3x", |w| {
+            w.measured.iter_mut().for_each(|u| *u *= 3.0)
+        }),
+    ];
+    for (run, what, edit) in cases {
+        let mut d = drive::bundled::load(run).unwrap();
+        assert!(part_fatal(&d).is_empty(), "{run}: {:?}", part_fatal(&d));
+        let half = d.windows.len() / 2;
+        d.windows[half..].iter_mut().for_each(edit);
+        let fatal = part_fatal(&d);
+        assert!(
+            fatal
+                .iter()
+                .any(|f| f.contains("in the second half of the run alone")),
+            "{run} {what}: {fatal:?}"
+        );
+    }
+    // Two real Warthog runs joined halfway (grass, then asphalt): a change of ground.
+    let mut joined = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
+    let asphalt = drive::bundled::load("warthog_asphalt_a").unwrap();
+    let half = joined.windows.len() / 2;
+    let last = joined.windows[half - 1].interval;
+    let first = asphalt.windows[asphalt.windows.len() / 2].interval;
+    joined.windows.truncate(half);
+    joined.windows.extend(
+        asphalt.windows[asphalt.windows.len() / 2..]
+            .iter()
+            .cloned()
+            .map(|mut w| {
+                w.interval = w.interval - first + last + 1;
+                w
+            }),
+    );
+    for (i, w) in joined.windows.iter_mut().enumerate() {
+        w.index = i;
+    }
+    let findings = check(&joined, None);
+    assert!(
+        findings.iter().all(|f| !f.message.contains("alone")),
+        "{findings:?}"
+    );
+}
+
+/// The eleventh outside sweep's N14: a raw log whose `cmd_vel` linear and angular columns
+/// were read for each other was refused, but for "sign flipped, or sides swapped" and
+/// "timestamped late", nothing pointing at the two command columns. The body velocity the
+/// commands ask for is now compared with the one the encoders imply, axis against axis.
+#[test]
+fn a_raw_log_with_its_forward_and_yaw_rate_commands_exchanged_is_refused_for_that() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = raw_log(dir.path(), "exchanged.csv", |f, col| {
+        f.swap(col("cmd_vel_x"), col("cmd_vel_omega"))
+    });
+    let (code, json, err) = import(&raw, "husky", &dir.path().join("w.csv"), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("forward speed and yaw rate exchanged"),
+        "{err}"
+    );
+    assert!(
+        checks(&json).contains(&("encoder-command".into(), "fatal".into())),
+        "{json}"
+    );
+    // The log as written imports.
+    let clean = raw_log(dir.path(), "clean.csv", |_, _| {});
+    let (code, _, err) = import(&clean, "husky", &dir.path().join("c.csv"), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    // A real Warthog run (baseline 1.08 m) with the same exchange; and with one side's
+    // command negated instead, which looks alike through eq. 4 but for the axes' scales:
+    // that is named as the side's.
+    use drive::data::quality::{check, Severity};
+    let messages = |d: &drive::traits::Dataset| -> Vec<String> {
+        check(d, None)
+            .into_iter()
+            .filter(|f| f.severity == Severity::Fatal)
+            .map(|f| f.message)
+            .collect()
+    };
+    let run = drive::bundled::load("warthog_asphalt_2024-08-07").unwrap();
+    let (r, b) = (0.3, 1.08);
+    let mut exchanged = run.clone();
+    for w in &mut exchanged.windows {
+        for c in &mut w.command {
+            let (v, yaw) = (r * (c.x + c.y) / 2.0, r * (c.y - c.x) / b);
+            (c.x, c.y) = ((yaw - v * b / 2.0) / r, (yaw + v * b / 2.0) / r);
+        }
+    }
+    let said = messages(&exchanged);
+    assert!(
+        said.iter()
+            .any(|m| m.contains("forward speed and yaw rate exchanged")),
+        "{said:?}"
+    );
+    let mut flipped = run.clone();
+    for w in &mut flipped.windows {
+        w.command.iter_mut().for_each(|c| c.y = -c.y);
+    }
+    let said = messages(&flipped);
+    assert!(
+        said.iter().any(|m| m.contains("'enc_right' moves against")),
+        "{said:?}"
+    );
+    assert!(!said.iter().any(|m| m.contains("exchanged")), "{said:?}");
 }

@@ -156,7 +156,7 @@ pub(super) fn correlation(pairs: impl Iterator<Item = (f64, f64)> + Clone) -> f6
 /// robot driving sideways.
 pub(super) fn frame(w: &Windows<'_>) -> Vec<Finding> {
     let (mut signed, mut course, mut course_agree) = (Vec::new(), 0usize, 0usize);
-    for (win, &(seen, implied, _)) in w.windows.iter().zip(&w.travels) {
+    for ((win, &(seen, implied, _)), m) in w.windows.iter().zip(&w.travels).zip(&w.motions) {
         // Nearly straight windows only (localization turned under 0.2 rad): through a turn
         // on a slippery ground the body slides where its heading no longer points (a
         // simulated Warthog on ice, 45 degrees).
@@ -165,7 +165,7 @@ pub(super) fn frame(w: &Windows<'_>) -> Vec<Finding> {
         if implied[0].hypot(implied[1]) >= 0.3
             && implied[1].abs() <= 0.3 * implied[0].abs()
             && seen[0].hypot(seen[1]) >= 0.15
-            && drive_traits::net_turn(&win.pose).abs() < 0.2
+            && m.3.abs() < 0.2
         {
             let cross = implied[0] * seen[1] - implied[1] * seen[0];
             let dot = implied[0] * seen[0] + implied[1] * seen[1];

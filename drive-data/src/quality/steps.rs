@@ -317,50 +317,135 @@ pub(super) fn drifting(w: &Windows<'_>) -> Option<Finding> {
 /// against the largest they imply, from which a warning and fatal. Where no travel is
 /// commanded the wheels drive none, whatever the ground (on ice they spin as commanded); an
 /// offset drives them one way. The bundled and norlab runs give 0.04 at most, 200 simulated
-/// runs 0.045; 1-2 rad/s added to a real run's encoders 0.07-0.21. (The turn is not read: a
-/// car's linear sampler holds its steering, 0.14.)
+/// runs 0.045; 1-2 rad/s added to a real run's encoders 0.07-0.21. (The turn is
+/// [`TURN_OFFSET_WARNING`]'s.)
 const OFFSET_WARNING: f64 = 0.08;
 /// See [`OFFSET_WARNING`].
 const OFFSET_FATAL: f64 = 0.15;
+/// The same of the turn, on a vehicle whose wheels command its turn (not a car): over the
+/// steady windows whose mean command turns under a fifth of the largest (ten at least), the
+/// median signed turn the encoders imply less what those commands turn (the intercept of
+/// Theil and Sen's line through them) against the largest window's turn, a warning from
+/// here and fatal from [`TURN_OFFSET_FATAL`]. The real runs give 0.015 at most, 200
+/// simulated runs 0.055 (the linear-focused sampler's); one side's encoder offset by 1 rad/s
+/// gives 0.15 on the Husky and 0.30 on a simulated HD2, a mecanum base's yaw-rate input by
+/// 0.5 rad/s 0.23, a Warthog side by 2 rad/s 0.10-0.12 (by 1 rad/s 0.05-0.07: not seen).
+const TURN_OFFSET_WARNING: f64 = 0.09;
+/// See [`TURN_OFFSET_WARNING`].
+const TURN_OFFSET_FATAL: f64 = 0.2;
 
-/// Encoders reading an offset ([`OFFSET_WARNING`]).
-pub(super) fn encoder_offset(w: &Windows<'_>) -> Option<Finding> {
+/// Encoders reading an offset ([`OFFSET_WARNING`], [`TURN_OFFSET_WARNING`]).
+pub(super) fn encoder_offset(w: &Windows<'_>) -> Vec<Finding> {
     let vehicle = &w.data.robot.vehicle;
-    // Per window: the forward body velocity of its mean command, and the travel implied.
-    let rows: Vec<(f64, f64)> = w
+    // Per window: the forward body velocity and the yaw rate of its mean command, and the
+    // travel and the turn implied.
+    let rows: Vec<Idle> = w
         .windows
         .iter()
         .zip(&w.travels)
-        .map(|(win, (_, implied, _))| {
+        .map(|(win, (_, implied, turn))| {
             let n = win.command.len().max(1) as f64;
             let mean = win.command.iter().sum::<drive_traits::Input>() / n;
-            (vehicle.body_velocity(&mean).x, implied[0])
+            let f = vehicle.body_velocity(&mean);
+            Idle {
+                commanded: [f.x, f.z],
+                implied: [implied[0], *turn],
+                steady: win.phase == drive_traits::Phase::Steady,
+            }
         })
-        .filter(|(c, i)| c.is_finite() && i.is_finite())
+        .filter(|r| r.commanded.iter().chain(&r.implied).all(|x| x.is_finite()))
         .collect();
-    let commanded = rows.iter().map(|r| r.0.abs()).fold(0.0, f64::max);
-    let largest = rows.iter().map(|r| r.1.abs()).fold(0.0, f64::max);
+    let mut out: Vec<Finding> = idle_share(&rows, 0, false)
+        .filter(|(_, share, _)| share.abs() >= OFFSET_WARNING)
+        .map(|(median, share, count)| Finding {
+            check: Check::EncoderUnits,
+            severity: Severity::fatal_if(share.abs() >= OFFSET_FATAL),
+            message: format!(
+                "the encoders imply a median forward travel of {} m over the {count} windows whose commands drive almost none ({} of the largest window's, one way): an offset on the encoders (a bias added, or a zero not subtracted)?",
+                Short(three_digits(median)),
+                Short(three_digits(share)),
+            ),
+        })
+        .into_iter()
+        .collect();
+    // The turn, on a vehicle whose turn its wheels command (a car's linear sampler holds
+    // its steering while its speed turns it).
+    if drive_traits::vehicle_tag(vehicle.as_ref()).as_deref() != Some("ackermann") {
+        out.extend(
+            idle_share(&rows, 1, true)
+                .filter(|(_, share, _)| share.abs() >= TURN_OFFSET_WARNING)
+                .map(|(median, share, count)| Finding {
+                    check: Check::EncoderUnits,
+                    severity: Severity::fatal_if(share.abs() >= TURN_OFFSET_FATAL),
+                    message: format!(
+                        "the encoders imply a median turn of {} rad over the {count} steady windows whose commands turn little, less what those commands turn ({} of the largest window's, one way): an offset on one side's encoder or on a yaw-rate input (a bias added, or a zero not subtracted)?",
+                        Short(three_digits(median)),
+                        Short(three_digits(share)),
+                    ),
+                }),
+        );
+    }
+    out
+}
+
+/// A window's mean command and the motion its encoders imply, on the body's forward and
+/// yaw axes ([`encoder_offset`]).
+struct Idle {
+    commanded: [f64; 2],
+    implied: [f64; 2],
+    steady: bool,
+}
+
+/// Over the windows whose mean command asks for under a twentieth of the largest on body
+/// axis `axis` (0 forward, 1 yaw; ten windows at least; with `steady`, the steady ones
+/// alone, where the wheels no longer answer the interval before's command, under a tenth
+/// of the largest), the median
+/// signed motion the encoders imply on it, that median over the largest implied, and the
+/// windows' count.
+fn idle_share(rows: &[Idle], axis: usize, steady: bool) -> Option<(f64, f64, usize)> {
+    // The steady windows' wheels are at their command, and the slope takes out what the
+    // commands themselves turn: a wider band, more windows.
+    let band = if steady { 0.2 } else { 0.05 };
+    let commanded = rows
+        .iter()
+        .map(|r| r.commanded[axis].abs())
+        .fold(0.0, f64::max);
+    let largest = rows
+        .iter()
+        .map(|r| r.implied[axis].abs())
+        .fold(0.0, f64::max);
     if largest <= 0.0 || commanded <= 0.0 {
         return None;
     }
-    let mut idle: Vec<f64> = rows
+    let near: Vec<(f64, f64)> = rows
         .iter()
-        .filter(|r| r.0.abs() < 0.05 * commanded)
-        .map(|r| r.1)
+        .filter(|r| r.commanded[axis].abs() < band * commanded && (r.steady || !steady))
+        .map(|r| (r.commanded[axis], r.implied[axis]))
         .collect();
-    if idle.len() < MIN_WINDOWS {
+    if near.len() < MIN_WINDOWS {
         return None;
     }
-    let count = idle.len();
+    let count = near.len();
+    let mut idle: Vec<f64> = if steady {
+        // What the windows' own small commands turn taken out: Theil and Sen's slope
+        // (the median of the pairs' slopes) through the windows, its intercept the offset.
+        let mut slopes: Vec<f64> = Vec::new();
+        for (i, a) in near.iter().enumerate() {
+            for b in &near[i + 1..] {
+                if (b.0 - a.0).abs() > 1e-3 * band * commanded {
+                    slopes.push((b.1 - a.1) / (b.0 - a.0));
+                }
+            }
+        }
+        let slope = if slopes.is_empty() {
+            0.0
+        } else {
+            drive_traits::median(&mut slopes)
+        };
+        near.iter().map(|(c, i)| i - slope * c).collect()
+    } else {
+        near.iter().map(|r| r.1).collect()
+    };
     let median = drive_traits::median(&mut idle);
-    let share = median / largest;
-    (share.abs() >= OFFSET_WARNING).then(|| Finding {
-        check: Check::EncoderUnits,
-        severity: Severity::fatal_if(share.abs() >= OFFSET_FATAL),
-        message: format!(
-            "the encoders imply a median forward travel of {} m over the {count} windows whose commands drive almost none ({} of the largest window's, one way): an offset on the encoders (a bias added, or a zero not subtracted)?",
-            Short(three_digits(median)),
-            Short(three_digits(share)),
-        ),
-    })
+    Some((median, median / largest, count))
 }
