@@ -2,9 +2,10 @@
 //! robot is on the path, estimates its state from what its sensors report, asks the
 //! controller for a command and holds that command to the robot's limits.
 //!
-//! The state estimate: the last localization fix, carried forward to the tick's time with
-//! the body velocity the fixes of the last half second show (the localization often runs
-//! slower than the commands, 10 Hz against 20 Hz); the measured inputs as they are; the
+//! The state estimate: the last localization fix, carried forward from when it was measured
+//! ([`Observation::pose_time`], its stamp) to the tick's time with the body velocity the
+//! fixes of the last half second show (the localization often runs slower than the
+//! commands, 10 Hz against 20 Hz, and late); the measured inputs as they are; the
 //! IMU's yaw rate and the localization's velocity only when the model was fitted to start
 //! from them ([`StartInfo`]), as `drive eval --start` gives them.
 
@@ -31,6 +32,10 @@ pub struct Observation {
     pub pose: Option<Pose>,
     /// The IMU's yaw rate (rad/s), when the robot has one.
     pub imu_yaw_rate: Option<f64>,
+    /// When the fix in `pose` was measured (s, on `t`'s clock: a ROS pose message's header
+    /// stamp), when known: the fix is carried forward from then, and a fix published again
+    /// with the same stamp is no new fix. `None`: measured at `t` (no latency).
+    pub pose_time: Option<f64>,
 }
 
 /// Settings of a [`Tracker`].
@@ -152,7 +157,7 @@ const VELOCITY_SPAN_S: f64 = 0.5;
 /// let mut input = Input::zeros();
 /// for k in 0..10 {
 ///     // (A robot on a stand: its wheels follow the commands, it stays where it is.)
-///     let tick = tracker.tick(&Observation { t: 0.05 * k as f64, input, pose: Some(Pose::zeros()), imu_yaw_rate: None }).unwrap();
+///     let tick = tracker.tick(&Observation { t: 0.05 * k as f64, input, pose: Some(Pose::zeros()), imu_yaw_rate: None, pose_time: None }).unwrap();
 ///     input = tick.command;
 /// }
 /// // Starting on the path, at rest: it drives forward (both wheels ahead), within the
@@ -307,18 +312,29 @@ impl Tracker {
         let finite = obs.t.is_finite()
             && obs.input.iter().all(|v| v.is_finite())
             && obs.pose.is_none_or(|p| p.iter().all(|v| v.is_finite()))
-            && obs.imu_yaw_rate.is_none_or(f64::is_finite);
+            && obs.imu_yaw_rate.is_none_or(f64::is_finite)
+            && obs.pose_time.is_none_or(f64::is_finite);
         if !finite {
             return Err(ControlError::BadState(format!(
-                "t {}, inputs {:?}, pose {:?}, IMU {:?}",
+                "t {}, inputs {:?}, pose {:?}, IMU {:?}, pose time {:?}",
                 obs.t,
                 obs.input.as_slice(),
                 obs.pose.map(|p| [p.x, p.y, p.z]),
-                obs.imu_yaw_rate
+                obs.imu_yaw_rate,
+                obs.pose_time
             )));
         }
         if let Some(p) = obs.pose {
-            self.fixes.push_back((obs.t, p));
+            // Stamped when it was measured (never later than now); the same fix published
+            // again adds nothing (it would read as the robot standing still).
+            let stamp = obs.pose_time.map_or(obs.t, |s| s.min(obs.t));
+            if self.fixes.back().is_some_and(|&(t, _)| stamp <= t) {
+                if let Some(last) = self.fixes.back_mut().filter(|(t, _)| stamp == *t) {
+                    last.1 = p;
+                }
+            } else {
+                self.fixes.push_back((stamp, p));
+            }
             while self.fixes.len() > 2
                 && self.fixes.back().map_or(0.0, |b| b.0) - self.fixes[1].0 >= VELOCITY_SPAN_S
             {

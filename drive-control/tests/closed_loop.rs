@@ -65,6 +65,7 @@ fn follow(shape: PathShape, speed: f64, seconds: f64) -> (Vec<Pose>, bool, f64) 
                 input,
                 pose: Some(pose),
                 imu_yaw_rate: None,
+                pose_time: None,
             })
             .unwrap();
         if tick.done {
@@ -153,6 +154,7 @@ fn a_robot_that_does_not_move_never_reaches_the_end_of_a_path_through_its_start(
                     input: Input::zeros(),
                     pose: Some(Pose::new(0.0, if k % 2 == 0 { 3e-3 } else { -3e-3 }, 0.0)),
                     imu_yaw_rate: None,
+                    pose_time: None,
                 })
                 .unwrap();
             assert!(!tick.done, "{}: done at tick {k}", path.name());
@@ -197,6 +199,7 @@ fn first_commands(seed: u64) -> Vec<Input> {
                     input: Input::zeros(),
                     pose: Some(Pose::zeros()),
                     imu_yaw_rate: None,
+                    pose_time: None,
                 })
                 .unwrap()
                 .command
@@ -295,6 +298,7 @@ fn commands_on_a_circle(
                 input,
                 pose: Some(pose),
                 imu_yaw_rate: None,
+                pose_time: None,
             })
             .unwrap();
         let start = StartState::measured(pose, input, robot.vehicle.as_ref());
@@ -414,4 +418,68 @@ fn the_motion_measured_now_is_handed_to_the_rollouts_after_the_history() {
     assert_eq!(observed(false, true), None);
     assert_eq!(observed(true, false), None);
     assert!(Mppi::default().observe_now);
+}
+
+/// The tracker's estimate of a robot driving straight at 1 m/s, whose localization publishes
+/// every fourth tick a fix measured 0.3 s before, and again (the same fix) at the ticks in
+/// between once in two: carried forward from when each fix was measured (its stamp), the
+/// estimate is where the robot is; taken as measured when it arrives, 0.3 m behind, and the
+/// fix published again reads as the robot standing still.
+#[test]
+fn a_late_fix_is_carried_forward_from_when_it_was_measured() {
+    let robot = husky();
+    let setup = ControlSetup {
+        model: naive(&robot),
+        robot: robot.clone(),
+        to_vehicle: InputMap::identity(),
+        speed: 0.5,
+        seed: 0,
+    };
+    let path = PathShape::Line.at_scale(20.0).unwrap();
+    let worst_error = |stamped: bool| -> f64 {
+        let config = TrackerConfig {
+            start: StartInfo::Encoders,
+            ..TrackerConfig::new(0.5)
+        };
+        let mut tracker = Tracker::new(
+            &Mppi {
+                samples: 64,
+                ..Mppi::default()
+            },
+            &setup,
+            path.clone(),
+            config,
+            robot.vehicle.clone(),
+        )
+        .unwrap();
+        let (latency, period) = (0.3, 4);
+        let mut worst: f64 = 0.0;
+        let mut last_fix = None;
+        for k in 0..60 {
+            let t = k as f64 * 0.05;
+            if k % period == 0 {
+                let measured = (t - latency).max(0.0);
+                last_fix = Some((measured, Pose::new(measured, 0.0, 0.0)));
+            }
+            // Published at its update, and again every other tick in between.
+            let fix = last_fix.filter(|_| k % 2 == 0);
+            let tick = tracker
+                .tick(&Observation {
+                    t,
+                    input: Input::zeros(),
+                    pose: fix.map(|f| f.1),
+                    imu_yaw_rate: Some(0.0),
+                    pose_time: fix.filter(|_| stamped).map(|f| f.0),
+                })
+                .unwrap();
+            // Once the first fixes have given a velocity.
+            if t >= 1.0 {
+                worst = worst.max((tick.estimate.x - t).abs());
+            }
+        }
+        worst
+    };
+    let (stamped, unstamped) = (worst_error(true), worst_error(false));
+    assert!(stamped < 0.02, "stamped: {stamped} m off");
+    assert!(unstamped > 0.25, "unstamped: {unstamped} m off");
 }

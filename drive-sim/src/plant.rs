@@ -22,7 +22,7 @@ use std::sync::Arc;
 /// struct OnAStand { t: f64, last: Input }
 /// impl Plant for OnAStand {
 ///     fn measure(&mut self) -> Measured {
-///         Measured { t: self.t, input: self.last, pose: Pose::zeros(), fresh_pose: true, imu_yaw_rate: 0.0 }
+///         Measured { t: self.t, input: self.last, pose: Pose::zeros(), fresh_pose: true, imu_yaw_rate: 0.0, pose_time: self.t }
 ///     }
 ///     fn advance(&mut self, command: Input) { self.last = command; self.t += 0.05; }
 /// }

@@ -143,6 +143,8 @@ pub struct Instruments {
     tick: usize,
     history: Vec<Input>,
     icp: Pose,
+    /// When `icp` was measured (s).
+    icp_time: f64,
     /// The true poses of the last ticks, for a localization with latency.
     past: VecDeque<(f64, Pose)>,
     /// The tick of the localization's next update, with [`Sensors::icp_gaps`].
@@ -159,6 +161,7 @@ impl Instruments {
             tick: 0,
             history: Vec::new(),
             icp: Pose::zeros(),
+            icp_time: 0.0,
             past: VecDeque::new(),
             next_update: 0,
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
@@ -270,8 +273,10 @@ impl Instruments {
                 let delay = self.sensors.icp_latency
                     + Uniform::new(0.0, self.sensors.icp_jitter)
                         .map_or(0.0, |u| u.sample(&mut self.rng));
+                self.icp_time = now - delay;
                 pose_at(&self.past, now - delay)
             } else {
+                self.icp_time = now;
                 pose
             };
             let [sp, sy] = self.sensors.icp_noise;
@@ -298,6 +303,7 @@ impl Instruments {
             pose: self.icp,
             fresh_pose,
             imu_yaw_rate,
+            pose_time: self.icp_time,
         }
     }
 }

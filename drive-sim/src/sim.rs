@@ -35,6 +35,10 @@ pub struct Measured {
     pub fresh_pose: bool,
     /// IMU yaw rate (rad/s).
     pub imu_yaw_rate: f64,
+    /// When the pose was measured (s): `t` less the localization's latency at its last
+    /// update ([`Sensors::icp_latency`](crate::Sensors::icp_latency) and its jitter), what
+    /// a ROS pose message's header stamps. `t` itself for a localization without latency.
+    pub pose_time: f64,
 }
 
 /// A simulated skid-steer UGV on a terrain: the plant of the `differential` vehicle.

@@ -154,12 +154,14 @@ impl Tracker {
     /// One tick: `t` the time (s, increasing); `inputs` the measured inputs (left, right
     /// wheel velocities, rad/s, for a differential drive); `pose` a new localization fix
     /// (x, y, yaw) when one arrived, else None; `imu_yaw_rate` the IMU's yaw rate (rad/s)
-    /// or None. Returns a dict: `command` (the two inputs to send), `done` (the end of
+    /// or None; `pose_time` when the fix was measured (s, on `t`'s clock: the pose
+    /// message's header stamp), so that it is carried forward from then, or None (measured
+    /// at `t`). Returns a dict: `command` (the two inputs to send), `done` (the end of
     /// the path is reached; the command then stops the robot), `linear` and `angular` (the
     /// body velocity the command asks for: a Twist's linear.x and angular.z), `progress_m`,
     /// `cross_track_m` (positive left of the path), `heading_error_rad` and `estimate`
     /// (x, y, yaw the tick planned from).
-    #[pyo3(signature = (t, inputs, pose=None, imu_yaw_rate=None))]
+    #[pyo3(signature = (t, inputs, pose=None, imu_yaw_rate=None, pose_time=None))]
     fn tick<'py>(
         &mut self,
         py: Python<'py>,
@@ -167,6 +169,7 @@ impl Tracker {
         inputs: &Bound<'py, PyAny>,
         pose: Option<&Bound<'py, PyAny>>,
         imu_yaw_rate: Option<&Bound<'py, PyAny>>,
+        pose_time: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let t = number_of("t", "a time in s", t)?;
         if let Some(last) = self.last_t {
@@ -186,11 +189,16 @@ impl Tracker {
             .filter(|w| !w.is_none())
             .map(|w| number_of("imu_yaw_rate", "a number (rad/s)", w))
             .transpose()?;
+        let pose_time = pose_time
+            .filter(|s| !s.is_none())
+            .map(|s| number_of("pose_time", "a time in s", s))
+            .transpose()?;
         let obs = drive::control::Observation {
             t,
             input,
             pose: pose.map(|p| Pose::new(p[0], p[1], p[2])),
             imu_yaw_rate: imu,
+            pose_time,
         };
         let tick = py.detach(|| self.tracker.tick(&obs)).map_err(err)?;
         self.last_t = Some(t);

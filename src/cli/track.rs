@@ -107,6 +107,11 @@ pub struct Args {
     /// settling time (its dead time plus one time constant for eq. 3's FOPDT; 0.5 to 3 s).
     #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
     history: Option<f64>,
+    /// Hand the controller each localization fix without the time it was measured (its
+    /// stamp): the tracker then takes a fix as measured when it arrives, its latency unseen
+    /// (a robot whose localization does not stamp its poses). Default: stamped.
+    #[arg(long)]
+    no_pose_stamps: bool,
     /// Beside each model, the same model adapting to the ground inside the loop (named
     /// NAME-adaptive): every 2 s window the run drives is fed to `drive adapt`'s adaptive
     /// model, which the controller predicts with from the next tick on. With --terrains,
@@ -345,6 +350,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         controller,
         time_limit_s: args.time_limit,
         history_s: args.history,
+        pose_stamps: !args.no_pose_stamps,
         ground_changes,
         adaptive,
     };

@@ -161,6 +161,11 @@ pub struct TrackStudy {
     /// long ago through the commands sent since ([`TrackerConfig::history_s`]); default:
     /// each model's powertrain's settling time ([`drive_control::settling_history_s`]).
     pub history_s: Option<f64>,
+    /// Whether each localization fix reaches the controller with the time it was measured
+    /// ([`drive_control::Observation::pose_time`]: a ROS pose message's header stamp), so
+    /// that the tracker carries it forward from then; `false` (`drive track
+    /// --no-pose-stamps`): each fix taken as measured when it arrives, its latency unseen.
+    pub pose_stamps: bool,
     /// Where the ground changes along the path (`drive track --terrains`), in order: the
     /// robot drives onto each change's ground once it has covered that share of the path
     /// ([`drive_sim::Plant::change_ground`]). Empty: `terrain` all along. The top speed and
@@ -423,6 +428,7 @@ pub const MAX_TRAINING_TOTAL_S: f64 = 36_000.0;
 ///     controller: Arc::clone(r.controllers.get("mppi").unwrap().part()),
 ///     time_limit_s: None,
 ///     history_s: None,
+///     pose_stamps: true,
 ///     ground_changes: vec![],
 ///     adaptive: vec![],
 /// };

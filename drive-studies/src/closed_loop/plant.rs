@@ -272,6 +272,7 @@ pub(super) fn drive(
             input: m.input,
             pose: m.fresh_pose.then_some(m.pose),
             imu_yaw_rate: Some(m.imu_yaw_rate),
+            pose_time: (study.pose_stamps && m.fresh_pose).then_some(m.pose_time),
         };
         let clock = Instant::now();
         let tick = tracker.tick(&obs).map_err(control)?;
