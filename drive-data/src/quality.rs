@@ -577,36 +577,70 @@ const DIRECTION_MAX_AGREEING: f64 = 0.2;
 /// command columns swapped or sign-flipped while the encoders' are not). Fatal: a model
 /// fitted on it learns the robot backwards.
 fn direction(w: &Windows<'_>) -> Vec<Finding> {
+    let signals = direction_signals(w);
+    direction_of(signals.iter())
+}
+
+/// A window's signals for [`direction`]: the signed net turn and forward travel (body
+/// frame, eq. 4 summed) its encoders imply and, in a steady window, its commands ask for;
+/// the turn localization saw and its travel along the heading it started the window with.
+#[derive(Debug, Clone, Copy)]
+struct DirectionSignals {
+    inputs: [Option<(f64, f64)>; 2],
+    turned: f64,
+    along: f64,
+}
+
+/// Each window's [`DirectionSignals`], in order.
+fn direction_signals(w: &Windows<'_>) -> Vec<DirectionSignals> {
     let data = w.data;
     let dt = data.robot.dt();
+    w.windows
+        .iter()
+        .zip(&w.motions)
+        .map(|(win, m)| {
+            let n = win.len().saturating_sub(1);
+            let (first, last) = (win.pose[0], win.pose[n]);
+            let along = (last.x - first.x) * first.z.cos() + (last.y - first.y) * first.z.sin();
+            let steady = win.phase == drive_traits::Phase::Steady;
+            let sums = |inputs: &[drive_traits::Input]| {
+                let (mut yaw, mut forward) = (0.0, 0.0);
+                for u in inputs.iter().take(n) {
+                    let v = data.robot.vehicle.body_velocity(u);
+                    yaw += v.z * dt;
+                    forward += v.x * dt;
+                }
+                (yaw, forward)
+            };
+            DirectionSignals {
+                inputs: [
+                    Some(sums(&win.measured)),
+                    steady.then(|| sums(&win.command)),
+                ],
+                turned: m.3,
+                along,
+            }
+        })
+        .collect()
+}
+
+/// [`direction`] on the windows' signals.
+fn direction_of<'a>(signals: impl Iterator<Item = &'a DirectionSignals>) -> Vec<Finding> {
     // [encoders, commands]: windows that turn (drive) clearly, and those that agree.
     let (mut turns, mut turns_agree, mut drives, mut drives_agree) =
         ([0usize; 2], [0usize; 2], [0usize; 2], [0usize; 2]);
-    for (win, m) in w.windows.iter().zip(&w.motions) {
-        let n = win.len().saturating_sub(1);
-        // Localization's travel along the heading it started the window with.
-        let (first, last) = (win.pose[0], win.pose[n]);
-        let along = (last.x - first.x) * first.z.cos() + (last.y - first.y) * first.z.sin();
-        let turned = m.3;
-        let steady = win.phase == drive_traits::Phase::Steady;
-        for (i, inputs) in [&win.measured, &win.command].into_iter().enumerate() {
-            if i == 1 && !steady {
+    for sig in signals {
+        for (i, sums) in sig.inputs.iter().enumerate() {
+            let Some((yaw, forward)) = *sums else {
                 continue;
-            }
-            // The inputs' signed net turn and forward travel (body frame), eq. 4 summed.
-            let (mut yaw, mut forward) = (0.0, 0.0);
-            for u in inputs.iter().take(n) {
-                let v = data.robot.vehicle.body_velocity(u);
-                yaw += v.z * dt;
-                forward += v.x * dt;
-            }
-            if yaw.abs() >= 0.2 && turned.abs() >= 0.1 {
+            };
+            if yaw.abs() >= 0.2 && sig.turned.abs() >= 0.1 {
                 turns[i] += 1;
-                turns_agree[i] += usize::from(yaw.signum() == turned.signum());
+                turns_agree[i] += usize::from(yaw.signum() == sig.turned.signum());
             }
-            if forward.abs() >= 0.3 && along.abs() >= 0.15 {
+            if forward.abs() >= 0.3 && sig.along.abs() >= 0.15 {
                 drives[i] += 1;
-                drives_agree[i] += usize::from(forward.signum() == along.signum());
+                drives_agree[i] += usize::from(forward.signum() == sig.along.signum());
             }
         }
     }

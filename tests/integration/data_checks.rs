@@ -1959,7 +1959,8 @@ fn a_robot_sliding_on_ice_is_no_yaw_offset() {
 /// The eleventh outside sweep's N2: a corruption confined to half of a run (its encoder
 /// columns swapped from the middle on, one command negated, the encoders scaled 3x) passed
 /// every check, the other half's windows outvoting it in the whole run's statistics. The
-/// consistency checks now run on each half and third of the run too: a part's fatal finding
+/// consistency checks now run on each half and third of the run too (`direction` on every
+/// stretch down to a sixth, and on every other or third interval): a part's fatal finding
 /// is fatal, the part named. A run that drives from one ground onto another (two real runs
 /// of one robot joined halfway) is no corruption: its columns agree with each other in
 /// either part.
@@ -1992,12 +1993,35 @@ fn a_corruption_in_half_of_a_run_is_fatal_and_named() {
         d.windows[half..].iter_mut().for_each(edit);
         let fatal = part_fatal(&d);
         assert!(
-            fatal
-                .iter()
-                .any(|f| f.contains("in the second half of the run alone")),
+            fatal.iter().any(|f| f.contains(" alone")),
             "{run} {what}: {fatal:?}"
         );
     }
+    // The twelfth sweep: a quarter of the run, or every other interval, with its encoder
+    // columns swapped (a stretch of any length down to a sixth is read, and the intervals
+    // taken every other or every third).
+    let husky = drive::bundled::load("husky_drive").unwrap();
+    let swap =
+        |w: &mut drive::traits::Window| w.measured.iter_mut().for_each(|u| (u.x, u.y) = (u.y, u.x));
+    let mut quarter = husky.clone();
+    let n = quarter.windows.len();
+    quarter.windows[n * 3 / 4..].iter_mut().for_each(swap);
+    let fatal = part_fatal(&quarter);
+    assert!(
+        fatal.iter().any(|f| f.contains("stretch of a")),
+        "{fatal:?}"
+    );
+    let mut other = husky.clone();
+    other
+        .windows
+        .iter_mut()
+        .filter(|w| w.interval % 2 == 1)
+        .for_each(swap);
+    let fatal = part_fatal(&other);
+    assert!(
+        fatal.iter().any(|f| f.contains("every other interval")),
+        "{fatal:?}"
+    );
     // Two real Warthog runs joined halfway (grass, then asphalt): a change of ground.
     let mut joined = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
     let asphalt = drive::bundled::load("warthog_asphalt_a").unwrap();

@@ -10,8 +10,8 @@
 //! one part's columns say of each other, the other parts' say too, whatever the ground.
 
 use super::{
-    direction, encoder_command_in, encoder_units_in, imu_yaw_rate, localization, Finding, Severity,
-    Windows,
+    direction_of, direction_signals, encoder_command_in, encoder_units_in, imu_yaw_rate,
+    localization, Finding, Severity, Windows,
 };
 
 /// The parts a run is cut into: halves and thirds.
@@ -25,7 +25,6 @@ const MIN_PART_WINDOWS: usize = 40;
 fn consistency(w: &Windows<'_>) -> Vec<Finding> {
     let mut out = encoder_command_in(w.data, &w.windows, false);
     out.extend(encoder_units_in(w, false));
-    out.extend(direction(w));
     out.extend(localization::frame(w));
     out.extend(imu_yaw_rate(w));
     out
@@ -37,7 +36,7 @@ fn consistency(w: &Windows<'_>) -> Vec<Finding> {
 /// scatter more, and on real and simulated runs they came from slip alone.
 pub(super) fn parts(w: &Windows<'_>, whole: &[Finding]) -> Vec<Finding> {
     let n = w.windows.len();
-    let mut out: Vec<Finding> = Vec::new();
+    let mut out: Vec<Finding> = directions(w, whole);
     for count in PARTS {
         if n / count < MIN_PART_WINDOWS {
             continue;
@@ -75,6 +74,74 @@ pub(super) fn parts(w: &Windows<'_>, whole: &[Finding]) -> Vec<Finding> {
     }
     out
 }
+
+/// `direction` on many parts of the run, from each window's signals computed once: every
+/// stretch of a half, a third, ... down to a sixth of the windows, starting at every half of
+/// its own length (a quarter or a fifth of the run corrupted, wherever it lies, fills one of
+/// them), and the intervals taken every other or every third (a corruption of every other
+/// interval fills one). A part's fatal finding the whole run does not show is fatal, the part
+/// named. (Its rule asks four in five of a part's turning or driving windows against the
+/// encoders: a robot sliding on ice, whose windows disagree at random, does not reach it.)
+fn directions(w: &Windows<'_>, whole: &[Finding]) -> Vec<Finding> {
+    let signals = direction_signals(w);
+    let n = signals.len();
+    let mut parts: Vec<(String, Vec<usize>)> = Vec::new();
+    for count in 2..=MAX_STRETCHES {
+        let len = n / count;
+        if len < MIN_PART_WINDOWS {
+            break;
+        }
+        let step = (len / 2).max(1);
+        let mut start = 0;
+        while start + len <= n {
+            parts.push((
+                format!(
+                    "the stretch of a {} from its window {} to {}",
+                    ["", "", "half", "third", "quarter", "fifth", "sixth"][count],
+                    w.windows[start].index,
+                    w.windows[start + len - 1].index
+                ),
+                (start..start + len).collect(),
+            ));
+            start += step;
+        }
+    }
+    for every in [2usize, 3] {
+        for class in 0..every {
+            let members: Vec<usize> = (0..n)
+                .filter(|&i| w.windows[i].interval % every == class)
+                .collect();
+            if members.len() >= MIN_PART_WINDOWS && members.len() < n {
+                let which = if every == 2 { "other" } else { "third" };
+                parts.push((
+                    format!("every {which} interval (from interval {class})"),
+                    members,
+                ));
+            }
+        }
+    }
+    let mut out: Vec<Finding> = Vec::new();
+    for (name, members) in parts {
+        for f in direction_of(members.iter().map(|&i| &signals[i])) {
+            let shown = |g: &Finding| g.check == f.check && g.severity == Severity::Fatal;
+            if f.severity != Severity::Fatal || whole.iter().any(shown) || out.iter().any(shown) {
+                continue;
+            }
+            out.push(Finding {
+                check: f.check,
+                severity: f.severity,
+                message: format!(
+                    "in {name} alone: {}; part of the run corrupted, or joined from another run or robot?",
+                    f.message
+                ),
+            });
+        }
+    }
+    out
+}
+
+/// The most stretches [`directions`] cuts the run into: down to a sixth of it.
+const MAX_STRETCHES: usize = 6;
 
 /// Where part `part` of `count` starts (`part == count`: the end): the window at that share
 /// of the run, moved on to the start of its interval's next one (a part holds whole
