@@ -297,3 +297,22 @@ def test_a_stamped_late_fix_is_carried_forward_from_when_it_was_measured():
 
     assert worst(True) < 0.02
     assert worst(False) > 0.25
+
+
+def test_the_node_logic_hands_the_odometrys_stamp_to_the_tracker(logic_module, model_file):
+    """The pose's header stamp (on the node's clock) reaches the tracker as when the fix was
+    measured; a stamp of zero, in the future or over a second old is not used."""
+    logic = logic_module.TrackLogic(model_file, "husky", 0.4, samples=64)
+
+    def stamped(seconds):
+        msg = odometry(1.0, 0.0, 0.0)
+        msg.header = NS(stamp=NS(sec=int(seconds), nanosec=int(round((seconds % 1) * 1e9))))
+        return msg
+
+    logic.on_odometry(stamped(9.7), 10.0)
+    assert logic._pose_stamp == pytest.approx(9.7)
+    for bad in (0.0, 10.5, 8.5):
+        logic.on_odometry(stamped(bad), 10.0)
+        assert logic._pose_stamp is None, bad
+    logic.on_odometry(odometry(1.0, 0.0, 0.0), 10.0)
+    assert logic._pose_stamp is None

@@ -100,6 +100,7 @@ class TrackLogic:
         self._wheel_time = None
         self._pose = None
         self._pose_time = None
+        self._pose_stamp = None
         self._yaw_rate = None
         self._last = (0.0, 0.0, 0.0)
         self._held = False
@@ -144,6 +145,14 @@ class TrackLogic:
         if self._finite(p.x, p.y, q.x, q.y, q.z, q.w) and (q.x, q.y, q.z, q.w) != (0, 0, 0, 0):
             self._pose = (float(p.x), float(p.y), yaw_of(q))
             self._pose_time = now
+            # When the pose was measured (its header's stamp, on the node's clock), when
+            # it says: the tracker carries a late fix forward from then. A stamp of zero,
+            # in the future or over a second old is not used.
+            stamp = getattr(getattr(msg, "header", None), "stamp", None)
+            seconds = None
+            if stamp is not None:
+                seconds = float(getattr(stamp, "sec", 0)) + 1e-9 * float(getattr(stamp, "nanosec", 0))
+            self._pose_stamp = seconds if seconds and now - 1.0 <= seconds <= now else None
 
     def on_imu(self, msg):
         """The IMU's yaw rate (Imu.angular_velocity.z)."""
@@ -198,7 +207,11 @@ class TrackLogic:
         pose, self._pose = self._pose, None
         try:
             tick = self.tracker.tick(
-                now, (self._left, self._right), pose=pose, imu_yaw_rate=self._yaw_rate
+                now,
+                (self._left, self._right),
+                pose=pose,
+                imu_yaw_rate=self._yaw_rate,
+                pose_time=self._pose_stamp if pose is not None else None,
             )
         except drive.DriveError as e:
             self.tracker = None
