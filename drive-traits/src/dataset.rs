@@ -541,7 +541,9 @@ impl<'a> WindowSet<'a> {
     }
 
     /// The windows cut into `folds` contiguous blocks of DRIVE intervals (as equal in
-    /// intervals as can be): for each block, `(the other windows, the block's windows)`,
+    /// intervals as can be, or, where a block would hold under half its share of the
+    /// driven intervals (a command other than zero: a long stop), as equal in driven
+    /// intervals): for each block, `(the other windows, the block's windows)`,
     /// both in recording order; `None` for fewer than two folds or fewer intervals than
     /// folds.
     ///
@@ -571,7 +573,38 @@ impl<'a> WindowSet<'a> {
             return None;
         }
         // Block j holds the intervals at positions [j m / folds, (j + 1) m / folds).
-        let bounds: Vec<usize> = (0..=folds).map(|j| j * m / folds).collect();
+        let mut bounds: Vec<usize> = (0..=folds).map(|j| j * m / folds).collect();
+        // Unless a block would hold under half its share of the driven intervals (those
+        // with a command other than zero): a block of a robot at rest (a long stop) fits a
+        // model of no motion, whose predictions of the other block are meaningless (its
+        // calibration scaled the regions 1e12-fold). The blocks are then cut as equal in
+        // driven intervals as can be.
+        let driven: Vec<bool> = intervals
+            .iter()
+            .map(|&i| {
+                self.windows
+                    .iter()
+                    .filter(|w| w.interval == i)
+                    .any(|w| w.command.iter().any(|c| c.iter().any(|v| *v != 0.0)))
+            })
+            .collect();
+        let total = driven.iter().filter(|d| **d).count();
+        let starved = bounds.windows(2).any(|b| {
+            let held = driven[b[0]..b[1]].iter().filter(|d| **d).count();
+            2 * held * folds < total
+        });
+        if starved && total >= folds {
+            let mut seen = 0;
+            let mut next = 1;
+            for (pos, d) in driven.iter().enumerate() {
+                seen += usize::from(*d);
+                // The block boundary after the interval that completes block `next`'s share.
+                while next < folds && seen * folds >= next * total && *d {
+                    bounds[next] = pos + 1;
+                    next += 1;
+                }
+            }
+        }
         let block_of = |interval: usize| {
             let pos = intervals.partition_point(|&i| i < interval);
             bounds.partition_point(|&b| b <= pos) - 1

@@ -1759,3 +1759,47 @@ fn adapt_says_when_a_model_file_prior_was_fitted_on_a_dataset_named_as_the_targe
     );
     assert!(!adapt("bundled:warthog_asphalt_slow_2024-08-08").contains("named as the target"));
 }
+
+/// The twelfth outside sweep: a real run whose robot stands for the last quarter of the
+/// training half (commands 0, the sensors' noise alone) got calibrated 95% regions 1e25
+/// times the area of the constant circle: the calibration's first fold held every moving
+/// interval and its second only the stop, whose model predicts no motion and no spread.
+/// The folds are cut as equal in driven intervals where one would hold under half its
+/// share; the regions are then the size of the errors.
+#[test]
+fn a_long_stop_in_the_training_half_leaves_the_calibrated_regions_sane() {
+    let mut run = drive::bundled::load("warthog_asphalt_2024-09-20a").unwrap();
+    let mut noise = 0x2545_f491_4f6c_dd1d_u64;
+    let mut draw = move || {
+        noise ^= noise << 13;
+        noise ^= noise >> 7;
+        noise ^= noise << 17;
+        (noise >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    for w in run
+        .windows
+        .iter_mut()
+        .filter(|w| (25..50).contains(&w.interval))
+    {
+        for k in 0..w.len() {
+            w.command[k] = drive::traits::Input::zeros();
+            w.measured[k] = drive::traits::Input::new(0.02 * draw(), 0.02 * draw(), 0.0);
+            w.pose[k] = drive::traits::Pose::new(0.002 * draw(), 0.002 * draw(), 0.001 * draw());
+            w.imu_yaw_rate[k] = 0.006 * draw();
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("stop.csv");
+    drive::data::write_dataset(&run, &csv).unwrap();
+    let out = ok(&[
+        "eval",
+        "--data",
+        csv.to_str().unwrap(),
+        "--models",
+        "slip-blr",
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let ratio = f(&v["models"][0]["area_ratio_to_constant"]);
+    assert!((0.3..5.0).contains(&ratio), "{ratio}");
+}

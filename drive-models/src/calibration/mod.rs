@@ -9,7 +9,9 @@
 //! step by step, and its *shape* where the errors say it is wrong:
 //!
 //! 1. the training intervals are cut into [`Calibrator::folds`] contiguous blocks (two by
-//!    default: the first and the second half); each block is held out in turn and the same
+//!    default: the first and the second half; as equal in driven intervals where a block
+//!    would hold under half its share of them, [`WindowSet::interval_folds`]); each block
+//!    is held out in turn and the same
 //!    model is fitted on the others (cross-conformal: every training window is scored
 //!    once, out of sample);
 //! 2. on every held-out window and step `k`, the error of that fit's prediction gets a
