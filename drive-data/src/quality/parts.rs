@@ -52,23 +52,14 @@ pub(super) fn parts(w: &Windows<'_>, whole: &[Finding]) -> Vec<Finding> {
                 motions: w.motions[start..end].to_vec(),
                 travels: w.travels[start..end].to_vec(),
             };
+            let where_ = format!(
+                "in {} of the run alone (its windows {} to {})",
+                name(part, count),
+                w.windows[start].index,
+                w.windows[end - 1].index
+            );
             for f in consistency(&sub) {
-                let shown = |g: &Finding| g.check == f.check && g.severity == Severity::Fatal;
-                if f.severity != Severity::Fatal || whole.iter().any(shown) || out.iter().any(shown)
-                {
-                    continue;
-                }
-                out.push(Finding {
-                    check: f.check,
-                    severity: f.severity,
-                    message: format!(
-                        "in {} of the run alone (its windows {} to {}): {}; part of the run corrupted, or joined from another run or robot?",
-                        name(part, count),
-                        w.windows[start].index,
-                        w.windows[end - 1].index,
-                        f.message
-                    ),
-                });
+                add_new(f, &where_, whole, &mut out);
             }
         }
     }
@@ -122,22 +113,29 @@ fn directions(w: &Windows<'_>, whole: &[Finding]) -> Vec<Finding> {
     }
     let mut out: Vec<Finding> = Vec::new();
     for (name, members) in parts {
+        let where_ = format!("in {name} alone");
         for f in direction_of(members.iter().map(|&i| &signals[i])) {
-            let shown = |g: &Finding| g.check == f.check && g.severity == Severity::Fatal;
-            if f.severity != Severity::Fatal || whole.iter().any(shown) || out.iter().any(shown) {
-                continue;
-            }
-            out.push(Finding {
-                check: f.check,
-                severity: f.severity,
-                message: format!(
-                    "in {name} alone: {}; part of the run corrupted, or joined from another run or robot?",
-                    f.message
-                ),
-            });
+            add_new(f, &where_, whole, &mut out);
         }
     }
     out
+}
+
+/// Adds `f`, a finding of a part (`where_` says which), to `out` when it is fatal and
+/// neither `whole` (the whole run's findings) nor `out` already has that check fatal.
+fn add_new(f: Finding, where_: &str, whole: &[Finding], out: &mut Vec<Finding>) {
+    let shown = |g: &Finding| g.check == f.check && g.severity == Severity::Fatal;
+    if f.severity != Severity::Fatal || whole.iter().any(shown) || out.iter().any(shown) {
+        return;
+    }
+    out.push(Finding {
+        check: f.check,
+        severity: f.severity,
+        message: format!(
+            "{where_}: {}; part of the run corrupted, or joined from another run or robot?",
+            f.message
+        ),
+    });
 }
 
 /// The most stretches [`directions`] cuts the run into: down to a sixth of it.
