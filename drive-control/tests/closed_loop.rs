@@ -28,6 +28,34 @@ fn naive(robot: &drive_traits::robot::RobotSpec) -> Arc<dyn MotionModel> {
     })
 }
 
+/// A tracker of the Husky's naive model on `path` at `speed` m/s, its MPPI with `samples`
+/// candidates, starting from the encoders.
+fn naive_tracker(path: drive_control::ReferencePath, speed: f64, samples: usize) -> Tracker {
+    let robot = husky();
+    let setup = ControlSetup {
+        model: naive(&robot),
+        robot: robot.clone(),
+        to_vehicle: InputMap::identity(),
+        speed,
+        seed: 0,
+    };
+    let config = TrackerConfig {
+        start: StartInfo::Encoders,
+        ..TrackerConfig::new(speed)
+    };
+    Tracker::new(
+        &Mppi {
+            samples,
+            ..Mppi::default()
+        },
+        &setup,
+        path,
+        config,
+        robot.vehicle.clone(),
+    )
+    .unwrap()
+}
+
 /// Runs the tracker on a plant that moves exactly as the naive model predicts; returns
 /// the poses and whether it finished.
 fn follow(shape: PathShape, speed: f64, seconds: f64) -> (Vec<Pose>, bool, f64) {
@@ -120,33 +148,10 @@ fn a_perfect_model_follows_every_preset_closely() {
 fn a_robot_that_does_not_move_never_reaches_the_end_of_a_path_through_its_start() {
     // A small figure-eight and a path out and back both pass the start again: where the
     // robot is on them is where it continues from, never the far part that also passes by.
-    let robot = husky();
-    let model = naive(&robot);
-    let setup = ControlSetup {
-        model,
-        robot: robot.clone(),
-        to_vehicle: InputMap::identity(),
-        speed: 1.0,
-        seed: 0,
-    };
     let back = drive_control::ReferencePath::new("back", vec![[0.0, 0.0], [2.0, 0.0], [0.0, 0.0]])
         .unwrap();
     for path in [PathShape::FigureEight.at_scale(0.5).unwrap(), back] {
-        let config = TrackerConfig {
-            start: StartInfo::Encoders,
-            ..TrackerConfig::new(1.0)
-        };
-        let mut tracker = Tracker::new(
-            &Mppi {
-                samples: 32,
-                ..Mppi::default()
-            },
-            &setup,
-            path.clone(),
-            config,
-            robot.vehicle.clone(),
-        )
-        .unwrap();
+        let mut tracker = naive_tracker(path.clone(), 1.0, 32);
         for k in 0..100 {
             let tick = tracker
                 .tick(&Observation {
@@ -427,31 +432,9 @@ fn the_motion_measured_now_is_handed_to_the_rollouts_after_the_history() {
 /// fix published again reads as the robot standing still.
 #[test]
 fn a_late_fix_is_carried_forward_from_when_it_was_measured() {
-    let robot = husky();
-    let setup = ControlSetup {
-        model: naive(&robot),
-        robot: robot.clone(),
-        to_vehicle: InputMap::identity(),
-        speed: 0.5,
-        seed: 0,
-    };
     let path = PathShape::Line.at_scale(20.0).unwrap();
     let worst_error = |stamped: bool| -> f64 {
-        let config = TrackerConfig {
-            start: StartInfo::Encoders,
-            ..TrackerConfig::new(0.5)
-        };
-        let mut tracker = Tracker::new(
-            &Mppi {
-                samples: 64,
-                ..Mppi::default()
-            },
-            &setup,
-            path.clone(),
-            config,
-            robot.vehicle.clone(),
-        )
-        .unwrap();
+        let mut tracker = naive_tracker(path.clone(), 0.5, 64);
         let (latency, period) = (0.3, 4);
         let mut worst: f64 = 0.0;
         let mut last_fix = None;
