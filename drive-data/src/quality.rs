@@ -317,7 +317,39 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(commands_constant(&w));
     let in_parts = parts::parts(&w, &out);
     out.extend(in_parts);
+    match parts::turn_faults(&w) {
+        // The IMU agrees with the encoders: what `imu-yaw-rate` said of it against
+        // localization is localization's doing.
+        Some(parts::TurnFault::Localization(f)) => {
+            out.retain(|g| g.check != Check::ImuYawRate);
+            if !out
+                .iter()
+                .any(|g| g.severity == Severity::Fatal && localization_blamed(g))
+            {
+                out.push(f);
+            }
+        }
+        // One part's IMU read backwards: what the whole run's gain said (a mix of the two
+        // signs reads little of the turn) is that.
+        Some(parts::TurnFault::ImuFlipped(f)) => {
+            out.retain(|g| {
+                g.check != Check::ImuYawRate
+                    || !(g.message.contains("integrates to") || g.message.contains(" alone"))
+            });
+            out.push(f);
+        }
+        None => {}
+    }
     out
+}
+
+/// Whether a finding already blames localization (a part's localization mirrored, frozen or
+/// scaled), so that [`parts::turn_faults`]' finding would repeat it.
+fn localization_blamed(f: &Finding) -> bool {
+    matches!(
+        f.check,
+        Check::Direction | Check::LocalizationSync | Check::LocalizationFrame | Check::EncoderUnits
+    ) && f.message.contains("localization")
 }
 
 /// `encoder-command`: the command and measured columns exchanged. A steady window holds its
@@ -1475,21 +1507,35 @@ fn encoder_units_in(w: &Windows<'_>, whole: bool) -> Vec<Finding> {
         // (and positions in another unit scale every window alike, within 30%): under 20
         // times, with the windows' ratios spread and the encoders at their commands, the
         // wheels spun.
-        let spun = median > 1.0
+        let may_spin = median > 1.0
             && median < 20.0
-            && high > 1.3 * low
             && encoders_follow_commands(data, windows)
             && plausible_speeds(data, windows);
+        let spun = may_spin && high > 1.3 * low;
         let consistent = consistent && !spun;
         if !(0.4..=2.5).contains(&median) {
             out.push(Finding {
                 check: Check::EncoderUnits,
                 severity: Severity::fatal_if(!(0.2..=5.0).contains(&median) && consistent),
-                message: format!(
-                    "the encoders imply {}x the distance localization saw (median over {} windows): encoders in another unit, or the wrong wheel radius?",
-                    Short((median * 1000.0).round() / 1000.0),
-                    ratios.len()
-                ),
+                // Wheels at their commands that travel further than the robot: they spun,
+                // or the wheel radius (or both columns' unit) is wrong; the data cannot
+                // tell which, the ground can (a simulated car on ice: 4.2x, every window
+                // within 4.0-4.9x).
+                message: if may_spin {
+                    format!(
+                        "the encoders imply {}x the distance localization saw (median over {} windows; a quarter of them under {}x, a quarter over {}x; the encoders at their commands): the wheels spinning (ice, snow, mud)? A model fitted on it learns that slip. If the ground held: the wrong wheel radius, or commands and encoders in another unit?",
+                        Short((median * 1000.0).round() / 1000.0),
+                        ratios.len(),
+                        Short((low * 100.0).round() / 100.0),
+                        Short((high * 100.0).round() / 100.0)
+                    )
+                } else {
+                    format!(
+                        "the encoders imply {}x the distance localization saw (median over {} windows): encoders in another unit, or the wrong wheel radius?",
+                        Short((median * 1000.0).round() / 1000.0),
+                        ratios.len()
+                    )
+                },
             });
         }
     }

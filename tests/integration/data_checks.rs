@@ -2043,8 +2043,86 @@ fn a_corruption_in_half_of_a_run_is_fatal_and_named() {
     }
     let findings = check(&joined, None);
     assert!(
-        findings.iter().all(|f| !f.message.contains("alone")),
+        findings
+            .iter()
+            .all(|f| !f.message.contains("alone") && !f.message.contains("rest of the run")),
         "{findings:?}"
+    );
+}
+
+/// The twelfth sweep's N1: a column scaled by 3 or 0.3 in a quarter of a run, one command
+/// negated in every other interval, an offset added in a quarter, localization frozen in a
+/// quarter passed (a scale is no direction, and the rest of the run outvoted them). Each
+/// part is now compared with the rest of the run: a measured input's gain on its commands
+/// and its offset at small commands, and the share of the encoders' forward travel that
+/// localization saw. The part named is the one that differs most.
+#[test]
+fn a_column_scaled_offset_or_frozen_in_part_of_a_run_is_fatal_and_named() {
+    use drive::data::quality::{check, Severity};
+    let fatal = |d: &drive::traits::Dataset| -> Vec<String> {
+        check(d, None)
+            .into_iter()
+            .filter(|f| f.severity == Severity::Fatal)
+            .map(|f| format!("{}: {}", f.check, f.message))
+            .collect()
+    };
+    type Edit = fn(&mut drive::traits::Window);
+    let last_quarter: [(&str, &str, Edit, &str); 4] = [
+        (
+            "warthog_asphalt_a",
+            "right encoder x0.3",
+            |w| w.measured.iter_mut().for_each(|u| u.y *= 0.3),
+            "encoder-command: 'enc_right' follows its commands 'cmd_right' with a gain of 0.2",
+        ),
+        (
+            "warthog_asphalt_2024-09-20a",
+            "commands x3",
+            |w| w.command.iter_mut().for_each(|u| *u *= 3.0),
+            "scaled there",
+        ),
+        (
+            "warthog_asphalt_a",
+            "right encoder +2 rad/s",
+            |w| w.measured.iter_mut().for_each(|u| u.y += 2.0),
+            "an offset added to 'enc_right' or 'cmd_right' in that part?",
+        ),
+        (
+            "husky_drive",
+            "localization frozen",
+            |w| {
+                w.pose
+                    .iter_mut()
+                    .for_each(|p| *p = drive::traits::Pose::zeros())
+            },
+            "encoder-units: localization saw 0.000 of the forward travel",
+        ),
+    ];
+    for (run, what, edit, said) in last_quarter {
+        let mut d = drive::bundled::load(run).unwrap();
+        assert!(fatal(&d).is_empty(), "{run}: {:?}", fatal(&d));
+        let n = d.windows.len();
+        d.windows[n * 3 / 4..].iter_mut().for_each(edit);
+        let found = fatal(&d);
+        assert!(
+            found
+                .iter()
+                .any(|f| f.contains(said) && f.contains("in the rest of the run")),
+            "{run} {what}: {found:?}"
+        );
+    }
+    let mut other = drive::bundled::load("warthog_asphalt_2024-08-07").unwrap();
+    other
+        .windows
+        .iter_mut()
+        .filter(|w| w.interval % 2 == 1)
+        .for_each(|w| w.command.iter_mut().for_each(|u| u.x = -u.x));
+    let found = fatal(&other);
+    assert!(
+        found
+            .iter()
+            .any(|f| f.contains("every other interval (from interval 1)")
+                && f.contains("moves against its commands there")),
+        "{found:?}"
     );
 }
 
@@ -2108,4 +2186,61 @@ fn a_raw_log_with_its_forward_and_yaw_rate_commands_exchanged_is_refused_for_tha
         "{said:?}"
     );
     assert!(!said.iter().any(|m| m.contains("exchanged")), "{said:?}");
+}
+
+/// The twelfth sweep's N3 and N6: localization corrupted in part of a run (another run's
+/// in its last quarter) was refused for the IMU ("it reads little of the turn"), whose
+/// column was right; two runs joined, one of whose IMUs read backwards (norlab's gravel
+/// run, a warning alone), were refused for the same words. The third sensor now tells which
+/// one is odd: the encoders turn with the IMU in the corrupted part, and against it in the
+/// backwards one.
+#[test]
+fn the_odd_one_of_localization_imu_and_encoders_is_named_in_part_of_a_run() {
+    use drive::data::quality::{check, Check, Severity};
+    let mut husky = drive::bundled::load("husky_drive").unwrap();
+    let other = drive::bundled::load("warthog_asphalt_a").unwrap();
+    let n = husky.windows.len();
+    for (w, o) in husky.windows[n * 3 / 4..].iter_mut().zip(&other.windows) {
+        for (p, q) in w.pose.iter_mut().zip(&o.pose) {
+            *p = *q;
+        }
+    }
+    let found = check(&husky, None);
+    assert!(
+        found.iter().all(|f| f.check != Check::ImuYawRate),
+        "{found:?}"
+    );
+    // Named by the share of the encoders' travel localization saw there, or by its turn.
+    assert!(
+        found.iter().any(|f| f.severity == Severity::Fatal
+            && (f.message.contains("not the IMU")
+                || f.message.contains("localization frozen or scaled there"))),
+        "{found:?}"
+    );
+    // Two runs of one Warthog joined halfway, the second's IMU read backwards.
+    let mut joined = drive::bundled::load("warthog_asphalt_2024-09-20a").unwrap();
+    let second = drive::bundled::load("warthog_asphalt_2024-09-20b").unwrap();
+    let next = joined.windows.last().unwrap().interval + 1;
+    joined
+        .windows
+        .extend(second.windows.iter().cloned().map(|mut w| {
+            w.interval += next;
+            w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r);
+            w
+        }));
+    for (i, w) in joined.windows.iter_mut().enumerate() {
+        w.index = i;
+    }
+    let found = check(&joined, None);
+    assert!(
+        found.iter().all(|f| f.severity != Severity::Fatal),
+        "{found:?}"
+    );
+    assert!(
+        found
+            .iter()
+            .any(|f| f.check == Check::ImuYawRate
+                && f.message.contains("its sign flipped in that part")),
+        "{found:?}"
+    );
 }

@@ -11,7 +11,7 @@
 
 use super::{
     direction_of, direction_signals, encoder_command_in, encoder_units_in, imu_yaw_rate,
-    localization, Finding, Severity, Windows,
+    localization, three_digits, Check, Finding, Severity, Short, Windows,
 };
 
 /// The parts a run is cut into: halves and thirds.
@@ -63,6 +63,12 @@ pub(super) fn parts(w: &Windows<'_>, whole: &[Finding]) -> Vec<Finding> {
             }
         }
     }
+    for f in scales(w) {
+        let shown = |g: &Finding| g.check == f.check && g.severity == Severity::Fatal;
+        if !whole.iter().any(shown) && !out.iter().any(shown) {
+            out.push(f);
+        }
+    }
     out
 }
 
@@ -75,7 +81,19 @@ pub(super) fn parts(w: &Windows<'_>, whole: &[Finding]) -> Vec<Finding> {
 /// encoders: a robot sliding on ice, whose windows disagree at random, does not reach it.)
 fn directions(w: &Windows<'_>, whole: &[Finding]) -> Vec<Finding> {
     let signals = direction_signals(w);
-    let n = signals.len();
+    let mut out: Vec<Finding> = Vec::new();
+    for (name, members) in part_sets(w) {
+        let where_ = format!("in {name} alone");
+        for f in direction_of(members.iter().map(|&i| &signals[i])) {
+            add_new(f, &where_, whole, &mut out);
+        }
+    }
+    out
+}
+
+/// The parts [`directions`] and [`scales`] read, each named, as the indices of its windows.
+fn part_sets(w: &Windows<'_>) -> Vec<(String, Vec<usize>)> {
+    let n = w.windows.len();
     let mut parts: Vec<(String, Vec<usize>)> = Vec::new();
     for count in 2..=MAX_STRETCHES {
         let len = n / count;
@@ -111,14 +129,7 @@ fn directions(w: &Windows<'_>, whole: &[Finding]) -> Vec<Finding> {
             }
         }
     }
-    let mut out: Vec<Finding> = Vec::new();
-    for (name, members) in parts {
-        let where_ = format!("in {name} alone");
-        for f in direction_of(members.iter().map(|&i| &signals[i])) {
-            add_new(f, &where_, whole, &mut out);
-        }
-    }
-    out
+    parts
 }
 
 /// Adds `f`, a finding of a part (`where_` says which), to `out` when it is fatal and
@@ -161,4 +172,441 @@ fn name(part: usize, count: usize) -> String {
     let ordinal = ["first", "second", "third"][part.min(2)];
     let of = if count == 2 { "half" } else { "third" };
     format!("the {ordinal} {of}")
+}
+
+/// Sums for a least-squares line through the origin, `y = gain x`, and for the mean of `y -
+/// gain x` under another line's gain, kept so that the rest of the run is the whole run's
+/// sums less a part's.
+#[derive(Debug, Clone, Copy, Default)]
+struct Line {
+    n: f64,
+    x: f64,
+    y: f64,
+    xx: f64,
+    xy: f64,
+    yy: f64,
+}
+
+impl Line {
+    fn add(&mut self, x: f64, y: f64) {
+        self.n += 1.0;
+        self.x += x;
+        self.y += y;
+        self.xx += x * x;
+        self.xy += x * y;
+        self.yy += y * y;
+    }
+
+    fn plus(self, o: Line) -> Line {
+        Line {
+            n: self.n + o.n,
+            x: self.x + o.x,
+            y: self.y + o.y,
+            xx: self.xx + o.xx,
+            xy: self.xy + o.xy,
+            yy: self.yy + o.yy,
+        }
+    }
+
+    fn less(self, o: Line) -> Line {
+        Line {
+            n: self.n - o.n,
+            x: self.x - o.x,
+            y: self.y - o.y,
+            xx: self.xx - o.xx,
+            xy: self.xy - o.xy,
+            yy: self.yy - o.yy,
+        }
+    }
+
+    /// The gain of the line through the origin and its standard error, over ten points or
+    /// more.
+    fn gain(&self) -> Option<(f64, f64)> {
+        if self.n < SCALE_MIN_WINDOWS || self.xx <= 0.0 {
+            return None;
+        }
+        let g = self.xy / self.xx;
+        let scatter = (self.yy - g * self.xy).max(0.0) / (self.n - 1.0);
+        Some((g, (scatter / self.xx).sqrt()))
+    }
+
+    /// The mean of `y - gain x` and its standard error, over ten points or more.
+    fn offset(&self, gain: f64) -> Option<(f64, f64)> {
+        if self.n < SCALE_MIN_WINDOWS {
+            return None;
+        }
+        let mean = (self.y - gain * self.x) / self.n;
+        let squares = self.yy - 2.0 * gain * self.xy + gain * gain * self.xx;
+        let scatter = (squares - self.n * mean * mean).max(0.0) / (self.n - 1.0);
+        Some((mean, (scatter / self.n).sqrt()))
+    }
+}
+
+/// The fewest windows a part (and the rest of the run) must hold of a kind for [`scales`]
+/// to compare them.
+const SCALE_MIN_WINDOWS: f64 = 10.0;
+
+/// A part's gain and the rest's that differ by this factor or more (either way) differ in
+/// [`scales`], when the difference is also beyond [`SCALE_SIGNIFICANCE`] standard errors.
+/// On 330 real and simulated runs and their parts cut out as runs of their own, the largest
+/// factor between a part and the rest was 1.95 (commands beyond the Husky's reach, held by
+/// some parts more than others); a column scaled by 3 or by 0.3 in a part gives 2.8-3.5.
+const SCALE_FACTOR: f64 = 2.2;
+
+/// How many standard errors a part's gain or offset must differ from the rest's by.
+const SCALE_SIGNIFICANCE: f64 = 4.0;
+
+/// A part's measured inputs offset from the rest's (at the commands under
+/// [`LOW_COMMAND`] of the largest) by this share of the axis's largest command or more
+/// differ in [`scales`].
+const SCALE_OFFSET: f64 = 0.1;
+
+/// The commands [`scales`] reads an offset on: under this share of the axis's largest.
+const LOW_COMMAND: f64 = 0.3;
+
+/// The commands [`scales`] reads a gain on: this share of the axis's largest or more.
+const GAIN_COMMAND: f64 = 0.2;
+
+/// A window's sums for [`scales`]: per input axis, a steady window's mean command and
+/// measurement (as shares of the axis's largest command) where it commands
+/// [`GAIN_COMMAND`] of the largest or more, and where it commands under [`LOW_COMMAND`];
+/// the forward travel localization saw against the one the encoders imply, where they imply
+/// 0.2 m or more.
+#[derive(Debug, Clone, Copy, Default)]
+struct ScaleSums {
+    commanded: [Line; drive_traits::MAX_INPUTS],
+    low: [Line; drive_traits::MAX_INPUTS],
+    forward: Line,
+}
+
+impl ScaleSums {
+    fn plus(&self, o: &ScaleSums) -> ScaleSums {
+        let mut out = *self;
+        for i in 0..drive_traits::MAX_INPUTS {
+            out.commanded[i] = self.commanded[i].plus(o.commanded[i]);
+            out.low[i] = self.low[i].plus(o.low[i]);
+        }
+        out.forward = self.forward.plus(o.forward);
+        out
+    }
+
+    fn less(&self, o: &ScaleSums) -> ScaleSums {
+        let mut out = *self;
+        for i in 0..drive_traits::MAX_INPUTS {
+            out.commanded[i] = self.commanded[i].less(o.commanded[i]);
+            out.low[i] = self.low[i].less(o.low[i]);
+        }
+        out.forward = self.forward.less(o.forward);
+        out
+    }
+}
+
+/// Each window's [`ScaleSums`], and each axis's largest command.
+fn scale_sums(w: &Windows<'_>, axes: usize) -> Vec<ScaleSums> {
+    let mut largest = [0.0f64; drive_traits::MAX_INPUTS];
+    for win in &w.windows {
+        for c in &win.command {
+            for (i, l) in largest.iter_mut().enumerate().take(axes) {
+                *l = l.max(c[i].abs());
+            }
+        }
+    }
+    // An interval's steady windows hold one command and answer it alike: they are one
+    // point, the means over them, given to the first of them (counted as two, the windows
+    // would halve the standard errors' variance for nothing).
+    let n = w.windows.len();
+    let mut means: Vec<Option<[(f64, f64); drive_traits::MAX_INPUTS]>> = vec![None; n];
+    let mut k = 0;
+    while k < n {
+        let mut end = k;
+        while end < n && w.windows[end].interval == w.windows[k].interval {
+            end += 1;
+        }
+        let steady: Vec<&&drive_traits::Window> = w.windows[k..end]
+            .iter()
+            .filter(|win| win.phase == drive_traits::Phase::Steady)
+            .collect();
+        if let Some(first) = (k..end).find(|&j| w.windows[j].phase == drive_traits::Phase::Steady) {
+            let samples = steady.iter().map(|win| win.len()).sum::<usize>() as f64;
+            let mut point = [(0.0, 0.0); drive_traits::MAX_INPUTS];
+            for (i, l) in largest.iter().enumerate().take(axes) {
+                // Scaled by the largest command, so that tiny commands do not underflow.
+                let (c, m) = steady.iter().fold((0.0, 0.0), |(c, m), win| {
+                    (
+                        c + win.command.iter().map(|u| u[i] / l).sum::<f64>(),
+                        m + win.measured.iter().map(|u| u[i] / l).sum::<f64>(),
+                    )
+                });
+                point[i] = (c / samples, m / samples);
+            }
+            means[first] = Some(point);
+        }
+        k = end;
+    }
+    w.windows
+        .iter()
+        .zip(&w.travels)
+        .zip(means)
+        .map(|((_, (seen, implied, _)), point)| {
+            let mut s = ScaleSums::default();
+            if let Some(point) = point {
+                for (i, (c, m)) in point.iter().copied().enumerate().take(axes) {
+                    if largest[i] <= 0.0 || !largest[i].is_finite() {
+                        continue;
+                    }
+                    if c.abs() >= GAIN_COMMAND {
+                        s.commanded[i].add(c, m);
+                    }
+                    if c.abs() < LOW_COMMAND {
+                        s.low[i].add(c, m);
+                    }
+                }
+            }
+            if implied[0].abs() >= 0.2 {
+                s.forward.add(implied[0], seen[0]);
+            }
+            s
+        })
+        .collect()
+}
+
+/// Whether `part`'s gain differs from `rest`'s (see [`SCALE_FACTOR`]): the factor between
+/// them (`part / rest`), when it does.
+fn scaled(part: (f64, f64), rest: (f64, f64)) -> Option<f64> {
+    let ((a, sa), (b, sb)) = (part, rest);
+    let factor = a / b;
+    let far = !(1.0 / SCALE_FACTOR..=SCALE_FACTOR).contains(&factor);
+    (far && (a - b).abs() > SCALE_SIGNIFICANCE * sa.hypot(sb)).then_some(factor)
+}
+
+/// `encoder-command` and `encoder-units` on every part of [`part_sets`] against the rest of
+/// the run: a measured input that follows its command with another gain there than in the
+/// rest (by a factor of [`SCALE_FACTOR`] or more, or the other sign), or offset from the
+/// rest's (by [`SCALE_OFFSET`] of its largest command), and localization that saw another
+/// share of the forward travel the encoders imply there (by that factor; where the rest
+/// saw half of it or more, or the part more than 1.5 times it: wheels spin on a slippery
+/// stretch, but no robot travels faster than its wheels). A run is one robot with one set
+/// of sensors: its columns' units and signs do not change halfway, and its wheels follow
+/// their commands alike on any ground. The part that differs most is named.
+fn scales(w: &Windows<'_>) -> Vec<Finding> {
+    let axes_desc = w.data.robot.vehicle.axes();
+    let axes = axes_desc.len().min(drive_traits::MAX_INPUTS);
+    let sums = scale_sums(w, axes);
+    let total = sums.iter().fold(ScaleSums::default(), |acc, s| acc.plus(s));
+    // The whole run's gain per axis, for the offsets.
+    let gains: Vec<Option<f64>> = (0..axes)
+        .map(|i| total.commanded[i].gain().map(|g| g.0))
+        .collect();
+    // Per check, the part that differs most: (how far, its finding).
+    let mut command: Option<(f64, Finding)> = None;
+    let mut units: Option<(f64, Finding)> = None;
+    let keep = |slot: &mut Option<(f64, Finding)>, far: f64, message: String, check| {
+        if slot.as_ref().is_none_or(|(f, _)| far > *f) {
+            *slot = Some((
+                far,
+                Finding {
+                    check,
+                    severity: Severity::Fatal,
+                    message,
+                },
+            ));
+        }
+    };
+    for (name, members) in part_sets(w) {
+        let part = members
+            .iter()
+            .fold(ScaleSums::default(), |acc, &k| acc.plus(&sums[k]));
+        let rest = total.less(&part);
+        let travel = match (part.forward.gain(), rest.forward.gain()) {
+            (Some(p), Some(r)) => Some((p, r)),
+            _ => None,
+        };
+        for (i, axis) in axes_desc.iter().enumerate().take(axes) {
+            let (measured, commanded) = (axis.measured_column, axis.command_column);
+            if let (Some(p), Some(r)) = (part.commanded[i].gain(), rest.commanded[i].gain()) {
+                if r.0 >= 0.3 {
+                    if let Some(factor) = scaled(p, r) {
+                        let which = if p.0 < 0.0 {
+                            "moves against its commands there: its sign, or its command's, flipped in that part".to_string()
+                        } else {
+                            // The encoders scaled change the travel localization saw of
+                            // theirs; the commands scaled do not.
+                            let encoders = travel.is_some_and(|(tp, tr)| {
+                                let seen = tp.0 / tr.0;
+                                (seen - 1.0 / factor).abs() < (seen - 1.0).abs()
+                            });
+                            if encoders {
+                                format!("'{measured}' scaled there (localization saw a share of its travel changed alike): in another unit in that part?")
+                            } else {
+                                format!("'{measured}' or '{commanded}' scaled there: in another unit in that part?")
+                            }
+                        };
+                        keep(
+                            &mut command,
+                            factor.abs().ln().abs() + if p.0 < 0.0 { 10.0 } else { 0.0 },
+                            format!(
+                                "'{measured}' follows its commands '{commanded}' with a gain of {:.3} in {name} and {:.3} in the rest of the run (least squares over {} and {} intervals' steady windows): {which}",
+                                p.0, r.0, part.commanded[i].n, rest.commanded[i].n
+                            ),
+                            Check::EncoderCommand,
+                        );
+                    }
+                }
+            }
+            let Some(g) = gains[i] else { continue };
+            if let (Some(p), Some(r)) = (part.low[i].offset(g), rest.low[i].offset(g)) {
+                let d = p.0 - r.0;
+                if d.abs() >= SCALE_OFFSET && d.abs() > SCALE_SIGNIFICANCE * p.1.hypot(r.1) {
+                    keep(
+                        &mut command,
+                        d.abs(),
+                        format!(
+                            "'{measured}' reads {:+.3} of its largest command more in {name} than in the rest of the run, at the same small commands (over {} and {} intervals commanding under {}% of the largest): an offset added to '{measured}' or '{commanded}' in that part?",
+                            d, part.low[i].n, rest.low[i].n, LOW_COMMAND * 100.0
+                        ),
+                        Check::EncoderCommand,
+                    );
+                }
+            }
+        }
+        if let Some((p, r)) = travel {
+            let lost = r.0 >= 0.5 && p.0 < r.0;
+            let faster = p.0 > 1.5 && p.0 > r.0;
+            if let Some(factor) = scaled(p, r).filter(|_| lost || faster) {
+                keep(
+                    &mut units,
+                    factor.abs().ln().abs(),
+                    format!(
+                        "localization saw {:.3} of the forward travel the encoders imply in {name} and {:.3} in the rest of the run (least squares over {} and {} windows): {}",
+                        p.0,
+                        r.0,
+                        part.forward.n,
+                        rest.forward.n,
+                        if faster {
+                            "localization scaled there (no robot travels faster than its wheels), or the encoders?"
+                        } else {
+                            "localization frozen or scaled there, or the encoders? (Wheels spinning on a stretch of ice scatter from window to window.)"
+                        }
+                    ),
+                    Check::EncoderUnits,
+                );
+            }
+        }
+    }
+    command
+        .into_iter()
+        .chain(units)
+        .map(|(_, f)| Finding {
+            message: format!(
+                "{}; part of the run corrupted, or joined from another run or robot?",
+                f.message
+            ),
+            ..f
+        })
+        .collect()
+}
+
+/// What [`turn_faults`] found: localization's turn at odds with both the IMU's and the
+/// encoders' in a part (which agree with each other there as elsewhere), or the IMU's sign
+/// flipped in a part (at odds with both there).
+pub(super) enum TurnFault {
+    /// Localization mirrored, frozen or from another run in a part (fatal).
+    Localization(Finding),
+    /// The IMU read backwards in a part only (a warning, as for a whole run read so).
+    ImuFlipped(Finding),
+}
+
+/// The three turns of a run's parts against each other: localization's and the encoders'
+/// on the IMU's, part against the rest of the run (every part of [`part_sets`], over the
+/// windows where the IMU turned 0.2 rad or more). `imu-yaw-rate` compares the IMU with
+/// localization only, and blames the IMU for a localization corrupted in a part (mirrored,
+/// frozen, another run's); a run joined from two, one of whose IMUs read backwards, reads
+/// little of the turn in the whole. The third sensor tells which one is odd: the part
+/// whose localization turns another way from the IMU while its encoders turn with it as in
+/// the rest of the run, or whose IMU turns against both. `None` without an IMU that varies.
+pub(super) fn turn_faults(w: &Windows<'_>) -> Option<TurnFault> {
+    let dt = w.data.robot.dt();
+    let mut imu = w.windows.iter().flat_map(|win| win.imu_yaw_rate.iter());
+    let first = imu.next().copied()?;
+    if imu.all(|v| *v == first) {
+        return None;
+    }
+    // Per window: [localization, encoders] on the IMU.
+    let lines: Vec<[Line; 2]> = w
+        .windows
+        .iter()
+        .zip(&w.motions)
+        .zip(&w.travels)
+        .map(|((win, m), travel)| {
+            let mut out = [Line::default(); 2];
+            let turn: f64 = win.imu_yaw_rate.iter().take(win.len() - 1).sum::<f64>() * dt;
+            if turn.is_finite() && turn.abs() >= 0.2 {
+                out[0].add(turn, m.3);
+                out[1].add(turn, travel.2);
+            }
+            out
+        })
+        .collect();
+    let sum = |members: &mut dyn Iterator<Item = usize>| {
+        members.fold([Line::default(); 2], |acc, k| {
+            [acc[0].plus(lines[k][0]), acc[1].plus(lines[k][1])]
+        })
+    };
+    let total = sum(&mut (0..lines.len()));
+    let agrees = |g: f64| (0.75..=1.0 / 0.75).contains(&g);
+    let flipped = |g: f64| (-1.0 / 0.75..=-0.75).contains(&g);
+    let mut best: Option<(f64, TurnFault)> = None;
+    for (name, members) in part_sets(w) {
+        let part = sum(&mut members.iter().copied());
+        let rest = [total[0].less(part[0]), total[1].less(part[1])];
+        let (Some(lp), Some(lr), Some(ep), Some(er)) = (
+            part[0].gain(),
+            rest[0].gain(),
+            part[1].gain(),
+            rest[1].gain(),
+        ) else {
+            continue;
+        };
+        if !agrees(lr.0)
+            || er.0 <= 0.0
+            || (lp.0 - lr.0).abs() <= SCALE_SIGNIFICANCE * lp.1.hypot(lr.1)
+        {
+            continue;
+        }
+        let how_far = (lp.0 - lr.0).abs() / lp.1.hypot(lr.1);
+        let encoders_with_imu = (0.5..=2.0).contains(&(ep.0 / er.0));
+        let fault = if encoders_with_imu && (lp.0 < 0.5 || lp.0 > 2.0) {
+            TurnFault::Localization(Finding {
+                check: Check::LocalizationSync,
+                severity: Severity::Fatal,
+                message: format!(
+                    "localization turns {} times the IMU's turn in {name} and {} times in the rest of the run, while the encoders turn alike with the IMU in both ({} and {} times; least squares over {} and {} windows where the IMU turned 0.2 rad or more): localization mirrored, frozen or from another run in that part, not the IMU; part of the run corrupted, or joined from another run or robot?",
+                    Short(three_digits(lp.0)),
+                    Short(three_digits(lr.0)),
+                    Short(three_digits(ep.0)),
+                    Short(three_digits(er.0)),
+                    part[0].n,
+                    rest[0].n
+                ),
+            })
+        } else if flipped(lp.0) && ep.0 < 0.0 {
+            TurnFault::ImuFlipped(Finding {
+                check: Check::ImuYawRate,
+                severity: Severity::Warning,
+                message: format!(
+                    "the IMU's yaw rate integrates to {} times the turn localization saw in {name} and {} times in the rest of the run, the encoders turning with localization in both (least squares over {} and {} windows where the IMU turned 0.2 rad or more): its sign flipped in that part (a run joined from two recordings?): the models that start from the IMU's yaw rate (slip-ipem, acc-BLR, --start encoders+imu) start turning the wrong way there; negate the imu_yaw_rate column in that part, or give --start encoders",
+                    Short(three_digits(lp.0)),
+                    Short(three_digits(lr.0)),
+                    part[0].n,
+                    rest[0].n
+                ),
+            })
+        } else {
+            continue;
+        };
+        if best.as_ref().is_none_or(|(f, _)| how_far > *f) {
+            best = Some((how_far, fault));
+        }
+    }
+    best.map(|(_, f)| f)
 }
