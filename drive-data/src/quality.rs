@@ -706,6 +706,20 @@ fn direction_of<'a>(signals: impl Iterator<Item = &'a DirectionSignals>) -> Vec<
     }
     // The commands, when the encoders agree with localization (else the finding above
     // already names the cause).
+    if out.is_empty()
+        && opposed(turns_by_command, turns_by_command_agree)
+        && opposed(drives_by_command, drives_by_command_agree)
+    {
+        out.push(Finding {
+            check: Check::Direction,
+            severity: Severity::Fatal,
+            message: format!(
+                "the robot turned the other way from its commands in {} of {turns_by_command} steady windows where both turn, and drove backwards where they drive forwards (and the other way) in {} of {drives_by_command}, while its encoders did as it did: are the commands sign-flipped?",
+                turns_by_command - turns_by_command_agree,
+                drives_by_command - drives_by_command_agree
+            ),
+        });
+    }
     if out.is_empty() && opposed(turns_by_command, turns_by_command_agree) {
         out.push(Finding {
             check: Check::Direction,
@@ -1748,7 +1762,7 @@ fn encoder_command_in(data: &Dataset, windows: &[&Window], whole: bool) -> Vec<F
         seen.dedup();
         seen.len()
     };
-    if whole && skid_steer && intervals >= 10 {
+    if intervals >= 10 {
         if let Some(f) = body_axes_exchanged(data, windows) {
             // The wheels' findings below would be its consequences, each naming a wrong
             // cause.
@@ -2045,7 +2059,13 @@ fn body_axes_exchanged(data: &Dataset, windows: &[&Window]) -> Option<Finding> {
     let corr = |a: usize, b: usize| localization::correlation(body.iter().map(|r| (r[a], r[b])));
     let (own_x, own_z) = (corr(0, 2), corr(1, 3));
     let (x_as_z, z_as_x) = (corr(0, 3), corr(1, 2));
-    let exchanged = x_as_z >= 0.5 && z_as_x >= 0.5 && own_x < 0.3 && own_z < 0.3;
+    // Each far less its own: by 0.3 of correlation (a car's commanded speed and yaw rate
+    // go together, its steering needing speed: own correlations of 0.2-0.5 exchanged, 0.95
+    // and more across).
+    let exchanged = x_as_z >= 0.5
+        && z_as_x >= 0.5
+        && own_x < (x_as_z - 0.3).min(0.6)
+        && own_z < (z_as_x - 0.3).min(0.6);
     if !exchanged {
         return None;
     }

@@ -2186,6 +2186,62 @@ fn a_raw_log_with_its_forward_and_yaw_rate_commands_exchanged_is_refused_for_tha
         "{said:?}"
     );
     assert!(!said.iter().any(|m| m.contains("exchanged")), "{said:?}");
+    // The twelfth sweep's N5: exchanged in the second half only (named as one side's
+    // command negated in that half before), and on a car (named as late timestamps).
+    let mut half = run.clone();
+    let n = half.windows.len();
+    half.windows[n / 2..].clone_from_slice(&exchanged.windows[n / 2..]);
+    let said = messages(&half);
+    assert!(
+        said.first()
+            .is_some_and(|m| m.contains("forward speed and yaw rate exchanged")
+                && m.contains("in the second half of the run alone")),
+        "{said:?}"
+    );
+    let (sim, car) = (dir.path().join("car.csv"), dir.path().join("car_raw.csv"));
+    ok(&[
+        "simulate",
+        "--robot",
+        "autorally",
+        "--terrain",
+        "gravel",
+        "--duration",
+        "120",
+        "--seed",
+        "4",
+        "--out",
+        &sim.display().to_string(),
+        "--raw-out",
+        &car.display().to_string(),
+    ]);
+    let text = std::fs::read_to_string(&car).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let col = |c: &str| header.iter().position(|h| *h == c).unwrap();
+    let (x, w) = (col("cmd_vel_x"), col("cmd_vel_omega"));
+    let swapped: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, line)| {
+            let mut f: Vec<&str> = line.split(',').collect();
+            if i > 0 {
+                f.swap(x, w);
+            }
+            f.join(",") + "\n"
+        })
+        .collect();
+    let car_swapped = dir.path().join("car_swapped.csv");
+    std::fs::write(&car_swapped, swapped).unwrap();
+    let (code, _, err) = import(
+        &car_swapped.display().to_string(),
+        "autorally",
+        &dir.path().join("cw.csv"),
+        &[],
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("forward speed and yaw rate exchanged"),
+        "{err}"
+    );
 }
 
 /// The twelfth sweep's N3 and N6: localization corrupted in part of a run (another run's

@@ -69,6 +69,9 @@ pub(super) fn parts(w: &Windows<'_>, whole: &[Finding]) -> Vec<Finding> {
             out.push(f);
         }
     }
+    // The commands' forward speed and yaw rate exchanged in a part turn the robot against
+    // them there too (`direction`): the exchange is the cause, said first.
+    out.sort_by_key(|f| !f.message.contains("forward speed and yaw rate exchanged"));
     out
 }
 
