@@ -304,8 +304,16 @@ impl ScaleSums {
     }
 }
 
-/// Each window's [`ScaleSums`], and each axis's largest command.
-fn scale_sums(w: &Windows<'_>, axes: usize) -> Vec<ScaleSums> {
+/// Each interval's steady windows as one point per input axis: the means of its command
+/// and of its measurement over them, as shares of the axis's largest command (`None` where
+/// that is zero or not finite), given to the first of them (`None` for the other windows'
+/// axes).
+/// An interval's steady windows hold one command and answer it alike: counted as two, they
+/// would halve the standard errors' variance for nothing.
+fn interval_points(
+    w: &Windows<'_>,
+    axes: usize,
+) -> Vec<[Option<(f64, f64)>; drive_traits::MAX_INPUTS]> {
     let mut largest = [0.0f64; drive_traits::MAX_INPUTS];
     for win in &w.windows {
         for c in &win.command {
@@ -314,11 +322,8 @@ fn scale_sums(w: &Windows<'_>, axes: usize) -> Vec<ScaleSums> {
             }
         }
     }
-    // An interval's steady windows hold one command and answer it alike: they are one
-    // point, the means over them, given to the first of them (counted as two, the windows
-    // would halve the standard errors' variance for nothing).
     let n = w.windows.len();
-    let mut means: Vec<Option<[(f64, f64); drive_traits::MAX_INPUTS]>> = vec![None; n];
+    let mut means = vec![[None; drive_traits::MAX_INPUTS]; n];
     let mut k = 0;
     while k < n {
         let mut end = k;
@@ -331,7 +336,7 @@ fn scale_sums(w: &Windows<'_>, axes: usize) -> Vec<ScaleSums> {
             .collect();
         if let Some(first) = (k..end).find(|&j| w.windows[j].phase == drive_traits::Phase::Steady) {
             let samples = steady.iter().map(|win| win.len()).sum::<usize>() as f64;
-            let mut point = [(0.0, 0.0); drive_traits::MAX_INPUTS];
+            let mut point = [None; drive_traits::MAX_INPUTS];
             for (i, l) in largest.iter().enumerate().take(axes) {
                 // Scaled by the largest command, so that tiny commands do not underflow.
                 let (c, m) = steady.iter().fold((0.0, 0.0), |(c, m), win| {
@@ -340,29 +345,37 @@ fn scale_sums(w: &Windows<'_>, axes: usize) -> Vec<ScaleSums> {
                         m + win.measured.iter().map(|u| u[i] / l).sum::<f64>(),
                     )
                 });
-                point[i] = (c / samples, m / samples);
+                if *l > 0.0 && l.is_finite() {
+                    point[i] = Some((c / samples, m / samples));
+                }
             }
-            means[first] = Some(point);
+            means[first] = point;
         }
         k = end;
     }
+    means
+}
+
+/// Each window's [`ScaleSums`].
+fn scale_sums(w: &Windows<'_>, axes: usize) -> Vec<ScaleSums> {
+    let means = interval_points(w, axes);
     w.windows
         .iter()
         .zip(&w.travels)
         .zip(means)
         .map(|((_, (seen, implied, _)), point)| {
             let mut s = ScaleSums::default();
-            if let Some(point) = point {
-                for (i, (c, m)) in point.iter().copied().enumerate().take(axes) {
-                    if largest[i] <= 0.0 || !largest[i].is_finite() {
-                        continue;
-                    }
-                    if c.abs() >= GAIN_COMMAND {
-                        s.commanded[i].add(c, m);
-                    }
-                    if c.abs() < LOW_COMMAND {
-                        s.low[i].add(c, m);
-                    }
+            for (i, (c, m)) in point
+                .iter()
+                .enumerate()
+                .take(axes)
+                .filter_map(|(i, p)| Some((i, (*p)?)))
+            {
+                if c.abs() >= GAIN_COMMAND {
+                    s.commanded[i].add(c, m);
+                }
+                if c.abs() < LOW_COMMAND {
+                    s.low[i].add(c, m);
                 }
             }
             if implied[0].abs() >= 0.2 {
