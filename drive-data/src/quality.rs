@@ -317,6 +317,21 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(commands_constant(&w));
     let in_parts = parts::parts(&w, &out);
     out.extend(in_parts);
+    // A measured column at odds with its commands (another unit, a sign flipped in part of
+    // the run) makes the robot look still under its commands, or localization look
+    // drifting where the encoders imply no path: the column is the cause, said first.
+    if let Some(first) = out.iter().position(|f| {
+        f.severity == Severity::Fatal
+            && matches!(f.check, Check::NotMoving | Check::LocalizationSync)
+    }) {
+        let (mut cause, rest): (Vec<Finding>, Vec<Finding>) = out[first..]
+            .iter()
+            .cloned()
+            .partition(|f| f.severity == Severity::Fatal && f.check == Check::EncoderCommand);
+        out.truncate(first);
+        out.append(&mut cause);
+        out.extend(rest);
+    }
     match parts::turn_faults(&w) {
         // The IMU agrees with the encoders: what `imu-yaw-rate` said of it against
         // localization is localization's doing.
@@ -684,22 +699,42 @@ fn direction_of<'a>(signals: impl Iterator<Item = &'a DirectionSignals>) -> Vec<
     let opposed = |n: usize, agree: usize| {
         n >= DIRECTION_MIN_WINDOWS && (agree as f64) < DIRECTION_MAX_AGREEING * n as f64
     };
+    // Where the encoders and localization disagree, the commands (steady windows) side with
+    // one of them: the other is the odd one (four in five of their windows agreeing).
+    let with_localization = |n: usize, agree: usize| {
+        n >= DIRECTION_MIN_WINDOWS && agree as f64 >= (1.0 - DIRECTION_MAX_AGREEING) * n as f64
+    };
+    let with_encoders = |n: usize, agree: usize| with_localization(n, n - agree);
     if opposed(turns, turns_agree) {
+        let cause = if with_localization(turns_by_command, turns_by_command_agree) {
+            "the commands turn with localization: are the measured columns swapped, or one of them sign-flipped?"
+        } else if with_encoders(turns_by_command, turns_by_command_agree) {
+            "the commands turn with the encoders: is the localization mirrored (y and yaw negated)?"
+        } else {
+            "is the localization mirrored (y and yaw negated), or are the encoder columns swapped?"
+        };
         out.push(Finding {
             check: Check::Direction,
             severity: Severity::Fatal,
             message: format!(
-                "localization turns the other way from the encoders in {} of {turns} windows where both turn: is the localization mirrored (y and yaw negated), or are the encoder columns swapped?",
+                "localization turns the other way from the encoders in {} of {turns} windows where both turn: {cause}",
                 turns - turns_agree
             ),
         });
     }
     if opposed(drives, drives_agree) {
+        let cause = if with_localization(drives_by_command, drives_by_command_agree) {
+            "the commands drive with localization: are the encoders sign-flipped?"
+        } else if with_encoders(drives_by_command, drives_by_command_agree) {
+            "the commands drive with the encoders: is the localization's heading turned half a turn?"
+        } else {
+            "are the encoders sign-flipped, or the localization's heading turned half a turn?"
+        };
         out.push(Finding {
             check: Check::Direction,
             severity: Severity::Fatal,
             message: format!(
-                "localization moves backwards along the robot's heading where the encoders drive forwards (and the other way) in {} of {drives} windows: are the encoders sign-flipped, or the localization's heading turned half a turn?",
+                "localization moves backwards along the robot's heading where the encoders drive forwards (and the other way) in {} of {drives} windows: {cause}",
                 drives - drives_agree
             ),
         });

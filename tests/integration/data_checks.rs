@@ -2300,3 +2300,61 @@ fn the_odd_one_of_localization_imu_and_encoders_is_named_in_part_of_a_run() {
         "{found:?}"
     );
 }
+
+/// The twelfth sweep's N4: refusals that named the wrong cause. The commands side with the
+/// encoders or with localization where those two disagree (`direction` names the odd one);
+/// commands in another unit are said before the robot's looking still under them; an offset
+/// on the commands, which localization's travel confirms, is no offset on the encoders.
+#[test]
+fn the_odd_column_is_named_rather_than_its_consequences() {
+    use drive::data::quality::{check, Check, Severity};
+    let first_fatal = |d: &drive::traits::Dataset| {
+        check(d, None)
+            .into_iter()
+            .find(|f| f.severity == Severity::Fatal)
+            .map(|f| (f.check, f.message))
+    };
+    let husky = drive::bundled::load("husky_drive").unwrap();
+    let half = husky.windows.len() / 2;
+    let mut swapped = husky.clone();
+    swapped.windows[half..]
+        .iter_mut()
+        .for_each(|w| w.measured.iter_mut().for_each(|u| (u.x, u.y) = (u.y, u.x)));
+    let said = first_fatal(&swapped).expect("no fatal finding");
+    assert!(
+        said.1.contains("the commands turn with localization"),
+        "{said:?}"
+    );
+    let mut mirrored = husky.clone();
+    mirrored.windows[half..].iter_mut().for_each(|w| {
+        w.pose.iter_mut().for_each(|p| {
+            p.y = -p.y;
+            p.z = -p.z;
+        })
+    });
+    let said = check(&mirrored, None);
+    assert!(
+        said.iter()
+            .any(|f| f.message.contains("the commands turn with the encoders")),
+        "{said:?}"
+    );
+    let mut degrees = husky.clone();
+    degrees
+        .windows
+        .iter_mut()
+        .for_each(|w| w.command.iter_mut().for_each(|u| *u *= 57.3));
+    let said = first_fatal(&degrees).expect("no fatal finding");
+    assert_eq!(said.0, Check::EncoderCommand, "{said:?}");
+    assert!(said.1.contains("another unit"), "{said:?}");
+    let mut biased = husky.clone();
+    biased
+        .windows
+        .iter_mut()
+        .for_each(|w| w.command.iter_mut().for_each(|u| u.add_scalar_mut(0.5)));
+    let said = check(&biased, None);
+    assert!(
+        said.iter()
+            .any(|f| f.message.contains("an offset on the commands")),
+        "{said:?}"
+    );
+}

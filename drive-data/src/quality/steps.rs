@@ -343,7 +343,7 @@ pub(super) fn encoder_offset(w: &Windows<'_>) -> Vec<Finding> {
         .windows
         .iter()
         .zip(&w.travels)
-        .map(|(win, (_, implied, turn))| {
+        .map(|(win, (seen, implied, turn))| {
             let n = win.command.len().max(1) as f64;
             let mean = win.command.iter().sum::<drive_traits::Input>() / n;
             let f = vehicle.body_velocity(&mean);
@@ -351,20 +351,52 @@ pub(super) fn encoder_offset(w: &Windows<'_>) -> Vec<Finding> {
                 commanded: [f.x, f.z],
                 implied: [implied[0], *turn],
                 steady: win.phase == drive_traits::Phase::Steady,
+                seen: seen[0],
             }
         })
-        .filter(|r| r.commanded.iter().chain(&r.implied).all(|x| x.is_finite()))
+        .filter(|r| {
+            r.commanded
+                .iter()
+                .chain(&r.implied)
+                .chain([&r.seen])
+                .all(|x| x.is_finite())
+        })
         .collect();
+    // What localization saw of the same windows' travel: where it saw the robot travel as
+    // the encoders say (three tenths of it or more, the same way: the Husky on its real
+    // ground saw half, where an offset on the encoders leaves localization still), the
+    // encoders are right and the commands are offset (the robot drove where they command
+    // none).
+    let seen: Vec<Idle> = rows
+        .iter()
+        .map(|r| Idle {
+            implied: [r.seen, r.implied[1]],
+            ..*r
+        })
+        .collect();
+    let seen_travel = idle_share(&seen, 0, false).map(|(median, _, _)| median);
     let mut out: Vec<Finding> = idle_share(&rows, 0, false)
         .filter(|(_, share, _)| share.abs() >= OFFSET_WARNING)
-        .map(|(median, share, count)| Finding {
-            check: Check::EncoderUnits,
-            severity: Severity::fatal_if(share.abs() >= OFFSET_FATAL),
-            message: format!(
-                "the encoders imply a median forward travel of {} m over the {count} windows whose commands drive almost none ({} of the largest window's, one way): an offset on the encoders (a bias added, or a zero not subtracted)?",
-                Short(three_digits(median)),
-                Short(three_digits(share)),
-            ),
+        .map(|(median, share, count)| {
+            let commands = seen_travel.is_some_and(|s| s * median > 0.0 && s.abs() >= 0.3 * median.abs());
+            Finding {
+                check: Check::EncoderUnits,
+                severity: Severity::fatal_if(share.abs() >= OFFSET_FATAL),
+                message: if commands {
+                    format!(
+                        "the encoders imply a median forward travel of {} m over the {count} windows whose commands drive almost none ({} of the largest window's, one way), and localization saw the robot travel so too ({} m): an offset on the commands (a bias added, or a zero not subtracted)?",
+                        Short(three_digits(median)),
+                        Short(three_digits(share)),
+                        Short(three_digits(seen_travel.unwrap_or(0.0))),
+                    )
+                } else {
+                    format!(
+                        "the encoders imply a median forward travel of {} m over the {count} windows whose commands drive almost none ({} of the largest window's, one way): an offset on the encoders (a bias added, or a zero not subtracted)?",
+                        Short(three_digits(median)),
+                        Short(three_digits(share)),
+                    )
+                },
+            }
         })
         .into_iter()
         .collect();
@@ -390,10 +422,13 @@ pub(super) fn encoder_offset(w: &Windows<'_>) -> Vec<Finding> {
 
 /// A window's mean command and the motion its encoders imply, on the body's forward and
 /// yaw axes ([`encoder_offset`]).
+#[derive(Clone, Copy)]
 struct Idle {
     commanded: [f64; 2],
     implied: [f64; 2],
     steady: bool,
+    /// The forward travel localization saw.
+    seen: f64,
 }
 
 /// Over the windows whose mean command asks for under a twentieth of the largest on body
