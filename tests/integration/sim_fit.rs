@@ -979,7 +979,10 @@ fn a_twin_is_checked_only_on_data_a_fit_accepts_and_an_immobile_twin_is_refused(
         }
     }
     let err = drive::sim::check_real_run(&swapped, &husky()).unwrap_err();
-    assert!(err.to_string().contains("measured columns swapped"), "{err}");
+    assert!(
+        err.to_string().contains("measured columns swapped"),
+        "{err}"
+    );
     let mut mirrored = data.clone();
     for w in &mut mirrored.windows {
         for p in &mut w.pose {

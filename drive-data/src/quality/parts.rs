@@ -583,15 +583,23 @@ pub(super) fn turn_faults(w: &Windows<'_>) -> Option<TurnFault> {
         ) else {
             continue;
         };
-        if !agrees(lr.0)
-            || er.0 <= 0.0
-            || (lp.0 - lr.0).abs() <= SCALE_SIGNIFICANCE * lp.1.hypot(lr.1)
-        {
+        if (lp.0 - lr.0).abs() <= SCALE_SIGNIFICANCE * lp.1.hypot(lr.1) {
             continue;
         }
         let how_far = (lp.0 - lr.0).abs() / lp.1.hypot(lr.1);
         let encoders_with_imu = (0.5..=2.0).contains(&(ep.0 / er.0));
-        let fault = if encoders_with_imu && (lp.0 < 0.5 || lp.0 > 2.0) {
+        // The IMU backwards in one of the two and not the other, the encoders turning with
+        // localization in both (against the IMU where it is backwards).
+        let imu_flipped_in = if flipped(lp.0) && agrees(lr.0) && ep.0 < 0.0 && er.0 > 0.0 {
+            Some("that part")
+        } else if agrees(lp.0) && flipped(lr.0) && ep.0 > 0.0 && er.0 < 0.0 {
+            Some("the rest of the run")
+        } else {
+            None
+        };
+        let localization_odd =
+            agrees(lr.0) && er.0 > 0.0 && encoders_with_imu && (lp.0 < 0.5 || lp.0 > 2.0);
+        let fault = if localization_odd {
             TurnFault::Localization(Finding {
                 check: Check::LocalizationSync,
                 severity: Severity::Fatal,
@@ -605,12 +613,12 @@ pub(super) fn turn_faults(w: &Windows<'_>) -> Option<TurnFault> {
                     rest[0].n
                 ),
             })
-        } else if flipped(lp.0) && ep.0 < 0.0 {
+        } else if let Some(which) = imu_flipped_in {
             TurnFault::ImuFlipped(Finding {
                 check: Check::ImuYawRate,
                 severity: Severity::Warning,
                 message: format!(
-                    "the IMU's yaw rate integrates to {} times the turn localization saw in {name} and {} times in the rest of the run, the encoders turning with localization in both (least squares over {} and {} windows where the IMU turned 0.2 rad or more): its sign flipped in that part (a run joined from two recordings?): the models that start from the IMU's yaw rate (slip-ipem, acc-BLR, --start encoders+imu) start turning the wrong way there; negate the imu_yaw_rate column in that part, or give --start encoders",
+                    "the IMU's yaw rate integrates to {} times the turn localization saw in {name} and {} times in the rest of the run, the encoders turning with localization in both (least squares over {} and {} windows where the IMU turned 0.2 rad or more): its sign flipped in {which} (a run joined from two recordings?): the models that start from the IMU's yaw rate (slip-ipem, acc-BLR, --start encoders+imu) start turning the wrong way there; negate the imu_yaw_rate column in {which}, or give --start encoders",
                     Short(three_digits(lp.0)),
                     Short(three_digits(lr.0)),
                     part[0].n,
