@@ -2094,7 +2094,7 @@ fn a_column_scaled_offset_or_frozen_in_part_of_a_run_is_fatal_and_named() {
                     .iter_mut()
                     .for_each(|p| *p = drive::traits::Pose::zeros())
             },
-            "encoder-units: localization saw 0.000 of the forward travel",
+            "localization-sync: localization turns 0 times the IMU's turn",
         ),
     ];
     for (run, what, edit, said) in last_quarter {
@@ -2266,11 +2266,10 @@ fn the_odd_one_of_localization_imu_and_encoders_is_named_in_part_of_a_run() {
         found.iter().all(|f| f.check != Check::ImuYawRate),
         "{found:?}"
     );
-    // Named by the share of the encoders' travel localization saw there, or by its turn.
     assert!(
         found.iter().any(|f| f.severity == Severity::Fatal
-            && (f.message.contains("not the IMU")
-                || f.message.contains("localization frozen or scaled there"))),
+            && f.check == Check::LocalizationSync
+            && f.message.contains("not the IMU")),
         "{found:?}"
     );
     // Two runs of one Warthog joined halfway, the second's IMU read backwards.

@@ -399,11 +399,12 @@ fn scaled(part: (f64, f64), rest: (f64, f64)) -> Option<f64> {
 /// the run: a measured input that follows its command with another gain there than in the
 /// rest (by a factor of [`SCALE_FACTOR`] or more, or the other sign), or offset from the
 /// rest's (by [`SCALE_OFFSET`] of its largest command), and localization that saw another
-/// share of the forward travel the encoders imply there (by that factor; where the rest
-/// saw half of it or more, or the part more than 1.5 times it: wheels spin on a slippery
-/// stretch, but no robot travels faster than its wheels). A run is one robot with one set
-/// of sensors: its columns' units and signs do not change halfway, and its wheels follow
-/// their commands alike on any ground. The part that differs most is named.
+/// share of the forward travel the encoders imply there (by that factor: where the rest
+/// saw half of it or more and the part less, a warning, for wheels spin on a slippery
+/// stretch; the part more than 1.5 times it, fatal, for no robot travels faster than its
+/// wheels). A run is one robot with one set of sensors: its columns' units and signs do
+/// not change halfway, and its wheels follow their commands alike on any ground. The part
+/// that differs most is named.
 fn scales(w: &Windows<'_>) -> Vec<Finding> {
     let axes_desc = w.data.robot.vehicle.axes();
     let axes = axes_desc.len().min(drive_traits::MAX_INPUTS);
@@ -416,13 +417,13 @@ fn scales(w: &Windows<'_>) -> Vec<Finding> {
     // Per check, the part that differs most: (how far, its finding).
     let mut command: Option<(f64, Finding)> = None;
     let mut units: Option<(f64, Finding)> = None;
-    let keep = |slot: &mut Option<(f64, Finding)>, far: f64, message: String, check| {
+    let keep = |slot: &mut Option<(f64, Finding)>, far: f64, message: String, check, severity| {
         if slot.as_ref().is_none_or(|(f, _)| far > *f) {
             *slot = Some((
                 far,
                 Finding {
                     check,
-                    severity: Severity::Fatal,
+                    severity,
                     message,
                 },
             ));
@@ -465,6 +466,7 @@ fn scales(w: &Windows<'_>) -> Vec<Finding> {
                                 p.0, r.0, part.commanded[i].n, rest.commanded[i].n
                             ),
                             Check::EncoderCommand,
+                            Severity::Fatal,
                         );
                     }
                 }
@@ -481,6 +483,7 @@ fn scales(w: &Windows<'_>) -> Vec<Finding> {
                             d, part.low[i].n, rest.low[i].n, LOW_COMMAND * 100.0
                         ),
                         Check::EncoderCommand,
+                        Severity::Fatal,
                     );
                 }
             }
@@ -489,9 +492,13 @@ fn scales(w: &Windows<'_>) -> Vec<Finding> {
             let lost = r.0 >= 0.5 && p.0 < r.0;
             let faster = p.0 > 1.5 && p.0 > r.0;
             if let Some(factor) = scaled(p, r).filter(|_| lost || faster) {
+                // Seeing less: the wheels spun there (a simulated robot driving from tile
+                // onto ice: 0.10 of the travel against 0.65), or localization scaled or
+                // frozen there (whose turn the IMU tells: [`turn_faults`]): a warning.
+                // Seeing more than the wheels drive: fatal.
                 keep(
                     &mut units,
-                    factor.abs().ln().abs(),
+                    factor.abs().ln().abs() + if faster { 10.0 } else { 0.0 },
                     format!(
                         "localization saw {:.3} of the forward travel the encoders imply in {name} and {:.3} in the rest of the run (least squares over {} and {} windows): {}",
                         p.0,
@@ -501,10 +508,11 @@ fn scales(w: &Windows<'_>) -> Vec<Finding> {
                         if faster {
                             "localization scaled there (no robot travels faster than its wheels), or the encoders?"
                         } else {
-                            "localization frozen or scaled there, or the encoders? (Wheels spinning on a stretch of ice scatter from window to window.)"
+                            "the wheels spinning there (ice, mud), or localization scaled or frozen there?"
                         }
                     ),
                     Check::EncoderUnits,
+                    Severity::fatal_if(faster),
                 );
             }
         }
@@ -512,12 +520,15 @@ fn scales(w: &Windows<'_>) -> Vec<Finding> {
     command
         .into_iter()
         .chain(units)
-        .map(|(_, f)| Finding {
-            message: format!(
-                "{}; part of the run corrupted, or joined from another run or robot?",
-                f.message
-            ),
-            ..f
+        .map(|(_, f)| match f.severity {
+            Severity::Fatal => Finding {
+                message: format!(
+                    "{}; part of the run corrupted, or joined from another run or robot?",
+                    f.message
+                ),
+                ..f
+            },
+            Severity::Warning => f,
         })
         .collect()
 }
