@@ -328,11 +328,15 @@ const OFFSET_FATAL: f64 = 0.15;
 /// Theil and Sen's line through them) against the largest window's turn, a warning from
 /// here and fatal from [`TURN_OFFSET_FATAL`]. The real runs give 0.015 at most, 200
 /// simulated runs 0.055 (the linear-focused sampler's); one side's encoder offset by 1 rad/s
-/// gives 0.15 on the Husky and 0.30 on a simulated HD2, a mecanum base's yaw-rate input by
-/// 0.5 rad/s 0.23, a Warthog side by 2 rad/s 0.10-0.12 (by 1 rad/s 0.05-0.07: not seen).
+/// gives 0.14 on the Husky (2 rad/s: 0.24), a Warthog side by 2 rad/s 0.11-0.13 (by 1 rad/s
+/// not seen); before the slow windows alone were read ([`SLOW`]), 0.30 on a simulated HD2
+/// and a mecanum base's yaw-rate input by 0.5 rad/s 0.23.
 const TURN_OFFSET_WARNING: f64 = 0.09;
 /// See [`TURN_OFFSET_WARNING`].
 const TURN_OFFSET_FATAL: f64 = 0.2;
+/// The windows [`encoder_offset`] reads the turn's offset on command at most this share of
+/// the largest commanded forward speed.
+const SLOW: f64 = 0.35;
 
 /// Encoders reading an offset ([`OFFSET_WARNING`], [`TURN_OFFSET_WARNING`]).
 pub(super) fn encoder_offset(w: &Windows<'_>) -> Vec<Finding> {
@@ -452,9 +456,18 @@ fn idle_share(rows: &[Idle], axis: usize, steady: bool) -> Option<(f64, f64, usi
     if largest <= 0.0 || commanded <= 0.0 {
         return None;
     }
+    // On the turn, the windows that drive slowly too: the two sides' gains a few percent
+    // apart turn a skid-steer in proportion to its speed until its wheels saturate (a
+    // Warthog twin's fitted 1.05-1.07 under the linear sampler, which commands no turn,
+    // read as an offset of 0.2-0.7 rad), an offset at any speed, standing too.
+    let speed = rows
+        .iter()
+        .map(|r| r.commanded[0].abs())
+        .fold(0.0, f64::max);
+    let slow = |r: &Idle| axis == 0 || r.commanded[0].abs() <= SLOW * speed;
     let near: Vec<(f64, f64)> = rows
         .iter()
-        .filter(|r| r.commanded[axis].abs() < band * commanded && (r.steady || !steady))
+        .filter(|r| r.commanded[axis].abs() < band * commanded && (r.steady || !steady) && slow(r))
         .map(|r| (r.commanded[axis], r.implied[axis]))
         .collect();
     if near.len() < MIN_WINDOWS {
