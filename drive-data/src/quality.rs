@@ -346,7 +346,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         }
         // One part's IMU read backwards: what the whole run's gain said (a mix of the two
         // signs reads little of the turn) is that.
-        Some(parts::TurnFault::ImuFlipped(f)) => {
+        Some(parts::TurnFault::ImuFlipped(f) | parts::TurnFault::ImuScaled(f)) => {
             out.retain(|g| {
                 g.check != Check::ImuYawRate
                     || !(g.message.contains("integrates to") || g.message.contains(" alone"))

@@ -2298,6 +2298,24 @@ fn the_odd_one_of_localization_imu_and_encoders_is_named_in_part_of_a_run() {
             .any(|f| f.check == Check::ImuYawRate && f.message.contains("its sign flipped in")),
         "{found:?}"
     );
+    // The thirteenth sweep's P3: the IMU scaled in a quarter was named localization's doing;
+    // the encoders on the IMU moved as localization on it did.
+    let mut scaled = drive::bundled::load("warthog_asphalt_a").unwrap();
+    let n = scaled.windows.len();
+    scaled.windows[n * 3 / 4..]
+        .iter_mut()
+        .for_each(|w| w.imu_yaw_rate.iter_mut().for_each(|r| *r *= 0.4));
+    let found = check(&scaled, None);
+    assert!(
+        found.iter().any(|f| f.severity == Severity::Fatal
+            && f.check == Check::ImuYawRate
+            && f.message.contains("the IMU scaled in that part")),
+        "{found:?}"
+    );
+    assert!(
+        found.iter().all(|f| !f.message.contains("not the IMU")),
+        "{found:?}"
+    );
     // A short run (grass, 90 windows) then a long one read backwards: no part of the run
     // holds the backwards one alone, but one holds the short one alone (norlab's grass and
     // gravel runs joined were refused for a third that mixed the two).

@@ -541,6 +541,9 @@ pub(super) enum TurnFault {
     Localization(Finding),
     /// The IMU read backwards in a part only (a warning, as for a whole run read so).
     ImuFlipped(Finding),
+    /// The IMU scaled in a part only (fatal where it reads under half or over twice the
+    /// turn, as for a whole run).
+    ImuScaled(Finding),
 }
 
 /// The three turns of a run's parts against each other: localization's and the encoders'
@@ -598,7 +601,17 @@ pub(super) fn turn_faults(w: &Windows<'_>) -> Option<TurnFault> {
             continue;
         }
         let how_far = (lp.0 - lr.0).abs() / lp.1.hypot(lr.1);
-        let encoders_with_imu = (0.5..=2.0).contains(&(ep.0 / er.0));
+        // Localization odd: the encoders on the IMU as in the rest (a change of ground moves
+        // them by up to a fifth). The IMU scaled: localization and the encoders on it moved
+        // alike (within 30% of each other), by half again or more.
+        let encoders_with_imu = (0.7..=1.4).contains(&(ep.0 / er.0));
+        let (moved_l, moved_e) = (lp.0 / lr.0, ep.0 / er.0);
+        let imu_scaled = agrees(lr.0)
+            && er.0 > 0.0
+            && moved_l > 0.0
+            && moved_e > 0.0
+            && (moved_l.ln() - moved_e.ln()).abs() < 1.3f64.ln()
+            && moved_l.ln().abs() > 1.5f64.ln();
         // The IMU backwards in one of the two and not the other, the encoders turning with
         // localization in both (against the IMU where it is backwards).
         let imu_flipped_in = if flipped(lp.0) && agrees(lr.0) && ep.0 < 0.0 && er.0 > 0.0 {
@@ -620,6 +633,22 @@ pub(super) fn turn_faults(w: &Windows<'_>) -> Option<TurnFault> {
                     Short(three_digits(lr.0)),
                     Short(three_digits(ep.0)),
                     Short(three_digits(er.0)),
+                    part[0].n,
+                    rest[0].n
+                ),
+            })
+        } else if imu_scaled {
+            // The IMU reads 1 / lp of localization's turn there.
+            let gain = 1.0 / lp.0;
+            TurnFault::ImuScaled(Finding {
+                check: Check::ImuYawRate,
+                severity: Severity::fatal_if(!(0.5..=2.0).contains(&gain)),
+                message: format!(
+                    "the IMU's yaw rate integrates to {} times the turn localization saw in {name} and {} times in the rest of the run, and to {} times the encoders' there against {} elsewhere (least squares over {} and {} windows where the IMU turned 0.2 rad or more): the IMU scaled in that part (another unit, or another signal?); part of the run corrupted, or joined from another run or robot?",
+                    Short(three_digits(gain)),
+                    Short(three_digits(1.0 / lr.0)),
+                    Short(three_digits(1.0 / ep.0)),
+                    Short(three_digits(1.0 / er.0)),
                     part[0].n,
                     rest[0].n
                 ),
