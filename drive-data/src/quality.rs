@@ -2094,13 +2094,21 @@ fn body_axes_exchanged(data: &Dataset, windows: &[&Window]) -> Option<Finding> {
     let corr = |a: usize, b: usize| localization::correlation(body.iter().map(|r| (r[a], r[b])));
     let (own_x, own_z) = (corr(0, 2), corr(1, 3));
     let (x_as_z, z_as_x) = (corr(0, 3), corr(1, 2));
-    // Each far less its own: by 0.3 of correlation (a car's commanded speed and yaw rate
-    // go together, its steering needing speed: own correlations of 0.2-0.5 exchanged, 0.95
-    // and more across).
-    let exchanged = x_as_z >= 0.5
-        && z_as_x >= 0.5
-        && own_x < (x_as_z - 0.3).min(0.6)
-        && own_z < (z_as_x - 0.3).min(0.6);
+    // Each far less its own: under 0.3 on a skid-steer, whose commanded forward speed and
+    // yaw rate are drawn apart (one side's command negated in part of a run mixes the two
+    // and leaves 0.3-0.5); on another vehicle by 0.3 of correlation (a car's commanded
+    // speed and yaw rate go together, its steering needing speed: own correlations of
+    // 0.2-0.5 exchanged, 0.95 and more across).
+    let skid_steer = drive_traits::vehicle_tag(vehicle.as_ref()).as_deref() == Some("differential");
+    let own_bound = |across: f64| {
+        if skid_steer {
+            0.3
+        } else {
+            (across - 0.3).min(0.6)
+        }
+    };
+    let exchanged =
+        x_as_z >= 0.5 && z_as_x >= 0.5 && own_x < own_bound(x_as_z) && own_z < own_bound(z_as_x);
     if !exchanged {
         return None;
     }
@@ -2132,7 +2140,20 @@ fn body_axes_exchanged(data: &Dataset, windows: &[&Window]) -> Option<Finding> {
         }
         let (gx, gz) = (fx[1] / fx[0], fz[1] / fz[0]);
         let ratio = (gz / gx).abs();
-        if ratio.is_finite() && (0.5..=2.0).contains(&ratio) {
+        // The exchange scales the gains apart by the baseline squared over four (from one
+        // side's input alone: r / 2 forward, r / b turning); a side flipped keeps them
+        // alike. The bound is halfway between, on a log scale (3.6 on a Husky, 1.85 on a
+        // Warthog), and 2 at least: a side flipped in most of a part of the run only (the
+        // rest not) scatters them further than on a whole run.
+        let unit = vehicle.body_velocity(&drive_traits::Input::new(1.0, 0.0, 0.0));
+        let apart = (unit.x / unit.z).powi(2);
+        let bound = apart.max(1.0 / apart).sqrt();
+        let bound = if bound.is_finite() {
+            bound.max(2.0)
+        } else {
+            2.0
+        };
+        if ratio.is_finite() && (1.0 / bound..=bound).contains(&ratio) {
             return None;
         }
     }

@@ -2186,6 +2186,18 @@ fn a_raw_log_with_its_forward_and_yaw_rate_commands_exchanged_is_refused_for_tha
         "{said:?}"
     );
     assert!(!said.iter().any(|m| m.contains("exchanged")), "{said:?}");
+    // The thirteenth sweep's P4: one side's command negated over a part that no cut of
+    // the run holds whole (intervals 5% to 45% of the Husky's) is no exchange.
+    let mut husky = drive::bundled::load("husky_drive").unwrap();
+    let last = husky.windows.last().unwrap().interval as f64;
+    husky
+        .windows
+        .iter_mut()
+        .filter(|w| (0.05..0.45).contains(&(w.interval as f64 / last)))
+        .for_each(|w| w.command.iter_mut().for_each(|c| c.x = -c.x));
+    let said = messages(&husky);
+    assert!(!said.is_empty(), "passed");
+    assert!(said.iter().all(|m| !m.contains("exchanged")), "{said:?}");
     // The twelfth sweep's N5: exchanged in the second half only (named as one side's
     // command negated in that half before), and on a car (named as late timestamps).
     let mut half = run.clone();
