@@ -1841,7 +1841,20 @@ fn encoder_command_in(data: &Dataset, windows: &[&Window], whole: bool) -> Vec<F
                 sums.add(c[j] / largest, mi);
             }
         }
-        if n < 100 {
+        // Commanded in five intervals at least: fewer commands are chance (a mecanum base's
+        // linear sampler drives its yaw rate in two or three of a minute's ten intervals,
+        // its yaw-rate column then read as in another unit or sign-flipped).
+        let commanded_intervals = {
+            let mut seen: Vec<usize> = windows
+                .iter()
+                .filter(|w| w.command.iter().any(&on))
+                .map(|w| w.interval)
+                .collect();
+            seen.sort_unstable();
+            seen.dedup();
+            seen.len()
+        };
+        if n < 100 || commanded_intervals < 5 {
             continue;
         }
         // The measurement equal to its command to the bit on nearly every sample (the

@@ -2445,3 +2445,35 @@ fn a_twin_whose_sides_answer_a_few_percent_apart_has_no_encoder_offset() {
         assert!(!said.contains("median turn"), "{seed}: {said}");
     }
 }
+
+/// The thirteenth sweep's FP2: a minute of a mecanum base under the linear sampler, which
+/// commands its yaw rate in two or three intervals, had its yaw-rate column warned of as in
+/// another unit, sign-flipped or swapped; an axis commanded in fewer than five intervals is
+/// not judged against its commands.
+#[test]
+fn an_axis_commanded_in_a_few_intervals_is_not_judged() {
+    let dir = tempfile::tempdir().unwrap();
+    for (terrain, seed) in [("ice", "30365"), ("snow", "97366"), ("ice", "8109")] {
+        let out = dir.path().join(format!("{terrain}_{seed}.csv"));
+        ok(&[
+            "simulate",
+            "--robot",
+            "ridgeback",
+            "--terrain",
+            terrain,
+            "--sampler",
+            "linear",
+            "--duration",
+            "60",
+            "--seed",
+            seed,
+            "--out",
+            &out.display().to_string(),
+        ]);
+        let said = ok(&["check", "--data", &out.display().to_string()]);
+        assert!(
+            said.contains("every check passed"),
+            "{terrain} {seed}: {said}"
+        );
+    }
+}
