@@ -2284,21 +2284,24 @@ fn the_odd_one_of_localization_imu_and_encoders_is_named_in_part_of_a_run() {
             && f.message.contains("not the IMU")),
         "{found:?}"
     );
-    // Two runs of one Warthog joined halfway, the second's IMU read backwards.
-    let mut joined = drive::bundled::load("warthog_asphalt_2024-09-20a").unwrap();
-    let second = drive::bundled::load("warthog_asphalt_2024-09-20b").unwrap();
-    let next = joined.windows.last().unwrap().interval + 1;
-    joined
-        .windows
-        .extend(second.windows.iter().cloned().map(|mut w| {
-            w.interval += next;
-            w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r);
-            w
-        }));
-    for (i, w) in joined.windows.iter_mut().enumerate() {
-        w.index = i;
-    }
-    let found = check(&joined, None);
+    // Two bundled runs of one Warthog joined, the second's IMU read backwards.
+    let joined_backwards = |first: &str, second: &str| {
+        let mut joined = drive::bundled::load(first).unwrap();
+        let second = drive::bundled::load(second).unwrap();
+        let next = joined.windows.last().unwrap().interval + 1;
+        joined
+            .windows
+            .extend(second.windows.iter().cloned().map(|mut w| {
+                w.interval += next;
+                w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r);
+                w
+            }));
+        for (i, w) in joined.windows.iter_mut().enumerate() {
+            w.index = i;
+        }
+        check(&joined, None)
+    };
+    let found = joined_backwards("warthog_asphalt_2024-09-20a", "warthog_asphalt_2024-09-20b");
     assert!(
         found.iter().all(|f| f.severity != Severity::Fatal),
         "{found:?}"
@@ -2331,20 +2334,7 @@ fn the_odd_one_of_localization_imu_and_encoders_is_named_in_part_of_a_run() {
     // A short run (grass, 90 windows) then a long one read backwards: no part of the run
     // holds the backwards one alone, but one holds the short one alone (norlab's grass and
     // gravel runs joined were refused for a third that mixed the two).
-    let mut joined = drive::bundled::load("warthog_grass_2024-08-08").unwrap();
-    let second = drive::bundled::load("warthog_asphalt_a").unwrap();
-    let next = joined.windows.last().unwrap().interval + 1;
-    joined
-        .windows
-        .extend(second.windows.iter().cloned().map(|mut w| {
-            w.interval += next;
-            w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r);
-            w
-        }));
-    for (i, w) in joined.windows.iter_mut().enumerate() {
-        w.index = i;
-    }
-    let found = check(&joined, None);
+    let found = joined_backwards("warthog_grass_2024-08-08", "warthog_asphalt_a");
     assert!(
         found.iter().all(|f| f.severity != Severity::Fatal),
         "{found:?}"
