@@ -201,24 +201,22 @@ impl Line {
     }
 
     fn plus(self, o: Line) -> Line {
-        Line {
-            n: self.n + o.n,
-            x: self.x + o.x,
-            y: self.y + o.y,
-            xx: self.xx + o.xx,
-            xy: self.xy + o.xy,
-            yy: self.yy + o.yy,
-        }
+        self.with(o, 1.0)
     }
 
     fn less(self, o: Line) -> Line {
+        self.with(o, -1.0)
+    }
+
+    /// These sums and `sign` times `o`'s.
+    fn with(self, o: Line, sign: f64) -> Line {
         Line {
-            n: self.n - o.n,
-            x: self.x - o.x,
-            y: self.y - o.y,
-            xx: self.xx - o.xx,
-            xy: self.xy - o.xy,
-            yy: self.yy - o.yy,
+            n: self.n + sign * o.n,
+            x: self.x + sign * o.x,
+            y: self.y + sign * o.y,
+            xx: self.xx + sign * o.xx,
+            xy: self.xy + sign * o.xy,
+            yy: self.yy + sign * o.yy,
         }
     }
 
@@ -284,22 +282,21 @@ struct ScaleSums {
 
 impl ScaleSums {
     fn plus(&self, o: &ScaleSums) -> ScaleSums {
-        let mut out = *self;
-        for i in 0..drive_traits::MAX_INPUTS {
-            out.commanded[i] = self.commanded[i].plus(o.commanded[i]);
-            out.low[i] = self.low[i].plus(o.low[i]);
-        }
-        out.forward = self.forward.plus(o.forward);
-        out
+        self.with(o, 1.0)
     }
 
     fn less(&self, o: &ScaleSums) -> ScaleSums {
+        self.with(o, -1.0)
+    }
+
+    /// These sums and `sign` times `o`'s.
+    fn with(&self, o: &ScaleSums, sign: f64) -> ScaleSums {
         let mut out = *self;
         for i in 0..drive_traits::MAX_INPUTS {
-            out.commanded[i] = self.commanded[i].less(o.commanded[i]);
-            out.low[i] = self.low[i].less(o.low[i]);
+            out.commanded[i] = self.commanded[i].with(o.commanded[i], sign);
+            out.low[i] = self.low[i].with(o.low[i], sign);
         }
-        out.forward = self.forward.less(o.forward);
+        out.forward = self.forward.with(o.forward, sign);
         out
     }
 }
