@@ -53,6 +53,13 @@ pub struct TrackerConfig {
     /// lag) act in them ([`ControlState::past`]); 0 starts them from now. `None`: the
     /// model's powertrain's settling time ([`settling_history_s`](crate::settling_history_s)).
     pub history_s: Option<f64>,
+    /// The reference's timing. `Some(lead_s)`: a schedule along the path advancing at
+    /// `speed` every tick, the reference starting where the schedule is, held within
+    /// `lead_s` seconds of travel of the robot's progress (ahead of the robot, it pulls;
+    /// behind, it holds back): a model that under- or over-predicts the speed is corrected
+    /// towards `speed` by the loop. `None`: the reference starts where the robot is at
+    /// every tick, and the speed driven is what the model makes of it.
+    pub schedule_s: Option<f64>,
 }
 
 impl TrackerConfig {
@@ -69,6 +76,7 @@ impl TrackerConfig {
             start: StartInfo::EncodersImu,
             goal_tolerance: None,
             history_s: None,
+            schedule_s: None,
         }
     }
 
@@ -90,6 +98,12 @@ impl TrackerConfig {
             return Err(ControlError::BadSetting {
                 field: "speed",
                 message: format!("{speed} m/s is not a positive speed"),
+            });
+        }
+        if let Some(l) = self.schedule_s.filter(|l| !(l.is_finite() && *l > 0.0)) {
+            return Err(ControlError::BadSetting {
+                field: "schedule_s",
+                message: format!("{l} s is not a positive time"),
             });
         }
         let goal_tolerance = match self.goal_tolerance {
@@ -173,6 +187,8 @@ pub struct Tracker {
     config: TrackerConfig,
     dt: f64,
     progress: f64,
+    /// Where the schedule is along the path (m; [`TrackerConfig::schedule_s`]).
+    scheduled: f64,
     sent: SentCommand,
     fixes: VecDeque<(f64, Pose)>,
     /// The start states of the last ticks, and the commands sent at them (the vehicle's).
@@ -241,6 +257,7 @@ impl Tracker {
             config,
             dt,
             progress: 0.0,
+            scheduled: 0.0,
             sent: SentCommand::default(),
             fixes: VecDeque::new(),
             past_states: VecDeque::with_capacity(history + 1),
@@ -283,6 +300,7 @@ impl Tracker {
     /// path and the localization fixes.
     pub fn reset(&mut self) {
         self.sent = SentCommand::default();
+        self.scheduled = self.progress;
         self.past_states.clear();
         self.past_commands.clear();
         self.controller.reset();
@@ -380,8 +398,20 @@ impl Tracker {
             self.stop
         } else {
             self.reference.clear();
+            let step = self.config.speed * self.dt;
+            let from = match self.config.schedule_s {
+                Some(lead_s) => {
+                    let lead = lead_s * self.config.speed;
+                    let at = self
+                        .scheduled
+                        .clamp(self.progress - lead, self.progress + lead);
+                    self.scheduled = at + step;
+                    at
+                }
+                None => self.progress,
+            };
             for k in 1..=self.controller.horizon() {
-                let s = self.progress + self.config.speed * self.dt * k as f64;
+                let s = from + step * k as f64;
                 self.reference.push(self.path.point_at(s).pose());
             }
             let state = ControlState {

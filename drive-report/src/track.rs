@@ -224,6 +224,12 @@ pub fn text(r: &TrackResult) -> String {
         if seeds.len() == 1 { "" } else { "s, means over them" }
     );
     let _ = writeln!(s, "simulator: {}", r.simulator);
+    if let Some(lead) = r.schedule_s {
+        let _ = writeln!(
+            s,
+            "reference: on a schedule at the asked speed, within {lead} s of travel of the robot (--schedule)"
+        );
+    }
     let changes = !r.ground_changes.is_empty();
     if changes {
         let _ = writeln!(

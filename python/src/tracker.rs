@@ -62,9 +62,12 @@ impl Tracker {
     /// (by default the model's powertrain's settling time: its dead time plus one time
     /// constant for the FOPDT of eq. 3, at least 0.5 s); `observe_now` whether the
     /// body's motion measured now (the IMU's yaw rate) is the model's state after them
-    /// (True by default, as in `drive track`; slip-ipem's lagging body velocity).
+    /// (True by default, as in `drive track`; slip-ipem's lagging body velocity);
+    /// `schedule` (s) holds the robot to a schedule at `speed` along the path, within
+    /// that many seconds of travel (`drive track --schedule`; by default the reference
+    /// starts where the robot is).
     #[new]
-    #[pyo3(signature = (model, robot, path, speed, *, scale=4.0, start=None, samples=None, horizon=None, temperature=None, history=None, uncertainty_weight=None, observe_now=None))]
+    #[pyo3(signature = (model, robot, path, speed, *, scale=4.0, start=None, samples=None, horizon=None, temperature=None, history=None, uncertainty_weight=None, observe_now=None, schedule=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -80,6 +83,7 @@ impl Tracker {
         history: Option<f64>,
         uncertainty_weight: Option<f64>,
         observe_now: Option<bool>,
+        schedule: Option<f64>,
     ) -> PyResult<Self> {
         let model = model.extract::<PyRef<'_, Model>>().map_err(|_| {
             err(format!(
@@ -138,6 +142,7 @@ impl Tracker {
         let config = TrackerConfig {
             start,
             history_s: history,
+            schedule_s: schedule,
             ..TrackerConfig::new(speed)
         };
         // Checked by the tracker (settings, speed).

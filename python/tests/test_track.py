@@ -121,6 +121,11 @@ def test_tracker_errors_are_drive_errors(model_file):
         drive.Tracker(model, "husky", "line", 0.5, history=11.0)
     with pytest.raises(drive.DriveError, match="uncertainty_weight"):
         drive.Tracker(model, "husky", "line", 0.5, uncertainty_weight=-1.0)
+    with pytest.raises(drive.DriveError, match="schedule_s"):
+        drive.Tracker(model, "husky", "line", 0.5, schedule=-1.0)
+    # On a schedule (drive track --schedule): a tick plans as usual.
+    held = drive.Tracker(model, "husky", "line", 0.5, samples=64, schedule=0.5)
+    assert all(math.isfinite(u) for u in held.tick(0.0, (0.0, 0.0), pose=(0.0, 0.0, 0.0))["command"])
     # The model's predicted variance weighed in its costs: a tick plans as usual.
     weighed = drive.Tracker(model, "husky", "line", 0.5, samples=64, uncertainty_weight=1.0)
     tick = weighed.tick(0.0, (0.0, 0.0), pose=(0.0, 0.0, 0.0))

@@ -112,6 +112,12 @@ pub struct Args {
     /// (a robot whose localization does not stamp its poses). Default: stamped.
     #[arg(long)]
     no_pose_stamps: bool,
+    /// Hold the robot to a schedule along the path at the asked speed, the reference
+    /// starting where the schedule is, within SECONDS of travel of the robot (ahead of it,
+    /// it pulls; behind, it holds back): a model that misjudges the speed is corrected by
+    /// the loop. 0: the reference starts where the robot is at every tick.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_number, allow_hyphen_values = true)]
+    schedule: Option<f64>,
     /// Beside each model, the same model adapting to the ground inside the loop (named
     /// NAME-adaptive): every 2 s window the run drives is fed to `drive adapt`'s adaptive
     /// model, which the controller predicts with from the next tick on. With --terrains,
@@ -140,6 +146,13 @@ fn distinct<T: PartialEq + std::fmt::Display>(flag: &str, items: &[T]) -> Result
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    let schedule_s = match args.schedule {
+        Some(s) if !(s.is_finite() && (0.0..=10.0).contains(&s)) => {
+            bail!("--schedule {s}: give a number of seconds from 0 to 10")
+        }
+        Some(0.0) => None,
+        s => s,
+    };
     distinct("--path", &args.path)?;
     // `naive,,slip-blr` and `naive, slip-blr` as every command reads them; none is refused.
     let model_args = super::common::model_names(registries, &args.models)?;
@@ -351,6 +364,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         time_limit_s: args.time_limit,
         history_s: args.history,
         pose_stamps: !args.no_pose_stamps,
+        schedule_s,
         ground_changes,
         adaptive,
     };

@@ -166,6 +166,8 @@ fn models_fitted_on_a_simulated_run_and_a_time_limit_that_ends_the_run() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let run = &v["runs"][0];
     assert_eq!(run["train"], "uniform");
+    // The reference starts where the robot is unless --schedule says otherwise.
+    assert!(v["schedule_s"].is_null(), "{}", v["schedule_s"]);
     // A 24 m line cannot be driven in 3 s: the time limit ends the run, and says so.
     assert_eq!(run["completed"], false);
     assert!(f(&run["duration_s"]) >= 3.0 && f(&run["duration_s"]) < 3.2);
@@ -179,6 +181,43 @@ fn models_fitted_on_a_simulated_run_and_a_time_limit_that_ends_the_run() {
         v["summary"][1]["improvement_over_first_percent"].is_null(),
         "{}",
         v["summary"][1]
+    );
+}
+
+#[test]
+fn a_schedule_is_recorded_and_said() {
+    let out = common::drive(&[
+        "track",
+        "--robot",
+        "husky",
+        "--terrain",
+        "tile",
+        "--train-sampler",
+        "uniform",
+        "--train-duration",
+        "60",
+        "--path",
+        "line",
+        "--speed",
+        "0.8",
+        "--models",
+        "naive",
+        "--samples",
+        "64",
+        "--time-limit",
+        "2",
+        "--schedule",
+        "0.5",
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("on a schedule at the asked speed, within 0.5 s of travel"),
+        "{text}"
     );
 }
 
@@ -287,6 +326,11 @@ fn hostile_paths_and_settings_get_clear_errors() {
             "history 11 s is not a number of seconds in [0, 10]",
         ),
         (vec!["--history", "-0.5"], "history -0.5 s"),
+        (
+            vec!["--schedule", "-1"],
+            "--schedule -1: give a number of seconds",
+        ),
+        (vec!["--schedule", "inf"], "--schedule"),
         (vec!["--samples", "1"], "samples"),
         (vec!["--horizon", "0"], "horizon"),
         (vec!["--temperature", "0"], "temperature"),

@@ -166,6 +166,10 @@ pub struct TrackStudy {
     /// that the tracker carries it forward from then; `false` (`drive track
     /// --no-pose-stamps`): each fix taken as measured when it arrives, its latency unseen.
     pub pose_stamps: bool,
+    /// The reference's timing ([`TrackerConfig::schedule_s`]): `Some(lead_s)` holds the
+    /// robot to a schedule at the asked speed, within `lead_s` seconds of travel; `None`
+    /// (`drive track --schedule 0`) starts the reference where the robot is.
+    pub schedule_s: Option<f64>,
     /// Where the ground changes along the path (`drive track --terrains`), in order: the
     /// robot drives onto each change's ground once it has covered that share of the path
     /// ([`drive_sim::Plant::change_ground`]). Empty: `terrain` all along. The top speed and
@@ -368,6 +372,9 @@ pub struct TrackResult {
     pub top_speed_m_s: f64,
     /// The preset paths' scale (m).
     pub path_scale_m: f64,
+    /// The reference's timing ([`TrackStudy::schedule_s`]): the schedule's lead (s), or
+    /// `None` where the reference starts where the robot is.
+    pub schedule_s: Option<f64>,
     /// The models, in order (the first is the one improvements are measured against).
     pub models: Vec<String>,
     /// The training sources, in order.
@@ -429,6 +436,7 @@ pub const MAX_TRAINING_TOTAL_S: f64 = 36_000.0;
 ///     time_limit_s: None,
 ///     history_s: None,
 ///     pose_stamps: true,
+///     schedule_s: None,
 ///     ground_changes: vec![],
 ///     adaptive: vec![],
 /// };
@@ -810,6 +818,7 @@ pub fn run_track(
         simulator: drive_sim::simulator_used(&registries.simulators, &study.robot),
         top_speed_m_s: top,
         path_scale_m: scale,
+        schedule_s: study.schedule_s,
         models: study.models.iter().map(|m| m.name.clone()).collect(),
         training: study.training.iter().map(Training::label).collect(),
         runs,

@@ -233,6 +233,7 @@ pub(super) fn drive(
     let config = TrackerConfig {
         start: plan.spec.start,
         history_s: study.history_s,
+        schedule_s: study.schedule_s,
         ..TrackerConfig::new(plan.speed)
     };
     let mut tracker = Tracker::new(
