@@ -23,6 +23,7 @@ use drive_traits::InvalidPart;
 pub mod adapt;
 pub mod baselines;
 pub mod batch;
+mod blend;
 pub mod blr;
 pub mod calibration;
 mod composed;
@@ -38,6 +39,7 @@ mod stepping;
 /// that data and robots name them without the models.
 pub use drive_traits::vehicles;
 
+pub use blend::BlendedModel;
 pub use composed::{Composed, ComposedModel, GrowingFit};
 
 /// Checks a fitted part's sample period read from a file: `Err` when the `part` (the

@@ -14,8 +14,9 @@ use std::path::{Path, PathBuf};
 const FONT: &str = "sans-serif";
 const LABEL: i32 = 16;
 
-/// The four models of a curve, in the order drawn.
-const MODELS: [&str; 4] = ["adaptive", "frozen", "scratch", "own"];
+/// The models of a curve, in the order drawn (`library` only where a terrain library was
+/// given).
+const MODELS: [&str; 5] = ["adaptive", "frozen", "scratch", "own", "library"];
 
 /// Stages `adapt.json`, `curve.csv` and `curves.png` / `curves.svg` into `dir`; returns
 /// the files staged.
@@ -54,10 +55,10 @@ pub fn stage(
 /// ```
 /// # use drive_studies::{Adaptation, AdaptPoint};
 /// let a = Adaptation { prior: "a".into(), target: "b".into(), split: 0.5, train_s: 60.0, train_windows: 30,
-///     evaluation_windows: 30, extrapolation: None, notes: Vec::new(),
+///     evaluation_windows: 30, extrapolation: None, notes: Vec::new(), library: Vec::new(),
 ///     curve: vec![AdaptPoint { learner: "slip-blr".into(), model: "frozen", t_s: 0.0,
 ///         translational_median_m: Some(0.25), rotational_median_rad: Some(0.5),
-///         ground_changed: None, note: None }] };
+///         ground_changed: None, note: None, weights: None }] };
 /// assert_eq!(drive_report::adapt::curve_csv(&a).lines().nth(1), Some("slip-blr,frozen,0,0.25,0.5,"));
 /// ```
 pub fn curve_csv(result: &Adaptation) -> String {
@@ -102,6 +103,7 @@ where
     let keys: Vec<(String, Key)> = MODELS
         .iter()
         .enumerate()
+        .filter(|(_, m)| result.curve.iter().any(|p| p.model == **m))
         .map(|(i, m)| (m.to_string(), Key::Line(COLOURS[i % COLOURS.len()], 2)))
         .collect();
     let title = format!(

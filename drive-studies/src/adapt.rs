@@ -41,6 +41,11 @@ pub struct AdaptStudy {
     pub times_s: Vec<f64>,
     /// The adapter's settings (its start is each model's own).
     pub config: AdapterConfig,
+    /// Datasets of the same robot on other grounds: when any is given, each learner's fit
+    /// on each of them and the prior make a terrain library ([`crate::TerrainLibrary`],
+    /// forgetting with `config.selection_s`), blended by their likelihood of the target's
+    /// windows as they are driven (`library` in the curves).
+    pub library: Vec<std::sync::Arc<Dataset>>,
 }
 
 impl Default for AdaptStudy {
@@ -49,6 +54,7 @@ impl Default for AdaptStudy {
             split: 0.5,
             times_s: ADAPT_TIMES_S.to_vec(),
             config: AdapterConfig::default(),
+            library: Vec::new(),
         }
     }
 }
@@ -58,7 +64,7 @@ impl Default for AdaptStudy {
 pub struct AdaptPoint {
     /// The model adapted (`slip-blr`).
     pub learner: String,
-    /// `adaptive`, `frozen`, `scratch` or `own`.
+    /// `adaptive`, `frozen`, `scratch`, `own` or `library`.
     pub model: &'static str,
     /// Seconds of the target's training half seen.
     pub t_s: f64,
@@ -72,6 +78,10 @@ pub struct AdaptPoint {
     /// Why there is no model (`scratch` at t = 0, a fit refused on too few windows).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
+    /// For `library`: each library model's weight in the blend, in the order of
+    /// [`Adaptation::library`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weights: Option<Vec<f64>>,
 }
 
 /// How far the target's commands go beyond the prior's: there the prior extrapolates, and
@@ -603,6 +613,10 @@ pub struct Adaptation {
     /// Where the target's commands leave the prior's; `None` for a model-file prior (its
     /// training data is not known).
     pub extrapolation: Option<Extrapolation>,
+    /// The terrain library's models, when one was given ([`AdaptStudy::library`]): the
+    /// prior, then each library dataset.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub library: Vec<String>,
     /// What the numbers should be read with (the prior's vehicle geometry other than the
     /// target's, ...).
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -800,6 +814,33 @@ pub(crate) fn adapt_with(
             }
         }
     }
+    for data in &study.library {
+        let (p, t) = (&data.robot, &target.robot);
+        if p.rate_hz != t.rate_hz || p.window_len != t.window_len {
+            return incompatible(format!(
+                "library dataset {} is {} Hz x {} samples per window, the target {} Hz x {}",
+                p.name, p.rate_hz, p.window_len, t.rate_hz, t.window_len
+            ));
+        }
+        let (a, b) = (crate::vehicle_type(data), crate::vehicle_type(target));
+        if a != b {
+            return incompatible(format!(
+                "library dataset {}'s vehicle type is {a}, the target's {b}: a library is of one robot's grounds",
+                p.name
+            ));
+        }
+        let (pa, pb) = (
+            crate::bench::window_prints(data),
+            crate::bench::window_prints(target),
+        );
+        let (shared, smaller) = crate::bench::shared_windows(&pa, &pb);
+        if crate::bench::same_run((shared, smaller)) {
+            return incompatible(format!(
+                "library dataset {} holds the target's own windows ({shared} of the {smaller} of the one with fewer are in both): the blend would be scored on windows it was fitted on",
+                p.name
+            ));
+        }
+    }
     let (train, eval) = split_by_interval(target, study.split)
         .map_err(|e| ExperimentError::NotEnoughData(e.to_string()))?;
     let window_s = target.robot.window_len as f64 / target.robot.rate_hz;
@@ -827,6 +868,7 @@ pub(crate) fn adapt_with(
         )
     };
     let mut curve = Vec::new();
+    let mut library_names = Vec::new();
     for spec in models {
         let spec = spec
             .clone()
@@ -876,6 +918,29 @@ pub(crate) fn adapt_with(
             }
             adapted.push((adaptive.model(), adaptive.changed()));
         }
+        // The terrain library, blended by the likelihood of the windows driven so far.
+        let mut blends = Vec::new();
+        if !study.library.is_empty() {
+            let members = library_members(prior, &study.library, &spec)?;
+            if library_names.is_empty() {
+                library_names = members.iter().map(|(n, _)| n.clone()).collect();
+            }
+            let mut library = crate::TerrainLibrary::new(
+                members,
+                &target.robot,
+                spec.start,
+                study.config.selection_s,
+            )?;
+            let mut fed = 0;
+            for &t in &times {
+                let n = seen(t).min(train.windows.len());
+                while fed < n {
+                    library.add(train.windows[fed]);
+                    fed += 1;
+                }
+                blends.push((library.model(), library.weights()));
+            }
+        }
         // The scratch fits are independent: on rayon's threads.
         let scratch: Vec<Result<Box<dyn MotionModel>, String>> = times
             .par_iter()
@@ -901,6 +966,7 @@ pub(crate) fn adapt_with(
                 rotational_median_rad: scores.1,
                 ground_changed: None,
                 note: None,
+                weights: None,
             };
             let (model, changed) = &adapted[i];
             curve.push(AdaptPoint {
@@ -916,6 +982,12 @@ pub(crate) fn adapt_with(
                 },
             });
             curve.push(point("own", own_scores));
+            if let Some((blend, weights)) = blends.get(i) {
+                curve.push(AdaptPoint {
+                    weights: Some(weights.clone()),
+                    ..point("library", score(blend, spec.start))
+                });
+            }
         }
         progress();
     }
@@ -958,6 +1030,53 @@ pub(crate) fn adapt_with(
         evaluation_windows: eval.windows.len(),
         curve,
         extrapolation,
+        library: library_names,
         notes,
     })
+}
+
+/// Models by name.
+type NamedModels = Vec<(String, std::sync::Arc<dyn MotionModel>)>;
+
+/// The terrain library of `spec` for a study: the prior (fitted on its data with the
+/// calibrated uncertainty, or the prior model as it is) and `spec` fitted so on each of
+/// `library`, named by their data (or model).
+fn library_members(
+    prior: &AdaptPrior<'_>,
+    library: &[std::sync::Arc<Dataset>],
+    spec: &ModelSpec,
+) -> Result<NamedModels, ExperimentError> {
+    let calibrated = spec
+        .clone()
+        .with_uncertainty(Uncertainty::Calibrated, spec.start);
+    let fit = |data: &Dataset| {
+        calibrated
+            .fit(&data.all())
+            .map(std::sync::Arc::<dyn MotionModel>::from)
+            .map_err(|reason| ExperimentError::Fit {
+                model: spec.name.clone(),
+                data: data.robot.name.clone(),
+                reason,
+            })
+    };
+    let first = match prior {
+        AdaptPrior::Data(data) => (data.robot.name.clone(), fit(data)?),
+        AdaptPrior::Model(m) => {
+            // A model borrowed is copied through its saved form (as a model file holds it).
+            let copy: Box<dyn MotionModel> = serde_json::to_value(*m)
+                .and_then(serde_json::from_value)
+                .map_err(|e| {
+                    ExperimentError::Incompatible(format!(
+                        "the prior model {} cannot be copied into the library: {e}",
+                        m.name()
+                    ))
+                })?;
+            (m.name(), std::sync::Arc::from(copy))
+        }
+    };
+    let others: Vec<_> = library
+        .par_iter()
+        .map(|d| fit(d).map(|m| (d.robot.name.clone(), m)))
+        .collect::<Result<_, _>>()?;
+    Ok(std::iter::once(first).chain(others).collect())
 }

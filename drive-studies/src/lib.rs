@@ -38,6 +38,7 @@ mod protocols;
 mod regions;
 mod registries;
 pub mod report;
+mod terrain_library;
 mod twin_check;
 
 /// The models compared by default (`drive eval`, `report`, Python's `compare`): the paper's
@@ -91,6 +92,7 @@ pub use protocols::{
 };
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use registries::{Catalog, Listed, Registries};
+pub use terrain_library::{TerrainLibrary, LOG_LIKELIHOOD_FLOOR, PRIOR_LOG_ODDS};
 pub use twin_check::{
     choose_variability, fit_twin, fit_twin_with, poor_twin, twin_check, CheckCommands,
     CheckDistance, ContactSpreadChoice, ContactSpreads, FittedTwin, ScatterCheck, SpreadTried,

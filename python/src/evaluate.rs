@@ -226,9 +226,10 @@ pub(crate) fn bench_json(
 /// (its first `split` of the intervals), scored on the rest after each of `times` seconds
 /// (default 0, 15, 30, 60, 120, 240) beside the prior alone, a fit from scratch and the own
 /// fit. Stops on Ctrl-C (`KeyboardInterrupt`) between models; `progress(done, total)` after
-/// each model.
+/// each model. `library`: datasets of the robot on other grounds, blended with the prior by
+/// their likelihood (`drive adapt --library`).
 #[pyfunction]
-#[pyo3(signature = (prior, data, models=None, split=0.5, times=None, progress=None, allow_useless=false))]
+#[pyo3(signature = (prior, data, models=None, split=0.5, times=None, progress=None, allow_useless=false, library=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn adapt_json(
     py: Python<'_>,
@@ -239,9 +240,24 @@ pub(crate) fn adapt_json(
     times: Option<Vec<f64>>,
     progress: Option<&Bound<'_, PyAny>>,
     allow_useless: bool,
+    library: Option<Vec<Bound<'_, PyAny>>>,
 ) -> PyResult<String> {
     let target = dataset_of(data)?;
     crate::dataset::refuse_useless(&target.inner, "the target", allow_useless)?;
+    if library.as_ref().is_some_and(|l| l.len() > 50) {
+        return Err(err("library holds at most 50 datasets"));
+    }
+    let mut library_data = Vec::new();
+    for entry in library.iter().flatten() {
+        let d = dataset_of(entry).map_err(|_| {
+            err(format!(
+                "library entries must be drive.Dataset objects, got {}",
+                type_name(entry)
+            ))
+        })?;
+        crate::dataset::refuse_useless(&d.inner, "a library dataset", allow_useless)?;
+        library_data.push(std::sync::Arc::new(d.inner.clone()));
+    }
     if !(split > 0.0 && split < 1.0) {
         return Err(err(format!(
             "split {split} must lie strictly between 0 and 1"
@@ -308,6 +324,7 @@ pub(crate) fn adapt_json(
         let study = drive::studies::AdaptStudy {
             split,
             times_s: times,
+            library: library_data,
             ..Default::default()
         };
         let result = drive::studies::adapt_with_progress(

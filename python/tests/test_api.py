@@ -139,6 +139,17 @@ def test_adapt_equals_drive_adapt_json(tmp_path):
         drive.adapt("bundled:warthog_asphalt_a", target)
     with pytest.raises(drive.DriveError, match="one model"):
         drive.adapt(model, target, models="slip-blr,slip-ipem")
+    # A terrain library (drive adapt --library): the same dict from Python.
+    expected = json.loads(
+        cli("adapt", "--prior", "bundled:warthog_asphalt_a", "--data", "bundled:warthog_grass_2024-08-08",
+            "--library", "bundled:warthog_drive", "--models", "slip-blr", "--times", "0,30", "--json").stdout
+    )
+    got = drive.adapt(prior, target, models="slip-blr", times=[0, 30],
+                      library=[drive.load_dataset("bundled:warthog_drive")])
+    close(got, expected)
+    assert got["library"] == ["warthog-asphalt-a", "warthog-drive"]
+    with pytest.raises(drive.DriveError, match="library entries must be drive.Dataset"):
+        drive.adapt(prior, target, library=["bundled:warthog_drive"])
 
 
 def test_an_adaptive_model_fed_the_windows_driven_is_drive_adapts(tmp_path):

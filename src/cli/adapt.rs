@@ -37,8 +37,16 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     times: Vec<f64>,
+    /// A terrain library: datasets of the same robot on other grounds (window CSVs or
+    /// bundled:NAME), comma-separated. Each model of --models is fitted on each of them
+    /// (with its calibrated uncertainty) and, with the prior, blended by how likely each
+    /// made the target's windows as they are driven (`library` in the curves, with each
+    /// model's `weights`).
+    #[arg(long, value_delimiter = ',')]
+    library: Vec<String>,
     /// Print one JSON object on stdout: `curve` (one entry per learner, model and time:
-    /// `learner`, `model` (adaptive, frozen, scratch or own), `t_s`,
+    /// `learner`, `model` (adaptive, frozen, scratch, own, or library with --library and
+    /// its `weights`), `t_s`,
     /// `translational_median_m`, `rotational_median_rad`, for adaptive `ground_changed`,
     /// and `note` where no model could be fitted), `extrapolation` (the prior's and the
     /// target's commanded body velocities per axis, `prior_range` and `target_range`, their
@@ -137,6 +145,22 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     };
     let names: Vec<&str> = super::common::names(&names);
     let specs = registries.models().resolve_list(&names)?;
+    crate::traits::limits::at_most("--library", args.library.len() as f64, 50.0, " datasets")?;
+    let mut library = Vec::new();
+    for entry in &args.library {
+        let entry_args = DataArgs {
+            data: Some(PathBuf::from(entry)),
+            sidecar: None,
+            frame: args.data.frame.clone(),
+        };
+        let data = load(registries, &entry_args).with_context(|| format!("--library {entry}"))?;
+        useless.extend(
+            super::common::refuse_useless(&data, entry, args.useless.allow_useless, true)?
+                .into_iter()
+                .map(|f| format!("{entry}, in the library: {f}")),
+        );
+        library.push(std::sync::Arc::new(data));
+    }
     let files = ["adapt.json", "curve.csv", "curves.png", "curves.svg"];
     let outputs = match &args.out {
         Some(dir) => {
@@ -147,6 +171,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             let mut all: Vec<(&str, &std::path::Path)> = vec![("--out", dir.as_path())];
             all.extend(planned.iter().map(|(r, p)| (r.as_str(), p.as_path())));
             let mut inputs = vec![("--prior", prior_path.clone())];
+            inputs.extend(args.library.iter().map(|l| ("--library", PathBuf::from(l))));
             if let Some(d) = &args.data.data {
                 inputs.push(("--data", d.clone()));
                 inputs.push((
@@ -164,6 +189,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let study = crate::studies::AdaptStudy {
         split: args.split,
         times_s: args.times.clone(),
+        library,
         ..Default::default()
     };
     let mut result = crate::studies::adapt(registries, &prior, &target, &specs, &study)?;
@@ -219,10 +245,16 @@ fn text(r: &crate::studies::Adaptation) -> String {
         }
     }
     for learner in learners {
+        let library = r.curve.iter().any(|p| p.model == "library");
         let _ = writeln!(
             s,
-            "\n{learner}\n  {:>6}  {:<17}  {:<17}  {:<17}  {:<17}  ground changed",
-            "t [s]", "adaptive", "frozen", "scratch", "own"
+            "\n{learner}\n  {:>6}  {:<17}  {:<17}  {:<17}  {:<17}  {}ground changed",
+            "t [s]",
+            "adaptive",
+            "frozen",
+            "scratch",
+            "own",
+            if library { "library            " } else { "" }
         );
         let mut times: Vec<f64> = r
             .curve
@@ -243,13 +275,25 @@ fn text(r: &crate::studies::Adaptation) -> String {
                 .map_or("-", |c| if c { "yes" } else { "no" });
             let _ = writeln!(
                 s,
-                "  {shown:>6}  {:<17}  {:<17}  {:<17}  {:<17}  {changed}",
+                "  {shown:>6}  {:<17}  {:<17}  {:<17}  {:<17}  {}{changed}",
                 cell(at("adaptive")),
                 cell(at("frozen")),
                 cell(at("scratch")),
-                cell(at("own"))
+                cell(at("own")),
+                if library {
+                    format!("{:<17}  ", cell(at("library")))
+                } else {
+                    String::new()
+                }
             );
         }
+    }
+    if !r.library.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nlibrary: {} (the models blended by their likelihood of the windows driven)",
+            r.library.join(", ")
+        );
     }
     for note in &r.notes {
         let _ = writeln!(s, "\nnote: {note}");

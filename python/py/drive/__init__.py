@@ -405,14 +405,17 @@ class _progress:
         return False
 
 
-def adapt(prior, data, models=None, split=0.5, times=None, progress=None, allow_useless=False):
+def adapt(prior, data, models=None, split=0.5, times=None, progress=None, allow_useless=False, library=None):
     """`drive adapt --json` as a dict: `prior` (a fitted or loaded `drive.Model`, adapted as
     it is, or a `drive.Dataset` on which each model of `models`, default slip-blr and
     slip-ipem, is fitted) adapting to the dataset `data`: its first `split` of the intervals
     streamed in time order into the adaptive model, scored on the rest after each of `times`
     seconds (default 0, 15, 30, 60, 120, 240) beside the prior alone (`frozen`), a fit from
     scratch on the same seconds (`scratch`) and the fit on the whole half (`own`); `curve`
-    holds one entry per learner, model and time (docs/adaptation.md).
+    holds one entry per learner, model and time (docs/adaptation.md). `library`, a list of
+    `drive.Dataset` of the same robot on other grounds: each model fitted on each, blended
+    with the prior by their likelihood of the windows driven (`library` in the curve, with
+    its `weights`; `drive adapt --library`).
 
     Ctrl-C raises KeyboardInterrupt within a fraction of a second (the work stops after the
     model under way). `progress` is a callable given `(done, total)` as each model's curve
@@ -424,7 +427,8 @@ def adapt(prior, data, models=None, split=0.5, times=None, progress=None, allow_
         times = [float(t) for t in times]
     with _progress(progress, "adapt") as report:
         return _json.loads(
-            _adapt_json(prior, data, models, float(split), times, report, _flag("allow_useless", allow_useless))
+            _adapt_json(prior, data, models, float(split), times, report, _flag("allow_useless", allow_useless),
+                        None if library is None else list(library))
         )
 
 
