@@ -37,8 +37,8 @@ mod vehicle;
 pub use car::{step_car, Actuator, CarParams, CarSimulator, CarState};
 pub use fit::{
     check_any_vehicle_run, check_real_run, command_scatter, fit_any_vehicle, scatter, sim_fit,
-    sim_fit_with_contact_spread, AnyVehicleFit, AnyVehicleFitReport, Scatter, ScatterFit, SimFit,
-    SimFitError, SimFitReport, TurnStallFit,
+    sim_fit_with_contact_spread, speeds_kept, AnyVehicleFit, AnyVehicleFitReport, Scatter,
+    ScatterFit, SimFit, SimFitError, SimFitReport, TurnStallFit,
 };
 pub use omni::OmniPlant;
 pub use parameters::{

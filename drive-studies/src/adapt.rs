@@ -656,6 +656,42 @@ fn beyond(got: &[[f64; 2]; 3], within: &[[f64; 2]; 3]) -> bool {
     })
 }
 
+/// `data` (named `what`, its vehicle `whose`) checked against the target: the same rate
+/// and window length, the same vehicle type, and not the target's own windows (a tenth of
+/// them or more, by content).
+fn same_robot(
+    data: &Dataset,
+    target: &Dataset,
+    what: &str,
+    whose: &str,
+) -> Result<(), ExperimentError> {
+    let (p, t) = (&data.robot, &target.robot);
+    let incompatible = |why: String| Err(ExperimentError::Incompatible(why));
+    if p.rate_hz != t.rate_hz || p.window_len != t.window_len {
+        return incompatible(format!(
+            "{what} is {} Hz x {} samples per window, the target's {} Hz x {}: a model of one does not predict the other",
+            p.rate_hz, p.window_len, t.rate_hz, t.window_len
+        ));
+    }
+    let (a, b) = (crate::vehicle_type(data), crate::vehicle_type(target));
+    if a != b {
+        return incompatible(format!(
+            "{whose}'s vehicle type is {a}, the target's {b}: adaptation follows a change of ground, not of vehicle"
+        ));
+    }
+    let (pa, pb) = (
+        crate::bench::window_prints(data),
+        crate::bench::window_prints(target),
+    );
+    let (shared, smaller) = crate::bench::shared_windows(&pa, &pb);
+    if crate::bench::same_run((shared, smaller)) {
+        return incompatible(format!(
+            "{what} holds the target's own windows ({shared} of the {smaller} of the one with fewer are in both): it would be scored on windows it was fitted on"
+        ));
+    }
+    Ok(())
+}
+
 /// The vehicle's saved form, to tell two geometries apart.
 fn vehicle_json(v: &dyn drive_traits::CommandModel) -> String {
     serde_json::to_string(v).unwrap_or_default()
@@ -743,34 +779,13 @@ pub(crate) fn adapt_with(
     let target_vehicle = target.robot.vehicle.as_ref();
     match prior {
         AdaptPrior::Data(data) => {
-            let (p, t) = (&data.robot, &target.robot);
-            if p.rate_hz != t.rate_hz || p.window_len != t.window_len {
-                return incompatible(format!(
-                    "the prior's data is {} Hz x {} samples per window, the target's {} Hz x {}: a model of one does not predict the other",
-                    p.rate_hz, p.window_len, t.rate_hz, t.window_len
-                ));
-            }
-            let (a, b) = (crate::vehicle_type(data), crate::vehicle_type(target));
-            if a != b {
-                return incompatible(format!(
-                    "the prior's vehicle type is {a}, the target's {b}: adaptation follows a change of ground, not of vehicle"
-                ));
-            }
+            let p = &data.robot;
+            same_robot(data, target, "the prior's data", "the prior")?;
             if vehicle_json(p.vehicle.as_ref()) != vehicle_json(target_vehicle) {
                 notes.push(format!(
                     "the prior's vehicle ({}) is not the target's ({}): the prior predicts with its own geometry",
                     vehicle_json(p.vehicle.as_ref()),
                     vehicle_json(target_vehicle)
-                ));
-            }
-            let (pa, pb) = (
-                crate::bench::window_prints(data),
-                crate::bench::window_prints(target),
-            );
-            let (shared, smaller) = crate::bench::shared_windows(&pa, &pb);
-            if crate::bench::same_run((shared, smaller)) {
-                return incompatible(format!(
-                    "the prior's data holds the target's own windows ({shared} of the {smaller} of the one with fewer are in both): the prior would be scored on windows it was fitted on"
                 ));
             }
         }
@@ -815,31 +830,8 @@ pub(crate) fn adapt_with(
         }
     }
     for data in &study.library {
-        let (p, t) = (&data.robot, &target.robot);
-        if p.rate_hz != t.rate_hz || p.window_len != t.window_len {
-            return incompatible(format!(
-                "library dataset {} is {} Hz x {} samples per window, the target {} Hz x {}",
-                p.name, p.rate_hz, p.window_len, t.rate_hz, t.window_len
-            ));
-        }
-        let (a, b) = (crate::vehicle_type(data), crate::vehicle_type(target));
-        if a != b {
-            return incompatible(format!(
-                "library dataset {}'s vehicle type is {a}, the target's {b}: a library is of one robot's grounds",
-                p.name
-            ));
-        }
-        let (pa, pb) = (
-            crate::bench::window_prints(data),
-            crate::bench::window_prints(target),
-        );
-        let (shared, smaller) = crate::bench::shared_windows(&pa, &pb);
-        if crate::bench::same_run((shared, smaller)) {
-            return incompatible(format!(
-                "library dataset {} holds the target's own windows ({shared} of the {smaller} of the one with fewer are in both): the blend would be scored on windows it was fitted on",
-                p.name
-            ));
-        }
+        let what = format!("library dataset {}", data.robot.name);
+        same_robot(data, target, &what, &what)?;
     }
     let (train, eval) = split_by_interval(target, study.split)
         .map_err(|e| ExperimentError::NotEnoughData(e.to_string()))?;

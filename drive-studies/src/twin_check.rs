@@ -134,6 +134,12 @@ pub struct TwinCheck {
     /// have at least 30 steady windows. Reported: a real powertrain that stalls under load
     /// on some commands and not on others like them, which a twin's does not, shows here.
     pub command_scatter: Option<ScatterCheck>,
+    /// How much of the commanded forward speed (driving nearly straight) and yaw rate
+    /// (turning) the body keeps on held commands (`drive_sim::speeds_kept`: medians over
+    /// the steady windows, body over commanded), when both have enough such windows.
+    /// Reported: a twin can hold the models' median errors while keeping half the real
+    /// run's speed.
+    pub speed_kept: Option<ScatterCheck>,
     /// The tolerance of `poor` (a fraction: 0.3 is 30%).
     pub tolerance: f64,
     /// Every median further than the tolerance from the real one, in words: what makes a
@@ -144,6 +150,8 @@ pub struct TwinCheck {
     pub scatter_off: Vec<String>,
     /// The same of `command_scatter` (reported; it does not make a poor twin alone).
     pub command_scatter_off: Vec<String>,
+    /// The same of `speed_kept` (reported; it does not make a poor twin alone).
+    pub speed_kept_off: Vec<String>,
 }
 
 /// Runs the twin check of `twin`, fitted on `data` for `robot`, with `seeds` twin runs
@@ -255,6 +263,9 @@ pub fn twin_check(
     let command_scatter = geometry
         .as_ref()
         .and_then(|g| pooled_check(data, &simulated, |d| drive_sim::command_scatter(d, g)));
+    let speed_kept = geometry
+        .as_ref()
+        .and_then(|g| pooled_check(data, &simulated, |d| drive_sim::speeds_kept(d, g)));
     let poor = poor_twin(&check, TWIN_TOLERANCE);
     let scatter_off = scatter.map_or_else(Vec::new, |s| {
         let what = ["steady forward-speed scatter", "steady yaw-rate scatter"];
@@ -267,6 +278,26 @@ pub fn twin_check(
         ];
         scatters_off(&s, what, TWIN_TOLERANCE)
     });
+    let speed_kept_off = speed_kept.map_or_else(Vec::new, |s| {
+        let mut out = Vec::new();
+        for (axis, what) in [
+            "forward speed kept driving nearly straight (body over commanded)",
+            "yaw rate kept turning (body over commanded)",
+        ]
+        .iter()
+        .enumerate()
+        {
+            off_by(
+                &mut out,
+                what.to_string(),
+                s.twin[axis],
+                (s.real[axis], None),
+                "of the commanded",
+                TWIN_TOLERANCE,
+            );
+        }
+        out
+    });
     Ok(TwinCheck {
         seeds: seeds.to_vec(),
         commands,
@@ -278,6 +309,8 @@ pub fn twin_check(
         poor,
         scatter_off,
         command_scatter_off,
+        speed_kept,
+        speed_kept_off,
     })
 }
 

@@ -37,6 +37,10 @@ pub struct Args {
     /// speeds, `real` and `twin`), `command_scatter` (their wheel speeds around a smooth
     /// function of their commands: how consistently the wheels follow the commands;
     /// `command_scatter_off` names those further than 30% from the real run's, reported),
+    /// `speed_kept` (the share of the commanded forward speed, driving nearly straight, and
+    /// of the commanded yaw rate, turning, the body keeps on held commands: medians over the
+    /// steady windows, `real` and `twin`; `speed_kept_off` names those further than 30%,
+    /// reported),
     /// `check_seeds`, `check_commands`, `poor`, `written`, `fitted` (false with
     /// --twin), and the twin (`terrain`), the fit's `report` and `variability_choice`
     /// (whether the fitted variability was kept: `kept`, the `fitted` variability, and the
@@ -89,12 +93,14 @@ struct Output<'a> {
     check: &'a [crate::studies::TwinCheckRow],
     scatter: Option<crate::studies::ScatterCheck>,
     command_scatter: Option<crate::studies::ScatterCheck>,
+    speed_kept: Option<crate::studies::ScatterCheck>,
     check_seeds: &'a [u64],
     check_commands: crate::studies::CheckCommands,
     tolerance: f64,
     poor: &'a [String],
     scatter_off: &'a [String],
     command_scatter_off: &'a [String],
+    speed_kept_off: &'a [String],
     written: bool,
     fitted: bool,
     /// The simulator the twin's check ran on.
@@ -247,12 +253,14 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         check: &check.check,
         scatter: check.scatter,
         command_scatter: check.command_scatter,
+        speed_kept: check.speed_kept,
         check_seeds: &check.seeds,
         check_commands: check.commands,
         tolerance: check.tolerance,
         poor: &check.poor,
         scatter_off: &check.scatter_off,
         command_scatter_off: &check.command_scatter_off,
+        speed_kept_off: &check.speed_kept_off,
         written,
         fitted: report.is_some() || ground_fit.is_some(),
         ground_fit: ground_fit.as_ref().map(|f| &f.report),
@@ -374,6 +382,21 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             text += &format!(
                 "  {what}: real {:.3} m/s and {:.3} rad/s, twin {:.3} and {:.3}{outside}\n",
                 s.real[0], s.real[1], s.twin[0], s.twin[1],
+            );
+        }
+        if let Some(s) = o.speed_kept {
+            let outside = if o.speed_kept_off.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " (outside {:.0}%: {})",
+                    100.0 * o.tolerance,
+                    o.speed_kept_off.join("; ")
+                )
+            };
+            text += &format!(
+                "  speed kept on held commands (body over commanded, steady): forward {:.2} real, {:.2} twin; yaw {:.2} real, {:.2} twin{outside}\n",
+                s.real[0], s.twin[0], s.real[1], s.twin[1],
             );
         }
         text += &if o.poor.is_empty() {

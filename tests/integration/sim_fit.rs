@@ -760,6 +760,19 @@ fn the_check_gives_the_twin_the_real_runs_commands_unless_asked_to_draw() {
         assert!(r > 0.0 && (t / r - 1.0).abs() < 0.3, "{c}");
     }
     assert_eq!(replayed["command_scatter_off"], serde_json::json!([]));
+    // The twin of itself keeps the real run's share of its commanded speed and yaw rate
+    // (the shipped Husky twin keeps a seventh of its commanded yaw rate: not the 1 a
+    // naive twin would keep).
+    let k = &replayed["speed_kept"];
+    for axis in 0..2 {
+        let (r, t) = (
+            k["real"][axis].as_f64().unwrap(),
+            k["twin"][axis].as_f64().unwrap(),
+        );
+        assert!(r > 0.0 && (t / r - 1.0).abs() < 0.15, "{k}");
+    }
+    assert!(k["real"][1].as_f64().unwrap() < 0.5, "{k}");
+    assert_eq!(replayed["speed_kept_off"], serde_json::json!([]));
     for (a, b) in replayed["check"]
         .as_array()
         .unwrap()

@@ -65,7 +65,7 @@ use stall::*;
 #[cfg(test)]
 use test_runs::husky_run;
 use variability::*;
-pub use variability::{command_scatter, scatter, Scatter, ScatterFit};
+pub use variability::{command_scatter, scatter, speeds_kept, Scatter, ScatterFit};
 
 /// Why a twin cannot be fitted.
 #[derive(Debug, Error, Clone, PartialEq)]

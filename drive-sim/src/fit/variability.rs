@@ -113,6 +113,81 @@ pub fn command_scatter(data: &Dataset, g: &DifferentialDrive) -> Option<[f64; 2]
     Some(residuals.each_ref().map(|r| rms(r)))
 }
 
+/// The fewest steady windows a share of the speed kept is a median of.
+const MIN_KEPT_WINDOWS: usize = 10;
+
+/// How much of the commanded motion the body keeps on held commands: the median, over the
+/// steady windows commanded nearly straight (a yaw rate within half the forward speed at the
+/// wheels, `|w| b / 2 <= |v| / 2`) at a third of the run's largest forward speed or more, of
+/// the body's forward speed (from the poses) over the commanded one; and over those
+/// commanded to turn at a third of the run's largest yaw rate or more, of the body's yaw
+/// rate over the commanded one. `None` with fewer than 10 windows of either kind. The twin
+/// check reports it, real against twin: a twin can hold the models' median errors while
+/// its body keeps half the speed the real one kept (docs/closed-loop.md).
+///
+/// ```
+/// use drive_traits::{Dataset, Input, Phase, Pose, RobotDescription, Window};
+/// let g = drive_models::DifferentialDrive::new(0.5, 1.0);
+/// let robot = RobotDescription {
+///     name: "r".into(),
+///     robot: "r".into(),
+///     rate_hz: 20.0,
+///     window_len: 40,
+///     vehicle: std::sync::Arc::new(g.clone()),
+///     position_frame: Default::default(),
+///     terrain: String::new(),
+///     registered_robot: String::new(),
+/// };
+/// // Straight at 2 m/s commanded (wheels at 4 rad/s), the body at 1.5 m/s; turning in
+/// // place at 1 rad/s commanded (wheels at -/+1 rad/s), the body at 0.25 rad/s.
+/// let straight = |i: usize| {
+///     let pose = (0..40).map(|k| Pose::new(1.5 * 0.05 * k as f64, 0.0, 0.0)).collect();
+///     Window::new(i, i, Phase::Steady, vec![Input::new(4.0, 4.0, 0.0); 40], vec![Input::new(4.0, 4.0, 0.0); 40], pose, vec![0.0; 40])
+/// };
+/// let turn = |i: usize| {
+///     let pose = (0..40).map(|k| Pose::new(0.0, 0.0, 0.25 * 0.05 * k as f64)).collect();
+///     Window::new(i, i, Phase::Steady, vec![Input::new(-1.0, 1.0, 0.0); 40], vec![Input::new(-1.0, 1.0, 0.0); 40], pose, vec![0.0; 40])
+/// };
+/// let windows = (0..10).map(straight).chain((10..20).map(turn)).collect();
+/// let kept = drive_sim::speeds_kept(&Dataset { robot, windows }, &g).unwrap();
+/// assert!((kept[0] - 0.75).abs() < 1e-9 && (kept[1] - 0.25).abs() < 1e-9, "{kept:?}");
+/// ```
+pub fn speeds_kept(data: &Dataset, g: &DifferentialDrive) -> Option<[f64; 2]> {
+    let dt = 1.0 / data.robot.rate_hz;
+    let rows: Vec<([f64; 2], [f64; 2])> = steady_windows(data)
+        .map(|w| (mean_body(g, &w.command), window_motion(&w.pose, dt)))
+        .filter(|(c, b)| c.iter().chain(b).all(|x| x.is_finite()))
+        .collect();
+    let largest = |axis: usize| rows.iter().map(|(c, _)| c[axis].abs()).fold(0.0, f64::max);
+    let (v_max, w_max) = (largest(0), largest(1));
+    let half_track = g.baseline / 2.0;
+    let median = |mut r: Vec<f64>| {
+        if r.len() < MIN_KEPT_WINDOWS {
+            return None;
+        }
+        r.sort_by(f64::total_cmp);
+        let n = r.len();
+        Some(0.5 * (r[(n - 1) / 2] + r[n / 2]))
+    };
+    let forward = median(
+        rows.iter()
+            .filter(|(c, _)| {
+                c[0].abs() >= v_max / 3.0
+                    && c[0].abs() > 0.0
+                    && c[1].abs() * half_track <= 0.5 * c[0].abs()
+            })
+            .map(|(c, b)| b[0] / c[0])
+            .collect(),
+    )?;
+    let yaw = median(
+        rows.iter()
+            .filter(|(c, _)| c[1].abs() >= w_max / 3.0 && c[1].abs() > 0.0)
+            .map(|(c, b)| b[1] / c[1])
+            .collect(),
+    )?;
+    Some([forward, yaw])
+}
+
 /// The steady windows of at least three samples.
 fn steady_windows(data: &Dataset) -> impl Iterator<Item = &drive_traits::Window> {
     data.windows
