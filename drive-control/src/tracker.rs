@@ -297,7 +297,8 @@ impl Tracker {
     /// The robot was stopped by something else (a safety stop, an operator taking over):
     /// forgets the commands sent (the next ones ramp up from rest within the acceleration
     /// limits), their history and the controller's plan; keeps the progress along the
-    /// path and the localization fixes.
+    /// path and the localization fixes; a schedule ([`TrackerConfig::schedule_s`]) starts
+    /// again from where the robot is.
     pub fn reset(&mut self) {
         self.sent = SentCommand::default();
         self.scheduled = self.progress;
