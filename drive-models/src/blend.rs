@@ -145,22 +145,10 @@ impl MotionModel for BlendedModel {
     fn predict_into(&self, start: &StartState, commands: &[Input], poses: &mut Vec<Pose>) {
         poses.clear();
         let mut one = Vec::with_capacity(commands.len() + 1);
-        // The first model's headings: the others' are averaged as differences from them.
-        let mut reference: Vec<f64> = Vec::new();
+        let mut reference = Vec::new();
         for (model, w) in self.active() {
             model.predict_into(start, commands, &mut one);
-            if reference.is_empty() {
-                reference = one.iter().map(|q| q.z).collect();
-                poses.resize(one.len(), Pose::zeros());
-                for (p, r) in poses.iter_mut().zip(&reference) {
-                    p.z = *r;
-                }
-            }
-            for ((p, q), r) in poses.iter_mut().zip(&one).zip(&reference) {
-                p.x += w * q.x;
-                p.y += w * q.y;
-                p.z += w * wrap_angle(q.z - r);
-            }
+            add_weighted(poses, &mut reference, &one, w);
         }
     }
 
@@ -177,7 +165,11 @@ impl MotionModel for BlendedModel {
             model.predict_with_covariance_into(start, commands, &mut p, &mut c)?;
             each.push((p, c, w));
         }
-        self.predict_into(start, commands, poses);
+        poses.clear();
+        let mut reference = Vec::new();
+        for (p, _, w) in &each {
+            add_weighted(poses, &mut reference, p, *w);
+        }
         covariances.clear();
         covariances.resize(poses.len(), PoseCovariance::zeros());
         for (p, c, w) in &each {
@@ -191,6 +183,22 @@ impl MotionModel for BlendedModel {
             }
         }
         Ok(())
+    }
+}
+
+/// Adds the poses `one` of a model of weight `w` to the blend `poses` (empty before the
+/// first model). Headings are averaged as differences from the first model's, kept in
+/// `reference`.
+fn add_weighted(poses: &mut Vec<Pose>, reference: &mut Vec<f64>, one: &[Pose], w: f64) {
+    if reference.is_empty() {
+        *reference = one.iter().map(|q| q.z).collect();
+        poses.clear();
+        poses.extend(reference.iter().map(|&z| Pose::new(0.0, 0.0, z)));
+    }
+    for ((p, q), r) in poses.iter_mut().zip(one).zip(reference.iter()) {
+        p.x += w * q.x;
+        p.y += w * q.y;
+        p.z += w * wrap_angle(q.z - r);
     }
 }
 

@@ -832,6 +832,13 @@ pub(crate) fn adapt_with(
     for data in &study.library {
         let what = format!("library dataset {}", data.robot.name);
         same_robot(data, target, &what, &what)?;
+        if vehicle_json(data.robot.vehicle.as_ref()) != vehicle_json(target_vehicle) {
+            notes.push(format!(
+                "{what}'s vehicle ({}) is not the target's ({}): its model predicts with its own geometry",
+                vehicle_json(data.robot.vehicle.as_ref()),
+                vehicle_json(target_vehicle)
+            ));
+        }
     }
     let (train, eval) = split_by_interval(target, study.split)
         .map_err(|e| ExperimentError::NotEnoughData(e.to_string()))?;

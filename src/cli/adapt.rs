@@ -148,6 +148,9 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     crate::traits::limits::at_most("--library", args.library.len() as f64, 50.0, " datasets")?;
     let mut library = Vec::new();
     for entry in &args.library {
+        if entry.trim().is_empty() {
+            anyhow::bail!("--library has an empty entry: give datasets separated by commas");
+        }
         let entry_args = DataArgs {
             data: Some(PathBuf::from(entry)),
             sidecar: None,
@@ -254,7 +257,11 @@ fn text(r: &crate::studies::Adaptation) -> String {
             "frozen",
             "scratch",
             "own",
-            if library { "library            " } else { "" }
+            if library {
+                format!("{:<17}  ", "library")
+            } else {
+                String::new()
+            }
         );
         let mut times: Vec<f64> = r
             .curve

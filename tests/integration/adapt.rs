@@ -312,31 +312,51 @@ fn adapt_refuses_what_cannot_be_compared_and_notes_another_geometry() {
     );
     let err = common::user_error(&["adapt", "--prior", grass, "--data", grass]);
     assert!(err.contains("the target's own windows"), "{err}");
-    let err = common::user_error(&[
-        "adapt",
-        "--prior",
-        "bundled:warthog_asphalt_a",
-        "--data",
-        grass,
-        "--library",
-        grass,
-    ]);
+    // A terrain library: the target's own windows or another vehicle type refused, an
+    // empty entry named, another geometry of the same type run with a note.
+    let library = |entry: &str| {
+        common::user_error(&[
+            "adapt",
+            "--prior",
+            "bundled:warthog_asphalt_a",
+            "--data",
+            grass,
+            "--library",
+            entry,
+        ])
+    };
+    let err = library(grass);
     assert!(
         err.contains("library dataset") && err.contains("the target's own windows"),
         "{err}"
     );
-    let err = common::user_error(&[
+    let err = library(&car);
+    assert!(
+        err.contains("library dataset") && err.contains("ackermann"),
+        "{err}"
+    );
+    let err = library(",bundled:warthog_drive");
+    assert!(err.contains("--library has an empty entry"), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&common::ok(&[
         "adapt",
         "--prior",
         "bundled:warthog_asphalt_a",
         "--data",
         grass,
         "--library",
-        &car,
-    ]);
+        "bundled:husky_drive",
+        "--models",
+        "slip-blr",
+        "--times",
+        "0",
+        "--json",
+    ]))
+    .unwrap();
     assert!(
-        err.contains("library dataset") && err.contains("ackermann"),
-        "{err}"
+        v["notes"].to_string().contains("library dataset husky")
+            && v["notes"].to_string().contains("is not the target's"),
+        "{}",
+        v["notes"]
     );
     let err = common::user_error(&[
         "adapt",

@@ -161,14 +161,8 @@ pub fn speeds_kept(data: &Dataset, g: &DifferentialDrive) -> Option<[f64; 2]> {
     let largest = |axis: usize| rows.iter().map(|(c, _)| c[axis].abs()).fold(0.0, f64::max);
     let (v_max, w_max) = (largest(0), largest(1));
     let half_track = g.baseline / 2.0;
-    let median = |mut r: Vec<f64>| {
-        if r.len() < MIN_KEPT_WINDOWS {
-            return None;
-        }
-        r.sort_by(f64::total_cmp);
-        let n = r.len();
-        Some(0.5 * (r[(n - 1) / 2] + r[n / 2]))
-    };
+    let median =
+        |mut r: Vec<f64>| (r.len() >= MIN_KEPT_WINDOWS).then(|| drive_traits::median(&mut r));
     let forward = median(
         rows.iter()
             .filter(|(c, _)| {
