@@ -36,6 +36,7 @@ const TYPICAL_ENCODER_GAIN: std::ops::RangeInclusive<f64> = 0.3..=1.25;
 mod copies;
 mod localization;
 mod parts;
+mod scattered;
 mod steps;
 pub use localization::{fixed_position_axis, position_grid};
 
@@ -197,7 +198,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "direction",
-        "localization turning the other way from the encoders in most windows where both turn (a mirrored frame, the encoder columns swapped), or moving backwards where they drive forwards (encoders sign-flipped); the same of the commands in the steady windows (command columns swapped or sign-flipped)",
+        "localization turning the other way from the encoders in most windows where both turn (a mirrored frame, the encoder columns swapped), or moving backwards where they drive forwards (encoders sign-flipped); the same of the commands in the steady windows (command columns swapped or sign-flipped); interval by interval, one of the commands, the encoders and localization turning or driving against two others that agree in a tenth of the intervals (a column corrupted in intervals scattered over the run)",
     ),
     (
         "commands-constant",
@@ -355,6 +356,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
         }
         None => {}
     }
+    scattered::add_scattered(&w, &mut out);
     out
 }
 

@@ -2467,3 +2467,145 @@ fn an_axis_commanded_in_a_few_intervals_is_not_judged() {
         );
     }
 }
+
+/// The thirteenth sweep's P1: a column corrupted in intervals scattered over the run (a
+/// fifth of them, picked as at random), which no half, third or stretch holds, so that each
+/// part's statistics dilute it as the whole run's do. Interval by interval, the columns that
+/// clearly move (commands, encoders, localization, IMU) move the same way on real runs but
+/// in a handful: the odd column is named with its intervals.
+#[test]
+fn a_column_corrupted_in_intervals_scattered_over_the_run_is_named() {
+    use drive::data::quality::{check, Severity};
+    let said = |d: &drive::traits::Dataset| -> Vec<String> {
+        check(d, None)
+            .into_iter()
+            .map(|f| format!("{} {:?}: {}", f.check, f.severity, f.message))
+            .collect()
+    };
+    // A fifth of the intervals, spread as a random draw would: none of the parts' cuts.
+    let scattered = |interval: usize| (interval * 37 + 11) % 10 < 2;
+    type Edit = fn(&mut drive::traits::Window);
+    let cases: [(&str, &str, Edit, &str); 8] = [
+        (
+            "warthog_drive",
+            "encoders swapped",
+            |w| w.measured.iter_mut().for_each(|u| u.swap_rows(0, 1)),
+            "direction Fatal: the encoders turn the other way from the other columns",
+        ),
+        (
+            "husky_drive",
+            "encoders swapped",
+            |w| w.measured.iter_mut().for_each(|u| u.swap_rows(0, 1)),
+            "direction Fatal: the encoders turn the other way from the other columns",
+        ),
+        (
+            "husky_drive",
+            "localization mirrored",
+            |w| {
+                w.pose.iter_mut().for_each(|p| {
+                    p.y = -p.y;
+                    p.z = -p.z
+                })
+            },
+            "direction Fatal: the localization turns the other way from the other columns",
+        ),
+        (
+            "warthog_drive",
+            "left command negated",
+            |w| w.command.iter_mut().for_each(|u| u.x = -u.x),
+            "direction Fatal: the commands turn the other way from the other columns",
+        ),
+        (
+            "warthog_asphalt_a",
+            "encoders x3",
+            |w| w.measured.iter_mut().for_each(|u| *u *= 3.0),
+            "encoder-command Fatal: the encoders read over 2.2 times their median share",
+        ),
+        (
+            "husky_drive",
+            "localization x3",
+            |w| {
+                w.pose.iter_mut().for_each(|p| {
+                    p.x *= 3.0;
+                    p.y *= 3.0
+                })
+            },
+            "encoder-units Fatal: localization saw over 1.5 and over 2.2 times its median share",
+        ),
+        (
+            "warthog_asphalt_a",
+            "IMU x0.3",
+            |w| w.imu_yaw_rate.iter_mut().for_each(|r| *r *= 0.3),
+            "imu-yaw-rate Fatal: the IMU's yaw rate reads under 1 / 2.2 times its median share of localization's turn",
+        ),
+        (
+            "warthog_asphalt_2024-09-20a",
+            "encoders swapped, under an IMU read backwards through the run",
+            |w| w.measured.iter_mut().for_each(|u| u.swap_rows(0, 1)),
+            "direction Fatal: the encoders turn the other way from the other columns",
+        ),
+    ];
+    for (run, what, edit, expected) in cases {
+        let mut d = drive::bundled::load(run).unwrap();
+        if what.contains("IMU read backwards") {
+            // As norlab's gravel run's (a warning): it must not outvote the others.
+            d.windows
+                .iter_mut()
+                .for_each(|w| w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r));
+        }
+        let clean = said(&d);
+        assert!(
+            !clean.iter().any(|f| f.contains("scattered over the run")),
+            "{run}: {clean:?}"
+        );
+        d.windows
+            .iter_mut()
+            .filter(|w| scattered(w.interval))
+            .for_each(edit);
+        let found = said(&d);
+        assert!(
+            found
+                .iter()
+                .any(|f| f.starts_with(expected) && f.contains("scattered over the run")),
+            "{run} {what}: {found:?}"
+        );
+        assert!(
+            check(&d, None)
+                .iter()
+                .any(|f| f.severity == Severity::Fatal),
+            "{run} {what}"
+        );
+    }
+}
+
+/// A car on ice keeps sliding backwards after its commands and wheels turn forwards (the
+/// simulated AutoRally, seed 215): localization driving the other way from the commands
+/// and the encoders in a few intervals is a warning that says so, not a refusal (`drive
+/// simulate` refused to write the run when it was fatal).
+#[test]
+fn a_car_still_sliding_after_a_reversal_is_warned_of_not_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("ice.csv");
+    let csv = csv.to_str().unwrap();
+    ok(&[
+        "simulate",
+        "--robot",
+        "autorally",
+        "--terrain",
+        "ice",
+        "--duration",
+        "300",
+        "--seed",
+        "215",
+        "--out",
+        csv,
+    ]);
+    let out = drive(&["check", "--data", csv]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("check direction (warning): the localization drives the other way")
+            && text.contains("the robot still sliding the other way (on ice, after a reversal)"),
+        "{text}"
+    );
+}
