@@ -320,10 +320,14 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(in_parts);
     // A measured column at odds with its commands (another unit, a sign flipped in part of
     // the run) makes the robot look still under its commands, or localization look
-    // drifting where the encoders imply no path: the column is the cause, said first.
+    // drifting where the encoders imply no path, or moving at an angle from its heading
+    // where they drive backwards: the column is the cause, said first.
     if let Some(first) = out.iter().position(|f| {
         f.severity == Severity::Fatal
-            && matches!(f.check, Check::NotMoving | Check::LocalizationSync)
+            && matches!(
+                f.check,
+                Check::NotMoving | Check::LocalizationSync | Check::LocalizationFrame
+            )
     }) {
         let (mut cause, rest): (Vec<Finding>, Vec<Finding>) = out[first..]
             .iter()

@@ -2609,3 +2609,47 @@ fn a_car_still_sliding_after_a_reversal_is_warned_of_not_refused() {
         "{text}"
     );
 }
+
+/// The outside sweep of 2026-12-04: stretches of 60-150 intervals cut from the real Husky
+/// run were refused as "an offset added to 'enc_right'" in part of them. The Husky's
+/// firmware drags a slowly commanded wheel with the fast one (0.2-0.3 of its command), and
+/// a stretch that spins one way more than the rest read that as an offset: the drag is
+/// taken out of the offsets (fitted over the whole run, axis by axis).
+#[test]
+fn a_stretch_of_the_husky_run_is_not_an_offset_by_its_wheels_dragging_each_other() {
+    use drive::data::quality::{check, Severity};
+    let whole = drive::bundled::load("husky_drive").unwrap();
+    for (first, last) in [(40, 100), (5, 105), (20, 120), (35, 135), (10, 160)] {
+        let mut d = whole.clone();
+        d.windows.retain(|w| (first..last).contains(&w.interval));
+        let fatal: Vec<String> = check(&d, None)
+            .into_iter()
+            .filter(|f| f.severity == Severity::Fatal)
+            .map(|f| f.message)
+            .collect();
+        assert!(fatal.is_empty(), "intervals {first}-{last}: {fatal:?}");
+    }
+}
+
+/// The outside sweep of 2026-12-04: both encoders negated in two stretches of a tenth of
+/// the DRIVE Warthog run were refused first as localization in another frame ("x and y
+/// swapped"): localization moves at an angle from its heading where the encoders drive
+/// backwards. The encoders against their commands are the cause, said first.
+#[test]
+fn encoders_negated_in_stretches_are_said_before_the_localization_frame_they_upset() {
+    use drive::data::quality::{check, Check, Severity};
+    let mut d = drive::bundled::load("warthog_drive").unwrap();
+    d.windows
+        .iter_mut()
+        .filter(|w| (27..39).contains(&w.interval) || (77..89).contains(&w.interval))
+        .for_each(|w| w.measured.iter_mut().for_each(|u| *u = -*u));
+    let fatal: Vec<_> = check(&d, None)
+        .into_iter()
+        .filter(|f| f.severity == Severity::Fatal)
+        .collect();
+    assert_eq!(
+        fatal.first().map(|f| f.check),
+        Some(Check::EncoderCommand),
+        "{fatal:?}"
+    );
+}

@@ -353,9 +353,69 @@ fn interval_points(
     means
 }
 
+/// Per input axis, how much of each other axis's command its measurement follows where it is
+/// commanded little ([`LOW_COMMAND`]), over the whole run: `coupling[i][j]`, the gain through
+/// the origin of axis `i`'s measurement less its own gain times its command on axis `j`'s
+/// command, fitted one other axis after the other. A powertrain that limits the body's
+/// velocity drags a slow wheel with the fast one (the Husky's firmware: 0.2-0.3 of the other
+/// wheel's command): read as an offset, a stretch that spins one way more than the rest
+/// would differ from it by that much. Zero where the axes answer alone.
+fn coupling(
+    means: &[[Option<(f64, f64)>; drive_traits::MAX_INPUTS]],
+    axes: usize,
+) -> [[f64; drive_traits::MAX_INPUTS]; drive_traits::MAX_INPUTS] {
+    let mut out = [[0.0; drive_traits::MAX_INPUTS]; drive_traits::MAX_INPUTS];
+    let points: Vec<&[Option<(f64, f64)>; drive_traits::MAX_INPUTS]> = means
+        .iter()
+        .filter(|p| p.iter().take(axes).all(Option::is_some))
+        .collect();
+    for i in 0..axes {
+        let own = points.iter().fold(Line::default(), |mut l, p| {
+            let (c, m) = p[i].unwrap_or_default();
+            if c.abs() >= GAIN_COMMAND {
+                l.add(c, m);
+            }
+            l
+        });
+        let Some((gain, _)) = own.gain() else {
+            continue;
+        };
+        let low: Vec<&&[Option<(f64, f64)>; drive_traits::MAX_INPUTS]> = points
+            .iter()
+            .filter(|p| p[i].is_some_and(|(c, _)| c.abs() < LOW_COMMAND))
+            .collect();
+        let mut residual: Vec<f64> = low
+            .iter()
+            .map(|p| {
+                let (c, m) = p[i].unwrap_or_default();
+                m - gain * c
+            })
+            .collect();
+        for j in (0..axes).filter(|&j| j != i) {
+            let (xy, xx) = low
+                .iter()
+                .zip(&residual)
+                .fold((0.0, 0.0), |(xy, xx), (p, r)| {
+                    let c = p[j].unwrap_or_default().0;
+                    (xy + c * r, xx + c * c)
+                });
+            if low.len() < SCALE_MIN_WINDOWS as usize || xx <= 0.0 {
+                continue;
+            }
+            let h = xy / xx;
+            out[i][j] = h;
+            for (p, r) in low.iter().zip(residual.iter_mut()) {
+                *r -= h * p[j].unwrap_or_default().0;
+            }
+        }
+    }
+    out
+}
+
 /// Each window's [`ScaleSums`].
 fn scale_sums(w: &Windows<'_>, axes: usize) -> Vec<ScaleSums> {
     let means = interval_points(w, axes);
+    let coupling = coupling(&means, axes);
     w.windows
         .iter()
         .zip(&w.travels)
@@ -372,7 +432,12 @@ fn scale_sums(w: &Windows<'_>, axes: usize) -> Vec<ScaleSums> {
                     s.commanded[i].add(c, m);
                 }
                 if c.abs() < LOW_COMMAND {
-                    s.low[i].add(c, m);
+                    // What the other axes' commands drag this one by is not an offset.
+                    let dragged: f64 = (0..axes)
+                        .filter(|&j| j != i)
+                        .map(|j| coupling[i][j] * point[j].map_or(0.0, |p| p.0))
+                        .sum();
+                    s.low[i].add(c, m - dragged);
                 }
             }
             if implied[0].abs() >= 0.2 {
