@@ -218,7 +218,7 @@ pub fn stage_dataset(
     csv: &Path,
 ) -> Result<(), DataError> {
     let side = sidecar_path(csv);
-    if output::is_special(csv) {
+    if output::is_special(csv) || output::is_special(&side) {
         return Err(DataError::new(
             Location::file(&csv.display().to_string()),
             DataErrorKind::Write(

@@ -321,16 +321,16 @@ fn carries_uncertainty(model: &dyn MotionModel) -> bool {
         .is_ok()
 }
 
-/// How many calibration layers a saved model holds, one inside another.
+/// How many calibration layers a saved model holds, one inside another: the most on any path
+/// from the file's model to a model it holds (a wrapper's `model`, a blend's `models`).
 fn calibration_layers(model: &Value) -> usize {
-    let calibrated = |v: &Value| v.get("type").and_then(Value::as_str) == Some("calibrated");
-    let mut layer = model;
-    let mut layers = usize::from(calibrated(layer));
-    while let Some(m) = layer.get("model") {
-        layer = m;
-        layers += usize::from(calibrated(layer));
-    }
-    layers
+    let calibrated = usize::from(model.get("type").and_then(Value::as_str) == Some("calibrated"));
+    let inner = model.get("model").map_or(0, calibration_layers);
+    let members = model
+        .get("models")
+        .and_then(Value::as_array)
+        .map_or(0, |ms| ms.iter().map(calibration_layers).max().unwrap_or(0));
+    calibrated + inner.max(members)
 }
 
 /// A parse error inside the file's `root` field (whose JSON is `value`), with the path to

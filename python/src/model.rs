@@ -569,7 +569,7 @@ impl Model {
             serde_json::to_value(data.robot.vehicle.as_ref()).map_err(err)?,
         );
         let mut notes = Vec::new();
-        if a != b {
+        if !same_geometry(&a, &b) {
             let difference = geometry_difference(&a, &b);
             if !allow_other_geometry {
                 return Err(err(format!(
@@ -622,6 +622,27 @@ impl Model {
 
     fn __repr__(&self) -> String {
         format!("Model({:?}, dt={} s)", self.model.name(), self.model.dt())
+    }
+}
+
+/// Whether two vehicles' JSON are one geometry: equal but for numbers within a millionth of
+/// each other (a sidecar written in 32-bit floats, 0.16500000655651093 for 0.165).
+fn same_geometry(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+    use serde_json::Value;
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => match (x.as_f64(), y.as_f64()) {
+            (Some(p), Some(q)) => (p - q).abs() <= 1e-6 * p.abs().max(q.abs()),
+            _ => x == y,
+        },
+        (Value::Object(x), Value::Object(y)) => {
+            x.len() == y.len()
+                && x.iter()
+                    .all(|(k, v)| y.get(k).is_some_and(|w| same_geometry(v, w)))
+        }
+        (Value::Array(x), Value::Array(y)) => {
+            x.len() == y.len() && x.iter().zip(y).all(|(v, w)| same_geometry(v, w))
+        }
+        _ => a == b,
     }
 }
 

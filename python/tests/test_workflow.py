@@ -198,6 +198,23 @@ def test_score_on_another_dataset_and_the_evaluation_half(husky, tmp_path):
     assert score["notes"] == [] and transfer["notes"] == []
 
 
+def test_a_geometry_written_in_32_bit_floats_is_the_same_geometry(husky, tmp_path):
+    # The outside sweep of 2026-12-04: a sidecar whose wheel radius and baseline were
+    # written as 32-bit floats (0.16500000655651093 for 0.165) was "another geometry (+0.0%)".
+    model = drive.fit(husky, "naive", split=0.5)
+    csv = tmp_path / "husky.csv"
+    csv.write_bytes(gzip.decompress((ROOT / "data" / "husky_drive.csv.gz").read_bytes()))
+    meta = json.loads((ROOT / "data" / "husky_drive.meta.json").read_text())
+    meta.pop("csv", None)
+    for key in ("wheel_radius", "baseline"):
+        meta[key] = float(np.float32(meta[key]))
+    (tmp_path / "husky.meta.json").write_text(json.dumps(meta))
+    rounded = drive.load_dataset(str(csv))
+    assert rounded.meta["vehicle"]["wheel_radius"] != husky.meta["vehicle"]["wheel_radius"]
+    score = model.score(rounded)
+    assert score["notes"] == [] and score["windows"] == len(rounded)
+
+
 def test_import_notes_and_data_check_findings_are_python_warnings(raw_log, tmp_path):
     # The IMU columns zeroed: the import keeps the log, notes that it takes the yaw rate
     # from the localization, and the imu-constant check warns; each a UserWarning, as

@@ -213,12 +213,20 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             .into_iter()
             .map(|f| format!("the data checks call it useless (run with --allow-useless): {f}")),
     );
-    if let (Some(mut outputs), Some(dir)) = (outputs, &args.out) {
-        outputs.own(dir);
-        crate::report::adapt::stage(&result, &mut outputs, dir)?;
+    let staged = match (outputs, &args.out) {
+        (Some(mut outputs), Some(dir)) => {
+            outputs.own(dir);
+            crate::report::adapt::stage(&result, &mut outputs, dir)?;
+            Some(outputs)
+        }
+        _ => None,
+    };
+    // The standard output first: a command that cannot write it fails with nothing new
+    // published.
+    emit(args.json, &result, text)?;
+    if let Some(outputs) = staged {
         super::common::publish(outputs)?;
     }
-    emit(args.json, &result, text)?;
     if let Some(dir) = &args.out {
         say!("adapt: {} files written to {}", files.len(), dir.display());
     }

@@ -201,13 +201,15 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         for (name, content) in written {
             outputs.write(&dir.join(name), content)?;
         }
-        super::common::publish(outputs)?;
     }
+    // The standard output first: a command that cannot write it fails with nothing new
+    // published.
     let transfer = config.transfer;
     emit(args.json, &bench, |b| {
         crate::report::bench::text(b, transfer)
     })?;
     if let Some(dir) = &args.out {
+        super::common::publish(outputs)?;
         say!(
             "{} datasets x {} models in {:.1} s; written to {}/ ({})",
             bench.datasets.len(),

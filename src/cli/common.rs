@@ -389,6 +389,34 @@ fn streams_not_inputs<R: std::fmt::Display>(inputs: &[(R, PathBuf)]) -> Result<(
     Ok(())
 }
 
+/// A window CSV (or raw log) to be written at `path` for `flag`: refused where its name says
+/// it is another kind of file (`run.json`, `run.meta.json`, a robot or terrain `.toml`): the
+/// CSV would be written under that name without a word, and a `--out pair.meta.json` would
+/// replace the sidecar of the dataset `pair.csv`; and where its sidecar's path is a device
+/// or a pipe (a link to `/dev/null`, a FIFO that would hang the write).
+pub fn csv_output_name(flag: &str, path: &std::path::Path) -> Result<()> {
+    const OTHER_KINDS: [&str; 10] = [
+        "json", "toml", "yaml", "yml", "md", "html", "svg", "png", "mcap", "db3",
+    ];
+    let sidecar = crate::data::sidecar_path(path);
+    if crate::data::output::is_special(&sidecar) {
+        anyhow::bail!(
+            "{flag} {}: its sidecar {} is a device, a pipe or a standard stream: the dataset could not be read back (a dataset is a CSV with its sidecar JSON beside it)",
+            path.display(),
+            sidecar.display()
+        );
+    }
+    if let Some(ext) = path.extension().and_then(|e| e.to_str()) {
+        if OTHER_KINDS.iter().any(|k| k.eq_ignore_ascii_case(ext)) {
+            anyhow::bail!(
+                "{flag} {}: a window CSV is written there, and the name says .{ext}: name it .csv (its sidecar is written beside it as .meta.json)",
+                path.display()
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Staged outputs of a command that reads `inputs`, checked up front against `planned`
 /// (flag, path): an output never replaces an input or another output, and the files
 /// appear together when the command succeeds (see `drive_data::output`).

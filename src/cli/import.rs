@@ -78,6 +78,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         &inputs,
         &[("--out", &args.out), ("sidecar of --out", &sidecar)],
     )?;
+    super::common::csv_output_name("--out", &args.out)?;
     let recording = match &args.bag {
         Some(path) => Recording::Bag {
             path,
@@ -108,7 +109,6 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     });
     if failure.is_none() {
         stage_dataset(&mut outputs, &data, &args.out)?;
-        super::common::publish(outputs)?;
     }
     if args.json {
         let mut v = report.to_json();
@@ -119,6 +119,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         outln!("{v}");
     } else {
         out!("{}", report.to_text());
+    }
+    // After the standard output: a command that cannot write it fails with nothing new
+    // published.
+    if failure.is_none() {
+        super::common::publish(outputs)?;
     }
     match failure {
         Some(why) => bail!("{why}; nothing written"),

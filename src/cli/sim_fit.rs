@@ -286,7 +286,6 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     }
     if let Some(out) = &args.out {
         outputs.write(out, terrain.to_toml())?;
-        super::common::publish(outputs)?;
     }
     if poor {
         super::common::note(format!(
@@ -428,7 +427,13 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             );
         }
         text
-    })
+    })?;
+    // The standard output first: a command that cannot write it fails with nothing new
+    // published.
+    if args.out.is_some() {
+        super::common::publish(outputs)?;
+    }
+    Ok(())
 }
 
 /// The fit's part of `drive sim-fit`'s text: each stage's parameters and how well they fit.

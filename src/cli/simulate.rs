@@ -58,6 +58,10 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let mut inputs = super::common::robot_input(&args.robot);
     inputs.extend(super::common::terrain_input("--terrain", &args.terrain));
     let mut outputs = super::common::outputs_for(&inputs, &planned)?;
+    super::common::csv_output_name("--out", &args.out)?;
+    if let Some(raw) = &args.raw_out {
+        super::common::csv_output_name("--raw-out", raw)?;
+    }
     super::common::check_max_samples(args.max_samples)?;
     let spec = registries.robot(&args.robot)?;
     if args.raw_out.is_some() {
@@ -111,7 +115,6 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         crate::data::write_raw_log(&run.raw, &columns, &[], &mut text);
         outputs.write(path, text)?;
     }
-    super::common::publish(outputs)?;
     let space = match &run.characterization {
         None => "user-given".to_string(),
         Some(c) => {
@@ -165,8 +168,12 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             "out": args.out.display().to_string(),
         });
         outln!("{json}");
+        // After the standard output: a command that cannot write it fails with nothing
+        // new published.
+        super::common::publish(outputs)?;
         return Ok(());
     }
+    super::common::publish(outputs)?;
     say!(
         "{} windows ({} intervals) of {} on {}; input space {space}; saved to {}",
         run.dataset.windows.len(),

@@ -382,12 +382,17 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if let Some(dir) = &args.out {
         outputs.own(dir);
         crate::report::track::stage(&result, &mut outputs, dir)?;
-        super::common::publish(outputs)?;
     }
     for n in &result.notes {
         super::common::note(format!("note: {n}"));
     }
-    emit(args.json, &result, crate::report::track::text)
+    // The standard output first: a command that cannot write it fails with nothing new
+    // published.
+    emit(args.json, &result, crate::report::track::text)?;
+    if args.out.is_some() {
+        super::common::publish(outputs)?;
+    }
+    Ok(())
 }
 
 /// A model file of `--models`: its spec (named by the file, with the start it was fitted

@@ -227,6 +227,16 @@ fn cases() -> Vec<Case> {
                 v["model"] = outer;
             })),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "2 calibration layers, one inside another"] },
+        // The outside sweep of 2026-12-04: a calibrated model inside a blend inside another
+        // calibration layer, without `fitted_with`, was calibrated twice.
+        Case { name: "model calibrated around a blend of calibrated models", file: File::Model(|m| edit_model(&m, |v| {
+                let inner = v["model"].clone();
+                let mut outer = inner.clone();
+                outer["model"] = serde_json::json!({"type": "blended", "models": [inner], "weights": [1.0]});
+                v["model"] = outer;
+                v.as_object_mut().unwrap().remove("fitted_with");
+            })),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "2 calibration layers, one inside another"] },
         // A third outside sweep: a model's names against what it is built of, and text
         // a sidecar cannot hold.
         Case { name: "model labelled as another model", file: File::Model(|m| edit_model(&m, |v| {

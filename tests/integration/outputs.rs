@@ -1024,3 +1024,143 @@ fn names_with_a_newline_never_split_a_tables_lines() {
         "{err}"
     );
 }
+
+/// Issue 63 and the outside sweep of 2026-12-04: `simulate --out run.json` wrote a window
+/// CSV under a .json name without a word, and `--out pair.meta.json` replaced the sidecar of
+/// the dataset `pair.csv`. A window CSV's name must not say another kind of file.
+#[test]
+fn a_window_csv_is_not_written_under_a_name_of_another_kind() {
+    let dir = tempfile::tempdir().unwrap();
+    let pair = dir.path().join("pair.csv");
+    ok(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        "tile",
+        "--duration",
+        "60",
+        "--out",
+        pair.to_str().unwrap(),
+    ]);
+    let sidecar = dir.path().join("pair.meta.json");
+    let before = std::fs::read(&sidecar).unwrap();
+    for name in ["pair.meta.json", "run.json", "robot.toml", "RUN.JSON"] {
+        let out = dir.path().join(name);
+        let err = user_error(&[
+            "simulate",
+            "--robot",
+            "husky",
+            "--terrain",
+            "tile",
+            "--duration",
+            "60",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(err.contains("name it .csv"), "{name}: {err}");
+        let raw = dir.path().join("raw.csv");
+        let err = user_error(&[
+            "import",
+            "--raw",
+            raw.to_str().unwrap(),
+            "--robot",
+            "husky",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(err.contains("name it .csv"), "{name}: {err}");
+    }
+    assert_eq!(std::fs::read(&sidecar).unwrap(), before);
+    assert!(!dir.path().join("run.json").exists());
+}
+
+/// The outside sweep of 2026-12-04: a dataset's sidecar path that is a link to /dev/null or
+/// a FIFO made `simulate` exit 0 with a dataset no command could read, or hang after writing
+/// the CSV. Refused before any work, nothing written.
+#[cfg(unix)]
+#[test]
+fn a_dataset_whose_sidecar_would_be_a_device_or_a_pipe_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    std::os::unix::fs::symlink("/dev/null", dir.path().join("null.meta.json")).unwrap();
+    let fifo = dir.path().join("fifo.meta.json");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    for name in ["null.csv", "fifo.csv"] {
+        let out = dir.path().join(name);
+        let err = user_error(&[
+            "simulate",
+            "--robot",
+            "husky",
+            "--terrain",
+            "tile",
+            "--duration",
+            "60",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(
+            err.contains("is a device, a pipe or a standard stream"),
+            "{name}: {err}"
+        );
+        assert!(!out.exists(), "{name}");
+    }
+}
+
+/// Issue 63 and the outside sweep of 2026-12-04: with the standard output on a full device,
+/// bench, simulate --json and import exited 1 after their outputs were published (a failed
+/// bench replaced an earlier run's files). The standard output is written first: a command
+/// that cannot write it fails with nothing new.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_command_that_cannot_write_its_standard_output_publishes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let raw = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/raw_log_warthog_bench.csv");
+    let cases: [Vec<String>; 3] = [
+        vec!["bench".into(), "--out".into(), d("bench")],
+        vec![
+            "simulate".into(),
+            "--robot".into(),
+            "husky".into(),
+            "--terrain".into(),
+            "tile".into(),
+            "--duration".into(),
+            "60".into(),
+            "--json".into(),
+            "--out".into(),
+            d("sim.csv"),
+        ],
+        vec![
+            "import".into(),
+            "--raw".into(),
+            raw.to_str().unwrap().into(),
+            "--robot".into(),
+            "warthog".into(),
+            "--out".into(),
+            d("imported.csv"),
+        ],
+    ];
+    for args in cases {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_drive"))
+            .args(&args)
+            .stdout(full)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(
+            err.contains("cannot write to standard output"),
+            "{args:?}: {err}"
+        );
+        let left: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert!(left.is_empty(), "{args:?} left {left:?}");
+    }
+}
