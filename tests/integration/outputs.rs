@@ -1025,14 +1025,9 @@ fn names_with_a_newline_never_split_a_tables_lines() {
     );
 }
 
-/// Issue 63 and the outside sweep of 2026-12-04: `simulate --out run.json` wrote a window
-/// CSV under a .json name without a word, and `--out pair.meta.json` replaced the sidecar of
-/// the dataset `pair.csv`. A window CSV's name must not say another kind of file.
-#[test]
-fn a_window_csv_is_not_written_under_a_name_of_another_kind() {
-    let dir = tempfile::tempdir().unwrap();
-    let pair = dir.path().join("pair.csv");
-    ok(&[
+/// `drive simulate`'s arguments for a minute of the Husky on tile written to `out`.
+fn husky_minute(out: &Path) -> [&str; 9] {
+    [
         "simulate",
         "--robot",
         "husky",
@@ -1041,23 +1036,23 @@ fn a_window_csv_is_not_written_under_a_name_of_another_kind() {
         "--duration",
         "60",
         "--out",
-        pair.to_str().unwrap(),
-    ]);
+        out.to_str().unwrap(),
+    ]
+}
+
+/// Issue 63 and the outside sweep of 2026-12-04: `simulate --out run.json` wrote a window
+/// CSV under a .json name without a word, and `--out pair.meta.json` replaced the sidecar of
+/// the dataset `pair.csv`. A window CSV's name must not say another kind of file.
+#[test]
+fn a_window_csv_is_not_written_under_a_name_of_another_kind() {
+    let dir = tempfile::tempdir().unwrap();
+    let pair = dir.path().join("pair.csv");
+    ok(&husky_minute(&pair));
     let sidecar = dir.path().join("pair.meta.json");
     let before = std::fs::read(&sidecar).unwrap();
     for name in ["pair.meta.json", "run.json", "robot.toml", "RUN.JSON"] {
         let out = dir.path().join(name);
-        let err = user_error(&[
-            "simulate",
-            "--robot",
-            "husky",
-            "--terrain",
-            "tile",
-            "--duration",
-            "60",
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let err = user_error(&husky_minute(&out));
         assert!(err.contains("name it .csv"), "{name}: {err}");
         let raw = dir.path().join("raw.csv");
         let err = user_error(&[
@@ -1088,17 +1083,7 @@ fn a_dataset_whose_sidecar_would_be_a_device_or_a_pipe_is_refused() {
     assert!(made.success());
     for name in ["null.csv", "fifo.csv"] {
         let out = dir.path().join(name);
-        let err = user_error(&[
-            "simulate",
-            "--robot",
-            "husky",
-            "--terrain",
-            "tile",
-            "--duration",
-            "60",
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let err = user_error(&husky_minute(&out));
         assert!(
             err.contains("is a device, a pipe or a standard stream"),
             "{name}: {err}"
