@@ -96,11 +96,11 @@ pub enum CommandFileError {
         text: String,
     },
     /// A value beyond [`limits::MAX_ABS_MEASUREMENT`] (a corrupted number, as in the CSV
-    /// readers).
+    /// readers), or a time beyond [`limits::MAX_ABS_TIME_S`].
     #[error(transparent)]
     TooLarge(#[from] TooLarge),
     /// A time off the model's command period.
-    #[error("{name}, line {line}, column 't': t = {} but the model's command period is {} s (expected t = {})", Short(*t), Short(*dt), Short(*expected))]
+    #[error("{name}, line {line}, column 't': t = {} but the model's command period is {} s (expected t = {})", Time(*t), Short(*dt), Time(*expected))]
     OffGrid {
         /// The file.
         name: String,
@@ -263,10 +263,16 @@ pub fn read_commands(
                     text,
                 });
             }
+            // The times may be a clock's since the Unix epoch (a ROS recording's).
+            let limit = if j == 0 {
+                limits::MAX_ABS_TIME_S
+            } else {
+                limits::MAX_ABS_MEASUREMENT
+            };
             limits::at_most(
                 &format!("{name}, line {}, column '{}'", i + 1, cols[j]),
                 x.abs(),
-                limits::MAX_ABS_MEASUREMENT,
+                limit,
                 "",
             )?;
             v[j] = x;
@@ -291,5 +297,17 @@ pub fn read_commands(
     match t0 {
         Some(t0) if !out.is_empty() => Ok(CommandFile { commands: out, t0 }),
         _ => Err(CommandFileError::NoRows { name }),
+    }
+}
+
+/// A time for a message, to the microsecond without trailing zeros: an epoch time
+/// (1733300000.07) keeps the digits that tell it from its neighbours.
+struct Time(f64);
+
+impl std::fmt::Display for Time {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = format!("{:.6}", self.0);
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        f.write_str(if s == "-0" { "0" } else { s })
     }
 }

@@ -38,6 +38,7 @@ mod protocols;
 mod regions;
 mod registries;
 pub mod report;
+mod score;
 mod terrain_library;
 mod twin_check;
 
@@ -92,6 +93,9 @@ pub use protocols::{
 };
 pub use regions::{compare_regions, RegionComparison, RegionResult, RegionStudy};
 pub use registries::{Catalog, Listed, Registries};
+pub use score::{
+    geometry_difference, same_geometry, score_model, ByPhase, ErrorQuartiles, Score, ScoreError,
+};
 pub use terrain_library::{TerrainLibrary, LOG_LIKELIHOOD_FLOOR, PRIOR_LOG_ODDS};
 pub use twin_check::{
     choose_variability, fit_twin, fit_twin_with, poor_twin, twin_check, CheckCommands,

@@ -46,6 +46,11 @@ pub const MAX_COMBINATIONS: usize = 100_000;
 /// refused where it is instead of turning an error metric into infinity.
 pub const MAX_ABS_MEASUREMENT: f64 = 1e9;
 
+/// Largest magnitude of a time in seconds (a command file's `t`): Unix epoch times (a ROS
+/// clock's, 1.7e9 s in 2024) up to the year 2286, where a double still resolves 2 us, a
+/// fiftieth of a period at the highest rate ([`MAX_RATE_HZ`]).
+pub const MAX_ABS_TIME_S: f64 = 1e10;
+
 /// A size beyond its documented limit.
 #[derive(Debug, Clone, PartialEq, Error)]
 #[error("{what} = {} is more than the limit of {}{hint}", distinct(*.value, *.limit).0, distinct(*.value, *.limit).1)]

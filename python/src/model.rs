@@ -551,126 +551,34 @@ impl Model {
             None => self.start,
         };
         let data = &dataset.inner;
-        let (ours, theirs) = (
-            drive::traits::vehicle_tag(self.robot.vehicle.as_ref()),
-            drive::traits::vehicle_tag(data.robot.vehicle.as_ref()),
-        );
-        if ours != theirs {
-            return Err(err(format!(
-                "the model is of a {} vehicle and the dataset's is {}: its inputs are other axes",
-                ours.unwrap_or_default(),
-                theirs.unwrap_or_default()
-            )));
-        }
-        // The same type with another geometry (another robot's wheels): the model's inputs
-        // would command other body velocities.
-        let (a, b) = (
-            serde_json::to_value(self.robot.vehicle.as_ref()).map_err(err)?,
-            serde_json::to_value(data.robot.vehicle.as_ref()).map_err(err)?,
-        );
-        let mut notes = Vec::new();
-        if !same_geometry(&a, &b) {
-            let difference = geometry_difference(&a, &b);
-            if !allow_other_geometry {
-                return Err(err(format!(
-                    "the model was fitted for the vehicle {a} and the dataset's is {b} ({difference}): another robot's inputs command other body velocities (fit a model on that robot's data, or score across calibrations of one robot with allow_other_geometry=True)"
-                )));
-            }
-            let note = format!(
-                "{}: scored across geometries, the model's against the dataset's: {difference}; the model's inputs command the body velocities of the geometry it was fitted for",
-                data.robot.name
-            );
-            let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
-            // The note holds no NUL: the numbers and field names are JSON's, the robot's
+        let model = self.model.as_ref();
+        let vehicle = self.robot.vehicle.as_ref();
+        let score = py
+            .detach(|| {
+                drive::studies::score_model(
+                    model,
+                    vehicle,
+                    data,
+                    start,
+                    allow_other_geometry,
+                    "allow_other_geometry=True",
+                )
+            })
+            .map_err(err)?;
+        let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+        for note in &score.notes {
+            // The note holds no NUL: the numbers and field names are JSON's, the dataset's
             // name a sidecar's (checked on load).
             let message = std::ffi::CString::new(note.clone()).unwrap_or_default();
             PyErr::warn(py, &category, &message, 1)?;
-            notes.push(note);
         }
-        if (self.model.dt() - data.robot.dt()).abs() > 1e-9 * data.robot.dt() {
-            return Err(err(format!(
-                "the model predicts in steps of {} s and the dataset is sampled every {} s",
-                self.model.dt(),
-                data.robot.dt()
-            )));
-        }
-        let model = self.model.as_ref();
-        let report = py.detach(|| drive::eval::evaluate_model_from(model, &data.all(), start));
-        let summary = |s: Option<drive::eval::Summary>| {
-            s.map(|s| serde_json::json!({"windows": s.count, "median": s.median, "iqr": [s.q1, s.q3]}))
-        };
-        let phases = |f: &dyn Fn(Option<drive::traits::Phase>) -> Option<drive::eval::Summary>| {
-            serde_json::json!({
-                "all": summary(f(None)),
-                "transient": summary(f(Some(drive::traits::Phase::Transient))),
-                "steady": summary(f(Some(drive::traits::Phase::Steady))),
-            })
-        };
-        let value = serde_json::json!({
-            "model": report.name,
-            "dataset": data.robot.name,
-            "start": start.as_str(),
-            "windows": report.windows.len(),
-            "translational_m": phases(&|p| report.translational(p)),
-            "rotational_rad": phases(&|p| report.rotational(p)),
-            "per_window": report.windows,
-            "uncertainty": report.uncertainty,
-            "notes": notes,
-        });
+        let value = serde_json::to_value(&score).map_err(err)?;
         Ok(value.to_string())
     }
 
     fn __repr__(&self) -> String {
         format!("Model({:?}, dt={} s)", self.model.name(), self.model.dt())
     }
-}
-
-/// Whether two vehicles' JSON are one geometry: equal but for numbers within a millionth of
-/// each other (a sidecar written in 32-bit floats, 0.16500000655651093 for 0.165).
-fn same_geometry(a: &serde_json::Value, b: &serde_json::Value) -> bool {
-    use serde_json::Value;
-    match (a, b) {
-        (Value::Number(x), Value::Number(y)) => match (x.as_f64(), y.as_f64()) {
-            (Some(p), Some(q)) => (p - q).abs() <= 1e-6 * p.abs().max(q.abs()),
-            _ => x == y,
-        },
-        (Value::Object(x), Value::Object(y)) => {
-            x.len() == y.len()
-                && x.iter()
-                    .all(|(k, v)| y.get(k).is_some_and(|w| same_geometry(v, w)))
-        }
-        (Value::Array(x), Value::Array(y)) => {
-            x.len() == y.len() && x.iter().zip(y).all(|(v, w)| same_geometry(v, w))
-        }
-        _ => a == b,
-    }
-}
-
-/// What differs between two vehicles of one type, field by field of their JSON (`baseline
-/// 1.1652 -> 1.08 (-7.3%)`), e.g. two calibrations of one robot.
-fn geometry_difference(ours: &serde_json::Value, theirs: &serde_json::Value) -> String {
-    let (Some(a), Some(b)) = (ours.as_object(), theirs.as_object()) else {
-        return format!("{ours} -> {theirs}");
-    };
-    let mut parts = Vec::new();
-    for (key, x) in a {
-        let y = b.get(key).unwrap_or(&serde_json::Value::Null);
-        if x == y {
-            continue;
-        }
-        match (x.as_f64(), y.as_f64()) {
-            (Some(x), Some(y)) if x != 0.0 => {
-                parts.push(format!("{key} {x} -> {y} ({:+.1}%)", 100.0 * (y - x) / x))
-            }
-            _ => parts.push(format!("{key} {x} -> {y}")),
-        }
-    }
-    for (key, y) in b {
-        if !a.contains_key(key) {
-            parts.push(format!("{key} none -> {y}"));
-        }
-    }
-    parts.join(", ")
 }
 
 /// Fits `model` (a model name, as `drive train --model`) on the dataset's first `split` of

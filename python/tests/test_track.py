@@ -321,3 +321,32 @@ def test_the_node_logic_hands_the_odometrys_stamp_to_the_tracker(logic_module, m
         assert logic._pose_stamp is None, bad
     logic.on_odometry(odometry(1.0, 0.0, 0.0), 10.0)
     assert logic._pose_stamp is None
+
+
+def test_track_and_sim_fit_return_the_command_lines_json_with_progress_and_errors(tmp_path):
+    """`drive.track` and `drive.sim_fit` run the command line in this process: its --json
+    document as a dict, `progress` called as each run ends, a `drive.Dataset` given as
+    training data, an error as `DriveError`."""
+    seen = []
+    data = drive.load_dataset()  # the bundled Husky run, as training data
+    result = drive.track(
+        robot="husky",
+        terrain="tile",
+        models=["powertrain"],
+        path="line",
+        train_data=[data],
+        progress=lambda done, total: seen.append((done, total)),
+    )
+    assert result["models"] == ["powertrain"]
+    assert [r["model"] for r in result["runs"]] == ["powertrain"]
+    assert seen and seen[-1] == (1, 1)
+    with pytest.raises(drive.DriveError, match="unknown model 'gp'"):
+        drive.track(robot="husky", terrain="tile", models="gp", path="line")
+    with pytest.raises(drive.DriveError, match="not an option"):
+        drive.track(**{"json": True})
+    # A twin's check: the paper's Warthog run against its twin of examples/twins.
+    twin = FsPath(__file__).resolve().parents[2] / "examples" / "twins" / "warthog_drive.toml"
+    with pytest.raises(drive.DriveError, match="the twin fails its check"):
+        drive.sim_fit("bundled:warthog_drive", "warthog", twin=twin, check_seeds=1)
+    checked = drive.sim_fit("bundled:warthog_drive", "warthog", twin=twin, check_seeds=1, allow_poor_twin=True)
+    assert checked["poor"] and checked["check_seeds"] == [1]

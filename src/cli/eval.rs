@@ -47,6 +47,15 @@ pub fn specs(
             registries.catalog().models.join(", ")
         );
     }
+    // A saved model is not refitted: it is scored where it is (its own command).
+    if let Some(file) = names
+        .iter()
+        .find(|n| n.to_ascii_lowercase().ends_with(".json"))
+    {
+        bail!(
+            "--models {file}: a model file is fitted already, and --models names models to fit on the training intervals (see drive list); score a saved model on a dataset with `drive score --model {file} --data DATA`"
+        );
+    }
     if let Some(p) = powertrain {
         registries.powertrains.get(p)?;
     }

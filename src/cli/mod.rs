@@ -56,6 +56,7 @@ mod matrix;
 mod predict;
 mod protocol;
 mod report;
+mod score;
 mod sim_fit;
 mod simulate;
 mod track;
@@ -138,6 +139,10 @@ enum Command {
     Track(track::Args),
     /// Predict poses from a saved model and a command sequence.
     Predict(predict::Args),
+    /// Score a saved model on every window of a dataset it was not fitted on (another run,
+    /// terrain or calibration of the same robot): eq. 8 medians and quartiles, per phase,
+    /// and its 95% regions' coverage.
+    Score(score::Args),
     /// Write a fitted model in the layout other software loads: norlab_controllers' slip-BLR
     /// MPC (`--format norlab`: .npy arrays and a YAML of its parameters).
     Export(export::Args),
@@ -258,6 +263,7 @@ where
             Command::Adapt(a) => adapt::run(&a, registries),
             Command::Track(a) => track::run(&a, registries),
             Command::Predict(a) => predict::run(&a, registries),
+            Command::Score(a) => score::run(&a, registries),
             Command::Export(a) => export::run(&a, registries),
             Command::List(a) => list::run(&a, registries),
         });

@@ -123,8 +123,15 @@ struct Output<'a> {
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     if let Some(name) = &args.name {
         if !crate::sim::Terrain::is_valid_name(name) {
+            let why = if name.trim().is_empty() {
+                "is blank"
+            } else if name.chars().count() > 200 {
+                "is longer than 200 characters"
+            } else {
+                "holds a control character or a line break"
+            };
             anyhow::bail!(
-                "--name must be 1 to 200 characters without control characters (it names the terrain in every output line)"
+                "--name {why}: it must be 1 to 200 characters, not all blank, without control characters (it names the terrain in every output line)"
             );
         }
     }

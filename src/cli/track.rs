@@ -375,8 +375,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         * study.seeds.len();
     let progress = Progress::new("track");
     let done = AtomicUsize::new(0);
+    // A host running the command line in its process (Python's `drive.track`) is told too.
+    let host = super::common::progress();
     let result = run_track(registries, &study, &|| {
-        progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, total)
+        progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+        host(total);
     })?;
     progress.bar.finish_and_clear();
     if let Some(dir) = &args.out {

@@ -1261,6 +1261,41 @@ fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
         .map(|l| l.split(',').nth(1).unwrap())
         .collect();
     assert_eq!(t, ["100", "100.05", "100.1"], "{out}");
+    // A clock since the Unix epoch (a ROS recording's) is read as it is; a time off its grid
+    // is named with the digits that tell it from its neighbours.
+    std::fs::write(
+        &commands,
+        "t,cmd_left,cmd_right\n1733300000,1,1\n1733300000.05,1,1\n",
+    )
+    .unwrap();
+    let out = ok(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--commands",
+        commands.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        out.lines().nth(2).unwrap().split(',').nth(1),
+        Some("1733300000.05"),
+        "{out}"
+    );
+    std::fs::write(
+        &commands,
+        "t,cmd_left,cmd_right\n1733300000,1,1\n1733300000.07,1,1\n",
+    )
+    .unwrap();
+    let err = user_error(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--commands",
+        commands.to_str().unwrap(),
+    ]);
+    assert!(
+        err.contains("t = 1733300000.07 but") && err.contains("expected t = 1733300000.05)"),
+        "{err}"
+    );
     // A time off the model's grid by more than 1% of a period is refused, named, never
     // moved onto the grid; within it (a printed time's rounding) it is read as on it.
     std::fs::write(&commands, "t,cmd_left,cmd_right\n0,1,1\n0.06,1,1\n").unwrap();

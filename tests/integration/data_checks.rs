@@ -355,6 +355,22 @@ fn every_command_that_fits_or_scores_refuses_data_the_checks_call_useless_unless
         assert!(err.contains("--allow-useless"), "{err}");
     }
     assert!(!std::path::Path::new(&model).exists());
+    // A saved model is not scored on it either.
+    let saved = dir.path().join("asphalt.json").display().to_string();
+    common::ok(&[
+        "train",
+        "--data",
+        "bundled:warthog_asphalt_a",
+        "--model",
+        "naive",
+        "--out",
+        &saved,
+    ]);
+    let err = user_error(&["score", "--model", &saved, "--data", &csv]);
+    assert!(
+        err.contains("(not-moving;") && err.contains("--allow-useless"),
+        "{err}"
+    );
     // Allowed, the command runs and says what the checks found.
     let out = drive(&[
         "eval",

@@ -22,6 +22,7 @@ mod outside_vehicle;
 mod properties;
 mod report_and_matrix;
 mod report_parts;
+mod score;
 mod sim_fit;
 mod start_information;
 mod start_velocity;

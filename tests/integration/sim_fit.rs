@@ -975,8 +975,16 @@ fn a_fitted_twin_runs_in_simulate_and_is_refused_where_it_does_not_apply() {
         "sim-fit", "--data", &straight, "--robot", "husky", "--out", &a,
     ]);
     assert!(err.contains("turn more than they drive"), "{err}");
-    let err = user_error(&["sim-fit", "--robot", "husky", "--out", &a, "--name", ""]);
-    assert!(err.contains("--name"), "{err}");
+    // A name refused says why: blank, too long, or a control character.
+    for (name, why) in [
+        ("", "--name is blank"),
+        ("  ", "--name is blank"),
+        ("a\tb", "--name holds a control character"),
+        (&"x".repeat(201), "--name is longer than 200 characters"),
+    ] {
+        let err = user_error(&["sim-fit", "--robot", "husky", "--out", &a, "--name", name]);
+        assert!(err.contains(why), "{name:?}: {err}");
+    }
 }
 
 #[test]

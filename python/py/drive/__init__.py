@@ -290,6 +290,8 @@ __all__ = [
     "load_model",
     "per_window",
     "report",
+    "sim_fit",
+    "track",
 ]
 
 
@@ -430,6 +432,94 @@ def adapt(prior, data, models=None, split=0.5, times=None, progress=None, allow_
             _adapt_json(prior, data, models, float(split), times, report, _flag("allow_useless", allow_useless),
                         None if library is None else list(library))
         )
+
+
+def track(progress=None, **options):
+    """`drive track --json` as a dict: each model inside the MPPI controller following paths
+    on the simulator (docs/closed-loop.md). `options` are the command line's flags, a
+    keyword each with underscores for hyphens: `robot="warthog"`, `terrain="gravel"` (or a
+    twin's TOML file), `models=["powertrain", "slip-blr"]`, `path="figure8"`,
+    `speed=[0.5, 0.8]`, `seeds=3`, `train_data=[dataset, ...]` (a `drive.Dataset`, a path or
+    `"bundled:NAME"`), `out=DIR`; a list is joined with commas, `True` gives a flag without
+    a value (`adapt=True`), `None` and `False` leave it out.
+
+    Ctrl-C raises KeyboardInterrupt within a fraction of a second (the work stops after the
+    run under way, and nothing is written to `out`). `progress` is a callable given
+    `(done, total)` as each model's run ends, or True for a tqdm bar (when tqdm is
+    installed; nothing otherwise). An error raises `DriveError` with the command line's
+    message."""
+    return _run_json("track", options, progress)
+
+
+def sim_fit(dataset, robot, progress=None, **options):
+    """`drive sim-fit --json` as a dict: a twin of the robot `robot` (a registered robot or
+    a robot TOML file) fitted on `dataset` (a `drive.Dataset`, a path or `"bundled:NAME"`)
+    and checked against it (docs/twins.md); `out=PATH` writes the twin's terrain TOML file,
+    `twin=PATH` checks a twin instead of fitting one. Other `options` are the command line's
+    flags, as `drive.track` takes them (`check_seeds=3`, `allow_poor_twin=True`, ...).
+
+    Ctrl-C raises KeyboardInterrupt within a fraction of a second, and nothing is written.
+    `progress` as in `drive.track`. A dataset the data checks call useless, or a twin that
+    fails its check, raises `DriveError` with the command line's message."""
+    return _run_json("sim-fit", dict(options, data=dataset, robot=robot), progress)
+
+
+def _run_json(command, options, progress):
+    """`drive COMMAND --json` run in this process with `options` as its flags: its JSON
+    document as a dict, its notes passed on to `sys.stderr`, its error a `DriveError`."""
+    import sys
+    import tempfile
+
+    if "json" in options:
+        raise DriveError(f"json is not an option of drive.{command.replace('-', '_')}: it returns the --json document")
+    with tempfile.TemporaryDirectory() as tmp:
+        args = ["drive", command, "--json"]
+        for i, (key, value) in enumerate(options.items()):
+            if not isinstance(key, str) or not key.replace("_", "").isalnum():
+                raise DriveError(f"{key!r} is not an option of drive {command}")
+            flag = "--" + key.replace("_", "-")
+            if value is None or value is False:
+                continue
+            if value is True:
+                args.append(flag)
+                continue
+            values = value if isinstance(value, (list, tuple)) else [value]
+            texts = []
+            for j, v in enumerate(values):
+                if isinstance(v, Dataset):
+                    path = _os.path.join(tmp, f"data{i}_{j}.csv")
+                    v.save(path)
+                    texts.append(path)
+                elif isinstance(v, bool) or not isinstance(v, (str, _os.PathLike, _numbers.Real)):
+                    raise DriveError(f"{key} must be a string, a path, a number, a drive.Dataset or a list of them, got {v!r}")
+                elif isinstance(v, _numbers.Real) and not isinstance(v, str):
+                    texts.append(repr(v) if isinstance(v, float) else str(v))
+                else:
+                    texts.append(_os.fspath(v))
+            args += [flag, ",".join(texts)]
+        out_path = _os.path.join(tmp, "stdout.json")
+        if sys.stdout is not None:
+            try:
+                sys.stdout.flush()
+            except (OSError, ValueError):
+                pass
+        saved = _os.dup(1)
+        try:
+            with open(out_path, "wb") as captured:
+                _os.dup2(captured.fileno(), 1)
+                try:
+                    with _progress(progress, command) as reporting:
+                        status, said = _run_capturing_stderr(args, tmp, reporting)
+                finally:
+                    _os.dup2(saved, 1)
+        finally:
+            _os.close(saved)
+        with open(out_path, encoding="utf-8", errors="replace") as f:
+            printed = f.read()
+    if status != 0:
+        errors = [line[len("error: "):] for line in said.splitlines() if line.startswith("error: ")]
+        raise DriveError(errors[-1] if errors else f"drive {command} failed: {(said or printed).strip()}")
+    return _json.loads(printed)
 
 
 class Measurements:

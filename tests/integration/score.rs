@@ -1,0 +1,130 @@
+//! `drive score`: a saved model scored on another run of its robot, as the library and
+//! Python's `Model.score` score it; another calibration refused unless allowed.
+
+use crate::common::{drive, ok, user_error};
+
+/// A slip-BLR model file fitted on the bundled `warthog_asphalt_a` run (baseline 1.08 m).
+fn asphalt_model(dir: &std::path::Path) -> std::path::PathBuf {
+    let model = dir.join("asphalt.json");
+    ok(&[
+        "train",
+        "--data",
+        "bundled:warthog_asphalt_a",
+        "--model",
+        "slip-blr",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    model
+}
+
+#[test]
+fn a_saved_model_is_scored_on_every_window_of_another_run_as_the_library_scores_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = asphalt_model(dir.path());
+    let m = model.to_str().unwrap();
+    let target = "bundled:warthog_asphalt_2024-09-20a";
+    let out = ok(&["score", "--model", m, "--data", target, "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    // The library's own scoring of the loaded model, from the start it was fitted for.
+    let data = drive::bundled::load("warthog_asphalt_2024-09-20a").unwrap();
+    let file = drive::models::model_file::read_model_file(
+        "asphalt.json",
+        &std::fs::read_to_string(&model).unwrap(),
+    )
+    .unwrap();
+    let start = file.fitted_with.as_ref().unwrap().start;
+    let report = drive::eval::evaluate_model_from(file.model.as_ref(), &data.all(), start);
+    assert_eq!(v["windows"], data.windows.len());
+    assert_eq!(v["start"], start.as_str());
+    assert_eq!(
+        v["per_window"].as_array().unwrap().len(),
+        data.windows.len()
+    );
+    let all = &v["translational_m"]["all"];
+    assert_eq!(
+        all["median"].as_f64().unwrap(),
+        report.translational(None).unwrap().median
+    );
+    assert_eq!(
+        v["rotational_rad"]["steady"]["median"].as_f64().unwrap(),
+        report
+            .rotational(Some(drive::traits::Phase::Steady))
+            .unwrap()
+            .median
+    );
+    // Each window once, in one phase or the other.
+    let (tr, st) = (
+        v["translational_m"]["transient"]["windows"]
+            .as_u64()
+            .unwrap(),
+        v["translational_m"]["steady"]["windows"].as_u64().unwrap(),
+    );
+    assert_eq!(tr + st, data.windows.len() as u64);
+    assert!(
+        v["uncertainty"]["coverage95"]["2.0"].as_f64().is_some(),
+        "{v}"
+    );
+    assert_eq!(v["notes"], serde_json::json!([]));
+    // The text: one row per phase.
+    let text = ok(&["score", "--model", m, "--data", target]);
+    assert!(text.contains("on warthog-asphalt-2024-09-20a"), "{text}");
+    for row in ["all", "transient", "steady"] {
+        assert!(text.lines().any(|l| l.starts_with(row)), "{text}");
+    }
+    // On the run it was fitted on, its training windows are scored too: said.
+    let out = drive(&["score", "--model", m, "--data", "bundled:warthog_asphalt_a"]);
+    assert!(out.status.success());
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(
+        err.contains("was fitted on a dataset named as this one")
+            && err.contains("training windows are scored too"),
+        "{err}"
+    );
+}
+
+#[test]
+fn another_calibration_of_the_robot_is_scored_only_when_allowed_with_the_difference_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = asphalt_model(dir.path());
+    let m = model.to_str().unwrap();
+    // The paper's Warthog run: baseline 1.1652 m against the model's 1.08 m.
+    let args = ["score", "--model", m, "--data", "bundled:warthog_drive"];
+    let err = user_error(&args);
+    assert!(
+        err.contains("baseline 1.08 -> 1.1652 (+7.9%)") && err.contains("--allow-other-geometry"),
+        "{err}"
+    );
+    let allowed = [&args[..], &["--allow-other-geometry", "--json"]].concat();
+    let out = drive(&allowed);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let notes = v["notes"].as_array().unwrap();
+    assert!(
+        notes.iter().any(|n| n
+            .as_str()
+            .unwrap()
+            .contains("scored across geometries, the model's against the dataset's: baseline 1.08 -> 1.1652 (+7.9%)")),
+        "{v}"
+    );
+    assert!(String::from_utf8(out.stderr)
+        .unwrap()
+        .contains("scored across geometries"));
+    // Another robot: its wheel radius too.
+    let err = user_error(&["score", "--model", m, "--data", "bundled:husky_drive"]);
+    assert!(err.contains("wheel_radius 0.3 -> 0.165 (-45.0%)"), "{err}");
+}
+
+#[test]
+fn a_model_file_given_to_eval_points_to_score() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = asphalt_model(dir.path());
+    let models = format!("naive,{}", model.display());
+    for command in ["eval", "bench"] {
+        let err = user_error(&[command, "--models", &models]);
+        assert!(
+            err.contains("a model file is fitted already") && err.contains("drive score --model"),
+            "{command}: {err}"
+        );
+    }
+}
