@@ -721,7 +721,7 @@ pub fn adapt(
     models: &[ModelSpec],
     study: &AdaptStudy,
 ) -> Result<Adaptation, ExperimentError> {
-    adapt_with(Some(registries), prior, target, models, study, &|| {})
+    adapt_with(Some(registries), prior, target, models, study, None, &|| {})
 }
 
 /// [`adapt`], calling `progress` once per model of `models` as its curve is done (what a
@@ -749,17 +749,29 @@ pub fn adapt_with_progress(
     study: &AdaptStudy,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Adaptation, ExperimentError> {
-    adapt_with(Some(registries), prior, target, models, study, progress)
+    adapt_with(
+        Some(registries),
+        prior,
+        target,
+        models,
+        study,
+        None,
+        progress,
+    )
 }
 
 /// [`adapt_with_progress`]; `registries` tells a model-file prior's own kind (to refuse
-/// other models beside it), and is not needed for a dataset's prior.
+/// other models beside it), and is not needed for a dataset's prior. `fitted_library`, for
+/// one model: the terrain library's members already fitted (the prior's first, calibrated,
+/// as [`library_members`] fits them), used instead of fitting `study.library`'s (the
+/// benchmark fits each run once for all its pairs).
 pub(crate) fn adapt_with(
     registries: Option<&Registries>,
     prior: &AdaptPrior<'_>,
     target: &Dataset,
     models: &[ModelSpec],
     study: &AdaptStudy,
+    fitted_library: Option<&NamedModels>,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Adaptation, ExperimentError> {
     if models.is_empty() {
@@ -919,8 +931,11 @@ pub(crate) fn adapt_with(
         }
         // The terrain library, blended by the likelihood of the windows driven so far.
         let mut blends = Vec::new();
-        if !study.library.is_empty() {
-            let members = library_members(prior, &study.library, &spec)?;
+        if fitted_library.is_some() || !study.library.is_empty() {
+            let members = match fitted_library {
+                Some(m) => m.clone(),
+                None => library_members(prior, &study.library, &spec)?,
+            };
             if library_names.is_empty() {
                 library_names = members.iter().map(|(n, _)| n.clone()).collect();
             }
@@ -1035,7 +1050,24 @@ pub(crate) fn adapt_with(
 }
 
 /// Models by name.
-type NamedModels = Vec<(String, std::sync::Arc<dyn MotionModel>)>;
+pub(crate) type NamedModels = Vec<(String, std::sync::Arc<dyn MotionModel>)>;
+
+/// `spec` fitted on all of `data` with the calibrated uncertainty: a terrain library's
+/// member (its predictive Gaussian scores the windows driven).
+pub(crate) fn library_member(
+    data: &Dataset,
+    spec: &ModelSpec,
+) -> Result<std::sync::Arc<dyn MotionModel>, ExperimentError> {
+    spec.clone()
+        .with_uncertainty(Uncertainty::Calibrated, spec.start)
+        .fit(&data.all())
+        .map(std::sync::Arc::<dyn MotionModel>::from)
+        .map_err(|reason| ExperimentError::Fit {
+            model: spec.name.clone(),
+            data: data.robot.name.clone(),
+            reason,
+        })
+}
 
 /// The terrain library of `spec` for a study: the prior (fitted on its data with the
 /// calibrated uncertainty, or the prior model as it is) and `spec` fitted so on each of
@@ -1045,19 +1077,7 @@ fn library_members(
     library: &[std::sync::Arc<Dataset>],
     spec: &ModelSpec,
 ) -> Result<NamedModels, ExperimentError> {
-    let calibrated = spec
-        .clone()
-        .with_uncertainty(Uncertainty::Calibrated, spec.start);
-    let fit = |data: &Dataset| {
-        calibrated
-            .fit(&data.all())
-            .map(std::sync::Arc::<dyn MotionModel>::from)
-            .map_err(|reason| ExperimentError::Fit {
-                model: spec.name.clone(),
-                data: data.robot.name.clone(),
-                reason,
-            })
-    };
+    let fit = |data: &Dataset| library_member(data, spec);
     let first = match prior {
         AdaptPrior::Data(data) => (data.robot.name.clone(), fit(data)?),
         AdaptPrior::Model(m) => {

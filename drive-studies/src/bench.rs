@@ -29,7 +29,9 @@ use thiserror::Error;
 mod adaptation;
 mod results;
 mod sequence;
-pub use adaptation::{AdaptPair, AdaptSummary, BenchAdaptation, LEADERBOARD_ADAPT_T_S};
+pub use adaptation::{
+    AdaptPair, AdaptSummary, BenchAdaptation, LibrarySummary, LEADERBOARD_ADAPT_T_S,
+};
 pub use results::{
     Bench, BenchDataset, BenchModel, BenchUnpredictability, ErrorGrowth, LeaderboardRow, Ratio,
     SkippedDataset, TransferCell, TransferGroup, TransferSummary, UnpairedRobot,
@@ -77,6 +79,11 @@ pub struct BenchConfig {
     /// Run the adaptation track (`drive bench --adapt`) with these settings: every model
     /// fitted on one run adapting to another of the same robot, as `drive adapt`.
     pub adapt: Option<crate::AdaptStudy>,
+    /// With the adaptation track: also a terrain library for each pair (`drive bench
+    /// --adapt-library`): the prior and the model fitted on each other run of the robot,
+    /// blended by their likelihood of the windows driven, as `drive adapt --library` (each
+    /// run fitted once for all its pairs).
+    pub adapt_library: bool,
 }
 
 impl Default for BenchConfig {
@@ -88,6 +95,7 @@ impl Default for BenchConfig {
             min_evidence_intervals: 10,
             allow_useless: false,
             adapt: None,
+            adapt_library: false,
         }
     }
 }
@@ -853,10 +861,9 @@ pub fn run_bench(
     } else {
         (Vec::new(), Vec::new())
     };
-    let adaptation = config
-        .adapt
-        .as_ref()
-        .map(|study| adaptation::adaptation(inputs, specs, study, &pairs, progress));
+    let adaptation = config.adapt.as_ref().map(|study| {
+        adaptation::adaptation(inputs, specs, study, &pairs, config.adapt_library, progress)
+    });
     let (pairs, transfer_skipped) = if config.transfer {
         (pairs, transfer_skipped)
     } else {

@@ -66,8 +66,8 @@ pub use adapt::{
 pub use bench::{
     bench_units, run_bench, terrain_known, AdaptPair, AdaptSummary, Bench, BenchAdaptation,
     BenchConfig, BenchDataset, BenchError, BenchInput, BenchModel, BenchUnpredictability,
-    ErrorGrowth, LeaderboardRow, Ratio, SkippedDataset, TransferCell, TransferGroup,
-    TransferSummary, UnpredictabilityBin, LEADERBOARD_ADAPT_T_S,
+    ErrorGrowth, LeaderboardRow, LibrarySummary, Ratio, SkippedDataset, TransferCell,
+    TransferGroup, TransferSummary, UnpredictabilityBin, LEADERBOARD_ADAPT_T_S,
 };
 pub use closed_loop::{
     run_track, GroundChange, GroundChangeAt, PathChoice, PlacedPath, TrackError, TrackResult,

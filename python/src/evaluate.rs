@@ -148,9 +148,10 @@ pub(crate) fn per_window_columns<'py>(
 /// `transfer` is false; datasets the data checks call useless ranked when `allow_useless`.
 /// Stops on Ctrl-C (`KeyboardInterrupt`); `progress(done, total)` is called as the units of
 /// work complete. `adapt` (seconds of each target's training half) runs the adaptation
-/// track (`--adapt --adapt-times`).
+/// track (`--adapt --adapt-times`), with a terrain library for each pair when
+/// `adapt_library` (`--adapt-library`).
 #[pyfunction]
-#[pyo3(signature = (suite=None, models=None, split=0.5, transfer=true, allow_useless=false, progress=None, adapt=None))]
+#[pyo3(signature = (suite=None, models=None, split=0.5, transfer=true, allow_useless=false, progress=None, adapt=None, adapt_library=false))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn bench_json(
     py: Python<'_>,
@@ -161,7 +162,13 @@ pub(crate) fn bench_json(
     allow_useless: bool,
     progress: Option<&Bound<'_, PyAny>>,
     adapt: Option<Vec<f64>>,
+    adapt_library: bool,
 ) -> PyResult<String> {
+    if adapt_library && adapt.is_none() {
+        return Err(err(
+            "adapt_library adds a terrain library to the adaptation track: give adapt too",
+        ));
+    }
     if let Some(times) = &adapt {
         if times.len() > 100 || times.iter().any(|t| !(t.is_finite() && *t >= 0.0)) {
             return Err(err(
@@ -211,6 +218,7 @@ pub(crate) fn bench_json(
                 times_s,
                 ..Default::default()
             }),
+            adapt_library,
             ..Default::default()
         };
         ticker.set_total(drive::studies::bench_units(&inputs, specs.len(), &config));

@@ -103,6 +103,19 @@ def test_bench_adapt_equals_drive_bench_adapt(tmp_path):
     assert "adaptation" not in drive.bench(str(suite), models="slip-blr", transfer=False)
     with pytest.raises(drive.DriveError, match="adapt must be"):
         drive.bench(str(suite), models="slip-blr", adapt="yes")
+    # With a third run, each pair's terrain library (drive bench --adapt-library).
+    suite.write_text(suite.read_text() + '[[dataset]]\nbundled = "warthog_asphalt_a"\n')
+    expected = json.loads(
+        cli(
+            "bench", "--suite", suite, "--json", "--models", "slip-blr", "--no-transfer",
+            "--adapt", "--adapt-times", "0,30", "--adapt-library",
+        ).stdout
+    )
+    got = drive.bench(str(suite), models="slip-blr", transfer=False, adapt=[0, 30], adapt_library=True)
+    close(got, expected)
+    assert all(len(p["library"]) == 2 for p in got["adaptation"]["pairs"])
+    with pytest.raises(drive.DriveError, match="give adapt too"):
+        drive.bench(str(suite), models="slip-blr", adapt_library=True)
 
 
 def test_adapt_equals_drive_adapt_json(tmp_path):

@@ -41,6 +41,12 @@ pub struct Args {
     /// model are listed as skipped.
     #[arg(long)]
     adapt: bool,
+    /// With --adapt: also a terrain library for each pair, as `drive adapt --library`: the
+    /// prior and the model fitted on each of the robot's other runs (but the target),
+    /// blended by their likelihood of the windows driven (`library` in each pair's curves,
+    /// `library` in the summary; a robot with a third run only).
+    #[arg(long, requires = "adapt")]
+    adapt_library: bool,
     /// The adaptation track's times, s of each target's training half, comma-separated.
     #[arg(
         long,
@@ -174,6 +180,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             times_s: args.adapt_times.clone(),
             ..Default::default()
         }),
+        adapt_library: args.adapt_library,
         ..BenchConfig::default()
     };
     let progress = Progress::new("bench");

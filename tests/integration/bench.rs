@@ -1028,6 +1028,104 @@ fn the_adaptation_track_gives_each_pair_the_curves_of_drive_adapt_and_names_what
     assert!(String::from_utf8_lossy(&alone.stderr).contains("--adapt"));
 }
 
+/// Issue 61's second option in the benchmark: each pair's terrain library is the prior's run
+/// and the robot's other runs but the target, and its curve is that of `drive adapt
+/// --library` on the same runs.
+#[test]
+fn the_adaptation_track_blends_each_pairs_library_as_drive_adapt_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let suite = dir.path().join("suite.toml");
+    let runs = [
+        "warthog_grass_2024-08-08",
+        "warthog_asphalt_slow_2024-08-08",
+        "warthog_asphalt_a",
+    ];
+    let text: String = runs
+        .iter()
+        .map(|r| format!("[[dataset]]\nbundled = \"{r}\"\n"))
+        .collect();
+    std::fs::write(&suite, text).unwrap();
+    let args = [
+        "bench",
+        "--suite",
+        s(&suite),
+        "--models",
+        "slip-blr",
+        "--no-transfer",
+        "--adapt",
+        "--adapt-times",
+        "0,30,60",
+        "--json",
+    ];
+    let v: Value = serde_json::from_str(&ok(&[&args[..], &["--adapt-library"]].concat())).unwrap();
+    let a = &v["adaptation"];
+    let pairs = a["pairs"].as_array().unwrap();
+    assert_eq!(pairs.len(), 6, "{a}");
+    let library_curve = |curve: &Value| -> Vec<Value> {
+        curve
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|c| c["model"] == "library")
+            .cloned()
+            .collect()
+    };
+    for p in pairs {
+        let (prior, target) = (p["prior"].as_str().unwrap(), p["target"].as_str().unwrap());
+        let third = runs.iter().find(|r| **r != prior && **r != target).unwrap();
+        assert_eq!(p["library"], serde_json::json!([prior, third]));
+        let alone: Value = serde_json::from_str(&ok(&[
+            "adapt",
+            "--prior",
+            &format!("bundled:{prior}"),
+            "--data",
+            &format!("bundled:{target}"),
+            "--library",
+            &format!("bundled:{third}"),
+            "--models",
+            "slip-blr",
+            "--times",
+            "0,30,60",
+            "--json",
+        ]))
+        .unwrap();
+        let (ours, theirs) = (library_curve(&p["curve"]), library_curve(&alone["curve"]));
+        assert_eq!(ours.len(), 3);
+        assert_eq!(ours, theirs, "{prior} -> {target}");
+    }
+    // The summary's library medians are the medians over the pairs of each pair's ratios.
+    let at = |p: &Value, m: &str, t: f64| {
+        p["curve"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["model"] == m && c["t_s"].as_f64() == Some(t))
+            .unwrap()["translational_median_m"]
+            .as_f64()
+            .unwrap()
+    };
+    for row in a["summary"].as_array().unwrap() {
+        let t = row["t_s"].as_f64().unwrap();
+        let mut r: Vec<f64> = pairs
+            .iter()
+            .map(|p| at(p, "library", t) / at(p, "own", t))
+            .collect();
+        r.sort_by(f64::total_cmp);
+        let median = 0.5 * (r[2] + r[3]);
+        let got = row["library"]["over_own"]["translational"]
+            .as_f64()
+            .unwrap();
+        assert!((got - median).abs() < 1e-12, "{t}: {got} {median}");
+        assert_eq!(row["library"]["pairs"], 6);
+    }
+    // Without it, no library; without --adapt, the flag is refused.
+    let plain = ok(&args);
+    assert!(!plain.contains("library"), "{plain}");
+    let alone = common::drive(&["bench", "--adapt-library"]);
+    assert!(!alone.status.success());
+    assert!(String::from_utf8_lossy(&alone.stderr).contains("--adapt"));
+}
+
 /// Issue 63: a robot file that took a registered robot's name (a Warthog's geometry named
 /// "husky") is not that robot: its data gets no body size from the registered Husky, and the
 /// check says so, rather than the Husky's body silently scaling the total unpredictability.

@@ -7,6 +7,8 @@ use std::fmt::Write as _;
 
 const INTRO: &str = "adaptation: each model fitted on all of one run adapts to another run of the same robot (its training half streamed in time order, as drive adapt); median over the pairs of the adaptive model's eq. 8 median over the prior alone (frozen), the fit from scratch on the same seconds (scratch) and the fit on the whole training half (own), translational / rotational; worst / frozen: the largest over the pairs of one terrain";
 
+const LIBRARY: &str = "library: the prior and the model fitted on each other run of the robot (but the target), blended by their likelihood of the windows driven (as drive adapt --library); the same medians over the pairs with a library";
+
 /// A ratio's two axes, `-` without one.
 pub(super) fn ratio(r: Option<Ratio>) -> String {
     r.map_or("-".into(), |r| {
@@ -48,6 +50,29 @@ pub(super) fn text(a: &BenchAdaptation) -> String {
             r.ground_changed_pairs
         );
     }
+    if a.summary.iter().any(|r| r.library.is_some()) {
+        let _ = writeln!(s, "\n{LIBRARY}");
+        let _ = writeln!(
+            s,
+            "  {:<mw$}{:>7}  {:>5}  {:<17}{:<17}{:<17}{:>14}",
+            "model", "t [s]", "pairs", "/ frozen", "/ scratch", "/ own", "worst / frozen"
+        );
+        for r in &a.summary {
+            if let Some(l) = &r.library {
+                let _ = writeln!(
+                    s,
+                    "  {:<mw$}{:>7}  {:>5}  {:<17}{:<17}{:<17}{:>14}",
+                    r.model,
+                    r.t_s,
+                    l.pairs,
+                    ratio(l.over_frozen),
+                    ratio(l.over_scratch),
+                    ratio(l.over_own),
+                    worst(l.worst_over_frozen_same_terrain)
+                );
+            }
+        }
+    }
     if a.pairs.is_empty() {
         let _ = writeln!(s, "  no pair of runs of one robot adapted");
     }
@@ -81,6 +106,27 @@ pub(super) fn markdown(a: &BenchAdaptation, md: fn(&str) -> String) -> String {
             worst(r.worst_over_frozen_same_terrain),
             r.ground_changed_pairs
         );
+    }
+    if a.summary.iter().any(|r| r.library.is_some()) {
+        let _ = writeln!(
+            s,
+            "\n{LIBRARY}\n\n| model | t [s] | pairs | / frozen | / scratch | / own | worst / frozen |\n|---|---|---|---|---|---|---|"
+        );
+        for r in &a.summary {
+            if let Some(l) = &r.library {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {} | {} |",
+                    md(&r.model),
+                    r.t_s,
+                    l.pairs,
+                    ratio(l.over_frozen),
+                    ratio(l.over_scratch),
+                    ratio(l.over_own),
+                    worst(l.worst_over_frozen_same_terrain)
+                );
+            }
+        }
     }
     for why in &a.skipped {
         let _ = writeln!(s, "\nAdaptation skipped: {}", md(why));

@@ -6,7 +6,7 @@
 
 use super::results::Ratio;
 use super::{terrain_known, BenchInput};
-use crate::adapt::{adapt_with, AdaptPoint, AdaptPrior, AdaptStudy};
+use crate::adapt::{adapt_with, library_member, AdaptPoint, AdaptPrior, AdaptStudy, NamedModels};
 use crate::ExperimentError;
 use drive_models::ModelSpec;
 use rayon::prelude::*;
@@ -34,8 +34,13 @@ pub struct AdaptPair {
     /// Share of the target's training windows commanded beyond the prior's commands
     /// (extrapolation, not terrain: see [`crate::Extrapolation`]).
     pub share_beyond_prior: Option<f64>,
-    /// The four curves (`adaptive`, `frozen`, `scratch`, `own`) at each time.
+    /// The four curves (`adaptive`, `frozen`, `scratch`, `own`) at each time, and
+    /// `library` with the terrain library.
     pub curve: Vec<AdaptPoint>,
+    /// With the terrain library (`--adapt-library`): its models, the prior's run first,
+    /// then the robot's other runs (the weights of the `library` points are in this order).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub library: Vec<String>,
 }
 
 /// Per model and time: the median over the pairs of the adaptive model's eq. 8 median over
@@ -61,6 +66,26 @@ pub struct AdaptSummary {
     pub worst_over_frozen_same_terrain: Option<f64>,
     /// Pairs where the detector found the ground changed at this time.
     pub ground_changed_pairs: usize,
+    /// With the terrain library (`--adapt-library`): the median over the pairs of the
+    /// library's blend over own, frozen and scratch, and its largest over frozen on pairs
+    /// of one terrain, as the adaptive model's above (pairs with a library only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub library: Option<LibrarySummary>,
+}
+
+/// The terrain library's blend against the other curves, over the pairs that have one.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LibrarySummary {
+    /// Pairs with a library (the robot has a third run) whose training half reaches `t_s`.
+    pub pairs: usize,
+    /// Median over the pairs of library / own.
+    pub over_own: Option<Ratio>,
+    /// Median over the pairs of library / frozen.
+    pub over_frozen: Option<Ratio>,
+    /// Median over the pairs of library / scratch; `None` at t = 0.
+    pub over_scratch: Option<Ratio>,
+    /// The largest library / frozen over the pairs of one terrain (both axes).
+    pub worst_over_frozen_same_terrain: Option<f64>,
 }
 
 /// The adaptation track of a benchmark.
@@ -77,29 +102,74 @@ pub struct BenchAdaptation {
     pub skipped: Vec<String>,
 }
 
-/// Runs the adaptation track on `pairs` (indices into `inputs`).
+/// Runs the adaptation track on `pairs` (indices into `inputs`), with a terrain library for
+/// each pair when `library` (the prior's run and the robot's other runs but the target).
 pub(super) fn adaptation(
     inputs: &[BenchInput],
     specs: &[ModelSpec],
     study: &AdaptStudy,
     pairs: &[(usize, usize)],
+    library: bool,
     progress: &(dyn Fn() + Sync),
 ) -> BenchAdaptation {
     let jobs: Vec<(usize, usize, usize)> = pairs
         .iter()
         .flat_map(|&(a, b)| (0..specs.len()).map(move |m| (a, b, m)))
         .collect();
+    // Each run's library member, fitted once for all its pairs (a run that cannot be
+    // fitted is left out of the libraries it would join).
+    let mut runs: Vec<(usize, usize)> = if library {
+        jobs.iter().map(|&(a, _, m)| (a, m)).collect()
+    } else {
+        Vec::new()
+    };
+    runs.sort_unstable();
+    runs.dedup();
+    let members: std::collections::HashMap<
+        (usize, usize),
+        std::sync::Arc<dyn drive_traits::MotionModel>,
+    > = runs
+        .par_iter()
+        .filter_map(|&(i, m)| {
+            library_member(&inputs[i].data, &specs[m])
+                .ok()
+                .map(|f| ((i, m), f))
+        })
+        .collect();
+    // The library of a pair: the prior's run, then the robot's others but the target; none
+    // where the robot has no third run.
+    let library_of = |a: usize, b: usize, m: usize| -> Option<NamedModels> {
+        let others: Vec<usize> = pairs
+            .iter()
+            .filter(|&&(x, c)| x == a && c != b)
+            .map(|&(_, c)| c)
+            .filter(|c| members.contains_key(&(*c, m)))
+            .collect();
+        if others.is_empty() {
+            return None;
+        }
+        std::iter::once(a)
+            .chain(others)
+            .map(|i| {
+                members
+                    .get(&(i, m))
+                    .map(|f| (inputs[i].name.clone(), std::sync::Arc::clone(f)))
+            })
+            .collect()
+    };
     let outcomes: Vec<Result<AdaptPair, String>> = jobs
         .par_iter()
         .map(|&(a, b, m)| {
             let (ia, ib) = (&inputs[a], &inputs[b]);
             let spec = &specs[m];
+            let library = library_of(a, b, m);
             let done = adapt_with(
                 None,
                 &AdaptPrior::Data(&ia.data),
                 &ib.data,
                 std::slice::from_ref(spec),
                 study,
+                library.as_ref(),
                 &|| {},
             );
             progress();
@@ -114,6 +184,9 @@ pub(super) fn adaptation(
                     train_s: d.train_s,
                     share_beyond_prior: d.extrapolation.map(|e| e.share_beyond),
                     curve: d.curve,
+                    library: library
+                        .map(|l| l.into_iter().map(|(n, _)| n).collect())
+                        .unwrap_or_default(),
                 }),
                 // A model the adaptation does not apply to is named once, not per pair.
                 Err(ExperimentError::Incompatible(why))
@@ -164,9 +237,9 @@ fn point<'a>(pair: &'a AdaptPair, model: &str, t: f64) -> Option<&'a AdaptPoint>
     pair.curve.iter().find(|p| p.model == model && p.t_s == t)
 }
 
-/// The adaptive model's medians over `other`'s, per axis.
-fn ratio(pair: &AdaptPair, other: &str, t: f64) -> Option<[f64; 2]> {
-    let (a, o) = (point(pair, "adaptive", t)?, point(pair, other, t)?);
+/// `model`'s medians over `other`'s, per axis.
+fn ratio(pair: &AdaptPair, model: &str, other: &str, t: f64) -> Option<[f64; 2]> {
+    let (a, o) = (point(pair, model, t)?, point(pair, other, t)?);
     let r = |x: Option<f64>, y: Option<f64>| Some(x? / y?).filter(|v| v.is_finite());
     Some([
         r(a.translational_median_m, o.translational_median_m)?,
@@ -175,12 +248,17 @@ fn ratio(pair: &AdaptPair, other: &str, t: f64) -> Option<[f64; 2]> {
 }
 
 fn summarize(model: &str, t: f64, pairs: &[AdaptPair]) -> AdaptSummary {
-    let of: Vec<&AdaptPair> = pairs
-        .iter()
-        .filter(|p| p.model == model && point(p, "adaptive", t).is_some())
-        .collect();
-    let median_ratio = |other: &str| {
-        let rs: Vec<[f64; 2]> = of.iter().filter_map(|p| ratio(p, other, t)).collect();
+    let of = |curve: &str| -> Vec<&AdaptPair> {
+        pairs
+            .iter()
+            .filter(|p| p.model == model && point(p, curve, t).is_some())
+            .collect()
+    };
+    let median_ratio = |of: &[&AdaptPair], curve: &str, other: &str| {
+        let rs: Vec<[f64; 2]> = of
+            .iter()
+            .filter_map(|p| ratio(p, curve, other, t))
+            .collect();
         let axis = |i: usize| {
             let v: Vec<f64> = rs.iter().map(|r| r[i]).collect();
             super::finite_median(&v)
@@ -190,22 +268,33 @@ fn summarize(model: &str, t: f64, pairs: &[AdaptPair]) -> AdaptSummary {
             rotational: axis(1)?,
         })
     };
+    let worst = |of: &[&AdaptPair], curve: &str| {
+        of.iter()
+            .filter(|p| p.same_terrain == Some(true))
+            .filter_map(|p| ratio(p, curve, "frozen", t))
+            .map(|r| r[0].max(r[1]))
+            .reduce(f64::max)
+    };
+    let adapted = of("adaptive");
+    let library = of("library");
     AdaptSummary {
         model: model.to_string(),
         t_s: t,
-        pairs: of.len(),
-        adaptive_over_own: median_ratio("own"),
-        adaptive_over_frozen: median_ratio("frozen"),
-        adaptive_over_scratch: median_ratio("scratch"),
-        worst_over_frozen_same_terrain: of
-            .iter()
-            .filter(|p| p.same_terrain == Some(true))
-            .filter_map(|p| ratio(p, "frozen", t))
-            .map(|r| r[0].max(r[1]))
-            .reduce(f64::max),
-        ground_changed_pairs: of
+        pairs: adapted.len(),
+        adaptive_over_own: median_ratio(&adapted, "adaptive", "own"),
+        adaptive_over_frozen: median_ratio(&adapted, "adaptive", "frozen"),
+        adaptive_over_scratch: median_ratio(&adapted, "adaptive", "scratch"),
+        worst_over_frozen_same_terrain: worst(&adapted, "adaptive"),
+        ground_changed_pairs: adapted
             .iter()
             .filter(|p| point(p, "adaptive", t).and_then(|a| a.ground_changed) == Some(true))
             .count(),
+        library: (!library.is_empty()).then(|| LibrarySummary {
+            pairs: library.len(),
+            over_own: median_ratio(&library, "library", "own"),
+            over_frozen: median_ratio(&library, "library", "frozen"),
+            over_scratch: median_ratio(&library, "library", "scratch"),
+            worst_over_frozen_same_terrain: worst(&library, "library"),
+        }),
     }
 }

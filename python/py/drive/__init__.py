@@ -331,7 +331,7 @@ def evaluate(dataset, models=None, split=0.5, start=None, progress=None, allow_u
         return _json.loads(_evaluate_json(dataset, models, float(split), start, report, allow_useless))
 
 
-def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False, progress=None, adapt=False):
+def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False, progress=None, adapt=False, adapt_library=False):
     """The benchmark of `drive bench --json`, as a dict: the models (default: naive,
     powertrain, slip-blr, acc-blr, slip-ipem) on every dataset of the suite file `suite` (a
     path to a TOML file; every bundled dataset when None), each dataset's first `split` of
@@ -347,9 +347,11 @@ def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False
 
     `adapt` runs the adaptation track (`drive bench --adapt`, the dict's `adaptation`):
     True for the times 0, 15, 30, 60, 120 and 240 s, or a sequence of seconds of each
-    target's training half."""
+    target's training half. `adapt_library` adds a terrain library to each pair (the prior
+    and the model fitted on each of the robot's other runs, blended by their likelihood;
+    `drive bench --adapt-library`)."""
     models = _model_names(models, split)
-    for name, flag in (("transfer", transfer), ("allow_useless", allow_useless)):
+    for name, flag in (("transfer", transfer), ("allow_useless", allow_useless), ("adapt_library", adapt_library)):
         if not isinstance(flag, bool):
             raise DriveError(f"{name} must be True or False, got {flag!r}")
     if adapt is True:
@@ -366,7 +368,7 @@ def bench(suite=None, models=None, split=0.5, transfer=True, allow_useless=False
     with _progress(progress, "bench") as report:
         return _json.loads(
             _reading(
-                lambda: _bench_json(suite, models, float(split), transfer, allow_useless, report, adapt),
+                lambda: _bench_json(suite, models, float(split), transfer, allow_useless, report, adapt, adapt_library),
                 suite,
             )
         )
