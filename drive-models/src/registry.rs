@@ -422,6 +422,14 @@ impl<'a> Models<'a> {
         };
         // `/` is accepted for the sweep files written before `+`.
         if let Some((learner, powertrain)) = name.split_once(['+', '/']) {
+            // An unknown learner makes the whole name unknown (a file path, `runs/m.json`,
+            // is no learner and powertrain).
+            if self.slip_learners.find(learner).is_none()
+                && self.baselines.find(learner).is_none()
+                && self.aliases.find(learner).is_none()
+            {
+                return Err(self.unknown(name));
+            }
             let pt = self.powertrains.get(powertrain)?;
             if let Some(slip) = self.slip_learners.find(learner) {
                 return Ok(ModelSpec {
@@ -656,6 +664,9 @@ mod tests {
             ("slip-blr+turbo", "unknown powertrain 'turbo'"),
             ("gp", "unknown model 'gp'"),
             ("gp+fopdt", "unknown model 'gp+fopdt'"),
+            ("gp+turbo", "unknown model 'gp+turbo'"),
+            // A path is no learner and powertrain.
+            ("/tmp/runs/m.json", "unknown model '/tmp/runs/m.json'"),
         ] {
             let e = m.resolve(bad).unwrap_err().to_string();
             assert!(e.contains(needle), "{bad}: {e}");

@@ -224,6 +224,8 @@ pub fn same_geometry(a: &Value, b: &Value) -> bool {
 /// let a = json!({"baseline": 1.1652, "wheel_radius": 0.3});
 /// let b = json!({"baseline": 1.08, "wheel_radius": 0.3});
 /// assert_eq!(drive_studies::geometry_difference(&a, &b), "baseline 1.1652 -> 1.08 (-7.3%)");
+/// let c = json!({"baseline": 1.1652, "wheel_radius": 0.3000015});
+/// assert_eq!(drive_studies::geometry_difference(&a, &c), "wheel_radius 0.3 -> 0.3000015 (+5.0e-4%)");
 /// ```
 pub fn geometry_difference(ours: &Value, theirs: &Value) -> String {
     let (Some(a), Some(b)) = (ours.as_object(), theirs.as_object()) else {
@@ -237,7 +239,14 @@ pub fn geometry_difference(ours: &Value, theirs: &Value) -> String {
         }
         match (x.as_f64(), y.as_f64()) {
             (Some(x), Some(y)) if x != 0.0 => {
-                parts.push(format!("{key} {x} -> {y} ({:+.1}%)", 100.0 * (y - x) / x))
+                // A difference under a tenth of a percent keeps its digits (not "+0.0%").
+                let percent = 100.0 * (y - x) / x;
+                let shown = if percent.abs() >= 0.05 {
+                    format!("{percent:+.1}")
+                } else {
+                    format!("{percent:+.1e}")
+                };
+                parts.push(format!("{key} {x} -> {y} ({shown}%)"))
             }
             _ => parts.push(format!("{key} {x} -> {y}")),
         }

@@ -344,9 +344,21 @@ def test_track_and_sim_fit_return_the_command_lines_json_with_progress_and_error
         drive.track(robot="husky", terrain="tile", models="gp", path="line")
     with pytest.raises(drive.DriveError, match="not an option"):
         drive.track(**{"json": True})
+    # A file it reads that does not exist is a FileNotFoundError; a dataset where a name
+    # is taken, a negative number given as a value, named.
+    with pytest.raises(FileNotFoundError, match="nope.csv: no such file"):
+        drive.track(robot="husky", terrain="tile", models="powertrain", path="line", train_data=str(tmp_path / "nope.csv"))
+    with pytest.raises(drive.DriveError, match="models takes no drive.Dataset"):
+        drive.track(robot="husky", terrain="tile", models=data, path="line")
+    with pytest.raises(drive.DriveError, match="invalid value '-1' for '--seeds"):
+        drive.track(robot="husky", terrain="tile", models="powertrain", path="line", seeds=-1)
     # A twin's check: the paper's Warthog run against its twin of examples/twins.
     twin = FsPath(__file__).resolve().parents[2] / "examples" / "twins" / "warthog_drive.toml"
     with pytest.raises(drive.DriveError, match="the twin fails its check"):
         drive.sim_fit("bundled:warthog_drive", "warthog", twin=twin, check_seeds=1)
+    with pytest.raises(drive.DriveError, match="data is drive.sim_fit's first argument"):
+        drive.sim_fit("bundled:warthog_drive", "warthog", twin=twin, data="bundled:warthog_asphalt_a")
+    with pytest.raises(drive.DriveError, match="got None"):
+        drive.sim_fit(None, "warthog", twin=twin)
     checked = drive.sim_fit("bundled:warthog_drive", "warthog", twin=twin, check_seeds=1, allow_poor_twin=True)
     assert checked["poor"] and checked["check_seeds"] == [1]

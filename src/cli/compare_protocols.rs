@@ -72,6 +72,8 @@ pub struct Args {
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    // An unknown model is said before any data is read.
+    registries.model(&args.model)?;
     if args.real || args.data.data.is_some() {
         limits::at_most("--draws", args.draws as f64, limits::MAX_DRAWS as f64, "")?;
         let study = RegionStudy {
@@ -96,7 +98,6 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
 
 /// Table I on the simulator.
 fn simulated(args: &Args, registries: &Registries) -> Result<()> {
-    registries.model(&args.model)?;
     if !args.twins.is_empty() {
         return twins(args, registries);
     }

@@ -48,10 +48,7 @@ pub fn specs(
         );
     }
     // A saved model is not refitted: it is scored where it is (its own command).
-    if let Some(file) = names
-        .iter()
-        .find(|n| n.to_ascii_lowercase().ends_with(".json"))
-    {
+    if let Some(file) = names.iter().find(|n| std::path::Path::new(n).is_file()) {
         bail!(
             "--models {file}: a model file is fitted already, and --models names models to fit on the training intervals (see drive list); score a saved model on a dataset with `drive score --model {file} --data DATA`"
         );

@@ -223,6 +223,30 @@ where
     run_status(args, registries)
 }
 
+/// Where a model name is unknown and names a file (or ends in `.json`): what a saved model
+/// is given to, since `--models` and `--model` of the fitting commands name models to fit.
+fn model_file_hint(e: &anyhow::Error) -> String {
+    let unknown = e.chain().find_map(|c| match c.downcast_ref() {
+        Some(crate::traits::RegistryError::Unknown { kind, name, .. }) if *kind == "model" => {
+            Some(name.clone())
+        }
+        _ => None,
+    });
+    let Some(name) = unknown else {
+        return String::new();
+    };
+    let shown = common::printable(&name);
+    if std::path::Path::new(&name).is_file() {
+        format!(
+            "; '{shown}' is a file: a saved model (drive train --out) is scored with `drive score --model {shown} --data DATA`, adapted with `drive adapt --prior {shown}` and driven with `drive track --models {shown}`"
+        )
+    } else if name.to_ascii_lowercase().ends_with(".json") {
+        format!("; no file '{shown}' either (a saved model is given to drive score, adapt --prior or track --models)")
+    } else {
+        String::new()
+    }
+}
+
 /// [`run`] with the exit status as a number: 0 on success, 1 on an error (reported on
 /// standard error), 2 on a command-line usage error. What a host that runs the command line
 /// in its own process (the Python package's `drive` console command) returns.
@@ -292,7 +316,7 @@ where
                         );
                     }
                 }
-                _ => say!("error: {e:#}"),
+                _ => say!("error: {e:#}{}", model_file_hint(&e)),
             }
             1
         }

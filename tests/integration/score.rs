@@ -127,4 +127,31 @@ fn a_model_file_given_to_eval_points_to_score() {
             "{command}: {err}"
         );
     }
+    // The commands that fit one model name what a saved model is given to.
+    let m = model.to_str().unwrap();
+    for args in [
+        &["converge", "--model", m][..],
+        &["train", "--model", m, "--out", "x.json"],
+        &["compare-protocols", "--real", "--model", m],
+        &[
+            "adapt",
+            "--prior",
+            "bundled:warthog_asphalt_a",
+            "--data",
+            "bundled:warthog_grass_2024-08-08",
+            "--models",
+            m,
+        ],
+    ] {
+        let err = user_error(args);
+        assert!(
+            err.contains("unknown model")
+                && err.contains("is a file: a saved model")
+                && err.contains("drive score --model"),
+            "{args:?}: {err}"
+        );
+    }
+    // A model file that is not there is said to be missing, not fitted.
+    let err = user_error(&["eval", "--models", "naive,no-such-model.json"]);
+    assert!(err.contains("no file 'no-such-model.json' either"), "{err}");
 }

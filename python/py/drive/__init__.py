@@ -456,19 +456,34 @@ def track(progress=None, **options):
 def sim_fit(dataset, robot, progress=None, **options):
     """`drive sim-fit --json` as a dict: a twin of the robot `robot` (a registered robot or
     a robot TOML file) fitted on `dataset` (a `drive.Dataset`, a path or `"bundled:NAME"`)
-    and checked against it (docs/twins.md); `out=PATH` writes the twin's terrain TOML file,
-    `twin=PATH` checks a twin instead of fitting one. Other `options` are the command line's
-    flags, as `drive.track` takes them (`check_seeds=3`, `allow_poor_twin=True`, ...).
+    and checked against it (docs/twins.md); `out=PATH` writes the twin's terrain TOML file
+    (a fit needs it), `twin=PATH` checks a twin instead of fitting one. Other `options` are
+    the command line's flags, as `drive.track` takes them (`check_seeds=3`,
+    `allow_poor_twin=True`, ...).
 
     Ctrl-C raises KeyboardInterrupt within a fraction of a second, and nothing is written.
     `progress` as in `drive.track`. A dataset the data checks call useless, or a twin that
     fails its check, raises `DriveError` with the command line's message."""
+    for key in ("data", "robot"):
+        if key in options:
+            raise DriveError(f"{key} is drive.sim_fit's {'first' if key == 'data' else 'second'} argument, not an option")
+    if dataset is None:
+        raise DriveError("dataset must be a drive.Dataset, a path or 'bundled:NAME', got None")
     return _run_json("sim-fit", dict(options, data=dataset, robot=robot), progress)
+
+
+# The options whose values are datasets (a `drive.Dataset` is saved for them), and those
+# that name files the command writes (not checked for existence).
+_DATASET_OPTIONS = {"data", "train_data", "library", "prior"}
+_OUTPUT_OPTIONS = {"out", "raw_out", "per_window"}
+_FILE_SUFFIXES = (".csv", ".toml", ".json", ".yaml", ".yml", ".mcap", ".db3")
 
 
 def _run_json(command, options, progress):
     """`drive COMMAND --json` run in this process with `options` as its flags: its JSON
-    document as a dict, its notes passed on to `sys.stderr`, its error a `DriveError`."""
+    document as a dict, its notes passed on to `sys.stderr`, its error a `DriveError` (a
+    file it reads that does not exist a `DriveFileNotFoundError`)."""
+    import re
     import sys
     import tempfile
 
@@ -489,7 +504,12 @@ def _run_json(command, options, progress):
             texts = []
             for j, v in enumerate(values):
                 if isinstance(v, Dataset):
-                    path = _os.path.join(tmp, f"data{i}_{j}.csv")
+                    if key not in _DATASET_OPTIONS:
+                        raise DriveError(f"{key} takes no drive.Dataset (the options that do: {', '.join(sorted(_DATASET_OPTIONS))})")
+                    # Named after the dataset: the results name their training data by it.
+                    folder = _os.path.join(tmp, f"{i}_{j}")
+                    _os.mkdir(folder)
+                    path = _os.path.join(folder, (re.sub(r"[^A-Za-z0-9_.-]", "_", v.name) or "data") + ".csv")
                     v.save(path)
                     texts.append(path)
                 elif isinstance(v, bool) or not isinstance(v, (str, _os.PathLike, _numbers.Real)):
@@ -497,8 +517,17 @@ def _run_json(command, options, progress):
                 elif isinstance(v, _numbers.Real) and not isinstance(v, str):
                     texts.append(repr(v) if isinstance(v, float) else str(v))
                 else:
-                    texts.append(_os.fspath(v))
-            args += [flag, ",".join(texts)]
+                    text = _os.fspath(v)
+                    if (
+                        key not in _OUTPUT_OPTIONS
+                        and isinstance(text, str)
+                        and text.lower().endswith(_FILE_SUFFIXES)
+                        and _missing(text) is not None
+                    ):
+                        raise DriveFileNotFoundError(f"{text}: no such file ({key})", text)
+                    texts.append(text)
+            # `--flag=value`: a value that starts with '-' (a negative number) is a value.
+            args.append(f"{flag}={','.join(texts)}")
         out_path = _os.path.join(tmp, "stdout.json")
         if sys.stdout is not None:
             try:
