@@ -70,8 +70,8 @@ pub use bench::{
     TransferGroup, TransferSummary, UnpredictabilityBin, LEADERBOARD_ADAPT_T_S,
 };
 pub use closed_loop::{
-    run_track, GroundChange, GroundChangeAt, PathChoice, PlacedPath, TrackError, TrackResult,
-    TrackRun, TrackStudy, TrackSummary, Training,
+    run_track, GroundChange, GroundChangeAt, LoopAdaptation, PathChoice, PlacedPath, TrackError,
+    TrackResult, TrackRun, TrackStudy, TrackSummary, Training,
 };
 pub use comparison::{
     check_names, compare, compare_specs, compare_specs_with_progress, vehicle_type, CompareError,

@@ -1230,14 +1230,17 @@ fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
         model.to_str().unwrap(),
     ]);
     let commands = dir.path().join("c.csv");
-    std::fs::write(&commands, "t,cmd_left,cmd_right\n0,1e15,1\n0.05,1,1\n").unwrap();
-    let err = user_error(&[
+    let args = [
         "predict",
         "--model",
         model.to_str().unwrap(),
         "--commands",
         commands.to_str().unwrap(),
-    ]);
+    ];
+    let predict = || ok(&args);
+    let refused = || user_error(&args);
+    std::fs::write(&commands, "t,cmd_left,cmd_right\n0,1e15,1\n0.05,1,1\n").unwrap();
+    let err = refused();
     assert!(
         err.contains("c.csv, line 2, column 'cmd_left' = 1e15 is more than the limit of 1e9"),
         "{err}"
@@ -1248,13 +1251,7 @@ fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
         "t,cmd_left,cmd_right\n100,1,1\n100.05,1,1\n100.1,1,1\n",
     )
     .unwrap();
-    let out = ok(&[
-        "predict",
-        "--model",
-        model.to_str().unwrap(),
-        "--commands",
-        commands.to_str().unwrap(),
-    ]);
+    let out = predict();
     let t: Vec<&str> = out
         .lines()
         .skip(1)
@@ -1268,13 +1265,7 @@ fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
         "t,cmd_left,cmd_right\n1733300000,1,1\n1733300000.05,1,1\n",
     )
     .unwrap();
-    let out = ok(&[
-        "predict",
-        "--model",
-        model.to_str().unwrap(),
-        "--commands",
-        commands.to_str().unwrap(),
-    ]);
+    let out = predict();
     assert_eq!(
         out.lines().nth(2).unwrap().split(',').nth(1),
         Some("1733300000.05"),
@@ -1285,13 +1276,7 @@ fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
         "t,cmd_left,cmd_right\n1733300000,1,1\n1733300000.07,1,1\n",
     )
     .unwrap();
-    let err = user_error(&[
-        "predict",
-        "--model",
-        model.to_str().unwrap(),
-        "--commands",
-        commands.to_str().unwrap(),
-    ]);
+    let err = refused();
     assert!(
         err.contains("t = 1733300000.07 but") && err.contains("expected t = 1733300000.05)"),
         "{err}"
@@ -1299,25 +1284,13 @@ fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
     // A time off the model's grid by more than 1% of a period is refused, named, never
     // moved onto the grid; within it (a printed time's rounding) it is read as on it.
     std::fs::write(&commands, "t,cmd_left,cmd_right\n0,1,1\n0.06,1,1\n").unwrap();
-    let err = user_error(&[
-        "predict",
-        "--model",
-        model.to_str().unwrap(),
-        "--commands",
-        commands.to_str().unwrap(),
-    ]);
+    let err = refused();
     assert!(
         err.contains("c.csv, line 3, column 't': t = 0.06") && err.contains("expected t = 0.05"),
         "{err}"
     );
     std::fs::write(&commands, "t,cmd_left,cmd_right\n0,1,1\n0.0502,1,1\n").unwrap();
-    let out = ok(&[
-        "predict",
-        "--model",
-        model.to_str().unwrap(),
-        "--commands",
-        commands.to_str().unwrap(),
-    ]);
+    let out = predict();
     assert_eq!(
         out.lines().nth(2).unwrap().split(',').nth(1),
         Some("0.05"),

@@ -603,6 +603,16 @@ fn a_ground_that_changes_along_the_path_is_driven_and_an_adaptive_model_follows_
     // windows driven, it follows it (measured: 0.189 m against 0.023 m).
     let (frozen, adaptive) = (after(0), after(1));
     assert!(adaptive < 0.5 * frozen, "{frozen} {adaptive}");
+    // The adaptive run says when it left the prior: within the run, after its first window
+    // (2 s); the frozen run has no such record.
+    let adapted = &changed["runs"][1]["adapted"];
+    let from = f(&adapted["changed_from_s"]);
+    assert!(
+        from >= 2.0 && from <= f(&changed["runs"][1]["duration_s"]),
+        "{adapted}"
+    );
+    assert_eq!(adapted["changed_at_end"], true);
+    assert!(changed["runs"][0].get("adapted").is_none());
     // The ground does change (the same frozen model drives otherwise after it); without a
     // change, no trace of one.
     let plain = track(&["--terrain", "gravel"], &[]);

@@ -183,6 +183,18 @@ pub struct TrackStudy {
     pub adaptive: Vec<usize>,
 }
 
+/// What a model adapting in the loop did in one run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LoopAdaptation {
+    /// When (s into the run) the adaptive model first departed from the prior (a slip
+    /// correction or the refit taken); `None` when it never did.
+    pub changed_from_s: Option<f64>,
+    /// When the refit (the model fitted from scratch on the windows driven) first took over.
+    pub refit_from_s: Option<f64>,
+    /// Whether the model at the end of the run is not the prior.
+    pub changed_at_end: bool,
+}
+
 /// A change of ground along a path.
 #[derive(Debug, Clone)]
 pub struct GroundChange {
@@ -260,6 +272,11 @@ pub struct TrackRun {
     /// first change on (absent without a change, or when the run never reached it).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cross_track_rms_after_change_m: Option<f64>,
+    /// For a model adapting in the loop (`--adapt`): when (s into the run) its adaptive
+    /// model first departed from the prior, and when the refit first took over (absent
+    /// when it never did).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adapted: Option<LoopAdaptation>,
     /// Median time the controller took per tick (ms).
     pub tick_ms_median: f64,
     /// How far back the controller's predictions started (s): the study's history, or

@@ -220,6 +220,11 @@ pub(super) fn drive(
             })
         }
     };
+    let mut adapted = super::LoopAdaptation {
+        changed_from_s: None,
+        refit_from_s: None,
+        changed_at_end: false,
+    };
     let setup = ControlSetup {
         model: match &in_loop {
             Some(a) => Arc::clone(&a.model) as Arc<dyn MotionModel>,
@@ -347,6 +352,12 @@ pub(super) fn drive(
             let ticks = recorded.command.len();
             if len >= 2 && ticks % len == 0 {
                 a.add(&recorded.localized_window(ticks / len - 1, len));
+                if a.fit.changed() {
+                    adapted.changed_from_s.get_or_insert(m.t);
+                }
+                if a.fit.refit_kept() {
+                    adapted.refit_from_s.get_or_insert(m.t);
+                }
             }
         }
         if tick.done {
@@ -394,6 +405,10 @@ pub(super) fn drive(
             0.0
         },
         cross_track_rms_after_change_m: (after_n > 0).then(|| (after2 / after_n as f64).sqrt()),
+        adapted: in_loop.as_ref().map(|a| super::LoopAdaptation {
+            changed_at_end: a.fit.changed(),
+            ..adapted
+        }),
         tick_ms_median: ticks_ms[ticks_ms.len() / 2],
         history_s,
         length_m: path.length(),

@@ -242,6 +242,29 @@ def report(dataset, out, models=None, split=0.5, model="slip-blr", robot=None, p
     return _os.path.join(out, "report.md")
 
 
+def _captured(fd, path, run):
+    """`run()` with the file descriptor `fd` (1 or 2) written into the file `path` instead;
+    its result."""
+    import sys
+
+    stream = sys.stdout if fd == 1 else sys.stderr
+    if stream is not None:
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    saved = _os.dup(fd)
+    try:
+        with open(path, "wb") as captured:
+            _os.dup2(captured.fileno(), fd)
+            try:
+                return run()
+            finally:
+                _os.dup2(saved, fd)
+    finally:
+        _os.close(saved)
+
+
 def _run_capturing_stderr(args, tmp, progress=None):
     """The command line run in-process with its standard error (file descriptor 2) read
     back: (exit status, what it said). What it said is passed on to `sys.stderr` on
@@ -249,18 +272,7 @@ def _run_capturing_stderr(args, tmp, progress=None):
     import sys
 
     path = _os.path.join(tmp, "stderr.txt")
-    if sys.stderr is not None:
-        sys.stderr.flush()
-    saved = _os.dup(2)
-    try:
-        with open(path, "wb") as captured:
-            _os.dup2(captured.fileno(), 2)
-            try:
-                status = _native.run_cli(args, progress)
-            finally:
-                _os.dup2(saved, 2)
-    finally:
-        _os.close(saved)
+    status = _captured(2, path, lambda: _native.run_cli(args, progress))
     with open(path, encoding="utf-8", errors="replace") as f:
         said = f.read()
     if status == 0 and said and sys.stderr is not None:
@@ -484,7 +496,6 @@ def _run_json(command, options, progress):
     document as a dict, its notes passed on to `sys.stderr`, its error a `DriveError` (a
     file it reads that does not exist a `DriveFileNotFoundError`)."""
     import re
-    import sys
     import tempfile
 
     if "json" in options:
@@ -529,22 +540,8 @@ def _run_json(command, options, progress):
             # `--flag=value`: a value that starts with '-' (a negative number) is a value.
             args.append(f"{flag}={','.join(texts)}")
         out_path = _os.path.join(tmp, "stdout.json")
-        if sys.stdout is not None:
-            try:
-                sys.stdout.flush()
-            except (OSError, ValueError):
-                pass
-        saved = _os.dup(1)
-        try:
-            with open(out_path, "wb") as captured:
-                _os.dup2(captured.fileno(), 1)
-                try:
-                    with _progress(progress, command) as reporting:
-                        status, said = _run_capturing_stderr(args, tmp, reporting)
-                finally:
-                    _os.dup2(saved, 1)
-        finally:
-            _os.close(saved)
+        with _progress(progress, command) as reporting:
+            status, said = _captured(1, out_path, lambda: _run_capturing_stderr(args, tmp, reporting))
         with open(out_path, encoding="utf-8", errors="replace") as f:
             printed = f.read()
     if status != 0:
