@@ -269,12 +269,14 @@ pub fn read_commands(
             } else {
                 limits::MAX_ABS_MEASUREMENT
             };
-            limits::at_most(
-                &format!("{name}, line {}, column '{}'", i + 1, cols[j]),
-                x.abs(),
-                limit,
-                "",
-            )?;
+            // A negative value is named with its sign, its magnitude against the limit.
+            let at = format!("{name}, line {}, column '{}'", i + 1, cols[j]);
+            let what = if x < 0.0 {
+                format!("the magnitude of {at} (= {})", Short(x))
+            } else {
+                at
+            };
+            limits::at_most(&what, x.abs(), limit, "")?;
             v[j] = x;
         }
         let t0 = *t0.get_or_insert(v[0]);

@@ -47,8 +47,11 @@ pub fn specs(
             registries.catalog().models.join(", ")
         );
     }
-    // A saved model is not refitted: it is scored where it is (its own command).
-    if let Some(file) = names.iter().find(|n| std::path::Path::new(n).is_file()) {
+    // A saved model is not refitted: it is scored where it is (its own command). A model
+    // name that is also a file's is the model.
+    if let Some(file) = names.iter().find(|n| {
+        std::path::Path::new(n).is_file() && registries.models().resolve_list(&[**n]).is_err()
+    }) {
         bail!(
             "--models {file}: a model file is fitted already, and --models names models to fit on the training intervals (see drive list); score a saved model on a dataset with `drive score --model {file} --data DATA`"
         );

@@ -1245,6 +1245,14 @@ fn a_command_beyond_1e9_is_refused_as_a_corrupted_number() {
         err.contains("c.csv, line 2, column 'cmd_left' = 1e15 is more than the limit of 1e9"),
         "{err}"
     );
+    // A negative one keeps its sign.
+    std::fs::write(&commands, "t,cmd_left,cmd_right\n0,-2e9,1\n0.05,1,1\n").unwrap();
+    let err = refused();
+    assert!(
+        err.contains("the magnitude of ")
+            && err.contains("column 'cmd_left' (= -2e9) = 2e9 is more than the limit of 1e9"),
+        "{err}"
+    );
     // Valid commands from t = 100: the output's t runs on the file's clock.
     std::fs::write(
         &commands,

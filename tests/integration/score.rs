@@ -151,6 +151,18 @@ fn a_model_file_given_to_eval_points_to_score() {
             "{args:?}: {err}"
         );
     }
+    // A model name that is also a file's is the model.
+    std::fs::write(dir.path().join("naive"), "not a model").unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_drive"))
+        .args(["eval", "--models", "naive", "--json"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     // A model file that is not there is said to be missing, not fitted.
     let err = user_error(&["eval", "--models", "naive,no-such-model.json"]);
     assert!(err.contains("no file 'no-such-model.json' either"), "{err}");
