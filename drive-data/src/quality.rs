@@ -190,7 +190,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "encoder-command",
-        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 2 or under 0.1: commands or encoders in another unit; a warning outside 0.3-1.25, where real runs answer 0.42-0.84: commands scaled), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled); the measured inputs holding one value through four in five steady windows while the commands vary (fatal: the columns exchanged); on a skid-steer, the two commands equal to the bit where the wheels turn the robot (fatal: one command written for both sides), or the commanded forward speed following the yaw rate the encoders imply and the commanded yaw rate their forward speed (fatal: a log's cmd_vel linear and angular columns read for each other)",
+        "a measured input that does not follow its command: near zero while commanded (one encoder dead), against its commands (sign flipped, sides swapped), or a fixed factor away (over 2 or under 0.1: commands or encoders in another unit; a warning outside 0.3-1.25, where real runs answer 0.42-0.84: commands scaled), its command copied (delayed, scaled or with noise, within 0.5%), answering 1.2 s late or more (fatal from 1.5 s); on a skid-steer, driving straight, one side's measurement over its command 1.25 times the other's or more (fatal from 1.5: one side scaled); the measured inputs holding one value through four in five steady windows while the commands vary (fatal: the columns exchanged); on a skid-steer, the two commands equal to the bit where the wheels turn the robot (fatal: one command written for both sides), or the commanded forward speed following the yaw rate the encoders imply and the commanded yaw rate their forward speed while localization does not follow the commands' own axes (fatal: a log's cmd_vel linear and angular columns read for each other; where localization follows them, one encoder negated, named as such)",
     ),
     (
         "outside-limits",
@@ -2129,6 +2129,30 @@ fn body_axes_exchanged(data: &Dataset, windows: &[&Window]) -> Option<Finding> {
     let exchanged =
         x_as_z >= 0.5 && z_as_x >= 0.5 && own_x < own_bound(x_as_z) && own_z < own_bound(z_as_x);
     if !exchanged {
+        return None;
+    }
+    // Localization, where it moved, tells the commands exchanged (it follows the encoders,
+    // each commanded axis the other) from one encoder negated (its sum and difference
+    // exchanged alike through eq. 4; localization follows the commands' own axes, and the
+    // wheels' findings name the encoder). Per window: the mean commanded forward speed and
+    // yaw rate against the travel and turn localization saw.
+    let seen: Vec<[f64; 4]> = windows
+        .iter()
+        .filter(|w| w.len() >= 2)
+        .map(|w| {
+            let (travel, _, _) = localization::body_travel(data, w);
+            let n = w.command.len() as f64;
+            let f = w
+                .command
+                .iter()
+                .map(|c| vehicle.body_velocity(c))
+                .fold([0.0; 2], |a, f| [a[0] + f.x / n, a[1] + f.z / n]);
+            [f[0], f[1], travel[0], drive_traits::net_turn(&w.pose)]
+        })
+        .collect();
+    let seen_corr =
+        |a: usize, b: usize| localization::correlation(seen.iter().map(|r| (r[a], r[b])));
+    if seen_corr(0, 2) >= 0.5 && seen_corr(1, 3) >= 0.5 {
         return None;
     }
     // One side's command sign-flipped looks the same through eq. 4 (its sum and difference

@@ -2142,6 +2142,40 @@ fn a_column_scaled_offset_or_frozen_in_part_of_a_run_is_fatal_and_named() {
     );
 }
 
+/// Issue 63's F10: one encoder negated on a skid-steer exchanges the forward speed and yaw
+/// rate the encoders imply (their sum and difference), as commands whose `cmd_vel` columns
+/// were exchanged do; on the Husky the exchange was named. Localization follows the
+/// commands' own axes there: the encoder is named.
+#[test]
+fn one_encoder_negated_is_named_not_taken_for_exchanged_commands() {
+    let dir = tempfile::tempdir().unwrap();
+    for (run, side) in [
+        ("husky_drive", 0),
+        ("husky_drive", 1),
+        ("warthog_asphalt_a", 0),
+    ] {
+        let mut data = drive::bundled::load(run).unwrap();
+        for w in &mut data.windows {
+            w.measured.iter_mut().for_each(|m| m[side] = -m[side]);
+        }
+        let csv = dir.path().join(format!("{run}_{side}.csv"));
+        drive::data::write_dataset(&data, &csv).unwrap();
+        let out = drive(&["check", "--data", &csv.display().to_string()]);
+        assert_eq!(out.status.code(), Some(1));
+        let text = String::from_utf8_lossy(&out.stdout);
+        let first = text.lines().find(|l| l.contains("(fatal)")).unwrap();
+        let column = ["enc_left", "enc_right"][side];
+        assert!(
+            first.contains(&format!("'{column}' moves against its commands")),
+            "{run} {column}: {text}"
+        );
+        assert!(
+            !text.contains("yaw rate exchanged"),
+            "{run} {column}: {text}"
+        );
+    }
+}
+
 /// The eleventh outside sweep's N14: a raw log whose `cmd_vel` linear and angular columns
 /// were read for each other was refused, but for "sign flipped, or sides swapped" and
 /// "timestamped late", nothing pointing at the two command columns. The body velocity the
