@@ -87,7 +87,8 @@ fn table(score: &Score, file: &str) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{file} ({}) on {}: {} windows, predictions from {}",
+        "{} ({}) on {}: {} windows, predictions from {}",
+        super::common::printable(file),
         score.model.escape_debug(),
         score.dataset.escape_debug(),
         score.windows,
