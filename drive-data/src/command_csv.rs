@@ -269,14 +269,17 @@ pub fn read_commands(
             } else {
                 limits::MAX_ABS_MEASUREMENT
             };
-            // A negative value is named with its sign, its magnitude against the limit.
-            let at = format!("{name}, line {}, column '{}'", i + 1, cols[j]);
-            let what = if x < 0.0 {
-                format!("the magnitude of {at} (= {})", Short(x))
-            } else {
-                at
-            };
-            limits::at_most(&what, x.abs(), limit, "")?;
+            // Named only when refused (this runs on every value); a negative value with its
+            // sign, its magnitude against the limit.
+            if x.abs() > limit {
+                let at = format!("{name}, line {}, column '{}'", i + 1, cols[j]);
+                let what = if x < 0.0 {
+                    format!("the magnitude of {at} (= {})", Short(x))
+                } else {
+                    at
+                };
+                limits::at_most(&what, x.abs(), limit, "")?;
+            }
             v[j] = x;
         }
         let t0 = *t0.get_or_insert(v[0]);
