@@ -11,6 +11,31 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// `drive adapt --json` of slip-BLR from one bundled run to another, scored after 0, 30 and
+/// 60 s, with `more` arguments: what the benchmark's adaptation track gives each pair.
+fn adapt_alone(prior: &str, target: &str, more: &[&str]) -> Value {
+    let (prior, target) = (format!("bundled:{prior}"), format!("bundled:{target}"));
+    let args = [
+        &["adapt", "--prior", &prior, "--data", &target][..],
+        more,
+        &["--models", "slip-blr", "--times", "0,30,60", "--json"],
+    ]
+    .concat();
+    serde_json::from_str(&ok(&args)).unwrap()
+}
+
+/// The `axis` median of `model`'s point at `t` in a pair's curve.
+fn curve_median(pair: &Value, model: &str, t: f64, axis: &str) -> f64 {
+    pair["curve"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["model"] == model && c["t_s"].as_f64() == Some(t))
+        .unwrap()[axis]
+        .as_f64()
+        .unwrap()
+}
+
 /// Writes a bundled dataset out as a window CSV and its sidecar.
 fn export(name: &str, to: &Path) -> PathBuf {
     let data = drive::bundled::load(name).unwrap();
@@ -952,36 +977,14 @@ fn the_adaptation_track_gives_each_pair_the_curves_of_drive_adapt_and_names_what
     // Each pair's curves are those of drive adapt on the same two runs.
     for p in pairs {
         let (prior, target) = (p["prior"].as_str().unwrap(), p["target"].as_str().unwrap());
-        let alone: Value = serde_json::from_str(&ok(&[
-            "adapt",
-            "--prior",
-            &format!("bundled:{prior}"),
-            "--data",
-            &format!("bundled:{target}"),
-            "--models",
-            "slip-blr",
-            "--times",
-            "0,30,60",
-            "--json",
-        ]))
-        .unwrap();
+        let alone = adapt_alone(prior, target, &[]);
         assert_eq!(p["curve"], alone["curve"], "{prior} -> {target}");
         assert_eq!(p["same_terrain"], false);
     }
     // The summary: the medians over the pairs of each pair's ratios; at t = 0 the adaptive
     // model is the prior.
     let ratio = |p: &Value, t: f64, of: &str, axis: &str| {
-        let at = |m: &str| {
-            p["curve"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .find(|c| c["model"] == m && c["t_s"].as_f64() == Some(t))
-                .unwrap()[axis]
-                .as_f64()
-                .unwrap()
-        };
-        at("adaptive") / at(of)
+        curve_median(p, "adaptive", t, axis) / curve_median(p, of, t, axis)
     };
     let summary = a["summary"].as_array().unwrap();
     assert_eq!(summary.len(), 3);
@@ -1074,36 +1077,13 @@ fn the_adaptation_track_blends_each_pairs_library_as_drive_adapt_does() {
         let (prior, target) = (p["prior"].as_str().unwrap(), p["target"].as_str().unwrap());
         let third = runs.iter().find(|r| **r != prior && **r != target).unwrap();
         assert_eq!(p["library"], serde_json::json!([prior, third]));
-        let alone: Value = serde_json::from_str(&ok(&[
-            "adapt",
-            "--prior",
-            &format!("bundled:{prior}"),
-            "--data",
-            &format!("bundled:{target}"),
-            "--library",
-            &format!("bundled:{third}"),
-            "--models",
-            "slip-blr",
-            "--times",
-            "0,30,60",
-            "--json",
-        ]))
-        .unwrap();
+        let alone = adapt_alone(prior, target, &["--library", &format!("bundled:{third}")]);
         let (ours, theirs) = (library_curve(&p["curve"]), library_curve(&alone["curve"]));
         assert_eq!(ours.len(), 3);
         assert_eq!(ours, theirs, "{prior} -> {target}");
     }
     // The summary's library medians are the medians over the pairs of each pair's ratios.
-    let at = |p: &Value, m: &str, t: f64| {
-        p["curve"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|c| c["model"] == m && c["t_s"].as_f64() == Some(t))
-            .unwrap()["translational_median_m"]
-            .as_f64()
-            .unwrap()
-    };
+    let at = |p: &Value, m: &str, t: f64| curve_median(p, m, t, "translational_median_m");
     for row in a["summary"].as_array().unwrap() {
         let t = row["t_s"].as_f64().unwrap();
         let mut r: Vec<f64> = pairs
