@@ -862,7 +862,15 @@ pub fn run_bench(
         (Vec::new(), Vec::new())
     };
     let adaptation = config.adapt.as_ref().map(|study| {
-        adaptation::adaptation(inputs, specs, study, &pairs, config.adapt_library, progress)
+        adaptation::adaptation(
+            inputs,
+            specs,
+            study,
+            &pairs,
+            &transfer_skipped,
+            config.adapt_library,
+            progress,
+        )
     });
     let (pairs, transfer_skipped) = if config.transfer {
         (pairs, transfer_skipped)

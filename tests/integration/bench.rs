@@ -1106,6 +1106,70 @@ fn the_adaptation_track_blends_each_pairs_library_as_drive_adapt_does() {
     assert!(String::from_utf8_lossy(&alone.stderr).contains("--adapt"));
 }
 
+/// Issue 63 (a twelfth outside sweep): a target's terrain library holds no run that is the
+/// target's own (here a part of it: the library's model would be scored on windows it was
+/// fitted on, and beat the target's own fit); and the pair the two would make is named in
+/// the adaptation's `skipped`, with --no-transfer too.
+#[test]
+fn a_library_leaves_out_the_runs_that_are_the_targets_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut part = drive::bundled::load("warthog_asphalt_a").unwrap();
+    let last = part.windows.iter().map(|w| w.interval).max().unwrap();
+    part.windows.retain(|w| w.interval + 40 > last);
+    drive::data::write_dataset(&part, &d.join("part.csv")).unwrap();
+    let suite = d.join("suite.toml");
+    std::fs::write(
+        &suite,
+        "[[dataset]]\nbundled = \"warthog_grass_2024-08-08\"\n\
+         [[dataset]]\nbundled = \"warthog_asphalt_a\"\n\
+         [[dataset]]\npath = \"part.csv\"\n",
+    )
+    .unwrap();
+    let v: Value = serde_json::from_str(&ok(&[
+        "bench",
+        "--suite",
+        s(&suite),
+        "--models",
+        "slip-blr",
+        "--no-transfer",
+        "--adapt",
+        "--adapt-library",
+        "--adapt-times",
+        "0",
+        "--json",
+    ]))
+    .unwrap();
+    let a = &v["adaptation"];
+    let pairs = a["pairs"].as_array().unwrap();
+    // grass -> asphalt_a, grass -> part, and back: the part and its run are not a pair.
+    assert_eq!(pairs.len(), 4, "{a}");
+    for p in pairs {
+        let (prior, target) = (p["prior"].as_str().unwrap(), p["target"].as_str().unwrap());
+        let library: Vec<&str> = p["library"]
+            .as_array()
+            .map(|l| l.iter().map(|x| x.as_str().unwrap()).collect())
+            .unwrap_or_default();
+        // Every prior's only other run is the target or the target's own: no library
+        // (it held the part, or the whole run, before).
+        assert!(library.is_empty(), "{prior} -> {target}: {library:?}");
+    }
+    let skipped: Vec<&str> = a["skipped"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_str().unwrap())
+        .collect();
+    for pair in ["warthog_asphalt_a -> part", "part -> warthog_asphalt_a"] {
+        assert!(
+            skipped
+                .iter()
+                .any(|x| x.starts_with(pair) && x.contains("the same windows")),
+            "{pair}: {skipped:?}"
+        );
+    }
+}
+
 /// Issue 63: a robot file that took a registered robot's name (a Warthog's geometry named
 /// "husky") is not that robot: its data gets no body size from the registered Husky, and the
 /// check says so, rather than the Husky's body silently scaling the total unpredictability.

@@ -98,17 +98,22 @@ pub struct BenchAdaptation {
     /// Per model and time, over the pairs.
     pub summary: Vec<AdaptSummary>,
     /// Models or pairs without an adaptation, with why (a model that is not composed of a
-    /// powertrain and a slip model, a target too short for any time).
+    /// powertrain and a slip model, a target too short for any time, two datasets that are
+    /// not a pair: of other rates, or one run twice, as the transfer's `transfer_skipped`
+    /// says).
     pub skipped: Vec<String>,
 }
 
 /// Runs the adaptation track on `pairs` (indices into `inputs`), with a terrain library for
-/// each pair when `library` (the prior's run and the robot's other runs but the target).
+/// each pair when `library` (the prior's run and the robot's other runs but the target and
+/// the runs that are the target's, [`super::transfer_pairs`]); the pairs left out of `pairs`
+/// are named in `skipped` with why (`pairs_skipped`).
 pub(super) fn adaptation(
     inputs: &[BenchInput],
     specs: &[ModelSpec],
     study: &AdaptStudy,
     pairs: &[(usize, usize)],
+    pairs_skipped: &[String],
     library: bool,
     progress: &(dyn Fn() + Sync),
 ) -> BenchAdaptation {
@@ -136,12 +141,14 @@ pub(super) fn adaptation(
                 .map(|f| ((i, m), f))
         })
         .collect();
-    // The library of a pair: the prior's run, then the robot's others but the target; none
-    // where the robot has no third run.
+    // The library of a pair: the prior's run, then the robot's others but the target and
+    // the runs that are the target's (a copy of it, a part of it or a run it is part of:
+    // the pair they would make with it is not a pair), whose models would be scored on
+    // windows they were fitted on; none where the robot has no third run.
     let library_of = |a: usize, b: usize, m: usize| -> Option<NamedModels> {
         let others: Vec<usize> = pairs
             .iter()
-            .filter(|&&(x, c)| x == a && c != b)
+            .filter(|&&(x, c)| x == a && c != b && pairs.contains(&(c, b)))
             .map(|&(_, c)| c)
             .filter(|c| members.contains_key(&(*c, m)))
             .collect();
@@ -199,7 +206,7 @@ pub(super) fn adaptation(
         })
         .collect();
     let mut done = Vec::new();
-    let mut skipped: Vec<String> = Vec::new();
+    let mut skipped: Vec<String> = pairs_skipped.to_vec();
     for o in outcomes {
         match o {
             Ok(p) => done.push(p),
