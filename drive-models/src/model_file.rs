@@ -705,12 +705,68 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
                 file: file.into(),
                 message,
             })?;
+        if let Some(powertrain) = model.powertrain() {
+            reaches_its_commands(powertrain, range).map_err(|message| ModelFileError::Model {
+                file: file.into(),
+                message,
+            })?;
+        }
     }
     Ok(ModelFile {
         model,
         robot,
         fitted_with,
     })
+}
+
+/// The least share of the commands a model was fitted on (`fitted_with.commanded`) that its
+/// powertrain must reach, held, on some axis: a fit's powertrain follows the wheels it was
+/// fitted on, which reach most of what they were commanded (a Warthog on gravel 0.6 of its
+/// forward command); one that reaches a twentieth of it on every axis is not one a fit
+/// writes (limits of 1e-9 rad/s against commands of 16 rad/s: a robot that never moves).
+const MIN_REACHED_SHARE: f64 = 0.05;
+
+/// `Err` naming what `powertrain` reaches when, held for 5 s at each end of `range` from
+/// rest, it reaches less than [`MIN_REACHED_SHARE`] of the command on every axis commanded.
+fn reaches_its_commands(
+    powertrain: &dyn drive_traits::Powertrain,
+    range: &CommandRange,
+) -> Result<(), String> {
+    let steps = powertrain
+        .step()
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .map_or(100, |s| ((5.0 / s).ceil() as usize).clamp(1, 10_000));
+    for end in [&range.max, &range.min] {
+        let mut command = drive_traits::Input::zeros();
+        for (i, v) in end.iter().enumerate().take(drive_traits::MAX_INPUTS) {
+            command[i] = *v;
+        }
+        let reached = powertrain.predict(&drive_traits::Input::zeros(), &vec![command; steps]);
+        let Some(last) = reached.last() else {
+            continue;
+        };
+        let shares: Vec<f64> = end
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.abs() > 0.0)
+            .map(|(i, c)| last[i] / c)
+            .collect();
+        if !shares.is_empty() && shares.iter().all(|s| !(s.abs() >= MIN_REACHED_SHARE)) {
+            let show = |v: &[f64]| {
+                v.iter()
+                    .map(|x| drive_traits::limits::Short(*x).to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            return Err(format!(
+                "its powertrain, held at the commands it was fitted on ([{}], fitted_with.commanded) for 5 s, reaches [{}]: less than {} of them on every axis (its limits or gains are not what a fit writes)",
+                show(end),
+                show(&last.iter().take(end.len()).copied().collect::<Vec<_>>()),
+                MIN_REACHED_SHARE
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// What a model file's model is built of: its type (`composed`, `acc-blr`, ...) and its

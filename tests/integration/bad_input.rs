@@ -237,6 +237,12 @@ fn cases() -> Vec<Case> {
                 v.as_object_mut().unwrap().remove("fitted_with");
             })),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "2 calibration layers, one inside another"] },
+        // A twelfth outside sweep: a powertrain whose limits a fit never writes (1e-9 rad/s
+        // against commands of about 1 rad/s): a model of a robot that never moves.
+        Case { name: "model powertrain that cannot reach its commands", file: File::Model(|m| edit_model(&m, |v| {
+                composed(v)["powertrain"]["limits"] = serde_json::json!({"min": [-1e-9, -1e-9], "max": [1e-9, 1e-9]});
+            })),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "its powertrain, held at the commands it was fitted on", "less than 0.05 of them on every axis"] },
         // A third outside sweep: a model's names against what it is built of, and text
         // a sidecar cannot hold.
         Case { name: "model labelled as another model", file: File::Model(|m| edit_model(&m, |v| {
