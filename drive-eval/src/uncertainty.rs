@@ -7,8 +7,9 @@ use drive_traits::{MotionModel, StartInfo, WindowSet};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// The horizons (s) of the coverage figures; one beyond a window's last step is taken at
-/// its last step (2 s windows of 40 samples at 20 Hz end at 1.95 s).
+/// The horizons (s) of the coverage figures; one a step beyond a window's last step is taken
+/// at its last step (2 s windows of 40 samples at 20 Hz end at 1.95 s), one further beyond
+/// is left out (1 s windows have no `"2.0"`: it would be their 0.95 s).
 pub const COVERAGE_HORIZONS_S: [f64; 3] = [0.5, 1.0, 2.0];
 
 /// The nominal coverages of the reliability diagram.
@@ -102,12 +103,27 @@ struct AtStep {
     yaw_error: f64,
 }
 
-/// The share inside at each horizon of `records` (window x horizon).
-fn horizon_shares(records: &[&[AtStep]], pick: fn(&AtStep) -> bool) -> BTreeMap<String, f64> {
+/// The horizons of [`COVERAGE_HORIZONS_S`] that windows of `n` samples `dt` apart reach
+/// (within a step beyond their last), each with its step (at most the last).
+fn reached_horizons(n: usize, dt: f64) -> Vec<(f64, usize)> {
     COVERAGE_HORIZONS_S
         .iter()
+        .map(|&h| (h, (h / dt).round()))
+        .filter(|&(_, k)| k <= n as f64)
+        .map(|(h, k)| (h, (k as usize).clamp(1, n - 1)))
+        .collect()
+}
+
+/// The share inside at each horizon of `records` (window x horizon).
+fn horizon_shares(
+    horizons: &[(f64, usize)],
+    records: &[&[AtStep]],
+    pick: fn(&AtStep) -> bool,
+) -> BTreeMap<String, f64> {
+    horizons
+        .iter()
         .enumerate()
-        .map(|(i, h)| {
+        .map(|(i, (h, _))| {
             let inside = records.iter().filter(|r| pick(&r[i])).count();
             (
                 format!("{h:.1}"),
@@ -173,10 +189,8 @@ pub fn score_uncertainty(
     let (mut poses, mut covs) = (Vec::new(), Vec::new());
     // Per window: its phase, its commanded speed, and its figures at each horizon.
     let mut records: Vec<WindowRecord> = Vec::new();
-    let steps: Vec<usize> = COVERAGE_HORIZONS_S
-        .iter()
-        .map(|h| ((h / dt).round() as usize).clamp(1, n - 1))
-        .collect();
+    let horizons = reached_horizons(n, dt);
+    let steps: Vec<usize> = horizons.iter().map(|&(_, k)| k).collect();
     for w in eval.windows.iter().filter(|w| w.len() >= 2) {
         model
             .predict_with_covariance_into(
@@ -280,10 +294,10 @@ pub fn score_uncertainty(
         if !of.is_empty() {
             coverage95_by_phase.insert(
                 phase.as_str().to_string(),
-                horizon_shares(&of, |a| a.position),
+                horizon_shares(&horizons, &of, |a| a.position),
             );
             yaw_coverage95_by_phase
-                .insert(phase.as_str().to_string(), horizon_shares(&of, |a| a.yaw));
+                .insert(phase.as_str().to_string(), horizon_shares(&horizons, &of, |a| a.yaw));
         }
     }
     let mut speeds: Vec<f64> = records.iter().map(|r| r.speed).collect();
@@ -298,8 +312,8 @@ pub fn score_uncertainty(
     ] {
         let of = by(&|r| keep(r.speed));
         if !of.is_empty() {
-            coverage95_by_speed.insert(name.to_string(), horizon_shares(&of, |a| a.position));
-            yaw_coverage95_by_speed.insert(name.to_string(), horizon_shares(&of, |a| a.yaw));
+            coverage95_by_speed.insert(name.to_string(), horizon_shares(&horizons, &of, |a| a.position));
+            yaw_coverage95_by_speed.insert(name.to_string(), horizon_shares(&horizons, &of, |a| a.yaw));
         }
     }
     // Sharpness and ranking at the last horizon (2 s).
@@ -330,12 +344,9 @@ pub fn score_uncertainty(
         error_rank_correlation.insert("yaw".to_string(), r);
     }
     let at_horizons = |hits: &[usize]| {
-        COVERAGE_HORIZONS_S
+        horizons
             .iter()
-            .map(|h| {
-                let k = ((h / dt).round() as usize).clamp(1, n - 1);
-                (format!("{h:.1}"), fraction(hits, k))
-            })
+            .map(|&(h, k)| (format!("{h:.1}"), fraction(hits, k)))
             .collect::<BTreeMap<_, _>>()
     };
     let points = |counts: &[(usize, usize)], total: usize| -> Vec<ReliabilityPoint> {

@@ -330,7 +330,11 @@ impl Report {
             }
             let _ = writeln!(s);
         }
-        let _ = writeln!(s, "## Model comparison (MRMSE over 2 s windows, eq. 8)\n");
+        let _ = writeln!(
+            s,
+            "## Model comparison (MRMSE over {} s windows, eq. 8)\n",
+            drive_traits::limits::Short(c.window_s)
+        );
         let _ = writeln!(
             s,
             "| model | powertrain | transl. median [m] | transl. IQR [m] | rot. median [rad] | rot. IQR [rad] | vs naive (transl. / rot.) |"

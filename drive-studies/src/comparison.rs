@@ -218,6 +218,9 @@ pub struct Comparison {
     pub position_frame: &'static str,
     /// Split fraction.
     pub split: f64,
+    /// The windows' length (s): samples over the command rate (2 s in the paper), what
+    /// eq. 8 is taken over.
+    pub window_s: f64,
     /// Training intervals.
     pub train_intervals: usize,
     /// Evaluation intervals.
@@ -394,6 +397,7 @@ pub fn compare_specs_with_progress(
         terrain: data.robot.terrain.clone(),
         position_frame: data.robot.position_frame.as_str(),
         split,
+        window_s: data.robot.window_len as f64 / data.robot.rate_hz,
         train_intervals,
         eval_intervals: intervals - train_intervals,
         train_windows: train.len(),

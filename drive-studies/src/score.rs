@@ -103,11 +103,13 @@ pub struct Score {
     pub notes: Vec<String>,
 }
 
-/// Scores `model`, fitted for the vehicle `fitted_for`, on every window of `data`, each
-/// prediction starting from what `start` allows. Refused: a vehicle of another type, a
-/// model stepping at another rate, and a vehicle of the same type with another geometry
-/// (two robots, or two calibrations of one robot) unless `allow_other_geometry`, where
-/// the difference is in `notes`; `allow` names how a caller allows it, for the error.
+/// Scores `model`, fitted for the robot `fitted_for` (its vehicle and windows), on every
+/// window of `data`, each prediction starting from what `start` allows. Refused: a vehicle
+/// of another type, a model stepping at another rate, and a vehicle of the same type with
+/// another geometry (two robots, or two calibrations of one robot) unless
+/// `allow_other_geometry`, where the difference is in `notes`; `allow` names how a caller
+/// allows it, for the error. Windows of another length than the model's are scored with a
+/// note (eq. 8 is then over their length, not the one the model was fitted on).
 ///
 /// ```
 /// use drive_studies::{score_model, ScoreError};
@@ -115,23 +117,24 @@ pub struct Score {
 /// use drive_traits::{Learner, StartInfo};
 /// let data = drive_data::bundled::load("husky_drive").unwrap();
 /// let naive = Learner::fit(&Composed::new(Commanded, NoSlip), &data.all()).unwrap();
-/// let vehicle = data.robot.vehicle.as_ref();
-/// let s = score_model(&naive, vehicle, &data, StartInfo::default(), false, "").unwrap();
+/// let s = score_model(&naive, &data.robot, &data, StartInfo::default(), false, "").unwrap();
 /// assert_eq!(s.windows, data.windows.len());
 /// assert!(s.translational_m.all.unwrap().median > 0.0);
 /// // The Warthog's baseline is not the Husky's.
 /// let warthog = drive_data::bundled::load("warthog_drive").unwrap();
-/// let across = score_model(&naive, vehicle, &warthog, StartInfo::default(), false, "--allow-other-geometry");
+/// let across = score_model(&naive, &data.robot, &warthog, StartInfo::default(), false, "--allow-other-geometry");
 /// assert!(matches!(across, Err(ScoreError::Geometry { .. })));
 /// ```
 pub fn score_model(
     model: &dyn MotionModel,
-    fitted_for: &dyn CommandModel,
+    fitted_for: &drive_traits::RobotDescription,
     data: &Dataset,
     start: StartInfo,
     allow_other_geometry: bool,
     allow: &'static str,
 ) -> Result<Score, ScoreError> {
+    let robot = fitted_for;
+    let fitted_for = robot.vehicle.as_ref();
     let (ours, theirs) = (
         drive_traits::vehicle_tag(fitted_for).unwrap_or_default(),
         drive_traits::vehicle_tag(data.robot.vehicle.as_ref()).unwrap_or_default(),
@@ -167,6 +170,17 @@ pub fn score_model(
             model_dt: model.dt(),
             data_dt: data.robot.dt(),
         });
+    }
+    let window_s = |r: &drive_traits::RobotDescription| r.window_len as f64 / r.rate_hz;
+    let (fitted_s, scored_s) = (window_s(robot), window_s(&data.robot));
+    if (fitted_s - scored_s).abs() > 1e-9 * fitted_s.abs().max(scored_s.abs()) {
+        notes.push(format!(
+            "{}: windows of {} s, the model was fitted on windows of {} s: its errors (eq. 8) and the 95% regions' coverage are over {} s",
+            data.robot.name,
+            drive_traits::limits::Short(scored_s),
+            drive_traits::limits::Short(fitted_s),
+            drive_traits::limits::Short(scored_s)
+        ));
     }
     let report = evaluate_model_from(model, &data.all(), start);
     let by_phase = |f: &dyn Fn(Option<Phase>) -> Option<Summary>| ByPhase {

@@ -552,12 +552,12 @@ impl Model {
         };
         let data = &dataset.inner;
         let model = self.model.as_ref();
-        let vehicle = self.robot.vehicle.as_ref();
+        let robot = &self.robot;
         let score = py
             .detach(|| {
                 drive::studies::score_model(
                     model,
-                    vehicle,
+                    robot,
                     data,
                     start,
                     allow_other_geometry,

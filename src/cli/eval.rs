@@ -218,7 +218,8 @@ pub fn table(cmp: &Comparison) -> String {
     }
     let _ = writeln!(
         s,
-        "MRMSE over the 2 s windows (paper eq. 8): median [IQR], improvement over naive\n"
+        "MRMSE over the {} s windows (paper eq. 8): median [IQR], improvement over naive\n",
+        crate::traits::limits::Short(cmp.window_s)
     );
     let width = name_width(cmp.models.iter());
     let section =
@@ -326,10 +327,28 @@ fn uncertainty_section(s: &mut String, cmp: &Comparison) {
         first.start.as_str()
     );
     let width = name_width(with.iter().copied());
+    // The horizons the windows reach (a 1 s window has no 2 s one).
+    let horizons: Vec<String> = first
+        .coverage95
+        .as_ref()
+        .map(|c| {
+            c.keys()
+                .map(|k| k.parse::<f64>().map_or(k.clone(), |h| format!("{h}")))
+                .collect()
+        })
+        .unwrap_or_default();
+    let last = first
+        .coverage95
+        .as_ref()
+        .and_then(|c| c.keys().last().cloned())
+        .unwrap_or_else(|| "2.0".into());
+    let at_horizons = format!("at {} s", horizons.join("/"));
     let _ = writeln!(
         s,
         "  {:<width$}{:<24}{:<24}NLL [nats/step]",
-        "", "position at 0.5/1/2 s", "yaw at 0.5/1/2 s"
+        "",
+        format!("position {at_horizons}"),
+        format!("yaw {at_horizons}")
     );
     for m in with {
         let at = |c: &Option<std::collections::BTreeMap<String, f64>>| {
@@ -361,7 +380,8 @@ fn uncertainty_section(s: &mut String, cmp: &Comparison) {
     let _ = writeln!(s);
     let _ = writeln!(
         s,
-        "which predictions the regions say are hard, at 2 s: position coverage per phase and per third of the commanded speed; mean region area over the constant circle of the same coverage; rank correlation of the predicted spread with the error"
+        "which predictions the regions say are hard, at {} s: position coverage per phase and per third of the commanded speed; mean region area over the constant circle of the same coverage; rank correlation of the predicted spread with the error",
+        last.parse::<f64>().map_or(last.clone(), |h| format!("{h}"))
     );
     let _ = writeln!(
         s,
@@ -375,7 +395,7 @@ fn uncertainty_section(s: &mut String, cmp: &Comparison) {
                     groups
                         .as_ref()
                         .and_then(|g| g.get(*k))
-                        .and_then(|h| h.get("2.0"))
+                        .and_then(|h| h.get(&last))
                         .map_or("-".to_string(), |f| format!("{:.0}%", 100.0 * f))
                 })
                 .collect::<Vec<_>>()

@@ -54,7 +54,7 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
     let useless = refuse_useless(&data, &data_label, args.useless.allow_useless, true)?;
     let mut score = crate::studies::score_model(
         file.model.as_ref(),
-        file.robot.vehicle.as_ref(),
+        &file.robot,
         &data,
         start,
         args.allow_other_geometry,
