@@ -296,8 +296,10 @@ pub fn score_uncertainty(
                 phase.as_str().to_string(),
                 horizon_shares(&horizons, &of, |a| a.position),
             );
-            yaw_coverage95_by_phase
-                .insert(phase.as_str().to_string(), horizon_shares(&horizons, &of, |a| a.yaw));
+            yaw_coverage95_by_phase.insert(
+                phase.as_str().to_string(),
+                horizon_shares(&horizons, &of, |a| a.yaw),
+            );
         }
     }
     let mut speeds: Vec<f64> = records.iter().map(|r| r.speed).collect();
@@ -312,8 +314,12 @@ pub fn score_uncertainty(
     ] {
         let of = by(&|r| keep(r.speed));
         if !of.is_empty() {
-            coverage95_by_speed.insert(name.to_string(), horizon_shares(&horizons, &of, |a| a.position));
-            yaw_coverage95_by_speed.insert(name.to_string(), horizon_shares(&horizons, &of, |a| a.yaw));
+            coverage95_by_speed.insert(
+                name.to_string(),
+                horizon_shares(&horizons, &of, |a| a.position),
+            );
+            yaw_coverage95_by_speed
+                .insert(name.to_string(), horizon_shares(&horizons, &of, |a| a.yaw));
         }
     }
     // Sharpness and ranking at the last horizon (2 s).

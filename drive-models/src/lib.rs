@@ -10,7 +10,7 @@
 //! | uncertainty | [`calibration`] (calibrated regions, cross-conformal), [`difficulty`] (the learned difficulty) | eq. 7 |
 //! | batches | [`batch`]: rollouts and stepped states on all cores | |
 //! | adaptation | [`adapt`]: a fitted model's slip corrected online from the ground driven | eq. 5 |
-//! | files | [`model_file`]: model files with the settings a model was fitted with, [`export`] (norlab_controllers' layout) | |
+//! | files | [`model_file`]: model files with the settings a model was fitted with, [`known_inputs`] (what a saved model knows of its inputs, and the notes a prediction beyond it earns), [`export`] (norlab_controllers' layout) | |
 //!
 //! Learners are unfitted configurations implementing the learner traits of
 //! [`drive_traits`]; their `fit` returns a separate fitted type. [`registry`] names every part
@@ -29,6 +29,7 @@ pub mod calibration;
 mod composed;
 pub mod difficulty;
 pub mod export;
+pub mod known_inputs;
 pub mod model_file;
 pub mod powertrain;
 pub mod registry;

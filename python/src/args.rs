@@ -198,6 +198,21 @@ pub(crate) fn finite(what: &str, v: &[f64]) -> PyResult<()> {
     }
 }
 
+/// `Err` naming the first value of `v` beyond what the command line's readers accept
+/// ([`drive::traits::limits::MAX_ABS_MEASUREMENT`], 1e9: a corrupted number, or a value in
+/// other units), as `drive predict` refuses it in a command file.
+pub(crate) fn within_readers(what: &str, v: &[f64]) -> PyResult<()> {
+    use drive::traits::limits::{Short, MAX_ABS_MEASUREMENT};
+    match v.iter().position(|x| x.abs() > MAX_ABS_MEASUREMENT) {
+        Some(i) => Err(err(format!(
+            "{what}: entry {i} (counting from 0, row by row) is {}, beyond {} (what the command line reads): in the robot's units?",
+            Short(v[i]),
+            Short(MAX_ABS_MEASUREMENT)
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// Whether every value is finite, in a loop the compiler vectorizes (`x * 0` is 0 for a
 /// finite x and NaN for an infinity or a NaN; a NaN makes the sum NaN).
 pub(crate) fn all_finite(v: &[f64]) -> bool {

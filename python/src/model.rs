@@ -3,7 +3,7 @@
 
 use crate::args::{
     all_finite, all_finite_parallel, dataset_of, finite, float_array, number_of, numbers_of,
-    path_of, type_name,
+    path_of, type_name, within_readers,
 };
 use crate::err;
 use crate::evaluate::start_info_of;
@@ -31,7 +31,27 @@ pub(crate) struct Model {
     pub(crate) settings: Option<FitSettings>,
 }
 
+/// Raises each of `notes` as a `UserWarning` (what the command line prints as a note).
+fn warn_notes(py: Python<'_>, notes: impl IntoIterator<Item = String>) -> PyResult<()> {
+    let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+    for note in notes {
+        // A note holds no NUL: numbers, units and the vehicle's column names.
+        let message = std::ffi::CString::new(note).unwrap_or_default();
+        PyErr::warn(py, &category, &message, 1)?;
+    }
+    Ok(())
+}
+
 impl Model {
+    /// What the model knows of its inputs (the notes of a prediction beyond them).
+    fn known(&self) -> Option<drive::models::known_inputs::KnownInputs> {
+        drive::models::known_inputs::KnownInputs::of(
+            self.model.as_ref(),
+            self.settings.as_ref(),
+            &self.robot,
+        )
+    }
+
     fn start(
         &self,
         pose: [f64; 3],
@@ -144,12 +164,35 @@ impl Model {
         }
         let flat: Vec<f64> = commands.as_array().iter().copied().collect();
         finite("commands", &flat)?;
+        within_readers("commands", &flat)?;
         finite("start", &start)?;
+        within_readers("start", &start)?;
+        within_readers("start_wheels", &start_wheels.as_slice()[..dim])?;
         if let Some(w) = yaw_rate {
             finite("start_yaw_rate", &[w])?;
+            within_readers("start_yaw_rate", &[w])?;
+        }
+        if let Some(v) = velocity {
+            within_readers("start_velocity", &v)?;
         }
         let start = self.start(start, start_wheels, yaw_rate, velocity);
         let cmds: Vec<Input> = flat.chunks_exact(dim).map(input_of_row).collect();
+        // The command line's notes, as warnings: commands or a start beyond what the model
+        // knows.
+        let known = self.known();
+        if let Some(k) = &known {
+            let notes = k
+                .command_note(&self.robot, cmds.iter().copied())
+                .into_iter()
+                .chain(k.start_notes(
+                    &self.robot,
+                    start_wheels,
+                    velocity,
+                    "start_wheels",
+                    "start_velocity",
+                ));
+            warn_notes(py, notes)?;
+        }
         let mut poses = Vec::with_capacity(cmds.len());
         let mut covariances = Vec::new();
         if return_cov {
@@ -164,6 +207,9 @@ impl Model {
             MotionError::not_finite(&self.model.name(), self.model.dt(), &poses, &covariances)
         {
             return Err(err(e));
+        }
+        if let Some(k) = &known {
+            warn_notes(py, k.speed_note(&self.robot, self.model.dt(), &poses))?;
         }
         let out: Vec<f64> = poses.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
         let poses_array = numpy::ndarray::Array2::from_shape_vec((poses.len(), 3), out)
@@ -231,6 +277,17 @@ impl Model {
         if !py.detach(|| all_finite_parallel(flat)) {
             finite("commands", flat)?;
         }
+        let limit = drive::traits::limits::MAX_ABS_MEASUREMENT;
+        if py.detach(|| flat.iter().any(|x| x.abs() > limit)) {
+            within_readers("commands", flat)?;
+        }
+        // The command line's note, as a warning: a command beyond what the model knows (its
+        // index counts the commands of every sequence, row by row).
+        let known = self.known();
+        if let Some(k) = &known {
+            let commands = flat.chunks_exact(dim).map(input_of_row);
+            warn_notes(py, k.command_note(&self.robot, commands))?;
+        }
         let rows = |a: Option<PyReadonlyArray2<'py, f64>>,
                     width: usize,
                     what: &str|
@@ -246,12 +303,24 @@ impl Model {
                     }
                     let v: Vec<f64> = a.as_array().iter().copied().collect();
                     finite(what, &v)?;
+                    within_readers(what, &v)?;
                     Ok(v)
                 }
             }
         };
         let poses0 = rows(starts, 3, "starts")?;
         let wheels = rows(start_wheels, dim, "start_wheels")?;
+        // A start beyond what the model knows: the first row's note.
+        if let Some(k) = &known {
+            let beyond = wheels
+                .chunks_exact(dim.max(1))
+                .position(|w| k.range.beyond(w).is_some());
+            if let Some(i) = beyond {
+                let w = input_of_row(&wheels[dim * i..dim * (i + 1)]);
+                let flag = format!("start_wheels[{i}]");
+                warn_notes(py, k.start_notes(&self.robot, w, None, &flag, ""))?;
+            }
+        }
         let velocities = start_velocities
             .is_some()
             .then(|| rows(start_velocities, 2, "start_velocities"))

@@ -291,6 +291,31 @@ def test_predict_equals_drive_train_and_predict(husky, tmp_path):
             np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9)
 
 
+def test_predict_warns_where_the_command_line_notes(husky):
+    """Commands or a start beyond what the model was trained on are warned about, as
+    drive predict notes them; a value beyond what its readers take (1e9) is refused."""
+    model = drive.fit(husky, "slip-blr", split=0.5)
+    far = np.full((40, 2), 100.0)
+    with pytest.warns(UserWarning, match=r"command 0 holds 100 rad/s on axis 'cmd_left', beyond the commands it was trained on"):
+        model.predict(far)
+    with pytest.warns(UserWarning, match=r"beyond the commands it was trained on"):
+        model.predict_batch(np.stack([np.zeros((40, 2)), far]))
+    with pytest.warns(UserWarning, match=r"start_wheels holds 100 rad/s"):
+        model.predict(np.zeros((40, 2)), start_wheels=(100.0, 100.0))
+    with pytest.warns(UserWarning, match=r"start_wheels\[1\] holds 100 rad/s"):
+        model.predict_batch(np.zeros((2, 40, 2)), start_wheels=np.array([[0.0, 0.0], [100.0, 100.0]]))
+    for huge in (1e12, 1e300):
+        with pytest.raises(drive.DriveError, match=r"beyond 1e\+?0?9"):
+            model.predict(np.full((40, 2), huge))
+        with pytest.raises(drive.DriveError, match=r"beyond 1e\+?0?9"):
+            model.predict_batch(np.full((1, 40, 2), huge))
+    # Within what it knows: no warning.
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.predict(np.full((40, 2), 1.0))
+
+
 def test_predict_batch_matches_predict_row_by_row(husky):
     model = drive.fit(husky, "slip-blr", split=0.5)
     rng = np.random.default_rng(3)

@@ -1,6 +1,7 @@
 //! `drive predict`: poses from a saved model and a command sequence.
 
 use super::common::{parse_number, parse_pair, parse_triplet};
+use crate::models::known_inputs::KnownInputs;
 use crate::traits::limits::Exact as Num;
 use crate::traits::{Input, MotionError, Pose, StartState};
 use anyhow::{Context, Result};
@@ -62,8 +63,14 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
     // The output's t runs on the command file's clock (from its first t).
     let crate::data::CommandFile { commands: cmds, t0 } =
         crate::data::read_commands(&args.commands, &columns, model.dt())?;
-    let known = known_range(model.as_ref(), fitted_with.as_ref(), &robot);
-    note_beyond_known(known.as_ref(), &robot, &cmds);
+    let known = KnownInputs::of(model.as_ref(), fitted_with.as_ref(), &robot);
+    let note = |n: String| super::common::note(format!("note: {n}"));
+    if let Some(n) = known
+        .as_ref()
+        .and_then(|k| k.command_note(&robot, cmds.iter().copied()))
+    {
+        note(n);
+    }
     let pose = args
         .start
         .map_or(Pose::zeros(), |[x, y, yaw]| Pose::new(x, y, yaw));
@@ -98,7 +105,12 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
             )?;
         }
     }
-    note_start_beyond_known(known.as_ref(), &robot, measured, args.start_velocity);
+    if let Some(k) = &known {
+        let flags = ("--start-wheels", "--start-velocity");
+        for n in k.start_notes(&robot, measured, args.start_velocity, flags.0, flags.1) {
+            note(n);
+        }
+    }
     let start = StartState::measured(pose, measured, robot.vehicle.as_ref());
     let start = args
         .start_yaw_rate
@@ -113,7 +125,12 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
     if !with_cov {
         model.predict_into(&start, &cmds, &mut poses);
     }
-    note_implausible_speed(known.as_ref(), &robot, model.dt(), &poses);
+    if let Some(n) = known
+        .as_ref()
+        .and_then(|k| k.speed_note(&robot, model.dt(), &poses))
+    {
+        note(n);
+    }
     // Nothing is printed unless every predicted value is a finite number.
     let covariances: &[_] = if with_cov { &covs } else { &[] };
     if let Some(e) = MotionError::not_finite(&model.name(), model.dt(), &poses, covariances) {
@@ -156,194 +173,4 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// Notes (on stderr) a command beyond what the model knows: the commands of its training
-/// windows (`fitted_with.commanded`), or, in a file that does not keep them, its
-/// powertrain's fitted limits; saying whether the powertrain saturates it (the prediction is
-/// that of its limits) or the model extrapolates.
-/// The inputs a model knows: the commands it was trained on, else its powertrain's fitted
-/// limits; what they are called, and whether its powertrain saturates beyond them.
-struct Known {
-    range: crate::models::model_file::CommandRange,
-    what: &'static str,
-    saturates: bool,
-}
-
-fn known_range(
-    model: &dyn crate::traits::MotionModel,
-    fitted_with: Option<&crate::models::model_file::FitSettings>,
-    robot: &crate::traits::RobotDescription,
-) -> Option<Known> {
-    use crate::models::model_file::CommandRange;
-    let axes = robot.vehicle.axes();
-    // The powertrain's limits, from its parameters (`axis i min`, `axis i max`).
-    let limits = model.powertrain().and_then(|p| {
-        let params = p.parameters();
-        let find = |key: String| params.iter().find(|(k, _)| *k == key).map(|(_, v)| *v);
-        let min: Option<Vec<f64>> = (0..axes.len())
-            .map(|i| find(format!("axis {i} min")))
-            .collect();
-        let max: Option<Vec<f64>> = (0..axes.len())
-            .map(|i| find(format!("axis {i} max")))
-            .collect();
-        Some(CommandRange {
-            min: min?,
-            max: max?,
-        })
-    });
-    // The training commands first: a DRIVE run commands beyond what its wheels reach, and
-    // the fit learned that saturation.
-    let saturates = limits.is_some();
-    let (range, what) = match (fitted_with.and_then(|f| f.commanded.clone()), limits) {
-        (Some(c), _) => (c, "the commands it was trained on"),
-        (None, Some(l)) => (l, "its powertrain's fitted limits"),
-        (None, None) => return None,
-    };
-    Some(Known {
-        range,
-        what,
-        saturates,
-    })
-}
-
-/// A note when a command lies beyond the inputs the model knows ([`known_range`]).
-fn note_beyond_known(
-    known: Option<&Known>,
-    robot: &crate::traits::RobotDescription,
-    cmds: &[Input],
-) {
-    let Some(Known {
-        range,
-        what,
-        saturates,
-    }) = known
-    else {
-        return;
-    };
-    let axes = robot.vehicle.axes();
-    let consequence = if *saturates {
-        "its powertrain saturates it at its fitted limits"
-    } else {
-        "the model extrapolates beyond its data"
-    };
-    let found = cmds.iter().enumerate().find_map(|(k, u)| {
-        let values: Vec<f64> = (0..axes.len()).map(|i| u[i]).collect();
-        range.beyond(&values).map(|(i, v)| (k, i, v))
-    });
-    if let Some((k, i, v)) = found {
-        let (lo, hi) = (range.min[i], range.max[i]);
-        super::common::note(format!(
-            "note: command {k} holds {} {} on axis '{}', beyond {what} ([{}, {}]): {consequence}; in the robot's units?",
-            crate::traits::limits::Short(v),
-            axes[i].unit,
-            axes[i].command_column,
-            crate::traits::limits::Short(lo),
-            crate::traits::limits::Short(hi)
-        ));
-    }
-}
-
-/// A note when the start's measured inputs (`--start-wheels`) lie beyond the inputs the
-/// model knows, or its body velocity (`--start-velocity`) beyond twice the fastest those
-/// inputs drive the vehicle: a start no data showed, from which the model's state runs
-/// wherever its dynamics take it (a wheel at 1e6 rad/s: 1e7 m in two seconds).
-fn note_start_beyond_known(
-    known: Option<&Known>,
-    robot: &crate::traits::RobotDescription,
-    measured: Input,
-    velocity: Option<[f64; 2]>,
-) {
-    use crate::traits::limits::Short;
-    let Some(Known { range, what, .. }) = known else {
-        return;
-    };
-    let axes = robot.vehicle.axes();
-    let values: Vec<f64> = (0..axes.len()).map(|i| measured[i]).collect();
-    if let Some((i, v)) = range.beyond(&values) {
-        super::common::note(format!(
-            "note: --start-wheels holds {} {} on axis '{}', beyond {what} ([{}, {}]): a start no data showed; in the robot's units?",
-            Short(v),
-            axes[i].unit,
-            axes[i].measured_column,
-            Short(range.min[i]),
-            Short(range.max[i])
-        ));
-    }
-    let Some([vx, vy]) = velocity else {
-        return;
-    };
-    let (fastest, _) = fastest_known(range, robot);
-    let speed = vx.hypot(vy);
-    if fastest.is_finite() && fastest > 0.0 && speed > 2.0 * fastest {
-        super::common::note(format!(
-            "note: --start-velocity is {} m/s, over twice the fastest {what} drive the vehicle ({} m/s): a start no data showed; in m/s?",
-            Short(speed),
-            Short(fastest)
-        ));
-    }
-}
-
-/// The fastest the known inputs drive the body (m/s) and turn it (rad/s): over the corners
-/// of their box.
-fn fastest_known(
-    range: &crate::models::model_file::CommandRange,
-    robot: &crate::traits::RobotDescription,
-) -> (f64, f64) {
-    let n = robot.vehicle.axes().len();
-    (0..1usize << n)
-        .map(|corner| {
-            let u = Input::from_fn(|i, _| {
-                if i >= n {
-                    0.0
-                } else if corner >> i & 1 == 1 {
-                    range.max[i]
-                } else {
-                    range.min[i]
-                }
-            });
-            let b = robot.vehicle.body_velocity(&u);
-            (b.x.hypot(b.y), b.z.abs())
-        })
-        .fold((0.0, 0.0), |(v, w), (a, b)| {
-            (f64::max(v, a), f64::max(w, b))
-        })
-}
-
-/// A note when the predicted poses move faster than ten times the fastest the known inputs
-/// drive the vehicle (a model file whose weights were edited to 1e8 went 25,000 km in two
-/// seconds without a word): no robot moves so, whatever its ground.
-fn note_implausible_speed(
-    known: Option<&Known>,
-    robot: &crate::traits::RobotDescription,
-    dt: f64,
-    poses: &[Pose],
-) {
-    use crate::traits::limits::Short;
-    let Some(Known { range, .. }) = known else {
-        return;
-    };
-    let (fastest, turning) = fastest_known(range, robot);
-    if !(fastest.is_finite() && turning.is_finite() && dt > 0.0) {
-        return;
-    }
-    let found = poses.windows(2).enumerate().find_map(|(k, p)| {
-        let speed = (p[1].x - p[0].x).hypot(p[1].y - p[0].y) / dt;
-        // The predicted yaw runs on unwrapped (a turn of 1e6 rad is no small one).
-        let rate = (p[1].z - p[0].z).abs() / dt;
-        if fastest > 0.0 && speed > 10.0 * fastest {
-            Some((k + 1, speed, "m/s", fastest, "drive"))
-        } else if turning > 0.0 && rate > 10.0 * turning {
-            Some((k + 1, rate, "rad/s", turning, "turn"))
-        } else {
-            None
-        }
-    });
-    if let Some((k, value, unit, most, how)) = found {
-        super::common::note(format!(
-            "note: the model predicts {} {unit} at step {k}, over ten times the fastest the inputs it knows {how} the vehicle ({} {unit}): no robot moves so; a model file edited, or fitted on data in other units?",
-            Short(value),
-            Short(most)
-        ));
-    }
 }

@@ -191,11 +191,22 @@ fn windows_of_one_second_are_labelled_as_such() {
     assert!(eval.contains("position at 0.5/1 s"), "{eval}");
     assert!(!eval.contains("2 s"), "{eval}");
     let model = asphalt_model(dir.path());
-    let out = drive(&["score", "--model", model.to_str().unwrap(), "--data", s, "--json"]);
+    let out = drive(&[
+        "score",
+        "--model",
+        model.to_str().unwrap(),
+        "--data",
+        s,
+        "--json",
+    ]);
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let coverage = v["uncertainty"]["coverage95"].as_object().unwrap();
-    assert_eq!(coverage.keys().collect::<Vec<_>>(), ["0.5", "1.0"], "{coverage:?}");
+    assert_eq!(
+        coverage.keys().collect::<Vec<_>>(),
+        ["0.5", "1.0"],
+        "{coverage:?}"
+    );
     let notes = v["notes"].to_string();
     assert!(
         notes.contains("windows of 1 s, the model was fitted on windows of 2 s"),
