@@ -1079,7 +1079,72 @@ fn imu_yaw_rate(w: &Windows<'_>) -> Option<Finding> {
     if let Some(f) = offset.as_ref().filter(|f| f.severity == Severity::Fatal) {
         return Some(f.clone());
     }
+    if let Some(f) = imu_shift(w) {
+        return Some(f);
+    }
     imu_gain(w).or(offset)
+}
+
+/// `imu-yaw-rate`'s shift: per window, the turn the IMU's yaw rate integrates to against
+/// the turn localization saw (over windows where localization turned, twenty at least, in
+/// their recorded order): on the ten released and norlab runs the IMU correlates with its
+/// own window's turn at 0.95-0.995 (the gravel run's IMU, read backwards, at -0.98), with
+/// the window before's or after's at 0.59-0.91, at least 0.06 less; one correlating with a
+/// neighbour's better by [`localization::SHIFT_MARGIN`] or more, at 0.7 or more, is an IMU
+/// whose timestamps shifted by a window (a Husky IMU column a window late: 0.99 against
+/// 0.80; a Warthog asphalt run's: 0.96 against 0.90; it passed every check, and acc-BLR's
+/// rotational error rose from 0.09 to 0.16 rad on the Husky). Fatal: the models that start
+/// from the IMU's yaw rate start from another window's.
+fn imu_shift(w: &Windows<'_>) -> Option<Finding> {
+    let dt = w.data.robot.dt();
+    // (localization's turn, the IMU's) per window.
+    let turns: Vec<(f64, f64)> = w
+        .windows
+        .iter()
+        .zip(&w.motions)
+        .map(|(win, m)| {
+            let len = win.len();
+            let imu = win
+                .imu_yaw_rate
+                .iter()
+                .take(len.saturating_sub(1))
+                .sum::<f64>()
+                * dt;
+            (m.3, imu)
+        })
+        .collect();
+    if turns.iter().filter(|(seen, _)| seen.abs() >= 0.05).count() < 20
+        || !turns.iter().all(|(a, b)| a.is_finite() && b.is_finite())
+    {
+        return None;
+    }
+    let len = turns.len() as isize;
+    let table = &turns;
+    let at = |lag: isize| {
+        localization::correlation(
+            (0..len)
+                .filter(move |i| (0..len).contains(&(i + lag)))
+                .map(move |i| (table[i as usize].0, table[(i + lag) as usize].1)),
+        )
+    };
+    let own = at(0);
+    // The IMU of window i + 1 reading window i's turn reads the window before's: late.
+    for (lag, which) in [(1, "before"), (-1, "after")] {
+        let r = at(lag);
+        if r >= 0.7 && r >= own + localization::SHIFT_MARGIN {
+            return Some(Finding {
+                check: Check::ImuYawRate,
+                severity: Severity::Fatal,
+                message: format!(
+                    "the IMU's yaw rate follows the turn localization saw in the window {which} better than in its own window (correlation {} against {}, over {} windows): its timestamps shifted by a window? The models that start from the IMU's yaw rate (slip-ipem, acc-BLR, --start encoders+imu) start from another window's",
+                    Short((r * 100.0).round() / 100.0),
+                    Short((own * 100.0).round() / 100.0),
+                    turns.len()
+                ),
+            });
+        }
+    }
+    None
 }
 
 /// Offsets of the IMU (its mean rate where localization saw no turn) against the RMS yaw

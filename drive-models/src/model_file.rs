@@ -751,7 +751,11 @@ fn reaches_its_commands(
             .filter(|(_, c)| c.abs() > 0.0)
             .map(|(i, c)| last[i] / c)
             .collect();
-        if !shares.is_empty() && shares.iter().all(|s| !(s.abs() >= MIN_REACHED_SHARE)) {
+        if !shares.is_empty()
+            && shares
+                .iter()
+                .all(|s| s.is_nan() || s.abs() < MIN_REACHED_SHARE)
+        {
             let show = |v: &[f64]| {
                 v.iter()
                     .map(|x| drive_traits::limits::Short(*x).to_string())

@@ -2703,3 +2703,37 @@ fn encoders_negated_in_stretches_are_said_before_the_localization_frame_they_ups
         "{fatal:?}"
     );
 }
+
+/// Issue 63 (a twelfth outside sweep): an IMU one window (2 s) late passed every check, and
+/// the models that start from it started from another window's yaw rate. Its turn follows
+/// localization's of the window before better than its own window's: fatal, named; the run
+/// as recorded is not.
+#[test]
+fn an_imu_a_window_late_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut data = drive::bundled::load("husky_drive").unwrap();
+    let imu: Vec<Vec<f64>> = data
+        .windows
+        .iter()
+        .map(|w| w.imu_yaw_rate.clone())
+        .collect();
+    for (i, w) in data.windows.iter_mut().enumerate().skip(1) {
+        if imu[i - 1].len() == w.imu_yaw_rate.len() {
+            w.imu_yaw_rate = imu[i - 1].clone();
+        }
+    }
+    let late = dir.path().join("late.csv");
+    drive::data::write_dataset(&data, &late).unwrap();
+    let out = crate::common::drive(&["check", "--data", late.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(
+        text.contains("imu-yaw-rate (fatal): the IMU's yaw rate follows the turn localization saw in the window before better than in its own window"),
+        "{text}"
+    );
+    let recorded = crate::common::drive(&["check", "--data", "bundled:husky_drive"]);
+    let said = String::from_utf8_lossy(&recorded.stdout).to_string()
+        + &String::from_utf8_lossy(&recorded.stderr);
+    assert!(!said.contains("shifted by a window"), "{said}");
+}

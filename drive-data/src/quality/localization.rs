@@ -40,7 +40,7 @@ const MIN_CORRELATION: f64 = 0.3;
 /// the gravel run's turn the least; shifted one window later, the neighbour wins by 0.086 on
 /// the turn, 0.148 on the travel: the windows of one interval share their command, so a
 /// neighbour still explains much).
-const SHIFT_MARGIN: f64 = 0.05;
+pub(super) const SHIFT_MARGIN: f64 = 0.05;
 
 /// `position-steps`: the grid (m) from which positions are coarse (a warning), and from
 /// which fatal.
