@@ -1106,6 +1106,73 @@ fn the_adaptation_track_blends_each_pairs_library_as_drive_adapt_does() {
     assert!(String::from_utf8_lossy(&alone.stderr).contains("--adapt"));
 }
 
+/// Issue 63 (a twelfth outside sweep): a copy of a run with noise on its commands and its
+/// localization only (its encoders and IMU as recorded) was scored as a transfer: runs of
+/// windows one window off, where two intervals' commands were close, were taken for the
+/// copy's and their IMU for a difference no noise explained. It is the same run.
+#[test]
+fn a_copy_with_noise_on_its_commands_and_localization_is_the_same_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = drive::bundled::load("warthog_asphalt_a").unwrap();
+    // Gaussian noise of standard deviation `sd` (Box-Muller on a seeded generator).
+    let mut state = 17u64;
+    let mut uniform = move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    let mut noise = move |sd: f64| {
+        let (u, v) = (uniform(), uniform());
+        sd * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    };
+    let largest = run
+        .windows
+        .iter()
+        .flat_map(|w| w.command.iter().map(|u| u.x.abs().max(u.y.abs())))
+        .fold(0.0f64, f64::max);
+    let mut copy = run.clone();
+    for w in &mut copy.windows {
+        for u in &mut w.command {
+            u.x += noise(0.01 * largest);
+            u.y += noise(0.01 * largest);
+        }
+        for p in &mut w.pose {
+            p.x += noise(0.01);
+            p.y += noise(0.01);
+            p.z += noise(0.005);
+        }
+    }
+    drive::data::write_dataset(&copy, &d.join("copy.csv")).unwrap();
+    let suite = d.join("suite.toml");
+    std::fs::write(
+        &suite,
+        "[[dataset]]\nbundled = \"warthog_asphalt_a\"\nname = \"run\"\n\
+         [[dataset]]\npath = \"copy.csv\"\n\
+         [[dataset]]\nbundled = \"warthog_asphalt_2024-09-20a\"\nname = \"other\"\n",
+    )
+    .unwrap();
+    let v: Value = serde_json::from_str(&ok(&[
+        "bench",
+        "--suite",
+        s(&suite),
+        "--models",
+        "naive",
+        "--json",
+    ]))
+    .unwrap();
+    let skipped = v["transfer_skipped"].to_string();
+    for pair in ["run -> copy", "copy -> run"] {
+        assert!(skipped.contains(pair), "{pair}: {skipped}");
+    }
+    // The other run is not the same run as either.
+    assert!(
+        !skipped.contains("-> other") && !skipped.contains("\"other ->"),
+        "{skipped}"
+    );
+}
+
 /// Issue 63 (a twelfth outside sweep): a target's terrain library holds no run that is the
 /// target's own (here a part of it: the library's model would be scored on windows it was
 /// fitted on, and beat the target's own fit); and the pair the two would make is named in

@@ -117,19 +117,35 @@ pub(super) fn one_drive(a: &Sequence, b: &Sequence, share: f64) -> Option<(usize
         (Some(p), Some(q)) => (0..3).all(|axis| (p[axis] - q[axis]).abs() <= tolerance[axis]),
         _ => false,
     };
+    // How far a run of windows of `many` from `j` is from `few`'s from `i` (their commands,
+    // in units of the tolerance, summed).
+    let distance = |i: usize, j: usize| -> f64 {
+        (0..RUN_LENGTH)
+            .map(|k| match (&few[i + k], &many[j + k]) {
+                (Some(p), Some(q)) => (0..3)
+                    .map(|axis| (p[axis] - q[axis]).abs() / tolerance[axis])
+                    .sum::<f64>(),
+                _ => f64::INFINITY,
+            })
+            .sum()
+    };
     let mut pairs: Vec<(usize, usize)> = Vec::new();
     for i in 0..=few.len() - RUN_LENGTH {
         let Some(x) = &few[i] else { continue };
         let [ca, cb] = cell(x);
+        // Of the runs of windows that agree, the closest: an interval's windows hold one
+        // command, so a run one window off can agree too where two intervals' commands
+        // are close, and its windows are other windows (their IMU another turn).
         let found = (-1..=1)
             .flat_map(|da| (-1..=1).map(move |db| [ca + da, cb + db]))
             .filter_map(|c| cells.get(&c))
             .flatten()
             .copied()
-            .find(|&j| {
+            .filter(|&j| {
                 j + RUN_LENGTH <= many.len()
                     && (0..RUN_LENGTH).all(|k| close(&few[i + k], &many[j + k]))
-            });
+            })
+            .min_by(|&j, &k| distance(i, j).total_cmp(&distance(i, k)).then(j.cmp(&k)));
         if let Some(j) = found {
             pairs.push((i, j));
         }
