@@ -112,6 +112,26 @@ impl Tracker {
                 b.unwrap_or_default()
             )));
         }
+        // Another geometry (another robot of the type, another calibration): driven as it
+        // is, with the difference said, as `drive track --models FILE` notes it.
+        let json = |v: &dyn drive::traits::CommandModel| serde_json::to_value(v).ok();
+        if let (Some(ours), Some(theirs)) = (
+            json(model.robot.vehicle.as_ref()),
+            json(robot.vehicle.as_ref()),
+        ) {
+            if !drive::studies::same_geometry(&ours, &theirs) {
+                let note = format!(
+                    "the model was fitted for the geometry of '{}', not for that of the robot '{}' ({}): it is driven as it is",
+                    model.robot.robot,
+                    robot.name,
+                    drive::studies::geometry_difference(&ours, &theirs)
+                );
+                let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+                // The names come from a sidecar and a robot file, checked for NUL on load.
+                let message = std::ffi::CString::new(note).unwrap_or_default();
+                PyErr::warn(py, &category, &message, 1)?;
+            }
+        }
         if (model.model.dt() * robot.rate_hz - 1.0).abs() > 1e-6 {
             return Err(err(format!(
                 "the model predicts at steps of {} s; robot '{}' is commanded at {} Hz",

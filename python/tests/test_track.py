@@ -99,6 +99,19 @@ def test_the_tracker_follows_a_circle_to_its_end(model_file):
     assert tick["command"] == pytest.approx((0.0, 0.0), abs=1e-9)
 
 
+def test_a_tracker_of_another_geometry_warns_with_the_difference(model_file):
+    """A Husky model driving the Warthog is driven as it is, with the geometries' difference
+    said (drive track --models FILE notes it); on its own robot, no warning."""
+    import warnings
+
+    model = drive.load_model(model_file)
+    with pytest.warns(UserWarning, match=r"fitted for the geometry of .*, not for that of the robot 'warthog' \(.*baseline 0.55 -> "):
+        drive.Tracker(model, "warthog", "line", 0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        drive.Tracker(model, "husky", "line", 0.5)
+
+
 def test_tracker_errors_are_drive_errors(model_file):
     model = drive.load_model(model_file)
     with pytest.raises(drive.DriveError, match="distinct point"):
