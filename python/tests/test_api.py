@@ -613,10 +613,15 @@ def test_wrong_types_and_unintegrable_inputs_raise_drive_errors(husky, tmp_path)
     cmds.write_text("t,cmd_left,cmd_right\n" + "".join(f"{k * 0.05},1e300,1e300\n" for k in range(40)))
     cli_err = cli("predict", "--model", model_file, "--commands", cmds, ok=False).stderr.strip()
     assert "is more than the limit of 1e9" in cli_err
-    with pytest.raises(drive.DriveError, match="the prediction is not a finite number"):
+    # And so does Python, the commands and the start alike (the readers' 1e9).
+    with pytest.raises(drive.DriveError, match=r"commands: entry 0 .* is 1e300, beyond 1e9"):
         model.predict(huge, start_wheels=(1e300, 1e300))
-    with pytest.raises(drive.DriveError, match="sequence 1: the prediction is not a finite"):
+    with pytest.raises(drive.DriveError, match=r"start_wheels: entry 0 .* is 1e300, beyond 1e9"):
+        model.predict(commands, start_wheels=(1e300, 1e300))
+    with pytest.raises(drive.DriveError, match=r"commands: entry .* is 1e300, beyond 1e9"):
         model.predict_batch(np.stack([commands, huge]), start_wheels=[[0, 0], [1e300, 1e300]])
+    with pytest.raises(drive.DriveError, match=r"start_wheels: entry 2 .* is 1e300, beyond 1e9"):
+        model.predict_batch(np.stack([commands, commands]), start_wheels=[[0, 0], [1e300, 1e300]])
 
 
 def test_a_protocol_runner_used_from_another_thread_raises_a_drive_error():

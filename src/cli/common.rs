@@ -417,6 +417,30 @@ pub fn csv_output_name(flag: &str, path: &std::path::Path) -> Result<()> {
     Ok(())
 }
 
+/// A file of `kind` (`a model file (JSON)`, `a twin (TOML)`) to be written at `path` for
+/// `flag`: refused where its name says it is a dataset or a recording (`.csv`, `.csv.gz`,
+/// `.mcap`, `.db3`) or another of the kinds `others` names: `train --out run.csv` replaced
+/// the dataset `run.csv` (its sidecar left beside a model file) without a word, as
+/// [`csv_output_name`] refuses the other way round.
+pub fn named_output(flag: &str, path: &std::path::Path, kind: &str, others: &[&str]) -> Result<()> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let data = [".csv", ".csv.gz", ".mcap", ".db3"];
+    if let Some(ext) = data
+        .iter()
+        .chain(others)
+        .find(|e| name.ends_with(&e.to_ascii_lowercase()))
+    {
+        anyhow::bail!(
+            "{flag} {}: {kind} is written there, and the name says {ext}: name it for what it is",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 /// Staged outputs of a command that reads `inputs`, checked up front against `planned`
 /// (flag, path): an output never replaces an input or another output, and the files
 /// appear together when the command succeeds (see `drive_data::output`).

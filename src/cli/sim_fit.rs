@@ -149,6 +149,15 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let planned: Vec<(&str, &std::path::Path)> =
         args.out.iter().map(|o| ("--out", o.as_path())).collect();
     let mut outputs = outputs_for(&inputs, &planned)?;
+    // An input replaced is said first; then a name of another kind of file.
+    if let Some(out) = &args.out {
+        super::common::named_output(
+            "--out",
+            out,
+            "a twin (TOML)",
+            &[".json", ".yaml", ".yml", ".md", ".html", ".svg", ".png"],
+        )?;
+    }
     let spec = registries.robot(&args.robot)?;
     // A twin to check is read before the data: a mistyped name fails at once.
     let given = args

@@ -27,7 +27,14 @@ pub struct Args {
 }
 
 pub fn run(args: &Args, registries: &Registries) -> Result<()> {
+    // An input replaced is said first; then a name of another kind of file.
     let mut outputs = outputs_for(&args.data.inputs(), &[("--out", &args.out)])?;
+    super::common::named_output(
+        "--out",
+        &args.out,
+        "a model file (JSON)",
+        &[".toml", ".yaml", ".yml", ".md", ".html", ".svg", ".png"],
+    )?;
     let spec = args
         .prediction
         .apply(vec![registries.model(&args.model)?])?

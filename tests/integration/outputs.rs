@@ -1149,3 +1149,31 @@ fn a_command_that_cannot_write_its_standard_output_publishes_nothing() {
         assert!(left.is_empty(), "{args:?} left {left:?}");
     }
 }
+
+/// Issue 63 (a twelfth outside sweep): `train --out run.csv` and `sim-fit --out run.csv`
+/// replaced a dataset's CSV with a model file or a twin, its sidecar left beside it, where a
+/// CSV under a `.json` name is refused. A name that says a dataset or recording is refused
+/// before any work, and the dataset is left as it was.
+#[test]
+fn a_model_or_twin_is_not_written_under_a_datasets_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("run.csv");
+    let data = drive::bundled::load("husky_drive").unwrap();
+    drive::data::write_dataset(&data, &csv).unwrap();
+    let before = std::fs::read(&csv).unwrap();
+    let c = csv.to_str().unwrap();
+    let said = user_error(&["train", "--model", "naive", "--out", c]);
+    assert!(
+        said.contains("a model file (JSON) is written there, and the name says .csv"),
+        "{said}"
+    );
+    let said = user_error(&["sim-fit", "--robot", "husky", "--out", c]);
+    assert!(
+        said.contains("a twin (TOML) is written there, and the name says .csv"),
+        "{said}"
+    );
+    let gz = dir.path().join("run.csv.gz");
+    let said = user_error(&["train", "--model", "naive", "--out", gz.to_str().unwrap()]);
+    assert!(said.contains("the name says .csv.gz"), "{said}");
+    assert_eq!(std::fs::read(&csv).unwrap(), before);
+}
