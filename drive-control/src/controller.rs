@@ -28,6 +28,23 @@ pub enum ControlError {
         "the robot's state is not finite numbers ({0}); is the localization or an encoder broken?"
     )]
     BadState(String),
+    /// A localization fix stamped later than the tick by more than
+    /// [`crate::tracker::MAX_FUTURE_STAMP_S`]: its stamp on another clock than the tick's
+    /// (it was taken as measured now, its latency unseen, without a word).
+    #[error(
+        "the localization fix is stamped {} s, {} s after the tick's t = {}: its stamp (pose_time) on another clock than t's?",
+        drive_traits::limits::Short(*pose_time),
+        drive_traits::limits::Short(*ahead),
+        drive_traits::limits::Short(*t)
+    )]
+    PoseFromTheFuture {
+        /// The fix's stamp.
+        pose_time: f64,
+        /// The tick's time.
+        t: f64,
+        /// How far after the tick's time the stamp is.
+        ahead: f64,
+    },
     /// No localization has arrived yet: the robot's pose is unknown.
     #[error("no localization yet: the robot's pose is unknown")]
     NoLocalization,

@@ -38,6 +38,11 @@ pub struct Observation {
     pub pose_time: Option<f64>,
 }
 
+/// How far after the tick's time a localization fix's stamp may be (s) and still be taken
+/// as measured now: clocks a little apart (a stamp a few milliseconds ahead) are; one a
+/// second or more ahead is on another clock ([`ControlError::PoseFromTheFuture`]).
+pub const MAX_FUTURE_STAMP_S: f64 = 1.0;
+
 /// Settings of a [`Tracker`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TrackerConfig {
@@ -342,6 +347,13 @@ impl Tracker {
                 obs.imu_yaw_rate,
                 obs.pose_time
             )));
+        }
+        if let Some(s) = obs.pose_time.filter(|&s| s > obs.t + MAX_FUTURE_STAMP_S) {
+            return Err(ControlError::PoseFromTheFuture {
+                pose_time: s,
+                t: obs.t,
+                ahead: s - obs.t,
+            });
         }
         if let Some(p) = obs.pose {
             // Stamped when it was measured (never later than now); the same fix published

@@ -173,6 +173,28 @@ fn a_robot_that_does_not_move_never_reaches_the_end_of_a_path_through_its_start(
     }
 }
 
+/// A fix stamped a second or more after the tick is on another clock (it was clamped to
+/// the tick's time without a word): refused, named; a few milliseconds ahead is taken.
+#[test]
+fn a_fix_stamped_after_the_tick_by_a_second_is_refused() {
+    let path = PathShape::Circle.at_scale(2.0).unwrap();
+    let mut tracker = naive_tracker(path, 0.5, 32);
+    let at = |pose_time: f64| Observation {
+        t: 10.0,
+        input: Input::zeros(),
+        pose: Some(Pose::zeros()),
+        imu_yaw_rate: None,
+        pose_time: Some(pose_time),
+    };
+    assert!(tracker.tick(&at(10.004)).is_ok());
+    let e = tracker.tick(&at(110.0)).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("stamped 110 s, 100 s after the tick's t = 10"),
+        "{e}"
+    );
+}
+
 /// The first ten commands of MPPI with the run seed `seed`, on a plant that never moves.
 fn first_commands(seed: u64) -> Vec<Input> {
     let robot = husky();

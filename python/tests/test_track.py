@@ -112,6 +112,14 @@ def test_a_tracker_of_another_geometry_warns_with_the_difference(model_file):
         drive.Tracker(model, "husky", "line", 0.5)
 
 
+def test_a_fix_stamped_on_another_clock_is_a_drive_error(model_file):
+    """A pose_time a second or more after the tick's t (another clock) was taken as now."""
+    tracker = drive.Tracker(drive.load_model(model_file), "husky", "line", 0.5)
+    tracker.tick(10.0, (0.0, 0.0), pose=(0.0, 0.0, 0.0), pose_time=9.95)
+    with pytest.raises(drive.DriveError, match=r"100 s after the tick's t = 10"):
+        tracker.tick(10.05, (0.0, 0.0), pose=(0.0, 0.0, 0.0), pose_time=110.05)
+
+
 def test_tracker_errors_are_drive_errors(model_file):
     model = drive.load_model(model_file)
     with pytest.raises(drive.DriveError, match="distinct point"):
