@@ -395,8 +395,8 @@ fn streams_not_inputs<R: std::fmt::Display>(inputs: &[(R, PathBuf)]) -> Result<(
 /// replace the sidecar of the dataset `pair.csv`; and where its sidecar's path is a device
 /// or a pipe (a link to `/dev/null`, a FIFO that would hang the write).
 pub fn csv_output_name(flag: &str, path: &std::path::Path) -> Result<()> {
-    const OTHER_KINDS: [&str; 10] = [
-        "json", "toml", "yaml", "yml", "md", "html", "svg", "png", "mcap", "db3",
+    const OTHER_KINDS: [&str; 12] = [
+        "json", "toml", "yaml", "yml", "md", "html", "svg", "png", "mcap", "db3", "bag", "gz",
     ];
     let sidecar = crate::data::sidecar_path(path);
     if crate::data::output::is_special(&sidecar) {
@@ -409,7 +409,7 @@ pub fn csv_output_name(flag: &str, path: &std::path::Path) -> Result<()> {
     if let Some(ext) = path.extension().and_then(|e| e.to_str()) {
         if OTHER_KINDS.iter().any(|k| k.eq_ignore_ascii_case(ext)) {
             anyhow::bail!(
-                "{flag} {}: a window CSV is written there, and the name says .{ext}: name it .csv (its sidecar is written beside it as .meta.json)",
+                "{flag} {}: a window CSV is written there (uncompressed), and the name says .{ext}: name it .csv (its sidecar is written beside it as .meta.json)",
                 path.display()
             );
         }
@@ -417,20 +417,34 @@ pub fn csv_output_name(flag: &str, path: &std::path::Path) -> Result<()> {
     Ok(())
 }
 
-/// A file of `kind` (`a model file (JSON)`, `a twin (TOML)`) to be written at `path` for
-/// `flag`: refused where its name says it is a dataset or a recording (`.csv`, `.csv.gz`,
-/// `.mcap`, `.db3`) or another of the kinds `others` names: `train --out run.csv` replaced
-/// the dataset `run.csv` (its sidecar left beside a model file) without a word, as
-/// [`csv_output_name`] refuses the other way round.
+/// A file of `kind` (`a model file (JSON)`, `a twin (TOML)`, `a schedule (CSV)`) to be
+/// written at `path` for `flag`: refused where its name says it is a dataset, a dataset's
+/// sidecar or a recording (`.csv`, `.csv.gz`, `.meta.json`, `.mcap`, `.db3`, `.bag`) or
+/// another of the kinds `others` names: `train --out run.csv` replaced the dataset
+/// `run.csv` (its sidecar left beside a model file), and `--out run.meta.json` the
+/// sidecar of `run.csv`, without a word, as [`csv_output_name`] refuses the other way
+/// round.
 pub fn named_output(flag: &str, path: &std::path::Path, kind: &str, others: &[&str]) -> Result<()> {
+    named_other_than(flag, path, kind, &[DATA_NAMES, others].concat())
+}
+
+/// The names of datasets, their sidecars and recordings ([`named_output`]).
+pub const DATA_NAMES: &[&str] = &[".csv", ".csv.gz", ".meta.json", ".mcap", ".db3", ".bag"];
+
+/// `Err` where the name of `path` (written for `flag`, a file of `kind`) ends in one of
+/// `refused` (case aside).
+pub fn named_other_than(
+    flag: &str,
+    path: &std::path::Path,
+    kind: &str,
+    refused: &[&str],
+) -> Result<()> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let data = [".csv", ".csv.gz", ".mcap", ".db3"];
-    if let Some(ext) = data
+    if let Some(ext) = refused
         .iter()
-        .chain(others)
         .find(|e| name.ends_with(&e.to_ascii_lowercase()))
     {
         anyhow::bail!(

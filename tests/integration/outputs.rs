@@ -1175,5 +1175,48 @@ fn a_model_or_twin_is_not_written_under_a_datasets_name() {
     let gz = dir.path().join("run.csv.gz");
     let said = user_error(&["train", "--model", "naive", "--out", gz.to_str().unwrap()]);
     assert!(said.contains("the name says .csv.gz"), "{said}");
+    // Nor over its sidecar (a second sweep: train --out run.meta.json replaced it).
+    let sidecar = dir.path().join("run.meta.json");
+    let sidecar_before = std::fs::read(&sidecar).unwrap();
+    let said = user_error(&[
+        "train",
+        "--model",
+        "naive",
+        "--out",
+        sidecar.to_str().unwrap(),
+    ]);
+    assert!(said.contains("the name says .meta.json"), "{said}");
+    assert_eq!(std::fs::read(&sidecar).unwrap(), sidecar_before);
     assert_eq!(std::fs::read(&csv).unwrap(), before);
+    // A CSV is written as text: a .gz name (which no reader could open) is refused, and a
+    // schedule under another kind's name too.
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let said = user_error(&[
+        "simulate",
+        "--robot",
+        "husky",
+        "--terrain",
+        "tile",
+        "--duration",
+        "30",
+        "--out",
+        &at("sim.csv.gz"),
+    ]);
+    assert!(said.contains("the name says .gz"), "{said}");
+    for name in ["proto.json", "proto.csv.gz"] {
+        let said = user_error(&[
+            "protocol",
+            "--robot",
+            "husky",
+            "--intervals",
+            "3",
+            "--out",
+            &at(name),
+        ]);
+        assert!(
+            said.contains("a schedule (CSV, uncompressed) is written there"),
+            "{name}: {said}"
+        );
+        assert!(!dir.path().join(name).exists());
+    }
 }
