@@ -6,7 +6,7 @@
 //! (the paper's four models, written before the parts) are converted when read.
 
 use crate::calibration::Uncertainty;
-use drive_traits::{MotionModel, RobotDescription, StartInfo};
+use drive_traits::{MotionModel, RobotDescription, StartInfo, StartState};
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
 use thiserror::Error;
@@ -705,12 +705,14 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
                 file: file.into(),
                 message,
             })?;
+        let invalid = |message| ModelFileError::Model {
+            file: file.into(),
+            message,
+        };
         if let Some(powertrain) = model.powertrain() {
-            reaches_its_commands(powertrain, range).map_err(|message| ModelFileError::Model {
-                file: file.into(),
-                message,
-            })?;
+            reaches_its_commands(powertrain, range).map_err(invalid)?;
         }
+        moves_with_its_commands(model.as_ref(), &robot, range).map_err(invalid)?;
     }
     Ok(ModelFile {
         model,
@@ -726,8 +728,10 @@ pub fn read_model_file(file: &str, text: &str) -> Result<ModelFile, ModelFileErr
 /// writes (limits of 1e-9 rad/s against commands of 16 rad/s: a robot that never moves).
 const MIN_REACHED_SHARE: f64 = 0.05;
 
-/// `Err` naming what `powertrain` reaches when, held for 5 s at each end of `range` from
-/// rest, it reaches less than [`MIN_REACHED_SHARE`] of the command on every axis commanded.
+/// `Err` naming what `powertrain` reaches when, held for 5 s at either end of `range` from
+/// rest, it reaches less than [`MIN_REACHED_SHARE`] of the command on an axis commanded (a
+/// fit's limits are the wheels' extremes: one wheel held to a twentieth of its commands is
+/// a side that never turns, which the data checks refuse in the data).
 fn reaches_its_commands(
     powertrain: &dyn drive_traits::Powertrain,
     range: &CommandRange,
@@ -745,17 +749,14 @@ fn reaches_its_commands(
         let Some(last) = reached.last() else {
             continue;
         };
-        let shares: Vec<f64> = end
+        // The first axis commanded whose share is under the least.
+        let short = end
             .iter()
             .enumerate()
             .filter(|(_, c)| c.abs() > 0.0)
-            .map(|(i, c)| last[i] / c)
-            .collect();
-        if !shares.is_empty()
-            && shares
-                .iter()
-                .all(|s| s.is_nan() || s.abs() < MIN_REACHED_SHARE)
-        {
+            .map(|(i, c)| (i, last[i] / c))
+            .find(|(_, s)| s.is_nan() || s.abs() < MIN_REACHED_SHARE);
+        if let Some((axis, _)) = short {
             let show = |v: &[f64]| {
                 v.iter()
                     .map(|x| drive_traits::limits::Short(*x).to_string())
@@ -763,7 +764,7 @@ fn reaches_its_commands(
                     .join(", ")
             };
             return Err(format!(
-                "its powertrain, held at the commands it was fitted on ([{}], fitted_with.commanded) for 5 s, reaches [{}]: less than {} of them on every axis (its limits or gains are not what a fit writes)",
+                "its powertrain, held at the commands it was fitted on ([{}], fitted_with.commanded) for 5 s, reaches [{}]: less than {} of them on axis {axis} (its limits or gains are not what a fit writes)",
                 show(end),
                 show(&last.iter().take(end.len()).copied().collect::<Vec<_>>()),
                 MIN_REACHED_SHARE
@@ -771,6 +772,75 @@ fn reaches_its_commands(
         }
     }
     Ok(())
+}
+
+/// `Err` when `model`, from rest, held for one of `robot`'s windows at either end of `range`
+/// (the commands it was fitted on), moves (or turns, for a command that mostly asks a turn,
+/// a radian against a metre) less than [`MIN_REACHED_SHARE`] of what those commands ask of
+/// the vehicle (eq. 4, `robot`'s command model) at both ends: a model
+/// whose slip takes every motion (slip-BLR's forward slip edited to 1, acc-BLR's
+/// accelerations to 0) predicts a robot that never moves, which no fit writes (a Warthog
+/// on gravel keeps about half of its commanded speed, a simulated car on ice a seventh).
+fn moves_with_its_commands(
+    model: &dyn MotionModel,
+    robot: &RobotDescription,
+    range: &CommandRange,
+) -> Result<(), String> {
+    let steps = robot.window_len.clamp(2, 10_000);
+    let seconds = (steps - 1) as f64 * model.dt();
+    let mut said = Vec::new();
+    for end in [&range.max, &range.min] {
+        let mut command = drive_traits::Input::zeros();
+        for (i, v) in end.iter().enumerate().take(drive_traits::MAX_INPUTS) {
+            command[i] = *v;
+        }
+        let asked = robot.vehicle.body_velocity(&command);
+        let (asked_move, asked_turn) = (asked.x.hypot(asked.y) * seconds, asked.z.abs() * seconds);
+        if !(asked_move > 1e-6 || asked_turn > 1e-6) {
+            // Nothing asked at this end: it tells nothing.
+            continue;
+        }
+        let start = StartState::at_rest(drive_traits::Pose::zeros());
+        let poses = model.predict(&start, &vec![command; steps]);
+        let Some(last) = poses.last() else {
+            return Ok(());
+        };
+        let (moved, turned) = (last.x.hypot(last.y), last.z.abs());
+        // What the command mostly asks (a metre of travel against a radian of turn): a
+        // straight command is judged by its travel, a turn in place by its turn.
+        let follows = if asked_move >= asked_turn {
+            moved >= MIN_REACHED_SHARE * asked_move
+        } else {
+            turned >= MIN_REACHED_SHARE * asked_turn
+        };
+        // A prediction that is not finite is refused where it is made (predict, score).
+        if follows || !(moved.is_finite() && turned.is_finite()) {
+            return Ok(());
+        }
+        let show = |v: &[f64]| {
+            v.iter()
+                .map(|x| drive_traits::limits::Short(*x).to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        said.push(format!(
+            "at [{}] it moves {} m and turns {} rad in {} s, where the commands ask {} m and {} rad",
+            show(end),
+            drive_traits::limits::Short(moved),
+            drive_traits::limits::Short(turned),
+            drive_traits::limits::Short(seconds),
+            drive_traits::limits::Short(asked_move),
+            drive_traits::limits::Short(asked_turn)
+        ));
+    }
+    if said.is_empty() {
+        return Ok(());
+    }
+    Err(format!(
+        "the model, from rest at the commands it was fitted on (fitted_with.commanded), predicts a robot that hardly moves: {}; less than {} of it (its parameters are not what a fit writes)",
+        said.join("; "),
+        MIN_REACHED_SHARE
+    ))
 }
 
 /// What a model file's model is built of: its type (`composed`, `acc-blr`, ...) and its

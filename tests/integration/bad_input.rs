@@ -242,7 +242,16 @@ fn cases() -> Vec<Case> {
         Case { name: "model powertrain that cannot reach its commands", file: File::Model(|m| edit_model(&m, |v| {
                 composed(v)["powertrain"]["limits"] = serde_json::json!({"min": [-1e-9, -1e-9], "max": [1e-9, 1e-9]});
             })),
-            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "its powertrain, held at the commands it was fitted on", "less than 0.05 of them on every axis"] },
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "its powertrain, held at the commands it was fitted on", "less than 0.05 of them on axis 0"] },
+        // A second sweep of that session: one wheel held to a twentieth, and a slip that
+        // takes every motion (slip-BLR's forward slip mean edited to 1).
+        Case { name: "model powertrain with one wheel that cannot turn", file: File::Model(|m| edit_model(&m, |v| {
+                composed(v)["powertrain"]["limits"]["min"][0] = (-1e-7).into();
+                composed(v)["powertrain"]["limits"]["max"][0] = 1e-7.into();
+            })),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "less than 0.05 of them on axis 0"] },
+        Case { name: "model whose slip takes every motion", file: File::Model(|m| edit_model(&m, |v| composed(v)["slip"]["slip_x"]["mean"][0] = 1.0.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "predicts a robot that hardly moves"] },
         // A third outside sweep: a model's names against what it is built of, and text
         // a sidecar cannot hold.
         Case { name: "model labelled as another model", file: File::Model(|m| edit_model(&m, |v| {
