@@ -242,9 +242,17 @@ fn terrain(t: &str) -> &str {
 pub fn markdown(b: &Bench) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# DRIVE benchmark\n");
+    // The windows' length: the paper's 2 s, or each dataset's where they differ.
+    let mut lengths: Vec<f64> = b.datasets.iter().map(|d| d.window_s).collect();
+    lengths.sort_by(f64::total_cmp);
+    lengths.dedup();
+    let over = match lengths.as_slice() {
+        [one] => format!("{} s", drive_traits::limits::Short(*one)),
+        _ => "each dataset's windows (their lengths differ: see each dataset)".to_string(),
+    };
     let _ = writeln!(
         s,
-        "{} datasets x {} models ({}). Each dataset's first {} of the DRIVE intervals trains, the rest evaluates, as `drive eval`; errors are the paper's multi-step RMSE (eq. 8) over 2 s. Intervals are 95% paired bootstrap intervals ({} resamples of the evaluation intervals); **bold** where they exclude 0 on a dataset of enough evaluation intervals to count (see the leaderboard).\n",
+        "{} datasets x {} models ({}). Each dataset's first {} of the DRIVE intervals trains, the rest evaluates, as `drive eval`; errors are the paper's multi-step RMSE (eq. 8) over {over}. Intervals are 95% paired bootstrap intervals ({} resamples of the evaluation intervals); **bold** where they exclude 0 on a dataset of enough evaluation intervals to count (see the leaderboard).\n",
         b.datasets.len(),
         b.model_names.len(),
         b.model_names.join(", "),
@@ -323,9 +331,14 @@ pub fn markdown(b: &Bench) -> String {
     }
     let _ = writeln!(s, "\n## Per dataset\n");
     for d in &b.datasets {
+        let windows = if lengths.len() > 1 || d.window_s != 2.0 {
+            format!(", windows of {} s", drive_traits::limits::Short(d.window_s))
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             s,
-            "### {} ({}, {})\n",
+            "### {} ({}, {}{windows})\n",
             md(&d.name),
             md(&d.robot),
             md(terrain(&d.terrain))

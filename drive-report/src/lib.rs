@@ -495,10 +495,18 @@ impl Report {
                 }
             );
         }
+        // The last horizon the windows reach (2 s for the paper's; a 1 s window's is 1 s):
+        // where the figures below are taken.
+        let last = self
+            .calibration
+            .first()
+            .and_then(|c| c.coverage95.keys().last().cloned())
+            .unwrap_or_else(|| "2.0".into());
+        let last_s = last.parse::<f64>().map_or(last.clone(), |h| format!("{h}"));
         if !self.calibration.is_empty() {
             let _ = writeln!(
                 s,
-                "\nWhich predictions the regions say are hard, at 2 s: position coverage per phase (the diagram's second and third panels) and per third of the commanded speed; the mean region area over the smallest constant circle of the same coverage (under 1: the regions say more than one radius would); the rank correlation of each window's predicted spread with its error.\n"
+                "\nWhich predictions the regions say are hard, at {last_s} s: position coverage per phase (the diagram's second and third panels) and per third of the commanded speed; the mean region area over the smallest constant circle of the same coverage (under 1: the regions say more than one radius would); the rank correlation of each window's predicted spread with its error.\n"
             );
             let _ = writeln!(
                 s,
@@ -512,7 +520,7 @@ impl Report {
                     .map(|k| {
                         groups
                             .get(*k)
-                            .and_then(|h| h.get("2.0"))
+                            .and_then(|h| h.get(&last))
                             .map_or("-".to_string(), |f| format!("{:.1}%", 100.0 * f))
                     })
                     .collect::<Vec<_>>()

@@ -690,9 +690,8 @@ fn within(
         .map(|m| m.rotational_median_rad)
         .collect();
     let (rank_t, rank_r) = (average_ranks(&trans), average_ranks(&rot));
-    let at_2s = |c: &Option<BTreeMap<String, f64>>| {
-        c.as_ref().and_then(|c| c.iter().last().map(|(_, v)| *v))
-    };
+    // At 2 s itself: windows shorter than that have none (their last horizon is not 2 s).
+    let at_2s = |c: &Option<BTreeMap<String, f64>>| c.as_ref().and_then(|c| c.get("2.0").copied());
     let models = comparison
         .models
         .iter()
@@ -730,6 +729,7 @@ fn within(
         terrain: input.terrain.clone(),
         vehicle: comparison.vehicle.clone(),
         windows: data.windows.len(),
+        window_s: comparison.window_s,
         intervals: data.interval_count(),
         train_windows: comparison.train_windows,
         eval_windows: comparison.eval_windows,

@@ -212,4 +212,37 @@ fn windows_of_one_second_are_labelled_as_such() {
         notes.contains("windows of 1 s, the model was fitted on windows of 2 s"),
         "{notes}"
     );
+    // The benchmark and the report (a second sweep: "over 2 s", and a coverage "at 2 s"
+    // that was the 1 s one).
+    let suite = dir.path().join("suite.toml");
+    std::fs::write(&suite, "[[dataset]]\npath = \"short.csv\"\n").unwrap();
+    let out = dir.path().join("bench");
+    let b: serde_json::Value = serde_json::from_str(&ok(&[
+        "bench",
+        "--suite",
+        suite.to_str().unwrap(),
+        "--models",
+        "naive,slip-blr",
+        "--json",
+        "--out",
+        out.to_str().unwrap(),
+    ]))
+    .unwrap();
+    let d = &b["datasets"][0];
+    assert_eq!(d["window_s"], 1.0);
+    for m in d["models"].as_array().unwrap() {
+        assert!(m.get("position_coverage95_2s").is_none(), "{m}");
+    }
+    let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
+    assert!(
+        md.contains("(paper eq. 8) over 1 s") || md.contains("(eq. 8) over 1 s"),
+        "{md}"
+    );
+    assert!(md.contains("windows of 1 s"), "{md}");
+    let report = dir.path().join("report");
+    ok(&["report", "--data", s, "--out", report.to_str().unwrap()]);
+    let text = std::fs::read_to_string(report.join("report.md")).unwrap();
+    assert!(text.contains("MRMSE over 1 s windows"), "{text}");
+    assert!(text.contains("hard, at 1 s"), "{text}");
+    assert!(!text.contains("at 2 s"), "{text}");
 }

@@ -75,7 +75,7 @@ pub struct BenchModel {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ratio_to_slip_blr: Option<Ratio>,
     /// Share of the measured positions inside the predicted 95% region at 2 s, for a model
-    /// with a pose covariance.
+    /// with a pose covariance and windows that reach 2 s (absent for shorter ones).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub position_coverage95_2s: Option<f64>,
     /// The same for the yaw's interval.
@@ -132,6 +132,8 @@ pub struct BenchDataset {
     pub vehicle: String,
     /// Windows in the dataset.
     pub windows: usize,
+    /// The windows' length (s; 2 in the paper): what eq. 8 is taken over.
+    pub window_s: f64,
     /// DRIVE intervals in the dataset.
     pub intervals: usize,
     /// Training windows (the first `split` of the intervals).

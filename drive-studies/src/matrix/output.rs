@@ -63,7 +63,7 @@ impl MatrixResult {
         let _ = writeln!(s, "# DRIVE evaluation matrix\n");
         let _ = writeln!(
             s,
-            "{} combinations. MRMSE over 2 s windows (paper eq. 8), median [IQR] of every evaluation window of the scenario's runs pooled. \
+            "{} combinations. MRMSE over each run's windows (paper eq. 8; DRIVE's are 2 s), median [IQR] of every evaluation window of the scenario's runs pooled. \
              Improvement: `100 (baseline - model) / baseline` of the medians, baseline **{}**, with a {level:.0}% paired bootstrap interval ({} resamples of the evaluation intervals). \
              Every prediction starts from the {} measurements.\n",
             self.cells.len(),
