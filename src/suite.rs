@@ -58,6 +58,9 @@ pub enum SuiteLoadError {
         /// Why.
         reason: crate::traits::RegistryError,
     },
+    /// No dataset of the suite could be read (each named with why).
+    #[error("no dataset of the suite could be read: {0}")]
+    NoneRead(String),
 }
 
 /// Why a dataset's robot could not be taken.
@@ -268,6 +271,50 @@ pub fn load_each(
         .par_iter()
         .map(|e| (e.name(), load_entry(registries, e)))
         .collect()
+}
+
+/// [`load_each`] for a benchmark: the datasets read, and those that could not be (their own
+/// file unreadable, corrupted or with nothing usable: [`SuiteLoadError::skippable`]) named
+/// with why, for the benchmark's `skipped`; `Err` for an error of the suite's (a robot that
+/// does not exist) or when no dataset could be read, naming each.
+///
+/// ```
+/// let registries = drive::Registries::builtin();
+/// let entries = drive::data::suite::parse_suite(
+///     "suite.toml",
+///     "[[dataset]]\npath = \"no-such-run.csv\"\n[[dataset]]\npath = \"bundled:husky_drive\"\n",
+/// )
+/// .unwrap();
+/// let (read, skipped) = drive::suite::load_skipping(&registries, &entries).unwrap();
+/// assert_eq!((read.len(), skipped.len()), (1, 1));
+/// assert_eq!(skipped[0].dataset, "no-such-run");
+/// ```
+pub fn load_skipping(
+    registries: &Registries,
+    entries: &[SuiteEntry],
+) -> Result<(Vec<BenchInput>, Vec<crate::studies::SkippedDataset>), SuiteLoadError> {
+    let mut read = Vec::new();
+    let mut skipped = Vec::new();
+    for (name, outcome) in load_each(registries, entries) {
+        match outcome {
+            Ok(d) => read.push(d),
+            Err(err) if err.skippable() => skipped.push(crate::studies::SkippedDataset {
+                dataset: name,
+                reason: err.reason(),
+            }),
+            Err(err) => return Err(err),
+        }
+    }
+    if read.is_empty() {
+        return Err(SuiteLoadError::NoneRead(
+            skipped
+                .iter()
+                .map(|s| format!("'{}': {}", s.dataset, s.reason))
+                .collect::<Vec<_>>()
+                .join("; "),
+        ));
+    }
+    Ok((read, skipped))
 }
 
 impl SuiteLoadError {

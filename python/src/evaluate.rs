@@ -201,12 +201,13 @@ pub(crate) fn bench_json(
             .models()
             .resolve_list(&names)
             .map_err(|e| e.to_string())?;
-        let inputs = match &suite {
+        // A dataset that cannot be read is skipped and named, as the command line does.
+        let (inputs, unloaded) = match &suite {
             Some(path) => {
                 let entries = drive::data::suite::read_suite(path).map_err(|e| e.to_string())?;
-                drive::suite::load(registries, &entries)
+                drive::suite::load_skipping(registries, &entries)
             }
-            None => drive::suite::bundled(registries),
+            None => drive::suite::bundled(registries).map(|b| (b, Vec::new())),
         }
         .map_err(|e| e.to_string())?;
         let config = drive::studies::BenchConfig {
@@ -222,8 +223,9 @@ pub(crate) fn bench_json(
             ..Default::default()
         };
         ticker.set_total(drive::studies::bench_units(&inputs, specs.len(), &config));
-        let bench = drive::studies::run_bench(&inputs, &specs, &config, &|| ticker.tick())
+        let mut bench = drive::studies::run_bench(&inputs, &specs, &config, &|| ticker.tick())
             .map_err(|e| e.to_string())?;
+        bench.skipped.extend(unloaded);
         serde_json::to_string(&bench).map_err(|e| e.to_string())
     })?;
     result.map_err(err)

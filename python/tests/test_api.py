@@ -316,6 +316,17 @@ def test_predict_warns_where_the_command_line_notes(husky):
         model.predict(np.full((40, 2), 1.0))
 
 
+def test_bench_skips_a_dataset_it_cannot_read_as_the_command_line_does(tmp_path):
+    """A suite entry whose file is missing is skipped and named (the command line's
+    behaviour); the rest is benchmarked."""
+    suite = tmp_path / "suite.toml"
+    suite.write_text('[[dataset]]\npath = "missing.csv"\n[[dataset]]\npath = "bundled:husky_drive"\n')
+    result = drive.bench(suite=suite, models="naive", transfer=False)
+    assert [d["name"] for d in result["datasets"]] == ["husky_drive"]
+    assert [s["dataset"] for s in result["skipped"]] == ["missing"]
+    assert "No such file" in result["skipped"][0]["reason"] or "cannot read" in result["skipped"][0]["reason"]
+
+
 def test_predict_batch_matches_predict_row_by_row(husky):
     model = drive.fit(husky, "slip-blr", split=0.5)
     rng = np.random.default_rng(3)

@@ -135,34 +135,11 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         bail!("--split {} must lie strictly between 0 and 1", args.split);
     }
     // A dataset that cannot be read or imported is skipped and named, the others go on.
-    let mut unloaded: Vec<crate::studies::SkippedDataset> = Vec::new();
-    let datasets: Vec<BenchInput> = match &entries {
-        Some(e) => {
-            let mut loaded = Vec::new();
-            for (name, outcome) in crate::suite::load_each(registries, e) {
-                match outcome {
-                    Ok(d) => loaded.push(d),
-                    Err(err) if err.skippable() => unloaded.push(crate::studies::SkippedDataset {
-                        dataset: name,
-                        reason: err.reason(),
-                    }),
-                    Err(err) => return Err(err.into()),
-                }
-            }
-            if loaded.is_empty() {
-                bail!(
-                    "no dataset of the suite could be read: {}",
-                    unloaded
-                        .iter()
-                        .map(|s| format!("'{}': {}", s.dataset, s.reason))
-                        .collect::<Vec<_>>()
-                        .join("; ")
-                );
-            }
-            loaded
-        }
-        None => crate::suite::bundled(registries)?,
-    };
+    let (datasets, unloaded): (Vec<BenchInput>, Vec<crate::studies::SkippedDataset>) =
+        match &entries {
+            Some(e) => crate::suite::load_skipping(registries, e)?,
+            None => (crate::suite::bundled(registries)?, Vec::new()),
+        };
     crate::traits::limits::at_most("--adapt-times", args.adapt_times.len() as f64, 100.0, "")?;
     if let Some(t) = args
         .adapt_times
