@@ -29,7 +29,7 @@ pub enum ControlError {
     )]
     BadState(String),
     /// A localization fix stamped later than the tick by more than
-    /// [`crate::tracker::MAX_FUTURE_STAMP_S`]: its stamp on another clock than the tick's
+    /// [`crate::MAX_FUTURE_STAMP_S`]: its stamp on another clock than the tick's
     /// (it was taken as measured now, its latency unseen, without a word).
     #[error(
         "the localization fix is stamped {} s, {} s after the tick's t = {}: its stamp (pose_time) on another clock than t's?",

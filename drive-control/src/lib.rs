@@ -22,4 +22,4 @@ pub use controller::{
 pub use history::{settling_history_s, MAX_HISTORY_S, MIN_HISTORY_S, SETTLED_SHARE};
 pub use mppi::{Mppi, MppiController};
 pub use path::{PathError, PathPoint, PathShape, Projection, ReferencePath};
-pub use tracker::{Observation, Tick, Tracker, TrackerConfig};
+pub use tracker::{Observation, Tick, Tracker, TrackerConfig, MAX_FUTURE_STAMP_S};

@@ -1090,7 +1090,8 @@ fn imu_yaw_rate(w: &Windows<'_>) -> Option<Finding> {
 /// their recorded order): on the ten released and norlab runs the IMU correlates with its
 /// own window's turn at 0.95-0.995 (the gravel run's IMU, read backwards, at -0.98), with
 /// the window before's or after's at 0.59-0.91, at least 0.06 less; one correlating with a
-/// neighbour's better by [`localization::SHIFT_MARGIN`] or more, at 0.7 or more, is an IMU
+/// neighbour's better by [`localization::SHIFT_MARGIN`] or more, at 0.7 or more (in size:
+/// an IMU also read backwards correlates negatively), is an IMU
 /// whose timestamps shifted by a window (a Husky IMU column a window late: 0.99 against
 /// 0.80; a Warthog asphalt run's: 0.96 against 0.90; it passed every check, and acc-BLR's
 /// rotational error rose from 0.09 to 0.16 rad on the Husky). Fatal: the models that start
@@ -1127,11 +1128,13 @@ fn imu_shift(w: &Windows<'_>) -> Option<Finding> {
                 .map(move |i| (table[i as usize].0, table[(i + lag) as usize].1)),
         )
     };
+    // In size: an IMU read backwards (a sign the gain's warning names) correlates as well
+    // with its own window, negatively.
     let own = at(0);
     // The IMU of window i + 1 reading window i's turn reads the window before's: late.
     for (lag, which) in [(1, "before"), (-1, "after")] {
         let r = at(lag);
-        if r >= 0.7 && r >= own + localization::SHIFT_MARGIN {
+        if r.abs() >= 0.7 && r.abs() >= own.abs() + localization::SHIFT_MARGIN {
             return Some(Finding {
                 check: Check::ImuYawRate,
                 severity: Severity::Fatal,

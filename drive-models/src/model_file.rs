@@ -775,8 +775,9 @@ fn reaches_its_commands(
 }
 
 /// `Err` when `model`, from rest, held for one of `robot`'s windows at either end of `range`
-/// (the commands it was fitted on), moves (or turns, for a command that mostly asks a turn,
-/// a radian against a metre) less than [`MIN_REACHED_SHARE`] of what those commands ask of
+/// (the commands it was fitted on), travels (or turns, for a command that mostly asks a
+/// turn, a radian against a metre; both summed step by step) less than
+/// [`MIN_REACHED_SHARE`] of what those commands ask of
 /// the vehicle (eq. 4, `robot`'s command model) at both ends: a model
 /// whose slip takes every motion (slip-BLR's forward slip edited to 1, acc-BLR's
 /// accelerations to 0) predicts a robot that never moves, which no fit writes (a Warthog
@@ -802,10 +803,14 @@ fn moves_with_its_commands(
         }
         let start = StartState::at_rest(drive_traits::Pose::zeros());
         let poses = model.predict(&start, &vec![command; steps]);
-        let Some(last) = poses.last() else {
-            return Ok(());
-        };
-        let (moved, turned) = (last.x.hypot(last.y), last.z.abs());
+        // The path travelled and the turn, summed step by step (a model that spins in
+        // place still travels: a yaw edited to 1e6 is no robot that stands still).
+        let (moved, turned) = poses.windows(2).fold((0.0, 0.0), |(m, t), p| {
+            (
+                m + (p[1].x - p[0].x).hypot(p[1].y - p[0].y),
+                t + (p[1].z - p[0].z).abs(),
+            )
+        });
         // What the command mostly asks (a metre of travel against a radian of turn): a
         // straight command is judged by its travel, a turn in place by its turn.
         let follows = if asked_move >= asked_turn {
@@ -824,7 +829,7 @@ fn moves_with_its_commands(
                 .join(", ")
         };
         said.push(format!(
-            "at [{}] it moves {} m and turns {} rad in {} s, where the commands ask {} m and {} rad",
+            "at [{}] it travels {} m and turns {} rad in {} s, where the commands ask {} m and {} rad",
             show(end),
             drive_traits::limits::Short(moved),
             drive_traits::limits::Short(turned),

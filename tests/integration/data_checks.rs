@@ -2732,6 +2732,19 @@ fn an_imu_a_window_late_is_named() {
         text.contains("imu-yaw-rate (fatal): the IMU's yaw rate follows the turn localization saw in the window before better than in its own window"),
         "{text}"
     );
+    // Read backwards as well (a second sweep: only the sign was named).
+    for w in &mut data.windows {
+        w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r);
+    }
+    drive::data::write_dataset(&data, &late).unwrap();
+    let out = crate::common::drive(&["check", "--data", late.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(
+        text.contains("in the window before better than in its own window"),
+        "{text}"
+    );
     let recorded = crate::common::drive(&["check", "--data", "bundled:husky_drive"]);
     let said = String::from_utf8_lossy(&recorded.stdout).to_string()
         + &String::from_utf8_lossy(&recorded.stderr);
