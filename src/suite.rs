@@ -307,11 +307,7 @@ pub fn load_skipping(
     }
     if read.is_empty() {
         return Err(SuiteLoadError::NoneRead(
-            skipped
-                .iter()
-                .map(|s| format!("'{}': {}", s.dataset, s.reason))
-                .collect::<Vec<_>>()
-                .join("; "),
+            crate::studies::SkippedDataset::listed(&skipped),
         ));
     }
     Ok((read, skipped))

@@ -829,13 +829,7 @@ pub fn run_bench(
         }
     }
     if datasets.is_empty() {
-        return Err(BenchError::AllSkipped(
-            skipped
-                .iter()
-                .map(|s| format!("'{}': {}", s.dataset, s.reason))
-                .collect::<Vec<_>>()
-                .join("; "),
-        ));
+        return Err(BenchError::AllSkipped(SkippedDataset::listed(&skipped)));
     }
     // The transfer runs between the datasets kept (copied only when one was skipped).
     let kept: Vec<BenchInput>;

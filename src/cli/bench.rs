@@ -169,11 +169,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     .map_err(|e| match (&e, unloaded.is_empty()) {
         (crate::studies::BenchError::AllSkipped(_), false) => anyhow::anyhow!(
             "{e}; and unread: {}",
-            unloaded
-                .iter()
-                .map(|s| format!("'{}': {}", s.dataset, s.reason))
-                .collect::<Vec<_>>()
-                .join("; ")
+            crate::studies::SkippedDataset::listed(&unloaded)
         ),
         _ => e.into(),
     })?;

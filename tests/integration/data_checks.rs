@@ -2722,12 +2722,23 @@ fn an_imu_a_window_late_is_named() {
             w.imu_yaw_rate = imu[i - 1].clone();
         }
     }
+    // drive check on `data` (written out, or the bundled run): its exit code and all it said.
     let late = dir.path().join("late.csv");
-    drive::data::write_dataset(&data, &late).unwrap();
-    let out = crate::common::drive(&["check", "--data", late.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(1));
-    let text =
-        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let check = |data: Option<&drive::traits::Dataset>| {
+        let path = match data {
+            Some(d) => {
+                drive::data::write_dataset(d, &late).unwrap();
+                late.to_str().unwrap().to_string()
+            }
+            None => "bundled:husky_drive".to_string(),
+        };
+        let out = crate::common::drive(&["check", "--data", &path]);
+        let text = String::from_utf8_lossy(&out.stdout).to_string()
+            + &String::from_utf8_lossy(&out.stderr);
+        (out.status.code(), text)
+    };
+    let (code, text) = check(Some(&data));
+    assert_eq!(code, Some(1), "{text}");
     assert!(
         text.contains("imu-yaw-rate (fatal): the IMU's yaw rate follows the turn localization saw in the window before better than in its own window"),
         "{text}"
@@ -2736,17 +2747,12 @@ fn an_imu_a_window_late_is_named() {
     for w in &mut data.windows {
         w.imu_yaw_rate.iter_mut().for_each(|r| *r = -*r);
     }
-    drive::data::write_dataset(&data, &late).unwrap();
-    let out = crate::common::drive(&["check", "--data", late.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(1));
-    let text =
-        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let (code, text) = check(Some(&data));
+    assert_eq!(code, Some(1), "{text}");
     assert!(
         text.contains("in the window before better than in its own window"),
         "{text}"
     );
-    let recorded = crate::common::drive(&["check", "--data", "bundled:husky_drive"]);
-    let said = String::from_utf8_lossy(&recorded.stdout).to_string()
-        + &String::from_utf8_lossy(&recorded.stderr);
+    let (_, said) = check(None);
     assert!(!said.contains("shifted by a window"), "{said}");
 }

@@ -295,6 +295,23 @@ pub struct SkippedDataset {
     pub reason: String,
 }
 
+impl SkippedDataset {
+    /// Datasets skipped, in one line: `'name': reason; ...`.
+    ///
+    /// ```
+    /// use drive_studies::SkippedDataset;
+    /// let s = |d: &str, r: &str| SkippedDataset { dataset: d.into(), reason: r.into() };
+    /// assert_eq!(SkippedDataset::listed(&[s("a", "no file"), s("b", "useless")]), "'a': no file; 'b': useless");
+    /// ```
+    pub fn listed(skipped: &[SkippedDataset]) -> String {
+        skipped
+            .iter()
+            .map(|s| format!("'{}': {}", s.dataset, s.reason))
+            .collect::<Vec<_>>()
+            .join("; ")
+    }
+}
+
 /// A robot of a benchmark left without a transfer pair.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct UnpairedRobot {
