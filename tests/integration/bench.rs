@@ -1173,6 +1173,80 @@ fn a_copy_with_noise_on_its_commands_and_localization_is_the_same_run() {
     );
 }
 
+/// Issue 63 (a second sweep of that session): a noisy copy whose IMU was also scaled (or
+/// biased, late, negated) was scored as a transfer: the commands' sequence held, but the IMU
+/// differed by more than noise. Its localization saw the run's motion, window for window:
+/// the same run. The same commands driven on two simulated grounds are two runs (a half of
+/// shared straight windows called them one before).
+#[test]
+fn a_noisy_copy_with_its_imu_scaled_is_the_same_run_and_two_grounds_are_two() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = drive::bundled::load("warthog_asphalt_a").unwrap();
+    let mut state = 5u64;
+    let mut uniform = move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    let mut noise = move |sd: f64| {
+        let (u, v) = (uniform(), uniform());
+        sd * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    };
+    let mut copy = run.clone();
+    for w in &mut copy.windows {
+        for (u, m) in w.command.iter_mut().zip(w.measured.iter_mut()) {
+            u.x += noise(0.15);
+            u.y += noise(0.15);
+            m.x += noise(0.15);
+            m.y += noise(0.15);
+        }
+        for p in &mut w.pose {
+            p.x += noise(0.01);
+            p.y += noise(0.01);
+            p.z += noise(0.005);
+        }
+        for r in &mut w.imu_yaw_rate {
+            *r = 1.05 * *r + noise(0.01);
+        }
+    }
+    drive::data::write_dataset(&copy, &d.join("copy.csv")).unwrap();
+    let registries = drive::Registries::builtin();
+    for ground in ["gravel", "snow"] {
+        let sim = drive::studies::simulate_protocol(&registries, "husky", ground, "uniform", 45, 1)
+            .unwrap()
+            .dataset;
+        drive::data::write_dataset(&sim, &d.join(format!("{ground}.csv"))).unwrap();
+    }
+    let suite = d.join("suite.toml");
+    std::fs::write(
+        &suite,
+        "[[dataset]]\nbundled = \"warthog_asphalt_a\"\nname = \"run\"\n\
+         [[dataset]]\npath = \"copy.csv\"\n\
+         [[dataset]]\npath = \"gravel.csv\"\n\
+         [[dataset]]\npath = \"snow.csv\"\n",
+    )
+    .unwrap();
+    let v: Value = serde_json::from_str(&ok(&[
+        "bench",
+        "--suite",
+        s(&suite),
+        "--models",
+        "naive",
+        "--json",
+    ]))
+    .unwrap();
+    let skipped = v["transfer_skipped"].to_string();
+    for pair in ["run -> copy", "copy -> run"] {
+        assert!(skipped.contains(pair), "{pair}: {skipped}");
+    }
+    assert!(
+        !skipped.contains("gravel -> snow") && !skipped.contains("snow -> gravel"),
+        "{skipped}"
+    );
+}
+
 /// Issue 63 (a twelfth outside sweep): a target's terrain library holds no run that is the
 /// target's own (here a part of it: the library's model would be scored on windows it was
 /// fitted on, and beat the target's own fit); and the pair the two would make is named in

@@ -18,6 +18,9 @@ pub(crate) struct Sequence {
     imu_noise: f64,
     /// The windows' median number of samples.
     samples: f64,
+    /// Every window's net motion as its localization saw it, in the frame of its first
+    /// pose: forward and sideways travel (m) and turn (rad); `None` where not finite.
+    motions: Vec<Option<[f64; 3]>>,
 }
 
 impl Sequence {
@@ -38,7 +41,22 @@ impl Sequence {
         }
         let mut lengths: Vec<usize> = windows.iter().map(|w| w.len()).collect();
         lengths.sort_unstable();
+        let motions = windows
+            .iter()
+            .map(|w| {
+                let (first, last) = (w.pose[0], w.pose[w.len() - 1]);
+                let (dx, dy) = (last.x - first.x, last.y - first.y);
+                let (sin, cos) = first.z.sin_cos();
+                let m = [
+                    cos * dx + sin * dy,
+                    -sin * dx + cos * dy,
+                    drive_traits::net_turn(&w.pose),
+                ];
+                m.iter().all(|v| v.is_finite()).then_some(m)
+            })
+            .collect();
         Sequence {
+            motions,
             windows: means,
             imu_noise: if n > 0 {
                 (squares / n as f64 / 6.0).sqrt()
@@ -79,6 +97,11 @@ const NOISE_EXPLAINS: f64 = 2.0;
 pub(super) fn one_drive(a: &Sequence, b: &Sequence, share: f64) -> Option<(usize, usize)> {
     let noise =
         ((a.imu_noise.powi(2) - b.imu_noise.powi(2)).abs() / a.samples.min(b.samples)).sqrt();
+    let (few_motions, many_motions) = if a.windows.len() <= b.windows.len() {
+        (&a.motions, &b.motions)
+    } else {
+        (&b.motions, &a.motions)
+    };
     let (a, b) = (&a.windows, &b.windows);
     let (few, many) = if a.len() <= b.len() { (a, b) } else { (b, a) };
     if few.len() < RUN_LENGTH {
@@ -153,6 +176,12 @@ pub(super) fn one_drive(a: &Sequence, b: &Sequence, share: f64) -> Option<(usize
     if pairs.is_empty() || (pairs.len() as f64) < share * few.len() as f64 {
         return None;
     }
+    // The localization saw one motion in the paired windows (within a twentieth of it, on
+    // travel and on turn): one drive, whatever was done to its IMU (scaled, biased, late,
+    // negated). The same commands on another ground move the body otherwise.
+    if same_motions(&pairs, few_motions, many_motions) {
+        return Some((pairs.len(), few.len()));
+    }
     // The IMU's mean rates of the paired windows: the run's and the other's.
     let rates: Vec<(f64, f64)> = pairs
         .iter()
@@ -175,6 +204,48 @@ pub(super) fn one_drive(a: &Sequence, b: &Sequence, share: f64) -> Option<(usize
         .sqrt();
     (gain.abs() <= COPY_GAIN && left <= NOISE_EXPLAINS * noise + 1e-3 * spread)
         .then_some((pairs.len(), few.len()))
+}
+
+/// How far the paired windows' net motions may differ, over their size (RMS over the
+/// pairs), travel and turn both, to be one drive's: a copy with 1 cm and 5 mrad of noise on
+/// every pose differs by about 0.005 on a Warthog run (2-8 m a window) and 0.02 on a Husky
+/// run; the same commands driven on two simulated grounds (a Husky and a Warthog, each on
+/// tile, gravel, snow and ice, seed 1) differ by 0.086 or more in travel and 0.044 or more
+/// in turn, never both under 0.086.
+const SAME_MOTION: f64 = 0.05;
+
+/// Whether the paired windows (`pairs`: a window of `few` with one of `many`) moved alike as
+/// their localizations saw them: the RMS difference of their travel within [`SAME_MOTION`]
+/// of the RMS travel, and the same of their turns (an axis that does not move, under 1 cm
+/// or 0.01 rad RMS, within that); at least ten pairs with both motions.
+fn same_motions(
+    pairs: &[(usize, usize)],
+    few: &[Option<[f64; 3]>],
+    many: &[Option<[f64; 3]>],
+) -> bool {
+    let (mut n, mut size, mut off) = (0usize, [0.0; 2], [0.0; 2]);
+    for &(i, j) in pairs {
+        let (Some(p), Some(q)) = (
+            few.get(i).copied().flatten(),
+            many.get(j).copied().flatten(),
+        ) else {
+            continue;
+        };
+        n += 1;
+        size[0] += p[0] * p[0] + p[1] * p[1];
+        off[0] += (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
+        size[1] += p[2] * p[2];
+        off[1] += (p[2] - q[2]).powi(2);
+    }
+    if n < 10 {
+        return false;
+    }
+    let nf = n as f64;
+    let floor = [0.01, 0.01];
+    (0..2).all(|k| {
+        let (rms, diff) = ((size[k] / nf).sqrt(), (off[k] / nf).sqrt());
+        diff <= SAME_MOTION * rms.max(floor[k])
+    })
 }
 
 #[cfg(test)]
@@ -207,11 +278,46 @@ mod tests {
                 i[axis] += noise * uniform();
             }
         }
+        // No localization: these runs are told apart by their IMU alone.
         Sequence {
+            motions: vec![None; windows.len()],
             windows,
             imu_noise: 0.01 + noise / 12f64.sqrt() * 40f64.sqrt(),
             samples: 40.0,
         }
+    }
+
+    #[test]
+    fn one_motion_within_a_twentieth_is_one_drive_and_another_grounds_is_not() {
+        let pairs: Vec<(usize, usize)> = (0..20).map(|i| (i, i)).collect();
+        let run: Vec<Option<[f64; 3]>> = (0..20)
+            .map(|i| Some([1.0 + 0.1 * i as f64, 0.05, 0.3 - 0.03 * i as f64]))
+            .collect();
+        // Noise of a centimetre and 5 mrad on each window's net motion.
+        let copy: Vec<Option<[f64; 3]>> = run
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                m.map(|[x, y, z]| {
+                    let s = if i % 2 == 0 { 1.0 } else { -1.0 };
+                    [x + 0.01 * s, y - 0.01 * s, z + 0.005 * s]
+                })
+            })
+            .collect();
+        assert!(same_motions(&pairs, &run, &copy));
+        // A ground that keeps 8% less of the travel, or turns 8% less.
+        let slower: Vec<_> = run
+            .iter()
+            .map(|m| m.map(|[x, y, z]| [0.92 * x, 0.92 * y, z]))
+            .collect();
+        let turns: Vec<_> = run
+            .iter()
+            .map(|m| m.map(|[x, y, z]| [x, y, 0.92 * z]))
+            .collect();
+        assert!(!same_motions(&pairs, &run, &slower));
+        assert!(!same_motions(&pairs, &run, &turns));
+        // Too few pairs tell nothing.
+        assert!(!same_motions(&pairs[..9], &run, &copy));
     }
 
     #[test]
