@@ -36,6 +36,22 @@ fn curve_median(pair: &Value, model: &str, t: f64, axis: &str) -> f64 {
         .unwrap()
 }
 
+/// Gaussian noise of the standard deviation it is called with (Box-Muller on a generator
+/// seeded with `seed`): the same draws for a seed.
+fn gaussian(seed: u64) -> impl FnMut(f64) -> f64 {
+    let mut state = seed;
+    let mut uniform = move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    move |sd: f64| {
+        let (u, v) = (uniform(), uniform());
+        sd * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+}
+
 /// Writes a bundled dataset out as a window CSV and its sidecar.
 fn export(name: &str, to: &Path) -> PathBuf {
     let data = drive::bundled::load(name).unwrap();
@@ -1115,18 +1131,7 @@ fn a_copy_with_noise_on_its_commands_and_localization_is_the_same_run() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let run = drive::bundled::load("warthog_asphalt_a").unwrap();
-    // Gaussian noise of standard deviation `sd` (Box-Muller on a seeded generator).
-    let mut state = 17u64;
-    let mut uniform = move || {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    };
-    let mut noise = move |sd: f64| {
-        let (u, v) = (uniform(), uniform());
-        sd * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    };
+    let mut noise = gaussian(17);
     let largest = run
         .windows
         .iter()
@@ -1183,17 +1188,7 @@ fn a_noisy_copy_with_its_imu_scaled_is_the_same_run_and_two_grounds_are_two() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let run = drive::bundled::load("warthog_asphalt_a").unwrap();
-    let mut state = 5u64;
-    let mut uniform = move || {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    };
-    let mut noise = move |sd: f64| {
-        let (u, v) = (uniform(), uniform());
-        sd * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    };
+    let mut noise = gaussian(5);
     let mut copy = run.clone();
     for w in &mut copy.windows {
         for (u, m) in w.command.iter_mut().zip(w.measured.iter_mut()) {
