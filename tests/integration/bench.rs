@@ -52,6 +52,23 @@ fn gaussian(seed: u64) -> impl FnMut(f64) -> f64 {
     }
 }
 
+/// `drive bench --models naive --json` on the suite file `text` (written in `dir`, paths
+/// relative to it): its `transfer_skipped`, as JSON text.
+fn transfer_skipped(dir: &Path, text: &str) -> String {
+    let suite = dir.join("suite.toml");
+    std::fs::write(&suite, text).unwrap();
+    let v: Value = serde_json::from_str(&ok(&[
+        "bench",
+        "--suite",
+        s(&suite),
+        "--models",
+        "naive",
+        "--json",
+    ]))
+    .unwrap();
+    v["transfer_skipped"].to_string()
+}
+
 /// Writes a bundled dataset out as a window CSV and its sidecar.
 fn export(name: &str, to: &Path) -> PathBuf {
     let data = drive::bundled::load(name).unwrap();
@@ -1150,24 +1167,12 @@ fn a_copy_with_noise_on_its_commands_and_localization_is_the_same_run() {
         }
     }
     drive::data::write_dataset(&copy, &d.join("copy.csv")).unwrap();
-    let suite = d.join("suite.toml");
-    std::fs::write(
-        &suite,
+    let skipped = transfer_skipped(
+        d,
         "[[dataset]]\nbundled = \"warthog_asphalt_a\"\nname = \"run\"\n\
          [[dataset]]\npath = \"copy.csv\"\n\
          [[dataset]]\nbundled = \"warthog_asphalt_2024-09-20a\"\nname = \"other\"\n",
-    )
-    .unwrap();
-    let v: Value = serde_json::from_str(&ok(&[
-        "bench",
-        "--suite",
-        s(&suite),
-        "--models",
-        "naive",
-        "--json",
-    ]))
-    .unwrap();
-    let skipped = v["transfer_skipped"].to_string();
+    );
     for pair in ["run -> copy", "copy -> run"] {
         assert!(skipped.contains(pair), "{pair}: {skipped}");
     }
@@ -1214,25 +1219,13 @@ fn a_noisy_copy_with_its_imu_scaled_is_the_same_run_and_two_grounds_are_two() {
             .dataset;
         drive::data::write_dataset(&sim, &d.join(format!("{ground}.csv"))).unwrap();
     }
-    let suite = d.join("suite.toml");
-    std::fs::write(
-        &suite,
+    let skipped = transfer_skipped(
+        d,
         "[[dataset]]\nbundled = \"warthog_asphalt_a\"\nname = \"run\"\n\
          [[dataset]]\npath = \"copy.csv\"\n\
          [[dataset]]\npath = \"gravel.csv\"\n\
          [[dataset]]\npath = \"snow.csv\"\n",
-    )
-    .unwrap();
-    let v: Value = serde_json::from_str(&ok(&[
-        "bench",
-        "--suite",
-        s(&suite),
-        "--models",
-        "naive",
-        "--json",
-    ]))
-    .unwrap();
-    let skipped = v["transfer_skipped"].to_string();
+    );
     for pair in ["run -> copy", "copy -> run"] {
         assert!(skipped.contains(pair), "{pair}: {skipped}");
     }
