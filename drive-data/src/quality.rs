@@ -1082,7 +1082,89 @@ fn imu_yaw_rate(w: &Windows<'_>) -> Option<Finding> {
     if let Some(f) = imu_shift(w) {
         return Some(f);
     }
-    imu_gain(w).or(offset)
+    imu_gain(w).or_else(|| imu_lag(w)).or(offset)
+}
+
+/// How late an IMU may follow localization before `imu-yaw-rate` says so: a quarter
+/// second (s).
+const IMU_LATE_S: f64 = 0.25;
+
+/// How much better (in correlation) the IMU must follow localization at its lag than at
+/// none to be called late.
+const IMU_LATE_MARGIN: f64 = 0.01;
+
+/// `imu-yaw-rate`'s lag, within a window: the yaw rate localization saw (its turn over 0.4 s
+/// around each sample) against the IMU's (its mean over the same 0.4 s) a lag later, every
+/// sample of every window, lags up to 1.2 s (and half a window) either way. On the nine
+/// released and norlab Warthog runs the correlation peaks with the IMU 0.25-1.1 s ahead of
+/// localization, flat (0.01-0.04 above no lag); on the Husky run 0.15 s ahead; in the
+/// simulator at no lag; every one of them 0.01 below its peak or less with the IMU later.
+/// An IMU column made half a window (1 s) late peaks late on all of them (0.55-1 s late,
+/// 0.011-0.099 above no lag): on the Husky run acc-BLR's rotational error rose from 0.092
+/// to 0.122 rad, slip-ipem's from 0.078 to 0.086. An IMU that follows localization
+/// [`IMU_LATE_S`] or more late, [`IMU_LATE_MARGIN`] better than at no lag, is a warning
+/// (the whole-window shift is [`imu_shift`]'s, fatal).
+fn imu_lag(w: &Windows<'_>) -> Option<Finding> {
+    let dt = w.data.robot.dt();
+    if !(dt > 0.0 && dt.is_finite()) {
+        return None;
+    }
+    // Half the span each rate is taken over, in samples.
+    let half = ((0.2 / dt).round() as usize).max(1);
+    let shortest = w.windows.iter().map(|win| win.len()).min().unwrap_or(0);
+    let most = ((1.2 / dt).round() as usize).min(shortest / 2);
+    if shortest < 2 * half + 2 || (IMU_LATE_S / dt).round() as usize > most {
+        return None;
+    }
+    // Per window, each sample's (localization's rate, the IMU's mean rate around it).
+    let rates: Vec<Vec<(f64, f64)>> = w
+        .windows
+        .iter()
+        .map(|win| {
+            let n = win.len().min(win.imu_yaw_rate.len());
+            (half..n.saturating_sub(half))
+                .map(|k| {
+                    let turn = (win.pose[k + half].z - win.pose[k - half].z
+                        + std::f64::consts::PI)
+                        .rem_euclid(std::f64::consts::TAU)
+                        - std::f64::consts::PI;
+                    let imu = win.imu_yaw_rate[k - half..k + half].iter().sum::<f64>()
+                        / (2 * half) as f64;
+                    (turn / (2 * half) as f64 / dt, imu)
+                })
+                .collect()
+        })
+        .collect();
+    if rates.iter().flatten().any(|(a, b)| !(a.is_finite() && b.is_finite())) {
+        return None;
+    }
+    let at = |lag: isize| {
+        localization::correlation(rates.iter().flat_map(move |r| {
+            let len = r.len() as isize;
+            (0..len)
+                .filter(move |k| (0..len).contains(&(k + lag)))
+                .map(move |k| (r[k as usize].0, r[(k + lag) as usize].1))
+        }))
+        .abs()
+    };
+    let none = at(0);
+    let (lag, best) = (1..=most as isize)
+        .map(|lag| (lag, at(lag)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let ahead = (1..=most as isize).map(|lag| at(-lag)).fold(none, f64::max);
+    let late = lag as f64 * dt;
+    (late >= IMU_LATE_S && best >= none + IMU_LATE_MARGIN && best > ahead).then(|| Finding {
+        check: Check::ImuYawRate,
+        severity: Severity::Warning,
+        message: format!(
+            "the IMU's yaw rate follows the rate localization saw {} s late (correlation {} at that lag against {} at none, every sample of {} windows): its timestamps late? The models that start from the IMU's yaw rate (slip-ipem, acc-BLR, --start encoders+imu) start from the rate of {} s before; shift the imu_yaw_rate column, or give --start encoders",
+            Short(three_digits(late)),
+            Short((best * 1000.0).round() / 1000.0),
+            Short((none * 1000.0).round() / 1000.0),
+            rates.len(),
+            Short(three_digits(late)),
+        ),
+    })
 }
 
 /// `imu-yaw-rate`'s shift: per window, the turn the IMU's yaw rate integrates to against

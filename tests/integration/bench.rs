@@ -1235,6 +1235,72 @@ fn a_noisy_copy_with_its_imu_scaled_is_the_same_run_and_two_grounds_are_two() {
     );
 }
 
+/// Issue 63 (a second sweep of that session): a noisy copy whose intervals were reordered,
+/// whose commands alone were rescaled (by 1.05), or whose world was mirrored (sides
+/// swapped, y, yaw and the IMU negated) was scored as a transfer: its commands did not pair
+/// window after window with the run's. Each is the run's drive.
+#[test]
+fn a_noisy_copy_reordered_rescaled_or_mirrored_is_the_same_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = drive::bundled::load("warthog_asphalt_a").unwrap();
+    let mut noise = gaussian(23);
+    let mut noisy = run.clone();
+    for w in &mut noisy.windows {
+        for u in &mut w.command {
+            u.x += noise(0.15);
+            u.y += noise(0.15);
+        }
+        for p in &mut w.pose {
+            p.x += noise(0.01);
+            p.y += noise(0.01);
+            p.z += noise(0.005);
+        }
+    }
+    // The intervals (three windows each) in another order.
+    let mut reordered = noisy.clone();
+    let intervals = reordered.windows.len() / 3;
+    reordered.windows = (0..intervals)
+        .flat_map(|k| {
+            let k = (37 * k) % intervals;
+            noisy.windows[3 * k..3 * k + 3].to_vec()
+        })
+        .enumerate()
+        .map(|(index, mut w)| {
+            (w.index, w.interval) = (index, index / 3);
+            w
+        })
+        .collect();
+    let mut rescaled = noisy.clone();
+    for u in rescaled.windows.iter_mut().flat_map(|w| w.command.iter_mut()) {
+        *u *= 1.05;
+    }
+    let mut mirrored = noisy.clone();
+    for w in &mut mirrored.windows {
+        for u in w.command.iter_mut().chain(w.measured.iter_mut()) {
+            u.swap_rows(0, 1);
+        }
+        for p in &mut w.pose {
+            p.y = -p.y;
+            p.z = -p.z;
+        }
+        for r in &mut w.imu_yaw_rate {
+            *r = -*r;
+        }
+    }
+    let mut text = String::from("[[dataset]]\nbundled = \"warthog_asphalt_a\"\nname = \"run\"\n");
+    for (name, copy) in [("reordered", &reordered), ("rescaled", &rescaled), ("mirrored", &mirrored)] {
+        drive::data::write_dataset(copy, &d.join(format!("{name}.csv"))).unwrap();
+        text.push_str(&format!("[[dataset]]\npath = \"{name}.csv\"\n"));
+    }
+    let skipped = transfer_skipped(d, &text);
+    for copy in ["reordered", "rescaled", "mirrored"] {
+        for pair in [format!("run -> {copy}"), format!("{copy} -> run")] {
+            assert!(skipped.contains(&pair), "{pair}: {skipped}");
+        }
+    }
+}
+
 /// Issue 63 (a twelfth outside sweep): a target's terrain library holds no run that is the
 /// target's own (here a part of it: the library's model would be scored on windows it was
 /// fitted on, and beat the target's own fit); and the pair the two would make is named in

@@ -73,8 +73,9 @@ impl Sequence {
 /// sample moves a window's mean command by about 0.6% of the range), to be one drive's.
 const COMMAND_TOLERANCE: f64 = 0.02;
 
-/// The windows in a row that must agree so: three (a DRIVE interval's windows hold one
-/// command, so three in a row cross into the next interval's).
+/// The windows in a row that must agree so: three (a DRIVE interval's three windows hold
+/// one command: its own three tell it from an interval of a close command only by their
+/// distance, three in a row from a later window cross into the next interval's).
 const RUN_LENGTH: usize = 3;
 
 /// How the IMU of one drive's copy may differ from the run's: the least-squares gain of the
@@ -90,26 +91,82 @@ const COPY_GAIN: f64 = 0.01;
 /// thousandth of the run's spread (rounding).
 const NOISE_EXPLAINS: f64 = 2.0;
 
-/// How many windows of the shorter of two runs' sequences open three windows in a row whose
-/// commands agree with three in a row of the other, and of how many, where those are at
-/// least `share` of them and the IMU differs by noise alone ([`COPY_GAIN`]); `None`
-/// otherwise.
+/// The sets of a window's [`Inputs`] that pair two runs' windows: the commands (axes 0-2)
+/// or the measured inputs (axes 3-5: a copy whose commands alone were rescaled).
+const COMMANDS: [usize; 3] = [0, 1, 2];
+
+/// See [`COMMANDS`].
+const MEASURED: [usize; 3] = [3, 4, 5];
+
+/// The mirror images of a window's [`Inputs`] a copy of a run in a mirrored world may have,
+/// whatever the vehicle's inputs mean: its two sides swapped (wheels left and right), or its
+/// second input (a yaw rate), or its second and third (a sideways speed and a yaw rate),
+/// negated; its IMU's rate negated in each.
+const MIRRORS: [fn(&Inputs) -> Inputs; 3] = [
+    |i| [i[1], i[0], i[2], i[4], i[3], i[5], -i[6]],
+    |i| [i[0], -i[1], i[2], i[3], -i[4], i[5], -i[6]],
+    |i| [i[0], -i[1], -i[2], i[3], -i[4], -i[5], -i[6]],
+];
+
+/// How many windows of the shorter of two runs' sequences lie in three windows in a row
+/// whose commands agree with three in a row of the other, and of how many, where those are
+/// at least `share` of them and the localization saw one motion in the paired windows or the
+/// IMU differs by noise alone ([`COPY_GAIN`]). Failing that, the same where the windows
+/// pair by their measured inputs, or mirrored (a copy whose commands were rescaled, or whose
+/// world was mirrored), and the localization saw one motion (mirrored). `None` otherwise.
 pub(super) fn one_drive(a: &Sequence, b: &Sequence, share: f64) -> Option<(usize, usize)> {
     let noise =
         ((a.imu_noise.powi(2) - b.imu_noise.powi(2)).abs() / a.samples.min(b.samples)).sqrt();
-    let (few_motions, many_motions) = if a.windows.len() <= b.windows.len() {
-        (&a.motions, &b.motions)
+    let (few, many) = if a.windows.len() <= b.windows.len() {
+        (a, b)
     } else {
-        (&b.motions, &a.motions)
+        (b, a)
     };
-    let (a, b) = (&a.windows, &b.windows);
-    let (few, many) = if a.len() <= b.len() { (a, b) } else { (b, a) };
+    let found = |pairs: &[(usize, usize)]| Some((pairs.len(), few.windows.len()));
+    if let Some(pairs) = paired(&few.windows, &many.windows, COMMANDS, share) {
+        // The localization saw one motion in the paired windows (within a twentieth of it,
+        // on travel and on turn): one drive, whatever was done to its IMU (scaled, biased,
+        // late, negated). The same commands on another ground move the body otherwise.
+        if same_motions(&pairs, &few.motions, &many.motions)
+            || imu_differs_by_noise(&pairs, &few.windows, &many.windows, noise)
+        {
+            return found(&pairs);
+        }
+    }
+    let mirrored: Vec<Option<[f64; 3]>> = few
+        .motions
+        .iter()
+        .map(|m| m.map(|[x, y, z]| [x, -y, -z]))
+        .collect();
+    let mut variants: Vec<(Vec<Option<Inputs>>, [usize; 3], &[Option<[f64; 3]>])> =
+        vec![(few.windows.clone(), MEASURED, &few.motions[..])];
+    for mirror in MIRRORS {
+        let inputs: Vec<Option<Inputs>> =
+            few.windows.iter().map(|i| i.as_ref().map(mirror)).collect();
+        variants.push((inputs.clone(), COMMANDS, &mirrored));
+        variants.push((inputs, MEASURED, &mirrored));
+    }
+    variants.into_iter().find_map(|(inputs, axes, motions)| {
+        let pairs = paired(&inputs, &many.windows, axes, share)?;
+        same_motions(&pairs, motions, &many.motions).then(|| found(&pairs))?
+    })
+}
+
+/// The windows of `few` that lie in three in a row whose `axes` agree with three in a row of
+/// `many`, each with its window of `many`; `None` when they are fewer than `share` of
+/// `few`'s.
+fn paired(
+    few: &[Option<Inputs>],
+    many: &[Option<Inputs>],
+    axes: [usize; 3],
+    share: f64,
+) -> Option<Vec<(usize, usize)>> {
     if few.len() < RUN_LENGTH {
         return None;
     }
-    // The commands' range per axis over both runs.
+    // The range per axis over both runs.
     let mut tolerance = [0.0; 3];
-    for (axis, t) in tolerance.iter_mut().enumerate() {
+    for (t, &axis) in tolerance.iter_mut().zip(&axes) {
         let (low, high) = few
             .iter()
             .chain(many)
@@ -129,7 +186,7 @@ pub(super) fn one_drive(a: &Sequence, b: &Sequence, share: f64) -> Option<(usize
         return None;
     }
     tolerance.iter_mut().for_each(|t| *t = t.max(widest / 20.0));
-    let cell = |i: &Inputs| [0, 1].map(|axis| (i[axis] / tolerance[axis]).floor() as i64);
+    let cell = |i: &Inputs| [0, 1].map(|k| (i[axes[k]] / tolerance[k]).floor() as i64);
     let mut cells: HashMap<[i64; 2], Vec<usize>> = HashMap::new();
     for (j, i) in many.iter().enumerate() {
         if let Some(i) = i {
@@ -137,22 +194,24 @@ pub(super) fn one_drive(a: &Sequence, b: &Sequence, share: f64) -> Option<(usize
         }
     }
     let close = |p: &Option<Inputs>, q: &Option<Inputs>| match (p, q) {
-        (Some(p), Some(q)) => (0..3).all(|axis| (p[axis] - q[axis]).abs() <= tolerance[axis]),
+        (Some(p), Some(q)) => (0..3).all(|k| (p[axes[k]] - q[axes[k]]).abs() <= tolerance[k]),
         _ => false,
     };
-    // How far a run of windows of `many` from `j` is from `few`'s from `i` (their commands,
-    // in units of the tolerance, summed).
+    // How far a run of windows of `many` from `j` is from `few`'s from `i` (their values, in
+    // units of the tolerance, summed).
     let distance = |i: usize, j: usize| -> f64 {
         (0..RUN_LENGTH)
             .map(|k| match (&few[i + k], &many[j + k]) {
                 (Some(p), Some(q)) => (0..3)
-                    .map(|axis| (p[axis] - q[axis]).abs() / tolerance[axis])
+                    .map(|a| (p[axes[a]] - q[axes[a]]).abs() / tolerance[a])
                     .sum::<f64>(),
                 _ => f64::INFINITY,
             })
             .sum()
     };
-    let mut pairs: Vec<(usize, usize)> = Vec::new();
+    // Each window's pair, from the first run of three it lies in: a copy whose intervals
+    // were reordered keeps each interval's three windows in a row.
+    let mut pair_of: Vec<Option<usize>> = vec![None; few.len()];
     for i in 0..=few.len() - RUN_LENGTH {
         let Some(x) = &few[i] else { continue };
         let [ca, cb] = cell(x);
@@ -170,18 +229,28 @@ pub(super) fn one_drive(a: &Sequence, b: &Sequence, share: f64) -> Option<(usize
             })
             .min_by(|&j, &k| distance(i, j).total_cmp(&distance(i, k)).then(j.cmp(&k)));
         if let Some(j) = found {
-            pairs.push((i, j));
+            for k in 0..RUN_LENGTH {
+                pair_of[i + k].get_or_insert(j + k);
+            }
         }
     }
-    if pairs.is_empty() || (pairs.len() as f64) < share * few.len() as f64 {
-        return None;
-    }
-    // The localization saw one motion in the paired windows (within a twentieth of it, on
-    // travel and on turn): one drive, whatever was done to its IMU (scaled, biased, late,
-    // negated). The same commands on another ground move the body otherwise.
-    if same_motions(&pairs, few_motions, many_motions) {
-        return Some((pairs.len(), few.len()));
-    }
+    let pairs: Vec<(usize, usize)> = pair_of
+        .iter()
+        .enumerate()
+        .filter_map(|(i, j)| Some((i, (*j)?)))
+        .collect();
+    (!pairs.is_empty() && pairs.len() as f64 >= share * few.len() as f64).then_some(pairs)
+}
+
+/// Whether the IMU of `few`'s paired windows differs from `many`'s by noise alone: the gain
+/// of the windows' mean-rate difference at most [`COPY_GAIN`] and what it leaves at most
+/// [`NOISE_EXPLAINS`] times `noise` (the difference of the two IMUs' noise per window mean).
+fn imu_differs_by_noise(
+    pairs: &[(usize, usize)],
+    few: &[Option<Inputs>],
+    many: &[Option<Inputs>],
+    noise: f64,
+) -> bool {
     // The IMU's mean rates of the paired windows: the run's and the other's.
     let rates: Vec<(f64, f64)> = pairs
         .iter()
@@ -193,7 +262,7 @@ pub(super) fn one_drive(a: &Sequence, b: &Sequence, share: f64) -> Option<(usize
     let squares: f64 = rates.iter().map(|r| r.0 * r.0).sum();
     // An IMU that does not vary tells no copy from another ground.
     if !(spread > 1e-9 && squares > 0.0) {
-        return None;
+        return false;
     }
     let gain = rates.iter().map(|(x, y)| (y - x) * x).sum::<f64>() / squares;
     let left = (rates
@@ -202,8 +271,7 @@ pub(super) fn one_drive(a: &Sequence, b: &Sequence, share: f64) -> Option<(usize
         .sum::<f64>()
         / n)
         .sqrt();
-    (gain.abs() <= COPY_GAIN && left <= NOISE_EXPLAINS * noise + 1e-3 * spread)
-        .then_some((pairs.len(), few.len()))
+    gain.abs() <= COPY_GAIN && left <= NOISE_EXPLAINS * noise + 1e-3 * spread
 }
 
 /// How far the paired windows' net motions may differ, over their size (RMS over the
@@ -324,13 +392,13 @@ mod tests {
     fn a_copy_with_noise_is_one_drive_and_another_ground_is_not() {
         let original = run(100, 0.2, 0.0);
         let copy = run(100, 0.2, 0.05);
-        assert_eq!(one_drive(&original, &copy, 0.5), Some((298, 300)));
+        assert_eq!(one_drive(&original, &copy, 0.5), Some((300, 300)));
         // Its second half alone.
         let half = Sequence {
             windows: copy.windows[150..].to_vec(),
             ..run(100, 0.2, 0.05)
         };
-        assert_eq!(one_drive(&original, &half, 0.5), Some((148, 150)));
+        assert_eq!(one_drive(&original, &half, 0.5), Some((150, 150)));
         // The same commands on a ground that turns the body 5% less.
         assert_eq!(one_drive(&original, &run(100, 0.19, 0.05), 0.5), None);
         // Or that turns it otherwise where it turns one way, with noise as the run's.
@@ -345,5 +413,58 @@ mod tests {
             i[0] = -i[0];
         }
         assert_eq!(one_drive(&original, &other, 0.5), None);
+    }
+
+    /// `run`'s windows with a localization that saw each window's motion: forward as the
+    /// commands' mean, a turn as their difference (a body that keeps 0.2 of it).
+    fn with_motions(mut s: Sequence) -> Sequence {
+        s.motions = s
+            .windows
+            .iter()
+            .map(|i| i.map(|i| [0.5 * (i[0] + i[1]), 0.0, 0.2 * (i[1] - i[0])]))
+            .collect();
+        s
+    }
+
+    #[test]
+    fn a_copy_reordered_rescaled_or_mirrored_is_one_drive_where_its_motions_are_the_runs() {
+        let original = with_motions(run(100, 0.2, 0.0));
+        let copy = with_motions(run(100, 0.2, 0.05));
+        // Its intervals (three windows each) in another order.
+        let mut reordered = with_motions(run(100, 0.2, 0.05));
+        let order: Vec<usize> = (0..100).map(|k| (37 * k) % 100).collect();
+        reordered.windows = order
+            .iter()
+            .flat_map(|&k| copy.windows[3 * k..3 * k + 3].to_vec())
+            .collect();
+        reordered.motions = order
+            .iter()
+            .flat_map(|&k| copy.motions[3 * k..3 * k + 3].to_vec())
+            .collect();
+        assert_eq!(one_drive(&original, &reordered, 0.8), Some((300, 300)));
+        // Its commands alone rescaled by 1.1: its wheels and motions are the run's.
+        let mut rescaled = with_motions(run(100, 0.2, 0.05));
+        for i in rescaled.windows.iter_mut().flatten() {
+            i[0] *= 1.1;
+            i[1] *= 1.1;
+        }
+        assert_eq!(one_drive(&original, &rescaled, 0.8), Some((300, 300)));
+        // Mirrored: the sides swapped, the IMU and the sideways motion and turn negated.
+        let mut mirrored = with_motions(run(100, 0.2, 0.05));
+        for i in mirrored.windows.iter_mut().flatten() {
+            *i = [i[1], i[0], i[2], i[4], i[3], i[5], -i[6]];
+        }
+        for m in mirrored.motions.iter_mut().flatten() {
+            *m = [m[0], -m[1], -m[2]];
+        }
+        assert_eq!(one_drive(&original, &mirrored, 0.8), Some((300, 300)));
+        // Rescaled on a ground that turns the body 8% less: two drives.
+        for m in rescaled.motions.iter_mut().flatten() {
+            m[2] *= 0.92;
+        }
+        for i in rescaled.windows.iter_mut().flatten() {
+            i[6] *= 0.92;
+        }
+        assert_eq!(one_drive(&original, &rescaled, 0.8), None);
     }
 }
