@@ -144,7 +144,8 @@ pub struct CommandFile {
     pub t0: f64,
 }
 
-/// Reads a command file with the header `t,<columns>` sampled at period `dt` (s): each
+/// Reads a command file with the header `t,<columns>` (or a schedule's, `drive protocol`'s
+/// `t,interval,phase,<columns>`) sampled at period `dt` (s): each
 /// line's time within [`GRID_TOLERANCE`] of a period of `t0 + i dt` (a time further off is
 /// refused, never moved onto the grid). The file is read line by line (never held
 /// whole), each line capped at [`MAX_COMMAND_LINE_BYTES`], at most [`MAX_COMMANDS`] commands.
@@ -163,6 +164,10 @@ pub struct CommandFile {
 /// // Off by a fifth of a period: refused, not snapped onto the grid.
 /// std::fs::write(&path, "t,cmd_left,cmd_right\n0,1,2\n0.06,1.5,2\n").unwrap();
 /// assert!(drive_data::read_commands(&path, &["cmd_left", "cmd_right"], 0.05).is_err());
+/// // A schedule drive protocol wrote: its commands.
+/// std::fs::write(&path, "t,interval,phase,cmd_left,cmd_right\n0,0,transient,1,2\n0.05,0,transient,1,2\n").unwrap();
+/// let file = drive_data::read_commands(&path, &["cmd_left", "cmd_right"], 0.05).unwrap();
+/// assert_eq!(file.commands[1].y, 2.0);
 /// std::fs::remove_dir_all(&dir).unwrap();
 /// ```
 pub fn read_commands(
@@ -222,28 +227,39 @@ pub fn read_commands(
         .chain(columns.iter().copied())
         .collect();
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
-    if cols != expected {
+    // The columns read: all of them, or of a schedule `drive protocol` writes (`t`,
+    // `interval`, `phase`, then the commands), its time and its commands.
+    let schedule: Vec<&str> = ["t", "interval", "phase"]
+        .into_iter()
+        .chain(columns.iter().copied())
+        .collect();
+    let read_columns: Vec<usize> = if cols == expected {
+        (0..expected.len()).collect()
+    } else if cols == schedule {
+        std::iter::once(0).chain(3..schedule.len()).collect()
+    } else {
         return Err(CommandFileError::Header {
             name,
             expected: expected.join(","),
             found: header.to_string(),
         });
-    }
+    };
     let mut out = Vec::new();
     let mut t0 = None;
     for line in lines {
         let (i, line) = line?;
         let fields: Vec<&str> = line.split(',').collect();
-        if fields.len() != expected.len() {
+        if fields.len() != cols.len() {
             return Err(CommandFileError::FieldCount {
                 name,
                 line: i + 1,
                 found: fields.len(),
-                expected: expected.len(),
+                expected: cols.len(),
             });
         }
         let mut v = [0.0; 1 + drive_traits::MAX_INPUTS];
-        for (j, f) in fields.iter().enumerate() {
+        for (slot, &j) in read_columns.iter().enumerate() {
+            let f = &fields[j];
             let field = |column: &str| (name.clone(), i + 1, column.to_string(), f.trim().into());
             let x: f64 = f.trim().parse().map_err(|_| {
                 let (name, line, column, text) = field(cols[j]);
@@ -264,7 +280,7 @@ pub fn read_commands(
                 });
             }
             // The times may be a clock's since the Unix epoch (a ROS recording's).
-            let limit = if j == 0 {
+            let limit = if slot == 0 {
                 limits::MAX_ABS_TIME_S
             } else {
                 limits::MAX_ABS_MEASUREMENT
@@ -280,7 +296,7 @@ pub fn read_commands(
                 };
                 limits::at_most(&what, x.abs(), limit, "")?;
             }
-            v[j] = x;
+            v[slot] = x;
         }
         let t0 = *t0.get_or_insert(v[0]);
         let expected = t0 + out.len() as f64 * dt;

@@ -1124,8 +1124,7 @@ fn imu_lag(w: &Windows<'_>) -> Option<Finding> {
             let n = win.len().min(win.imu_yaw_rate.len());
             (half..n.saturating_sub(half))
                 .map(|k| {
-                    let turn = (win.pose[k + half].z - win.pose[k - half].z
-                        + std::f64::consts::PI)
+                    let turn = (win.pose[k + half].z - win.pose[k - half].z + std::f64::consts::PI)
                         .rem_euclid(std::f64::consts::TAU)
                         - std::f64::consts::PI;
                     let imu = win.imu_yaw_rate[k - half..k + half].iter().sum::<f64>()
@@ -1135,7 +1134,11 @@ fn imu_lag(w: &Windows<'_>) -> Option<Finding> {
                 .collect()
         })
         .collect();
-    if rates.iter().flatten().any(|(a, b)| !(a.is_finite() && b.is_finite())) {
+    if rates
+        .iter()
+        .flatten()
+        .any(|(a, b)| !(a.is_finite() && b.is_finite()))
+    {
         return None;
     }
     let at = |lag: isize| {

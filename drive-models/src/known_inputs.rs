@@ -152,6 +152,49 @@ impl KnownInputs {
         notes
     }
 
+    /// A note when a start's yaw rate (`yaw_rate`, given as `flag`) is over twice the
+    /// fastest the known inputs turn the vehicle: a start no data showed (a yaw rate of 50
+    /// rad/s, or one in deg/s, was taken without a word).
+    ///
+    /// ```
+    /// use drive_models::known_inputs::KnownInputs;
+    /// use drive_models::model_file::CommandRange;
+    /// let robot = drive_traits::RobotDescription {
+    ///     name: "r".into(),
+    ///     robot: "husky".into(),
+    ///     rate_hz: 20.0,
+    ///     window_len: 40,
+    ///     vehicle: std::sync::Arc::new(drive_models::DifferentialDrive::new(0.165, 0.55)),
+    ///     position_frame: Default::default(),
+    ///     terrain: String::new(),
+    ///     registered_robot: String::new(),
+    /// };
+    /// let known = KnownInputs {
+    ///     range: CommandRange { min: vec![-5.0, -5.0], max: vec![5.0, 5.0] },
+    ///     what: "the commands it was trained on",
+    ///     saturates: true,
+    /// };
+    /// // Its fastest turn: 5 rad/s on opposite wheels of 0.165 m, 0.55 m apart, 3 rad/s.
+    /// assert!(known.yaw_rate_note(&robot, 5.9, "--start-yaw-rate").is_none());
+    /// assert!(known.yaw_rate_note(&robot, -6.1, "--start-yaw-rate").is_some());
+    /// ```
+    pub fn yaw_rate_note(
+        &self,
+        robot: &RobotDescription,
+        yaw_rate: f64,
+        flag: &str,
+    ) -> Option<String> {
+        let (_, fastest) = self.fastest(robot);
+        (fastest.is_finite() && fastest > 0.0 && yaw_rate.abs() > 2.0 * fastest).then(|| {
+            format!(
+                "{flag} is {} rad/s, over twice the fastest {} turn the vehicle ({} rad/s): a start no data showed; in rad/s?",
+                Short(yaw_rate),
+                self.what,
+                Short(fastest)
+            )
+        })
+    }
+
     /// The fastest the known inputs drive the body (m/s) and turn it (rad/s): over the
     /// corners of their box.
     fn fastest(&self, robot: &RobotDescription) -> (f64, f64) {

@@ -355,6 +355,17 @@ impl Terrain {
                 })?;
             return Terrain::from_toml(name_or_path, &text);
         }
+        // A path (a folder or an extension in it) names a file, not a terrain: a missing
+        // dataset given for a twin was called an unknown terrain.
+        if path.extension().is_some() || name_or_path.contains(['/', '\\']) {
+            return Err(TerrainError::Parse {
+                file: name_or_path.to_string(),
+                message: format!(
+                    "no such file (a terrain is a terrain TOML file, as drive sim-fit writes, or a registered terrain: {})",
+                    terrains.names().join(", ")
+                ),
+            });
+        }
         Err(terrains.get(name_or_path).err().map_or_else(
             || TerrainError::Parse {
                 file: name_or_path.to_string(),

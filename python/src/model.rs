@@ -32,7 +32,7 @@ pub(crate) struct Model {
 }
 
 /// Raises each of `notes` as a `UserWarning` (what the command line prints as a note).
-fn warn_notes(py: Python<'_>, notes: impl IntoIterator<Item = String>) -> PyResult<()> {
+pub(crate) fn warn_notes(py: Python<'_>, notes: impl IntoIterator<Item = String>) -> PyResult<()> {
     let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
     for note in notes {
         // A note holds no NUL: numbers, units and the vehicle's column names.
@@ -44,7 +44,7 @@ fn warn_notes(py: Python<'_>, notes: impl IntoIterator<Item = String>) -> PyResu
 
 impl Model {
     /// What the model knows of its inputs (the notes of a prediction beyond them).
-    fn known(&self) -> Option<drive::models::known_inputs::KnownInputs> {
+    pub(crate) fn known(&self) -> Option<drive::models::known_inputs::KnownInputs> {
         drive::models::known_inputs::KnownInputs::of(
             self.model.as_ref(),
             self.settings.as_ref(),
@@ -190,7 +190,8 @@ impl Model {
                     velocity,
                     "start_wheels",
                     "start_velocity",
-                ));
+                ))
+                .chain(yaw_rate.and_then(|w| k.yaw_rate_note(&self.robot, w, "start_yaw_rate")));
             warn_notes(py, notes)?;
         }
         let mut poses = Vec::with_capacity(cmds.len());
@@ -338,6 +339,16 @@ impl Model {
                 }
                 let v: Vec<f64> = a.as_array().iter().copied().collect();
                 finite("start_yaw_rates", &v)?;
+                within_readers("start_yaw_rates", &v)?;
+                // A yaw rate no data showed: the first row's note.
+                if let Some(k) = &known {
+                    let flag = |i: usize| format!("start_yaw_rates[{i}]");
+                    let note = v
+                        .iter()
+                        .enumerate()
+                        .find_map(|(i, w)| k.yaw_rate_note(&self.robot, *w, &flag(i)));
+                    warn_notes(py, note)?;
+                }
                 Some(v)
             }
         };
@@ -751,7 +762,7 @@ pub(crate) fn _model_from_json(text: &str, start: &str) -> PyResult<Model> {
 }
 
 /// One row of numbers (one per input axis) as an input, the axes beyond it zero.
-fn input_of_row(row: &[f64]) -> Input {
+pub(crate) fn input_of_row(row: &[f64]) -> Input {
     let mut u = Input::zeros();
     for (i, v) in row.iter().enumerate().take(drive::traits::MAX_INPUTS) {
         u[i] = *v;

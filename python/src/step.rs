@@ -218,11 +218,22 @@ fn actions_of<'py>(
             read(&a.extract()?)?
         }
     };
+    // Finite, and within what the command line reads (1e9: an action of 1e300 stepped to
+    // states of 1e299 without a word).
+    let limit = drive::traits::limits::MAX_ABS_MEASUREMENT;
     if let Some(i) = out
         .iter()
-        .position(|u| !u.iter().take(dim).all(|x| x.is_finite()))
+        .position(|u| !u.iter().take(dim).all(|x| x.abs() <= limit))
     {
-        return Err(err(format!("actions: row {i} is not finite numbers")));
+        let what = if out[i].iter().take(dim).all(|x| x.is_finite()) {
+            format!(
+                "beyond {} (what the command line reads): in the robot's units?",
+                drive::traits::limits::Short(limit)
+            )
+        } else {
+            "not finite numbers".to_string()
+        };
+        return Err(err(format!("actions: row {i} is {what}")));
     }
     Ok(out)
 }
@@ -325,7 +336,12 @@ impl Model {
             .unwrap_or_else(|| vec![0.0; dim * b]);
         let yaw_rates = rows_of(py, "start_yaw_rate", start_yaw_rate, b, 1)?;
         let velocities = rows_of(py, "start_velocity", start_velocity, b, 2)?;
-        for v in poses.iter().chain(&wheels) {
+        for v in poses
+            .iter()
+            .chain(&wheels)
+            .chain(yaw_rates.iter().flatten())
+            .chain(velocities.iter().flatten())
+        {
             drive::traits::limits::at_most(
                 "the start",
                 v.abs(),
@@ -333,6 +349,27 @@ impl Model {
                 "",
             )
             .map_err(err)?;
+        }
+        // A start no data showed, as Model.predict warns of it: the first row's notes.
+        if let Some(k) = self.known() {
+            let mut notes = Vec::new();
+            if let Some(i) = wheels
+                .chunks_exact(dim.max(1))
+                .position(|w| k.range.beyond(w).is_some())
+            {
+                let w = crate::model::input_of_row(&wheels[dim * i..dim * (i + 1)]);
+                notes.extend(k.start_notes(
+                    &self.robot,
+                    w,
+                    None,
+                    &format!("start_wheels[{i}]"),
+                    "",
+                ));
+            }
+            notes.extend(yaw_rates.iter().flatten().enumerate().find_map(|(i, w)| {
+                k.yaw_rate_note(&self.robot, *w, &format!("start_yaw_rate[{i}]"))
+            }));
+            crate::model::warn_notes(py, notes)?;
         }
         let history: Vec<Input> = match history.filter(|h| !h.is_none()) {
             None => Vec::new(),
@@ -346,6 +383,7 @@ impl Model {
                 }
                 let values: Vec<f64> = a.call_method1("reshape", (-1,))?.extract()?;
                 finite("history", &values)?;
+                crate::args::within_readers("history", &values)?;
                 values
                     .chunks_exact(dim)
                     .map(|r| {

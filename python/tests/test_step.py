@@ -103,6 +103,18 @@ def test_history_copy_inplace_and_errors(models):
         _ = c.covariances
     with pytest.raises(drive.DriveError, match="states hold"):
         model.step_array(np.zeros((2, 5)), np.zeros((2, 2)))
+    # Issue 63 (a second sweep): actions and a start of 1e300 stepped without a word; they
+    # are refused as Model.predict refuses them, and a yaw rate no data showed is warned of.
+    with pytest.raises(drive.DriveError, match=r"row 0 is beyond 1e\+?0?9"):
+        model.step(c, np.array([[1e300, 0.0]]))
+    with pytest.raises(drive.DriveError, match="beyond"):
+        drive.MppiDynamics(model)(c.array[0], np.array([0.0, 1e12]))
+    with pytest.raises(drive.DriveError, match="start"):
+        model.initial_state(start_velocity=(1e300, 0.0))
+    with pytest.raises(drive.DriveError, match="history"):
+        model.initial_state(history=np.array([[1e300, 0.0]]))
+    with pytest.warns(UserWarning, match="start_yaw_rate.* over twice the fastest"):
+        model.initial_state(start_yaw_rate=50.0)
 
 
 def test_a_numpy_mppi_loop_drives_the_model_to_a_goal(models):

@@ -419,7 +419,7 @@ pub fn csv_output_name(flag: &str, path: &std::path::Path) -> Result<()> {
 
 /// A file of `kind` (`a model file (JSON)`, `a twin (TOML)`, `a schedule (CSV)`) to be
 /// written at `path` for `flag`: refused where its name says it is a dataset, a dataset's
-/// sidecar or a recording (`.csv`, `.csv.gz`, `.meta.json`, `.mcap`, `.db3`, `.bag`) or
+/// sidecar, a recording or an array ([`DATA_NAMES`]) or
 /// another of the kinds `others` names: `train --out run.csv` replaced the dataset
 /// `run.csv` (its sidecar left beside a model file), and `--out run.meta.json` the
 /// sidecar of `run.csv`, without a word, as [`csv_output_name`] refuses the other way
@@ -428,8 +428,26 @@ pub fn named_output(flag: &str, path: &std::path::Path, kind: &str, others: &[&s
     named_other_than(flag, path, kind, &[DATA_NAMES, others].concat())
 }
 
-/// The names of datasets, their sidecars and recordings ([`named_output`]).
-pub const DATA_NAMES: &[&str] = &[".csv", ".csv.gz", ".meta.json", ".mcap", ".db3", ".bag"];
+/// The names of datasets, their sidecars and recordings, and of the array and table files
+/// a researcher keeps data in (`train --out model.npy` wrote JSON under the name of a numpy
+/// array; [`named_output`]).
+pub const DATA_NAMES: &[&str] = &[
+    ".csv",
+    ".csv.gz",
+    ".meta.json",
+    ".mcap",
+    ".db3",
+    ".bag",
+    ".npy",
+    ".npz",
+    ".parquet",
+    ".pkl",
+    ".pickle",
+    ".h5",
+    ".hdf5",
+    ".mat",
+    ".feather",
+];
 
 /// `Err` where the name of `path` (written for `flag`, a file of `kind`) ends in one of
 /// `refused` (case aside).

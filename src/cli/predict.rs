@@ -14,7 +14,8 @@ pub struct Args {
     #[arg(long)]
     model: PathBuf,
     /// CSV with columns t and the vehicle's command columns (cmd_left,cmd_right for a
-    /// differential drive), at the model's command rate; at most 1,000,000 commands, lines
+    /// differential drive), at the model's command rate, or a schedule `drive protocol`
+    /// wrote (t,interval,phase and the command columns); at most 1,000,000 commands, lines
     /// of at most 4096 bytes.
     #[arg(long)]
     commands: PathBuf,
@@ -108,6 +109,10 @@ pub fn run(args: &Args, registries: &crate::Registries) -> Result<()> {
     if let Some(k) = &known {
         let flags = ("--start-wheels", "--start-velocity");
         for n in k.start_notes(&robot, measured, args.start_velocity, flags.0, flags.1) {
+            note(n);
+        }
+        let yaw_rate = args.start_yaw_rate;
+        if let Some(n) = yaw_rate.and_then(|w| k.yaw_rate_note(&robot, w, "--start-yaw-rate")) {
             note(n);
         }
     }

@@ -205,6 +205,20 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
             })
         })
         .collect::<Result<Vec<_>>>()?;
+    // A stretch on the ground of the one before changes nothing: its error "after the
+    // change" would be scored as the adaptation's (the same terrain twice, or two files of
+    // one ground).
+    let mut before = &terrain;
+    for (i, change) in ground_changes.iter().enumerate() {
+        if ground_of(&change.terrain) == ground_of(before) {
+            bail!(
+                "--terrains: {} after {} is the same ground: the path changes nothing there; give grounds that differ (or use --terrain)",
+                args.terrains[i + 1],
+                args.terrains[i]
+            );
+        }
+        before = &change.terrain;
+    }
     let start = crate::traits::StartInfo::parse(&args.start).map_err(anyhow::Error::msg)?;
     // Model names, and model files driven as they are.
     let mut models = Vec::new();
@@ -492,4 +506,13 @@ fn controller(args: &Args, registries: &Registries) -> Result<Arc<dyn MakeContro
             .context("--samples, --horizon, --temperature or --uncertainty-weight")
     })?;
     Ok(Arc::new(m))
+}
+
+/// A terrain without its name: what the robot drives on (two files of one ground, under two
+/// names, are one ground).
+fn ground_of(t: &crate::sim::Terrain) -> crate::sim::Terrain {
+    crate::sim::Terrain {
+        name: String::new(),
+        ..t.clone()
+    }
 }

@@ -175,6 +175,9 @@ fn cases() -> Vec<Case> {
         Case { name: "negative threshold", file: File::None, args: &["converge", "--thresholds", "-1,0.01"], says: &["--thresholds must be positive"] },
         Case { name: "unknown terrain", file: File::None,
             args: &["simulate", "--robot", "husky", "--terrain", "sand", "--duration", "30", "--out", "{out}"], says: &["unknown terrain 'sand'"] },
+        // A missing file for a twin was called an unknown terrain (issue 63, a second sweep).
+        Case { name: "missing twin file", file: File::None,
+            args: &["sim-fit", "--robot", "husky", "--twin", "missing.csv.gz"], says: &["missing.csv.gz: no such file (a terrain is a terrain TOML file"] },
         Case { name: "zero intervals", file: File::None,
             args: &["protocol", "--robot", "husky", "--intervals", "0", "--out", "{out}"], says: &["--intervals must be at least 1"] },
         // Sizes that drive memory or run time: refused up front, naming the limit.

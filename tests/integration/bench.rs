@@ -1272,7 +1272,11 @@ fn a_noisy_copy_reordered_rescaled_or_mirrored_is_the_same_run() {
         })
         .collect();
     let mut rescaled = noisy.clone();
-    for u in rescaled.windows.iter_mut().flat_map(|w| w.command.iter_mut()) {
+    for u in rescaled
+        .windows
+        .iter_mut()
+        .flat_map(|w| w.command.iter_mut())
+    {
         *u *= 1.05;
     }
     let mut mirrored = noisy.clone();
@@ -1289,7 +1293,11 @@ fn a_noisy_copy_reordered_rescaled_or_mirrored_is_the_same_run() {
         }
     }
     let mut text = String::from("[[dataset]]\nbundled = \"warthog_asphalt_a\"\nname = \"run\"\n");
-    for (name, copy) in [("reordered", &reordered), ("rescaled", &rescaled), ("mirrored", &mirrored)] {
+    for (name, copy) in [
+        ("reordered", &reordered),
+        ("rescaled", &rescaled),
+        ("mirrored", &mirrored),
+    ] {
         drive::data::write_dataset(copy, &d.join(format!("{name}.csv"))).unwrap();
         text.push_str(&format!("[[dataset]]\npath = \"{name}.csv\"\n"));
     }

@@ -399,6 +399,41 @@ fn train_then_predict_matches_the_library() {
     }
 }
 
+/// Issue 63 (a second sweep): `predict` refused the schedule `drive protocol` writes (its
+/// interval and phase columns); it predicts it as the same commands in a plain file.
+#[test]
+fn predict_takes_a_schedule_from_protocol() {
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    ok(&["train", "--model", "slip-blr", "--out", &at("m.json")]);
+    ok(&[
+        "protocol",
+        "--robot",
+        "husky",
+        "--intervals",
+        "2",
+        "--out",
+        &at("proto.csv"),
+    ]);
+    let schedule = std::fs::read_to_string(at("proto.csv")).unwrap();
+    assert!(
+        schedule.starts_with("t,interval,phase,cmd_left,cmd_right\n"),
+        "{schedule}"
+    );
+    let plain: String = schedule
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            format!("{},{},{}\n", f[0], f[3], f[4])
+        })
+        .collect();
+    std::fs::write(at("plain.csv"), plain).unwrap();
+    let predict = |file: &str| ok(&["predict", "--model", &at("m.json"), "--commands", &at(file)]);
+    let out = predict("proto.csv");
+    assert_eq!(out.lines().count(), schedule.lines().count());
+    assert_eq!(out, predict("plain.csv"));
+}
+
 /// Issue 63: a model file keeps the commands it was trained on, and `predict` says so when
 /// it is given commands beyond them (a command in another unit: 1e8 rad/s went through a
 /// naive model to 58,500 km, and through slip-BLR's saturating powertrain without a word).
@@ -481,6 +516,16 @@ fn predict_notes_commands_beyond_what_the_model_was_trained_on() {
         );
         assert!(
             !started("--start-velocity", "0.5,0").contains("over twice"),
+            "{name}"
+        );
+        // A yaw rate of 50 rad/s (a second sweep of issue 63: taken without a word).
+        let err = started("--start-yaw-rate", "50");
+        assert!(
+            err.contains("--start-yaw-rate is 50 rad/s, over twice the fastest"),
+            "{name}: {err}"
+        );
+        assert!(
+            !started("--start-yaw-rate", "0.5").contains("over twice"),
             "{name}"
         );
         assert!(

@@ -2781,13 +2781,18 @@ fn an_imu_half_a_window_late_is_named_with_its_lag() {
             }
         }
         drive::data::write_dataset(&data, &path).unwrap();
-        for (data, late) in [(path.to_str().unwrap().to_string(), true), (format!("bundled:{run}"), false)] {
+        for (data, late) in [
+            (path.to_str().unwrap().to_string(), true),
+            (format!("bundled:{run}"), false),
+        ] {
             let out = crate::common::drive(&["check", "--data", &data]);
             let text = String::from_utf8_lossy(&out.stdout).to_string()
                 + &String::from_utf8_lossy(&out.stderr);
             assert_eq!(out.status.code(), Some(0), "{text}");
             assert_eq!(
-                text.contains("imu-yaw-rate (warning): the IMU's yaw rate follows the rate localization saw"),
+                text.contains(
+                    "imu-yaw-rate (warning): the IMU's yaw rate follows the rate localization saw"
+                ),
                 late,
                 "{run}: {text}"
             );

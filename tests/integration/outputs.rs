@@ -1175,6 +1175,11 @@ fn a_model_or_twin_is_not_written_under_a_datasets_name() {
     let gz = dir.path().join("run.csv.gz");
     let said = user_error(&["train", "--model", "naive", "--out", gz.to_str().unwrap()]);
     assert!(said.contains("the name says .csv.gz"), "{said}");
+    // Nor under an array's name (a second sweep of that session: model.npy was written).
+    let npy = dir.path().join("model.npy");
+    let said = user_error(&["train", "--model", "naive", "--out", npy.to_str().unwrap()]);
+    assert!(said.contains("the name says .npy"), "{said}");
+    assert!(!npy.exists());
     // Nor over its sidecar (a second sweep: train --out run.meta.json replaced it).
     let sidecar = dir.path().join("run.meta.json");
     let sidecar_before = std::fs::read(&sidecar).unwrap();

@@ -630,6 +630,10 @@ fn a_ground_that_changes_along_the_path_is_driven_and_an_adaptive_model_follows_
     // is not composed of a powertrain and a slip model does not adapt.
     let err = user_error(&["track", "--terrains", "snow"]);
     assert!(err.contains("two or more"), "{err}");
+    // Nor is one ground twice, whatever it is called (issue 63, a second sweep: tile,tile
+    // reported an error "after the change").
+    let err = user_error(&["track", "--terrains", "snow,tile,tile"]);
+    assert!(err.contains("tile after tile is the same ground"), "{err}");
     let err = user_error(&[
         "track",
         "--robot",

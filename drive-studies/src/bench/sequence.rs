@@ -138,18 +138,24 @@ pub(super) fn one_drive(a: &Sequence, b: &Sequence, share: f64) -> Option<(usize
         .iter()
         .map(|m| m.map(|[x, y, z]| [x, -y, -z]))
         .collect();
-    let mut variants: Vec<(Vec<Option<Inputs>>, [usize; 3], &[Option<[f64; 3]>])> =
-        vec![(few.windows.clone(), MEASURED, &few.motions[..])];
+    // By the measured inputs (the commands rescaled), then mirrored by either.
+    let one_motion = |inputs: &[Option<Inputs>], axes, motions: &[Option<[f64; 3]>]| {
+        paired(inputs, &many.windows, axes, share)
+            .filter(|pairs| same_motions(pairs, motions, &many.motions))
+    };
+    if let Some(pairs) = one_motion(&few.windows, MEASURED, &few.motions) {
+        return found(&pairs);
+    }
     for mirror in MIRRORS {
         let inputs: Vec<Option<Inputs>> =
             few.windows.iter().map(|i| i.as_ref().map(mirror)).collect();
-        variants.push((inputs.clone(), COMMANDS, &mirrored));
-        variants.push((inputs, MEASURED, &mirrored));
+        for axes in [COMMANDS, MEASURED] {
+            if let Some(pairs) = one_motion(&inputs, axes, &mirrored) {
+                return found(&pairs);
+            }
+        }
     }
-    variants.into_iter().find_map(|(inputs, axes, motions)| {
-        let pairs = paired(&inputs, &many.windows, axes, share)?;
-        same_motions(&pairs, motions, &many.motions).then(|| found(&pairs))?
-    })
+    None
 }
 
 /// The windows of `few` that lie in three in a row whose `axes` agree with three in a row of
