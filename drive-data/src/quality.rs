@@ -1652,6 +1652,23 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
     encoder_units_in(w, true)
 }
 
+/// The median ratio of the turn localization saw to the one the encoders imply, over the
+/// windows where either turned 0.3 rad (ten at least), where it is a vehicle's: 0.2-1.5 (a
+/// skid-steer turns less than its encoders imply, 0.41-0.62 on the bundled runs; encoders
+/// in another unit, or a yaw in degrees, are off by their factor). `None` otherwise.
+pub(super) fn usual_turn(motions: &[(f64, f64, f64, f64)]) -> Option<f64> {
+    let mut turns: Vec<f64> = motions
+        .iter()
+        .filter(|m| m.1 >= 0.05 && (m.1 >= 0.3 || m.3.abs() >= 0.3) && m.3.is_finite())
+        .map(|m| m.3.abs() / m.1)
+        .collect();
+    if turns.len() < 10 {
+        return None;
+    }
+    let median = drive_traits::median(&mut turns);
+    (0.2..=1.5).contains(&median).then_some(median)
+}
+
 /// [`encoder_units`] on the whole run (`whole`), or on a part of it ([`parts`]): there the
 /// distance and the turn against localization's, not the speeds, the angles' units or
 /// localization's yaw rate sample by sample, which read the whole run.
@@ -1736,6 +1753,15 @@ fn encoder_units_in(w: &Windows<'_>, whole: bool) -> Vec<Finding> {
                         ratios.len(),
                         Short((low * 100.0).round() / 100.0),
                         Short((high * 100.0).round() / 100.0)
+                    )
+                } else if let Some(turn) = usual_turn(motions) {
+                    // The encoders' turn agrees with localization's as a vehicle's does:
+                    // their unit and the geometry hold, the positions' do not.
+                    format!(
+                        "the encoders imply {}x the distance localization saw (median over {} windows), where localization turns {}x what they imply, as a vehicle does: localization's positions in another unit (cm, feet)? (Else encoders in another unit, or the wrong wheel radius)",
+                        Short((median * 1000.0).round() / 1000.0),
+                        ratios.len(),
+                        Short((turn * 100.0).round() / 100.0)
                     )
                 } else {
                     format!(

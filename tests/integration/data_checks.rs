@@ -532,6 +532,51 @@ fn positions_in_another_unit_are_fatal_however_small() {
     }
 }
 
+/// Issue 63 (a second sweep): positions in centimetres or feet were refused as encoders in
+/// another unit and as localization drifting. The encoders' turn agrees with localization's
+/// and the windows that drive see the same factor slow and fast: the positions are named.
+/// Encoders in another unit, and localization drifting, keep their names.
+#[test]
+fn positions_in_centimetres_or_feet_are_named_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    let said = |name: &str, edit: &dyn Fn(&mut drive::traits::Window)| {
+        let mut run = drive::bundled::husky().unwrap();
+        run.windows.iter_mut().for_each(edit);
+        let csv = dir.path().join(format!("{name}.csv"));
+        drive::data::write_dataset(&run, &csv).unwrap();
+        let out = drive(&["check", "--data", csv.to_str().unwrap()]);
+        assert_eq!(out.status.code(), Some(1), "{name}");
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr)
+    };
+    for (name, factor) in [("cm", 100.0), ("feet", 1.0 / 0.3048)] {
+        let text = said(name, &|w| {
+            for p in &mut w.pose {
+                (p.x, p.y) = (p.x * factor, p.y * factor);
+            }
+        });
+        assert!(
+            text.contains("localization's positions in another unit (cm, feet)?"),
+            "{name}: {text}"
+        );
+        assert!(!text.contains("localization drifting"), "{name}: {text}");
+    }
+    let text = said("encoders", &|w| {
+        for u in &mut w.measured {
+            *u *= 0.01;
+        }
+    });
+    assert!(text.contains("encoders in another unit"), "{text}");
+    assert!(!text.contains("positions in another unit"), "{text}");
+    // A drift of 0.5 m/s along the world's x in every window.
+    let text = said("drift", &|w| {
+        for (k, p) in w.pose.iter_mut().enumerate() {
+            p.x += 0.5 * 0.05 * k as f64;
+        }
+    });
+    assert!(text.contains("localization drifting"), "{text}");
+    assert!(!text.contains("positions in another unit"), "{text}");
+}
+
 /// A fourth outside sweep: one flipped or swapped input column was a warning only (a
 /// skid-steer's one command side negated, a mecanum base's sideways axis negated or its
 /// forward and sideways columns swapped); plainly another's or flipped, it is fatal, while

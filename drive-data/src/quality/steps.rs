@@ -300,15 +300,60 @@ pub(super) fn drifting(w: &Windows<'_>) -> Option<Finding> {
     }
     let still = seen.len();
     let share = drive_traits::median(&mut seen) / largest;
-    (share >= DRIFT_WARNING).then(|| Finding {
+    if share < DRIFT_WARNING {
+        return None;
+    }
+    // A unit: the positions' where the encoders turn as localization does (their unit and
+    // the geometry hold), else the encoders' as likely.
+    let cause = match scaled_positions(&paths, w, largest) {
+        Some(factor) => format!(
+            "{}? The windows that drive see {}x the path the encoders imply, slow and fast alike, as a unit scales them (a drift adds most to the slow)",
+            if super::usual_turn(&w.motions).is_some() {
+                "localization's positions in another unit (cm, feet)"
+            } else {
+                "encoders in another unit (or localization's positions)"
+            },
+            Short((factor * 100.0).round() / 100.0)
+        ),
+        None => "localization drifting (a velocity added to its positions), or another robot's?".into(),
+    };
+    Some(Finding {
         check: Check::LocalizationSync,
         severity: Severity::fatal_if(share >= DRIFT_FATAL),
         message: format!(
-            "localization moves a median {} m over the {still} windows whose encoders imply a path under a twentieth of the longest window's {} m: localization drifting (a velocity added to its positions), or another robot's?",
+            "localization moves a median {} m over the {still} windows whose encoders imply a path under a twentieth of the longest window's {} m: {cause}",
             Short(three_digits(share * largest)),
             Short(three_digits(largest)),
         ),
     })
+}
+
+/// The factor by which localization's positions are scaled, where the windows whose
+/// encoders imply a fifth of the longest window's path or more see (net) a path beyond 2 or
+/// under 0.5 times it, the slower half of them at most 1.3 times the faster half's (ten
+/// windows in each): a unit scales every window alike (the Husky run's slower half sees
+/// 0.73 of the faster half's, turning more, in metres or feet alike), a drift (a velocity
+/// added) adds most to the slow ones (0.5 m/s on the Husky: 1.7 times). `None` otherwise.
+fn scaled_positions(paths: &[f64], w: &Windows<'_>, largest: f64) -> Option<f64> {
+    let mut moving: Vec<(f64, f64)> = paths
+        .iter()
+        .zip(&w.motions)
+        .filter(|(p, m)| **p >= 0.2 * largest && m.2.is_finite())
+        .map(|(p, m)| (*p, m.2 / p))
+        .collect();
+    if moving.len() < 20 {
+        return None;
+    }
+    moving.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let half = moving.len() / 2;
+    let median_of = |part: &[(f64, f64)]| {
+        let mut r: Vec<f64> = part.iter().map(|m| m.1).collect();
+        drive_traits::median(&mut r)
+    };
+    let (slow, fast) = (median_of(&moving[..half]), median_of(&moving[half..]));
+    let factor = median_of(&moving);
+    let scaled = !(0.5..=2.0).contains(&factor) && slow <= 1.3 * fast;
+    scaled.then_some(factor)
 }
 
 /// An offset on the encoders: over the windows whose commands drive (almost) no travel
