@@ -1391,7 +1391,9 @@ fn not_moving(w: &Windows<'_>) -> Vec<Finding> {
     // Windows where the commands (through the vehicle) ask for real motion but neither the
     // encoders nor localization saw a tenth of it: a robot that never moved (e-stop, motors
     // off) whose encoders and localization read only their noise.
-    let (mut asked, mut ignored) = (0usize, 0usize);
+    // Of those, the windows whose encoders and localization did move (0.2 m or 0.2 rad):
+    // a robot driving at a small share of its commands (commands in another unit).
+    let (mut asked, mut ignored, mut ignored_moving) = (0usize, 0usize, 0usize);
     for (w, &(d, r, moved, turned)) in windows.iter().zip(motions) {
         let (cd, cr) = dead_reckoned(data, &w.command, w.len());
         let significant: Vec<(f64, f64, f64)> = [(cd, d, moved), (cr, r, turned.abs())]
@@ -1407,6 +1409,9 @@ fn not_moving(w: &Windows<'_>) -> Vec<Finding> {
             .all(|(c, enc, seen)| *enc < 0.1 * c && *seen < 0.1 * c)
         {
             ignored += 1;
+            if (d >= 0.2 && moved >= 0.2) || (r >= 0.2 && turned.abs() >= 0.2) {
+                ignored_moving += 1;
+            }
         }
     }
     // Windows at rest: nothing commanded, nothing measured, nothing seen (under 2 cm and
@@ -1448,10 +1453,14 @@ fn not_moving(w: &Windows<'_>) -> Vec<Finding> {
             severity: Severity::fatal_if(fatal),
             message: format!(
                 "in {ignored} of {asked} windows whose commands ask for at least 0.2 m or 0.2 rad of motion, neither the encoders nor localization saw a tenth of it: {}",
-                if fatal {
-                    "the robot did not move (e-stop engaged, motors off?)"
+                if ignored_moving * 2 > ignored {
+                    format!(
+                        "yet in {ignored_moving} of them both moved 0.2 m or 0.2 rad: the robot drove at a small share of its commands, commands in another unit (rpm, deg/s)?"
+                    )
+                } else if fatal {
+                    "the robot did not move (e-stop engaged, motors off?)".into()
                 } else {
-                    "stopped in those windows?"
+                    "stopped in those windows?".into()
                 }
             ),
         });

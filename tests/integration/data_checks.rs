@@ -2844,3 +2844,27 @@ fn an_imu_half_a_window_late_is_named_with_its_lag() {
         }
     }
 }
+
+/// Issue 63 (a second sweep): commands in rpm (the encoders in rad/s) were refused as a
+/// robot that did not move (an e-stop); it drove, at a tenth of what they ask. The cause is
+/// named; a robot that did not move keeps its name.
+#[test]
+fn commands_in_rpm_are_named_not_taken_for_an_e_stop() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut run = drive::bundled::husky().unwrap();
+    for w in &mut run.windows {
+        for u in &mut w.command {
+            *u *= 60.0 / std::f64::consts::TAU;
+        }
+    }
+    let csv = dir.path().join("rpm.csv");
+    drive::data::write_dataset(&run, &csv).unwrap();
+    let out = drive(&["check", "--data", csv.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    assert!(
+        text.contains("the robot drove at a small share of its commands, commands in another unit (rpm, deg/s)?"),
+        "{text}"
+    );
+    assert!(!text.contains("e-stop"), "{text}");
+}
