@@ -1864,10 +1864,16 @@ fn encoder_units_in(w: &Windows<'_>, whole: bool) -> Vec<Finding> {
             }
         }
     }
-    // encoder-units, the yaw: the localization's yaw rate (median over the samples its yaw
-    // changed at) against the encoders' (median over the samples they turn at). A skid-steer's
-    // localization turns less than its encoders say; a yaw in degrees, or scaled, turns
-    // many times more (its wrapped steps scattered up to pi).
+    out.extend(yaw_units(data, windows));
+    out
+}
+
+/// encoder-units, the yaw: the localization's yaw rate (median over the samples its yaw
+/// changed at) against the encoders' (median over the samples they turn at). A skid-steer's
+/// localization turns less than its encoders say; a yaw in degrees, or scaled, turns many
+/// times more (its wrapped steps scattered up to pi). Run on the whole run and on its parts
+/// ([`parts`]: a yaw in degrees in a fifth of a run was named a mirrored localization).
+fn yaw_units(data: &Dataset, windows: &[&Window]) -> Option<Finding> {
     let dt = data.robot.dt();
     // Each change over the time since the previous one (a localization slower than the
     // command rate holds its yaw in between).
@@ -1897,7 +1903,7 @@ fn encoder_units_in(w: &Windows<'_>, whole: bool) -> Vec<Finding> {
         if seen > 5.0 && seen > 5.0 * implied {
             // Fatal: the documented bound (no localization's yaw changes at a median of 5
             // rad/s and five times the wheels'; a Warthog's yaw in degrees: 7.35 and 8.4x).
-            out.push(Finding {
+            return Some(Finding {
                 check: Check::EncoderUnits,
                 severity: Severity::Fatal,
                 message: format!(
@@ -1908,7 +1914,7 @@ fn encoder_units_in(w: &Windows<'_>, whole: bool) -> Vec<Finding> {
             });
         }
     }
-    out
+    None
 }
 
 /// `outside-limits`: commands or measured inputs beyond three times the robot description's

@@ -2868,3 +2868,28 @@ fn commands_in_rpm_are_named_not_taken_for_an_e_stop() {
     );
     assert!(!text.contains("e-stop"), "{text}");
 }
+
+/// Issue 63 (a second sweep): a yaw in degrees in a fifth of a run was named a mirrored
+/// localization there (its wrapped steps turn any way); its yaw rate sample by sample, many
+/// times the encoders', names the unit, in that part.
+#[test]
+fn a_yaw_in_degrees_in_part_of_a_run_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut run = drive::bundled::husky().unwrap();
+    let n = run.windows.len();
+    for w in &mut run.windows[2 * n / 5..3 * n / 5] {
+        for p in &mut w.pose {
+            p.z = p.z.to_degrees();
+        }
+    }
+    let csv = dir.path().join("degrees.csv");
+    drive::data::write_dataset(&run, &csv).unwrap();
+    let out = drive(&["check", "--data", csv.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    assert!(
+        text.contains("of the run alone") && text.contains("yaw in degrees, or in another unit?"),
+        "{text}"
+    );
+    assert!(!text.contains("mirrored"), "{text}");
+}

@@ -11,7 +11,7 @@
 
 use super::{
     direction_of, direction_signals, encoder_command_in, encoder_units_in, imu_yaw_rate,
-    localization, three_digits, Check, Finding, Severity, Short, Windows,
+    localization, three_digits, yaw_units, Check, Finding, Severity, Short, Windows,
 };
 
 /// The parts a run is cut into: halves and thirds.
@@ -25,6 +25,7 @@ const MIN_PART_WINDOWS: usize = 40;
 fn consistency(w: &Windows<'_>) -> Vec<Finding> {
     let mut out = encoder_command_in(w.data, &w.windows, false);
     out.extend(encoder_units_in(w, false));
+    out.extend(yaw_units(w.data, &w.windows));
     out.extend(localization::frame(w));
     out.extend(imu_yaw_rate(w));
     out
