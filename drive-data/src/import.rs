@@ -478,6 +478,11 @@ pub fn import_raw(
         windows,
     };
     report.checks = crate::quality::check(&data, config.input_limits.as_ref());
+    // The orientation's order, from the log's rows: the cause, said first.
+    let quaternions: Vec<[f64; 4]> = rows.iter().map(|r| r.quaternion).collect();
+    if let Some(f) = crate::quality::orientation_tilt(&quaternions) {
+        report.checks.insert(0, f);
+    }
     // The positions in the log's own world frame: each window is turned into its start
     // frame, which leaves a world grid off the axes and moves a fixed world axis (both
     // unseen by the windows' checks).

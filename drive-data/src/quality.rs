@@ -2725,6 +2725,50 @@ pub fn vehicle_mismatch(
     })
 }
 
+/// `localization-frame`, from a raw log's orientations (`icp_quat_x/y/z/w`, those that are
+/// rotations): a ground robot drives upright, its orientation tilted a few degrees at most;
+/// a median tilt beyond 30 degrees is a quaternion read in another order (written w,x,y,z:
+/// a planar heading h then reads as a tilt of 180 degrees minus h, and every yaw as 0).
+/// Fatal: the yaw read from it is wrong (the import refused it as a robot that did not move).
+///
+/// ```
+/// let upright: Vec<[f64; 4]> = (0..100).map(|i| {
+///     let h = i as f64 * 0.06;
+///     [0.0, 0.0, (h / 2.0).sin(), (h / 2.0).cos()]
+/// }).collect();
+/// assert!(drive_data::quality::orientation_tilt(&upright).is_none());
+/// let w_first: Vec<[f64; 4]> = upright.iter().map(|[x, y, z, w]| [*w, *x, *y, *z]).collect();
+/// assert!(drive_data::quality::orientation_tilt(&w_first).unwrap().message.contains("w,x,y,z"));
+/// ```
+pub fn orientation_tilt(quaternions: &[[f64; 4]]) -> Option<Finding> {
+    let mut tilts: Vec<f64> = quaternions
+        .iter()
+        .filter(|q| {
+            let n2: f64 = q.iter().map(|v| v * v).sum();
+            (0.8..=1.2).contains(&n2)
+        })
+        .map(|[x, y, _, _]| {
+            (1.0 - 2.0 * (x * x + y * y))
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
+        })
+        .collect();
+    if tilts.len() < 20 {
+        return None;
+    }
+    let n = tilts.len();
+    let median = drive_traits::median(&mut tilts);
+    (median > 30.0).then(|| Finding {
+        check: Check::LocalizationFrame,
+        severity: Severity::Fatal,
+        message: format!(
+            "localization's orientation tilts a median {} degrees from upright (over {n} rows with a rotation), where a ground robot drives upright: a quaternion written w,x,y,z where the log's columns are x,y,z,w (icp_quat_x holding w)? Its yaw read so is wrong",
+            Short(median.round())
+        ),
+    })
+}
+
 /// The yaw rate localization implies at each sample, from that sample and earlier ones only
 /// (a start state never reads the window it predicts): the wrapped change of the yaw over
 /// the two samples before (which spans the held values of a localization slower than the

@@ -2893,3 +2893,35 @@ fn a_yaw_in_degrees_in_part_of_a_run_is_named() {
     );
     assert!(!text.contains("mirrored"), "{text}");
 }
+
+/// Issue 63 (a second sweep): a raw log whose quaternion was written w,x,y,z was refused as
+/// a robot that did not move (every yaw read as 0). A ground robot drives upright: the
+/// order is named first; the log as written imports.
+#[test]
+fn a_quaternion_written_w_first_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let w_first = raw_log(d, "w_first.csv", |f, col| {
+        let q: Vec<String> = ["icp_quat_w", "icp_quat_x", "icp_quat_y", "icp_quat_z"]
+            .iter()
+            .map(|c| f[col(c)].clone())
+            .collect();
+        for (c, v) in ["icp_quat_x", "icp_quat_y", "icp_quat_z", "icp_quat_w"]
+            .iter()
+            .zip(q)
+        {
+            f[col(c)] = v;
+        }
+    });
+    let (code, _, err) = import(&w_first, "husky", &d.join("w.csv"), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("check localization-frame: localization's orientation tilts a median"),
+        "{err}"
+    );
+    assert!(err.contains("a quaternion written w,x,y,z"), "{err}");
+    let plain = raw_log(d, "plain.csv", |_, _| {});
+    let (code, out, err) = import(&plain, "husky", &d.join("p.csv"), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!out.contains("tilts"), "{out}");
+}
