@@ -160,32 +160,44 @@ pub fn bench_units(inputs: &[BenchInput], models: usize, config: &BenchConfig) -
 /// the pairs skipped with why (other rates or vehicle types, or the same windows).
 fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
     let prints: Vec<WindowPrints> = inputs.iter().map(|i| window_prints(&i.data)).collect();
-    // Which datasets are one run, directly (their windows shared) or through another (a run
-    // and two copies altered differently, each the run's but not the other's): groups.
+    // Which datasets share windows, and how many.
     let n = inputs.len();
     let mut shared = vec![None; n * n];
-    let mut group: Vec<usize> = (0..n).collect();
-    fn root(group: &mut [usize], mut i: usize) -> usize {
-        while group[i] != i {
-            group[i] = group[group[i]];
-            i = group[i];
-        }
-        i
-    }
     for a in 0..n {
         for b in a + 1..n {
             if inputs[a].robot != inputs[b].robot {
                 continue;
             }
             let found = shared_windows(&prints[a], &prints[b]);
-            if same_run(found) {
-                let (ra, rb) = (root(&mut group, a), root(&mut group, b));
-                group[ra] = rb;
-            }
             shared[a * n + b] = Some(found);
             shared[b * n + a] = Some(found);
         }
     }
+    // How many windows `a` and `c` share (the share found of the one with fewer, times
+    // its windows), where they are one run; 0 otherwise.
+    let size = |i: usize| inputs[i].data.windows.len();
+    let common = |a: usize, c: usize| -> usize {
+        match shared[a * n + c] {
+            Some(found) if same_run(found) => {
+                let fewer = size(a).min(size(c));
+                (found.0 * fewer).div_ceil(found.1.max(1)).min(fewer)
+            }
+            _ => 0,
+        }
+    };
+    // Two datasets one run through a third (two copies of one run altered differently:
+    // each the run's, not the other's): each shares windows with it, and the windows they
+    // share with it overlap in at least as many as a direct same run needs (a tenth of the
+    // one with fewer). A dataset made of half of one run and half of another (or of both
+    // whole, one after the other) shares each run's windows in its own half: the two runs
+    // stay two.
+    let through = |a: usize, b: usize| -> bool {
+        (0..n).filter(|&c| c != a && c != b).any(|c| {
+            let (ac, bc) = (common(a, c), common(b, c));
+            let overlap = (ac + bc).saturating_sub(size(c));
+            ac > 0 && bc > 0 && overlap * SAME_RUN_SHARE_DENOMINATOR >= size(a).min(size(b)).max(1)
+        })
+    };
     let mut pairs = Vec::new();
     let mut skipped = Vec::new();
     for (a, ia) in inputs.iter().enumerate() {
@@ -213,7 +225,7 @@ fn transfer_pairs(inputs: &[BenchInput]) -> (Vec<(usize, usize)>, Vec<String>) {
                     Some(format!(
                         "the same windows ({shared} of the {smaller} of the one with fewer are also in the other: one run listed twice, in two formats, or with a part of itself?): each model would be scored on windows it was fitted on"
                     ))
-                } else if root(&mut group, a) == root(&mut group, b) {
+                } else if through(a, b) {
                     Some(
                         "one run through the others of the suite (each shares its windows with a dataset that shares them with the other: two copies of one run altered differently?): each model would be scored on windows it was fitted on".to_string(),
                     )

@@ -1309,6 +1309,76 @@ fn a_noisy_copy_reordered_rescaled_or_mirrored_is_the_same_run() {
     }
 }
 
+/// Issue 63 (a third sweep of that session): a dataset made of half of one run and half of
+/// another (or of both whole, one after the other) made the two runs "one run through the
+/// others", and their genuine pair was lost. Two runs are one through a third only where
+/// the windows each shares with it overlap.
+#[test]
+fn two_runs_joined_in_a_third_dataset_stay_two_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let a = drive::bundled::load("warthog_asphalt_2024-09-20a").unwrap();
+    let b = drive::bundled::load("warthog_asphalt_2024-09-20b").unwrap();
+    let join = |parts: Vec<drive::traits::Window>| {
+        let mut joined = a.clone();
+        joined.windows = parts
+            .into_iter()
+            .enumerate()
+            .map(|(index, mut w)| {
+                (w.index, w.interval) = (index, index / 3);
+                w
+            })
+            .collect();
+        joined
+    };
+    let (ha, hb) = (3 * (a.windows.len() / 6), 3 * (b.windows.len() / 6));
+    let halves = join([&a.windows[..ha], &b.windows[hb..]].concat());
+    let both = join([&a.windows[..], &b.windows[..]].concat());
+    drive::data::write_dataset(&halves, &d.join("halves.csv")).unwrap();
+    drive::data::write_dataset(&both, &d.join("both.csv")).unwrap();
+    for joined in ["halves", "both"] {
+        let skipped = transfer_skipped(
+            d,
+            &format!(
+                "[[dataset]]\nbundled = \"warthog_asphalt_2024-09-20a\"\nname = \"a\"\n\
+                 [[dataset]]\nbundled = \"warthog_asphalt_2024-09-20b\"\nname = \"b\"\n\
+                 [[dataset]]\npath = \"{joined}.csv\"\n"
+            ),
+        );
+        assert!(skipped.contains(&format!("a -> {joined}")), "{skipped}");
+        assert!(skipped.contains(&format!("b -> {joined}")), "{skipped}");
+        assert!(
+            !skipped.contains("a -> b:") && !skipped.contains("b -> a:"),
+            "{skipped}"
+        );
+    }
+    // Two copies of one run altered differently (its positions scaled by 1.5 in one, its
+    // commands and encoders by 1.1 in the other): neither is the other's by its content,
+    // both are the run's, and the windows they share with it are the same: one run.
+    let mut positions = a.clone();
+    for p in positions.windows.iter_mut().flat_map(|w| w.pose.iter_mut()) {
+        (p.x, p.y) = (1.5 * p.x, 1.5 * p.y);
+    }
+    let mut inputs = a.clone();
+    for w in &mut inputs.windows {
+        for u in w.command.iter_mut().chain(w.measured.iter_mut()) {
+            *u *= 1.1;
+        }
+    }
+    drive::data::write_dataset(&positions, &d.join("positions.csv")).unwrap();
+    drive::data::write_dataset(&inputs, &d.join("inputs.csv")).unwrap();
+    let skipped = transfer_skipped(
+        d,
+        "[[dataset]]\nbundled = \"warthog_asphalt_2024-09-20a\"\nname = \"a\"\n\
+         [[dataset]]\npath = \"positions.csv\"\n\
+         [[dataset]]\npath = \"inputs.csv\"\n",
+    );
+    assert!(
+        skipped.contains("positions -> inputs: one run through the others"),
+        "{skipped}"
+    );
+}
+
 /// Issue 63 (a twelfth outside sweep): a target's terrain library holds no run that is the
 /// target's own (here a part of it: the library's model would be scored on windows it was
 /// fitted on, and beat the target's own fit); and the pair the two would make is named in
