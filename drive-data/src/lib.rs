@@ -26,6 +26,7 @@ mod command_csv;
 mod error;
 mod import;
 pub mod output;
+pub mod output_names;
 pub mod quality;
 mod raw_log;
 mod sidecar;

@@ -135,6 +135,13 @@ impl AdaptiveModel {
     /// correction's sums, the windows kept for the refits and the refit.
     fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
         let path = path_of("path", path)?;
+        drive::data::output_names::refused_name(
+            &path,
+            "an adaptive state (JSON)",
+            drive::data::output_names::DATA_NAMES,
+            false,
+        )
+        .map_err(err)?;
         let text = self.fit.save().map_err(err)?;
         std::fs::write(&path, text)
             .map_err(|e| err(format!("{}: cannot write: {e}", path.display())))

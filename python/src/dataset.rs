@@ -125,6 +125,14 @@ impl Dataset {
     fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
         use drive::data::output::Outputs;
         let path = path_of("path", path)?;
+        // A window CSV under its own kind of name (drive simulate --out's rule).
+        drive::data::output_names::refused_name(
+            &path,
+            "a window CSV (uncompressed)",
+            drive::data::output_names::NOT_CSV_NAMES,
+            true,
+        )
+        .map_err(err)?;
         // Never onto the files it was read from: the CSV's columns and the sidecar's fields
         // it does not keep (calibration steps, the source and licence) would be lost.
         let read_from: Vec<(&str, &std::path::Path)> = self

@@ -525,6 +525,15 @@ impl Model {
     /// `DriveError` says why, as `drive train` does.
     fn save(&self, path: &Bound<'_, PyAny>) -> PyResult<()> {
         let path = path_of("path", path)?;
+        // Never under a dataset's, a recording's or an array's name, nor over a dataset's
+        // sidecar or CSV (the command line's rule for train --out).
+        drive::data::output_names::refused_name(
+            &path,
+            "a model file (JSON)",
+            drive::data::output_names::DATA_NAMES,
+            false,
+        )
+        .map_err(err)?;
         let text = self.to_json()?;
         if let Err(e) =
             drive::models::model_file::read_model_file(&path.display().to_string(), &text)

@@ -238,6 +238,23 @@ fn actions_of<'py>(
     Ok(out)
 }
 
+/// `Err` naming the first value of `states` (rows of `len`) that is not finite or beyond
+/// what the command line reads (1e9): not a state the step API makes (a state edited to
+/// 1e12 stepped to a pose of 8e19 m without a word).
+fn states_within_limits(states: &[f64], len: usize) -> PyResult<()> {
+    let limit = drive::traits::limits::MAX_ABS_MEASUREMENT;
+    match states.iter().position(|x| !(x.abs() <= limit)) {
+        Some(i) => Err(err(format!(
+            "states: row {}, entry {} is {}: not a state the step API makes (finite, within {})",
+            i / len.max(1),
+            i % len.max(1),
+            drive::traits::limits::Short(states[i]),
+            drive::traits::limits::Short(limit)
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// Steps `states` (B rows of the stepper's length) by `actions` without the GIL.
 fn step_rows(
     py: Python<'_>,
@@ -369,6 +386,18 @@ impl Model {
             notes.extend(yaw_rates.iter().flatten().enumerate().find_map(|(i, w)| {
                 k.yaw_rate_note(&self.robot, *w, &format!("start_yaw_rate[{i}]"))
             }));
+            notes.extend(
+                velocities
+                    .iter()
+                    .flat_map(|v| v.chunks_exact(2))
+                    .enumerate()
+                    .find_map(|(i, v)| {
+                        let flag = format!("start_velocity[{i}]");
+                        k.start_notes(&self.robot, Input::zeros(), Some([v[0], v[1]]), "", &flag)
+                            .into_iter()
+                            .find(|n| n.starts_with(&flag))
+                    }),
+            );
             crate::model::warn_notes(py, notes)?;
         }
         let history: Vec<Input> = match history.filter(|h| !h.is_none()) {
@@ -462,6 +491,7 @@ impl Model {
         let mut rw = bound.try_readwrite().map_err(err)?;
         let states = rw.as_slice_mut().map_err(err)?;
         drive::traits::step::check_states(stepper.state_len(), states.len(), b).map_err(err)?;
+        states_within_limits(states, stepper.state_len())?;
         step_rows(py, stepper.as_ref(), states, &actions)?;
         Ok(target)
     }
@@ -488,6 +518,7 @@ impl Model {
         let actions = actions_of(py, actions, k, self.robot.vehicle.input_dim())?;
         let a: PyReadonlyArray2<'py, f64> = a.extract()?;
         let mut data = a.as_slice().map_err(err)?.to_vec();
+        states_within_limits(&data, len)?;
         step_rows(py, stepper.as_ref(), &mut data, &actions)?;
         Ok(numpy::ndarray::Array2::from_shape_vec((k, len), data)
             .map_err(err)?

@@ -242,6 +242,30 @@ def test_a_dataset_is_never_saved_onto_the_files_it_was_read_from(husky, tmp_pat
     assert len(drive.load_dataset(tmp_path / "copy.csv")) == len(husky)
 
 
+def test_saves_are_named_for_what_they_are_and_never_replace_a_dataset(husky, tmp_path):
+    # Issue 63, a third sweep: Model.save wrote over a dataset's sidecar (run.meta.json, or
+    # run.json beside run.csv: the dataset no longer loaded) and under .npy or .csv names;
+    # Dataset.save wrote a CSV under .json or .npy. The command line's rules apply.
+    husky.save(tmp_path / "run.csv")
+    (tmp_path / "old.csv").write_bytes((tmp_path / "run.csv").read_bytes())
+    (tmp_path / "old.json").write_bytes((tmp_path / "run.meta.json").read_bytes())
+    model = drive.fit(husky, model="naive")
+    for name, says in [
+        ("run.meta.json", "the name says .meta.json"),
+        ("old.json", "the sidecar of the dataset"),
+        ("model.npy", "the name says .npy"),
+        ("model.csv", "the name says .csv"),
+    ]:
+        with pytest.raises(drive.DriveError, match=says):
+            model.save(tmp_path / name)
+    for name in ["copy.json", "copy.npy"]:
+        with pytest.raises(drive.DriveError, match="the name says"):
+            husky.save(tmp_path / name)
+    assert len(drive.load_dataset(tmp_path / "run.csv")) == len(husky)
+    assert len(drive.load_dataset(tmp_path / "old.csv")) == len(husky)
+    model.save(tmp_path / "model.json")
+
+
 def test_a_number_that_is_not_finite_is_named_by_its_place(husky):
     # An eleventh outside sweep: "value 3 is not a finite number" read as the value itself.
     model = drive.fit(husky, model="naive")

@@ -115,6 +115,19 @@ def test_history_copy_inplace_and_errors(models):
         model.initial_state(history=np.array([[1e300, 0.0]]))
     with pytest.warns(UserWarning, match="start_yaw_rate.* over twice the fastest"):
         model.initial_state(start_yaw_rate=50.0)
+    # A third sweep: a start velocity no data showed is warned of too, and a state edited
+    # beyond 1e9 (or to NaN) is refused by step and step_array alike.
+    with pytest.warns(UserWarning, match=r"start_velocity\[0\] is 50 m/s, over twice the fastest"):
+        model.initial_state(start_velocity=(50.0, 0.0))
+    edited = model.initial_state()
+    edited.array[0, -1] = 1e12
+    with pytest.raises(drive.DriveError, match="not a state the step API makes"):
+        model.step(edited, np.zeros((1, 2)))
+    with pytest.raises(drive.DriveError, match="not a state the step API makes"):
+        drive.MppiDynamics(model)(edited.array[0], np.zeros(2))
+    edited.array[0, -1] = np.nan
+    with pytest.raises(drive.DriveError, match="not a state the step API makes"):
+        model.step_array(edited.array, np.zeros((1, 2)))
 
 
 def test_a_numpy_mppi_loop_drives_the_model_to_a_goal(models):

@@ -390,40 +390,45 @@ fn streams_not_inputs<R: std::fmt::Display>(inputs: &[(R, PathBuf)]) -> Result<(
 }
 
 /// A window CSV (or raw log) to be written at `path` for `flag`: refused where its name says
-/// it is another kind of file (`run.json`, `run.meta.json`, a robot or terrain `.toml`): the
-/// CSV would be written under that name without a word, and a `--out pair.meta.json` would
-/// replace the sidecar of the dataset `pair.csv`; and where its sidecar's path is a device
-/// or a pipe (a link to `/dev/null`, a FIFO that would hang the write).
+/// it is another kind of file (`run.json`, `run.meta.json`, a robot or terrain `.toml`, an
+/// array: [`crate::data::output_names::NOT_CSV_NAMES`]): the CSV would be written under that
+/// name without a word, and a `--out pair.meta.json` would replace the sidecar of the
+/// dataset `pair.csv`; where its sidecar's path is a device or a pipe (a link to
+/// `/dev/null`, a FIFO that would hang the write); and, for a CSV that is not a dataset
+/// (`dataset` false: a raw log, a per-window table, a schedule), over an existing dataset's
+/// CSV (its sidecar would be left describing something else).
 pub fn csv_output_name(flag: &str, path: &std::path::Path) -> Result<()> {
-    const OTHER_KINDS: [&str; 12] = [
-        "json", "toml", "yaml", "yml", "md", "html", "svg", "png", "mcap", "db3", "bag", "gz",
-    ];
-    let sidecar = crate::data::sidecar_path(path);
-    if crate::data::output::is_special(&sidecar) {
-        anyhow::bail!(
-            "{flag} {}: its sidecar {} is a device, a pipe or a standard stream: the dataset could not be read back (a dataset is a CSV with its sidecar JSON beside it)",
-            path.display(),
-            sidecar.display()
-        );
-    }
-    if let Some(ext) = path.extension().and_then(|e| e.to_str()) {
-        if OTHER_KINDS.iter().any(|k| k.eq_ignore_ascii_case(ext)) {
+    csv_output(flag, path, "a window CSV (uncompressed)", true)
+}
+
+/// [`csv_output_name`] for a CSV of `kind`, a dataset or not.
+pub fn csv_output(flag: &str, path: &std::path::Path, kind: &str, dataset: bool) -> Result<()> {
+    if dataset {
+        let sidecar = crate::data::sidecar_path(path);
+        if crate::data::output::is_special(&sidecar) {
             anyhow::bail!(
-                "{flag} {}: a window CSV is written there (uncompressed), and the name says .{ext}: name it .csv (its sidecar is written beside it as .meta.json)",
-                path.display()
+                "{flag} {}: its sidecar {} is a device, a pipe or a standard stream: the dataset could not be read back (a dataset is a CSV with its sidecar JSON beside it)",
+                path.display(),
+                sidecar.display()
             );
         }
     }
-    Ok(())
+    crate::data::output_names::refused_name(
+        path,
+        kind,
+        crate::data::output_names::NOT_CSV_NAMES,
+        dataset,
+    )
+    .map_err(|e| anyhow::anyhow!("{flag} {e}"))
 }
 
-/// A file of `kind` (`a model file (JSON)`, `a twin (TOML)`, `a schedule (CSV)`) to be
-/// written at `path` for `flag`: refused where its name says it is a dataset, a dataset's
-/// sidecar, a recording or an array ([`DATA_NAMES`]) or
-/// another of the kinds `others` names: `train --out run.csv` replaced the dataset
-/// `run.csv` (its sidecar left beside a model file), and `--out run.meta.json` the
-/// sidecar of `run.csv`, without a word, as [`csv_output_name`] refuses the other way
-/// round.
+/// A file of `kind` (`a model file (JSON)`, `a twin (TOML)`) to be written at `path` for
+/// `flag`: refused where its name says it is a dataset, a dataset's sidecar, a recording or
+/// an array ([`DATA_NAMES`]) or another of the kinds `others` names, or where it is a
+/// dataset's sidecar by the name of earlier releases (`run.json` beside `run.csv`), or an
+/// existing dataset's CSV: `train --out run.csv` replaced the dataset `run.csv` (its sidecar
+/// left beside a model file), and `--out run.meta.json` the sidecar of `run.csv`, without a
+/// word, as [`csv_output_name`] refuses the other way round.
 pub fn named_output(flag: &str, path: &std::path::Path, kind: &str, others: &[&str]) -> Result<()> {
     named_other_than(flag, path, kind, &[DATA_NAMES, others].concat())
 }
@@ -431,46 +436,19 @@ pub fn named_output(flag: &str, path: &std::path::Path, kind: &str, others: &[&s
 /// The names of datasets, their sidecars and recordings, and of the array and table files
 /// a researcher keeps data in (`train --out model.npy` wrote JSON under the name of a numpy
 /// array; [`named_output`]).
-pub const DATA_NAMES: &[&str] = &[
-    ".csv",
-    ".csv.gz",
-    ".meta.json",
-    ".mcap",
-    ".db3",
-    ".bag",
-    ".npy",
-    ".npz",
-    ".parquet",
-    ".pkl",
-    ".pickle",
-    ".h5",
-    ".hdf5",
-    ".mat",
-    ".feather",
-];
+pub const DATA_NAMES: &[&str] = crate::data::output_names::DATA_NAMES;
 
-/// `Err` where the name of `path` (written for `flag`, a file of `kind`) ends in one of
-/// `refused` (case aside).
+/// `Err` where the name of `path` (written for `flag`, a file of `kind`, not a dataset) ends
+/// in one of `refused` (case aside), or is a dataset's sidecar or CSV
+/// ([`crate::data::output_names::refused_name`]).
 pub fn named_other_than(
     flag: &str,
     path: &std::path::Path,
     kind: &str,
     refused: &[&str],
 ) -> Result<()> {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    if let Some(ext) = refused
-        .iter()
-        .find(|e| name.ends_with(&e.to_ascii_lowercase()))
-    {
-        anyhow::bail!(
-            "{flag} {}: {kind} is written there, and the name says {ext}: name it for what it is",
-            path.display()
-        );
-    }
-    Ok(())
+    crate::data::output_names::refused_name(path, kind, refused, false)
+        .map_err(|e| anyhow::anyhow!("{flag} {e}"))
 }
 
 /// Staged outputs of a command that reads `inputs`, checked up front against `planned`
@@ -482,6 +460,23 @@ pub fn outputs_for(
 ) -> Result<Outputs> {
     stdout_not_an_input(inputs)?;
     stdout_not_an_output(planned)?;
+    // A directory of outputs (one whose files are planned too) under a file's name
+    // (`bench --out results.csv` made a directory of that name).
+    for (flag, dir) in planned {
+        if planned.iter().any(|(_, f)| f.parent() == Some(*dir)) {
+            let name = dir
+                .file_name()
+                .map(|n| n.to_string_lossy().to_ascii_lowercase())
+                .unwrap_or_default();
+            let endings = [DATA_NAMES, crate::data::output_names::NOT_CSV_NAMES].concat();
+            if let Some(ending) = endings.iter().find(|e| name.ends_with(*e)) {
+                anyhow::bail!(
+                    "{flag} {}: a directory of outputs is written there, and the name says {ending}: name it for what it is (a folder)",
+                    dir.display()
+                );
+            }
+        }
+    }
     let inputs: Vec<(&str, &Path)> = inputs.iter().map(|(r, p)| (*r, p.as_path())).collect();
     let outputs = Outputs::new(&inputs);
     outputs.check(planned)?;

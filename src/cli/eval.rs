@@ -88,6 +88,14 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
         .iter()
         .map(|p| ("--per-window", p.as_path()))
         .collect();
+    // A CSV under its own kind of name, never over a dataset.
+    if let Some(path) = args
+        .per_window
+        .as_deref()
+        .filter(|p| !super::common::is_standard_output(p))
+    {
+        super::common::csv_output("--per-window", path, "a per-window table (CSV)", false)?;
+    }
     if let Some(path) = args
         .per_window
         .as_deref()

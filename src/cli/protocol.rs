@@ -39,15 +39,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     )?;
     // A name that says another kind of file (or a compressed one: the CSV is written as
     // text) is refused before any work.
-    super::common::named_other_than(
-        "--out",
-        &args.out,
-        "a schedule (CSV, uncompressed)",
-        &[
-            ".gz", ".json", ".toml", ".yaml", ".yml", ".md", ".html", ".svg", ".png", ".mcap",
-            ".db3", ".bag",
-        ],
-    )?;
+    super::common::csv_output("--out", &args.out, "a schedule (CSV, uncompressed)", false)?;
     super::common::check_max_samples(args.max_samples)?;
     let spec = registries.robot(&args.robot)?;
     let samples = args.intervals as f64 * INTERVAL_S * spec.rate_hz;

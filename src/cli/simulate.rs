@@ -60,7 +60,7 @@ pub fn run(args: &Args, registries: &Registries) -> Result<()> {
     let mut outputs = super::common::outputs_for(&inputs, &planned)?;
     super::common::csv_output_name("--out", &args.out)?;
     if let Some(raw) = &args.raw_out {
-        super::common::csv_output_name("--raw-out", raw)?;
+        super::common::csv_output("--raw-out", raw, "a raw log (CSV, uncompressed)", false)?;
     }
     super::common::check_max_samples(args.max_samples)?;
     let spec = registries.robot(&args.robot)?;

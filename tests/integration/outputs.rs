@@ -1225,3 +1225,85 @@ fn a_model_or_twin_is_not_written_under_a_datasets_name() {
         assert!(!dir.path().join(name).exists());
     }
 }
+
+/// Issue 63 (a third sweep): outputs written under another kind's name, or over a
+/// dataset's: `train --out run.json` replaced the sidecar of `run.csv` by the name of
+/// earlier releases (the dataset no longer loaded); `protocol --out p.npy` and
+/// `eval --per-window pw.json` wrote CSVs under those names; `--per-window` and
+/// `simulate --raw-out` replaced a dataset's CSV (its sidecar left beside a table);
+/// `bench --out results.csv` made a directory of that name. Each is refused before any
+/// work, and nothing is written.
+#[test]
+fn outputs_are_named_for_what_they_are_and_never_replace_a_dataset() {
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let data = drive::bundled::load("husky_drive").unwrap();
+    drive::data::write_dataset(&data, std::path::Path::new(&at("run.csv"))).unwrap();
+    // A dataset whose sidecar has the name of earlier releases.
+    std::fs::copy(at("run.csv"), at("old.csv")).unwrap();
+    std::fs::copy(at("run.meta.json"), at("old.json")).unwrap();
+    let before: Vec<Vec<u8>> = ["run.csv", "run.meta.json", "old.csv", "old.json"]
+        .iter()
+        .map(|f| std::fs::read(at(f)).unwrap())
+        .collect();
+    let cases: [(&[&str], &str); 6] = [
+        (
+            &["train", "--model", "naive", "--out", &at("old.json")],
+            "the sidecar of the dataset",
+        ),
+        (
+            &[
+                "protocol",
+                "--robot",
+                "husky",
+                "--intervals",
+                "2",
+                "--out",
+                &at("p.npy"),
+            ],
+            "the name says .npy",
+        ),
+        (
+            &["eval", "--models", "naive", "--per-window", &at("pw.json")],
+            "the name says .json",
+        ),
+        (
+            &["eval", "--models", "naive", "--per-window", &at("run.csv")],
+            "a dataset's CSV",
+        ),
+        (
+            &[
+                "simulate",
+                "--robot",
+                "husky",
+                "--terrain",
+                "tile",
+                "--duration",
+                "30",
+                "--out",
+                &at("sim.csv"),
+                "--raw-out",
+                &at("old.csv"),
+            ],
+            "a dataset's CSV",
+        ),
+        (
+            &["report", "--models", "naive", "--out", &at("results.csv")],
+            "a directory of outputs is written there, and the name says .csv",
+        ),
+    ];
+    for (args, says) in cases {
+        let said = user_error(args);
+        assert!(said.contains(says), "{args:?}: {said}");
+    }
+    let after: Vec<Vec<u8>> = ["run.csv", "run.meta.json", "old.csv", "old.json"]
+        .iter()
+        .map(|f| std::fs::read(at(f)).unwrap())
+        .collect();
+    assert!(before == after, "a dataset was changed");
+    for made in ["p.npy", "pw.json", "sim.csv", "results.csv"] {
+        assert!(!dir.path().join(made).exists(), "{made}");
+    }
+    // A model named after its dataset, whose sidecar is run.meta.json, is not its sidecar.
+    ok(&["train", "--model", "naive", "--out", &at("run.json")]);
+}

@@ -1,0 +1,180 @@
+//! What a file written by this project may be named: an output is never written under a
+//! name that says another kind of file (a model file as `run.csv` or `model.npy`, a CSV as
+//! `run.json`), nor over a dataset's sidecar (`run.meta.json`, or `run.json` beside
+//! `run.csv`, the name of earlier releases), nor, for a file that is not a dataset, over a
+//! dataset's CSV (its sidecar left beside something else). The command line's outputs and
+//! Python's `save` follow the same rules.
+
+use std::path::{Path, PathBuf};
+
+/// The endings of datasets, their sidecars and recordings, and of the array and table files
+/// a researcher keeps data in: never the name of a model file, a twin or a schedule.
+pub const DATA_NAMES: &[&str] = &[
+    ".csv",
+    ".csv.gz",
+    ".meta.json",
+    ".mcap",
+    ".db3",
+    ".bag",
+    ".npy",
+    ".npz",
+    ".parquet",
+    ".pkl",
+    ".pickle",
+    ".h5",
+    ".hdf5",
+    ".mat",
+    ".feather",
+];
+
+/// The endings a CSV is never written under: other kinds of files (JSON, TOML, YAML, pages,
+/// figures, recordings, arrays) and a compressed one (a CSV is written as text).
+pub const NOT_CSV_NAMES: &[&str] = &[
+    ".gz", ".json", ".toml", ".yaml", ".yml", ".md", ".html", ".svg", ".png", ".mcap", ".db3",
+    ".bag", ".npy", ".npz", ".parquet", ".pkl", ".pickle", ".h5", ".hdf5", ".mat", ".feather",
+];
+
+/// Why a name is refused for an output ([`refused_name`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NameError {
+    /// The name ends in an ending of another kind of file.
+    #[error("{path}: {kind} is written there, and the name says {ending}: name it for what it is")]
+    OtherKind {
+        /// The path.
+        path: String,
+        /// What would be written (`a model file (JSON)`).
+        kind: String,
+        /// The ending its name has.
+        ending: String,
+    },
+    /// The path is a dataset's sidecar.
+    #[error("{path}: the sidecar of the dataset {csv} (written with it, read with it): {kind} written there would replace it, and the dataset would no longer load; name it otherwise")]
+    Sidecar {
+        /// The path.
+        path: String,
+        /// The dataset's CSV beside it.
+        csv: String,
+        /// What would be written.
+        kind: String,
+    },
+    /// The path is a dataset's CSV, and what is written is not a dataset.
+    #[error("{path}: a dataset's CSV (its sidecar {sidecar} beside it): {kind} written there would replace it and leave its sidecar describing something else; name it otherwise")]
+    DatasetCsv {
+        /// The path.
+        path: String,
+        /// The sidecar beside it.
+        sidecar: String,
+        /// What would be written.
+        kind: String,
+    },
+}
+
+/// `Err` where `path` may not hold `kind` (`a model file (JSON)`): its name ends (case
+/// aside) in one of `refused`, or it is a dataset's sidecar (`X.meta.json`, or `X.json`
+/// where `X.csv` or `X.csv.gz` exists beside it and `X.meta.json` does not), or, unless `dataset` (what is written is a
+/// dataset, with its own sidecar), an existing dataset's CSV (`X.csv` with `X.meta.json` or
+/// `X.json` beside it).
+///
+/// ```
+/// use drive_data::output_names::{refused_name, DATA_NAMES};
+/// use std::path::Path;
+/// let dir = std::env::temp_dir().join(format!("drive-names-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// std::fs::write(dir.join("run.csv"), "t\n").unwrap();
+/// std::fs::write(dir.join("run.json"), "{}").unwrap();
+/// let model = "a model file (JSON)";
+/// assert!(refused_name(&dir.join("model.json"), model, DATA_NAMES, false).is_ok());
+/// assert!(refused_name(&dir.join("model.npy"), model, DATA_NAMES, false).is_err());
+/// // The sidecar of run.csv, by the name of earlier releases.
+/// let e = refused_name(&dir.join("run.json"), model, DATA_NAMES, false).unwrap_err();
+/// assert!(e.to_string().contains("the sidecar of the dataset"), "{e}");
+/// // A per-window CSV over the dataset run.csv; a dataset may replace it.
+/// let per_window = "a per-window CSV";
+/// assert!(refused_name(&dir.join("run.csv"), per_window, &[".json"], false).is_err());
+/// assert!(refused_name(&dir.join("run.csv"), "a dataset", &[".json"], true).is_ok());
+/// std::fs::remove_dir_all(&dir).unwrap();
+/// ```
+pub fn refused_name(
+    path: &Path,
+    kind: &str,
+    refused: &[&str],
+    dataset: bool,
+) -> Result<(), NameError> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let shown = path.display().to_string();
+    if let Some(ending) = refused
+        .iter()
+        .find(|e| name.ends_with(&e.to_ascii_lowercase()))
+    {
+        return Err(NameError::OtherKind {
+            path: shown,
+            kind: kind.to_string(),
+            ending: ending.to_string(),
+        });
+    }
+    if let Some(csv) = dataset_of_sidecar(path) {
+        return Err(NameError::Sidecar {
+            path: shown,
+            csv: csv.display().to_string(),
+            kind: kind.to_string(),
+        });
+    }
+    if !dataset {
+        if let Some(sidecar) = sidecar_beside(path) {
+            return Err(NameError::DatasetCsv {
+                path: shown,
+                sidecar: sidecar.display().to_string(),
+                kind: kind.to_string(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The dataset CSV whose sidecar `path` is: `X.csv` or `X.csv.gz` beside `X.meta.json` or
+/// `X.json`, where it exists.
+fn dataset_of_sidecar(path: &Path) -> Option<PathBuf> {
+    let name = path.file_name()?.to_string_lossy().to_string();
+    let lower = name.to_ascii_lowercase();
+    let stem_len = if lower.ends_with(".meta.json") {
+        name.len() - ".meta.json".len()
+    } else if lower.ends_with(".json") {
+        name.len() - ".json".len()
+    } else {
+        return None;
+    };
+    let stem = &name[..stem_len];
+    // `X.json` is read as the sidecar only where `X.meta.json` is not there.
+    if !lower.ends_with(".meta.json") && path.with_file_name(format!("{stem}.meta.json")).exists() {
+        return None;
+    }
+    [".csv", ".csv.gz", ".CSV"]
+        .iter()
+        .map(|e| path.with_file_name(format!("{stem}{e}")))
+        .find(|p| p.is_file())
+}
+
+/// The sidecar beside `path` where `path` is an existing dataset CSV (`X.csv` or `X.csv.gz`
+/// with `X.meta.json` or `X.json` beside it).
+fn sidecar_beside(path: &Path) -> Option<PathBuf> {
+    if !path.is_file() {
+        return None;
+    }
+    let name = path.file_name()?.to_string_lossy().to_string();
+    let lower = name.to_ascii_lowercase();
+    let stem_len = if lower.ends_with(".csv.gz") {
+        name.len() - ".csv.gz".len()
+    } else if lower.ends_with(".csv") {
+        name.len() - ".csv".len()
+    } else {
+        return None;
+    };
+    let stem = &name[..stem_len];
+    [".meta.json", ".json"]
+        .iter()
+        .map(|e| path.with_file_name(format!("{stem}{e}")))
+        .find(|p| p.is_file())
+}
