@@ -186,7 +186,7 @@ pub const CHECKS: [(&str, &str); 16] = [
     ),
     (
         "encoder-units",
-        "the distance the encoders imply a fixed factor (over 2.5 or under 0.4) away from the one localization saw (encoders in another unit, or the wrong wheel radius), or localization's yaw turning over five times faster than the encoders' (yaw in degrees), or turning over 2.5 times what they imply (a baseline too wide), or an angle input beyond pi (in degrees), or the encoders driving one way where the commands drive no travel (an offset on them), or turning one way in the steady windows where the commands turn little, beyond what they turn (an offset on one side, or on a yaw-rate input)",
+        "the distance the encoders imply a fixed factor (over 2.5 or under 0.6) away from the one localization saw (encoders in another unit, or the wrong wheel radius), or localization's yaw turning over five times faster than the encoders' (yaw in degrees), or turning over 2.5 times what they imply (a baseline too wide), or an angle input beyond pi (in degrees), or the encoders driving one way where the commands drive no travel (an offset on them), or turning one way in the steady windows where the commands turn little, beyond what they turn (an offset on one side, or on a yaw-rate input)",
     ),
     (
         "encoder-command",
@@ -1093,17 +1093,34 @@ const IMU_LATE_S: f64 = 0.25;
 /// none to be called late.
 const IMU_LATE_MARGIN: f64 = 0.01;
 
+/// How much better (in correlation) the IMU must lead localization at its lag than at none
+/// to be called early, or localization late: the released and norlab Warthog runs' IMU
+/// leads their localization by 0.25-1.1 s, 0.009-0.041 better than at no lag (ICP's
+/// latency); an IMU 0.5 s early on the Husky run, 0.07; localization 0.5 s late within the
+/// windows, 0.14-0.16.
+const IMU_EARLY_MARGIN: f64 = 0.06;
+
+/// How much better the IMU (or localization) must follow the encoders' yaw rate at a lag of
+/// a quarter second or more than at none for that one to be named the shifted signal: the
+/// real runs' IMU 0.013 at most; a body lagging its wheels on gravel or ice moves both
+/// alike (localization 0.065 behind the encoders on norlab's gravel run, and so is its
+/// IMU).
+const SHIFTED_MARGIN: f64 = 0.03;
+
 /// `imu-yaw-rate`'s lag, within a window: the yaw rate localization saw (its turn over 0.4 s
 /// around each sample) against the IMU's (its mean over the same 0.4 s) a lag later, every
 /// sample of every window, lags up to 1.2 s (and half a window) either way. On the nine
 /// released and norlab Warthog runs the correlation peaks with the IMU 0.25-1.1 s ahead of
-/// localization, flat (0.01-0.04 above no lag); on the Husky run 0.15 s ahead; in the
+/// localization, flat (0.009-0.041 above no lag); on the Husky run 0.15 s ahead; in the
 /// simulator at no lag; every one of them 0.01 below its peak or less with the IMU later.
 /// An IMU column made half a window (1 s) late peaks late on all of them (0.55-1 s late,
 /// 0.011-0.099 above no lag): on the Husky run acc-BLR's rotational error rose from 0.092
 /// to 0.122 rad, slip-ipem's from 0.078 to 0.086. An IMU that follows localization
-/// [`IMU_LATE_S`] or more late, [`IMU_LATE_MARGIN`] better than at no lag, is a warning
-/// (the whole-window shift is [`imu_shift`]'s, fatal).
+/// [`IMU_LATE_S`] or more late, [`IMU_LATE_MARGIN`] better than at no lag, is a warning;
+/// so is one that leads it by as much, [`IMU_EARLY_MARGIN`] better: an IMU early or a
+/// localization late (0.5 s late within the windows: slip-ipem's rotational error +77% on
+/// a Warthog run), told apart by which of the two is shifted against the encoders' yaw rate
+/// ([`SHIFTED_MARGIN`]). The whole-window shift is [`imu_shift`]'s, fatal.
 fn imu_lag(w: &Windows<'_>) -> Option<Finding> {
     let dt = w.data.robot.dt();
     if !(dt > 0.0 && dt.is_finite()) {
@@ -1113,61 +1130,113 @@ fn imu_lag(w: &Windows<'_>) -> Option<Finding> {
     let half = ((0.2 / dt).round() as usize).max(1);
     let shortest = w.windows.iter().map(|win| win.len()).min().unwrap_or(0);
     let most = ((1.2 / dt).round() as usize).min(shortest / 2);
-    if shortest < 2 * half + 2 || (IMU_LATE_S / dt).round() as usize > most {
+    let least = (IMU_LATE_S / dt).round() as usize;
+    if shortest < 2 * half + 2 || least > most {
         return None;
     }
-    // Per window, each sample's (localization's rate, the IMU's mean rate around it).
-    let rates: Vec<Vec<(f64, f64)>> = w
+    let vehicle = w.data.robot.vehicle.as_ref();
+    // Per window, each sample's yaw rates: localization's, the IMU's and the encoders'
+    // (their means around it).
+    let rates: Vec<Vec<[f64; 3]>> = w
         .windows
         .iter()
         .map(|win| {
-            let n = win.len().min(win.imu_yaw_rate.len());
+            let n = win
+                .len()
+                .min(win.imu_yaw_rate.len())
+                .min(win.measured.len());
+            let mean = |v: &mut dyn Iterator<Item = f64>| v.sum::<f64>() / (2 * half) as f64;
             (half..n.saturating_sub(half))
                 .map(|k| {
                     let turn = (win.pose[k + half].z - win.pose[k - half].z + std::f64::consts::PI)
                         .rem_euclid(std::f64::consts::TAU)
                         - std::f64::consts::PI;
-                    let imu = win.imu_yaw_rate[k - half..k + half].iter().sum::<f64>()
-                        / (2 * half) as f64;
-                    (turn / (2 * half) as f64 / dt, imu)
+                    let imu = mean(&mut win.imu_yaw_rate[k - half..k + half].iter().copied());
+                    let wheels = mean(
+                        &mut win.measured[k - half..k + half]
+                            .iter()
+                            .map(|u| vehicle.body_velocity(u).z),
+                    );
+                    [turn / (2 * half) as f64 / dt, imu, wheels]
                 })
                 .collect()
         })
         .collect();
-    if rates
-        .iter()
-        .flatten()
-        .any(|(a, b)| !(a.is_finite() && b.is_finite()))
-    {
+    if rates.iter().flatten().flatten().any(|v| !v.is_finite()) {
         return None;
     }
-    let at = |lag: isize| {
+    // The correlation (in size) of signal `a` with signal `b` a lag later.
+    let at = |a: usize, b: usize, lag: isize| {
         localization::correlation(rates.iter().flat_map(move |r| {
             let len = r.len() as isize;
             (0..len)
                 .filter(move |k| (0..len).contains(&(k + lag)))
-                .map(move |k| (r[k as usize].0, r[(k + lag) as usize].1))
+                .map(move |k| (r[k as usize][a], r[(k + lag) as usize][b]))
         }))
         .abs()
     };
-    let none = at(0);
-    let (lag, best) = (1..=most as isize)
-        .map(|lag| (lag, at(lag)))
-        .max_by(|a, b| a.1.total_cmp(&b.1))?;
-    let ahead = (1..=most as isize).map(|lag| at(-lag)).fold(none, f64::max);
-    let late = lag as f64 * dt;
-    (late >= IMU_LATE_S && best >= none + IMU_LATE_MARGIN && best > ahead).then(|| Finding {
-        check: Check::ImuYawRate,
-        severity: Severity::Warning,
-        message: format!(
-            "the IMU's yaw rate follows the rate localization saw {} s late (correlation {} at that lag against {} at none, every sample of {} windows): its timestamps late? The models that start from the IMU's yaw rate (slip-ipem, acc-BLR, --start encoders+imu) start from the rate of {} s before; shift the imu_yaw_rate column, or give --start encoders",
-            Short(three_digits(late)),
-            Short((best * 1000.0).round() / 1000.0),
-            Short((none * 1000.0).round() / 1000.0),
-            rates.len(),
-            Short(three_digits(late)),
-        ),
-    })
+    // Of the lags of `b` behind `a` from `from` to `to` samples, the best: (lag, its
+    // correlation).
+    let best = |a: usize, b: usize, from: isize, to: isize| {
+        (from..=to)
+            .map(|lag| (lag, at(a, b, lag)))
+            .max_by(|x, y| x.1.total_cmp(&y.1))
+    };
+    let (most, least) = (most as isize, least as isize);
+    let none = at(0, 1, 0);
+    let (late_lag, late) = best(0, 1, 1, most)?;
+    let (early_lag, early) = best(0, 1, -most, -1)?;
+    let windows = rates.len();
+    let shown = |v: f64| Short((v * 1000.0).round() / 1000.0);
+    let starts = "The models that start from the IMU's yaw rate (slip-ipem, acc-BLR, --start encoders+imu) start from the rate";
+    if late_lag >= least && late >= none + IMU_LATE_MARGIN && late > early {
+        let s = three_digits(late_lag as f64 * dt);
+        return Some(Finding {
+            check: Check::ImuYawRate,
+            severity: Severity::Warning,
+            message: format!(
+                "the IMU's yaw rate follows the rate localization saw {} s late (correlation {} at that lag against {} at none, every sample of {windows} windows): its timestamps late? {starts} of {} s before; shift the imu_yaw_rate column, or give --start encoders",
+                Short(s),
+                shown(late),
+                shown(none),
+                Short(s),
+            ),
+        });
+    }
+    if early_lag <= -least && early >= none + IMU_EARLY_MARGIN && early > late {
+        let s = three_digits(-early_lag as f64 * dt);
+        // Which one is shifted: the one that leads (the IMU) or lags (localization) the
+        // encoders' yaw rate by a quarter second or more, clearly.
+        let shifted = |b: usize, from: isize, to: isize| {
+            best(2, b, from, to).is_some_and(|(_, c)| c >= at(2, b, 0) + SHIFTED_MARGIN)
+        };
+        let (imu_early, localization_late) = (shifted(1, -most, -least), shifted(0, least, most));
+        let cause = match (imu_early, localization_late) {
+            (true, false) => format!(
+                "the IMU's timestamps early (it leads the encoders' yaw rate too)? {starts} {s} s ahead; shift the imu_yaw_rate column, or give --start encoders"
+            ),
+            (false, true) => "localization's timestamps late within the windows (it lags the encoders' yaw rate too, where the IMU does not)? Every model is fitted and scored on poses that lag the commands: shift the x, y and yaw columns".to_string(),
+            _ => format!(
+                "the IMU's timestamps early, or localization's late? Either way the models are fitted on poses {s} s out of step with the IMU"
+            ),
+        };
+        return Some(Finding {
+            // Localization's timing where it is the one shifted.
+            check: if localization_late && !imu_early {
+                Check::LocalizationSync
+            } else {
+                Check::ImuYawRate
+            },
+            severity: Severity::Warning,
+            message: format!(
+                "the IMU's yaw rate leads the rate localization saw by {} s (correlation {} at that lag against {} at none, every sample of {windows} windows): {cause}",
+                Short(s),
+                shown(early),
+                shown(none),
+            ),
+        });
+    }
+    None
 }
 
 /// `imu-yaw-rate`'s shift: per window, the turn the IMU's yaw rate integrates to against
@@ -1662,9 +1731,10 @@ fn encoder_units(w: &Windows<'_>) -> Vec<Finding> {
 }
 
 /// The median ratio of the turn localization saw to the one the encoders imply, over the
-/// windows where either turned 0.3 rad (ten at least), where it is a vehicle's: 0.2-1.5 (a
-/// skid-steer turns less than its encoders imply, 0.41-0.62 on the bundled runs; encoders
-/// in another unit, or a yaw in degrees, are off by their factor). `None` otherwise.
+/// windows where either turned 0.3 rad (ten at least), where it is a vehicle's: 0.2-1.05 (a
+/// vehicle turns at most as much as its wheels imply, a skid-steer less, 0.41-0.62 on the
+/// bundled runs; encoders in another unit, a wheel radius too small, or a yaw in degrees,
+/// are off by their factor). `None` otherwise.
 pub(super) fn usual_turn(motions: &[(f64, f64, f64, f64)]) -> Option<f64> {
     let mut turns: Vec<f64> = motions
         .iter()
@@ -1675,8 +1745,13 @@ pub(super) fn usual_turn(motions: &[(f64, f64, f64, f64)]) -> Option<f64> {
         return None;
     }
     let median = drive_traits::median(&mut turns);
-    (0.2..=1.5).contains(&median).then_some(median)
+    (0.2..=1.05).contains(&median).then_some(median)
 }
+
+/// The least median ratio of the distance the encoders imply to the one localization saw
+/// before `encoder-units` warns (the bundled runs' nearly straight windows: 1.01-1.08; a
+/// short simulated Warthog log 0.73).
+const MIN_DISTANCE_RATIO: f64 = 0.6;
 
 /// [`encoder_units`] on the whole run (`whole`), or on a part of it ([`parts`]): there the
 /// distance and the turn against localization's, not the speeds, the angles' units or
@@ -1747,7 +1822,13 @@ fn encoder_units_in(w: &Windows<'_>, whole: bool) -> Vec<Finding> {
             && plausible_speeds(data, windows);
         let spun = may_spin && high > 1.3 * low;
         let consistent = consistent && !spun;
-        if !(0.4..=2.5).contains(&median) {
+        // Under 0.6: localization saw two thirds more than the wheels roll (a robot travels
+        // about as far as its wheels turn, short of sliding downhill: the bundled runs
+        // 1.01-1.08, a short simulated Warthog log 0.73): a wheel radius too small in the
+        // geometry (half of it: 0.52), or a unit. Over 2.5:
+        // beyond what the wheels' spinning on loose ground explains (a Warthog on gravel:
+        // about 1.8).
+        if !(MIN_DISTANCE_RATIO..=2.5).contains(&median) {
             out.push(Finding {
                 check: Check::EncoderUnits,
                 severity: Severity::fatal_if(!(0.2..=5.0).contains(&median) && consistent),
@@ -1763,9 +1844,10 @@ fn encoder_units_in(w: &Windows<'_>, whole: bool) -> Vec<Finding> {
                         Short((low * 100.0).round() / 100.0),
                         Short((high * 100.0).round() / 100.0)
                     )
-                } else if let Some(turn) = usual_turn(motions) {
+                } else if let Some(turn) = usual_turn(motions).filter(|_| !(0.5..=2.0).contains(&median)) {
                     // The encoders' turn agrees with localization's as a vehicle's does:
-                    // their unit and the geometry hold, the positions' do not.
+                    // their unit and the geometry hold, the positions' do not (a factor of
+                    // two or more: a drift adds less).
                     format!(
                         "the encoders imply {}x the distance localization saw (median over {} windows), where localization turns {}x what they imply, as a vehicle does: localization's positions in another unit (cm, feet)? (Else encoders in another unit, or the wrong wheel radius)",
                         Short((median * 1000.0).round() / 1000.0),
@@ -1774,9 +1856,14 @@ fn encoder_units_in(w: &Windows<'_>, whole: bool) -> Vec<Finding> {
                     )
                 } else {
                     format!(
-                        "the encoders imply {}x the distance localization saw (median over {} windows): encoders in another unit, or the wrong wheel radius?",
+                        "the encoders imply {}x the distance localization saw (median over {} windows): encoders in another unit, or the wrong wheel radius?{}",
                         Short((median * 1000.0).round() / 1000.0),
-                        ratios.len()
+                        ratios.len(),
+                        if median < 1.0 {
+                            " Or localization moving more than the robot (drifting)"
+                        } else {
+                            ""
+                        }
                     )
                 },
             });

@@ -163,7 +163,7 @@ fn parse_lines<S: AsRef<str>>(
     let mut position_of = vec![usize::MAX; columns.len()];
     let mut seen = std::collections::HashSet::new();
     for (pos, raw) in header_text.split(',').enumerate() {
-        let name = raw.trim();
+        let name = unquoted(raw.trim());
         if !seen.insert(name.to_string()) {
             return Err(DataError::new(
                 Location::cell(file, header_line, name),
@@ -246,7 +246,7 @@ fn parse_lines<S: AsRef<str>>(
         let mut phase = Phase::Steady;
         for (field, slot) in line.split(',').zip(&slot_of_field) {
             let Some(slot) = *slot else { continue };
-            let raw = field.trim();
+            let raw = unquoted(field.trim());
             let at = || Location::cell(file, line_no, columns[slot]);
             if slot == PHASE {
                 phase = match raw {
@@ -399,4 +399,15 @@ pub fn write_windows_csv(windows: &[Window], robot: &RobotDescription, out: &mut
             let _ = writeln!(out, ",{},{},{},{}", p.x, p.y, p.z, w.imu_yaw_rate[k]);
         }
     }
+}
+
+/// `field` without one pair of double quotes around it: a CSV writer that quotes its text
+/// (pandas with `quoting=csv.QUOTE_NONNUMERIC`, a spreadsheet) writes `"transient"`, the
+/// same field (a quote inside a field is not one a window CSV holds).
+fn unquoted(field: &str) -> &str {
+    field
+        .strip_prefix('"')
+        .and_then(|f| f.strip_suffix('"'))
+        .filter(|f| !f.contains('"'))
+        .unwrap_or(field)
 }

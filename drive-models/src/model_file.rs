@@ -774,14 +774,35 @@ fn reaches_its_commands(
     Ok(())
 }
 
-/// `Err` when `model`, from rest, held for one of `robot`'s windows at either end of `range`
-/// (the commands it was fitted on), travels (or turns, for a command that mostly asks a
-/// turn, a radian against a metre; both summed step by step) less than
-/// [`MIN_REACHED_SHARE`] of what those commands ask of
-/// the vehicle (eq. 4, `robot`'s command model) at both ends: a model
-/// whose slip takes every motion (slip-BLR's forward slip edited to 1, acc-BLR's
-/// accelerations to 0) predicts a robot that never moves, which no fit writes (a Warthog
-/// on gravel keeps about half of its commanded speed, a simulated car on ice a seventh).
+/// The least share of what a corner of the commands it was fitted on asks (eq. 4, over a
+/// window from rest) that a model must travel (or turn, for a corner that mostly asks a
+/// turn) at some corner: a simulated Warthog on ice, its powertrain starting from rest,
+/// travels 0.044 of it (its slip-ipem fit); a slip edited to 0.999 travels a thousandth.
+const MIN_MOVED_SHARE: f64 = 0.01;
+
+/// How many times what the commands ask (eq. 4) a model may travel or turn, from rest over a
+/// window at a corner of the commands it was fitted on, before its file is refused: no
+/// ground drives a robot five times faster than its wheels (a fit's slip keeps a share of
+/// the commanded motion; a slip edited to 1000 slid a Husky 20 m sideways in 4 s).
+const MAX_MOTION_FACTOR: f64 = 5.0;
+
+/// `Err` when `model`, from rest, held for one of `robot`'s windows at a corner of `range`
+/// (the commands it was fitted on: every combination of each axis's least and largest)
+/// that asks of the vehicle (eq. 4, `robot`'s command model) at least a centimetre or a
+/// hundredth of a radian:
+/// - travels (or turns, for a command that mostly asks a turn, a radian against a metre;
+///   both summed step by step) less than [`MIN_MOVED_SHARE`] of what it asks at every
+///   corner judged so: a model whose slip takes every motion (slip-BLR's forward slip edited to 1, acc-BLR's
+///   accelerations to 0, a yaw slip of 1 that never turns) predicts a robot that never
+///   moves, which no fit writes (a Warthog on gravel keeps about half of its commanded
+///   speed, a simulated car on ice a seventh);
+/// - travels or turns more than [`MAX_MOTION_FACTOR`] times the most any corner asks;
+/// - ends on the other side of its start from where a nearly straight command (under a
+///   radian of turn asked) takes the vehicle, where it moves at all, or, for a command that mostly asks a turn
+///   (half a radian or more, more radians than metres), turns under [`MIN_TURN_SHARE`] of
+///   it the way asked: a forward slip of 2 drove a Husky backwards, a yaw slip of 1 never
+///   turned it (an arc's turn is not judged: a fit's powertrains may answer its two sides
+///   unevenly from rest).
 fn moves_with_its_commands(
     model: &dyn MotionModel,
     robot: &RobotDescription,
@@ -789,20 +810,59 @@ fn moves_with_its_commands(
 ) -> Result<(), String> {
     let steps = robot.window_len.clamp(2, 10_000);
     let seconds = (steps - 1) as f64 * model.dt();
-    let mut said = Vec::new();
-    for end in [&range.max, &range.min] {
-        let mut command = drive_traits::Input::zeros();
-        for (i, v) in end.iter().enumerate().take(drive_traits::MAX_INPUTS) {
-            command[i] = *v;
-        }
-        let asked = robot.vehicle.body_velocity(&command);
-        let (asked_move, asked_turn) = (asked.x.hypot(asked.y) * seconds, asked.z.abs() * seconds);
-        if !(asked_move > 1e-6 || asked_turn > 1e-6) {
-            // Nothing asked at this end: it tells nothing.
+    let axes = range
+        .min
+        .len()
+        .min(range.max.len())
+        .min(drive_traits::MAX_INPUTS);
+    let corners: Vec<drive_traits::Input> = (0..1usize << axes)
+        .map(|corner| {
+            let mut command = drive_traits::Input::zeros();
+            for i in 0..axes {
+                command[i] = if corner >> i & 1 == 1 {
+                    range.max[i]
+                } else {
+                    range.min[i]
+                };
+            }
+            command
+        })
+        .collect();
+    // What each corner asks over the window (eq. 4 from rest, the ideal unicycle): its
+    // path, its turn and where it ends.
+    let ideal: Vec<(f64, f64, [f64; 2])> = corners
+        .iter()
+        .map(|c| {
+            let v = robot.vehicle.body_velocity(c);
+            let (mut x, mut y, mut yaw) = (0.0f64, 0.0f64, 0.0f64);
+            let dt = model.dt();
+            for _ in 1..steps {
+                x += (v.x * yaw.cos() - v.y * yaw.sin()) * dt;
+                y += (v.x * yaw.sin() + v.y * yaw.cos()) * dt;
+                yaw += v.z * dt;
+            }
+            (v.x.hypot(v.y) * seconds, v.z * seconds, [x, y])
+        })
+        .collect();
+    let most_move = ideal.iter().map(|i| i.0).fold(0.0, f64::max);
+    let most_turn = ideal.iter().map(|i| i.1.abs()).fold(0.0, f64::max);
+    let show = |v: &drive_traits::Input| {
+        (0..axes)
+            .map(|i| drive_traits::limits::Short(v[i]).to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    // Of the corners judged by their travel, and of those judged by their turn: whether
+    // some follows what it asks, and the first that does not.
+    let mut follows_somewhere = [false; 2];
+    let mut hardly: [Option<String>; 2] = [None, None];
+    for (command, &(asked_move, asked_turn, asked_end)) in corners.iter().zip(&ideal) {
+        if !(asked_move >= 0.01 || asked_turn.abs() >= 0.01) {
+            // Nothing asked at this corner: it tells nothing.
             continue;
         }
         let start = StartState::at_rest(drive_traits::Pose::zeros());
-        let poses = model.predict(&start, &vec![command; steps]);
+        let poses = model.predict(&start, &vec![*command; steps]);
         // The path travelled and the turn, summed step by step (a model that spins in
         // place still travels: a yaw edited to 1e6 is no robot that stands still).
         let (moved, turned) = poses.windows(2).fold((0.0, 0.0), |(m, t), p| {
@@ -811,42 +871,82 @@ fn moves_with_its_commands(
                 t + (p[1].z - p[0].z).abs(),
             )
         });
-        // What the command mostly asks (a metre of travel against a radian of turn): a
-        // straight command is judged by its travel, a turn in place by its turn.
-        let follows = if asked_move >= asked_turn {
-            moved >= MIN_REACHED_SHARE * asked_move
-        } else {
-            turned >= MIN_REACHED_SHARE * asked_turn
+        let (Some(first), Some(last)) = (poses.first(), poses.last()) else {
+            continue;
         };
+        let net_turn = drive_traits::net_turn(&poses);
         // A prediction that is not finite is refused where it is made (predict, score).
-        if follows || !(moved.is_finite() && turned.is_finite()) {
-            return Ok(());
+        let by_turn = usize::from(asked_turn.abs() > asked_move);
+        if !(moved.is_finite() && turned.is_finite() && net_turn.is_finite()) {
+            follows_somewhere[by_turn] = true;
+            continue;
         }
-        let show = |v: &[f64]| {
-            v.iter()
-                .map(|x| drive_traits::limits::Short(*x).to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
+        let end = [last.x - first.x, last.y - first.y];
+        let said = |fault: &str| {
+            format!(
+                "the model, from rest at the commands it was fitted on (fitted_with.commanded), {fault}: at [{}] it travels {} m, ends at ({}, {}) m and turns {} rad in {} s, where the commands ask {} m, to ({}, {}) m, and {} rad (its parameters are not what a fit writes)",
+                show(command),
+                drive_traits::limits::Short(moved),
+                drive_traits::limits::Short(end[0]),
+                drive_traits::limits::Short(end[1]),
+                drive_traits::limits::Short(net_turn),
+                drive_traits::limits::Short(seconds),
+                drive_traits::limits::Short(asked_move),
+                drive_traits::limits::Short(asked_end[0]),
+                drive_traits::limits::Short(asked_end[1]),
+                drive_traits::limits::Short(asked_turn)
+            )
         };
-        said.push(format!(
-            "at [{}] it travels {} m and turns {} rad in {} s, where the commands ask {} m and {} rad",
-            show(end),
-            drive_traits::limits::Short(moved),
-            drive_traits::limits::Short(turned),
-            drive_traits::limits::Short(seconds),
-            drive_traits::limits::Short(asked_move),
-            drive_traits::limits::Short(asked_turn)
-        ));
+        let follows = if by_turn == 0 {
+            moved >= MIN_MOVED_SHARE * asked_move
+        } else {
+            turned >= MIN_MOVED_SHARE * asked_turn.abs()
+        };
+        follows_somewhere[by_turn] |= follows;
+        if !follows && hardly[by_turn].is_none() {
+            hardly[by_turn] = Some(said(&format!(
+                "predicts a robot that hardly moves: less than {MIN_MOVED_SHARE} of what the commands ask at every corner of them that mostly asks {}",
+                if by_turn == 0 { "travel" } else { "a turn" }
+            )));
+        }
+        let fault = if moved > MAX_MOTION_FACTOR * most_move.max(0.01)
+            || turned > MAX_MOTION_FACTOR * most_turn.max(0.01)
+        {
+            Some(format!(
+                "moves more than {MAX_MOTION_FACTOR} times the most the commands ask"
+            ))
+        } else if follows
+            && asked_turn.abs() < 1.0
+            && asked_move >= 0.01
+            && end[0] * asked_end[0] + end[1] * asked_end[1] < 0.0
+        {
+            Some("ends on the other side of its start from where the commands take it".into())
+        } else if asked_turn.abs() >= 0.5_f64.max(asked_move)
+            && net_turn * asked_turn.signum() < MIN_TURN_SHARE * asked_turn.abs()
+        {
+            Some(format!(
+                "hardly turns (under {MIN_TURN_SHARE} of the turn asked), or turns the other way"
+            ))
+        } else {
+            None
+        };
+        if let Some(fault) = fault {
+            return Err(said(&fault));
+        }
     }
-    if said.is_empty() {
-        return Ok(());
+    for (hardly, follows) in hardly.into_iter().zip(follows_somewhere) {
+        if let Some(hardly) = hardly.filter(|_| !follows) {
+            return Err(hardly);
+        }
     }
-    Err(format!(
-        "the model, from rest at the commands it was fitted on (fitted_with.commanded), predicts a robot that hardly moves: {}; less than {} of it (its parameters are not what a fit writes)",
-        said.join("; "),
-        MIN_REACHED_SHARE
-    ))
+    Ok(())
 }
+
+/// The least share of the turn a corner of the commands mostly asks (half a radian or more
+/// over a window, from rest) that a model must turn, the way asked: a skid-steer spinning in place
+/// from rest turns little of what its wheels ask (a Husky's slip-BLR 0.049 of 17 rad), a
+/// yaw slip edited to 1 none.
+const MIN_TURN_SHARE: f64 = 0.01;
 
 /// What a model file's model is built of: its type (`composed`, `acc-blr`, ...) and its
 /// slip model's and powertrain's types.

@@ -243,7 +243,10 @@ fn actions_of<'py>(
 /// 1e12 stepped to a pose of 8e19 m without a word).
 fn states_within_limits(states: &[f64], len: usize) -> PyResult<()> {
     let limit = drive::traits::limits::MAX_ABS_MEASUREMENT;
-    match states.iter().position(|x| !x.is_finite() || x.abs() > limit) {
+    match states
+        .iter()
+        .position(|x| !x.is_finite() || x.abs() > limit)
+    {
         Some(i) => Err(err(format!(
             "states: row {}, entry {} is {}: not a state the step API makes (finite, within {})",
             i / len.max(1),

@@ -254,7 +254,15 @@ fn cases() -> Vec<Case> {
             })),
             args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "less than 0.05 of them on axis 0"] },
         Case { name: "model whose slip takes every motion", file: File::Model(|m| edit_model(&m, |v| composed(v)["slip"]["slip_x"]["mean"][0] = 1.0.into())),
-            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "predicts a robot that hardly moves"] },
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "from rest at the commands it was fitted on", "(its parameters are not what a fit writes)"] },
+        // A third sweep of that session: a forward slip of 2 (the robot drives backwards),
+        // a sideways slip of 1000 (20 m sideways in 4 s), a yaw slip of 1 (it never turns).
+        Case { name: "model whose slip reverses the robot", file: File::Model(|m| edit_model(&m, |v| composed(v)["slip"]["slip_x"]["mean"][0] = 2.0.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "ends on the other side of its start from where the commands take it"] },
+        Case { name: "model whose slip slides the robot sideways", file: File::Model(|m| edit_model(&m, |v| composed(v)["slip"]["slip_y"]["mean"][0] = 1000.0.into())),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "(its parameters are not what a fit writes)"] },
+        Case { name: "model whose slip takes every turn", file: File::Model(|m| edit_model(&m, |v| composed(v)["slip"]["slip_yaw"]["mean"] = serde_json::json!([0.0, 0.0, 1.0]))),
+            args: &["predict", "--model", "{model}", "--commands", "{commands}"], says: &["model.json", "hardly turns (under 0.01 of the turn asked), or turns the other way"] },
         // A third outside sweep: a model's names against what it is built of, and text
         // a sidecar cannot hold.
         Case { name: "model labelled as another model", file: File::Model(|m| edit_model(&m, |v| {

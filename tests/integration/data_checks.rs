@@ -2925,3 +2925,132 @@ fn a_quaternion_written_w_first_is_named() {
     assert_eq!(code, Some(0), "{err}");
     assert!(!out.contains("tilts"), "{out}");
 }
+
+/// Issue 63 (a third sweep): a sidecar whose wheel radius is half the robot's passed every
+/// check (localization saw 1.9 times what the wheels imply; every figure against the naive
+/// model rescaled without a word). It is a warning naming the radius.
+#[test]
+fn a_wheel_radius_half_the_robots_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("half.csv");
+    let data = drive::bundled::load("warthog_asphalt_a").unwrap();
+    drive::data::write_dataset(&data, &csv).unwrap();
+    let sidecar = dir.path().join("half.meta.json");
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&sidecar).unwrap()).unwrap();
+    let radius = json
+        .pointer_mut("/vehicle/wheel_radius")
+        .expect("a sidecar with its wheel radius");
+    *radius = serde_json::json!(0.15);
+    std::fs::write(&sidecar, json.to_string()).unwrap();
+    let out = drive(&["check", "--data", csv.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        text.contains("check encoder-units (warning): the encoders imply 0.5")
+            && text.contains("the wrong wheel radius?"),
+        "{text}"
+    );
+}
+
+/// Issue 63 (a third sweep): an IMU half a second early (acc-BLR's rotational error +26% on
+/// the Husky run) and localization half a second late within the windows (slip-ipem's
+/// +77% on a Warthog run) passed every check. The IMU leads localization: a warning naming
+/// which one is shifted, by which of the two the encoders' yaw rate agrees with.
+#[test]
+fn an_imu_early_and_a_localization_late_are_told_apart() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("shifted.csv");
+    let said = |data: &drive::traits::Dataset| {
+        drive::data::write_dataset(data, &path).unwrap();
+        let out = crate::common::drive(&["check", "--data", path.to_str().unwrap()]);
+        assert_eq!(out.status.code(), Some(0));
+        String::from_utf8_lossy(&out.stdout).to_string()
+    };
+    // The IMU of the whole run, in time order, 10 samples (0.5 s) earlier.
+    let mut early = drive::bundled::load("husky_drive").unwrap();
+    let imu: Vec<f64> = early
+        .windows
+        .iter()
+        .flat_map(|w| w.imu_yaw_rate.clone())
+        .collect();
+    let mut k = 0;
+    for w in &mut early.windows {
+        for r in &mut w.imu_yaw_rate {
+            *r = imu[(k + 10).min(imu.len() - 1)];
+            k += 1;
+        }
+    }
+    let text = said(&early);
+    assert!(
+        text.contains(
+            "check imu-yaw-rate (warning): the IMU's yaw rate leads the rate localization saw"
+        ) && text.contains("the IMU's timestamps early"),
+        "{text}"
+    );
+    // Localization 10 samples late within each window (held at its start before).
+    for run in ["husky_drive", "warthog_asphalt_2024-09-20b"] {
+        let mut late = drive::bundled::load(run).unwrap();
+        for w in &mut late.windows {
+            let poses = w.pose.clone();
+            for (k, p) in w.pose.iter_mut().enumerate() {
+                *p = poses[k.saturating_sub(10)];
+            }
+        }
+        let text = said(&late);
+        assert!(
+            text.contains("check localization-sync (warning): the IMU's yaw rate leads the rate localization saw")
+                && text.contains("localization's timestamps late within the windows"),
+            "{run}: {text}"
+        );
+    }
+}
+
+/// Issue 63 (a third sweep): a window CSV whose text fields were quoted by the writer
+/// (`"transient"`, as pandas writes with QUOTE_NONNUMERIC) was refused as "not a phase":
+/// it reads as the same data.
+#[test]
+fn a_window_csv_with_quoted_fields_reads_as_the_same_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = dir.path().join("plain.csv");
+    let data = drive::bundled::load("warthog_asphalt_a").unwrap();
+    drive::data::write_dataset(&data, &plain).unwrap();
+    let text = std::fs::read_to_string(&plain).unwrap();
+    let quoted: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            let f: Vec<String> = l
+                .split(',')
+                .map(|v| {
+                    if i == 0 || v.parse::<f64>().is_err() {
+                        format!("\"{v}\"")
+                    } else {
+                        v.to_string()
+                    }
+                })
+                .collect();
+            f.join(",") + "\n"
+        })
+        .collect();
+    let path = dir.path().join("quoted.csv");
+    std::fs::write(&path, quoted).unwrap();
+    // The sidecar without the plain CSV's checksum (the quoted one is another file).
+    let mut sidecar: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("plain.meta.json")).unwrap())
+            .unwrap();
+    sidecar.as_object_mut().unwrap().remove("csv");
+    std::fs::write(dir.path().join("quoted.meta.json"), sidecar.to_string()).unwrap();
+    let eval = |p: &std::path::Path| {
+        let out = ok(&[
+            "eval",
+            "--data",
+            p.to_str().unwrap(),
+            "--models",
+            "naive",
+            "--json",
+        ]);
+        let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+        v["models"][0]["translational_median_m"].as_f64().unwrap()
+    };
+    assert_eq!(eval(&path), eval(&plain));
+}
