@@ -419,7 +419,17 @@ pub fn csv_output(flag: &str, path: &std::path::Path, kind: &str, dataset: bool)
         crate::data::output_names::NOT_CSV_NAMES,
         dataset,
     )
-    .map_err(|e| anyhow::anyhow!("{flag} {e}"))
+    .map_err(|e| match e {
+        crate::data::output_names::NameError::OtherKind { path, kind, ending } => anyhow::anyhow!(
+            "{flag} {path}: {kind} is written there, and the name says {ending}: name it .csv{}",
+            if dataset {
+                " (its sidecar is written beside it as .meta.json)"
+            } else {
+                ""
+            }
+        ),
+        e => anyhow::anyhow!("{flag} {e}"),
+    })
 }
 
 /// A file of `kind` (`a model file (JSON)`, `a twin (TOML)`) to be written at `path` for
@@ -460,6 +470,9 @@ pub fn outputs_for(
 ) -> Result<Outputs> {
     stdout_not_an_input(inputs)?;
     stdout_not_an_output(planned)?;
+    let inputs: Vec<(&str, &Path)> = inputs.iter().map(|(r, p)| (*r, p.as_path())).collect();
+    let outputs = Outputs::new(&inputs);
+    outputs.check(planned)?;
     // A directory of outputs (one whose files are planned too) under a file's name
     // (`bench --out results.csv` made a directory of that name).
     for (flag, dir) in planned {
@@ -477,9 +490,6 @@ pub fn outputs_for(
             }
         }
     }
-    let inputs: Vec<(&str, &Path)> = inputs.iter().map(|(r, p)| (*r, p.as_path())).collect();
-    let outputs = Outputs::new(&inputs);
-    outputs.check(planned)?;
     Ok(outputs)
 }
 

@@ -3054,3 +3054,29 @@ fn a_window_csv_with_quoted_fields_reads_as_the_same_data() {
     };
     assert_eq!(eval(&path), eval(&plain));
 }
+
+/// Issue 63 (a third sweep): each window's positions in the world's orientation (not turned
+/// into the window's start frame) were a warning of a robot sliding sideways on a Warthog
+/// run (slip-BLR's error +184%). Their angles from the heading cover the whole circle,
+/// where sliding turns the motion a few tens of degrees: fatal, named.
+#[test]
+fn positions_in_the_worlds_orientation_are_fatal() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut run = drive::bundled::load("warthog_asphalt_2024-09-20b").unwrap();
+    for (i, w) in run.windows.iter_mut().enumerate() {
+        // A heading for each window, spread over the circle.
+        let (sin, cos) = (2.399 * i as f64).sin_cos();
+        for p in &mut w.pose {
+            (p.x, p.y) = (cos * p.x - sin * p.y, sin * p.x + cos * p.y);
+        }
+    }
+    let csv = dir.path().join("world.csv");
+    drive::data::write_dataset(&run, &csv).unwrap();
+    let out = drive(&["check", "--data", csv.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    assert!(
+        text.contains("each window's positions in the world's orientation rather than turned into its start frame"),
+        "{text}"
+    );
+}

@@ -208,6 +208,17 @@ pub(super) fn frame(w: &Windows<'_>) -> Vec<Finding> {
         if angle >= BACKWARDS_DEGREES {
             // Moving backwards along the heading: direction's (encoders sign-flipped, the
             // heading turned half a turn).
+        } else if angle >= ANGLE_DEGREES && spread > OFFSET_SPREAD_DEGREES {
+            // Scattered, and most of the windows at 45 degrees or more either way: no robot
+            // slides so (sliding turns the motion a few tens of degrees).
+            out.push(Finding {
+                check: Check::LocalizationFrame,
+                severity: Severity::Fatal,
+                message: format!(
+                    "localization's positions move {} degrees either way from where its own heading points, where the encoders drive along it (median over {windows} windows): x and y swapped, one axis negated, a yaw in degrees, or each window's positions in the world's orientation rather than turned into its start frame?",
+                    Short(angle.round())
+                ),
+            });
         } else if offset.abs() >= OFFSET_DEGREES && spread > OFFSET_SPREAD_DEGREES {
             out.push(Finding {
                 check: Check::LocalizationFrame,
@@ -232,7 +243,7 @@ pub(super) fn frame(w: &Windows<'_>) -> Vec<Finding> {
                 check: Check::LocalizationFrame,
                 severity: Severity::Fatal,
                 message: format!(
-                    "localization's positions move {} degrees either way from where its own heading points, where the encoders drive along it (median over {windows} windows): x and y swapped, one axis negated, or a yaw in degrees?",
+                    "localization's positions move {} degrees either way from where its own heading points, where the encoders drive along it (median over {windows} windows): x and y swapped, one axis negated, a yaw in degrees, or each window's positions in the world's orientation rather than turned into its start frame?",
                     Short(angle.round())
                 ),
             });
