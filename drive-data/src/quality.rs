@@ -308,6 +308,7 @@ pub fn check(data: &Dataset, limits: Option<&InputSpace>) -> Vec<Finding> {
     out.extend(steps::written_from_encoders(&w));
     out.extend(steps::jumps_and_noise(&w));
     out.extend(steps::drifting(&w));
+    out.extend(steps::slow_updates(&w));
     out.extend(steps::encoder_offset(&w));
     out.extend(duplicate_windows(&w));
     out.extend(imu_yaw_rate(&w));

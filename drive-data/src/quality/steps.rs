@@ -542,3 +542,42 @@ fn idle_share(rows: &[Idle], axis: usize, steady: bool) -> Option<(f64, f64, usi
     let median = drive_traits::median(&mut idle);
     Some((median, median / largest, count))
 }
+
+/// Fewest localization updates a second (median over the windows) before
+/// `localization-sync` warns: the released and norlab Warthog runs update 4.1-9.7 times a
+/// second, the Husky run and the simulator's ICP about 10.
+const MIN_UPDATES_PER_S: f64 = 3.0;
+
+/// Localization updating slowly: the poses held between updates, every error measured on
+/// them includes the hold (at 2 a second, slip-ipem's rotational error on a Warthog run
+/// rose by 64% without a word). A warning under [`MIN_UPDATES_PER_S`], where the windows
+/// move (a run standing still holds its poses for that).
+pub(super) fn slow_updates(w: &Windows<'_>) -> Option<Finding> {
+    let dt = w.data.robot.dt();
+    let mut rates: Vec<f64> = w
+        .windows
+        .iter()
+        .zip(&w.motions)
+        .filter(|(win, m)| win.len() >= 3 && (m.2 >= 0.2 || m.3.abs() >= 0.2))
+        .map(|(win, _)| {
+            let changes = win.pose.windows(2).filter(|p| p[0] != p[1]).count();
+            changes as f64 / ((win.len() - 1) as f64 * dt)
+        })
+        .collect();
+    if rates.len() < MIN_WINDOWS || !(dt > 0.0) {
+        return None;
+    }
+    let median = drive_traits::median(&mut rates);
+    // Only where the samples come faster than the least: a run sampled at 2 Hz cannot tell.
+    (median < MIN_UPDATES_PER_S && 1.0 / dt > 2.0 * MIN_UPDATES_PER_S).then(|| Finding {
+        check: Check::LocalizationSync,
+        severity: Severity::Warning,
+        message: format!(
+            "localization's pose changes {} times a second (median over the {} windows that move; the samples come {} times a second): held between slow updates, which every error measured on it includes; a localization at {} Hz, or resampled?",
+            Short(three_digits(median)),
+            rates.len(),
+            Short(three_digits(1.0 / dt)),
+            Short(three_digits(median)),
+        ),
+    })
+}
