@@ -564,7 +564,7 @@ pub(super) fn slow_updates(w: &Windows<'_>) -> Option<Finding> {
             changes as f64 / ((win.len() - 1) as f64 * dt)
         })
         .collect();
-    if rates.len() < MIN_WINDOWS || !(dt > 0.0) {
+    if rates.len() < MIN_WINDOWS || dt.is_nan() || dt <= 0.0 {
         return None;
     }
     let median = drive_traits::median(&mut rates);
