@@ -208,9 +208,12 @@ pub(super) fn frame(w: &Windows<'_>) -> Vec<Finding> {
         if angle >= BACKWARDS_DEGREES {
             // Moving backwards along the heading: direction's (encoders sign-flipped, the
             // heading turned half a turn).
-        } else if angle >= ANGLE_DEGREES && spread > OFFSET_SPREAD_DEGREES {
-            // Scattered, and most of the windows at 45 degrees or more either way: no robot
-            // slides so (sliding turns the motion a few tens of degrees).
+        } else if angle >= ANGLE_DEGREES
+            && (spread > OFFSET_SPREAD_DEGREES || offset.abs() < OFFSET_DEGREES)
+        {
+            // Most of the windows at 45 degrees or more either way, scattered (no robot
+            // slides so: sliding turns the motion a few tens of degrees) or with no offset
+            // one way.
             out.push(Finding {
                 check: Check::LocalizationFrame,
                 severity: Severity::Fatal,
@@ -236,15 +239,6 @@ pub(super) fn frame(w: &Windows<'_>) -> Vec<Finding> {
                 message: format!(
                     "localization's positions move {} degrees from where its own heading points, where the encoders drive along it (median over {windows} windows): a heading from another frame than the positions (a yaw offset), or the positions' axes turned?",
                     Short(offset.round())
-                ),
-            });
-        } else if angle >= ANGLE_DEGREES {
-            out.push(Finding {
-                check: Check::LocalizationFrame,
-                severity: Severity::Fatal,
-                message: format!(
-                    "localization's positions move {} degrees either way from where its own heading points, where the encoders drive along it (median over {windows} windows): x and y swapped, one axis negated, a yaw in degrees, or each window's positions in the world's orientation rather than turned into its start frame?",
-                    Short(angle.round())
                 ),
             });
         }
