@@ -1137,7 +1137,8 @@ fn imu_lag(w: &Windows<'_>) -> Option<Finding> {
     }
     let vehicle = w.data.robot.vehicle.as_ref();
     // Per window, each sample's yaw rates: localization's, the IMU's and the encoders'
-    // (their means around it).
+    // (their means around it, from running sums: this runs on every sample of every fit).
+    let span = (2 * half) as f64;
     let rates: Vec<Vec<[f64; 3]>> = w
         .windows
         .iter()
@@ -1146,19 +1147,28 @@ fn imu_lag(w: &Windows<'_>) -> Option<Finding> {
                 .len()
                 .min(win.imu_yaw_rate.len())
                 .min(win.measured.len());
-            let mean = |v: &mut dyn Iterator<Item = f64>| v.sum::<f64>() / (2 * half) as f64;
+            let sums = |values: &mut dyn Iterator<Item = f64>| {
+                let mut out = Vec::with_capacity(n + 1);
+                out.push(0.0);
+                let mut total = 0.0;
+                for v in values.take(n) {
+                    total += v;
+                    out.push(total);
+                }
+                out
+            };
+            let imu = sums(&mut win.imu_yaw_rate.iter().copied());
+            let wheels = sums(&mut win.measured.iter().map(|u| vehicle.body_velocity(u).z));
             (half..n.saturating_sub(half))
                 .map(|k| {
                     let turn = (win.pose[k + half].z - win.pose[k - half].z + std::f64::consts::PI)
                         .rem_euclid(std::f64::consts::TAU)
                         - std::f64::consts::PI;
-                    let imu = mean(&mut win.imu_yaw_rate[k - half..k + half].iter().copied());
-                    let wheels = mean(
-                        &mut win.measured[k - half..k + half]
-                            .iter()
-                            .map(|u| vehicle.body_velocity(u).z),
-                    );
-                    [turn / (2 * half) as f64 / dt, imu, wheels]
+                    [
+                        turn / span / dt,
+                        (imu[k + half] - imu[k - half]) / span,
+                        (wheels[k + half] - wheels[k - half]) / span,
+                    ]
                 })
                 .collect()
         })
@@ -1167,20 +1177,21 @@ fn imu_lag(w: &Windows<'_>) -> Option<Finding> {
         return None;
     }
     // The correlation (in size) of signal `a` with signal `b` a lag later.
-    let at = |a: usize, b: usize, lag: isize| {
-        localization::correlation(rates.iter().flat_map(move |r| {
-            let len = r.len() as isize;
-            (0..len)
-                .filter(move |k| (0..len).contains(&(k + lag)))
-                .map(move |k| (r[k as usize][a], r[(k + lag) as usize][b]))
-        }))
-        .abs()
-    };
+    let at = |a: usize, b: usize, lag: isize| lag_correlation(&rates, a, b, lag);
     // Of the lags of `b` behind `a` from `from` to `to` samples, the best: (lag, its
     // correlation).
+    // Every other lag, then the two beside the best of those (the correlation changes
+    // slowly with the lag: rates averaged over 0.4 s).
     let best = |a: usize, b: usize, from: isize, to: isize| {
-        (from..=to)
+        let coarse = (from..=to)
+            .step_by(2)
             .map(|lag| (lag, at(a, b, lag)))
+            .max_by(|x, y| x.1.total_cmp(&y.1))?;
+        [coarse.0 - 1, coarse.0 + 1]
+            .into_iter()
+            .filter(|lag| (from..=to).contains(lag))
+            .map(|lag| (lag, at(a, b, lag)))
+            .chain([coarse])
             .max_by(|x, y| x.1.total_cmp(&y.1))
     };
     let (most, least) = (most as isize, least as isize);
@@ -1303,6 +1314,42 @@ fn imu_shift(w: &Windows<'_>) -> Option<Finding> {
         }
     }
     None
+}
+
+/// The correlation (in size) of signal `a` of each window's samples with signal `b` `lag`
+/// samples later in the same window ([`imu_lag`]), in one pass over the pairs (it runs for
+/// every lag on every sample of a run: the data checks of every fit).
+fn lag_correlation(rates: &[Vec<[f64; 3]>], a: usize, b: usize, lag: isize) -> f64 {
+    let (mut n, mut sa, mut sb, mut saa, mut sbb, mut sab) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let shift = lag.unsigned_abs();
+    for r in rates {
+        if r.len() <= shift {
+            continue;
+        }
+        let (xs, ys) = if lag >= 0 {
+            (&r[..r.len() - shift], &r[shift..])
+        } else {
+            (&r[shift..], &r[..r.len() - shift])
+        };
+        for (x, y) in xs.iter().zip(ys) {
+            let (x, y) = (x[a], y[b]);
+            n += 1.0;
+            sa += x;
+            sb += y;
+            saa += x * x;
+            sbb += y * y;
+            sab += x * y;
+        }
+    }
+    if n < 2.0 {
+        return 0.0;
+    }
+    let (va, vb) = (saa - sa * sa / n, sbb - sb * sb / n);
+    if va > 0.0 && vb > 0.0 {
+        ((sab - sa * sb / n) / (va * vb).sqrt()).abs()
+    } else {
+        0.0
+    }
 }
 
 /// Offsets of the IMU (its mean rate where localization saw no turn) against the RMS yaw
@@ -1971,7 +2018,9 @@ fn yaw_units(data: &Dataset, windows: &[&Window]) -> Option<Finding> {
         for k in 1..w.len() {
             let d = w.pose[k].z - w.pose[last].z;
             if d != 0.0 {
-                seen.push(d.sin().atan2(d.cos()).abs() / ((k - last) as f64 * dt));
+                let wrapped = (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                    - std::f64::consts::PI;
+                seen.push(wrapped.abs() / ((k - last) as f64 * dt));
                 last = k;
             }
         }
