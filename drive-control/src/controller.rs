@@ -28,6 +28,10 @@ pub enum ControlError {
         "the robot's state is not finite numbers ({0}); is the localization or an encoder broken?"
     )]
     BadState(String),
+    /// An observation holds a value beyond what the command line's readers take (a
+    /// measurement over 1e9, a time over 1e10 s).
+    #[error("the robot's state is {0}")]
+    BeyondReaders(String),
     /// A localization fix stamped later than the tick by more than
     /// [`crate::MAX_FUTURE_STAMP_S`]: its stamp on another clock than the tick's
     /// (it was taken as measured now, its latency unseen, without a word).

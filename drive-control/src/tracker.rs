@@ -348,6 +348,29 @@ impl Tracker {
                 obs.pose_time
             )));
         }
+        // Within what the readers take (1e9 for a measurement, an epoch clock's seconds for
+        // a time): a pose of 1e12 m, a wheel at 1e12 rad/s gave a command without a word.
+        use drive_traits::limits::{MAX_ABS_MEASUREMENT, MAX_ABS_TIME_S};
+        let measurements = obs
+            .input
+            .iter()
+            .chain(obs.pose.iter().flat_map(|p| p.iter()))
+            .chain(obs.imu_yaw_rate.iter());
+        let beyond = measurements.clone().any(|v| v.abs() > MAX_ABS_MEASUREMENT)
+            || obs.t.abs() > MAX_ABS_TIME_S
+            || obs.pose_time.is_some_and(|s| s.abs() > MAX_ABS_TIME_S);
+        if beyond {
+            return Err(ControlError::BeyondReaders(format!(
+                "beyond what the readers take (measurements within {}, times within {} s): t {}, inputs {:?}, pose {:?}, IMU {:?}, pose time {:?}; in the robot's units?",
+                drive_traits::limits::Short(MAX_ABS_MEASUREMENT),
+                drive_traits::limits::Short(MAX_ABS_TIME_S),
+                obs.t,
+                obs.input.as_slice(),
+                obs.pose.map(|p| [p.x, p.y, p.z]),
+                obs.imu_yaw_rate,
+                obs.pose_time
+            )));
+        }
         if let Some(s) = obs.pose_time.filter(|&s| s > obs.t + MAX_FUTURE_STAMP_S) {
             return Err(ControlError::PoseFromTheFuture {
                 pose_time: s,

@@ -226,7 +226,10 @@ pub fn read_commands(
     let expected: Vec<&str> = std::iter::once("t")
         .chain(columns.iter().copied())
         .collect();
-    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    let cols: Vec<&str> = header
+        .split(',')
+        .map(|f| crate::window_csv::unquoted(f.trim()))
+        .collect();
     // The columns read: all of them, or of a schedule `drive protocol` writes (`t`,
     // `interval`, `phase`, then the commands), its time and its commands.
     let schedule: Vec<&str> = ["t", "interval", "phase"]
@@ -248,7 +251,10 @@ pub fn read_commands(
     let mut t0 = None;
     for line in lines {
         let (i, line) = line?;
-        let fields: Vec<&str> = line.split(',').collect();
+        let fields: Vec<&str> = line
+            .split(',')
+            .map(|f| crate::window_csv::unquoted(f.trim()))
+            .collect();
         if fields.len() != cols.len() {
             return Err(CommandFileError::FieldCount {
                 name,

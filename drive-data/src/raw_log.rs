@@ -262,7 +262,11 @@ pub fn parse_raw_log(
     let Some((header_line, header)) = lines.next() else {
         return Err(DataError::new(Location::file(file), DataErrorKind::Empty));
     };
-    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    // A writer that quotes its fields (`"ros_time"`, `"False"`) writes the same log.
+    let names: Vec<&str> = header
+        .split(',')
+        .map(|f| crate::window_csv::unquoted(f.trim()))
+        .collect();
     let mut seen = std::collections::HashSet::new();
     for name in &names {
         if !seen.insert(*name) {
@@ -294,7 +298,10 @@ pub fn parse_raw_log(
     let mut fields: Vec<&str> = Vec::with_capacity(names.len());
     for (line, text) in lines {
         fields.clear();
-        fields.extend(text.split(',').map(str::trim));
+        fields.extend(
+            text.split(',')
+                .map(|f| crate::window_csv::unquoted(f.trim())),
+        );
         if fields.len() != names.len() {
             return Err(DataError::new(
                 Location::line(file, line),

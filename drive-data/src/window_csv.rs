@@ -404,7 +404,7 @@ pub fn write_windows_csv(windows: &[Window], robot: &RobotDescription, out: &mut
 /// `field` without one pair of double quotes around it: a CSV writer that quotes its text
 /// (pandas with `quoting=csv.QUOTE_NONNUMERIC`, a spreadsheet) writes `"transient"`, the
 /// same field (a quote inside a field is not one a window CSV holds).
-fn unquoted(field: &str) -> &str {
+pub(crate) fn unquoted(field: &str) -> &str {
     field
         .strip_prefix('"')
         .and_then(|f| f.strip_suffix('"'))

@@ -122,6 +122,15 @@ def test_a_fix_stamped_on_another_clock_is_a_drive_error(model_file):
 
 def test_tracker_errors_are_drive_errors(model_file):
     model = drive.load_model(model_file)
+    # Issue 63, a fourth sweep: a pose, wheels or IMU beyond 1e9 gave a command without a
+    # word; they are refused as the readers refuse them, and a plausible tick still runs.
+    tracker = drive.Tracker(model, "husky", "line", 0.5, samples=64)
+    for bad in [dict(pose=(1e12, 0.0, 0.0)), dict(inputs=(1e12, 0.0)), dict(imu_yaw_rate=1e12)]:
+        tick = dict(t=0.05, inputs=(0.0, 0.0), pose=(0.0, 0.0, 0.0))
+        tick.update(bad)
+        with pytest.raises(drive.DriveError, match="beyond what the readers take"):
+            tracker.tick(**tick)
+    tracker.tick(t=0.05, inputs=(0.0, 0.0), pose=(0.0, 0.0, 0.0))
     with pytest.raises(drive.DriveError, match="distinct point"):
         drive.Tracker(model, "husky", np.array([[1.0, 1.0], [1.0, 1.0]]), 0.5)
     with pytest.raises(drive.DriveError, match="finite"):

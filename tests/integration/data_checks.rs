@@ -3105,3 +3105,32 @@ fn localization_updating_slowly_is_named() {
     let out = drive(&["check", "--data", "bundled:warthog_asphalt_2024-09-20b"]);
     assert!(!String::from_utf8_lossy(&out.stdout).contains("pose changes"));
 }
+
+/// Issue 63 (a fourth sweep): a raw log (and a command file) whose fields were quoted by
+/// the writer was refused ("'\"False\"' is not a boolean", a missing column): it imports as
+/// the same log.
+#[test]
+fn a_raw_log_with_quoted_fields_imports_as_the_same_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let plain = raw_log(d, "plain.csv", |_, _| {});
+    let quoted_text: String = std::fs::read_to_string(&plain)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            l.split(',')
+                .map(|f| format!("\"{f}\""))
+                .collect::<Vec<_>>()
+                .join(",")
+                + "\n"
+        })
+        .collect();
+    let quoted = d.join("quoted.csv");
+    std::fs::write(&quoted, quoted_text).unwrap();
+    let (code, _, err) = import(quoted.to_str().unwrap(), "husky", &d.join("q.csv"), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, _, err) = import(&plain, "husky", &d.join("p.csv"), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    let read = |f: &str| std::fs::read_to_string(d.join(f)).unwrap();
+    assert_eq!(read("q.csv"), read("p.csv"));
+}
