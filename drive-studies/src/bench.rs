@@ -312,6 +312,42 @@ pub(crate) struct WindowPrints {
     /// The windows in recorded order: the sequence of commands one drive keeps through
     /// noise ([`sequence::one_drive`]).
     sequence: sequence::Sequence,
+    /// Every sample's inputs and IMU (their bits, hashed; sorted, once each), where its
+    /// wheels turn: a run cut into other windows (every window a few samples later) keeps
+    /// them, which no other run holds ([`SAME_SAMPLES_SHARE`]).
+    samples: Vec<u64>,
+}
+
+/// The share of the samples (of the run with fewer) whose commands, measured inputs and
+/// IMU are the other run's to the bit, from which two runs are one: a copy cut into other
+/// windows holds all of them; two drives share none (the same commands simulated on two
+/// grounds: a few straight stretches' worth).
+const SAME_SAMPLES_SHARE: f64 = 0.5;
+
+/// [`WindowPrints::samples`] of `data`.
+fn sample_prints(data: &Dataset) -> Vec<u64> {
+    use std::hash::{Hash, Hasher};
+    let mut out: Vec<u64> = data
+        .windows
+        .iter()
+        .flat_map(|w| {
+            w.command
+                .iter()
+                .zip(&w.measured)
+                .zip(w.imu_yaw_rate.iter().chain(std::iter::repeat(&0.0)))
+        })
+        .filter(|((_, m), _)| m.iter().any(|v| *v != 0.0))
+        .map(|((c, m), r)| {
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            for v in c.iter().chain(m.iter()).chain(std::iter::once(r)) {
+                v.to_bits().hash(&mut h);
+            }
+            h.finish()
+        })
+        .collect();
+    out.sort_unstable();
+    out.dedup();
+    out
 }
 
 /// A window's mean command and mean measured input per axis and its mean IMU yaw rate: what
@@ -415,6 +451,7 @@ pub(crate) fn window_prints(data: &Dataset) -> WindowPrints {
         inputs,
         input_cells,
         sequence: sequence::Sequence::of(data, means),
+        samples: sample_prints(data),
     }
 }
 
@@ -587,9 +624,34 @@ pub(crate) fn shared_windows(a: &WindowPrints, b: &WindowPrints) -> (usize, usiz
     };
     // One drive's commands window after window, its IMU off by noise alone: a copy with
     // noise on every column ([`sequence::one_drive`]).
-    match sequence::one_drive(&a.sequence, &b.sequence, SAME_INPUTS_SHARE) {
+    let larger = match sequence::one_drive(&a.sequence, &b.sequence, SAME_INPUTS_SHARE) {
         Some(found) if found.0 * larger.1.max(1) > larger.0 * found.1.max(1) => found,
         _ => larger,
+    };
+    // The same samples to the bit, however the windows were cut ([`SAME_SAMPLES_SHARE`]):
+    // as a share of the windows of the one with fewer.
+    let (few_samples, many_samples) = if a.samples.len() <= b.samples.len() {
+        (&a.samples, &b.samples)
+    } else {
+        (&b.samples, &a.samples)
+    };
+    let shared_samples = few_samples
+        .iter()
+        .filter(|h| many_samples.binary_search(h).is_ok())
+        .count();
+    let share = shared_samples as f64 / few_samples.len().max(1) as f64;
+    let windows = if a.samples.len() <= b.samples.len() {
+        a.len()
+    } else {
+        b.len()
+    };
+    let by_samples = ((share * windows as f64).round() as usize, windows);
+    if share >= SAME_SAMPLES_SHARE
+        && by_samples.0 * larger.1.max(1) > larger.0 * by_samples.1.max(1)
+    {
+        by_samples
+    } else {
+        larger
     }
 }
 

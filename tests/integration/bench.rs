@@ -1379,6 +1379,74 @@ fn two_runs_joined_in_a_third_dataset_stay_two_runs() {
     );
 }
 
+/// Issue 63 (a fourth sweep of that session): a run cut again into windows ten samples
+/// later (the same samples, other windows) shared no window's print and was scored as a
+/// transfer from itself. Its samples are the run's to the bit: the same run.
+#[test]
+fn a_run_cut_again_into_later_windows_is_the_same_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = drive::bundled::load("warthog_asphalt_2024-09-20a").unwrap();
+    let mut recut = run.clone();
+    let windows = &run.windows;
+    recut.windows = windows
+        .windows(2)
+        .map(|pair| {
+            let (a, b) = (&pair[0], &pair[1]);
+            let mut w = a.clone();
+            let join = |x: &[drive::traits::Input], y: &[drive::traits::Input]| {
+                [&x[10..], &y[..10]].concat()
+            };
+            w.command = join(&a.command, &b.command);
+            w.measured = join(&a.measured, &b.measured);
+            // The next window's poses in this one's frame (it starts where this one
+            // ends), then all in the frame of the new window's first sample.
+            let compose = |base: drive::traits::Pose, p: drive::traits::Pose| {
+                let (sin, cos) = base.z.sin_cos();
+                drive::traits::Pose::new(
+                    base.x + cos * p.x - sin * p.y,
+                    base.y + sin * p.x + cos * p.y,
+                    base.z + p.z,
+                )
+            };
+            let end = *a.pose.last().unwrap();
+            let joined: Vec<_> = a.pose[10..]
+                .iter()
+                .copied()
+                .chain(b.pose[..10].iter().map(|p| compose(end, *p)))
+                .collect();
+            let start = joined[0];
+            let (sin, cos) = start.z.sin_cos();
+            w.pose = joined
+                .iter()
+                .map(|p| {
+                    let (dx, dy) = (p.x - start.x, p.y - start.y);
+                    drive::traits::Pose::new(
+                        cos * dx + sin * dy,
+                        -sin * dx + cos * dy,
+                        p.z - start.z,
+                    )
+                })
+                .collect();
+            w.imu_yaw_rate = [&a.imu_yaw_rate[10..], &b.imu_yaw_rate[..10]].concat();
+            w
+        })
+        .collect();
+    drive::data::write_dataset(&recut, &dir.path().join("recut.csv")).unwrap();
+    let skipped = transfer_skipped(
+        dir.path(),
+        "[[dataset]]\nbundled = \"warthog_asphalt_2024-09-20a\"\nname = \"run\"\n\
+         [[dataset]]\npath = \"recut.csv\"\n\
+         [[dataset]]\nbundled = \"warthog_asphalt_2024-09-20b\"\nname = \"other\"\n",
+    );
+    for pair in ["run -> recut", "recut -> run"] {
+        assert!(skipped.contains(pair), "{pair}: {skipped}");
+    }
+    assert!(
+        !skipped.contains("-> other:") && !skipped.contains("\"other ->"),
+        "{skipped}"
+    );
+}
+
 /// Issue 63 (a twelfth outside sweep): a target's terrain library holds no run that is the
 /// target's own (here a part of it: the library's model would be scored on windows it was
 /// fitted on, and beat the target's own fit); and the pair the two would make is named in
