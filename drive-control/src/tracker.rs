@@ -351,12 +351,12 @@ impl Tracker {
         // Within what the readers take (1e9 for a measurement, an epoch clock's seconds for
         // a time): a pose of 1e12 m, a wheel at 1e12 rad/s gave a command without a word.
         use drive_traits::limits::{MAX_ABS_MEASUREMENT, MAX_ABS_TIME_S};
-        let measurements = obs
+        let beyond = obs
             .input
             .iter()
             .chain(obs.pose.iter().flat_map(|p| p.iter()))
-            .chain(obs.imu_yaw_rate.iter());
-        let beyond = measurements.clone().any(|v| v.abs() > MAX_ABS_MEASUREMENT)
+            .chain(obs.imu_yaw_rate.iter())
+            .any(|v| v.abs() > MAX_ABS_MEASUREMENT)
             || obs.t.abs() > MAX_ABS_TIME_S
             || obs.pose_time.is_some_and(|s| s.abs() > MAX_ABS_TIME_S);
         if beyond {

@@ -134,47 +134,29 @@ pub fn refused_name(
     Ok(())
 }
 
-/// The dataset CSV whose sidecar `path` is: `X.csv` or `X.csv.gz` beside `X.meta.json` or
-/// `X.json`, where it exists.
+/// The dataset CSV whose sidecar `path` is: a `X.csv` or `X.csv.gz` beside it that exists
+/// and reads `path` as its sidecar ([`crate::sidecar_to_read`]: `X.meta.json`, or the
+/// earlier releases' `X.json` where that one is not there).
 fn dataset_of_sidecar(path: &Path) -> Option<PathBuf> {
     let name = path.file_name()?.to_string_lossy().to_string();
     let lower = name.to_ascii_lowercase();
-    let stem_len = if lower.ends_with(".meta.json") {
-        name.len() - ".meta.json".len()
-    } else if lower.ends_with(".json") {
-        name.len() - ".json".len()
-    } else {
-        return None;
-    };
-    let stem = &name[..stem_len];
-    // `X.json` is read as the sidecar only where `X.meta.json` is not there.
-    if !lower.ends_with(".meta.json") && path.with_file_name(format!("{stem}.meta.json")).exists() {
-        return None;
-    }
-    [".csv", ".csv.gz", ".CSV"]
+    let ending = [".meta.json", ".json"]
+        .into_iter()
+        .find(|e| lower.ends_with(e))?;
+    let stem = &name[..name.len() - ending.len()];
+    [".csv", ".csv.gz", ".CSV", ".gz"]
         .iter()
         .map(|e| path.with_file_name(format!("{stem}{e}")))
-        .find(|p| p.is_file())
+        .find(|csv| csv.is_file() && crate::sidecar_to_read(csv) == path)
 }
 
 /// The sidecar beside `path` where `path` is an existing dataset CSV (`X.csv` or `X.csv.gz`
-/// with `X.meta.json` or `X.json` beside it).
+/// whose sidecar, [`crate::sidecar_to_read`], exists).
 fn sidecar_beside(path: &Path) -> Option<PathBuf> {
-    if !path.is_file() {
+    let lower = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+    if !(path.is_file() && (lower.ends_with(".csv") || lower.ends_with(".csv.gz"))) {
         return None;
     }
-    let name = path.file_name()?.to_string_lossy().to_string();
-    let lower = name.to_ascii_lowercase();
-    let stem_len = if lower.ends_with(".csv.gz") {
-        name.len() - ".csv.gz".len()
-    } else if lower.ends_with(".csv") {
-        name.len() - ".csv".len()
-    } else {
-        return None;
-    };
-    let stem = &name[..stem_len];
-    [".meta.json", ".json"]
-        .iter()
-        .map(|e| path.with_file_name(format!("{stem}{e}")))
-        .find(|p| p.is_file())
+    let sidecar = crate::sidecar_to_read(path);
+    sidecar.is_file().then_some(sidecar)
 }
